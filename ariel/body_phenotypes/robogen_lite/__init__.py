@@ -1,0 +1,1 @@
+"""Robogen-lite modular bodies: core, brick and hinge modules, decoders and prebuilt robots."""

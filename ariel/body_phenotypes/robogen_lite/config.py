@@ -1,0 +1,82 @@
+"""Module types, faces and rotations of robogen-lite bodies, and which combinations are allowed."""
+
+from __future__ import annotations
+
+from enum import Enum
+
+__all__ = [
+    "ALLOWED_FACES",
+    "ALLOWED_ROTATIONS",
+    "IDX_OF_CORE",
+    "NUM_OF_FACES",
+    "NUM_OF_ROTATIONS",
+    "NUM_OF_TYPES_OF_MODULES",
+    "ModuleFaces",
+    "ModuleRotationsIdx",
+    "ModuleRotationsTheta",
+    "ModuleType",
+]
+
+
+class ModuleType(Enum):
+    """Kinds of module. NONE marks an empty slot in a genotype's decoding."""
+
+    CORE = 0
+    BRICK = 1
+    HINGE = 2
+    NONE = 3
+
+
+class ModuleFaces(Enum):
+    """Faces of a module where a child can attach (note: RIGHT is 2, LEFT is 3)."""
+
+    FRONT = 0
+    BACK = 1
+    RIGHT = 2
+    LEFT = 3
+    TOP = 4
+    BOTTOM = 5
+
+
+class ModuleRotationsIdx(Enum):
+    """Rotation of a module about its growth axis, as an index."""
+
+    DEG_0 = 0
+    DEG_45 = 1
+    DEG_90 = 2
+
+
+class ModuleRotationsTheta(Enum):
+    """Rotation of a module about its growth axis, in degrees (same member names as the index)."""
+
+    DEG_0 = 0
+    DEG_45 = 45
+    DEG_90 = 90
+
+
+IDX_OF_CORE = 0
+NUM_OF_TYPES_OF_MODULES = len(ModuleType)
+NUM_OF_FACES = len(ModuleFaces)
+NUM_OF_ROTATIONS = len(ModuleRotationsIdx)
+
+# Faces a module may use as a parent. The core's TOP/BOTTOM are excluded; a brick's BACK is
+# where it is itself attached; a hinge only grows from its rotor's FRONT.
+ALLOWED_FACES: dict[ModuleType, list[ModuleFaces]] = {
+    ModuleType.CORE: [ModuleFaces.FRONT, ModuleFaces.BACK, ModuleFaces.RIGHT, ModuleFaces.LEFT],
+    ModuleType.BRICK: [
+        ModuleFaces.FRONT,
+        ModuleFaces.RIGHT,
+        ModuleFaces.LEFT,
+        ModuleFaces.TOP,
+        ModuleFaces.BOTTOM,
+    ],
+    ModuleType.HINGE: [ModuleFaces.FRONT],
+    ModuleType.NONE: [],
+}
+
+ALLOWED_ROTATIONS: dict[ModuleType, list[ModuleRotationsIdx]] = {
+    ModuleType.CORE: [ModuleRotationsIdx.DEG_0],
+    ModuleType.BRICK: list(ModuleRotationsIdx),
+    ModuleType.HINGE: list(ModuleRotationsIdx),
+    ModuleType.NONE: [ModuleRotationsIdx.DEG_0],
+}
