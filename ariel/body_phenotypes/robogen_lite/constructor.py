@@ -1,0 +1,241 @@
+"""Build a robot body (a ``CoreModule`` and its MjSpec) from a robot graph.
+
+A robot graph is a ``networkx.DiGraph`` that is a tree rooted at node 0 (the core). Node ids
+are ints (they become module indices). Node attributes: ``type`` (``ModuleType`` member or its
+name, e.g. "HINGE") and ``rotation`` (``ModuleRotationsIdx``/``ModuleRotationsTheta`` member
+or its name, e.g. "DEG_45"). Edge attribute: ``face`` (``ModuleFaces`` member or its name),
+the parent's face the child is attached to.
+
+The graph is validated first; every problem is a one-line ``ValueError`` (a non-DiGraph is a
+``TypeError``). The body is then attached top-down, breadth-first from the core, visiting the
+children of a module in ascending face value (FRONT, BACK, RIGHT, LEFT, TOP, BOTTOM) and then
+ascending node id. So actuators come out in that breadth-first order of their hinges, and
+element names never compound: every name is ``f"{parent}-{child}-{face_value}-"`` + the
+module's own name (e.g. "0-12-3-hinge" for node 12 on the core's LEFT face), or the core's.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections import deque
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any, TypeVar
+
+import networkx as nx
+
+from ariel.body_phenotypes.robogen_lite.config import (
+    ALLOWED_FACES,
+    ALLOWED_ROTATIONS,
+    IDX_OF_CORE,
+    ModuleFaces,
+    ModuleRotationsIdx,
+    ModuleRotationsTheta,
+    ModuleType,
+)
+from ariel.body_phenotypes.robogen_lite.graph_io import load_graph_from_json, save_graph_as_json
+from ariel.body_phenotypes.robogen_lite.modules.brick import BrickModule
+from ariel.body_phenotypes.robogen_lite.modules.core import CoreModule
+from ariel.body_phenotypes.robogen_lite.modules.hinge import HingeModule
+from ariel.body_phenotypes.robogen_lite.modules.module import Module
+
+__all__ = [
+    "RobotTree",
+    "attachment_prefix",
+    "construct_mjspec_from_graph",
+    "load_graph_from_json",
+    "parse_face",
+    "parse_module_type",
+    "parse_rotation",
+    "save_graph_as_json",
+    "validate_robot_graph",
+]
+
+_E = TypeVar("_E", bound=Enum)
+
+
+def _parse_enum(value: object, enum: type[_E], what: str, allowed: list[_E], where: str) -> _E:
+    if isinstance(value, enum):
+        return value
+    if isinstance(value, str) and value.strip().upper() in enum.__members__:
+        return enum[value.strip().upper()]
+    names = ", ".join(member.name for member in allowed)
+    raise ValueError(f"{where} has unknown {what} {value!r}; allowed: {names}")
+
+
+def parse_module_type(value: object, where: str = "value") -> ModuleType:
+    """A ``ModuleType`` from a member or its name ("HINGE", case-insensitive)."""
+    real = [t for t in ModuleType if t is not ModuleType.NONE]
+    return _parse_enum(value, ModuleType, "module type", real, where)
+
+
+def parse_rotation(value: object, where: str = "value") -> ModuleRotationsIdx:
+    """A ``ModuleRotationsIdx`` from a rotation member (Idx or Theta) or its name ("DEG_45")."""
+    if isinstance(value, ModuleRotationsTheta):
+        return ModuleRotationsIdx[value.name]
+    return _parse_enum(value, ModuleRotationsIdx, "rotation", list(ModuleRotationsIdx), where)
+
+
+def parse_face(value: object, where: str = "value") -> ModuleFaces:
+    """A ``ModuleFaces`` from a member or its name ("LEFT", case-insensitive)."""
+    return _parse_enum(value, ModuleFaces, "face", list(ModuleFaces), where)
+
+
+def attachment_prefix(parent: int, child: int, face: ModuleFaces) -> str:
+    """Name prefix of a child module's elements: ``"{parent}-{child}-{face.value}-"``."""
+    return f"{parent}-{child}-{face.value}-"
+
+
+@dataclass(frozen=True)
+class RobotTree:
+    """A validated robot graph with parsed attributes.
+
+    ``order`` is the breadth-first attachment order from the core; ``children[n]`` lists
+    ``(face, child)`` in ascending face value, then node id.
+    """
+
+    types: dict[int, ModuleType]
+    rotations: dict[int, ModuleRotationsIdx]
+    parent: dict[int, tuple[int, ModuleFaces]]
+    children: dict[int, list[tuple[ModuleFaces, int]]]
+    order: list[int]
+
+
+def _check_structure(graph: Any) -> None:
+    if not isinstance(graph, nx.DiGraph) or graph.is_multigraph():
+        raise TypeError(
+            f"robot graph must be a networkx DiGraph (a tree rooted at node 0), "
+            f"got {type(graph).__name__}"
+        )
+    for node in graph.nodes:
+        if isinstance(node, bool) or not isinstance(node, numbers.Integral):
+            raise ValueError(f"robot graph node ids must be ints (module indices), got {node!r}")
+    if IDX_OF_CORE not in graph:
+        raise ValueError(
+            f"robot graph has no node {IDX_OF_CORE}: it must be a tree rooted at node "
+            f"{IDX_OF_CORE} (the core)"
+        )
+    try:
+        cycle = nx.find_cycle(graph)
+    except nx.NetworkXNoCycle:
+        cycle = None
+    if cycle:
+        path = " -> ".join(str(edge[0]) for edge in cycle) + f" -> {cycle[-1][1]}"
+        raise ValueError(f"robot graph has a cycle ({path}); it must be a tree rooted at node 0")
+    for node in graph.nodes:
+        parents = sorted(graph.predecessors(node))
+        if len(parents) > 1:
+            raise ValueError(
+                f"node {node} has {len(parents)} parents {tuple(parents)}; "
+                "every module attaches to exactly one parent"
+            )
+    core_parents = list(graph.predecessors(IDX_OF_CORE))
+    if core_parents:
+        raise ValueError(
+            f"robot graph is not rooted at node {IDX_OF_CORE}: "
+            f"the core has parent {core_parents[0]}"
+        )
+    unreachable = sorted(set(graph.nodes) - nx.descendants(graph, IDX_OF_CORE) - {IDX_OF_CORE})
+    if unreachable:
+        raise ValueError(
+            f"robot graph is not a tree rooted at node {IDX_OF_CORE}: nodes {unreachable} are not "
+            f"connected to it"
+        )
+
+
+def validate_robot_graph(graph: nx.DiGraph) -> RobotTree:
+    """Check that ``graph`` is a buildable robot tree and parse its attributes.
+
+    Raises ``TypeError`` for a non-DiGraph and a one-line ``ValueError`` for: no node 0, a
+    cycle, a node with two parents, a core that is not the root, nodes not connected to the
+    core, a missing attribute, an unknown type/rotation/face, a NONE module, a CORE anywhere
+    but node 0 (or node 0 not a CORE), a face not allowed on the parent's type, a rotation not
+    allowed on the module's type, and two children on one face of a parent.
+    """
+    _check_structure(graph)
+
+    types: dict[int, ModuleType] = {}
+    rotations: dict[int, ModuleRotationsIdx] = {}
+    for node, attrs in graph.nodes(data=True):
+        where = f"node {node}"
+        for key in ("type", "rotation"):
+            if key not in attrs:
+                raise ValueError(f"{where} has no {key!r} attribute")
+        module_type = parse_module_type(attrs["type"], where)
+        if module_type is ModuleType.NONE:
+            raise ValueError(
+                f"{where} has type NONE (an empty slot); robot graphs hold only real modules"
+            )
+        if node == IDX_OF_CORE and module_type is not ModuleType.CORE:
+            raise ValueError(
+                f"node {IDX_OF_CORE} must be the CORE, but its type is {module_type.name}"
+            )
+        if node != IDX_OF_CORE and module_type is ModuleType.CORE:
+            raise ValueError(f"{where} has type CORE; only node {IDX_OF_CORE} may be the core")
+        rotation = parse_rotation(attrs["rotation"], where)
+        if rotation not in ALLOWED_ROTATIONS[module_type]:
+            allowed = ", ".join(r.name for r in ALLOWED_ROTATIONS[module_type])
+            raise ValueError(
+                f"rotation {rotation.name} is not allowed on a {module_type.name} ({where}); "
+                f"allowed: {allowed}"
+            )
+        types[int(node)] = module_type
+        rotations[int(node)] = rotation
+
+    parent: dict[int, tuple[int, ModuleFaces]] = {}
+    children: dict[int, list[tuple[ModuleFaces, int]]] = {node: [] for node in types}
+    for u, v, attrs in graph.edges(data=True):
+        where = f"edge {u} -> {v}"
+        if "face" not in attrs:
+            raise ValueError(f"{where} has no 'face' attribute")
+        face = parse_face(attrs["face"], where)
+        parent_type = types[int(u)]
+        if face not in ALLOWED_FACES[parent_type]:
+            allowed = ", ".join(f.name for f in ALLOWED_FACES[parent_type])
+            raise ValueError(
+                f"face {face.name} is not allowed on a {parent_type.name} ({where}); "
+                f"allowed: {allowed}"
+            )
+        for other_face, other in children[int(u)]:
+            if other_face is face:
+                raise ValueError(
+                    f"node {u} has two children on face {face.name} (nodes {other} and {v})"
+                )
+        children[int(u)].append((face, int(v)))
+        parent[int(v)] = (int(u), face)
+
+    for kids in children.values():
+        kids.sort(key=lambda item: (item[0].value, item[1]))
+    order: list[int] = []
+    queue = deque([IDX_OF_CORE])
+    while queue:
+        node = queue.popleft()
+        order.append(node)
+        queue.extend(child for _face, child in children[node])
+    return RobotTree(
+        types=types, rotations=rotations, parent=parent, children=children, order=order
+    )
+
+
+def construct_mjspec_from_graph(graph: nx.DiGraph) -> CoreModule:
+    """Build the body described by ``graph``; return its ``CoreModule`` (``.spec`` is the MjSpec).
+
+    See the module docstring for the graph format, the validation and the attachment order.
+    """
+    tree = validate_robot_graph(graph)
+    core = CoreModule(index=IDX_OF_CORE)
+    modules: dict[int, Module] = {IDX_OF_CORE: core}
+    for node in tree.order[1:]:
+        parent, face = tree.parent[node]
+        module: Module
+        if tree.types[node] is ModuleType.HINGE:
+            module = HingeModule(index=node)
+        else:
+            module = BrickModule(index=node)
+        module.rotate(ModuleRotationsTheta[tree.rotations[node].name].value)
+        # The parent is already in the core's tree (breadth-first), so names never compound.
+        modules[parent].sites[face].attach_body(
+            body=module.body, prefix=attachment_prefix(parent, node, face)
+        )
+        modules[node] = module
+    return core

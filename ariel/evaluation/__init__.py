@@ -1,0 +1,33 @@
+"""Evaluation: evaluation tasks, the rollout engine and the executors that run them.
+
+Cheap to import: names are loaded from their modules on first access.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+# public name -> module that defines it
+_LAZY: dict[str, str] = {
+    "EXECUTOR_KINDS": "ariel.evaluation.executors",
+    "DaskExecutor": "ariel.evaluation.executors",
+    "SerialExecutor": "ariel.evaluation.executors",
+    "make_executor": "ariel.evaluation.executors",
+    "map_ordered": "ariel.evaluation.executors",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'ariel.evaluation' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # cache: __getattr__ runs once per name
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,0 +1,37 @@
+"""Tiny pure functions for checking executors (importable by spawned and Dask workers)."""
+
+from __future__ import annotations
+
+import os
+
+from ariel.evaluation.executors import THREAD_LIMIT_VARIABLES
+
+
+def seeded_sum(seed: int, n: int = 1000) -> float:
+    """Sum of ``n`` standard normal draws from ``default_rng(seed)``: same seed, same bits."""
+    import numpy as np
+
+    return float(np.random.default_rng(seed).standard_normal(n).sum())
+
+
+def thread_environment() -> dict[str, str | None]:
+    """The worker's thread-limit variables and its process id (under ``"pid"``)."""
+    env: dict[str, str | None] = {name: os.environ.get(name) for name in THREAD_LIMIT_VARIABLES}
+    env["pid"] = str(os.getpid())
+    return env
+
+
+def fail(message: str) -> None:
+    """Raise ``ValueError(message)`` (to check that errors travel back from workers)."""
+    raise ValueError(message)
+
+
+def initial_environment() -> dict[str, str]:
+    """The environment this process was started with (Linux ``/proc/self/environ``).
+
+    Unlike ``os.environ`` it does not show variables set later, e.g. by an initializer.
+    """
+    with open("/proc/self/environ", "rb") as file:
+        entries = file.read().split(b"\0")
+    pairs = (entry.decode(errors="replace").partition("=") for entry in entries if entry)
+    return {name: value for name, _, value in pairs}

@@ -1,0 +1,398 @@
+"""Executors: where evaluations run.
+
+Everything that runs evaluations talks to a `concurrent.futures.Executor` made here:
+
+- ``serial``: in this process, one call after another (debugging, tests, profiling).
+- ``local`` (default): a process pool on this machine, one worker per CPU, started with
+  ``forkserver`` (``spawn`` where that is missing), BLAS/OpenMP limited to one thread per worker.
+- ``dask``: Dask distributed, on a ``LocalCluster`` or on an existing scheduler (e.g. one run by
+  dask-jobqueue on SLURM); needs ``pip install 'ariel[distributed]'``.
+
+Functions shipped to workers must be plain top-level functions taking plain data: workers
+import them by name and rebuild plugins from registry names (see ``docs/executors.md``).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import functools
+import multiprocessing
+import os
+import sys
+import threading
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from typing import TYPE_CHECKING, Any, TypeVar
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+__all__ = [
+    "EXECUTOR_KINDS",
+    "THREAD_LIMIT_VARIABLES",
+    "DaskExecutor",
+    "SerialExecutor",
+    "default_workers",
+    "make_executor",
+    "map_ordered",
+    "worker_environment",
+]
+
+R = TypeVar("R")
+
+#: The executor kinds `make_executor` knows.
+EXECUTOR_KINDS: tuple[str, ...] = ("serial", "local", "dask")
+
+#: Environment variables that size the thread pools of BLAS, OpenMP and numexpr.
+THREAD_LIMIT_VARIABLES: tuple[str, ...] = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
+
+_DASK_MISSING = "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
+
+
+def default_workers() -> int:
+    """CPUs this process may use (its affinity mask where the OS has one, e.g. under SLURM)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def worker_environment(threads: int = 1) -> dict[str, str]:
+    """The thread-limit variables set in every worker (BLAS is 3-57x slower oversubscribed)."""
+    if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
+        raise ValueError(f"blas_threads must be an integer >= 1, got {threads!r}")
+    return dict.fromkeys(THREAD_LIMIT_VARIABLES, str(threads))
+
+
+# --------------------------------------------------------------------------------------------
+# serial
+# --------------------------------------------------------------------------------------------
+
+
+class SerialExecutor(cf.Executor):
+    """Runs each submitted call at once, in this process; returns completed futures.
+
+    An exception raised by the call is stored in its future (as in a process pool), not raised
+    by ``submit``.
+    """
+
+    def __init__(self) -> None:
+        self._shutdown = False
+        self._lock = threading.Lock()
+
+    def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
+        with self._lock:
+            if self._shutdown:
+                raise RuntimeError("cannot schedule new futures after shutdown")
+        future: cf.Future[R] = cf.Future()
+        future.set_running_or_notify_cancel()
+        try:
+            result = fn(*args, **kwargs)
+        except Exception as exc:  # KeyboardInterrupt and friends still stop the caller
+            future.set_exception(exc)
+        else:
+            future.set_result(result)
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        with self._lock:
+            self._shutdown = True
+
+    def __repr__(self) -> str:
+        return "SerialExecutor()"
+
+
+# --------------------------------------------------------------------------------------------
+# local process pool
+# --------------------------------------------------------------------------------------------
+
+# Serialises our temporary edits of os.environ (process creation may run on the pool's thread).
+_ENVIRON_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _temporary_environ(env: Mapping[str, str]) -> Iterator[None]:
+    with _ENVIRON_LOCK:
+        saved = {name: os.environ.get(name) for name in env}
+        os.environ.update(env)
+        try:
+            yield
+        finally:
+            for name, value in saved.items():
+                if value is None:
+                    os.environ.pop(name, None)
+                else:
+                    os.environ[name] = value
+
+
+def _limit_loaded_thread_pools(threads: int) -> None:
+    """Cap thread pools of libraries imported before the initializer ran (e.g. by __main__)."""
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(threads)
+    if "numpy" in sys.modules:
+        try:
+            from threadpoolctl import threadpool_limits
+        except ImportError:  # optional: without it, only the environment limits BLAS
+            return
+        threadpool_limits(limits=threads)
+
+
+def _initialize_worker(
+    env: dict[str, str],
+    threads: int,
+    initializer: Callable[..., object] | None,
+    initargs: tuple[Any, ...],
+) -> None:
+    """Process-pool initializer: thread limits first, then the caller's own initializer."""
+    os.environ.update(env)
+    _limit_loaded_thread_pools(threads)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+class _LocalProcessPool(cf.ProcessPoolExecutor):
+    """A process pool whose workers start with the thread-limit variables in their environment.
+
+    The initializer sets them too, but a worker may import numpy before the initializer runs
+    (spawn and forkserver import the main module first), and BLAS reads them only at load.
+    So every worker process, and the forkserver if this pool starts it, is created with them.
+    """
+
+    def __init__(self, *, worker_env: Mapping[str, str], **kwargs: Any) -> None:
+        self._worker_env = dict(worker_env)
+        super().__init__(**kwargs)
+
+    def _spawn_process(self) -> None:  # CPython's single point of worker creation (3.9+)
+        with _temporary_environ(self._worker_env):
+            super()._spawn_process()  # type: ignore[misc]
+
+
+def _default_mp_context() -> multiprocessing.context.BaseContext:
+    # Never fork: forking a process that holds threads (MuJoCo, Dask, torch) can deadlock.
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+def _make_local(
+    workers: int | None,
+    *,
+    blas_threads: int = 1,
+    mp_context: str | multiprocessing.context.BaseContext | None = None,
+    initializer: Callable[..., object] | None = None,
+    initargs: tuple[Any, ...] = (),
+    **pool_options: Any,
+) -> cf.ProcessPoolExecutor:
+    env = worker_environment(blas_threads)
+    if mp_context is None:
+        context = _default_mp_context()
+    elif isinstance(mp_context, str):
+        context = multiprocessing.get_context(mp_context)
+    else:
+        context = mp_context
+    return _LocalProcessPool(
+        worker_env=env,
+        max_workers=workers or default_workers(),
+        mp_context=context,
+        initializer=_initialize_worker,
+        initargs=(env, blas_threads, initializer, tuple(initargs)),
+        **pool_options,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# dask
+# --------------------------------------------------------------------------------------------
+
+
+class DaskExecutor(cf.Executor):
+    """``client.get_executor(pure=False)`` that also closes what it started on shutdown.
+
+    ``pure=False``: Dask would otherwise run identical calls once and share the result.
+
+    Attributes:
+        client: the `distributed.Client`.
+        cluster: the ``LocalCluster`` this executor started, or None.
+    """
+
+    def __init__(self, client: Client, *, cluster: Any = None, close_client: bool = True) -> None:
+        self.client = client
+        self.cluster = cluster
+        self._close_client = close_client
+        self._executor = client.get_executor(pure=False)
+        self._closed = False
+
+    def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
+        return self._executor.submit(fn, *args, **kwargs)
+
+    def map(
+        self,
+        fn: Callable[..., R],
+        *iterables: Iterable[Any],
+        timeout: float | None = None,
+        chunksize: int = 1,
+    ) -> Iterator[R]:
+        return self._executor.map(fn, *iterables, timeout=timeout)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._executor.shutdown(wait=wait and not cancel_futures)
+        finally:
+            try:
+                if self._close_client:
+                    self.client.close()
+            finally:
+                if self.cluster is not None:
+                    self.cluster.close()
+
+    def __repr__(self) -> str:
+        return f"DaskExecutor(scheduler={self.client.scheduler.address!r})"
+
+
+def _make_dask(
+    workers: int | None, scheduler: Any, *, blas_threads: int = 1, **cluster_options: Any
+) -> DaskExecutor:
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as exc:
+        raise ImportError(_DASK_MISSING) from exc
+    env = worker_environment(blas_threads)
+    if scheduler is None:
+        settings: dict[str, Any] = {
+            "n_workers": workers or default_workers(),
+            "threads_per_worker": 1,
+            "processes": True,
+            "dashboard_address": None,
+            "env": env,  # the nanny sets these before the worker process starts
+        }
+        if "dashboard_address" not in cluster_options:
+            # Without a dashboard the scheduler still serves HTTP (health, metrics) on 8787 and
+            # warns when that is taken (a second cluster): a free loopback port instead.
+            quiet_http = {"dashboard": False, "dashboard_address": "127.0.0.1:0"}
+            cluster_options["scheduler_kwargs"] = {
+                **quiet_http,
+                **(cluster_options.get("scheduler_kwargs") or {}),
+            }
+        settings.update(cluster_options)
+        cluster = LocalCluster(**settings)
+        try:
+            client = Client(cluster)
+        except BaseException:
+            cluster.close()
+            raise
+        return DaskExecutor(client, cluster=cluster)
+    if workers is not None:
+        raise ValueError(
+            "workers= sizes a LocalCluster; with scheduler= the cluster's own workers are used "
+            "(scale the cluster instead)"
+        )
+    if cluster_options:
+        raise TypeError(
+            f"options {sorted(cluster_options)} are for a LocalCluster; "
+            "they cannot be used with scheduler="
+        )
+    if isinstance(scheduler, Client):
+        return DaskExecutor(scheduler, close_client=False)  # the caller owns it
+    # An address such as "tcp://host:8786", or a cluster object (e.g. a SLURMCluster).
+    return DaskExecutor(Client(scheduler))
+
+
+# --------------------------------------------------------------------------------------------
+# entry points
+# --------------------------------------------------------------------------------------------
+
+
+def make_executor(
+    kind: str = "local",
+    *,
+    workers: int | None = None,
+    scheduler: Any = None,
+    **options: Any,
+) -> cf.Executor:
+    """A `concurrent.futures.Executor` of ``kind`` (use it as a context manager).
+
+    Args:
+        kind: ``"serial"``, ``"local"`` or ``"dask"``.
+        workers: processes for ``local`` and for a Dask ``LocalCluster`` (default: one per
+            usable CPU); ``serial`` accepts only 1.
+        scheduler: ``dask`` only: an address like ``"tcp://host:8786"``, a cluster object
+            (e.g. dask-jobqueue's ``SLURMCluster``) or a ``distributed.Client``. Without it a
+            ``LocalCluster`` is started, and closed again on shutdown.
+        **options: ``blas_threads`` (default 1, for ``local`` and ``dask``); for ``local`` also
+            ``mp_context``, ``initializer``, ``initargs``, ``max_tasks_per_child``; for a Dask
+            ``LocalCluster`` any of its keyword arguments.
+    """
+    if kind not in EXECUTOR_KINDS:
+        raise ValueError(f"unknown executor kind {kind!r}; known: {', '.join(EXECUTOR_KINDS)}")
+    if workers is not None and (
+        not isinstance(workers, int) or isinstance(workers, bool) or workers < 1
+    ):
+        raise ValueError(f"workers must be an integer >= 1 or None, got {workers!r}")
+    if scheduler is not None and kind != "dask":
+        raise ValueError(f"scheduler= is only for the dask executor, not {kind!r}")
+    if kind == "serial":
+        if workers not in (None, 1):
+            raise ValueError(
+                f"the serial executor runs in this process; workers must be 1, got {workers}"
+            )
+        if options:
+            raise TypeError(f"the serial executor takes no options, got {sorted(options)}")
+        return SerialExecutor()
+    if kind == "local":
+        return _make_local(workers, **options)
+    return _make_dask(workers, scheduler, **options)
+
+
+def _check_shippable(fn: Callable[..., Any]) -> None:
+    target = fn.func if isinstance(fn, functools.partial) else fn
+    qualname = getattr(target, "__qualname__", "")
+    if "<lambda>" in qualname or "<locals>" in qualname:
+        raise TypeError(
+            f"{qualname} cannot be sent to workers: pass a top-level function (workers import "
+            "it by name) that takes plain data"
+        )
+
+
+def map_ordered(
+    executor: cf.Executor,
+    fn: Callable[[Any], R],
+    items: Iterable[Any],
+    *,
+    progress: bool = False,
+    desc: str | None = None,
+) -> Iterator[R]:
+    """Submit ``fn(item)`` for every item now; iterate over the results in input order.
+
+    A failed call raises its exception when its turn comes; the calls not yet started are
+    then cancelled (also when the iteration is abandoned). ``progress`` shows a tqdm bar that
+    counts finished calls in any order.
+    """
+    _check_shippable(fn)
+    futures = [executor.submit(fn, item) for item in items]
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(futures), desc=desc, unit="task")
+        for future in futures:
+            future.add_done_callback(lambda _future: bar.update(1))
+
+    def results() -> Iterator[R]:
+        try:
+            for future in futures:
+                yield future.result()
+        finally:
+            for future in futures:
+                future.cancel()
+            if bar is not None:
+                bar.close()
+
+    return results()

@@ -1,0 +1,638 @@
+"""Plugin registries: body encoders, worlds, controllers and fitness functions.
+
+Configs, Parquet rows and worker payloads name their plugins by string; a `Registry` turns a
+name back into the object, in the parent process and in every spawned worker alike.
+
+Two ways in:
+
+- In-tree (or a script): ``@controllers.register("na_cpg")`` on a class or function, or
+  ``controllers.register("na_cpg", NaCPGPlugin)``.
+- A third-party package: an entry point in its ``pyproject.toml``::
+
+      [project.entry-points."ariel.controllers"]
+      my_ctrl = "my_pkg.module:MyController"
+
+  Entry points are listed by `Registry.names` without importing anything and imported on
+  first `Registry.get`.
+
+Rules:
+
+- A name has exactly one provider. Registering a taken name raises `DuplicatePluginError`
+  (unless ``replace=True``, or the same ``module:attr`` is registered again, as happens when a
+  module is reloaded).
+- An entry point that reuses a registered name, or two installed distributions declaring the
+  same name in one group, is an error too. It is raised when that name is looked up (`get`,
+  `make`, `provenance`), not when the names are listed, so one broken third-party package
+  cannot break unrelated names. ``register(name, obj, replace=True)`` overrides an entry point
+  on purpose.
+- Unknown names raise `UnknownPluginError` (a `KeyError` and a `ValueError`) listing the known
+  names.
+
+The in-tree registrations need mujoco and numpy, so they are not imported with this module:
+each registry imports its in-tree modules (`BUILTIN_PLUGIN_MODULES`) on its first lookup.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import threading
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar, overload, runtime_checkable
+
+if TYPE_CHECKING:
+    import importlib.metadata
+
+    import mujoco
+    import networkx as nx
+    import numpy as np
+
+__all__ = [
+    "BUILTIN_PLUGIN_MODULES",
+    "ENTRY_POINT_GROUPS",
+    "REGISTRIES",
+    "BodyEncoder",
+    "ClosedLoopController",
+    "ControllerPlugin",
+    "DuplicatePluginError",
+    "FitnessFunction",
+    "OpenLoopController",
+    "PluginLoadError",
+    "Policy",
+    "Registry",
+    "UnknownPluginError",
+    "World",
+    "WorldFactory",
+    "body_encoders",
+    "controllers",
+    "fitness_function",
+    "fitness_functions",
+    "plugin_provenance",
+    "refresh_all",
+    "worlds",
+]
+
+T = TypeVar("T")
+F = TypeVar("F", bound=Callable[..., Any])
+
+#: Entry-point group of each registry kind (the keys of `REGISTRIES`).
+ENTRY_POINT_GROUPS: dict[str, str] = {
+    "body_encoder": "ariel.body_encoders",
+    "world": "ariel.worlds",
+    "controller": "ariel.controllers",
+    "fitness": "ariel.fitness",
+}
+
+#: In-tree modules whose import registers the built-in plugins; imported on first lookup.
+BUILTIN_PLUGIN_MODULES: tuple[str, ...] = ("ariel.evaluation.builtin_plugins",)
+
+
+# --------------------------------------------------------------------------------------------
+# Errors
+# --------------------------------------------------------------------------------------------
+
+
+class UnknownPluginError(KeyError, ValueError):
+    """A name no registered plugin or installed entry point provides."""
+
+    def __str__(self) -> str:
+        # KeyError would quote the whole message; show it as written.
+        return str(self.args[0]) if self.args else ""
+
+
+class DuplicatePluginError(ValueError):
+    """Two providers for one name."""
+
+
+class PluginLoadError(ImportError):
+    """An entry point that could not be imported, or that gave an unusable object."""
+
+
+# --------------------------------------------------------------------------------------------
+# Protocols, one per kind. The evaluation engine may refine the controller protocol.
+# --------------------------------------------------------------------------------------------
+
+
+@runtime_checkable
+class BodyEncoder(Protocol):
+    """Genotype operations of one body encoding; made by ``body_encoders.make(name, **options)``.
+
+    Genotypes are plain data (numpy arrays, lists, dicts of those) so they can be stored in
+    Parquet and sent to workers. Every operation draws only from the ``rng`` it is given.
+    """
+
+    name: str
+
+    def random_genotype(self, rng: np.random.Generator) -> Any:
+        """A new random genotype."""
+        ...
+
+    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> Any:
+        """A mutated copy of ``genotype`` (the input is left unchanged)."""
+        ...
+
+    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> Any:
+        """One child genotype from parents ``a`` and ``b``."""
+        ...
+
+    def decode(self, genotype: Any) -> nx.DiGraph:
+        """The robot graph (the tutorial's module graph: a tree rooted at the core, node 0)."""
+        ...
+
+
+@runtime_checkable
+class World(Protocol):
+    """A world: an ``MjSpec`` to compile and a ``spawn`` that places a robot in it."""
+
+    spec: mujoco.MjSpec
+
+    def spawn(self, robot_spec: mujoco.MjSpec, *args: Any, **kwargs: Any) -> Any:
+        """Attach ``robot_spec`` to the world (position, rotation: see the world's docs)."""
+        ...
+
+
+class WorldFactory(Protocol):
+    """What the ``worlds`` registry holds: ``worlds.make(name, **options)`` gives a `World`."""
+
+    def __call__(self, **options: Any) -> World: ...
+
+
+@runtime_checkable
+class ControllerPlugin(Protocol):
+    """A brain family; made by ``controllers.make(name, **options)``.
+
+    Parameters are flat float vectors; a batch is a ``(B, P)`` array. ``model`` is the compiled
+    ``mujoco.MjModel`` of the robot in its world (``model.nu`` actuators). Whether the plugin
+    is `OpenLoopController` or `ClosedLoopController` is said by ``open_loop``.
+    """
+
+    open_loop: bool
+
+    def num_parameters(self, model: mujoco.MjModel) -> int:
+        """Length P of one parameter vector for this body."""
+        ...
+
+    def random_parameters(
+        self, model: mujoco.MjModel, rng: np.random.Generator, n: int
+    ) -> np.ndarray:
+        """``(n, P)`` random parameter vectors (e.g. CMA-ES initial means)."""
+        ...
+
+
+@runtime_checkable
+class OpenLoopController(ControllerPlugin, Protocol):
+    """Controls as a function of time only: the engine precomputes them, vectorised."""
+
+    def targets(
+        self, params: np.ndarray, sample_times: np.ndarray, model: mujoco.MjModel
+    ) -> np.ndarray:
+        """Actuator targets ``(B, T, nu)`` for params ``(B, P)`` at ``sample_times`` ``(T,)``."""
+        ...
+
+
+class Policy(Protocol):
+    """One closed-loop brain with fixed parameters."""
+
+    def __call__(self, observation: np.ndarray) -> np.ndarray:
+        """Actuator targets ``(nu,)`` for one observation vector (built by the engine)."""
+        ...
+
+
+@runtime_checkable
+class ClosedLoopController(ControllerPlugin, Protocol):
+    """Controls from observations; the engine calls the policy once per control period."""
+
+    def make_policy(self, params: np.ndarray, model: mujoco.MjModel) -> Policy:
+        """A policy for one parameter vector ``(P,)``."""
+        ...
+
+
+@runtime_checkable
+class FitnessFunction(Protocol):
+    """Scores one evaluation's trajectory record; ``maximise`` says which way is better."""
+
+    maximise: bool
+
+    def __call__(self, trajectory: Any) -> float: ...
+
+
+def fitness_function(*, maximise: bool) -> Callable[[F], F]:
+    """Decorator that marks a plain function as a fitness function (sets ``maximise``)."""
+    if not isinstance(maximise, bool):
+        raise TypeError(f"maximise must be True or False, not {maximise!r}")
+
+    def mark(fn: F) -> F:
+        fn.maximise = maximise  # type: ignore[attr-defined]
+        return fn
+
+    return mark
+
+
+# --------------------------------------------------------------------------------------------
+# Registry
+# --------------------------------------------------------------------------------------------
+
+
+def _object_path(obj: object) -> str:
+    """``module:qualname`` of a registered object (of its type for plain instances)."""
+    module = getattr(obj, "__module__", None)
+    qualname = getattr(obj, "__qualname__", None)
+    if isinstance(module, str) and isinstance(qualname, str):
+        return f"{module}:{qualname}"
+    kind = type(obj)
+    return f"{kind.__module__}:{kind.__qualname__}()"
+
+
+def _has_own_path(obj: object) -> bool:
+    """True for functions and classes: their ``module:qualname`` names one definition."""
+    return isinstance(getattr(obj, "__qualname__", None), str)
+
+
+_packages_lock = threading.Lock()
+_packages_cache: dict[str, list[str]] | None = None
+
+
+def _distribution_of_module(module: str) -> str | None:
+    """``name==version`` of the installed distribution providing ``module``, if any."""
+    global _packages_cache
+    import importlib.metadata  # here, not at the top: ~20 ms that workers need not pay
+
+    top = module.partition(".")[0]
+    if top == "ariel":
+        try:
+            return f"ariel=={importlib.metadata.version('ariel')}"
+        except importlib.metadata.PackageNotFoundError:
+            from ariel import __version__
+
+            return f"ariel=={__version__}"
+    with _packages_lock:
+        if _packages_cache is None:
+            # Scans every installed distribution's file list: done once, and only for
+            # provenance of objects registered from outside ariel.
+            _packages_cache = importlib.metadata.packages_distributions()
+        dists = _packages_cache.get(top, [])
+    for dist in dists:
+        try:
+            return f"{dist}=={importlib.metadata.version(dist)}"
+        except importlib.metadata.PackageNotFoundError:
+            continue
+    return None
+
+
+def _distribution_of_entry_point(ep: importlib.metadata.EntryPoint) -> str | None:
+    dist = getattr(ep, "dist", None)
+    if dist is None:
+        return None
+    return f"{dist.name}=={dist.version}"
+
+
+@dataclass(frozen=True)
+class _Registered:
+    obj: Any
+    path: str
+
+
+class Registry(Generic[T]):
+    """Names -> plugins of one kind, from ``register`` calls and from entry points.
+
+    Args:
+        kind: short id of the kind, e.g. ``"controller"``.
+        group: entry-point group to discover, e.g. ``"ariel.controllers"``; None for none.
+        builtin_modules: modules imported on first lookup (they call ``register``).
+        label: the kind as written in messages (default: ``kind`` with spaces).
+        check: called as ``check(obj)`` on every registered or loaded object; returns an error
+            text for an unusable object, or None.
+    """
+
+    def __init__(
+        self,
+        kind: str,
+        *,
+        group: str | None = None,
+        builtin_modules: Sequence[str] = (),
+        label: str | None = None,
+        check: Callable[[Any], str | None] | None = None,
+    ) -> None:
+        self.kind = kind
+        self.group = group
+        self.label = label if label is not None else kind.replace("_", " ")
+        self._builtin_modules = tuple(builtin_modules)
+        self._check = check
+        # RLock: a built-in module imported under the lock calls register() on this registry.
+        self._lock = threading.RLock()
+        self._registered: dict[str, _Registered] = {}
+        self._overrides: set[str] = set()  # names registered with replace=True
+        self._builtins_imported = False
+        self._entry_points: dict[str, importlib.metadata.EntryPoint] | None = None
+        self._entry_point_clashes: dict[str, str] = {}  # name -> error text
+        self._loaded: dict[str, Any] = {}
+
+    def __repr__(self) -> str:
+        return f"Registry(kind={self.kind!r}, group={self.group!r})"
+
+    # -- registration -------------------------------------------------------------------------
+
+    @overload
+    def register(
+        self, name: str, obj: None = None, *, replace: bool = False
+    ) -> Callable[[T], T]: ...
+
+    @overload
+    def register(self, name: str, obj: T, *, replace: bool = False) -> T: ...
+
+    def register(self, name: str, obj: T | None = None, *, replace: bool = False) -> Any:
+        """Register ``obj`` under ``name``; without ``obj``, return a decorator that does.
+
+        ``replace=True`` overrides an existing registration or an installed entry point.
+        """
+        self._validate_name(name)
+        if obj is None:
+
+            def decorator(target: T) -> T:
+                self._add(name, target, replace=replace)
+                return target
+
+            return decorator
+        self._add(name, obj, replace=replace)
+        return obj
+
+    def unregister(self, name: str) -> T:
+        """Remove a registered (not entry-point) name and return its object; for tests."""
+        with self._lock:
+            if name not in self._registered:
+                raise self._unknown(name)
+            self._overrides.discard(name)
+            return self._registered.pop(name).obj
+
+    def _validate_name(self, name: object) -> None:
+        if not isinstance(name, str) or not name or name != name.strip() or " " in name:
+            raise ValueError(
+                f"{self.label} name must be a non-empty string without spaces, got {name!r}"
+            )
+
+    def _add(self, name: str, obj: Any, *, replace: bool) -> None:
+        path = _object_path(obj)
+        problem = self._check(obj) if self._check is not None else None
+        if problem is not None:
+            raise TypeError(f"{self.label} '{name}' ({path}) {problem}")
+        with self._lock:
+            current = self._registered.get(name)
+            # The same definition registered again (a reloaded module) is no clash.
+            reloaded = current is not None and _has_own_path(obj) and current.path == path
+            if current is not None and not replace and not reloaded:
+                raise DuplicatePluginError(
+                    f"{self.label} '{name}' is already registered (by {current.path})"
+                )
+            if not replace and self._entry_points is not None and name in self._entry_points:
+                ep = self._entry_points[name]
+                if ep.value != path:
+                    raise DuplicatePluginError(
+                        f"{self.label} '{name}' is already provided by entry point {ep.value} "
+                        f"({_distribution_of_entry_point(ep)}) in group '{self.group}'"
+                    )
+            self._registered[name] = _Registered(obj, path)
+            if replace:
+                self._overrides.add(name)
+
+    # -- discovery ----------------------------------------------------------------------------
+
+    def _ensure_builtins(self) -> None:
+        if self._builtins_imported:
+            return
+        with self._lock:
+            if self._builtins_imported:
+                return
+            # Set first: a built-in module may look names up while it is being imported.
+            self._builtins_imported = True
+            try:
+                for module in self._builtin_modules:
+                    importlib.import_module(module)
+            except BaseException:
+                self._builtins_imported = False
+                raise
+
+    def _discover(self) -> dict[str, importlib.metadata.EntryPoint]:
+        found = self._entry_points
+        if found is not None:
+            return found
+        with self._lock:
+            if self._entry_points is not None:
+                return self._entry_points
+            found, clashes = {}, {}
+            if self.group is not None:
+                import importlib.metadata
+
+                # Lists distribution metadata only; nothing is imported here.
+                for ep in importlib.metadata.entry_points(group=self.group):
+                    other = found.get(ep.name)
+                    if other is None:
+                        found[ep.name] = ep
+                    elif other.value != ep.value:
+                        clashes[ep.name] = (
+                            f"{self.label} '{ep.name}' is declared by two entry points in group "
+                            f"'{self.group}': {other.value} ({_distribution_of_entry_point(other)})"
+                            f" and {ep.value} ({_distribution_of_entry_point(ep)}); "
+                            "uninstall or rename one"
+                        )
+            self._entry_point_clashes = clashes
+            self._entry_points = found
+            return found
+
+    def refresh(self) -> None:
+        """Forget discovered entry points and the objects loaded from them (for tests).
+
+        The next lookup discovers again; ``register``-ed names stay.
+        """
+        global _packages_cache
+        with self._lock:
+            self._entry_points = None
+            self._entry_point_clashes = {}
+            self._loaded.clear()
+        with _packages_lock:
+            _packages_cache = None
+        # Path finders cache directory listings; a distribution added since must be seen.
+        importlib.invalidate_caches()
+
+    def _clash(self, name: str) -> str | None:
+        """Error text when ``name`` has two providers, else None."""
+        entry_points = self._discover()
+        if name in self._entry_point_clashes and name not in self._overrides:
+            return self._entry_point_clashes[name]
+        registered = self._registered.get(name)
+        ep = entry_points.get(name)
+        if registered is None or ep is None or name in self._overrides:
+            return None
+        if ep.value == registered.path:  # the entry point names the registered object
+            return None
+        return (
+            f"{self.label} '{name}' is provided twice: registered {registered.path} "
+            f"({_distribution_of_module(registered.path.partition(':')[0])}) and entry point "
+            f"{ep.value} ({_distribution_of_entry_point(ep)}) in group '{self.group}'; "
+            "rename or uninstall one, or register with replace=True to override on purpose"
+        )
+
+    # -- lookup -------------------------------------------------------------------------------
+
+    def names(self) -> list[str]:
+        """Every known name, sorted; entry points are listed without being imported."""
+        self._ensure_builtins()
+        entry_points = self._discover()
+        with self._lock:
+            return sorted(set(self._registered) | set(entry_points))
+
+    def __contains__(self, name: object) -> bool:
+        return isinstance(name, str) and name in self.names()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names())
+
+    def __len__(self) -> int:
+        return len(self.names())
+
+    def _unknown(self, name: str) -> UnknownPluginError:
+        known = self.names()
+        message = f"unknown {self.label} '{name}'; known: {', '.join(known) or '(none)'}"
+        close = difflib.get_close_matches(name, known, n=1)
+        if close:
+            message += f"; did you mean '{close[0]}'?"
+        return UnknownPluginError(message)
+
+    def get(self, name: str) -> T:
+        """The plugin registered as ``name``; an entry point is imported on first use."""
+        self._ensure_builtins()
+        clash = self._clash(name)
+        if clash is not None:
+            raise DuplicatePluginError(clash)
+        with self._lock:
+            registered = self._registered.get(name)
+            if registered is not None:
+                return registered.obj
+            if name in self._loaded:
+                return self._loaded[name]
+            ep = self._discover().get(name)
+            if ep is None:
+                raise self._unknown(name)
+            obj = self._load(name, ep)
+            self._loaded[name] = obj
+            return obj
+
+    def _load(self, name: str, ep: importlib.metadata.EntryPoint) -> Any:
+        where = f"entry point {ep.value} ({_distribution_of_entry_point(ep)})"
+        try:
+            obj = ep.load()
+        except Exception as exc:
+            raise PluginLoadError(
+                f"could not load {self.label} '{name}' from {where}: {type(exc).__name__}: {exc}"
+            ) from exc
+        problem = self._check(obj) if self._check is not None else None
+        if problem is not None:
+            raise PluginLoadError(f"{self.label} '{name}' from {where} {problem}")
+        return obj
+
+    def make(self, name: str, **options: Any) -> Any:
+        """``get(name)(**options)``: build a plugin instance from its factory (gymnasium style)."""
+        factory = self.get(name)
+        if not callable(factory):
+            raise TypeError(f"{self.label} '{name}' is not callable; use get('{name}')")
+        return factory(**options)
+
+    def provenance(self, name: str) -> dict[str, str | None]:
+        """Who serves ``name``: ``{"kind", "name", "source", "object", "distribution"}``.
+
+        ``object`` is ``module:attr``; ``distribution`` is ``name==version`` (None for an object
+        registered from a script or test that no installed distribution provides). Entry
+        points are not imported for this.
+        """
+        self._ensure_builtins()
+        clash = self._clash(name)
+        if clash is not None:
+            raise DuplicatePluginError(clash)
+        with self._lock:
+            registered = self._registered.get(name)
+            if registered is not None:
+                return {
+                    "kind": self.kind,
+                    "name": name,
+                    "source": "registered",
+                    "object": registered.path,
+                    "distribution": _distribution_of_module(registered.path.partition(":")[0]),
+                }
+            ep = self._discover().get(name)
+            if ep is None:
+                raise self._unknown(name)
+            return {
+                "kind": self.kind,
+                "name": name,
+                "source": "entry point",
+                "object": ep.value,
+                "distribution": _distribution_of_entry_point(ep),
+            }
+
+
+# --------------------------------------------------------------------------------------------
+# The four registries
+# --------------------------------------------------------------------------------------------
+
+
+def _check_callable(obj: Any) -> str | None:
+    return None if callable(obj) else "must be callable (a class or factory function)"
+
+
+def _check_fitness(obj: Any) -> str | None:
+    if not callable(obj):
+        return "must be callable as fn(trajectory) -> float"
+    if not isinstance(getattr(obj, "maximise", None), bool):
+        return "needs a bool attribute 'maximise' (see ariel.plugins.fitness_function)"
+    return None
+
+
+body_encoders: Registry[Callable[..., BodyEncoder]] = Registry(
+    "body_encoder",
+    group=ENTRY_POINT_GROUPS["body_encoder"],
+    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    check=_check_callable,
+)
+worlds: Registry[WorldFactory] = Registry(
+    "world",
+    group=ENTRY_POINT_GROUPS["world"],
+    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    check=_check_callable,
+)
+controllers: Registry[Callable[..., ControllerPlugin]] = Registry(
+    "controller",
+    group=ENTRY_POINT_GROUPS["controller"],
+    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    check=_check_callable,
+)
+fitness_functions: Registry[FitnessFunction] = Registry(
+    "fitness",
+    group=ENTRY_POINT_GROUPS["fitness"],
+    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    label="fitness function",
+    check=_check_fitness,
+)
+
+#: The registries by kind (the keys of `ENTRY_POINT_GROUPS`).
+REGISTRIES: dict[str, Registry[Any]] = {
+    "body_encoder": body_encoders,
+    "world": worlds,
+    "controller": controllers,
+    "fitness": fitness_functions,
+}
+
+
+def refresh_all() -> None:
+    """`Registry.refresh` on every registry (for tests)."""
+    for registry in REGISTRIES.values():
+        registry.refresh()
+
+
+def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | None]]:
+    """Provenance of one plugin per kind, e.g. ``{"controller": "na_cpg", ...}``, for run.json."""
+    result = {}
+    for kind, name in names.items():
+        if kind not in REGISTRIES:
+            raise ValueError(f"unknown plugin kind '{kind}'; known: {', '.join(REGISTRIES)}")
+        result[kind] = REGISTRIES[kind].provenance(name)
+    return result

@@ -1,0 +1,74 @@
+"""AmphitheatreTerrainWorld: a flat arena ringed by a slope and a plateau."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from ariel.simulation.environments._base import as_dims, as_vector
+from ariel.simulation.environments._compound import TERRAIN_COLOR, CompoundWorld
+from ariel.simulation.environments._rugged import DEFAULT_TERRAIN_SEED
+from ariel.simulation.environments.heightmaps import amphitheatre_heightmap
+
+__all__ = ["AmphitheatreTerrainWorld"]
+
+
+class AmphitheatreTerrainWorld(CompoundWorld):
+    """Flat for r <= `inner_radius`, rising linearly to a plateau at `outer_radius` (r in unit
+    heightmap coordinates from the centre), plus `height_of_noise` x Perlin noise. The slope
+    height is floor_size[2] before MuJoCo's rescaling; the surface tops out at floor_size[2] / 2.
+    """
+
+    name = "amphitheatre-world"
+
+    def __init__(
+        self,
+        *,
+        name: str | None = None,
+        floor_size: Sequence[float] = (10.0, 10.0, 2.0),
+        floor_tilt: Sequence[float] = (0.0, 0.0, 0.0),
+        floor_rot_sequence: str = "XYZ",
+        checker_floor: bool = False,
+        dims: Sequence[int] = (100, 100),
+        inner_radius: float = 0.2,
+        outer_radius: float = 0.45,
+        height_of_noise: float = 0.3,
+        scale_of_noise: float = 5.0,
+        normalize: str = "none",
+        seed: int | None = DEFAULT_TERRAIN_SEED,
+        terrain_color: Sequence[float] = TERRAIN_COLOR,
+        timestep: float | None = None,
+        mujoco_config: Any = None,
+        load_precompiled: bool = True,
+    ) -> None:
+        self.seed = seed
+        self.inner_radius = inner_radius
+        self.outer_radius = outer_radius
+        self.height_of_noise = height_of_noise
+        self.scale_of_noise = scale_of_noise
+        self.normalize = normalize
+        dims = as_dims(dims)
+        cone_height = as_vector(floor_size, 3, "floor_size", positive=True)[2]
+        heightmap = amphitheatre_heightmap(
+            dims,
+            inner_radius=inner_radius,
+            outer_radius=outer_radius,
+            cone_height=cone_height,
+            height_of_noise=height_of_noise,
+            scale_of_noise=scale_of_noise,
+            normalize=normalize,
+            seed=seed,
+        )
+        super().__init__(
+            name=name,
+            floor_size=floor_size,
+            floor_tilt=floor_tilt,
+            floor_rot_sequence=floor_rot_sequence,
+            dims=dims,
+            floor_heightmap=heightmap,
+            terrain_color=terrain_color,
+            checker_floor=checker_floor,
+            timestep=timestep,
+            mujoco_config=mujoco_config,
+            load_precompiled=load_precompiled,
+        )

@@ -1,0 +1,237 @@
+"""Headless renderers: one frame, a fixed-camera video, a tracking video (tutorial API).
+
+Rendering needs an OpenGL backend. On a machine without a display set ``MUJOCO_GL=egl``
+(or ``osmesa``) before ``mujoco`` is first imported; ``make run``, ``make test`` and the test
+suite do so. Without a working backend these functions raise a one-line ``RuntimeError``
+saying what to install.
+
+Camera: if the model has a camera named ``"ortho-cam"`` (every ARIEL world does) it is used,
+with ``cam_fovy`` / ``cam_pos`` / ``cam_quat`` overriding its settings for this call only;
+otherwise MuJoCo's default free camera frames the whole model.
+
+Differences from upstream ARIEL (on purpose):
+* ``video_renderer`` steps by the MODEL's timestep so that frame ``i`` shows simulated time
+  ``(i + 1) / fps`` and the video plays at real time (upstream assumes 0.002 s and a fixed
+  ``floor(1 / (0.002 * fps))`` steps per frame, ~0.96x real time). A video of ``duration``
+  seconds therefore has exactly ``round(duration * fps)`` frames.
+* ``width`` / ``height`` mean what they say (upstream passes them to ``mujoco.Renderer`` in
+  swapped order, so its 480 x 640 default comes out 640 wide and 480 tall).
+* Camera overrides are restored after the call, and the camera's ``sensorsize`` is not
+  touched (setting it makes a perspective camera ignore ``fovy``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from PIL import Image
+
+from ariel.utils._gl import create_renderer
+from ariel.utils.video_recorder import VideoRecorder
+
+__all__ = ["single_frame_renderer", "tracking_video_renderer", "video_renderer"]
+
+ORTHO_CAMERA_NAME = "ortho-cam"
+
+CameraSpec = int | str | mujoco.MjvCamera
+
+
+def _ortho_camera_id(model: mujoco.MjModel) -> int:
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, ORTHO_CAMERA_NAME)
+
+
+@contextmanager
+def _camera(
+    model: mujoco.MjModel,
+    cam_fovy: float | None,
+    cam_pos: Sequence[float] | None,
+    cam_quat: Sequence[float] | None,
+) -> Iterator[CameraSpec]:
+    """Yield the camera to render with; overrides on "ortho-cam" last for the block only."""
+    cam_id = _ortho_camera_id(model)
+    if cam_id < 0:
+        if any(v is not None for v in (cam_fovy, cam_pos, cam_quat)):
+            # The overrides belong to "ortho-cam"; silently ignoring them would surprise.
+            raise ValueError(
+                f"cam_fovy/cam_pos/cam_quat need a camera named {ORTHO_CAMERA_NAME!r} in the "
+                "model; this model has none (the default free camera is used without overrides)"
+            )
+        yield -1  # MuJoCo's default free camera
+        return
+
+    saved = (
+        model.cam_fovy[cam_id].copy(),
+        model.cam_pos[cam_id].copy(),
+        model.cam_quat[cam_id].copy(),
+    )
+    try:
+        if cam_fovy is not None:
+            model.cam_fovy[cam_id] = float(cam_fovy)
+        if cam_pos is not None:
+            model.cam_pos[cam_id] = _vector(cam_pos, 3, "cam_pos")
+        if cam_quat is not None:
+            quat = _vector(cam_quat, 4, "cam_quat")
+            norm = np.linalg.norm(quat)
+            if norm == 0:
+                raise ValueError("cam_quat must be a non-zero quaternion (w, x, y, z)")
+            model.cam_quat[cam_id] = quat / norm
+        yield cam_id
+    finally:
+        model.cam_fovy[cam_id], model.cam_pos[cam_id], model.cam_quat[cam_id] = saved
+
+
+def _vector(values: Sequence[float], size: int, label: str) -> np.ndarray:
+    array = np.asarray(values, dtype=float).reshape(-1)
+    if array.shape != (size,) or not np.all(np.isfinite(array)):
+        raise ValueError(f"{label} must be {size} finite numbers, got {values!r}")
+    return array
+
+
+def _default_image_path() -> Path:
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d_%H-%M-%S-%f")
+    return Path.cwd() / f"img_{stamp}.png"
+
+
+def single_frame_renderer(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    steps: int = 1,
+    width: int = 480,
+    height: int = 640,
+    cam_fovy: float | None = None,
+    cam_pos: Sequence[float] | None = None,
+    cam_quat: Sequence[float] | None = None,
+    *,
+    show: bool = False,
+    save: bool = False,
+    save_path: str | Path | None = None,
+) -> Image.Image:
+    """Reset ``data``, step ``steps`` times and return one ``width`` x ``height`` image.
+
+    ``save=True`` writes a PNG to ``save_path`` (default ``./img_<UTC time>.png``); ``show``
+    displays it with matplotlib.
+    """
+    if steps < 0:
+        raise ValueError(f"steps must be >= 0, got {steps}")
+    mujoco.mj_resetData(model, data)
+    with _camera(model, cam_fovy, cam_pos, cam_quat) as camera:
+        if steps > 0:
+            mujoco.mj_step(model, data, nstep=int(steps))
+        else:
+            mujoco.mj_forward(model, data)
+        renderer = create_renderer(model, width, height)
+        try:
+            renderer.update_scene(data, camera=camera)
+            image = Image.fromarray(renderer.render())
+        finally:
+            renderer.close()
+
+    if save:
+        path = Path(save_path) if save_path is not None else _default_image_path()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        image.save(path)
+    if show:
+        import matplotlib.pyplot as plt  # lazy: only when a window is asked for
+
+        plt.imshow(image)
+        plt.axis("off")
+        plt.show()
+    return image
+
+
+def _record(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    duration: float,
+    recorder: VideoRecorder,
+    camera: CameraSpec,
+) -> None:
+    """Step to each frame's time, render, write; the recorder is released at the end."""
+    if not duration > 0:
+        raise ValueError(f"duration must be > 0 seconds, got {duration}")
+    timestep = float(model.opt.timestep)
+    n_frames = max(1, round(duration * recorder.fps))
+    try:
+        renderer = create_renderer(model, recorder.width, recorder.height)
+        try:
+            step = 0
+            for frame in range(1, n_frames + 1):
+                # Target step counted from the reset: no drift from accumulating rounded counts.
+                target = round(frame / (recorder.fps * timestep))
+                if target > step:
+                    mujoco.mj_step(model, data, nstep=target - step)
+                    step = target
+                renderer.update_scene(data, camera=camera)
+                recorder.write(renderer.render())
+        finally:
+            renderer.close()
+    finally:
+        recorder.release()
+
+
+def video_renderer(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    duration: float = 10.0,
+    video_recorder: VideoRecorder | None = None,
+    cam_fovy: float | None = None,
+    cam_pos: Sequence[float] | None = None,
+    cam_quat: Sequence[float] | None = None,
+) -> None:
+    """Reset ``data``, simulate ``duration`` seconds and record a real-time video.
+
+    ``video_recorder`` defaults to ``VideoRecorder()`` (``./video_<UTC time>.mp4``, 640 x 480,
+    30 fps); it is released at the end. Its path is ``video_recorder.path``.
+    """
+    recorder = video_recorder if video_recorder is not None else VideoRecorder()
+    mujoco.mj_resetData(model, data)
+    with _camera(model, cam_fovy, cam_pos, cam_quat) as camera:
+        _record(model, data, duration, recorder, camera)
+
+
+def _tracked_body_id(model: mujoco.MjModel, name: str) -> int:
+    body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+    if body_id >= 0:
+        return body_id
+    for candidate in range(model.nbody):
+        body_name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, candidate) or ""
+        if "core" in body_name:
+            return candidate
+    raise ValueError(f"no body named {name!r} and no body whose name contains 'core' to track")
+
+
+def tracking_video_renderer(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    duration: float = 10.0,
+    video_recorder: VideoRecorder | None = None,
+    geom_to_track: str = "robot-core",
+    tracking_distance: float = 1.5,
+    tracking_azimuth: float = 135,
+    tracking_elevation: float = -30,
+) -> None:
+    """Like :func:`video_renderer`, with a camera that follows the robot's core body.
+
+    Tracks the body named ``geom_to_track``, else the first body whose name contains
+    ``"core"`` (e.g. ``robot1_core``), from ``tracking_distance`` metres at the given azimuth
+    and elevation (degrees).
+    """
+    body_id = _tracked_body_id(model, geom_to_track)
+    recorder = video_recorder if video_recorder is not None else VideoRecorder()
+    camera = mujoco.MjvCamera()
+    mujoco.mjv_defaultFreeCamera(model, camera)
+    camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+    camera.trackbodyid = body_id
+    camera.distance = float(tracking_distance)
+    camera.azimuth = float(tracking_azimuth)
+    camera.elevation = float(tracking_elevation)
+    mujoco.mj_resetData(model, data)
+    mujoco.mj_forward(model, data)
+    # Start centred on the body; MuJoCo then keeps the camera on it as it moves.
+    camera.lookat[:] = data.xpos[body_id]
+    _record(model, data, duration, recorder, camera)

@@ -1,0 +1,225 @@
+"""Executors: same results on every kind and worker count, errors travel back, BLAS limits."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import functools
+import importlib.util
+import os
+import sys
+import warnings
+from collections.abc import Iterator
+
+import pytest
+
+from ariel.evaluation import _selftest
+from ariel.evaluation.executors import (
+    THREAD_LIMIT_VARIABLES,
+    SerialExecutor,
+    make_executor,
+    map_ordered,
+)
+
+HAS_DASK = importlib.util.find_spec("distributed") is not None
+needs_dask = pytest.mark.skipif(
+    not HAS_DASK, reason="dask.distributed is not installed (pip install 'ariel[distributed]')"
+)
+
+SEEDS = list(range(12))
+N_DRAWS = 5000
+
+EXECUTORS = [
+    pytest.param(("serial", None), id="serial"),
+    pytest.param(("local", 1), id="local-1"),
+    pytest.param(("local", 2), id="local-2"),
+    pytest.param(("dask", 1), id="dask-1", marks=needs_dask),
+]
+
+
+@pytest.fixture(scope="module", params=EXECUTORS)
+def executor(request: pytest.FixtureRequest) -> Iterator[cf.Executor]:
+    kind, workers = request.param
+    with make_executor(kind, workers=workers) as ex:
+        yield ex
+
+
+def expected_bits() -> list[str]:
+    return [_selftest.seeded_sum(seed, N_DRAWS).hex() for seed in SEEDS]
+
+
+def test_same_bits_on_every_executor(executor: cf.Executor) -> None:
+    task = functools.partial(_selftest.seeded_sum, n=N_DRAWS)
+    results = list(map_ordered(executor, task, SEEDS))
+    assert [r.hex() for r in results] == expected_bits()
+    # Plain submit/map agree too (and map keeps the order).
+    assert executor.submit(_selftest.seeded_sum, 3, N_DRAWS).result().hex() == expected_bits()[3]
+    mapped = list(executor.map(_selftest.seeded_sum, SEEDS, [N_DRAWS] * len(SEEDS)))
+    assert [r.hex() for r in mapped] == expected_bits()
+
+
+def test_exceptions_propagate(executor: cf.Executor) -> None:
+    future = executor.submit(_selftest.fail, "boom in a worker")
+    with pytest.raises(ValueError, match="boom in a worker"):
+        future.result()
+    # map_ordered raises at the failing item, after yielding the earlier ones in order.
+    results = map_ordered(executor, _selftest.fail, ["first failure", "second failure"])
+    with pytest.raises(ValueError, match="first failure"):
+        next(results)
+    # The executor still works afterwards.
+    assert executor.submit(_selftest.seeded_sum, 0, 10).result() == _selftest.seeded_sum(0, 10)
+
+
+def test_workers_run_with_one_blas_thread(executor: cf.Executor) -> None:
+    parent_before = {name: os.environ.get(name) for name in THREAD_LIMIT_VARIABLES}
+    env = executor.submit(_selftest.thread_environment).result()
+    if isinstance(executor, SerialExecutor):  # runs here and leaves the environment alone
+        assert env == {**parent_before, "pid": str(os.getpid())}
+        return
+    assert env["pid"] != str(os.getpid())
+    assert {name: env[name] for name in THREAD_LIMIT_VARIABLES} == dict.fromkeys(
+        THREAD_LIMIT_VARIABLES, "1"
+    )
+    # Starting workers must not leave the variables changed in this process.
+    assert {name: os.environ.get(name) for name in THREAD_LIMIT_VARIABLES} == parent_before
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/environ"), reason="needs Linux /proc")
+def test_local_workers_start_with_the_limits_in_their_environment() -> None:
+    # Set before Python starts, so numpy imported by the main module (spawn and forkserver
+    # import it before any initializer runs) already sees them.
+    with make_executor("local", workers=1, mp_context="spawn") as ex:
+        initial = ex.submit(_selftest.initial_environment).result()
+    assert {name: initial.get(name) for name in THREAD_LIMIT_VARIABLES} == dict.fromkeys(
+        THREAD_LIMIT_VARIABLES, "1"
+    )
+
+
+def test_local_pool_size_and_blas_option() -> None:
+    with make_executor("local", workers=2, blas_threads=2) as ex:
+        assert ex._max_workers == 2
+        env = ex.submit(_selftest.thread_environment).result()
+    assert env["OPENBLAS_NUM_THREADS"] == "2" and env["OMP_NUM_THREADS"] == "2"
+    with make_executor("local") as ex:
+        assert ex._max_workers == len(os.sched_getaffinity(0))  # lazily started: no processes
+
+
+def test_serial_executor_captures_exceptions_in_the_future() -> None:
+    ex = make_executor("serial")
+    assert isinstance(ex, SerialExecutor)
+    future = ex.submit(_selftest.fail, "kept in the future")  # submit itself does not raise
+    assert future.done() and isinstance(future.exception(), ValueError)
+    ex.shutdown()
+    with pytest.raises(RuntimeError, match="after shutdown"):
+        ex.submit(_selftest.seeded_sum, 0)
+
+
+def test_unknown_kind_lists_the_kinds() -> None:
+    with pytest.raises(ValueError) as info:
+        make_executor("threads")
+    assert str(info.value) == "unknown executor kind 'threads'; known: serial, local, dask"
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"kind": "local", "workers": 0}, ValueError, "workers must be an integer >= 1"),
+        ({"kind": "local", "workers": 1.5}, ValueError, "workers must be an integer >= 1"),
+        ({"kind": "serial", "workers": 2}, ValueError, "workers must be 1"),
+        ({"kind": "serial", "blas_threads": 1}, TypeError, "takes no options"),
+        ({"kind": "local", "scheduler": "tcp://x:8786"}, ValueError, "only for the dask"),
+        ({"kind": "local", "blas_threads": 0}, ValueError, "blas_threads must be"),
+    ],
+)
+def test_bad_arguments(kwargs: dict, error: type[Exception], message: str) -> None:
+    with pytest.raises(error, match=message):
+        make_executor(**kwargs)
+
+
+def test_map_ordered_refuses_unshippable_functions() -> None:
+    with make_executor("serial") as ex, pytest.raises(TypeError, match="top-level function"):
+        map_ordered(ex, lambda seed: seed, [1])
+
+    def local_function(seed: int) -> int:
+        return seed
+
+    with make_executor("serial") as ex, pytest.raises(TypeError, match="<locals>"):
+        map_ordered(ex, functools.partial(local_function), [1])
+
+
+def test_map_ordered_shows_progress(capsys: pytest.CaptureFixture[str]) -> None:
+    with make_executor("serial") as ex:
+        results = list(
+            map_ordered(ex, _selftest.seeded_sum, [1, 2, 3], progress=True, desc="evals")
+        )
+    assert len(results) == 3
+    err = capsys.readouterr().err
+    assert "evals" in err and "3/3" in err
+
+
+def test_map_ordered_cancels_pending_work_on_failure() -> None:
+    class RecordingExecutor(SerialExecutor):
+        """Hands out futures that have not run yet, so cancellation can be observed."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.futures: list[cf.Future] = []
+
+        def submit(self, fn, /, *args, **kwargs):  # type: ignore[override]
+            future: cf.Future = cf.Future()
+            if args == ("fail",):
+                future.set_exception(ValueError("fail"))
+            self.futures.append(future)
+            return future
+
+    ex = RecordingExecutor()
+    results = map_ordered(ex, _selftest.fail, ["fail", "later", "later"])
+    assert len(ex.futures) == 3  # everything is submitted before iterating
+    with pytest.raises(ValueError, match="fail"):
+        next(results)
+    assert [f.cancelled() for f in ex.futures] == [False, True, True]
+
+
+def test_dask_missing_gives_install_hint(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "distributed", None)  # makes `import distributed` fail
+    with pytest.raises(ImportError) as info:
+        make_executor("dask", workers=1)
+    assert str(info.value) == (
+        "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
+    )
+
+
+@needs_dask
+def test_dask_on_an_existing_scheduler() -> None:
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=1,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+    ) as cluster:
+        with pytest.raises(ValueError, match="scale the cluster"):
+            make_executor("dask", workers=2, scheduler=cluster.scheduler_address)
+        ex = make_executor("dask", scheduler=cluster.scheduler_address)
+        with ex:
+            task = functools.partial(_selftest.seeded_sum, n=N_DRAWS)
+            assert [r.hex() for r in map_ordered(ex, task, SEEDS)] == expected_bits()
+        assert ex.client.status == "closed"  # the executor closes the client it made ...
+        assert ex.cluster is None
+        assert cluster.status.name == "running"  # ... but not a cluster it did not start
+
+
+@needs_dask
+def test_dask_local_cluster_is_closed_on_shutdown() -> None:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ex = make_executor("dask", workers=1)
+    # No "port 8787 is already in use" while another cluster (the fixture's) is running.
+    assert [str(w.message) for w in caught if "already in use" in str(w.message)] == []
+    cluster = ex.cluster
+    assert cluster is not None and len(cluster.workers) == 1
+    ex.shutdown()
+    assert ex.client.status == "closed"
+    assert cluster.status.name == "closed"
+    ex.shutdown()  # idempotent

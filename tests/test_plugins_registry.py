@@ -1,0 +1,378 @@
+"""Plugin registries: registration, lookup errors, entry points, provenance."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import types
+from typing import Any
+
+import pytest
+
+import ariel
+from ariel import plugins
+from ariel.plugins import (
+    ENTRY_POINT_GROUPS,
+    REGISTRIES,
+    DuplicatePluginError,
+    PluginLoadError,
+    Registry,
+    UnknownPluginError,
+    fitness_function,
+    fitness_functions,
+)
+
+PKG = "ariel_test_plugin_pkg"
+
+CONSTANT_ONE_SOURCE = """
+    from ariel.plugins import fitness_function
+
+
+    @fitness_function(maximise=True)
+    def constant_one(trajectory):
+        return 1.0
+"""
+
+
+def make_registry(**kwargs: Any) -> Registry[Any]:
+    kwargs.setdefault("check", None)
+    return Registry("controller", **kwargs)
+
+
+class Alpha:
+    def __init__(self, **options: Any) -> None:
+        self.options = options
+
+
+class Beta:
+    pass
+
+
+def fitness_without_direction(trajectory: Any) -> float:
+    return 0.0
+
+
+# --- registration ---------------------------------------------------------------------------
+
+
+def test_register_as_decorator_and_as_call() -> None:
+    registry = make_registry()
+
+    @registry.register("alpha")
+    class Decorated:
+        pass
+
+    returned = registry.register("beta", Beta)
+    assert returned is Beta
+    assert registry.get("alpha") is Decorated
+    assert registry.get("beta") is Beta
+    assert registry.names() == ["alpha", "beta"]
+    assert "alpha" in registry and "gamma" not in registry
+    assert len(registry) == 2 and list(registry) == ["alpha", "beta"]
+
+
+def test_make_calls_the_factory_with_options() -> None:
+    registry = make_registry()
+    registry.register("alpha", Alpha)
+    made = registry.make("alpha", gain=2.0)
+    assert isinstance(made, Alpha) and made.options == {"gain": 2.0}
+
+
+def test_duplicate_name_is_an_error_naming_the_first_provider() -> None:
+    registry = make_registry()
+    registry.register("na_cpg", Alpha)
+    with pytest.raises(DuplicatePluginError) as info:
+        registry.register("na_cpg", Beta)
+    assert str(info.value) == (f"controller 'na_cpg' is already registered (by {__name__}:Alpha)")
+    assert isinstance(info.value, ValueError)
+    assert registry.get("na_cpg") is Alpha
+
+
+def test_replace_overrides_and_same_definition_is_idempotent() -> None:
+    registry = make_registry()
+    registry.register("x", Alpha)
+    registry.register("x", Alpha)  # a reloaded module registers the same definition again
+    registry.register("x", Beta, replace=True)
+    assert registry.get("x") is Beta
+    # Instances have no definition of their own: two instances of a class do clash.
+    registry.register("inst", Alpha())
+    with pytest.raises(DuplicatePluginError):
+        registry.register("inst", Alpha())
+
+
+def test_unknown_name_lists_known_names() -> None:
+    registry = make_registry()
+    registry.register("na_cpg", Alpha)
+    registry.register("mlp", Beta)
+    with pytest.raises(UnknownPluginError) as info:
+        registry.get("foo")
+    assert str(info.value) == "unknown controller 'foo'; known: mlp, na_cpg"
+    # Catchable both ways: a lookup (KeyError) of a bad config value (ValueError).
+    assert isinstance(info.value, KeyError) and isinstance(info.value, ValueError)
+    with pytest.raises(UnknownPluginError, match=r"did you mean 'na_cpg'\?"):
+        registry.make("na_cgp")
+    with pytest.raises(UnknownPluginError, match=r"known: \(none\)"):
+        make_registry().get("anything")
+
+
+@pytest.mark.parametrize("bad", ["", " x", "two words", 3, None])
+def test_bad_names_are_rejected(bad: Any) -> None:
+    with pytest.raises(ValueError, match="name must be a non-empty string"):
+        make_registry().register(bad, Alpha)
+
+
+def test_unregister_removes_a_name() -> None:
+    registry = make_registry()
+    registry.register("alpha", Alpha)
+    assert registry.unregister("alpha") is Alpha
+    assert "alpha" not in registry
+    with pytest.raises(UnknownPluginError):
+        registry.unregister("alpha")
+
+
+def test_make_refuses_a_non_callable() -> None:
+    registry = make_registry()
+    registry.register("value", 42)
+    with pytest.raises(TypeError, match="controller 'value' is not callable"):
+        registry.make("value")
+
+
+def test_fitness_registry_checks_direction() -> None:
+    registry = Registry("fitness", label="fitness function", check=plugins._check_fitness)
+    with pytest.raises(TypeError, match="needs a bool attribute 'maximise'"):
+        registry.register("none", fitness_without_direction)
+    marked = fitness_function(maximise=False)(lambda trajectory: 0.0)
+    registry.register("marked", marked)
+    assert registry.get("marked").maximise is False
+    assert isinstance(marked, plugins.FitnessFunction)
+    with pytest.raises(TypeError, match="maximise must be True or False"):
+        fitness_function(maximise="yes")  # type: ignore[arg-type]
+
+
+# --- lazy built-in modules ------------------------------------------------------------------
+
+
+def test_builtin_modules_are_imported_on_first_lookup(
+    tmp_path: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    registry = make_registry(builtin_modules=["ariel_test_builtins_mod"])
+    holder = types.ModuleType("ariel_test_registry_holder")
+    holder.registry = registry  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "ariel_test_registry_holder", holder)
+    (tmp_path / "ariel_test_builtins_mod.py").write_text(
+        "from ariel_test_registry_holder import registry\n"
+        "@registry.register('builtin_one')\n"
+        "def builtin_one():\n"
+        "    return 1\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "ariel_test_builtins_mod", raising=False)
+
+    assert "ariel_test_builtins_mod" not in sys.modules
+    assert registry.names() == ["builtin_one"]
+    assert "ariel_test_builtins_mod" in sys.modules
+    assert registry.make("builtin_one") == 1
+
+
+def test_importing_plugins_loads_no_heavy_module() -> None:
+    code = (
+        "import sys, ariel.plugins, ariel.evaluation\n"
+        "heavy = ['numpy', 'mujoco', 'torch', 'networkx', 'matplotlib', 'rerun', 'dask',\n"
+        "         'ariel.evaluation.builtin_plugins', 'ariel.evaluation.executors']\n"
+        "print(','.join(m for m in heavy if m in sys.modules))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.strip() == ""
+
+
+# --- entry points ---------------------------------------------------------------------------
+
+
+def test_entry_point_listed_without_import_and_loaded_on_first_use(fake_distribution) -> None:
+    fake_distribution(
+        PKG,
+        "0.1",
+        source=CONSTANT_ONE_SOURCE,
+        entry_points={"ariel.fitness": {"constant_one": f"{PKG}:constant_one"}},
+    )
+    assert "constant_one" in fitness_functions.names()
+    assert "constant_one" in fitness_functions
+    provenance = fitness_functions.provenance("constant_one")
+    assert provenance == {
+        "kind": "fitness",
+        "name": "constant_one",
+        "source": "entry point",
+        "object": f"{PKG}:constant_one",
+        "distribution": f"{PKG}==0.1",
+    }
+    assert PKG not in sys.modules  # listing and provenance imported nothing
+
+    fn = fitness_functions.get("constant_one")
+    assert PKG in sys.modules
+    assert fn.maximise is True and fn(None) == 1.0
+    assert fitness_functions.get("constant_one") is fn  # loaded once
+    assert plugins.plugin_provenance({"fitness": "constant_one"}) == {"fitness": provenance}
+
+
+def test_entry_point_is_only_in_its_own_group(fake_distribution) -> None:
+    fake_distribution(
+        PKG,
+        source=CONSTANT_ONE_SOURCE,
+        entry_points={"ariel.fitness": {"constant_one": f"{PKG}:constant_one"}},
+    )
+    assert "constant_one" not in plugins.controllers.names()
+
+
+def test_refresh_discovers_a_distribution_added_later(fake_distribution) -> None:
+    registry = Registry("fitness", group="ariel.fitness")
+    assert "constant_one" not in registry.names()
+    fake_distribution(
+        PKG,
+        source=CONSTANT_ONE_SOURCE,
+        entry_points={"ariel.fitness": {"constant_one": f"{PKG}:constant_one"}},
+    )
+    assert "constant_one" not in registry.names()  # discovery is cached ...
+    registry.refresh()
+    assert "constant_one" in registry.names()  # ... until refresh()
+
+
+def test_entry_point_clashing_with_a_registered_name(fake_distribution) -> None:
+    registry = Registry("fitness", group="ariel.fitness", label="fitness function")
+    registry.register("constant_one", fitness_without_direction)
+    fake_distribution(
+        PKG,
+        source=CONSTANT_ONE_SOURCE,
+        entry_points={"ariel.fitness": {"constant_one": f"{PKG}:constant_one"}},
+    )
+    registry.refresh()
+    assert registry.names().count("constant_one") == 1  # listing still works
+    for lookup in (registry.get, registry.provenance):
+        with pytest.raises(DuplicatePluginError) as info:
+            lookup("constant_one")
+        message = str(info.value)
+        assert f"{__name__}:fitness_without_direction" in message
+        assert f"{PKG}:constant_one ({PKG}==0.1)" in message
+    # An explicit override wins.
+    registry.register("constant_one", Alpha, replace=True)
+    assert registry.get("constant_one") is Alpha
+    # Registering over a discovered entry point fails at once.
+    fresh = Registry("fitness", group="ariel.fitness")
+    assert "constant_one" in fresh.names()
+    with pytest.raises(DuplicatePluginError, match="already provided by entry point"):
+        fresh.register("constant_one", Beta)
+
+
+def test_two_distributions_declaring_one_name(fake_distribution) -> None:
+    fake_distribution(
+        PKG,
+        source=CONSTANT_ONE_SOURCE,
+        entry_points={"ariel.fitness": {"constant_one": f"{PKG}:constant_one"}},
+    )
+    fake_distribution(
+        "ariel_test_plugin_other",
+        "2.0",
+        source=CONSTANT_ONE_SOURCE,
+        entry_points={"ariel.fitness": {"constant_one": "ariel_test_plugin_other:constant_one"}},
+    )
+    registry = Registry("fitness", group="ariel.fitness", label="fitness function")
+    assert "constant_one" in registry.names()
+    with pytest.raises(DuplicatePluginError, match="declared by two entry points") as info:
+        registry.get("constant_one")
+    assert "ariel_test_plugin_other==2.0" in str(info.value)
+    assert f"{PKG}==0.1" in str(info.value)
+
+
+def test_broken_entry_points_fail_on_use_only(fake_distribution) -> None:
+    fake_distribution(
+        PKG,
+        source=CONSTANT_ONE_SOURCE + "\n    def no_direction(trajectory):\n        return 0.0\n",
+        entry_points={
+            "ariel.fitness": {
+                "constant_one": f"{PKG}:constant_one",
+                "missing_attr": f"{PKG}:does_not_exist",
+                "missing_module": f"{PKG}.nowhere:thing",
+                "no_direction": f"{PKG}:no_direction",
+            }
+        },
+    )
+    registry = Registry(
+        "fitness", group="ariel.fitness", label="fitness function", check=plugins._check_fitness
+    )
+    assert {"missing_attr", "missing_module", "no_direction"} <= set(registry.names())
+    for name in ("missing_attr", "missing_module"):
+        with pytest.raises(PluginLoadError, match=rf"could not load fitness function '{name}'"):
+            registry.get(name)
+    with pytest.raises(PluginLoadError, match=f"{PKG}==0.1.*needs a bool attribute 'maximise'"):
+        registry.get("no_direction")
+    assert registry.get("constant_one")(None) == 1.0  # unaffected
+
+
+# --- provenance and the module-level registries ---------------------------------------------
+
+
+def test_provenance_of_registered_objects() -> None:
+    from ariel.evaluation import _selftest
+
+    registry = make_registry()
+    registry.register("from_ariel", _selftest.seeded_sum)
+    registry.register("from_test", Alpha)
+    assert registry.provenance("from_ariel") == {
+        "kind": "controller",
+        "name": "from_ariel",
+        "source": "registered",
+        "object": "ariel.evaluation._selftest:seeded_sum",
+        "distribution": f"ariel=={ariel.__version__}",
+    }
+    # A test module belongs to no installed distribution.
+    assert registry.provenance("from_test")["distribution"] is None
+    assert registry.provenance("from_test")["object"] == f"{__name__}:Alpha"
+    with pytest.raises(UnknownPluginError):
+        registry.provenance("nope")
+
+
+def test_the_four_registries() -> None:
+    assert set(REGISTRIES) == set(ENTRY_POINT_GROUPS)
+    for kind, registry in REGISTRIES.items():
+        assert registry.kind == kind
+        assert registry.group == ENTRY_POINT_GROUPS[kind]
+        assert registry.group.startswith("ariel.")
+        assert registry.names() == sorted(registry.names())
+    with pytest.raises(ValueError, match="unknown plugin kind 'brain'"):
+        plugins.plugin_provenance({"brain": "x"})
+
+
+def test_throwaway_registration_on_a_module_registry() -> None:
+    @plugins.controllers.register("test_throwaway_ctrl")
+    class Throwaway:
+        open_loop = True
+
+    try:
+        assert "test_throwaway_ctrl" in plugins.controllers.names()
+        assert isinstance(plugins.controllers.make("test_throwaway_ctrl"), Throwaway)
+        with pytest.raises(UnknownPluginError, match="test_throwaway_ctrl"):
+            plugins.controllers.get("test_throwaway_ctl")
+    finally:
+        plugins.controllers.unregister("test_throwaway_ctrl")
+    assert "test_throwaway_ctrl" not in plugins.controllers
+
+
+def test_protocols_accept_a_conforming_controller() -> None:
+    class SineController:
+        open_loop = True
+
+        def num_parameters(self, model: Any) -> int:
+            return 2
+
+        def random_parameters(self, model: Any, rng: Any, n: int) -> Any:
+            return [[0.0, 0.0]] * n
+
+        def targets(self, params: Any, sample_times: Any, model: Any) -> Any:
+            return params
+
+    controller = SineController()
+    assert isinstance(controller, plugins.ControllerPlugin)
+    assert isinstance(controller, plugins.OpenLoopController)
+    assert not isinstance(controller, plugins.ClosedLoopController)
+    assert not isinstance(Beta(), plugins.ControllerPlugin)
