@@ -254,7 +254,8 @@ class DaskExecutor(cf.Executor):
                     self.cluster.close()
 
     def __repr__(self) -> str:
-        return f"DaskExecutor(scheduler={self.client.scheduler.address!r})"
+        address = getattr(self.client.scheduler, "address", None)
+        return f"DaskExecutor(scheduler={address!r}, closed={self._closed})"
 
 
 def _make_dask(

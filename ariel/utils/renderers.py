@@ -232,6 +232,7 @@ def tracking_video_renderer(
     camera.elevation = float(tracking_elevation)
     mujoco.mj_resetData(model, data)
     mujoco.mj_forward(model, data)
-    # Start centred on the body; MuJoCo then keeps the camera on it as it moves.
-    camera.lookat[:] = data.xpos[body_id]
+    # Start on the centre of mass of the body's subtree (the whole robot when tracking its
+    # core): MuJoCo then moves the camera with that point, so the robot stays centred.
+    camera.lookat[:] = data.subtree_com[body_id]
     _record(model, data, duration, recorder, camera)

@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import itertools
+import subprocess
+import sys
 
+import mujoco
 import networkx as nx
 import numpy as np
 import pytest
+import torch
 
+from ariel.body_phenotypes.robogen_lite import constructor
 from ariel.body_phenotypes.robogen_lite.config import (
     ALLOWED_FACES,
     ALLOWED_ROTATIONS,
@@ -19,6 +24,8 @@ from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
 from ariel.body_phenotypes.robogen_lite.decoders import (
     hi_prob_decoding as hpd_module,
 )
+from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
+from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
 
 CORE, BRICK, HINGE, NONE = (t.value for t in ModuleType)
 FRONT, BACK, RIGHT, LEFT, TOP, BOTTOM = (f.value for f in ModuleFaces)
@@ -307,9 +314,6 @@ def test_bad_num_modules(value, exc: type) -> None:
 
 def test_decoder_module_does_not_import_torch() -> None:
     assert "torch" not in hpd_module.__dict__
-    import subprocess
-    import sys
-
     code = (
         "import sys; import ariel.body_phenotypes.robogen_lite.decoders; "
         "assert 'torch' not in sys.modules, 'torch was imported'"
@@ -344,13 +348,21 @@ def _check_robot_tree(graph: nx.DiGraph, n: int) -> None:
         used.add((parent, face))
 
 
+@pytest.fixture
+def one_torch_thread():
+    """Run torch single-threaded, as workers do (DESIGN: limit BLAS/OpenMP threads to 1).
+
+    The NDE's matmuls are tiny; with 2+ OpenMP threads on a busy 2-core machine the spinning
+    worker threads slow each forward from ~0.3 ms to ~15 ms.
+    """
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
+@pytest.mark.usefixtures("one_torch_thread")
 def test_random_genotypes_decode_to_valid_trees_that_compile() -> None:
-    torch = pytest.importorskip("torch")
-    del torch
-    from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
-
-    constructor = pytest.importorskip("ariel.body_phenotypes.robogen_lite.constructor")
-
     sizes_seen = []
     count = 0
     for nde_seed, n in itertools.product(NDE_SEEDS, NDE_SIZES):
@@ -376,12 +388,6 @@ def test_random_genotypes_decode_to_valid_trees_that_compile() -> None:
 
 
 def test_same_seed_gives_the_same_robot_twice() -> None:
-    pytest.importorskip("torch")
-    from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
-
-    constructor = pytest.importorskip("ariel.body_phenotypes.robogen_lite.constructor")
-    import mujoco
-
     def build(seed: int):
         nde = NeuralDevelopmentalEncoding(number_of_modules=20, seed=seed)
         rng = np.random.default_rng(42)
@@ -402,10 +408,6 @@ def test_same_seed_gives_the_same_robot_twice() -> None:
 
 
 def test_numpy_forward_decodes_to_the_same_graphs() -> None:
-    pytest.importorskip("torch")
-    from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
-    from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
-
     nde = NeuralDevelopmentalEncoding(number_of_modules=20, seed=3)
     weights = nde.to_numpy_weights()
     decoder = HighProbabilityDecoder(20)

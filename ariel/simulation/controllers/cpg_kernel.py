@@ -148,9 +148,7 @@ def split_parameters(params: ArrayLike) -> dict[str, np.ndarray]:
     """Views of the five groups of a flat ``(..., 5n)`` parameter array, by group name."""
     flat = np.asarray(params, dtype=np.float64)
     if flat.shape[-1] % NUM_PARAMETER_GROUPS:
-        raise ValueError(
-            f"a flat NA-CPG parameter vector has 5*n entries; got {flat.shape[-1]}"
-        )
+        raise ValueError(f"a flat NA-CPG parameter vector has 5*n entries; got {flat.shape[-1]}")
     n = flat.shape[-1] // NUM_PARAMETER_GROUPS
     return {name: flat[..., k * n : (k + 1) * n] for k, name in enumerate(PARAMETER_GROUPS)}
 
@@ -284,7 +282,7 @@ class NaCPGKernel:
         # Node-major layout (n, B): each node's row is contiguous over the batch.
         phase = groups["phase"].T
         self._ha = np.ascontiguousarray(groups["ha"].T)
-        self._dt_w = self.dt * groups["w"].T
+        self._dt_w = np.ascontiguousarray(self.dt * groups["w"].T)
         # rot[k, j, :] = dt * R(phase_k - phase_j) where node k receives from node j, else 0.
         rot = np.exp(1j * (phase[:, None, :] - phase[None, :, :]))
         rot *= self.dt
@@ -294,12 +292,47 @@ class NaCPGKernel:
         order = [np.roll(np.arange(n), -(j + 1)) for j in range(n)]
         self._scatter = [np.ascontiguousarray(rot[order[j], j]) for j in range(n)]
         self._columns = [np.ascontiguousarray(rot[:, j]) for j in range(n)]
-        # State and work buffers.
-        self._z = np.zeros((n, batch), dtype=np.complex128)
-        self._z_old = np.zeros((n, batch), dtype=np.complex128)  # xy_dot_old
-        self._acc = np.zeros((2 * n, batch), dtype=np.complex128)
+        self._allocate()
         self._acc_valid = False
         self._has_state = False
+
+    def _allocate(self) -> None:
+        """State, work buffers and the views the inner loop uses (built once, reused)."""
+        n, batch = self.n, self.batch_size
+        complex_buffer = np.complex128
+        self._z = np.zeros((n, batch), dtype=complex_buffer)  # xy as x + iy
+        self._z_old = np.zeros((n, batch), dtype=complex_buffer)  # xy_dot_old
+        # Rows 0..n-1: coupling for this step; rows n..2n-1: coupling gathered for the next.
+        self._acc = np.zeros((2 * n, batch), dtype=complex_buffer)
+        self._acc_now, self._acc_next = self._acc[:n], self._acc[n:]
+        self._y = self._z.imag.T  # (B, n) view of the y components
+        self._zf = self._z.view(np.float64)  # (n, 2B): x, y interleaved per candidate
+        self._x_old = self._z_old.view(np.float64)[:, 0::2]
+        self._t1 = np.empty((n, batch))
+        self._t2 = np.empty((n, batch))
+        self._sq = np.empty((n, 2 * batch))
+        self._sq_x, self._sq_y = self._sq[:, 0::2], self._sq[:, 1::2]
+        self._r2 = np.empty((n, batch))
+        self._k1 = np.empty((n, batch), dtype=complex_buffer)  # 1 + dt*K as one complex factor
+        k1f = self._k1.view(np.float64)
+        self._k1_re, self._k1_im = k1f[:, 0::2], k1f[:, 1::2]
+        self._lo = np.empty((n, batch), dtype=complex_buffer)
+        self._hi = np.empty((n, batch), dtype=complex_buffer)
+        self._tmp = np.empty((n, batch), dtype=complex_buffer)
+        accf = self._acc.view(np.float64)
+        lof, hif = self._lo.view(np.float64), self._hi.view(np.float64)
+        self._rows = [
+            (
+                accf[i],
+                lof[i],
+                hif[i],
+                self._zf[i],
+                self._z[i],
+                self._scatter[i],
+                self._acc[i + 1 : i + 1 + n],
+            )
+            for i in range(n)
+        ]
 
     # -- state ---------------------------------------------------------------------------------
     def set_state(self, xy: ArrayLike, xy_dot_old: ArrayLike) -> None:
@@ -325,11 +358,12 @@ class NaCPGKernel:
 
     def y(self) -> np.ndarray:
         """Copy of the current ``y`` components, ``(B, n)``."""
-        return self._z.imag.T.copy()
+        return self._y.copy()
 
     def angles(self, hard_bounds: tuple[float, float] | None = DEFAULT_HARD_BOUNDS) -> np.ndarray:
         """Current joint targets, ``(B, n)``."""
-        return angles(self.params, _complex_to_xy(self._z), hard_bounds)
+        groups = split_parameters(self.params)
+        return _outputs(groups["amplitudes"], groups["b"], self._y, hard_bounds)
 
     # -- integration ---------------------------------------------------------------------------
     def advance(self, n_steps: int) -> None:
@@ -349,43 +383,26 @@ class NaCPGKernel:
         """Coupling that node k gets from nodes j >= k (old values), summed in ascending j.
 
         This is exactly what the scatter of the previous step leaves in the "next step" half of
-        the accumulator, so a fresh start and a continued run agree bit for bit.
+        the accumulator (moved to the "this step" half at the end of a step), so a fresh start
+        and a continued run agree bit for bit.
         """
-        n = self.n
-        acc = self._acc
+        acc, tmp = self._acc, self._tmp
         acc.fill(0)
-        tmp = np.empty((n, self.batch_size), dtype=np.complex128)
-        for j in range(n):
+        for j in range(self.n):
             np.multiply(self._columns[j][: j + 1], self._z[j], out=tmp[: j + 1])
-            acc[n : n + j + 1] += tmp[: j + 1]
+            acc[: j + 1] += tmp[: j + 1]
 
     def _advance(self, n_steps: int) -> None:
-        n, batch = self.n, self.batch_size
+        z, z_old, zf = self._z, self._z_old, self._zf
+        acc_now, acc_next = self._acc_now, self._acc_next
+        x_old, t1, t2 = self._x_old, self._t1, self._t2
+        sq, sq_x, sq_y, r2 = self._sq, self._sq_x, self._sq_y, self._r2
+        k1, k1_re, k1_im = self._k1, self._k1_re, self._k1_im
+        lo, hi, tmp = self._lo, self._hi, self._tmp
+        ha, dt_w, rows = self._ha, self._dt_w, self._rows
         dt = self.dt
-        z, z_old, acc = self._z, self._z_old, self._acc
-        acc_now, acc_next = acc[:n], acc[n:]
-        zf = z.view(np.float64)  # (n, 2B): x, y interleaved per candidate
-        accf = acc.view(np.float64)
-        x_old = z_old.view(np.float64)[:, 0::2]
-        # Work buffers.
-        t1 = np.empty((n, batch))
-        t2 = np.empty((n, batch))
-        sq = np.empty((n, 2 * batch))
-        r2 = np.empty((n, batch))
-        k1 = np.empty((n, batch), dtype=np.complex128)  # 1 + dt*K as a complex factor
-        k1f = k1.view(np.float64)
-        k1_re, k1_im = k1f[:, 0::2], k1f[:, 1::2]
-        lo = np.empty((n, batch), dtype=np.complex128)
-        hi = np.empty((n, batch), dtype=np.complex128)
-        lof, hif = lo.view(np.float64), hi.view(np.float64)
-        tmp = np.empty((n, batch), dtype=np.complex128)
         dt_alpha = dt * self.alpha
         clamp = DERIVATIVE_CLAMP * dt * (1 + 1j)
-        ha, dt_w = self._ha, self._dt_w
-        rows = [
-            (accf[i], lof[i], hif[i], zf[i], z[i], self._scatter[i], acc[i + 1 : i + 1 + n])
-            for i in range(n)
-        ]
         for _ in range(n_steps):
             # Node-local terms from the pre-update state (vectorised over nodes and batch).
             # zeta + E = 1 - ha * (xo + E) / (|xo| + E) + E;  dt * b = dt * w / (zeta + E)
@@ -399,7 +416,7 @@ class NaCPGKernel:
             np.divide(dt_w, t2, out=k1_im)
             # 1 + dt * a = 1 + dt * alpha * (1 - r2^2)
             np.square(zf, out=sq)
-            np.add(sq[:, 0::2], sq[:, 1::2], out=r2)
+            np.add(sq_x, sq_y, out=r2)
             np.square(r2, out=r2)
             np.subtract(1.0, r2, out=r2)
             r2 *= dt_alpha
@@ -413,7 +430,7 @@ class NaCPGKernel:
             np.add(lo, clamp, out=hi)
             lo -= clamp
             np.copyto(z_old, z)  # the quirk: xy_dot_old <- previous xy
-            # Gauss-Seidel sweep.
+            # Gauss-Seidel sweep: clip node i's update into place, then scatter its coupling.
             for acc_i, lo_i, hi_i, zf_i, z_i, scatter, window in rows:
                 _clip_ufunc(acc_i, lo_i, hi_i, out=zf_i)
                 np.multiply(scatter, z_i, out=tmp)
@@ -486,7 +503,7 @@ def cpg_targets(
         if target > done:
             kernel.advance(target - done)
             done = target
-        y_samples[:, idx, :] = kernel._z.imag.T
+        y_samples[:, idx, :] = kernel._y
     groups = split_parameters(kernel.params[:, None, :])
     out = _outputs(groups["amplitudes"], groups["b"], y_samples, hard_bounds)
     return out[0] if np.ndim(params) == 1 else out

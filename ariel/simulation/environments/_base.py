@@ -8,12 +8,14 @@ under it, whatever the spawn rotation, slope or terrain.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import inspect
 import math
+import numbers
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, ClassVar
 
 import mujoco
@@ -77,7 +79,7 @@ def as_vector(
 
 def as_positive_float(value: Any, what: str) -> float:
     """Return `value` as a finite float > 0, or raise a one-line ValueError."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{what} must be a positive number, got {value!r}")
     number = float(value)
     if not math.isfinite(number) or number <= 0:
@@ -257,6 +259,99 @@ def _geom_points(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.nd
     return centre + (aabb[:3] + _LATTICE * aabb[3:]) @ rot.T
 
 
+@contextlib.contextmanager
+def _control_callback_unset() -> Iterator[None]:
+    """Unset the global ``mjcb_control`` for the duration, then put it back.
+
+    ``MjSpec.compile()`` evaluates the model once, which runs a globally registered control
+    callback (a Python one makes compile fail: "engine error: Python exception raised"), so
+    spawn() compiles with the callback unset. It is process-global: don't spawn while another
+    thread steps a simulation that relies on it.
+    """
+    callback = mujoco.get_mjcb_control()
+    if callback is None:
+        yield
+        return
+    mujoco.set_mjcb_control(None)
+    try:
+        yield
+    finally:
+        mujoco.set_mjcb_control(callback)
+
+
+def _collision_clearance(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    free_z: int,
+    robot: np.ndarray,
+    ground: np.ndarray,
+    estimate: float,
+) -> float:
+    """Exact vertical clearance of the robot above the ground geoms, by MuJoCo collisions.
+
+    Works on a throw-away compiled model: only robot-vs-ground contacts are enabled, margins
+    and gaps are zero, so a contact means penetration. Lowering the robot by s makes it touch
+    for s above the clearance and not below it; bisection finds that s. `estimate` (from sample
+    points) brackets it; if no bracket is found (e.g. nothing under the robot) it is returned.
+    """
+    model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    model.geom_contype[:] = 0
+    model.geom_conaffinity[:] = 0
+    model.geom_contype[robot] = 1
+    model.geom_conaffinity[ground] = 1
+    for ids in (robot, ground):
+        model.geom_margin[ids] = 0.0
+        model.geom_gap[ids] = 0.0
+    robot_set = np.zeros(model.ngeom, dtype=bool)
+    robot_set[robot] = True
+    ground_set = np.zeros(model.ngeom, dtype=bool)
+    ground_set[ground] = True
+    z0 = float(data.qpos[free_z])
+
+    def touches(shift: float) -> bool:
+        data.qpos[free_z] = z0 - shift
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        n = data.ncon
+        if n == 0:
+            return False
+        pairs = data.contact.geom[:n]
+        hits = (robot_set[pairs[:, 0]] & ground_set[pairs[:, 1]]) | (
+            robot_set[pairs[:, 1]] & ground_set[pairs[:, 0]]
+        )
+        return bool(np.any(hits & (data.contact.dist[:n] < 0.0)))
+
+    # Sample points lie on the geoms (or outside them), so the true clearance is usually just
+    # below the estimate; widen the bracket step by step where it is not.
+    step = 0.02
+    high = estimate + 1e-4
+    for _ in range(12):
+        if touches(high):
+            break
+        high += step
+        step *= 2
+    else:
+        return estimate
+    step = 0.02
+    low = estimate - step
+    for _ in range(12):
+        if not touches(low):
+            break
+        step *= 2
+        low -= step
+    else:
+        return estimate
+    while high - low > 1e-7:
+        middle = 0.5 * (low + high)
+        if touches(middle):
+            high = middle
+        else:
+            low = middle
+    data.qpos[free_z] = z0
+    return 0.5 * (low + high)
+
+
 # --------------------------------------------------------------------------------------------
 class BaseWorld:
     """A MuJoCo world: an ``MjSpec`` with lights, cameras and settings, and ``spawn()``.
@@ -275,6 +370,8 @@ class BaseWorld:
     default_spawn_position: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
     default_spawn_rotation: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
     is_precompiled: ClassVar[bool] = False
+    #: Names of the geoms that make up the ground (spawn() measures clearance against them).
+    ground_geoms: ClassVar[tuple[str, ...]] = ()
 
     def __new__(cls, *args: Any, **kwargs: Any) -> BaseWorld:
         # Checked here so every subclass gets the same one-line error listing its own options.
@@ -459,11 +556,17 @@ class BaseWorld:
 
         With `correct_collision_with_floor` (default) the robot is then moved along world z so
         that its lowest geom point is 1 cm above the ground directly under it, plus `position`'s
-        z as extra height (upstream: z is a drop height; at z = 0 the robot rests 1 cm up). The
-        lowest point is found after the full rotation (roll and pitch included), against this
-        world's ``ground_height`` (slopes and heightfields included). Geom positions come from
-        compiling the world and running ``mj_kinematics``, which never calls a globally set
-        ``mjcb_control`` (``mj_forward`` would).
+        z as extra height (upstream: z is a drop height; at z = 0 the robot rests 1 cm up). This
+        holds for any rotation (roll and pitch included: the shift is along world z), on slopes
+        and on heightfields. How: compile the world with the robot, run ``mj_kinematics``,
+        estimate the clearance from points on every geom's surface against
+        ``ground_height``, then make it exact with MuJoCo's own collision detection between the
+        robot and the world's ground geoms (a bisection on the robot's height with
+        ``mj_kinematics`` + ``mj_collision``; it catches a heightfield bump under the middle of
+        a face). ``MjSpec.compile()`` runs a globally set ``mjcb_control`` (and fails on a
+        Python one), so spawn() unsets it while it compiles and puts it back afterwards; the
+        other calls never run it. (Compiling ``world.spec`` yourself still needs it unset, as
+        the tutorials do with ``mujoco.set_mjcb_control(None)``.)
 
         `validate_no_collisions` warns (``RuntimeWarning``) about contacts of the new robot at
         its spawn pose; it uses ``mj_fwdPosition``, which doesn't call ``mjcb_control`` either.
@@ -492,11 +595,11 @@ class BaseWorld:
         site = self.spec.worldbody.add_site(pos=pos.tolist(), quat=quat.tolist())
         body = site.attach_body(robot_spec.worldbody, prefix)
         try:
+            body.add_freejoint()
             if correct_collision_with_floor:
                 lift = SPAWN_CLEARANCE + pos[2] - self._lowest_clearance(body.name)
                 # The body's position is expressed in the (rotated) site frame.
                 body.pos = (quat_to_mat(quat).T @ np.array([0.0, 0.0, lift])).tolist()
-            body.add_freejoint()
             if validate_no_collisions:
                 self._warn_about_contacts(body.name)
         except Exception:
@@ -508,7 +611,8 @@ class BaseWorld:
         return self.spec
 
     def _compile_at_rest(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
-        model = self.spec.compile()
+        with _control_callback_unset():
+            model = self.spec.compile()
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)  # positions only; never calls mjcb_control
         return model, data
@@ -520,15 +624,21 @@ class BaseWorld:
         return np.flatnonzero(model.body_rootid[model.geom_bodyid] == body_id)
 
     def _lowest_clearance(self, body_name: str) -> float:
-        """min over the robot's geom points of (z - ground height under the point)."""
+        """Smallest vertical gap between the robot (as compiled now) and the ground under it."""
         model, data = self._compile_at_rest()
+        body_id = model.body(body_name).id
         geoms = self._robot_geoms(model, body_name)
         points = [_geom_points(model, data, int(g)) for g in geoms]
         points = np.vstack(points) if points else np.empty((0, 3))
-        if len(points) == 0:
-            return float(self.ground_height(*data.xpos[model.body(body_name).id][:2]))
-        clearance = points[:, 2] - self.ground_height(points[:, 0], points[:, 1])
-        return float(np.min(clearance))
+        if len(points) == 0:  # no geoms: keep the body's origin off the ground
+            x, y, z = data.xpos[body_id]
+            return float(z - self.ground_height(x, y))
+        estimate = float(np.min(points[:, 2] - self.ground_height(points[:, 0], points[:, 1])))
+        ground = [model.geom(name).id for name in self.ground_geoms]
+        if not ground:
+            return estimate
+        free_z = int(model.jnt_qposadr[model.body_jntadr[body_id]]) + 2
+        return _collision_clearance(model, data, free_z, geoms, np.array(ground), estimate)
 
     def _warn_about_contacts(self, body_name: str) -> None:
         model, data = self._compile_at_rest()

@@ -35,6 +35,7 @@ class CompoundWorld(BaseWorld):
     """
 
     name = "compound-world"
+    ground_geoms = ("floor",)
 
     def __init__(
         self,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 import mujoco
@@ -54,6 +55,7 @@ class OlympicArena(BaseWorld):
     """
 
     name = "olympic_arena"
+    ground_geoms = ("floor", "rugged_floor", "inclined_section", "finish_platform")
 
     def __init__(
         self,
@@ -86,7 +88,7 @@ class OlympicArena(BaseWorld):
         self.rugged_resolution = as_dims(
             (rugged_resolution, rugged_resolution), "rugged_resolution"
         )[0]
-        if isinstance(incline_degrees, bool) or not isinstance(incline_degrees, int | float):
+        if isinstance(incline_degrees, bool) or not isinstance(incline_degrees, numbers.Real):
             raise ValueError(f"incline_degrees must be a number, got {incline_degrees!r}")
         if not -45.0 < float(incline_degrees) < 45.0:
             raise ValueError(f"incline_degrees must be within (-45, 45), got {incline_degrees!r}")

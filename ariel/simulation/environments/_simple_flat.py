@@ -26,6 +26,7 @@ class SimpleFlatWorld(BaseWorld):
     """
 
     name = "simple-flat-world"
+    ground_geoms = ("floor",)
 
     def __init__(
         self,

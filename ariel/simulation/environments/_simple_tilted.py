@@ -29,6 +29,7 @@ class SimpleTiltedWorld(BaseWorld):
     """
 
     name = "simple-tilted-world"
+    ground_geoms = ("floor",)
 
     def __init__(
         self,

@@ -11,6 +11,8 @@ world's ``floor_size`` sets the real height.
 
 from __future__ import annotations
 
+import math
+import numbers
 from typing import Any
 
 import numpy as np
@@ -36,9 +38,18 @@ def _unit_grid(dims: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     return np.broadcast_to(x, dims), np.broadcast_to(y, dims)
 
 
-def _non_negative(value: Any, what: str) -> float:
+def _number(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{what} must be a number, got {value!r}")
     number = float(value)
-    if not np.isfinite(number) or number < 0:
+    if not math.isfinite(number):
+        raise ValueError(f"{what} must be finite, got {value!r}")
+    return number
+
+
+def _non_negative(value: Any, what: str) -> float:
+    number = _number(value, what)
+    if number < 0:
         raise ValueError(f"{what} must be a finite number >= 0, got {value!r}")
     return number
 
@@ -76,9 +87,7 @@ def smooth_edges_heightmap(dims: tuple[int, int], edge_width: float = 0.2) -> np
     (edge_width <= 0: a hard step, 0 on the border and 1 inside).
     """
     dims = as_dims(dims)
-    width = float(edge_width)
-    if not np.isfinite(width):
-        raise ValueError(f"edge_width must be a finite number, got {edge_width!r}")
+    width = _number(edge_width, "edge_width")
     x, y = _unit_grid(dims)
     distance = np.minimum(np.minimum(x, 1.0 - x), np.minimum(y, 1.0 - y))
     t = np.clip(distance / width, 0.0, 1.0) if width > 0 else (distance > 0).astype(float)
@@ -102,8 +111,8 @@ def crater_heightmap(
     """
     dims = as_dims(dims)
     depth = _non_negative(crater_depth, "crater_depth")
-    radius = float(crater_radius)
-    if not np.isfinite(radius) or radius <= 0:
+    radius = _number(crater_radius, "crater_radius")
+    if radius <= 0:
         raise ValueError(f"crater_radius must be a positive number, got {crater_radius!r}")
     noise_height = _non_negative(height_of_noise, "height_of_noise")
     x, y = _unit_grid(dims)
@@ -126,8 +135,9 @@ def amphitheatre_heightmap(
     plateau beyond (r from the centre in unit coordinates), plus height_of_noise * Perlin noise.
     """
     dims = as_dims(dims)
-    inner, outer = float(inner_radius), float(outer_radius)
-    if not (np.isfinite(inner) and np.isfinite(outer) and 0 <= inner < outer):
+    inner = _number(inner_radius, "inner_radius")
+    outer = _number(outer_radius, "outer_radius")
+    if not 0 <= inner < outer:
         raise ValueError(
             f"need 0 <= inner_radius < outer_radius, got {inner_radius!r}, {outer_radius!r}",
         )

@@ -9,6 +9,7 @@ roughly within +-0.7 and are 0 at integer lattice points.
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
@@ -69,7 +70,12 @@ class PerlinNoise:
         for what, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value <= 0:
                 raise ValueError(f"{what} must be a positive integer, got {value!r}")
-        if isinstance(scale, bool) or not math.isfinite(float(scale)) or float(scale) <= 0:
+        if (
+            isinstance(scale, bool)
+            or not isinstance(scale, numbers.Real)
+            or not math.isfinite(scale)
+            or scale <= 0
+        ):
             raise ValueError(f"scale must be a positive number, got {scale!r}")
         if normalize not in NORMALIZE_METHODS:
             raise ValueError(

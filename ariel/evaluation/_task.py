@@ -1,0 +1,158 @@
+"""Evaluation tasks and results: plain data that crosses process and machine boundaries.
+
+A task names its plugins (body encoder, world, controller, fitness) and carries only numbers,
+strings, lists and dicts, so any worker can rebuild everything from it; `evaluate(task)` is a
+pure function of the task.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+__all__ = ["BodySpec", "EvaluationResult", "EvaluationTask", "Status"]
+
+Status = Literal["ok", "unstable", "error"]
+
+
+def _plain(value: Any) -> Any:
+    """Numpy arrays and scalars -> lists and Python numbers (JSON-able, hashable as text)."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """Which body to build: a genotype (or graph, or prebuilt name) and the encoder that reads it.
+
+    Examples: ``BodySpec("prebuilt", "gecko")``, ``BodySpec("nde", genotype, {"number_of_modules":
+    20})``, ``BodySpec("graph", networkx.node_link_data(graph, edges="edges"))``.
+    """
+
+    encoder: str
+    genotype: Any
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.encoder, str) or not self.encoder:
+            raise ValueError(f"body encoder must be a non-empty name, not {self.encoder!r}")
+        object.__setattr__(self, "genotype", _plain(self.genotype))
+        object.__setattr__(self, "options", _plain(dict(self.options)))
+
+    @property
+    def key(self) -> str:
+        """Stable content hash: equal bodies share one compiled model in a worker."""
+        text = json.dumps([self.encoder, self.genotype, self.options], sort_keys=True)
+        return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class EvaluationTask:
+    """One evaluation: a body in a world, driven by a controller with fixed parameters.
+
+    Args:
+        body: the body to build.
+        params: the controller's flat parameter vector.
+        controller: registered controller name, e.g. ``"na_cpg"``.
+        world: registered world name, e.g. ``"flat"``.
+        fitness: registered fitness name, e.g. ``"xy_displacement"``.
+        duration: simulated seconds.
+        control_period: physics steps between controller calls (the tutorial's 50).
+        record_every: physics steps between recorded frames (0: only first and last frame).
+        record_bodies: also record every body's world pose (for 3D replays).
+        seed: seeds everything stochastic in this evaluation (e.g. the CPG's initial state).
+        spawn_position / spawn_rotation: where the robot is spawned (rotation: Euler degrees).
+        eval_id: the caller's id for this evaluation, copied into the result.
+    """
+
+    body: BodySpec
+    params: tuple[float, ...] = ()
+    controller: str = "na_cpg"
+    world: str = "flat"
+    fitness: str = "xy_displacement"
+    controller_options: dict[str, Any] = field(default_factory=dict)
+    world_options: dict[str, Any] = field(default_factory=dict)
+    fitness_options: dict[str, Any] = field(default_factory=dict)
+    duration: float = 15.0
+    control_period: int = 50
+    record_every: int = 50
+    record_bodies: bool = True
+    seed: int = 0
+    spawn_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    spawn_rotation: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    eval_id: str = ""
+
+    def __post_init__(self) -> None:
+        params = np.asarray(self.params, dtype=np.float64).ravel()
+        if not np.all(np.isfinite(params)):
+            raise ValueError("controller params contain NaN or inf; all must be finite")
+        object.__setattr__(self, "params", tuple(params.tolist()))
+        if not (isinstance(self.duration, int | float) and math.isfinite(self.duration)):
+            raise ValueError(f"duration must be a finite number of seconds, not {self.duration!r}")
+        if self.duration <= 0:
+            raise ValueError(f"duration must be > 0 seconds, not {self.duration}")
+        if int(self.control_period) != self.control_period or self.control_period < 1:
+            raise ValueError(
+                f"control_period must be a whole number of physics steps >= 1, "
+                f"not {self.control_period!r}"
+            )
+        if int(self.record_every) != self.record_every or self.record_every < 0:
+            raise ValueError(
+                f"record_every must be a whole number of physics steps >= 0 (0: first and "
+                f"last frame only), not {self.record_every!r}"
+            )
+        for name in ("spawn_position", "spawn_rotation"):
+            value = tuple(float(v) for v in getattr(self, name))
+            if len(value) != 3 or not all(math.isfinite(v) for v in value):
+                raise ValueError(f"{name} must be 3 finite numbers, not {getattr(self, name)!r}")
+            object.__setattr__(self, name, value)
+        for name in ("controller_options", "world_options", "fitness_options"):
+            object.__setattr__(self, name, _plain(dict(getattr(self, name))))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (for JSON, Parquet rows and logs)."""
+        return asdict(self)
+
+
+@dataclass
+class EvaluationResult:
+    """What one evaluation produced.
+
+    Arrays are recorded every ``record_every`` physics steps, first frame at t = 0 and last at
+    the end of the run: ``time (T,)``, ``core_pos (T, 3)`` (centre of the core geom, as the
+    tutorial's tracker reports it), ``joint_target (T, nu)`` (the control in force), ``joint_angle
+    (T, nu)``, and with ``record_bodies`` ``body_pos (T, nbody, 3)`` / ``body_quat (T, nbody, 4)``
+    (robot bodies only, names in ``body_names``).
+    """
+
+    eval_id: str
+    fitness: float
+    status: Status
+    error: str = ""
+    descriptors: dict[str, float] = field(default_factory=dict)
+    sim_time: float = 0.0
+    wall_time: float = 0.0
+    time: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    core_pos: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    joint_target: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    joint_angle: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    body_pos: np.ndarray | None = None
+    body_quat: np.ndarray | None = None
+    body_names: list[str] = field(default_factory=list)
+    joint_names: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"

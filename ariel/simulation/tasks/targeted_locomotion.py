@@ -1,0 +1,90 @@
+"""Fitness helpers for reaching a target. All are to be MINIMISED (lower is better).
+
+Distances are planar (x, y); positions may carry a z coordinate, which is ignored.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ariel.simulation.tasks.gait_learning import xy_displacement
+
+__all__ = [
+    "SURVIVAL_MIN_HEIGHT",
+    "SURVIVAL_PENALTY",
+    "distance_to_target",
+    "fitness_delta_distance",
+    "fitness_direct_path",
+    "fitness_distance_and_efficiency",
+    "fitness_speed_to_target",
+    "fitness_survival_and_locomotion",
+]
+
+SURVIVAL_MIN_HEIGHT = 0.05
+"""Core height (m) below which ``fitness_survival_and_locomotion`` counts the robot as fallen."""
+SURVIVAL_PENALTY = 10.0
+"""Fitness of a fallen robot in ``fitness_survival_and_locomotion``."""
+
+
+def distance_to_target(final_position: ArrayLike, target_position: ArrayLike) -> float:
+    """Planar distance from the final position to the target."""
+    return xy_displacement(final_position, target_position)
+
+
+def fitness_delta_distance(
+    initial_position: ArrayLike, final_position: ArrayLike, target_position: ArrayLike
+) -> float:
+    """Final minus initial distance to the target (negative = progress)."""
+    return distance_to_target(final_position, target_position) - distance_to_target(
+        initial_position, target_position
+    )
+
+
+def fitness_distance_and_efficiency(
+    initial_position: ArrayLike,
+    final_position: ArrayLike,
+    target_position: ArrayLike,
+    total_control_effort: float,
+) -> float:
+    """``fitness_delta_distance + 0.001 * total_control_effort``."""
+    delta = fitness_delta_distance(initial_position, final_position, target_position)
+    return delta + 0.001 * float(total_control_effort)
+
+
+def fitness_survival_and_locomotion(
+    initial_position: ArrayLike,
+    final_position: ArrayLike,
+    target_position: ArrayLike,
+    min_z_height: float,
+) -> float:
+    """``10.0`` if the core ever went below 0.05 m (fell), else ``fitness_delta_distance``."""
+    if min_z_height < SURVIVAL_MIN_HEIGHT:
+        return SURVIVAL_PENALTY
+    return fitness_delta_distance(initial_position, final_position, target_position)
+
+
+def fitness_direct_path(
+    initial_position: ArrayLike,
+    final_position: ArrayLike,
+    target_position: ArrayLike,
+    total_path_length: float,
+) -> float:
+    """``fitness_delta_distance + 0.5 * (path length - straight-line displacement)``."""
+    delta = fitness_delta_distance(initial_position, final_position, target_position)
+    detour = float(total_path_length) - xy_displacement(initial_position, final_position)
+    return delta + 0.5 * detour
+
+
+def fitness_speed_to_target(
+    time_to_target: float | None, duration: float, min_distance_to_target: float
+) -> float:
+    """``clip(time_to_target / duration, 0, 1)`` if the target was reached, else
+    ``1 + min_distance_to_target``. ``time_to_target=None`` (or inf/NaN) means not reached."""
+    if not duration > 0:
+        raise ValueError(f"duration must be > 0 seconds; got {duration}")
+    if time_to_target is None or not math.isfinite(time_to_target):
+        return 1.0 + float(min_distance_to_target)
+    return float(np.clip(time_to_target / duration, 0.0, 1.0))
