@@ -94,15 +94,11 @@ def build(seed: int) -> tuple[mujoco.MjModel, mujoco.MjData, Controller, Tracker
 def plot_trajectory(xyz: np.ndarray, displacement: float, title: str, path: Path) -> None:
     """Top view of the core's path with start/end markers, equal axes."""
     fig, ax = plt.subplots(figsize=(6.5, 6), layout="constrained")
+    ends = xyz[[0, -1], :2]
+    ax.plot(ends[:, 0], ends[:, 1], "--", color="0.5", linewidth=1, label="displacement")
     ax.plot(xyz[:, 0], xyz[:, 1], color="tab:blue", linewidth=2, label="core path")
     ax.plot(*xyz[0, :2], "o", color="tab:green", markersize=10, label="start")
     ax.plot(*xyz[-1, :2], "s", color="tab:red", markersize=10, label="end")
-    ax.annotate(
-        "",
-        xy=xyz[-1, :2],
-        xytext=xyz[0, :2],
-        arrowprops={"arrowstyle": "->", "color": "0.4", "linestyle": "--"},
-    )
     # Square window around the path, at least 0.5 m wide, so short walks are not blown up.
     centre = (xyz[:, :2].min(axis=0) + xyz[:, :2].max(axis=0)) / 2
     half = max(float(np.ptp(xyz[:, :2], axis=0).max()) / 2 * 1.25, 0.25)

@@ -10,6 +10,13 @@ from typing import Any
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
+    "BodySpec": "ariel.evaluation._task",
+    "EvaluationResult": "ariel.evaluation._task",
+    "EvaluationTask": "ariel.evaluation._task",
+    "TrajectoryRecord": "ariel.evaluation._engine",
+    "build": "ariel.evaluation._engine",
+    "evaluate": "ariel.evaluation._engine",
+    "evaluate_batch": "ariel.evaluation._engine",
     "EXECUTOR_KINDS": "ariel.evaluation.executors",
     "DaskExecutor": "ariel.evaluation.executors",
     "SerialExecutor": "ariel.evaluation.executors",

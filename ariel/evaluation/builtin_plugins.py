@@ -1,9 +1,384 @@
-"""In-tree plugin registrations.
+"""In-tree plugin registrations: body encoders, worlds, controllers and fitness functions.
 
 `ariel.plugins` imports this module on the first lookup in any registry (never on
-``import ariel``), so it may import mujoco, numpy and the worlds. Register with the decorators,
-e.g. ``@controllers.register("na_cpg")``.
+``import ariel``). Each plugin is a small class or function over code that lives elsewhere in
+the package; nothing here re-implements it.
 """
 
-# Placeholder: the built-in body encoders, worlds, controllers and fitness functions are
-# registered here by the evaluation engine's author.
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+from typing import Any
+
+import mujoco
+import networkx as nx
+import numpy as np
+
+from ariel.plugins import body_encoders, controllers, fitness_function, fitness_functions, worlds
+from ariel.simulation.controllers import cpg_kernel
+from ariel.simulation.tasks.gait_learning import x_speed as _x_speed
+from ariel.simulation.tasks.gait_learning import xy_displacement as _xy_displacement
+from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _distance_to_target
+from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning_in_place
+
+__all__ = [
+    "MLPController",
+    "NaCPGController",
+    "NDEEncoder",
+    "PrebuiltEncoder",
+    "hinge_observation",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Body encoders
+# --------------------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=8)
+def _nde_weights(number_of_modules: int, genotype_size: int, nde_seed: int) -> dict:
+    """NDE weights as numpy arrays, made once per process (torch only for the initialisation)."""
+    import torch
+
+    from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # a second spinning OpenMP thread slows everything else down
+    try:
+        nde = NeuralDevelopmentalEncoding(number_of_modules, genotype_size, seed=nde_seed)
+        return nde.to_numpy_weights()
+    finally:
+        torch.set_num_threads(threads)
+
+
+@body_encoders.register("nde")
+class NDEEncoder:
+    """Three float chromosomes -> NDE (fixed weights from ``nde_seed``) -> greedy decoder -> graph.
+
+    Options: ``number_of_modules`` (20), ``genotype_size`` (64), ``nde_seed`` (0: the NDE's
+    weights, fixed for a whole run), ``mutation_std`` (0.1), ``mutation_rate`` (1.0: fraction of
+    genes perturbed). Genes start uniform in [0, 1) as in the tutorials.
+    """
+
+    name = "nde"
+
+    def __init__(
+        self,
+        *,
+        number_of_modules: int = 20,
+        genotype_size: int = 64,
+        nde_seed: int = 0,
+        mutation_std: float = 0.1,
+        mutation_rate: float = 1.0,
+    ) -> None:
+        if int(number_of_modules) < 2:
+            raise ValueError(f"number_of_modules must be >= 2, not {number_of_modules!r}")
+        if int(genotype_size) < 1:
+            raise ValueError(f"genotype_size must be >= 1, not {genotype_size!r}")
+        if not 0.0 <= float(mutation_rate) <= 1.0:
+            raise ValueError(f"mutation_rate must be in [0, 1], not {mutation_rate!r}")
+        self.number_of_modules = int(number_of_modules)
+        self.genotype_size = int(genotype_size)
+        self.nde_seed = int(nde_seed)
+        self.mutation_std = float(mutation_std)
+        self.mutation_rate = float(mutation_rate)
+
+    def random_genotype(self, rng: np.random.Generator) -> np.ndarray:
+        return rng.random((3, self.genotype_size)).astype(np.float32)
+
+    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> np.ndarray:
+        std = float(options.get("mutation_std", self.mutation_std))
+        rate = float(options.get("mutation_rate", self.mutation_rate))
+        genes = np.array(genotype, dtype=np.float32).reshape(3, self.genotype_size)
+        noise = rng.normal(0.0, std, genes.shape)
+        mask = rng.random(genes.shape) < rate
+        return (genes + (noise * mask)).astype(np.float32)
+
+    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> np.ndarray:
+        """Uniform crossover, chromosome-aligned gene by gene."""
+        ga = np.array(a, dtype=np.float32).reshape(3, self.genotype_size)
+        gb = np.array(b, dtype=np.float32).reshape(3, self.genotype_size)
+        return np.where(rng.random(ga.shape) < 0.5, ga, gb)
+
+    def decode(self, genotype: Any) -> nx.DiGraph:
+        from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
+        from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
+
+        weights = _nde_weights(self.number_of_modules, self.genotype_size, self.nde_seed)
+        matrices = nde_forward_numpy(weights, genotype)
+        return HighProbabilityDecoder(self.number_of_modules).probability_matrices_to_graph(
+            *matrices
+        )
+
+
+@body_encoders.register("prebuilt")
+class PrebuiltEncoder:
+    """A fixed named body (``"gecko"``, ``"spider"``, ...) for brain-only experiments.
+
+    The genotype is the body's name; there is nothing to mutate or cross over.
+    """
+
+    name = "prebuilt"
+
+    def __init__(self) -> None:
+        pass
+
+    @staticmethod
+    def _check(genotype: Any) -> str:
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
+
+        if not isinstance(genotype, str) or genotype not in PREBUILT_ROBOTS:
+            raise ValueError(
+                f"unknown prebuilt body {genotype!r}; known: {', '.join(sorted(PREBUILT_ROBOTS))}"
+            )
+        return genotype
+
+    def random_genotype(self, rng: np.random.Generator) -> str:
+        return "gecko"
+
+    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> str:
+        return self._check(genotype)
+
+    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> str:
+        return self._check(a)
+
+    def build(self, genotype: Any) -> Any:
+        """The exact prebuilt body (a CoreModule), which a graph cannot always express."""
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
+
+        return PREBUILT_ROBOTS[self._check(genotype)]()
+
+    def decode(self, genotype: Any) -> nx.DiGraph:
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_GRAPHS
+
+        name = self._check(genotype)
+        if name not in PREBUILT_GRAPHS:
+            raise ValueError(
+                f"prebuilt body {name!r} has no graph form; bodies with one: "
+                f"{', '.join(sorted(PREBUILT_GRAPHS))}"
+            )
+        return PREBUILT_GRAPHS[name]()
+
+
+@body_encoders.register("graph")
+class GraphEncoder:
+    """A robot graph given directly, as networkx node-link data (``edges="edges"``)."""
+
+    name = "graph"
+
+    def __init__(self) -> None:
+        pass
+
+    def random_genotype(self, rng: np.random.Generator) -> Any:
+        raise ValueError("the 'graph' body encoder holds fixed graphs; it cannot make random ones")
+
+    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> Any:
+        return genotype
+
+    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> Any:
+        return a
+
+    def decode(self, genotype: Any) -> nx.DiGraph:
+        if isinstance(genotype, nx.DiGraph):
+            return genotype
+        if not isinstance(genotype, dict) or "nodes" not in genotype:
+            raise ValueError("a 'graph' body must be networkx node-link data (a dict with 'nodes')")
+        return nx.node_link_graph(genotype, directed=True, multigraph=False, edges="edges")
+
+
+# --------------------------------------------------------------------------------------------
+# Worlds: short names for every world class
+# --------------------------------------------------------------------------------------------
+
+
+def _world_factory(class_name: str) -> Callable[..., Any]:
+    def make(**options: Any) -> Any:
+        from ariel.simulation import environments
+
+        return getattr(environments, class_name)(**options)
+
+    make.__name__ = make.__qualname__ = f"make_{class_name}"
+    make.__doc__ = f"``{class_name}(**options)``."
+    return make
+
+
+for _name, _cls in {
+    "flat": "SimpleFlatWorld",
+    "tilted": "SimpleTiltedWorld",
+    "rugged": "RuggedTerrainWorld",
+    "rugged_tilted": "RuggedTiltedWorld",
+    "crater": "CraterTerrainWorld",
+    "amphitheatre": "AmphitheatreTerrainWorld",
+    "olympic_arena": "OlympicArena",
+}.items():
+    worlds.register(_name, _world_factory(_cls))
+
+
+# --------------------------------------------------------------------------------------------
+# Controllers
+# --------------------------------------------------------------------------------------------
+
+
+@controllers.register("na_cpg")
+class NaCPGController:
+    """Open-loop NA-CPG, one oscillator per actuator (the tutorial's NaCPG, batched in numpy).
+
+    Parameters: ``5 * nu`` (phase, w, amplitudes, ha, b). The oscillators' initial state is
+    drawn from the evaluation seed. Options: ``alpha`` (0.1, limit-cycle convergence), ``dt``
+    (0.01 s internal step), ``coupling`` ("full": every node sees every other), ``hard_bounds``
+    (±π/2). Targets are rounded to float32, as the tutorial's ``NaCPG`` returns them, so this
+    path and the tutorial path drive the robot with identical numbers.
+    """
+
+    open_loop = True
+
+    def __init__(
+        self,
+        *,
+        alpha: float = 0.1,
+        dt: float = 0.01,
+        coupling: str = "full",
+        hard_bounds: tuple[float, float] = (-math.pi / 2, math.pi / 2),
+    ) -> None:
+        if coupling not in ("full", "none"):
+            raise ValueError(f"coupling must be 'full' or 'none', not {coupling!r}")
+        self.alpha = float(alpha)
+        self.dt = float(dt)
+        self.coupling = coupling
+        self.hard_bounds = (float(hard_bounds[0]), float(hard_bounds[1]))
+
+    def num_parameters(self, model: mujoco.MjModel) -> int:
+        return cpg_kernel.NUM_PARAMETER_GROUPS * model.nu
+
+    def random_parameters(
+        self, model: mujoco.MjModel, rng: np.random.Generator, n: int
+    ) -> np.ndarray:
+        return cpg_kernel.random_parameters(model.nu, rng, size=n)
+
+    def initial_state(self, model: mujoco.MjModel, seed: int) -> cpg_kernel.CPGState:
+        return cpg_kernel.random_state(model.nu, np.random.default_rng(seed))
+
+    def adjacency(self, n: int) -> np.ndarray:
+        if self.coupling == "none":
+            return np.zeros((n, n), dtype=bool)
+        return cpg_kernel.fully_connected_adjacency_matrix(n)
+
+    def targets(
+        self, params: np.ndarray, sample_times: np.ndarray, model: mujoco.MjModel, *, seed: int
+    ) -> np.ndarray:
+        out = cpg_kernel.cpg_targets(
+            np.atleast_2d(params),
+            self.initial_state(model, seed),
+            sample_times,
+            alpha=self.alpha,
+            dt=self.dt,
+            adjacency=self.adjacency(model.nu),
+            hard_bounds=self.hard_bounds,
+        )
+        return out.astype(np.float32).astype(np.float64)
+
+
+def hinge_observation(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """Closed-loop input: actuated joint angles and velocities, gravity in the robot's frame.
+
+    Reads only ``qpos``/``qvel`` (current at every control call, no kinematics pass needed):
+    ``[q (nu), qdot (nu), g_body (3)]``, the gravity direction from the free joint's quaternion.
+    """
+    joints = model.actuator_trnid[:, 0]
+    q = data.qpos[model.jnt_qposadr[joints]]
+    qd = data.qvel[model.jnt_dofadr[joints]]
+    w, x, y, z = data.qpos[3:7] if model.nq >= 7 and model.jnt_type[0] == 0 else (1, 0, 0, 0)
+    # World "down" (0, 0, -1) expressed in the body frame: R^T @ (0, 0, -1).
+    g = -np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+    return np.concatenate([q, qd, g])
+
+
+@controllers.register("mlp")
+class MLPController:
+    """Closed-loop brain: a one-hidden-layer tanh network from joint state and body tilt.
+
+    Input ``[q, qdot, g_body]`` (``2 nu + 3``), ``hidden`` tanh units (16), output
+    ``tanh(.) * output_scale`` (π/2) as joint targets. Parameters: both weight matrices and
+    biases, flattened (``(2nu+3)·h + h + h·nu + nu``).
+    """
+
+    open_loop = False
+
+    def __init__(self, *, hidden: int = 16, output_scale: float = math.pi / 2) -> None:
+        if int(hidden) < 1:
+            raise ValueError(f"hidden must be >= 1, not {hidden!r}")
+        self.hidden = int(hidden)
+        self.output_scale = float(output_scale)
+
+    def _sizes(self, model: mujoco.MjModel) -> tuple[int, int, int]:
+        return 2 * model.nu + 3, self.hidden, model.nu
+
+    def num_parameters(self, model: mujoco.MjModel) -> int:
+        n_in, h, n_out = self._sizes(model)
+        return n_in * h + h + h * n_out + n_out
+
+    def random_parameters(
+        self, model: mujoco.MjModel, rng: np.random.Generator, n: int
+    ) -> np.ndarray:
+        return rng.normal(0.0, 0.5, (n, self.num_parameters(model)))
+
+    def make_policy(self, params: np.ndarray, model: mujoco.MjModel) -> Callable[..., np.ndarray]:
+        n_in, h, n_out = self._sizes(model)
+        p = np.asarray(params, dtype=np.float64)
+        if p.size != self.num_parameters(model):
+            raise ValueError(
+                f"mlp controller needs {self.num_parameters(model)} parameters for "
+                f"{model.nu} actuators; got {p.size}"
+            )
+        w1 = p[: n_in * h].reshape(h, n_in)
+        b1 = p[n_in * h : n_in * h + h]
+        w2 = p[n_in * h + h : n_in * h + h + h * n_out].reshape(n_out, h)
+        b2 = p[n_in * h + h + h * n_out :]
+        scale = self.output_scale
+
+        def policy(observation: np.ndarray) -> np.ndarray:
+            return np.tanh(w2 @ np.tanh(w1 @ observation + b1) + b2) * scale
+
+        return policy
+
+
+# --------------------------------------------------------------------------------------------
+# Fitness functions: each takes the trajectory record (see ariel.evaluation.TrajectoryRecord)
+# --------------------------------------------------------------------------------------------
+
+
+@fitness_functions.register("xy_displacement")
+@fitness_function(maximise=True)
+def xy_displacement(record: Any) -> float:
+    """Planar distance between the core's first and last recorded position (m)."""
+    return float(_xy_displacement(record.core_pos[0, :2], record.core_pos[-1, :2]))
+
+
+@fitness_functions.register("x_speed")
+@fitness_function(maximise=True)
+def x_speed(record: Any) -> float:
+    """Mean speed along x over the run, |Δx| / duration (m/s), as upstream."""
+    return float(
+        _x_speed(record.core_pos[0, :2], record.core_pos[-1, :2], record.time[-1] - record.time[0])
+    )
+
+
+@fitness_functions.register("distance_to_target")
+@fitness_function(maximise=False)
+def distance_to_target(record: Any, target: Any = None) -> float:
+    """Planar distance from the core's final position to the target (m; minimise).
+
+    ``target`` (x, y) from the fitness options, else the world's target, else (2, 0).
+    """
+    goal = target if target is not None else record.target
+    goal = (2.0, 0.0) if goal is None else goal
+    return float(_distance_to_target(record.core_pos[-1, :2], np.asarray(goal, float)[:2]))
+
+
+@fitness_functions.register("turning_in_place")
+@fitness_function(maximise=True)
+def turning_in_place(record: Any) -> float:
+    """Total heading change of the core's path per metre of net displacement (upstream's)."""
+    return float(_turning_in_place(record.core_pos[:, :2]))

@@ -276,3 +276,29 @@ def test_tracking_needs_a_core_body(tmp_path: Path) -> None:
             duration=0.1,
             video_recorder=VideoRecorder(output_folder=tmp_path, width=16, height=16),
         )
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_gecko_frame_in_flat_world(tmp_path: Path) -> None:
+    from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
+    from ariel.simulation.environments import SimpleFlatWorld
+
+    mujoco.set_mjcb_control(None)
+    world = SimpleFlatWorld()
+    world.spawn(gecko().spec, position=[0, 0, 0])
+    model = world.spec.compile()
+    image = single_frame_renderer(
+        model,
+        mujoco.MjData(model),
+        width=320,
+        height=240,
+        cam_fovy=1.2,
+        save=True,
+        save_path=tmp_path / "gecko.png",
+    )
+    pixels = np.asarray(image).astype(int)
+    _assert_not_blank(pixels.astype(np.uint8))
+    # The yellow core and the red hinges of the gecko are in view.
+    yellow = (pixels[..., 0] > 150) & (pixels[..., 1] > 150) & (pixels[..., 2] < 100)
+    red = (pixels[..., 0] > 150) & (pixels[..., 1] < 80) & (pixels[..., 2] < 80)
+    assert yellow.sum() > 200 and red.sum() > 50

@@ -103,20 +103,21 @@ class CPGState(NamedTuple):
 # Small helpers
 # --------------------------------------------------------------------------------------------
 def fully_connected_adjacency_matrix(n: int) -> np.ndarray:
-    """Every node coupled to every other node, no self-coupling: ``(n, n)`` bool."""
+    """Every node coupled to every other node, no self-coupling: ``(n, n)`` of 0/1 floats."""
     if n < 0:
         raise ValueError(f"number of nodes must be >= 0, got {n}")
-    return ~np.eye(n, dtype=bool)
+    return 1.0 - np.eye(n)
 
 
 def adjacency_matrix(
     adjacency: Mapping[int, Sequence[int]] | ArrayLike | None, n: int | None = None
 ) -> np.ndarray:
-    """Coupling matrix ``A`` (``A[i, j]``: node ``i`` receives from node ``j``), ``(n, n)`` bool.
+    """Coupling weights ``A`` (``A[i, j]``: how often node ``i`` receives from node ``j``).
 
     ``adjacency`` is a dict ``{i: [j, ...]}`` (keys ``0 .. n-1``, as
-    ``create_fully_connected_adjacency`` makes), an ``(n, n)`` array, or ``None`` for fully
-    connected (then ``n`` is required).
+    ``create_fully_connected_adjacency`` makes; a neighbour listed twice couples twice, as in
+    upstream's loop), an ``(n, n)`` array of weights (booleans work), or ``None`` for fully
+    connected (then ``n`` is required). Returns an ``(n, n)`` float64 array.
     """
     if adjacency is None:
         if n is None:
@@ -129,19 +130,22 @@ def adjacency_matrix(
         keys = sorted(adjacency)
         if keys != list(range(size)):
             raise ValueError(f"adjacency keys must be 0..{size - 1}; got {keys}")
-        matrix = np.zeros((size, size), dtype=bool)
+        matrix = np.zeros((size, size))
         for i, neighbours in adjacency.items():
             for j in neighbours:
                 if not isinstance(j, (int, np.integer)) or not 0 <= j < size:
                     raise ValueError(f"adjacency[{i}] lists node {j!r}; allowed: 0..{size - 1}")
-                matrix[i, j] = True
+                matrix[i, j] += 1.0
         return matrix
     matrix = np.asarray(adjacency)
     if matrix.ndim != 2 or matrix.shape[0] != matrix.shape[1]:
         raise ValueError(f"adjacency matrix must be square (n, n); got shape {matrix.shape}")
     if n is not None and matrix.shape[0] != n:
         raise ValueError(f"adjacency matrix has {matrix.shape[0]} nodes; expected {n}")
-    return matrix.astype(bool)
+    matrix = matrix.astype(np.float64)
+    if not np.all(np.isfinite(matrix)):
+        raise ValueError("adjacency matrix contains NaN or inf")
+    return matrix
 
 
 def split_parameters(params: ArrayLike) -> dict[str, np.ndarray]:
@@ -333,6 +337,22 @@ class NaCPGKernel:
             )
             for i in range(n)
         ]
+
+    def __getstate__(self) -> dict[str, object]:
+        # The inner loop's views must alias this object's buffers: rebuild them on unpickle or
+        # deepcopy instead of copying them (a copied view would point at private copies).
+        return {
+            "params": self.params,
+            "adjacency": self.adjacency,
+            "alpha": self.alpha,
+            "dt": self.dt,
+            "state": self.state() if self._has_state else None,
+        }
+
+    def __setstate__(self, saved: dict[str, object]) -> None:
+        self.__init__(saved["params"], saved["adjacency"], alpha=saved["alpha"], dt=saved["dt"])
+        if saved["state"] is not None:
+            self.set_state(*saved["state"])
 
     # -- state ---------------------------------------------------------------------------------
     def set_state(self, xy: ArrayLike, xy_dot_old: ArrayLike) -> None:

@@ -38,6 +38,7 @@ from ariel.simulation.controllers.cpg_kernel import (
     CPGState,
     NaCPGKernel,
     _check_bounds,
+    _clip_ufunc,
     _outputs,
     adjacency_matrix,
 )
@@ -127,11 +128,14 @@ class NaCPG(nn.Module):
         w = uniform(-_TWO_PI, _TWO_PI, n)
         ha = torch.randn(n, generator=generator, dtype=torch.float64)
         b = uniform(-_B_INIT_RANGE, _B_INIT_RANGE, n)
-        self.phase = nn.Parameter(phase, requires_grad=False)
-        self.w = nn.Parameter(w, requires_grad=False)
-        self.amplitudes = nn.Parameter(amplitudes, requires_grad=False)
-        self.ha = nn.Parameter(ha, requires_grad=False)
-        self.b = nn.Parameter(b, requires_grad=False)
+        # The five parameters are views of one flat float64 buffer, so a single byte
+        # comparison per forward call tells whether any of them changed.
+        self._flat = torch.cat([phase, w, amplitudes, ha, b])
+        self._flat_np = self._flat.numpy()
+        for k, name in enumerate(PARAMETER_GROUPS):
+            view = self._flat[k * n : (k + 1) * n]
+            setattr(self, name, nn.Parameter(view, requires_grad=False))
+        self._expected_ptrs = [getattr(self, name).data_ptr() for name in PARAMETER_GROUPS]
 
         xy = torch.randn(n, 2, generator=generator, dtype=torch.float64)
         xy_dot_old = torch.randn(n, 2, generator=generator, dtype=torch.float64)
@@ -139,6 +143,8 @@ class NaCPG(nn.Module):
         self._initial_xy_dot_old = xy_dot_old.numpy().copy()
 
         self._kernel: NaCPGKernel | None = None
+        self._kernel_bytes = b""
+        self._amplitudes = self._offsets = np.zeros(0)
         self._step = 0
         self.angles = torch.zeros(n, dtype=torch.float32)
 
@@ -149,13 +155,37 @@ class NaCPG(nn.Module):
         return {name: getattr(self, name) for name in PARAMETER_GROUPS}
 
     def _flat_numpy(self) -> np.ndarray:
-        return np.concatenate(
-            [getattr(self, name).detach().cpu().numpy() for name in PARAMETER_GROUPS]
-        ).astype(np.float64, copy=False)
+        """Current parameter values, flat float64 (a view of the shared buffer when possible)."""
+        params = self._parameters
+        for name, ptr in zip(PARAMETER_GROUPS, self._expected_ptrs):
+            param = params[name]
+            if param is None or param.data_ptr() != ptr:
+                break
+        else:
+            return self._flat_np
+        # A tensor's storage was replaced (``.data = ...``, deepcopy, unpickling, ``.to(...)``).
+        values = [getattr(self, name).detach() for name in PARAMETER_GROUPS]
+        if all(
+            v.dtype == torch.float64 and v.device.type == "cpu" and v.numel() == self.n
+            for v in values
+        ):
+            self._rehome(values)
+            return self._flat_np
+        return np.concatenate([v.cpu().numpy().reshape(-1) for v in values]).astype(np.float64)
+
+    def _rehome(self, values: list[torch.Tensor]) -> None:
+        """Make the parameters views of one fresh flat buffer again (same values and dtype)."""
+        n = self.n
+        flat = torch.cat([v.reshape(-1) for v in values]).clone()
+        self._flat = flat
+        self._flat_np = flat.numpy()
+        for k, name in enumerate(PARAMETER_GROUPS):
+            getattr(self, name).data = flat[k * n : (k + 1) * n]
+        self._expected_ptrs = [getattr(self, name).data_ptr() for name in PARAMETER_GROUPS]
 
     def get_flat_params(self) -> torch.Tensor:
         """All parameters as one float64 tensor, groups in order ``phase, w, amplitudes, ha, b``."""
-        return torch.from_numpy(self._flat_numpy().copy())
+        return torch.from_numpy(np.array(self._flat_numpy(), dtype=np.float64))
 
     def set_flat_params(self, params: Any) -> None:
         """Set all ``5n`` parameters from a list, numpy array or tensor (group order as above)."""
@@ -244,9 +274,13 @@ class NaCPG(nn.Module):
         """The kernel for the current parameter values (rebuilt, and restarted, on change)."""
         flat = self._flat_numpy()
         kernel = self._kernel
-        if kernel is None or not np.array_equal(kernel.params[0], flat):
+        if kernel is None or flat.tobytes() != self._kernel_bytes:
             kernel = NaCPGKernel(flat, self._adjacency, alpha=self.alpha, dt=self.dt)
             self._kernel = kernel
+            self._kernel_bytes = kernel.params.tobytes()
+            n = self.n
+            self._amplitudes = kernel.params[0, 2 * n : 3 * n]
+            self._offsets = kernel.params[0, 4 * n : 5 * n]
             self.reset()
         return kernel
 
@@ -269,15 +303,16 @@ class NaCPG(nn.Module):
             kernel.advance(target - self._step)
             self._step = target
 
-        groups = kernel.params[0]
-        n = self.n
-        y = kernel._z.imag[:, 0]
-        angles = _outputs(groups[2 * n : 3 * n], groups[4 * n : 5 * n], y, None)
+        angles = _outputs(self._amplitudes, self._offsets, kernel._y[0], None)
         if self.hard_bounds is not None:
-            clipped = np.clip(angles, *self.hard_bounds)
-            self.clamping_error = float(np.abs(angles - clipped).sum())
+            clipped = _clip_ufunc(angles, *self.hard_bounds)
+            np.subtract(angles, clipped, out=angles)
+            self.clamping_error = float(np.abs(angles, out=angles).sum())
+            check = self.clamping_error
             angles = clipped
-        if np.isnan(angles).any():
+        else:
+            check = float(angles.sum())
+        if math.isnan(check):
             raise ValueError(f"NaCPG produced NaN joint targets at step {self._step}")
         if self.angle_tracking:
             self.angle_history.append(angles.tolist())

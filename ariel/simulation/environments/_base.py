@@ -365,7 +365,7 @@ class BaseWorld:
     The base world has no floor; its ground is the plane z = 0, which ``spawn()`` uses.
     """
 
-    name: ClassVar[str] = "base-world"
+    name: str = "base-world"
     spawn_prefix: ClassVar[str] = "robot"
     default_spawn_position: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
     default_spawn_rotation: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
@@ -399,11 +399,11 @@ class BaseWorld:
         self.name = as_name(type(self).name if name is None else name)
         self.load_precompiled = bool(load_precompiled)  # accepted, ignored (see class doc)
         self.spawns = 0
-        overrides = _config_items(mujoco_config)
+        overrides = {k: _option_value(k, v) for k, v in _config_items(mujoco_config).items()}
         self.mujoco_config = {} if mujoco_config is None else mujoco_config
         if timestep is not None:
             timestep = as_positive_float(timestep, "timestep")
-            if "timestep" in overrides and float(overrides["timestep"]) != timestep:
+            if overrides.get("timestep", timestep) != timestep:
                 raise ValueError(
                     f"timestep={timestep} conflicts with mujoco_config timestep "
                     f"{overrides['timestep']}; give it once",
@@ -412,7 +412,7 @@ class BaseWorld:
         self._build()
         for key, value in overrides.items():
             try:
-                setattr(self.spec.option, key, _option_value(key, value))
+                setattr(self.spec.option, key, value)
             except (TypeError, ValueError) as error:
                 message = str(error).splitlines()[0]
                 raise ValueError(f"bad mujoco_config value for {key!r}: {message}") from None

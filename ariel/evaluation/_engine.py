@@ -1,0 +1,502 @@
+"""The rollout engine: evaluation tasks -> results, with physics as nearly all of the cost.
+
+* A body is compiled once per process (`build`, cached) and every brain candidate of that body
+  runs on that model.
+* Open-loop controllers (the CPGs) are functions of time: the whole control sequence of every
+  candidate is computed in numpy first, then all candidates step in C with `mujoco.rollout`
+  across threads (GIL released).
+* Closed-loop controllers step in chunks: ``mj_step(model, data, nstep=control_period)``
+  between policy calls, never a Python callback per physics step.
+* Control semantics are the tutorial `Controller`'s (same formula, `blend_and_clip`): the
+  controller runs at physics steps ``k % control_period == 0``, its output is blended with the
+  previous control by ``smoothing`` (the tutorial's ``alpha``, 0.5) and clipped to the actuator
+  ranges. Hence the fast path and the tutorial path give identical trajectories.
+* Physics instability (MuJoCo warnings such as bad accelerations, NaN or inf state) gives
+  status ``unstable`` and the worst fitness; a body that cannot be built gives ``error``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import time as _time
+from collections import OrderedDict
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+from mujoco import rollout as _rollout
+
+from ariel.evaluation._task import EvaluationResult, EvaluationTask
+from ariel.simulation.controllers.controller import actuator_bounds, blend_and_clip
+
+__all__ = [
+    "BuiltBody",
+    "TrajectoryRecord",
+    "build",
+    "control_sequence",
+    "evaluate",
+    "evaluate_batch",
+    "frame_steps",
+]
+
+SPAWN_PREFIX = "robot1_"
+_BAD_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+)
+
+
+@dataclass(frozen=True)
+class TrajectoryRecord:
+    """What a fitness function sees: the recorded frames of one evaluation."""
+
+    time: np.ndarray  # (T,)
+    core_pos: np.ndarray  # (T, 3)
+    joint_target: np.ndarray  # (T, nu)
+    joint_angle: np.ndarray  # (T, nu)
+    target: tuple[float, ...] | None = None  # the world's target, if it has one
+
+
+@dataclass
+class BuiltBody:
+    """A compiled body in its world, plus the indices the engine reads every frame."""
+
+    model: mujoco.MjModel
+    descriptors: dict[str, float]
+    core_geom: int
+    robot_bodies: np.ndarray
+    body_names: list[str]
+    joint_names: list[str]
+    joint_qpos: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    target: tuple[float, ...] | None
+    initial_state: np.ndarray
+    build_time: float
+
+
+@contextlib.contextmanager
+def control_callback_unset() -> Iterator[None]:
+    """Run without the global ``mjcb_control``: rollout and compile must not call Python."""
+    callback = mujoco.get_mjcb_control()
+    mujoco.set_mjcb_control(None)
+    try:
+        yield
+    finally:
+        mujoco.set_mjcb_control(callback)
+
+
+# --------------------------------------------------------------------------------------------
+# Building (once per body per process)
+# --------------------------------------------------------------------------------------------
+
+_BUILD_CACHE: OrderedDict[str, BuiltBody] = OrderedDict()
+_BUILD_CACHE_SIZE = 4
+
+
+def _build_key(task: EvaluationTask) -> str:
+    return json.dumps(
+        [
+            task.body.key,
+            task.world,
+            task.world_options,
+            task.spawn_position,
+            task.spawn_rotation,
+        ],
+        sort_keys=True,
+    )
+
+
+def _robot_module(task: EvaluationTask) -> tuple[Any, dict[str, float]]:
+    """The robot's root module (a CoreModule) and its morphology descriptors."""
+    from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
+    from ariel.body_phenotypes.robogen_lite.descriptors import morphology_descriptors
+    from ariel.plugins import body_encoders
+
+    encoder = body_encoders.make(task.body.encoder, **task.body.options)
+    build_direct = getattr(encoder, "build", None)
+    graph = None
+    if build_direct is None:
+        graph = encoder.decode(task.body.genotype)
+        core = construct_mjspec_from_graph(graph)
+    else:
+        core = build_direct(task.body.genotype)
+        with contextlib.suppress(ValueError):
+            graph = encoder.decode(task.body.genotype)
+    descriptors = morphology_descriptors(graph) if graph is not None else {}
+    return core, descriptors
+
+
+def build(task: EvaluationTask) -> BuiltBody:
+    """Compile ``task``'s body in its world (cached per process by body, world and spawn)."""
+    key = _build_key(task)
+    cached = _BUILD_CACHE.get(key)
+    if cached is not None:
+        _BUILD_CACHE.move_to_end(key)
+        return cached
+
+    from ariel.plugins import worlds
+
+    start = _time.perf_counter()
+    core, descriptors = _robot_module(task)
+    world = worlds.make(task.world, **task.world_options)
+    world.spawn(core.spec, position=task.spawn_position, rotation=task.spawn_rotation)
+    with control_callback_unset():
+        model = world.spec.compile()
+
+    names = [model.body(i).name for i in range(model.nbody)]
+    robot_bodies = np.array([i for i, n in enumerate(names) if n.startswith(SPAWN_PREFIX)])
+    core_geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, SPAWN_PREFIX + "core")
+    if core_geom < 0:
+        raise ValueError(f"the robot has no core geom named {SPAWN_PREFIX + 'core'!r}")
+    joints = model.actuator_trnid[:, 0]
+    data = mujoco.MjData(model)
+    mujoco.mj_resetData(model, data)
+    state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    low, high = actuator_bounds(model)
+    target = getattr(world, "target_position", None)
+    built = BuiltBody(
+        model=model,
+        descriptors=descriptors,
+        core_geom=int(core_geom),
+        robot_bodies=robot_bodies,
+        body_names=[names[i] for i in robot_bodies],
+        joint_names=[model.actuator(i).name for i in range(model.nu)],
+        joint_qpos=model.jnt_qposadr[joints].copy(),
+        low=low,
+        high=high,
+        target=None if target is None else tuple(float(v) for v in target),
+        initial_state=state,
+        build_time=_time.perf_counter() - start,
+    )
+    _BUILD_CACHE[key] = built
+    while len(_BUILD_CACHE) > _BUILD_CACHE_SIZE:
+        _BUILD_CACHE.popitem(last=False)
+    return built
+
+
+# --------------------------------------------------------------------------------------------
+# Control and recording helpers (shared by both paths)
+# --------------------------------------------------------------------------------------------
+
+
+def num_steps(task: EvaluationTask, model: mujoco.MjModel) -> int:
+    """Physics steps of a run: ``round(duration / timestep)``, as `simple_runner` takes."""
+    return max(1, round(task.duration / model.opt.timestep))
+
+
+def frame_steps(nstep: int, record_every: int) -> np.ndarray:
+    """Physics step indices of recorded frames: 0, R, 2R, ... and always the final step."""
+    if record_every <= 0:
+        return np.array([0, nstep])
+    steps = np.arange(0, nstep + 1, record_every)
+    return steps if steps[-1] == nstep else np.append(steps, nstep)
+
+
+def control_sequence(
+    targets: np.ndarray, nstep: int, period: int, smoothing: float, low: Any, high: Any
+) -> np.ndarray:
+    """Per-step controls ``(B, nstep, nu)`` from targets at each control call ``(B, C, nu)``.
+
+    Call ``c`` (at physics step ``c * period``) sets ``ctrl = blend_and_clip(ctrl, target_c,
+    smoothing, low, high)`` starting from zero (a reset), which then holds for ``period`` steps.
+    """
+    batch, calls, nu = targets.shape
+    held = np.empty_like(targets)
+    ctrl = np.zeros((batch, nu))
+    for c in range(calls):
+        ctrl = blend_and_clip(ctrl, targets[:, c], smoothing, low, high)
+        held[:, c] = ctrl
+    return np.repeat(held, period, axis=1)[:, :nstep]
+
+
+def _kinematics_frames(
+    built: BuiltBody, qpos: np.ndarray, record_bodies: bool
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """Core geom position (and robot body poses) for each row of ``qpos`` ``(T, nq)``."""
+    model = built.model
+    data = mujoco.MjData(model)
+    frames = qpos.shape[0]
+    core = np.empty((frames, 3))
+    nb = len(built.robot_bodies)
+    pos = np.empty((frames, nb, 3)) if record_bodies else None
+    quat = np.empty((frames, nb, 4)) if record_bodies else None
+    for t in range(frames):
+        data.qpos[:] = qpos[t]
+        mujoco.mj_kinematics(model, data)
+        core[t] = data.geom_xpos[built.core_geom]
+        if record_bodies:
+            pos[t] = data.xpos[built.robot_bodies]
+            quat[t] = data.xquat[built.robot_bodies]
+    return core, pos, quat
+
+
+def _worst(maximise: bool) -> float:
+    return -math.inf if maximise else math.inf
+
+
+def _score(fitness_fn: Any, options: dict[str, Any], record: TrajectoryRecord) -> float:
+    value = float(fitness_fn(record, **options))
+    return value if math.isfinite(value) else _worst(fitness_fn.maximise)
+
+
+def _one_line(exc: BaseException) -> str:
+    text = f"{type(exc).__name__}: {exc}"
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _error_result(task: EvaluationTask, fitness_fn: Any, exc: BaseException) -> EvaluationResult:
+    return EvaluationResult(
+        eval_id=task.eval_id,
+        fitness=_worst(fitness_fn.maximise),
+        status="error",
+        error=_one_line(exc),
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Open loop: all candidates of one body in one threaded rollout
+# --------------------------------------------------------------------------------------------
+
+_ROLLOUTS: dict[int, _rollout.Rollout] = {}
+
+
+def _rollout_pool(nthread: int) -> _rollout.Rollout:
+    pool = _ROLLOUTS.get(nthread)
+    if pool is None:
+        pool = _ROLLOUTS[nthread] = _rollout.Rollout(nthread=nthread)
+    return pool
+
+
+def _open_loop(
+    tasks: Sequence[EvaluationTask],
+    built: BuiltBody,
+    controller: Any,
+    fitness_fn: Any,
+    nthread: int,
+) -> list[EvaluationResult]:
+    head = tasks[0]
+    model = built.model
+    nstep = num_steps(head, model)
+    period = head.control_period
+    smoothing = float(head.controller_options.get("smoothing", 0.5))
+    dt = model.opt.timestep
+    call_times = np.arange(0, nstep, period) * dt
+    params = np.array([t.params for t in tasks], dtype=np.float64)
+
+    start = _time.perf_counter()
+    targets = np.empty((len(tasks), call_times.size, model.nu))
+    seeds = np.array([t.seed for t in tasks])
+    for seed in np.unique(seeds):
+        rows = np.flatnonzero(seeds == seed)
+        targets[rows] = controller.targets(params[rows], call_times, model, seed=int(seed))
+    controls = control_sequence(targets, nstep, period, smoothing, built.low, built.high)
+
+    nthread = max(1, min(nthread, len(tasks)))
+    datas = [mujoco.MjData(model) for _ in range(nthread)]
+    with control_callback_unset():
+        states, _ = _rollout_pool(nthread).rollout(
+            model, datas, built.initial_state[None, :], controls, nstep=nstep
+        )
+    wall = (_time.perf_counter() - start) / len(tasks)
+
+    qpos_slice = slice(1, 1 + model.nq)  # FULLPHYSICS state: time, qpos, qvel, ...
+    steps = frame_steps(nstep, head.record_every)
+    results = []
+    for b, task in enumerate(tasks):
+        final_time = states[b, -1, 0]
+        stable = math.isclose(final_time, nstep * dt, rel_tol=0, abs_tol=dt / 2) and bool(
+            np.all(np.isfinite(states[b, -1]))
+        )
+        qpos = np.where(
+            (steps == 0)[:, None],
+            built.initial_state[qpos_slice],
+            states[b, np.maximum(steps - 1, 0), qpos_slice],
+        )
+        joint_target = controls[b, np.minimum(steps, nstep - 1)]
+        results.append(
+            _finish(task, built, fitness_fn, steps * dt, qpos, joint_target, stable, wall)
+        )
+    return results
+
+
+def _finish(
+    task: EvaluationTask,
+    built: BuiltBody,
+    fitness_fn: Any,
+    times: np.ndarray,
+    qpos: np.ndarray,
+    joint_target: np.ndarray,
+    stable: bool,
+    wall: float,
+) -> EvaluationResult:
+    """Turn recorded frames into a result (kinematics, fitness, status)."""
+    if stable and not np.all(np.isfinite(qpos)):
+        stable = False
+    safe_qpos = np.where(np.isfinite(qpos), qpos, 0.0)
+    core, body_pos, body_quat = _kinematics_frames(built, safe_qpos, task.record_bodies)
+    record = TrajectoryRecord(
+        time=times,
+        core_pos=core,
+        joint_target=joint_target,
+        joint_angle=qpos[:, built.joint_qpos],
+        target=built.target,
+    )
+    fitness = _score(fitness_fn, task.fitness_options, record) if stable else None
+    return EvaluationResult(
+        eval_id=task.eval_id,
+        fitness=fitness if fitness is not None else _worst(fitness_fn.maximise),
+        status="ok" if stable else "unstable",
+        error="" if stable else "physics became unstable (MuJoCo warning or non-finite state)",
+        descriptors=dict(built.descriptors),
+        sim_time=float(times[-1]),
+        wall_time=wall,
+        time=times,
+        core_pos=core,
+        joint_target=joint_target,
+        joint_angle=record.joint_angle,
+        body_pos=body_pos,
+        body_quat=body_quat,
+        body_names=list(built.body_names),
+        joint_names=list(built.joint_names),
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Closed loop: chunked stepping between policy calls
+# --------------------------------------------------------------------------------------------
+
+
+def _closed_loop(
+    task: EvaluationTask, built: BuiltBody, controller: Any, fitness_fn: Any
+) -> EvaluationResult:
+    from ariel.evaluation.builtin_plugins import hinge_observation
+
+    model = built.model
+    nstep = num_steps(task, model)
+    period = task.control_period
+    smoothing = float(task.controller_options.get("smoothing", 0.5))
+    policy = controller.make_policy(np.asarray(task.params), model)
+    observe = getattr(controller, "observation", hinge_observation)
+    steps = frame_steps(nstep, task.record_every)
+    wanted = set(steps.tolist())
+    qpos = np.empty((steps.size, model.nq))
+    targets = np.empty((steps.size, model.nu))
+
+    start = _time.perf_counter()
+    data = mujoco.MjData(model)
+    mujoco.mj_resetData(model, data)
+    boundaries = sorted(set(range(0, nstep, period)) | wanted)
+    frame = 0
+    stable = True
+    with control_callback_unset():
+        for i, k in enumerate(boundaries):
+            if k % period == 0 and k < nstep:
+                out = np.asarray(policy(observe(model, data)), dtype=np.float64)
+                if out.shape != (model.nu,) or not np.all(np.isfinite(out)):
+                    raise ValueError(
+                        f"policy returned {out.shape} values (NaN/inf or wrong size); "
+                        f"model has {model.nu} actuators"
+                    )
+                data.ctrl[:] = blend_and_clip(data.ctrl, out, smoothing, built.low, built.high)
+            if k in wanted:
+                qpos[frame] = data.qpos
+                targets[frame] = data.ctrl
+                frame += 1
+            if k < nstep:
+                mujoco.mj_step(model, data, nstep=boundaries[i + 1] - k)
+                if any(data.warning[w].number for w in _BAD_WARNINGS) or not np.all(
+                    np.isfinite(data.qpos)
+                ):
+                    stable = False
+                    qpos[frame:] = data.qpos
+                    targets[frame:] = data.ctrl
+                    break
+    wall = _time.perf_counter() - start
+    return _finish(
+        task, built, fitness_fn, steps * model.opt.timestep, qpos, targets, stable, wall
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Public entry points
+# --------------------------------------------------------------------------------------------
+
+
+def _group_key(task: EvaluationTask) -> str:
+    return json.dumps(
+        [
+            _build_key(task),
+            task.controller,
+            task.controller_options,
+            task.fitness,
+            task.fitness_options,
+            task.duration,
+            task.control_period,
+            task.record_every,
+            task.record_bodies,
+        ],
+        sort_keys=True,
+    )
+
+
+def evaluate_batch(
+    tasks: Sequence[EvaluationTask], *, nthread: int | None = None
+) -> list[EvaluationResult]:
+    """Evaluate many tasks, compiling each body once; results in input order.
+
+    Tasks that share a body, world, controller and timing run as one batch: open-loop ones in a
+    single threaded rollout over ``nthread`` threads (default: all cores this process may use).
+    Unknown plugin names or bad options raise; a body that fails to build gives ``error``
+    results, unstable physics ``unstable`` ones.
+    """
+    from ariel.evaluation.executors import default_workers
+    from ariel.plugins import controllers, fitness_functions
+
+    if nthread is None:
+        nthread = default_workers()
+    groups: dict[str, list[int]] = {}
+    for i, task in enumerate(tasks):
+        if not isinstance(task, EvaluationTask):
+            raise TypeError(f"tasks must be EvaluationTask objects, got {type(task).__name__}")
+        groups.setdefault(_group_key(task), []).append(i)
+
+    results: list[EvaluationResult | None] = [None] * len(tasks)
+    for indices in groups.values():
+        group = [tasks[i] for i in indices]
+        head = group[0]
+        options = {k: v for k, v in head.controller_options.items() if k != "smoothing"}
+        controller = controllers.make(head.controller, **options)
+        fitness_fn = fitness_functions.get(head.fitness)
+        try:
+            built = build(head)
+            expected = controller.num_parameters(built.model)
+            for task in group:
+                if len(task.params) != expected:
+                    raise ValueError(
+                        f"controller {task.controller!r} needs {expected} parameters for this "
+                        f"body ({built.model.nu} actuators); task {task.eval_id!r} has "
+                        f"{len(task.params)}"
+                    )
+        except Exception as exc:  # a body that cannot be built is a result, not a crash
+            for i, task in zip(indices, group):
+                results[i] = _error_result(task, fitness_fn, exc)
+            continue
+        if controller.open_loop:
+            outs = _open_loop(group, built, controller, fitness_fn, nthread)
+        else:
+            outs = [_closed_loop(task, built, controller, fitness_fn) for task in group]
+        for i, out in zip(indices, outs):
+            results[i] = out
+    return results  # type: ignore[return-value]
+
+
+def evaluate(task: EvaluationTask) -> EvaluationResult:
+    """Evaluate one task (a pure function of the task)."""
+    return evaluate_batch([task], nthread=1)[0]
