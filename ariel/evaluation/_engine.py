@@ -20,6 +20,10 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
+import queue
+import sys
+import threading
 import time as _time
 from collections import OrderedDict
 from collections.abc import Iterator, Sequence
@@ -199,20 +203,28 @@ def frame_steps(nstep: int, record_every: int) -> np.ndarray:
     return steps if steps[-1] == nstep else np.append(steps, nstep)
 
 
-def control_sequence(
-    targets: np.ndarray, nstep: int, period: int, smoothing: float, low: Any, high: Any
+def held_controls(
+    targets: np.ndarray, smoothing: float, low: Any, high: Any, ctrl: np.ndarray | None = None
 ) -> np.ndarray:
-    """Per-step controls ``(B, nstep, nu)`` from targets at each control call ``(B, C, nu)``.
+    """The control held after each controller call, ``(B, C, nu)``, from targets ``(B, C, nu)``.
 
-    Call ``c`` (at physics step ``c * period``) sets ``ctrl = blend_and_clip(ctrl, target_c,
-    smoothing, low, high)`` starting from zero (a reset), which then holds for ``period`` steps.
+    Call ``c`` sets ``ctrl = blend_and_clip(ctrl, target_c, smoothing, low, high)`` (the
+    tutorial `Controller`'s formula); ``ctrl`` starts at zero (a reset) unless given.
     """
     batch, calls, nu = targets.shape
     held = np.empty_like(targets)
-    ctrl = np.zeros((batch, nu))
+    ctrl = np.zeros((batch, nu)) if ctrl is None else ctrl
     for c in range(calls):
         ctrl = blend_and_clip(ctrl, targets[:, c], smoothing, low, high)
         held[:, c] = ctrl
+    return held
+
+
+def control_sequence(
+    targets: np.ndarray, nstep: int, period: int, smoothing: float, low: Any, high: Any
+) -> np.ndarray:
+    """Per-step controls ``(B, nstep, nu)``: each call's control holds for ``period`` steps."""
+    held = held_controls(targets, smoothing, low, high)
     return np.repeat(held, period, axis=1)[:, :nstep]
 
 
@@ -291,19 +303,23 @@ def _open_loop(
     params = np.array([t.params for t in tasks], dtype=np.float64)
 
     start = _time.perf_counter()
-    targets = np.empty((len(tasks), call_times.size, model.nu))
-    seeds = np.array([t.seed for t in tasks])
-    for seed in np.unique(seeds):
-        rows = np.flatnonzero(seeds == seed)
-        targets[rows] = controller.targets(params[rows], call_times, model, seed=int(seed))
-    controls = control_sequence(targets, nstep, period, smoothing, built.low, built.high)
-
-    nthread = max(1, min(nthread, len(tasks)))
-    datas = [mujoco.MjData(model) for _ in range(nthread)]
-    with control_callback_unset():
-        states, _ = _rollout_pool(nthread).rollout(
-            model, datas, built.initial_state[None, :], controls, nstep=nstep
+    if len(tasks) == 1 and hasattr(controller, "iter_targets") and (os.cpu_count() or 1) > 1:
+        states, controls = _pipelined_single(
+            head, built, controller, params, call_times, nstep, period, smoothing
         )
+    else:
+        targets = np.empty((len(tasks), call_times.size, model.nu))
+        seeds = np.array([t.seed for t in tasks])
+        for seed in np.unique(seeds):
+            rows = np.flatnonzero(seeds == seed)
+            targets[rows] = controller.targets(params[rows], call_times, model, seed=int(seed))
+        controls = control_sequence(targets, nstep, period, smoothing, built.low, built.high)
+        nthread = max(1, min(nthread, len(tasks)))
+        datas = [mujoco.MjData(model) for _ in range(nthread)]
+        with control_callback_unset():
+            states, _ = _rollout_pool(nthread).rollout(
+                model, datas, built.initial_state[None, :], controls, nstep=nstep
+            )
     wall = (_time.perf_counter() - start) / len(tasks)
 
     qpos_slice = slice(1, 1 + model.nq)  # FULLPHYSICS state: time, qpos, qvel, ...
@@ -324,6 +340,82 @@ def _open_loop(
             _finish(task, built, fitness_fn, steps * dt, qpos, joint_target, stable, wall)
         )
     return results
+
+
+def _pipelined_single(
+    task: EvaluationTask,
+    built: BuiltBody,
+    controller: Any,
+    params: np.ndarray,
+    call_times: np.ndarray,
+    nstep: int,
+    period: int,
+    smoothing: float,
+    chunks: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One candidate: compute the CPG (Python) on a second thread while physics (C) steps.
+
+    Physics runs as consecutive rollouts carrying the solver warm start, which is bit for bit
+    one continuous rollout. The GIL switch interval is shortened meanwhile so the stepping
+    thread gets the GIL back promptly between chunks.
+    """
+    model = built.model
+    pieces: queue.SimpleQueue[Any] = queue.SimpleQueue()
+
+    def produce() -> None:
+        try:
+            for piece in controller.iter_targets(
+                params, call_times, model, seed=task.seed, chunks=chunks
+            ):
+                pieces.put(piece)
+        except BaseException as exc:  # handed to the stepping thread, which raises it
+            pieces.put(exc)
+
+    nstate = built.initial_state.size
+    states = np.empty((1, nstep, nstate))
+    controls = np.empty((1, nstep, model.nu))
+    data = mujoco.MjData(model)
+    state = built.initial_state[None, :].copy()
+    warmstart = np.zeros((1, model.nv))
+    ctrl = np.zeros((1, model.nu))
+    done_calls = 0
+    producer = threading.Thread(target=produce, name="ariel-cpg", daemon=True)
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-4)
+    try:
+        producer.start()
+        with control_callback_unset():
+            for _ in range(chunks):
+                piece = pieces.get()
+                if isinstance(piece, BaseException):
+                    raise piece
+                if piece.shape[1] == 0:
+                    continue
+                held = held_controls(piece, smoothing, built.low, built.high, ctrl)
+                ctrl = held[:, -1]
+                k0 = done_calls * period
+                done_calls += piece.shape[1]
+                k1 = min(done_calls * period, nstep)
+                controls[:, k0:k1] = np.repeat(held, period, axis=1)[:, : k1 - k0]
+                out, _ = _rollout_pool(1).rollout(
+                    model,
+                    data,
+                    state,
+                    controls[:, k0:k1],
+                    nstep=k1 - k0,
+                    initial_warmstart=warmstart,
+                )
+                states[:, k0:k1] = out
+                if not math.isclose(out[0, -1, 0], k1 * model.opt.timestep, abs_tol=1e-9):
+                    states[:, k1:] = out[:, -1:]  # unstable: freeze, as rollout itself does
+                    controls[:, k1:] = ctrl[:, None]
+                    break
+                state = out[:, -1]
+                warmstart = data.qacc_warmstart[None, :].copy()
+    finally:
+        sys.setswitchinterval(interval)
+        producer.join()
+    return states, controls
 
 
 def _finish(
@@ -419,9 +511,7 @@ def _closed_loop(
                     targets[frame:] = data.ctrl
                     break
     wall = _time.perf_counter() - start
-    return _finish(
-        task, built, fitness_fn, steps * model.opt.timestep, qpos, targets, stable, wall
-    )
+    return _finish(task, built, fitness_fn, steps * model.opt.timestep, qpos, targets, stable, wall)
 
 
 # --------------------------------------------------------------------------------------------

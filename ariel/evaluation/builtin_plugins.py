@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import mujoco
@@ -25,8 +25,8 @@ from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning
 
 __all__ = [
     "MLPController",
-    "NaCPGController",
     "NDEEncoder",
+    "NaCPGController",
     "PrebuiltEncoder",
     "hinge_observation",
 ]
@@ -268,16 +268,40 @@ class NaCPGController:
     def targets(
         self, params: np.ndarray, sample_times: np.ndarray, model: mujoco.MjModel, *, seed: int
     ) -> np.ndarray:
-        out = cpg_kernel.cpg_targets(
-            np.atleast_2d(params),
-            self.initial_state(model, seed),
-            sample_times,
-            alpha=self.alpha,
-            dt=self.dt,
-            adjacency=self.adjacency(model.nu),
-            hard_bounds=self.hard_bounds,
+        """Targets ``(B, T, nu)`` at ascending ``sample_times`` (seconds)."""
+        (out,) = self.iter_targets(params, sample_times, model, seed=seed, chunks=1)
+        return out
+
+    def iter_targets(
+        self,
+        params: np.ndarray,
+        sample_times: np.ndarray,
+        model: mujoco.MjModel,
+        *,
+        seed: int,
+        chunks: int,
+    ) -> Iterator[np.ndarray]:
+        """`targets` in ``chunks`` consecutive pieces along time, computed lazily.
+
+        Lets the engine start stepping physics on the first piece while the rest is computed.
+        """
+        batch = np.atleast_2d(np.asarray(params, dtype=np.float64))
+        kernel = cpg_kernel.NaCPGKernel(
+            batch, self.adjacency(model.nu), alpha=self.alpha, dt=self.dt
         )
-        return out.astype(np.float32).astype(np.float64)
+        kernel.set_state(*self.initial_state(model, seed))
+        steps = cpg_kernel.cpg_steps(sample_times, self.dt)
+        if np.any(np.diff(steps) < 0):
+            raise ValueError("sample_times must be ascending")
+        done = 0
+        for piece in np.array_split(np.arange(steps.size), max(1, chunks)):
+            xy = np.empty((batch.shape[0], piece.size, model.nu, 2))
+            for j, idx in enumerate(piece):
+                kernel.advance(int(steps[idx]) - done)
+                done = int(steps[idx])
+                xy[:, j] = kernel.state().xy
+            out = cpg_kernel.angles(batch[:, None, :], xy, self.hard_bounds)
+            yield out.astype(np.float32).astype(np.float64)
 
 
 def hinge_observation(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:

@@ -7,7 +7,8 @@ saying what to install.
 
 Camera: if the model has a camera named ``"ortho-cam"`` (every ARIEL world does) it is used,
 with ``cam_fovy`` / ``cam_pos`` / ``cam_quat`` overriding its settings for this call only;
-otherwise MuJoCo's default free camera frames the whole model.
+otherwise MuJoCo's default free camera frames the whole model (and the overrides, which
+belong to "ortho-cam", raise ``ValueError`` instead of being silently ignored).
 
 Differences from upstream ARIEL (on purpose):
 * ``video_renderer`` steps by the MODEL's timestep so that frame ``i`` shows simulated time

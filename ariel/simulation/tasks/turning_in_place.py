@@ -16,7 +16,9 @@ def turning_in_place(xy_history: ArrayLike) -> float:
     a full circle counts 2π; zero-length displacements have heading 0 (``atan2(0, 0)``).
     """
     points = np.asarray(xy_history, dtype=np.float64)
-    if points.ndim != 2 or (points.size and points.shape[1] < 2):
+    if points.size == 0:
+        return 0.0
+    if points.ndim != 2 or points.shape[1] < 2:
         raise ValueError(f"xy_history must have shape (T, 2) or (T, 3); got {points.shape}")
     if points.shape[0] < 2:
         return 0.0
