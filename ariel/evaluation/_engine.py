@@ -547,7 +547,7 @@ def evaluate_batch(
     results, unstable physics ``unstable`` ones.
     """
     from ariel.evaluation.executors import default_workers
-    from ariel.plugins import controllers, fitness_functions
+    from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
 
     if nthread is None:
         nthread = default_workers()
@@ -564,6 +564,8 @@ def evaluate_batch(
         options = {k: v for k, v in head.controller_options.items() if k != "smoothing"}
         controller = controllers.make(head.controller, **options)
         fitness_fn = fitness_functions.get(head.fitness)
+        worlds.get(head.world)  # unknown names are the caller's mistake: raise, listing names
+        body_encoders.get(head.body.encoder)
         try:
             built = build(head)
             expected = controller.num_parameters(built.model)

@@ -301,42 +301,66 @@ class NaCPGKernel:
         self._has_state = False
 
     def _allocate(self) -> None:
-        """State, work buffers and the views the inner loop uses (built once, reused)."""
+        """State, work buffers and the views the inner loop uses (built once, reused).
+
+        With a batch of one, every loop view drops the batch axis and a node's new value is
+        scattered through a stride-0 view: 1-D operands take numpy's fast path (a broadcast
+        multiply costs twice as much), with the same elementwise arithmetic.
+        """
         n, batch = self.n, self.batch_size
-        complex_buffer = np.complex128
-        self._z = np.zeros((n, batch), dtype=complex_buffer)  # xy as x + iy
-        self._z_old = np.zeros((n, batch), dtype=complex_buffer)  # xy_dot_old
+        cplx = np.complex128
+        self._z = np.zeros((n, batch), dtype=cplx)  # xy as x + iy
+        self._z_old = np.zeros((n, batch), dtype=cplx)  # xy_dot_old
         # Rows 0..n-1: coupling for this step; rows n..2n-1: coupling gathered for the next.
-        self._acc = np.zeros((2 * n, batch), dtype=complex_buffer)
-        self._acc_now, self._acc_next = self._acc[:n], self._acc[n:]
+        self._acc = np.zeros((2 * n, batch), dtype=cplx)
+        self._tmp = np.empty((n, batch), dtype=cplx)
         self._y = self._z.imag.T  # (B, n) view of the y components
-        self._zf = self._z.view(np.float64)  # (n, 2B): x, y interleaved per candidate
-        self._x_old = self._z_old.view(np.float64)[:, 0::2]
-        self._t1 = np.empty((n, batch))
-        self._t2 = np.empty((n, batch))
-        self._sq = np.empty((n, 2 * batch))
-        self._sq_x, self._sq_y = self._sq[:, 0::2], self._sq[:, 1::2]
-        self._r2 = np.empty((n, batch))
-        self._k1 = np.empty((n, batch), dtype=complex_buffer)  # 1 + dt*K as one complex factor
-        k1f = self._k1.view(np.float64)
-        self._k1_re, self._k1_im = k1f[:, 0::2], k1f[:, 1::2]
-        self._lo = np.empty((n, batch), dtype=complex_buffer)
-        self._hi = np.empty((n, batch), dtype=complex_buffer)
-        self._tmp = np.empty((n, batch), dtype=complex_buffer)
+        sq = np.empty((n, 2 * batch))
+        k1 = np.empty((n, batch), dtype=cplx)  # 1 + dt*K as one complex factor
+        bounds = np.empty((2, n, batch), dtype=cplx)  # clamp bounds: [0] low, [1] high
+
+        def loop(arr: np.ndarray) -> np.ndarray:
+            return arr[..., 0] if batch == 1 else arr
+
+        zf = self._z.view(np.float64)  # (n, 2B): x, y interleaved per candidate
+        k1f = k1.view(np.float64)
         accf = self._acc.view(np.float64)
-        lof, hif = self._lo.view(np.float64), self._hi.view(np.float64)
-        self._rows = [
-            (
-                accf[i],
-                lof[i],
-                hif[i],
-                self._zf[i],
-                self._z[i],
-                self._scatter[i],
-                self._acc[i + 1 : i + 1 + n],
-            )
-            for i in range(n)
-        ]
+        boundsf = bounds.view(np.float64)
+        acc, z, tmp = loop(self._acc), loop(self._z), loop(self._tmp)
+        rows = []
+        for i in range(n):
+            if batch == 1:  # the new value z_i seen n times through a stride-0 view
+                z_i = np.lib.stride_tricks.as_strided(self._z[i], shape=(n,), strides=(0,))
+            else:
+                z_i = self._z[i]
+            rows.append(
+                (accf[i], boundsf[0, i], boundsf[1, i], zf[i], z_i,
+                 loop(self._scatter[i]), acc[i + 1 : i + 1 + n])
+            )  # fmt: skip
+        width = DERIVATIVE_CLAMP * self.dt * (1 + 1j)
+        self._loop = {
+            "z": z,
+            "z_old": loop(self._z_old),
+            "zf": zf,
+            "acc_now": acc[:n],
+            "acc_next": acc[n:],
+            "x_old": loop(self._z_old.view(np.float64)[:, 0::2]),
+            "t1": np.empty(n) if batch == 1 else np.empty((n, batch)),
+            "t2": np.empty(n) if batch == 1 else np.empty((n, batch)),
+            "sq": sq,
+            "sq_x": loop(sq[:, 0::2]),
+            "sq_y": loop(sq[:, 1::2]),
+            "r2": np.empty(n) if batch == 1 else np.empty((n, batch)),
+            "k1": loop(k1),
+            "k1_re": loop(k1f[:, 0::2]),
+            "k1_im": loop(k1f[:, 1::2]),
+            "bounds": loop(bounds),
+            "clamp": np.array([-width, width]).reshape((2, 1) if batch == 1 else (2, 1, 1)),
+            "tmp": tmp,
+            "ha": loop(self._ha),
+            "dt_w": loop(self._dt_w),
+            "rows": rows,
+        }
 
     def __getstate__(self) -> dict[str, object]:
         # The inner loop's views must alias this object's buffers: rebuild them on unpickle or
@@ -413,42 +437,40 @@ class NaCPGKernel:
             acc[: j + 1] += tmp[: j + 1]
 
     def _advance(self, n_steps: int) -> None:
-        z, z_old, zf = self._z, self._z_old, self._zf
-        acc_now, acc_next = self._acc_now, self._acc_next
-        x_old, t1, t2 = self._x_old, self._t1, self._t2
-        sq, sq_x, sq_y, r2 = self._sq, self._sq_x, self._sq_y, self._r2
-        k1, k1_re, k1_im = self._k1, self._k1_re, self._k1_im
-        lo, hi, tmp = self._lo, self._hi, self._tmp
-        ha, dt_w, rows = self._ha, self._dt_w, self._rows
+        v = self._loop
+        z, z_old, zf, acc_now, acc_next = v["z"], v["z_old"], v["zf"], v["acc_now"], v["acc_next"]
+        x_old, t1, t2, ha, dt_w = v["x_old"], v["t1"], v["t2"], v["ha"], v["dt_w"]
+        sq, sq_x, sq_y, r2 = v["sq"], v["sq_x"], v["sq_y"], v["r2"]
+        k1, k1_re, k1_im = v["k1"], v["k1_re"], v["k1_im"]
+        bounds, clamp, tmp, rows = v["bounds"], v["clamp"], v["tmp"], v["rows"]
+        lo = bounds[0]
         dt = self.dt
         dt_alpha = dt * self.alpha
-        clamp = DERIVATIVE_CLAMP * dt * (1 + 1j)
+        one_plus_dt_alpha = 1.0 + dt_alpha
+        one_plus_eps = 1.0 + EPSILON
         for _ in range(n_steps):
             # Node-local terms from the pre-update state (vectorised over nodes and batch).
-            # zeta + E = 1 - ha * (xo + E) / (|xo| + E) + E;  dt * b = dt * w / (zeta + E)
+            # zeta + E = (1 + E) - ha * (xo + E) / (|xo| + E);  dt * b = dt * w / (zeta + E)
             np.abs(x_old, out=t1)
             t1 += EPSILON
             np.add(x_old, EPSILON, out=t2)
             t2 /= t1
             t2 *= ha
-            np.subtract(1.0, t2, out=t2)
-            t2 += EPSILON
+            np.subtract(one_plus_eps, t2, out=t2)
             np.divide(dt_w, t2, out=k1_im)
-            # 1 + dt * a = 1 + dt * alpha * (1 - r2^2)
+            # 1 + dt * a = (1 + dt * alpha) - dt * alpha * r2^2
             np.square(zf, out=sq)
             np.add(sq_x, sq_y, out=r2)
             np.square(r2, out=r2)
-            np.subtract(1.0, r2, out=r2)
             r2 *= dt_alpha
-            np.add(r2, 1.0, out=k1_re)
+            np.subtract(one_plus_dt_alpha, r2, out=k1_re)
             # acc_now already holds sum_{j >= k} dt R_kj z_j; add z_k + dt K_k z_k.
             np.multiply(k1, z, out=tmp)
             acc_now += tmp
             # Clamp dt*v to dt*(xy_dot_old -+ 10): new in [z + dt*xo - 10dt, z + dt*xo + 10dt].
             np.multiply(z_old, dt, out=lo)
             lo += z
-            np.add(lo, clamp, out=hi)
-            lo -= clamp
+            np.add(lo, clamp, out=bounds)  # both bounds in one call (lo read before written)
             np.copyto(z_old, z)  # the quirk: xy_dot_old <- previous xy
             # Gauss-Seidel sweep: clip node i's update into place, then scatter its coupling.
             for acc_i, lo_i, hi_i, zf_i, z_i, scatter, window in rows:

@@ -1,0 +1,471 @@
+"""Evaluation speed benchmark: the engine's paths against raw MuJoCo stepping, in one run.
+
+The gecko on ``SimpleFlatWorld`` for ``--duration`` simulated seconds (15 s = 7,500 steps at
+0.002 s). Every figure is the best (minimum) of ``--repeats`` wall times (``time.perf_counter``)
+after one untimed warm-up; ``gc.collect()`` runs before every sample, outside the timed region.
+
+1. raw: ``mj_step(model, data, nstep)`` from ``mj_resetData`` (zero ctrl, no callback) on the
+   tutorial's compiled model. The reference for the single-evaluation paths.
+2. tutorial path: one evaluation the way the quick-start tutorial's ``evaluate()`` does it, with
+   the world already built and compiled (built once): ``MjData``, ``Tracker`` + ``setup``,
+   ``NaCPG``, ``Controller``, ``set_mjcb_control``, ``simple_runner``, the displacement. All of
+   that per-evaluation work is timed (it is what a tutorial user pays per candidate); the
+   ``simple_runner`` call alone is reported beside it. The CPG gets the fast path's parameters
+   and initial state, so both paths walk the same gait (checked and printed).
+3. fast path: ``evaluate(task)`` for one NaCPG candidate on the prebuilt gecko, the model
+   already compiled and cached by ``build(task)``, default recording options.
+4. batch: ``evaluate_batch(tasks, nthread=threads)`` for ``--batch`` candidates, per evaluation,
+   against a raw threaded ``mujoco.rollout`` of the same control sequences (computed outside the
+   timed region, as the engine computes them) on the same number of threads.
+5. build: genotype -> compiled model for a 20-module NDE body (``build(task)``), a fresh random
+   genotype per sample so the build cache never hits; the one-time NDE weight creation is
+   excluded by a warm-up build.
+
+Prints a table, then as the last line one JSON object with ``tutorial_path_ratio``,
+``fast_path_ratio``, ``batch_ratio``, ``build_ms`` and context (raw_ms, threads, versions, load).
+
+    python experiments/benchmarks/evaluation.py [--repeats 5] [--duration 15] [--batch 32]
+        [--threads N] [--genotypes 20] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import os
+
+# BLAS/OpenMP pools must be sized before numpy (or torch) is first imported: they read these
+# variables once, at load. One thread each, as in the engine's workers: the benchmark measures
+# physics and Python overhead, and a second spinning BLAS/OpenMP thread would compete with
+# MuJoCo's rollout threads for the same cores and make the numbers noisy.
+for _variable in (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+):
+    os.environ[_variable] = "1"
+
+# The imports below must see the variables above, hence after code.
+import argparse  # noqa: E402
+import gc  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+from dataclasses import dataclass, field  # noqa: E402
+from typing import Any  # noqa: E402
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+from mujoco import rollout  # noqa: E402
+
+from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko  # noqa: E402
+from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate, evaluate_batch  # noqa: E402
+from ariel.evaluation._engine import control_sequence, num_steps  # noqa: E402
+from ariel.evaluation.builtin_plugins import NaCPGController  # noqa: E402
+from ariel.simulation.controllers.controller import Controller  # noqa: E402
+from ariel.simulation.controllers.na_cpg import (  # noqa: E402
+    NaCPG,
+    create_fully_connected_adjacency,
+)
+from ariel.simulation.environments import SimpleFlatWorld  # noqa: E402
+from ariel.utils.runners import simple_runner  # noqa: E402
+from ariel.utils.tracker import Tracker  # noqa: E402
+
+TARGETS = {  # name -> upper bound (ratios, except build in ms)
+    "tutorial_path_ratio": 1.6,
+    "fast_path_ratio": 1.1,
+    "batch_ratio": 1.15,
+    "build_ms": 12.0,
+}
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=5, help="timed samples per figure")
+    parser.add_argument("--duration", type=float, default=15.0, help="simulated seconds")
+    parser.add_argument("--batch", type=int, default=32, help="candidates in the batch")
+    parser.add_argument(
+        "--threads", type=int, default=os.cpu_count() or 1, help="rollout threads (batch)"
+    )
+    parser.add_argument("--genotypes", type=int, default=20, help="NDE bodies built (build)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of parameters and genotypes")
+    args = parser.parse_args(argv)
+    for name in ("repeats", "batch", "threads", "genotypes"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name} must be an integer >= 1, got {getattr(args, name)}")
+    if not (math.isfinite(args.duration) and args.duration > 0):
+        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
+    return args
+
+
+def load_average() -> tuple[float, float, float] | None:
+    """1, 5 and 15 minute load averages (None where /proc/loadavg does not exist)."""
+    try:
+        with open("/proc/loadavg") as file:
+            one, five, fifteen = file.read().split()[:3]
+    except OSError:
+        return None
+    return float(one), float(five), float(fifteen)
+
+
+@dataclass
+class Samples:
+    """Wall times (seconds) of the timed samples of one figure, by part."""
+
+    parts: dict[str, list[float]] = field(default_factory=dict)
+
+    def add(self, **seconds: float) -> None:
+        for name, value in seconds.items():
+            self.parts.setdefault(name, []).append(value)
+
+    def best(self, part: str = "total") -> float:
+        return min(self.parts[part])
+
+
+def measure(sample: Callable[[], dict[str, float]], repeats: int) -> Samples:
+    """One untimed warm-up, then ``repeats`` samples; ``sample`` returns its own timings."""
+    sample()
+    samples = Samples()
+    for _ in range(repeats):
+        gc.collect()  # no collection of earlier garbage inside a timed region
+        samples.add(**sample())
+    return samples
+
+
+def timed(run: Callable[[], Any], prepare: Callable[[], Any] | None = None) -> dict[str, float]:
+    """``prepare()`` untimed, then ``run()`` timed: ``{"total": seconds}``."""
+    if prepare is not None:
+        prepare()
+    start = time.perf_counter()
+    run()
+    return {"total": time.perf_counter() - start}
+
+
+# --------------------------------------------------------------------------------------------
+# The figures
+# --------------------------------------------------------------------------------------------
+
+
+def bench_raw(model: mujoco.MjModel, nstep: int, repeats: int) -> Samples:
+    """Plain ``mj_step`` from a reset: zero control, no callback."""
+    data = mujoco.MjData(model)
+    mujoco.set_mjcb_control(None)
+    return measure(
+        lambda: timed(
+            lambda: mujoco.mj_step(model, data, nstep=nstep),
+            lambda: mujoco.mj_resetData(model, data),  # also zeroes ctrl
+        ),
+        repeats,
+    )
+
+
+def tutorial_evaluation(
+    world: Any, model: mujoco.MjModel, params: np.ndarray, state: Any, duration: float
+) -> tuple[dict[str, float], mujoco.MjData]:
+    """The tutorial's per-evaluation work on an already compiled world, timed by part."""
+    start = time.perf_counter()
+    data = mujoco.MjData(model)
+    tracker = Tracker(mujoco.mjtObj.mjOBJ_GEOM, "core", ["xpos"])
+    tracker.setup(world.spec, data)
+    cpg = NaCPG(create_fully_connected_adjacency(model.nu), hard_bounds=(-math.pi / 2, math.pi / 2))
+    cpg.set_flat_params(params)  # the fast path's candidate, so both paths walk the same gait
+    cpg.set_initial_state(*state)
+    controller = Controller(
+        controller_callback_function=lambda m, d: cpg.forward(time=d.time), tracker=tracker
+    )
+    mujoco.set_mjcb_control(controller.set_control)
+    try:
+        runner_start = time.perf_counter()
+        simple_runner(model, data, duration=duration)
+        runner_end = time.perf_counter()
+    finally:
+        mujoco.set_mjcb_control(None)
+    xpos = tracker.history["xpos"][0]
+    float(np.linalg.norm(np.asarray(xpos[-1])[:2] - np.asarray(xpos[0])[:2]))  # the fitness
+    end = time.perf_counter()
+    return {"total": end - start, "runner": runner_end - runner_start}, data
+
+
+def bench_tutorial(
+    world: Any, model: mujoco.MjModel, params: np.ndarray, state: Any, args: argparse.Namespace
+) -> tuple[Samples, np.ndarray]:
+    """Tutorial-path samples and the core's final position (for the same-gait check)."""
+    last: list[mujoco.MjData] = []
+
+    def sample() -> dict[str, float]:
+        seconds, data = tutorial_evaluation(world, model, params, state, args.duration)
+        last[:] = [data]
+        return seconds
+
+    samples = measure(sample, args.repeats)
+    data = last[0]
+    mujoco.mj_kinematics(model, data)  # geom_xpos of the final state, as the engine records it
+    core = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "robot1_core")
+    return samples, data.geom_xpos[core].copy()
+
+
+def bench_fast(task: EvaluationTask, repeats: int) -> tuple[Samples, Any]:
+    """``evaluate(task)`` with the body already compiled and cached."""
+    build(task)
+    results: list[Any] = []
+
+    def sample() -> dict[str, float]:
+        start = time.perf_counter()
+        result = evaluate(task)
+        total = time.perf_counter() - start
+        results[:] = [result]
+        return {"total": total, "engine": result.wall_time}
+
+    samples = measure(sample, repeats)
+    return samples, results[0]
+
+
+def engine_controls(tasks: list[EvaluationTask], built: Any) -> np.ndarray:
+    """Per-step controls ``(B, nstep, nu)`` of ``tasks``, computed as the engine computes them."""
+    head = tasks[0]
+    model = built.model
+    nstep = num_steps(head, model)
+    call_times = np.arange(0, nstep, head.control_period) * model.opt.timestep
+    smoothing = float(head.controller_options.get("smoothing", 0.5))
+    controller = NaCPGController()
+    params = np.array([t.params for t in tasks])
+    seeds = np.array([t.seed for t in tasks])
+    targets = np.empty((len(tasks), call_times.size, model.nu))
+    for seed in np.unique(seeds):
+        rows = np.flatnonzero(seeds == seed)
+        targets[rows] = controller.targets(params[rows], call_times, model, seed=int(seed))
+    return control_sequence(targets, nstep, head.control_period, smoothing, built.low, built.high)
+
+
+def bench_rollout(
+    built: Any, controls: np.ndarray, nthread: int, repeats: int
+) -> tuple[Samples, np.ndarray]:
+    """A raw threaded rollout of precomputed controls (the physics alone), whole batch.
+
+    Also returns the final actuated joint angles ``(B, nu)`` of the last sample.
+    """
+    model = built.model
+    nthread = max(1, min(nthread, controls.shape[0]))  # as the engine caps it
+    datas = [mujoco.MjData(model) for _ in range(nthread)]
+    state = built.initial_state[None, :]
+    nstep = controls.shape[1]
+    pool = rollout.Rollout(nthread=nthread)
+    outputs: list[np.ndarray] = []
+
+    def run() -> None:
+        states, _ = pool.rollout(model, datas, state, controls, nstep=nstep)
+        outputs[:] = [states]
+
+    try:
+        mujoco.set_mjcb_control(None)
+        samples = measure(lambda: timed(run), repeats)
+    finally:
+        pool.close()
+    return samples, outputs[0][:, -1, 1 + built.joint_qpos]  # FULLPHYSICS: time, qpos, ...
+
+
+def bench_batch(tasks: list[EvaluationTask], nthread: int, repeats: int) -> tuple[Samples, list]:
+    """``evaluate_batch`` over all tasks (whole-batch wall times)."""
+    build(tasks[0])
+    results: list[Any] = []
+
+    def sample() -> dict[str, float]:
+        start = time.perf_counter()
+        out = evaluate_batch(tasks, nthread=nthread)
+        total = time.perf_counter() - start
+        results[:] = out
+        return {"total": total, "engine": sum(r.wall_time for r in out)}
+
+    return measure(sample, repeats), results
+
+
+def bench_build(args: argparse.Namespace, rng: np.random.Generator) -> tuple[list[float], list]:
+    """``build`` of fresh 20-module NDE bodies: per-genotype seconds and module counts."""
+
+    def task_for(genotype: np.ndarray) -> EvaluationTask:
+        body = BodySpec("nde", genotype, {"number_of_modules": 20})
+        return EvaluationTask(body=body, duration=args.duration)
+
+    build(task_for(rng.random((3, 64))))  # warm-up: NDE weights (torch) and imports, once
+    limit_torch_threads()
+    seconds: list[float] = []
+    modules: list[int] = []
+    for _ in range(args.genotypes):
+        task = task_for(rng.random((3, 64)))  # a new genotype: the build cache cannot hit
+        gc.collect()
+        start = time.perf_counter()
+        built = build(task)
+        seconds.append(time.perf_counter() - start)
+        modules.append(int(built.descriptors.get("num_modules", -1)))
+    return seconds, modules
+
+
+def limit_torch_threads() -> None:
+    """One intra-op thread for torch, if it is loaded (same reason as the variables above)."""
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(1)
+
+
+# --------------------------------------------------------------------------------------------
+# Report
+# --------------------------------------------------------------------------------------------
+
+
+def verdict(name: str, value: float) -> str:
+    target = TARGETS[name]
+    return f"<= {target:g}  {'ok' if value <= target else 'MISSED'}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    limit_torch_threads()  # na_cpg imports torch
+    load_before = load_average()
+    rng = np.random.default_rng(args.seed)
+
+    # One compiled tutorial world (built once, outside every timed region).
+    mujoco.set_mjcb_control(None)
+    world = SimpleFlatWorld()
+    robot = gecko()
+    world.spawn(robot.spec, position=[0, 0, 0])
+    model = world.spec.compile()
+    nstep = round(args.duration / model.opt.timestep)
+
+    controller = NaCPGController()
+    body = BodySpec("prebuilt", "gecko")
+    params = controller.random_parameters(model, rng, args.batch + 1)
+    single = EvaluationTask(
+        body=body, params=params[0], duration=args.duration, seed=args.seed, eval_id="single"
+    )
+    built = build(single)
+    batch = [
+        EvaluationTask(
+            body=body, params=p, duration=args.duration, seed=args.seed + 1 + i, eval_id=f"b{i}"
+        )
+        for i, p in enumerate(params[1:])
+    ]
+
+    print(
+        f"ARIEL evaluation benchmark: gecko on SimpleFlatWorld, {args.duration:g} s simulated "
+        f"({nstep} steps of {model.opt.timestep:g} s), best of {args.repeats} after a warm-up"
+    )
+    print(
+        f"mujoco {mujoco.__version__}, numpy {np.__version__}, python {platform.python_version()}"
+        f", {os.cpu_count()} CPUs, batch {args.batch} on {args.threads} threads, "
+        f"load average {load_before}"
+    )
+
+    raw = bench_raw(model, nstep, args.repeats)
+    state = controller.initial_state(built.model, single.seed)
+    tutorial, tutorial_core = bench_tutorial(world, model, np.asarray(single.params), state, args)
+    fast, fast_result = bench_fast(single, args.repeats)
+    gait, _ = bench_rollout(built, engine_controls([single], built), 1, args.repeats)
+    batch_controls = engine_controls(batch, built)
+    reference, final = bench_rollout(built, batch_controls, args.threads, args.repeats)
+    batched, batch_results = bench_batch(batch, args.threads, args.repeats)
+    build_seconds, modules = bench_build(args, rng)
+    load_after = load_average()
+
+    raw_ms = raw.best() * 1e3
+    tutorial_ms = tutorial.best() * 1e3
+    fast_ms = fast.best() * 1e3
+    gait_ms = gait.best() * 1e3
+    batch_ms = batched.best() * 1e3 / args.batch
+    reference_ms = reference.best() * 1e3 / args.batch
+    build_ms = statistics.median(build_seconds) * 1e3
+    ratios = {
+        "tutorial_path_ratio": tutorial_ms / raw_ms,
+        "fast_path_ratio": fast_ms / raw_ms,
+        "batch_ratio": batch_ms / reference_ms,
+    }
+
+    rows = [
+        ("raw mj_step (zero ctrl, reference)", raw_ms, "1.00", ""),
+        (
+            "tutorial path, whole evaluation",
+            tutorial_ms,
+            f"{ratios['tutorial_path_ratio']:.2f}",
+            verdict("tutorial_path_ratio", ratios["tutorial_path_ratio"]),
+        ),
+        ("  of which simple_runner", tutorial.best("runner") * 1e3, "", ""),
+        (
+            "fast path evaluate(task)",
+            fast_ms,
+            f"{ratios['fast_path_ratio']:.2f}",
+            verdict("fast_path_ratio", ratios["fast_path_ratio"]),
+        ),
+        ("  of which controls + physics", fast.best("engine") * 1e3, "", ""),
+        ("raw rollout of the same gait, 1 thread", gait_ms, f"{gait_ms / raw_ms:.2f}", "(info)"),
+        (f"raw rollout, {args.batch} evals, per eval", reference_ms, "1.00", "batch reference"),
+        (
+            f"evaluate_batch, {args.batch} evals, per eval",
+            batch_ms,
+            f"{ratios['batch_ratio']:.2f}",
+            verdict("batch_ratio", ratios["batch_ratio"]),
+        ),
+        ("  of which controls + physics", batched.best("engine") * 1e3 / args.batch, "", ""),
+        ("  batch per eval / raw mj_step", batch_ms, f"{batch_ms / raw_ms:.2f}", "(info)"),
+    ]
+    print()
+    print(f"{'figure':<44}{'ms':>9}{'ratio':>8}  target")
+    print("-" * 78)
+    for label, ms, ratio, note in rows:
+        print(f"{label:<44}{ms:>9.2f}{ratio:>8}  {note}")
+    print(
+        f"{'build, 20-module NDE body (median)':<44}{build_ms:>9.2f}{'':>8}  "
+        f"{verdict('build_ms', build_ms)}"
+    )
+    print(
+        f"  min {min(build_seconds) * 1e3:.2f} ms, max {max(build_seconds) * 1e3:.2f} ms over "
+        f"{len(build_seconds)} genotypes; modules per body: min {min(modules)}, median "
+        f"{statistics.median(modules):g}, max {max(modules)}"
+    )
+
+    # Same work on both sides? The tutorial and fast paths should walk the same gait, and the
+    # batch reference should reproduce the engine's final joint angles.
+    gait_diff = float(np.max(np.abs(tutorial_core - fast_result.core_pos[-1])))
+    angle_diff = max(
+        float(np.max(np.abs(final[b] - r.joint_angle[-1]))) for b, r in enumerate(batch_results)
+    )
+    statuses = sorted({r.status for r in [fast_result, *batch_results]})
+    print()
+    print(f"tutorial vs fast path, final core position: max |diff| {gait_diff:.3g} m")
+    print(f"batch reference vs engine, final joint angles: max |diff| {angle_diff:.3g} rad")
+    print(f"statuses: {', '.join(statuses)}; load average after: {load_after}")
+
+    summary = {
+        **{k: round(v, 4) for k, v in ratios.items()},
+        "build_ms": round(build_ms, 3),
+        "raw_ms": round(raw_ms, 3),
+        "tutorial_ms": round(tutorial_ms, 3),
+        "tutorial_runner_ms": round(tutorial.best("runner") * 1e3, 3),
+        "fast_ms": round(fast_ms, 3),
+        "raw_gait_ms": round(gait_ms, 3),
+        "batch_per_eval_ms": round(batch_ms, 3),
+        "raw_rollout_per_eval_ms": round(reference_ms, 3),
+        "batch_vs_raw_step_ratio": round(batch_ms / raw_ms, 4),
+        "build_min_ms": round(min(build_seconds) * 1e3, 3),
+        "build_modules_median": statistics.median(modules),
+        "same_gait_max_diff": gait_diff,
+        "duration_s": args.duration,
+        "nstep": nstep,
+        "repeats": args.repeats,
+        "batch": args.batch,
+        "threads": args.threads,
+        "cpus": os.cpu_count(),
+        "mujoco": mujoco.__version__,
+        "numpy": np.__version__,
+        "loadavg_before": load_before,
+        "loadavg_after": load_after,
+    }
+    print(json.dumps(summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
