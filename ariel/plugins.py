@@ -185,9 +185,12 @@ class OpenLoopController(ControllerPlugin, Protocol):
     """Controls as a function of time only: the engine precomputes them, vectorised."""
 
     def targets(
-        self, params: np.ndarray, sample_times: np.ndarray, model: mujoco.MjModel
+        self, params: np.ndarray, sample_times: np.ndarray, model: mujoco.MjModel, *, seed: int
     ) -> np.ndarray:
-        """Actuator targets ``(B, T, nu)`` for params ``(B, P)`` at ``sample_times`` ``(T,)``."""
+        """Actuator targets ``(B, T, nu)`` for params ``(B, P)`` at ``sample_times`` ``(T,)``.
+
+        ``seed`` is the evaluation's seed (for e.g. an oscillator's random initial state).
+        """
         ...
 
 

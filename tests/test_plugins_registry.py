@@ -368,7 +368,7 @@ def test_protocols_accept_a_conforming_controller() -> None:
         def random_parameters(self, model: Any, rng: Any, n: int) -> Any:
             return [[0.0, 0.0]] * n
 
-        def targets(self, params: Any, sample_times: Any, model: Any) -> Any:
+        def targets(self, params: Any, sample_times: Any, model: Any, *, seed: int) -> Any:
             return params
 
     controller = SineController()

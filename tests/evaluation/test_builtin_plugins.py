@@ -92,7 +92,7 @@ def test_nde_encoder_is_seeded_and_mutation_changes_genes() -> None:
 
 
 def test_prebuilt_encoder_rejects_unknown_bodies() -> None:
-    with pytest.raises(ValueError, match="unknown prebuilt body 'dragon'; known: .*gecko"):
+    with pytest.raises(ValueError, match=r"unknown prebuilt body .dragon.; known: .*gecko"):
         body_encoders.make("prebuilt").build("dragon")
 
 
@@ -108,7 +108,9 @@ def test_a_third_party_fitness_plugin_from_an_entry_point_is_used_in_an_evaluati
 
             mean_core_height.maximise = True
         """,
-        entry_points={"ariel.fitness": {"mean_core_height": "ariel_height_plugin:mean_core_height"}},
+        entry_points={
+            "ariel.fitness": {"mean_core_height": "ariel_height_plugin:mean_core_height"}
+        },
     )
     assert "mean_core_height" in fitness_functions.names()
     result = evaluate(

@@ -146,9 +146,8 @@ def test_closed_loop_controller_runs_in_chunks_and_is_deterministic() -> None:
 def test_unstable_physics_gives_status_unstable_and_the_worst_fitness() -> None:
     unstable_world = {"timestep": 0.05, "mujoco_config": {"integrator": "EULER"}}
     params = gecko_params(2)
-    results = evaluate_batch(
-        [task(p, world_options=unstable_world) for p in params], nthread=2
-    ) + [evaluate(task(params[0], world_options=unstable_world))]
+    batch = evaluate_batch([task(p, world_options=unstable_world) for p in params], nthread=2)
+    results = [*batch, evaluate(task(params[0], world_options=unstable_world))]
     for result in results:
         assert result.status == "unstable"
         assert result.fitness == -math.inf

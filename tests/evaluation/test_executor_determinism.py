@@ -13,7 +13,9 @@ def _tasks() -> list[EvaluationTask]:
     nde = BodySpec("nde", np.random.default_rng(2).random((3, 64)), {"number_of_modules": 10})
     gecko = BodySpec("prebuilt", "gecko")
     params = np.random.default_rng(3).uniform(-1, 1, (3, 40))
-    tasks = [EvaluationTask(body=gecko, params=p, duration=0.5, seed=i) for i, p in enumerate(params)]
+    tasks = [
+        EvaluationTask(body=gecko, params=p, duration=0.5, seed=i) for i, p in enumerate(params)
+    ]
     tasks.append(EvaluationTask(body=nde, params=(), duration=0.5))  # may have no hinges
     return tasks
 

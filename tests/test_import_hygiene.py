@@ -1,0 +1,61 @@
+"""Nothing happens on import: no heavy libraries where they are not needed, no files, no RNG."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+HEAVY = ("torch", "matplotlib", "rerun")
+
+PROBE = """
+import json, sys, os
+before = set(os.listdir("."))
+import {module}
+print(json.dumps({{"loaded": sorted(m for m in {heavy} if m in sys.modules),
+                   "new_files": sorted(set(os.listdir(".")) - before)}}))
+"""
+
+
+def _probe(module: str, cwd: Path) -> dict:
+    code = PROBE.format(module=module, heavy=repr(HEAVY))
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=cwd, env=env, capture_output=True, text=True, check=True
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize(
+    "module",
+    [
+        "ariel",
+        "ariel.evaluation",
+        "ariel.plugins",
+        "ariel.body_phenotypes.robogen_lite.config",
+        "ariel.body_phenotypes.robogen_lite.modules.core",
+        "ariel.body_phenotypes.robogen_lite.modules.hinge",
+        "ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko",
+        "ariel.body_phenotypes.robogen_lite.constructor",
+        "ariel.body_phenotypes.robogen_lite.decoders.hi_prob_decoding",
+        "ariel.simulation.environments",
+        "ariel.simulation.controllers.controller",
+        "ariel.simulation.controllers.cpg_kernel",
+        "ariel.evaluation._engine",
+        "ariel.evaluation.builtin_plugins",
+    ],
+)
+def test_import_loads_no_heavy_library_and_writes_no_file(module: str, tmp_path: Path) -> None:
+    report = _probe(module, tmp_path)
+    assert report["loaded"] == [], f"{module} imported {report['loaded']}"
+    assert report["new_files"] == []
+
+
+def test_importing_the_tutorial_modules_writes_no_file(tmp_path: Path) -> None:
+    # The NDE and NaCPG need torch (the tutorial API); they still create nothing.
+    for module in ("ariel.ec.genotypes.nde.nde", "ariel.simulation.controllers.na_cpg"):
+        assert _probe(module, tmp_path)["new_files"] == []
