@@ -10,13 +10,24 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from ariel.simulation.controllers.controller import Controller, blend_and_clip
+    from ariel.simulation.controllers.controller import (
+        Controller,
+        actuator_bounds,
+        blend_and_clip,
+    )
     from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
 
-__all__ = ["Controller", "NaCPG", "blend_and_clip", "create_fully_connected_adjacency"]
+__all__ = [
+    "Controller",
+    "NaCPG",
+    "actuator_bounds",
+    "blend_and_clip",
+    "create_fully_connected_adjacency",
+]
 
 _MODULES = {
     "Controller": "controller",
+    "actuator_bounds": "controller",
     "blend_and_clip": "controller",
     "NaCPG": "na_cpg",
     "create_fully_connected_adjacency": "na_cpg",

@@ -44,7 +44,16 @@ monotone so the result is the same) and a multiply-add that pushes the new value
 into the accumulators of the nodes that see it next (later nodes this step, earlier nodes and
 itself next step). Only elementwise ufuncs are used (no BLAS, no reductions, whose summation
 order may depend on array shapes), so results do not depend on the batch size or on how the
-integration is split into calls.
+integration is split into calls (tests check both bit for bit).
+
+The operations are grouped differently from the literal update above, so the two agree to
+rounding (about 1e-14 after 100 steps); as in any such oscillator network, some parameter
+sets amplify rounding differences over long runs. Bit-identical results are promised between
+the paths of this module (and ``NaCPG``) on one machine and numpy build, not across CPUs:
+numpy may use fused multiply-add for complex products where the CPU has it.
+
+Speed (2-core VM, shared): 1500 steps (15 s of CPG time) with 150 samples of 8 joints take
+about 37 ms for one candidate and 63 ms for 32 candidates together.
 """
 
 from __future__ import annotations
@@ -530,6 +539,11 @@ def cpg_targets(
     The value at time ``t`` is the output after ``cpg_steps(t, dt)`` internal steps from
     ``initial_state`` (what ``NaCPG.forward(t)`` returns, before its float32 cast). Times may
     come in any order and repeat. ``params`` ``(5n,)`` gives ``(T, n)``.
+
+    To reproduce the tutorial path (``Controller`` + ``NaCPG``) bit for bit, cast the result to
+    float32 and back, as ``forward`` does, and smooth it with ``controller.blend_and_clip``.
+    NaN (possible only through float overflow with extreme parameters) is returned as is,
+    where ``NaCPG.forward`` raises.
     """
     kernel = NaCPGKernel(params, adjacency, alpha=alpha, dt=dt)
     kernel.set_state(*initial_state)
