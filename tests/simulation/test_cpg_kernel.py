@@ -169,6 +169,7 @@ def test_cpg_targets_sampling_semantics() -> None:
     np.testing.assert_array_equal(targets[:, 0], ck.angles(params, state.xy[None]))
     after = ck.integrate(params, state, 100)
     np.testing.assert_array_equal(targets[:, 10], ck.angles(params, after.xy))
+    np.testing.assert_array_equal(targets[:, 10], ck.angles(params, after))  # a CPGState too
     # Order and repeats do not matter.
     shuffled = np.random.default_rng(0).permutation(150)
     np.testing.assert_array_equal(

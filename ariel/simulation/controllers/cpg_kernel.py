@@ -205,14 +205,16 @@ def cpg_steps(times: ArrayLike, dt: float) -> np.ndarray:
 
 def angles(
     params: ArrayLike,
-    xy: ArrayLike,
+    xy: ArrayLike | CPGState,
     hard_bounds: tuple[float, float] | None = DEFAULT_HARD_BOUNDS,
 ) -> np.ndarray:
     """Joint targets ``clip(amplitudes * y + b, lo, hi)``.
 
-    ``params`` ``(..., 5n)`` and states ``xy`` ``(..., n, 2)`` broadcast against each other;
-    ``hard_bounds=None`` skips the clip.
+    ``params`` ``(..., 5n)`` and states ``xy`` ``(..., n, 2)`` (or a ``CPGState``) broadcast
+    against each other; ``hard_bounds=None`` skips the clip.
     """
+    if isinstance(xy, CPGState):
+        xy = xy.xy
     groups = split_parameters(params)
     y = np.asarray(xy, dtype=np.float64)[..., 1]
     return _outputs(groups["amplitudes"], groups["b"], y, hard_bounds)

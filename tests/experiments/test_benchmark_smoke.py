@@ -1,0 +1,48 @@
+"""Smoke test of experiments/benchmarks/evaluation.py: it runs and ends with its JSON summary.
+
+Tiny settings and no timing assertions (the machine's load decides the numbers).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "benchmarks" / "evaluation.py"
+KEYS = ("tutorial_path_ratio", "fast_path_ratio", "batch_ratio", "build_ms")
+
+
+def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, str(SCRIPT), *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=300,
+    )
+
+
+def test_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
+    result = _run("--repeats", "1", "--duration", "0.5", "--batch", "2", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    lines = result.stdout.strip().splitlines()
+    summary = json.loads(lines[-1])
+    for key in KEYS:
+        value = summary[key]
+        assert isinstance(value, int | float) and not isinstance(value, bool), key
+        assert math.isfinite(value) and value > 0, (key, value)
+    assert summary["nstep"] == 250 and summary["batch"] == 2
+    # The table names every figure, and both paths walked the same gait.
+    table = "\n".join(lines[:-1])
+    for label in ("raw mj_step", "tutorial path", "fast path", "evaluate_batch", "build"):
+        assert label in table
+    assert summary["same_gait_max_diff"] == 0.0
+
+
+def test_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
+    result = _run("--repeats", "0", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "--repeats must be an integer >= 1" in result.stderr
