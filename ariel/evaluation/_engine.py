@@ -308,11 +308,9 @@ def _open_loop(
             head, built, controller, params, call_times, nstep, period, smoothing
         )
     else:
-        targets = np.empty((len(tasks), call_times.size, model.nu))
-        seeds = np.array([t.seed for t in tasks])
-        for seed in np.unique(seeds):
-            rows = np.flatnonzero(seeds == seed)
-            targets[rows] = controller.targets(params[rows], call_times, model, seed=int(seed))
+        seeds = [t.seed for t in tasks]
+        shared = seeds.count(seeds[0]) == len(seeds)
+        targets = controller.targets(params, call_times, model, seed=seeds[0] if shared else seeds)
         controls = control_sequence(targets, nstep, period, smoothing, built.low, built.high)
         nthread = max(1, min(nthread, len(tasks)))
         datas = [mujoco.MjData(model) for _ in range(nthread)]
@@ -351,7 +349,6 @@ def _pipelined_single(
     nstep: int,
     period: int,
     smoothing: float,
-    chunks: int = 8,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One candidate: compute the CPG (Python) on a second thread while physics (C) steps.
 
@@ -361,6 +358,11 @@ def _pipelined_single(
     """
     model = built.model
     pieces: queue.SimpleQueue[Any] = queue.SimpleQueue()
+    # Pieces of 1, 2, 4, ... 16 controller calls: stepping starts almost at once, and the
+    # CPG thread then stays ahead of the physics.
+    chunks: list[int] = []
+    while sum(chunks) < call_times.size:
+        chunks.append(min(2 ** len(chunks), 16, call_times.size - sum(chunks)))
 
     def produce() -> None:
         try:
@@ -385,7 +387,7 @@ def _pipelined_single(
     try:
         producer.start()
         with control_callback_unset():
-            for _ in range(chunks):
+            for _ in chunks:
                 piece = pieces.get()
                 if isinstance(piece, BaseException):
                     raise piece

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import mujoco
@@ -258,7 +258,22 @@ class NaCPGController:
         return cpg_kernel.random_parameters(model.nu, rng, size=n)
 
     def initial_state(self, model: mujoco.MjModel, seed: int) -> cpg_kernel.CPGState:
+        """The oscillators' initial state for an evaluation seed (``(nu, 2)`` arrays)."""
         return cpg_kernel.random_state(model.nu, np.random.default_rng(seed))
+
+    def _initial_states(
+        self, model: mujoco.MjModel, seed: int | Sequence[int], batch: int
+    ) -> cpg_kernel.CPGState:
+        """One state for all rows (an int seed) or one per row (a seed per row)."""
+        if np.ndim(seed) == 0:
+            return self.initial_state(model, int(seed))
+        seeds = [int(s) for s in seed]
+        if len(seeds) != batch:
+            raise ValueError(f"got {len(seeds)} seeds for {batch} parameter vectors")
+        states = [self.initial_state(model, s) for s in seeds]
+        return cpg_kernel.CPGState(
+            np.stack([s.xy for s in states]), np.stack([s.xy_dot_old for s in states])
+        )
 
     def adjacency(self, n: int) -> np.ndarray:
         if self.coupling == "none":
@@ -266,9 +281,18 @@ class NaCPGController:
         return cpg_kernel.fully_connected_adjacency_matrix(n)
 
     def targets(
-        self, params: np.ndarray, sample_times: np.ndarray, model: mujoco.MjModel, *, seed: int
+        self,
+        params: np.ndarray,
+        sample_times: np.ndarray,
+        model: mujoco.MjModel,
+        *,
+        seed: int | Sequence[int],
     ) -> np.ndarray:
-        """Targets ``(B, T, nu)`` at ascending ``sample_times`` (seconds)."""
+        """Targets ``(B, T, nu)`` at ascending ``sample_times`` (seconds).
+
+        ``seed``: one evaluation seed for all rows, or one per row (all rows still integrate
+        in a single vectorised pass).
+        """
         (out,) = self.iter_targets(params, sample_times, model, seed=seed, chunks=1)
         return out
 
@@ -278,10 +302,11 @@ class NaCPGController:
         sample_times: np.ndarray,
         model: mujoco.MjModel,
         *,
-        seed: int,
-        chunks: int,
+        seed: int | Sequence[int],
+        chunks: int | Sequence[int],
     ) -> Iterator[np.ndarray]:
-        """`targets` in ``chunks`` consecutive pieces along time, computed lazily.
+        """`targets` in consecutive pieces along time, computed lazily: ``chunks`` equal pieces,
+        or pieces of the given sizes (summing to ``len(sample_times)``).
 
         Lets the engine start stepping physics on the first piece while the rest is computed.
         """
@@ -289,12 +314,18 @@ class NaCPGController:
         kernel = cpg_kernel.NaCPGKernel(
             batch, self.adjacency(model.nu), alpha=self.alpha, dt=self.dt
         )
-        kernel.set_state(*self.initial_state(model, seed))
+        kernel.set_state(*self._initial_states(model, seed, batch.shape[0]))
         steps = cpg_kernel.cpg_steps(sample_times, self.dt)
         if np.any(np.diff(steps) < 0):
             raise ValueError("sample_times must be ascending")
         done = 0
-        for piece in np.array_split(np.arange(steps.size), max(1, chunks)):
+        if np.ndim(chunks) == 0:
+            pieces = np.array_split(np.arange(steps.size), max(1, int(chunks)))
+        else:
+            if sum(chunks) != steps.size:
+                raise ValueError(f"chunk sizes sum to {sum(chunks)}, not {steps.size} samples")
+            pieces = np.split(np.arange(steps.size), np.cumsum(chunks)[:-1])
+        for piece in pieces:
             xy = np.empty((batch.shape[0], piece.size, model.nu, 2))
             for j, idx in enumerate(piece):
                 kernel.advance(int(steps[idx]) - done)

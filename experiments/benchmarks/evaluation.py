@@ -2,7 +2,8 @@
 
 The gecko on ``SimpleFlatWorld`` for ``--duration`` simulated seconds (15 s = 7,500 steps at
 0.002 s). Every figure is the best (minimum) of ``--repeats`` wall times (``time.perf_counter``)
-after one untimed warm-up; ``gc.collect()`` runs before every sample, outside the timed region.
+after one untimed warm-up; the figures are sampled round robin (one sample of each per round), so
+load on a shared machine affects them alike; ``gc.collect()`` runs before every sample, untimed.
 
 1. raw: ``mj_step(model, data, nstep)`` from ``mj_resetData`` (zero ctrl, no callback) on the
    tutorial's compiled model. The reference for the single-evaluation paths. A walking robot
@@ -31,7 +32,7 @@ Prints a table, then as the last line one JSON object with ``tutorial_path_ratio
 ``fast_path_ratio``, ``batch_ratio``, ``build_ms`` and context (raw_ms, threads, versions, load).
 
     python experiments/benchmarks/evaluation.py [--repeats 5] [--duration 15] [--batch 32]
-        [--threads N] [--genotypes 20] [--seed 0]
+        [--threads N] [--genotypes 20] [--seed 0] [--batch-seeds shared|distinct]
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ for _variable in (
 
 # The imports below must see the variables above, hence after code.
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import gc  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
@@ -125,13 +127,17 @@ def load_average() -> tuple[float, float, float] | None:
     return float(one), float(five), float(fifteen)
 
 
+Sample = Callable[[], dict[str, float]]
+"""Runs one evaluation (or batch) and returns its wall times in seconds by part ("total", ...)."""
+
+
 @dataclass
 class Samples:
     """Wall times (seconds) of the timed samples of one figure, by part."""
 
     parts: dict[str, list[float]] = field(default_factory=dict)
 
-    def add(self, **seconds: float) -> None:
+    def add(self, seconds: dict[str, float]) -> None:
         for name, value in seconds.items():
             self.parts.setdefault(name, []).append(value)
 
@@ -139,41 +145,45 @@ class Samples:
         return min(self.parts[part])
 
 
-def measure(sample: Callable[[], dict[str, float]], repeats: int) -> Samples:
-    """One untimed warm-up, then ``repeats`` samples; ``sample`` returns its own timings."""
-    sample()
-    samples = Samples()
+def measure_interleaved(samplers: dict[str, Sample], repeats: int) -> dict[str, Samples]:
+    """One untimed warm-up of every figure, then ``repeats`` rounds of one sample of each.
+
+    Round robin rather than figure after figure: on a shared machine a burst of load then hits
+    every figure alike, instead of inflating whichever figure happened to run during it, which
+    would skew the ratios.
+    """
+    for sample in samplers.values():
+        sample()
+    results = {name: Samples() for name in samplers}
     for _ in range(repeats):
-        gc.collect()  # no collection of earlier garbage inside a timed region
-        samples.add(**sample())
-    return samples
+        for name, sample in samplers.items():
+            gc.collect()  # no collection of earlier garbage inside a timed region
+            results[name].add(sample())
+    return results
 
 
-def timed(run: Callable[[], Any], prepare: Callable[[], Any] | None = None) -> dict[str, float]:
-    """``prepare()`` untimed, then ``run()`` timed: ``{"total": seconds}``."""
-    if prepare is not None:
-        prepare()
+def timed(run: Callable[[], Any]) -> dict[str, float]:
+    """``{"total": seconds}`` of ``run()``."""
     start = time.perf_counter()
     run()
     return {"total": time.perf_counter() - start}
 
 
 # --------------------------------------------------------------------------------------------
-# The figures
+# The figures: each returns a sampler (plus what the consistency checks need)
 # --------------------------------------------------------------------------------------------
 
 
-def bench_raw(model: mujoco.MjModel, nstep: int, repeats: int) -> Samples:
+def raw_sampler(model: mujoco.MjModel, nstep: int) -> Sample:
     """Plain ``mj_step`` from a reset: zero control, no callback."""
     data = mujoco.MjData(model)
-    mujoco.set_mjcb_control(None)
-    return measure(
-        lambda: timed(
-            lambda: mujoco.mj_step(model, data, nstep=nstep),
-            lambda: mujoco.mj_resetData(model, data),  # also zeroes ctrl
-        ),
-        repeats,
-    )
+
+    def sample() -> dict[str, float]:
+        mujoco.set_mjcb_control(None)
+        mujoco.mj_resetData(model, data)  # also zeroes ctrl
+        return timed(lambda: mujoco.mj_step(model, data, nstep=nstep))
+
+    return sample
 
 
 def tutorial_evaluation(
@@ -203,38 +213,42 @@ def tutorial_evaluation(
     return {"total": end - start, "runner": runner_end - runner_start}, data
 
 
-def bench_tutorial(
-    world: Any, model: mujoco.MjModel, params: np.ndarray, state: Any, args: argparse.Namespace
-) -> tuple[Samples, np.ndarray]:
-    """Tutorial-path samples and the core's final position (for the same-gait check)."""
+def tutorial_sampler(
+    world: Any, model: mujoco.MjModel, params: np.ndarray, state: Any, duration: float
+) -> tuple[Sample, Callable[[], np.ndarray]]:
+    """Tutorial-path sampler, and the core's final position of its last run (same-gait check)."""
     last: list[mujoco.MjData] = []
 
     def sample() -> dict[str, float]:
-        seconds, data = tutorial_evaluation(world, model, params, state, args.duration)
+        seconds, data = tutorial_evaluation(world, model, params, state, duration)
         last[:] = [data]
         return seconds
 
-    samples = measure(sample, args.repeats)
-    data = last[0]
-    mujoco.mj_kinematics(model, data)  # geom_xpos of the final state, as the engine records it
-    core = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "robot1_core")
-    return samples, data.geom_xpos[core].copy()
+    def final_core() -> np.ndarray:
+        data = last[0]
+        mujoco.mj_kinematics(model, data)  # geom_xpos of the final state, as the engine records
+        core = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "robot1_core")
+        return data.geom_xpos[core].copy()
+
+    return sample, final_core
 
 
-def bench_fast(task: EvaluationTask, repeats: int) -> tuple[Samples, Any]:
-    """``evaluate(task)`` with the body already compiled and cached."""
-    build(task)
+def engine_sampler(tasks: list[EvaluationTask], nthread: int | None) -> tuple[Sample, list[Any]]:
+    """``evaluate(task)`` (one task, ``nthread`` None) or ``evaluate_batch``, body prebuilt.
+
+    The list returned fills with the results of the latest sample.
+    """
+    build(tasks[0])  # compiled and cached outside the timed region
     results: list[Any] = []
 
     def sample() -> dict[str, float]:
         start = time.perf_counter()
-        result = evaluate(task)
+        out = [evaluate(tasks[0])] if nthread is None else evaluate_batch(tasks, nthread=nthread)
         total = time.perf_counter() - start
-        results[:] = [result]
-        return {"total": total, "engine": result.wall_time}
+        results[:] = out
+        return {"total": total, "engine": sum(r.wall_time for r in out)}
 
-    samples = measure(sample, repeats)
-    return samples, results[0]
+    return sample, results
 
 
 def engine_controls(tasks: list[EvaluationTask], built: Any) -> np.ndarray:
@@ -254,12 +268,13 @@ def engine_controls(tasks: list[EvaluationTask], built: Any) -> np.ndarray:
     return control_sequence(targets, nstep, head.control_period, smoothing, built.low, built.high)
 
 
-def bench_rollout(
-    built: Any, controls: np.ndarray, nthread: int, repeats: int
-) -> tuple[Samples, np.ndarray]:
+def rollout_sampler(
+    built: Any, controls: np.ndarray, nthread: int, stack: contextlib.ExitStack
+) -> tuple[Sample, Callable[[], np.ndarray]]:
     """A raw threaded rollout of precomputed controls (the physics alone), whole batch.
 
-    Also returns the final actuated joint angles ``(B, nu)`` of the last sample.
+    Also gives the final actuated joint angles ``(B, nu)`` of the latest sample. The thread
+    pool lives until ``stack`` closes.
     """
     model = built.model
     nthread = max(1, min(nthread, controls.shape[0]))  # as the engine caps it
@@ -267,33 +282,21 @@ def bench_rollout(
     state = built.initial_state[None, :]
     nstep = controls.shape[1]
     pool = rollout.Rollout(nthread=nthread)
+    stack.callback(pool.close)
     outputs: list[np.ndarray] = []
 
     def run() -> None:
         states, _ = pool.rollout(model, datas, state, controls, nstep=nstep)
         outputs[:] = [states]
 
-    try:
-        mujoco.set_mjcb_control(None)
-        samples = measure(lambda: timed(run), repeats)
-    finally:
-        pool.close()
-    return samples, outputs[0][:, -1, 1 + built.joint_qpos]  # FULLPHYSICS: time, qpos, ...
-
-
-def bench_batch(tasks: list[EvaluationTask], nthread: int, repeats: int) -> tuple[Samples, list]:
-    """``evaluate_batch`` over all tasks (whole-batch wall times)."""
-    build(tasks[0])
-    results: list[Any] = []
-
     def sample() -> dict[str, float]:
-        start = time.perf_counter()
-        out = evaluate_batch(tasks, nthread=nthread)
-        total = time.perf_counter() - start
-        results[:] = out
-        return {"total": total, "engine": sum(r.wall_time for r in out)}
+        mujoco.set_mjcb_control(None)
+        return timed(run)
 
-    return measure(sample, repeats), results
+    def final_angles() -> np.ndarray:
+        return outputs[0][:, -1, 1 + built.joint_qpos]  # FULLPHYSICS state: time, qpos, ...
+
+    return sample, final_angles
 
 
 def bench_build(args: argparse.Namespace, rng: np.random.Generator) -> tuple[list[float], list]:
@@ -350,9 +353,12 @@ def main(argv: list[str] | None = None) -> int:
 
     controller = NaCPGController()
     body = BodySpec("prebuilt", "gecko")
-    params = controller.random_parameters(model, rng, args.batch + 1)
     single = EvaluationTask(
-        body=body, params=params[0], duration=args.duration, seed=args.seed, eval_id="single"
+        body=body,
+        params=controller.random_parameters(model, rng, 1)[0],
+        duration=args.duration,
+        seed=args.seed,
+        eval_id="single",
     )
     built = build(single)
     batch = [
@@ -363,7 +369,7 @@ def main(argv: list[str] | None = None) -> int:
             seed=args.seed + 1 + (i if args.batch_seeds == "distinct" else 0),
             eval_id=f"b{i}",
         )
-        for i, p in enumerate(params[1:])
+        for i, p in enumerate(controller.random_parameters(model, rng, args.batch))
     ]
 
     print(
@@ -377,14 +383,32 @@ def main(argv: list[str] | None = None) -> int:
         f"load average {load_before}"
     )
 
-    raw = bench_raw(model, nstep, args.repeats)
     state = controller.initial_state(built.model, single.seed)
-    tutorial, tutorial_core = bench_tutorial(world, model, np.asarray(single.params), state, args)
-    fast, fast_result = bench_fast(single, args.repeats)
-    gait, _ = bench_rollout(built, engine_controls([single], built), 1, args.repeats)
+    single_params = np.asarray(single.params)
     batch_controls = engine_controls(batch, built)
-    reference, final = bench_rollout(built, batch_controls, args.threads, args.repeats)
-    batched, batch_results = bench_batch(batch, args.threads, args.repeats)
+    with contextlib.ExitStack() as stack:
+        tutorial_sample, tutorial_core = tutorial_sampler(
+            world, model, single_params, state, args.duration
+        )
+        fast_sample, fast_results = engine_sampler([single], None)
+        gait_sample, _ = rollout_sampler(built, engine_controls([single], built), 1, stack)
+        reference_sample, final_angles = rollout_sampler(built, batch_controls, args.threads, stack)
+        batch_sample, batch_results = engine_sampler(batch, args.threads)
+        samples = measure_interleaved(
+            {
+                "raw": raw_sampler(model, nstep),
+                "tutorial": tutorial_sample,
+                "fast": fast_sample,
+                "gait": gait_sample,
+                "reference": reference_sample,
+                "batch": batch_sample,
+            },
+            args.repeats,
+        )
+        final = final_angles()
+    raw, tutorial, fast = samples["raw"], samples["tutorial"], samples["fast"]
+    gait, reference, batched = samples["gait"], samples["reference"], samples["batch"]
+    fast_result = fast_results[0]
     build_seconds, modules = bench_build(args, rng)
     load_after = load_average()
 
@@ -447,7 +471,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # Same work on both sides? The tutorial and fast paths should walk the same gait, and the
     # batch reference should reproduce the engine's final joint angles.
-    gait_diff = float(np.max(np.abs(tutorial_core - fast_result.core_pos[-1])))
+    gait_diff = float(np.max(np.abs(tutorial_core() - fast_result.core_pos[-1])))
     angle_diff = max(
         float(np.max(np.abs(final[b] - r.joint_angle[-1]))) for b, r in enumerate(batch_results)
     )

@@ -193,3 +193,10 @@ def test_unknown_plugin_names_list_the_known_ones() -> None:
         evaluate(task(np.zeros(40), controller="no_such_brain"))
     with pytest.raises(UnknownPluginError, match=r"known: .*flat"):
         evaluate(task(np.zeros(40), world="moon"))
+
+
+def test_batch_with_a_seed_per_candidate_equals_single_evaluations() -> None:
+    params = gecko_params(3, seed=6)
+    tasks = [task(p, seed=100 + i) for i, p in enumerate(params)]
+    for t, r in zip(tasks, evaluate_batch(tasks, nthread=2)):
+        assert_same_result(evaluate(t), r)

@@ -91,6 +91,9 @@ class Controller:
     time_steps_per_save: int = 500
     alpha: float = 0.5
     tracker: Tracker = field(default_factory=Tracker)
+    _model: Any = field(default=None, init=False, repr=False, compare=False)
+    _timestep: float = field(default=0.0, init=False, repr=False, compare=False)
+    _bounds: Any = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not callable(self.controller_callback_function):
@@ -109,7 +112,13 @@ class Controller:
         self, model: mujoco.MjModel, data: mujoco.MjData, *args: Any, **kwargs: Any
     ) -> None:
         """The MuJoCo control callback (``mujoco.set_mjcb_control(controller.set_control)``)."""
-        step = round(data.time / model.opt.timestep)
+        # Called every physics step: keep the common no-op step cheap. The timestep and bounds
+        # are read once per model and again at every reset (time 0), not on every step.
+        if model is not self._model or data.time == 0.0:
+            self._model = model
+            self._timestep = model.opt.timestep
+            self._bounds = actuator_bounds(model)
+        step = round(data.time / self._timestep)
         if step % self.time_steps_per_save == 0:
             tracker = self.tracker
             if tracker is not None and getattr(tracker, "is_set_up", True):
@@ -118,5 +127,5 @@ class Controller:
             out = _as_controls(
                 self.controller_callback_function(model, data, *args, **kwargs), model.nu
             )
-            low, high = actuator_bounds(model)
+            low, high = self._bounds
             data.ctrl[:] = blend_and_clip(data.ctrl, out, self.alpha, low, high)
