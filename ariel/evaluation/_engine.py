@@ -118,21 +118,24 @@ def _build_key(task: EvaluationTask) -> str:
 
 def _robot_module(task: EvaluationTask) -> tuple[Any, dict[str, float]]:
     """The robot's root module (a CoreModule) and its morphology descriptors."""
-    from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
+    from ariel.body_phenotypes.robogen_lite.constructor import (
+        construct_mjspec_from_graph,
+        validate_robot_graph,
+    )
     from ariel.body_phenotypes.robogen_lite.descriptors import morphology_descriptors
     from ariel.plugins import body_encoders
 
     encoder = body_encoders.make(task.body.encoder, **task.body.options)
     build_direct = getattr(encoder, "build", None)
-    graph = None
+    tree = None
     if build_direct is None:
-        graph = encoder.decode(task.body.genotype)
-        core = construct_mjspec_from_graph(graph)
+        tree = validate_robot_graph(encoder.decode(task.body.genotype))
+        core = construct_mjspec_from_graph(tree)
     else:
         core = build_direct(task.body.genotype)
         with contextlib.suppress(ValueError):
-            graph = encoder.decode(task.body.genotype)
-    descriptors = morphology_descriptors(graph) if graph is not None else {}
+            tree = validate_robot_graph(encoder.decode(task.body.genotype))
+    descriptors = morphology_descriptors(tree) if tree is not None else {}
     return core, descriptors
 
 

@@ -217,12 +217,13 @@ def validate_robot_graph(graph: nx.DiGraph) -> RobotTree:
     )
 
 
-def construct_mjspec_from_graph(graph: nx.DiGraph) -> CoreModule:
+def construct_mjspec_from_graph(graph: nx.DiGraph | RobotTree) -> CoreModule:
     """Build the body described by ``graph``; return its ``CoreModule`` (``.spec`` is the MjSpec).
 
     See the module docstring for the graph format, the validation and the attachment order.
+    A `RobotTree` from `validate_robot_graph` is accepted too (validated once, used twice).
     """
-    tree = validate_robot_graph(graph)
+    tree = graph if isinstance(graph, RobotTree) else validate_robot_graph(graph)
     core = CoreModule(index=IDX_OF_CORE)
     modules: dict[int, Module] = {IDX_OF_CORE: core}
     for node in tree.order[1:]:

@@ -144,8 +144,9 @@ def _pair_symmetry(tree: RobotTree, face_a: ModuleFaces, face_b: ModuleFaces) ->
     return _overlap(tree, a, b) / max(_subtree_size(tree, a), _subtree_size(tree, b))
 
 
-def morphology_descriptors(graph: nx.DiGraph) -> dict[str, float | int]:
-    """Describe the body of a robot graph (validated like ``construct_mjspec_from_graph``).
+def morphology_descriptors(graph: nx.DiGraph | RobotTree) -> dict[str, float | int]:
+    """Describe the body of a robot graph (validated like ``construct_mjspec_from_graph``; a
+    `RobotTree` from `validate_robot_graph` is accepted as it is).
 
     Returns plain Python numbers, keys in ``DESCRIPTOR_NAMES`` order:
 
@@ -166,7 +167,7 @@ def morphology_descriptors(graph: nx.DiGraph) -> dict[str, float | int]:
       all module geoms at rest (joints at zero), in the core's frame (+y: the core's FRONT,
       +z: up).
     """
-    tree = validate_robot_graph(graph)
+    tree = graph if isinstance(graph, RobotTree) else validate_robot_graph(graph)
     types = list(tree.types.values())
     num_modules = len(types)
     num_hinges = sum(t is ModuleType.HINGE for t in types)
