@@ -19,16 +19,20 @@ class RuggedTerrainWorld(CompoundWorld):
     """Heightmap = Perlin noise (`scale_of_noise` pixels per lattice cell) x a smooth edge mask.
 
     With the default floor_size (10, 10, 1) the hills span 0.5 m. Deterministic by default
-    (seed 42); ``seed=None`` draws a fresh terrain each time.
+    (seed 42); ``seed=None`` draws a fresh terrain each time. ``floor_tilt`` (Euler degrees,
+    default none) tilts the whole terrain.
     """
 
     name = "rugged-world"
+    default_floor_tilt: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __init__(
         self,
         *,
         name: str | None = None,
         floor_size: Sequence[float] = (10.0, 10.0, 1.0),
+        floor_tilt: Sequence[float] | None = None,
+        floor_rot_sequence: str = "XYZ",
         checker_floor: bool = False,
         dims: Sequence[int] = (100, 100),
         scale_of_noise: float = 4.0,
@@ -50,6 +54,8 @@ class RuggedTerrainWorld(CompoundWorld):
         super().__init__(
             name=name,
             floor_size=floor_size,
+            floor_tilt=self.default_floor_tilt if floor_tilt is None else floor_tilt,
+            floor_rot_sequence=floor_rot_sequence,
             dims=dims,
             floor_heightmap=heightmap,
             terrain_color=terrain_color,
