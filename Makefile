@@ -6,6 +6,8 @@ PIP := $(VENV)/bin/pip
 # Torch: pin the CPU wheel version so pip never resolves the multi-GB CUDA build where a local
 # CPU wheel is offered (TORCH_SPEC can be overridden, e.g. TORCH_SPEC=torch on a GPU machine).
 TORCH_SPEC ?= torch==2.13.0
+# Headless rendering backend on Linux (EGL); other systems keep MuJoCo's default.
+GL_ENV := $(if $(filter Linux,$(shell uname -s)),MUJOCO_GL=$${MUJOCO_GL:-egl},)
 
 .PHONY: run test setup lint format clean gl
 
@@ -18,15 +20,16 @@ $(VENV)/.stamp-setup: pyproject.toml Makefile
 
 setup: $(VENV)/.stamp-setup
 
-# Headless OpenGL (EGL/OSMesa) for rendering; best effort without root.
+# Headless OpenGL (EGL/OSMesa) for rendering, installed with apt where we may (root or
+# passwordless sudo); otherwise a note, and rendering tests skip saying why.
 gl:
-	@bash .ci/install-gl.sh || echo "note: could not install GL libraries; rendering tests will skip"
+	@bash .ci/install-gl.sh || echo "note: GL libraries not installed; rendering will be unavailable"
 
-run: setup
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(PY) experiments/quickstart.py
+run: setup gl
+	$(GL_ENV) $(PY) experiments/quickstart.py
 
-test: setup
-	MUJOCO_GL=$${MUJOCO_GL:-egl} MPLBACKEND=Agg $(PY) -m pytest -q
+test: setup gl
+	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q
 
 lint: setup
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
