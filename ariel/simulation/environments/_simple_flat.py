@@ -27,6 +27,8 @@ class SimpleFlatWorld(BaseWorld):
 
     name = "simple-flat-world"
     ground_geoms = ("floor",)
+    #: Orientation (w, x, y, z) of the floor plane; SimpleTiltedWorld sets its own.
+    _quat: np.ndarray = np.array([1.0, 0.0, 0.0, 0.0])
 
     def __init__(
         self,
@@ -54,6 +56,7 @@ class SimpleFlatWorld(BaseWorld):
             name="floor",
             type=mujoco.mjtGeom.mjGEOM_PLANE,
             size=[width / 2, length / 2, depth / 2],
+            quat=self._quat.tolist(),
         )
         if self.checker_floor:
             geom.material = self._add_checker_material("floor")
