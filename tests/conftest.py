@@ -70,3 +70,13 @@ def fake_distribution(
     # Only caches are dropped here; the next lookup (after sys.path is restored) rediscovers.
     refresh_all()
     importlib.invalidate_caches()
+
+
+@pytest.fixture(autouse=True)
+def _no_global_control_callback() -> Iterator[None]:
+    """Every test starts and ends without a global ``mjcb_control`` (it is process-wide)."""
+    import mujoco
+
+    mujoco.set_mjcb_control(None)
+    yield
+    mujoco.set_mjcb_control(None)

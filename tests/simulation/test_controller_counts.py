@@ -4,7 +4,6 @@ callback output, and agreement with the vectorised path (kernel + blend_and_clip
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import mujoco
 import numpy as np
@@ -44,13 +43,6 @@ TINY_XML = """
   </actuator>
 </mujoco>
 """
-
-
-@pytest.fixture(autouse=True)
-def _no_global_callback() -> Iterator[None]:
-    mujoco.set_mjcb_control(None)
-    yield
-    mujoco.set_mjcb_control(None)
 
 
 def tiny() -> tuple[mujoco.MjSpec, mujoco.MjModel, mujoco.MjData]:

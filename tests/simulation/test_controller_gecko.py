@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import mujoco
 import numpy as np
-import pytest
 
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
 from ariel.simulation.controllers.controller import Controller
@@ -18,13 +15,6 @@ from ariel.simulation.environments import SimpleFlatWorld
 from ariel.simulation.tasks.gait_learning import xy_displacement
 from ariel.utils.runners import simple_runner
 from ariel.utils.tracker import Tracker
-
-
-@pytest.fixture(autouse=True)
-def _no_global_callback() -> Iterator[None]:
-    mujoco.set_mjcb_control(None)
-    yield
-    mujoco.set_mjcb_control(None)
 
 
 def run_gecko(seed: int, duration: float = 15.0) -> tuple[dict, int, mujoco.MjModel, NaCPG]:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
 
 import mujoco
 import numpy as np
@@ -32,13 +31,6 @@ XML = """
   </actuator>
 </mujoco>
 """
-
-
-@pytest.fixture(autouse=True)
-def _no_global_callback() -> Iterator[None]:
-    mujoco.set_mjcb_control(None)
-    yield
-    mujoco.set_mjcb_control(None)
 
 
 def build() -> tuple[mujoco.MjSpec, mujoco.MjModel, mujoco.MjData]:
