@@ -114,11 +114,12 @@ class Controller:
         """The MuJoCo control callback (``mujoco.set_mjcb_control(controller.set_control)``)."""
         # Called every physics step: keep the common no-op step cheap. The timestep and bounds
         # are read once per model and again at every reset (time 0), not on every step.
-        if model is not self._model or data.time == 0.0:
+        time = data.time
+        if model is not self._model or time == 0.0:
             self._model = model
             self._timestep = model.opt.timestep
             self._bounds = actuator_bounds(model)
-        step = round(data.time / self._timestep)
+        step = round(time / self._timestep)
         if step % self.time_steps_per_save == 0:
             tracker = self.tracker
             if tracker is not None and getattr(tracker, "is_set_up", True):

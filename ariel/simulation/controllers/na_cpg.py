@@ -299,16 +299,18 @@ class NaCPG(nn.Module):
                 raise ValueError(f"NaCPG.forward(time): time must be >= 0; got {t}")
             if abs(t) <= 1e-8 or target < self._step:
                 self.reset()
+        # Plain attributes are written through __dict__: nn.Module.__setattr__ costs
+        # microseconds per call, and forward() runs once per control period.
+        attrs = self.__dict__
         if target > self._step:
             kernel.advance(target - self._step)
-            self._step = target
+            attrs["_step"] = target
 
         angles = _outputs(self._amplitudes, self._offsets, kernel._y[0], None)
         if self.hard_bounds is not None:
             clipped = _clip_ufunc(angles, *self.hard_bounds)
             np.subtract(angles, clipped, out=angles)
-            self.clamping_error = float(np.abs(angles, out=angles).sum())
-            check = self.clamping_error
+            check = attrs["clamping_error"] = float(np.abs(angles, out=angles).sum())
             angles = clipped
         else:
             check = float(angles.sum())
@@ -316,8 +318,7 @@ class NaCPG(nn.Module):
             raise ValueError(f"NaCPG produced NaN joint targets at step {self._step}")
         if self.angle_tracking:
             self.angle_history.append(angles.tolist())
-        out = torch.from_numpy(angles.astype(np.float32))
-        self.angles = out
+        out = attrs["angles"] = torch.from_numpy(angles.astype(np.float32))
         return out
 
     # -- persistence -----------------------------------------------------------------------
