@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import math
 import os
@@ -156,7 +157,8 @@ def build(task: EvaluationTask) -> BuiltBody:
     with control_callback_unset():
         model = world.spec.compile()
 
-    names = [model.body(i).name for i in range(model.nbody)]
+    body_name = functools.partial(mujoco.mj_id2name, model, mujoco.mjtObj.mjOBJ_BODY)
+    names = [body_name(i) for i in range(model.nbody)]
     robot_bodies = np.array([i for i, n in enumerate(names) if n.startswith(SPAWN_PREFIX)])
     core_geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, SPAWN_PREFIX + "core")
     if core_geom < 0:
@@ -174,7 +176,9 @@ def build(task: EvaluationTask) -> BuiltBody:
         core_geom=int(core_geom),
         robot_bodies=robot_bodies,
         body_names=[names[i] for i in robot_bodies],
-        joint_names=[model.actuator(i).name for i in range(model.nu)],
+        joint_names=[
+            mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(model.nu)
+        ],
         joint_qpos=model.jnt_qposadr[joints].copy(),
         low=low,
         high=high,
