@@ -27,7 +27,7 @@ import sys
 import threading
 import time as _time
 from collections import OrderedDict
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,6 +36,7 @@ import numpy as np
 from mujoco import rollout as _rollout
 
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
+from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.controller import actuator_bounds, blend_and_clip
 
 __all__ = [
@@ -83,17 +84,6 @@ class BuiltBody:
     target: tuple[float, ...] | None
     initial_state: np.ndarray
     build_time: float
-
-
-@contextlib.contextmanager
-def control_callback_unset() -> Iterator[None]:
-    """Run without the global ``mjcb_control``: rollout and compile must not call Python."""
-    callback = mujoco.get_mjcb_control()
-    mujoco.set_mjcb_control(None)
-    try:
-        yield
-    finally:
-        mujoco.set_mjcb_control(callback)
 
 
 # --------------------------------------------------------------------------------------------

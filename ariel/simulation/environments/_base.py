@@ -8,18 +8,19 @@ under it, whatever the spawn rotation, slope or terrain.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import inspect
 import math
 import numbers
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
+
+from ariel.simulation.control_callback import control_callback_unset
 
 __all__ = ["BaseWorld"]
 
@@ -257,26 +258,6 @@ def _geom_points(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.nd
     # Meshes and other types: corners and face points of the geom's local bounding box.
     aabb = model.geom_aabb[geom]
     return centre + (aabb[:3] + _LATTICE * aabb[3:]) @ rot.T
-
-
-@contextlib.contextmanager
-def _control_callback_unset() -> Iterator[None]:
-    """Unset the global ``mjcb_control`` for the duration, then put it back.
-
-    ``MjSpec.compile()`` evaluates the model once, which runs a globally registered control
-    callback (a Python one makes compile fail: "engine error: Python exception raised"), so
-    spawn() compiles with the callback unset. It is process-global: don't spawn while another
-    thread steps a simulation that relies on it.
-    """
-    callback = mujoco.get_mjcb_control()
-    if callback is None:
-        yield
-        return
-    mujoco.set_mjcb_control(None)
-    try:
-        yield
-    finally:
-        mujoco.set_mjcb_control(callback)
 
 
 def _collision_clearance(
@@ -611,7 +592,7 @@ class BaseWorld:
         return self.spec
 
     def _compile_at_rest(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
-        with _control_callback_unset():
+        with control_callback_unset():
             model = self.spec.compile()
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)  # positions only; never calls mjcb_control
