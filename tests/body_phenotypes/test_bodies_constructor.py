@@ -26,18 +26,9 @@ from ariel.body_phenotypes.robogen_lite.constructor import (
 from ariel.body_phenotypes.robogen_lite.graph_io import (
     load_graph_from_json as load_from_graph_io,
 )
+from ariel.body_phenotypes.robogen_lite.graph_io import robot_graph as _graph
 from ariel.body_phenotypes.robogen_lite.modules.core import CoreModule
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko_graph
-
-
-def _graph(nodes: dict, edges: list[tuple]) -> nx.DiGraph:
-    """nodes: id -> (type, rotation); edges: (parent, child, face)."""
-    graph = nx.DiGraph()
-    for node, (module_type, rotation) in nodes.items():
-        graph.add_node(node, type=module_type, rotation=rotation)
-    for parent, child, face in edges:
-        graph.add_edge(parent, child, face=face)
-    return graph
 
 
 def _small() -> nx.DiGraph:

@@ -11,17 +11,9 @@ import pytest
 
 from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
 from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES, morphology_descriptors
+from ariel.body_phenotypes.robogen_lite.graph_io import robot_graph as _graph
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko_graph
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.spider import spider_graph
-
-
-def _graph(nodes: dict, edges: list[tuple]) -> nx.DiGraph:
-    graph = nx.DiGraph()
-    for node, (module_type, rotation) in nodes.items():
-        graph.add_node(node, type=module_type, rotation=rotation)
-    for parent, child, face in edges:
-        graph.add_edge(parent, child, face=face)
-    return graph
 
 
 def _compiled_extent(graph: nx.DiGraph) -> np.ndarray:

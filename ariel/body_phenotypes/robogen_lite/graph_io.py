@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import json
 import numbers
+from collections.abc import Iterable, Mapping
 from enum import Enum
 from pathlib import Path
 from typing import Any
 
 import networkx as nx
 
-__all__ = ["graph_to_plain", "load_graph_from_json", "save_graph_as_json"]
+__all__ = ["graph_to_plain", "load_graph_from_json", "robot_graph", "save_graph_as_json"]
 
 
 def _plain(value: Any) -> Any:
@@ -27,6 +28,21 @@ def _plain(value: Any) -> Any:
     if isinstance(value, numbers.Real):
         return float(value)
     return value
+
+
+def robot_graph(
+    nodes: Mapping[int, tuple[Any, Any]], edges: Iterable[tuple[int, int, Any]]
+) -> nx.DiGraph:
+    """A robot graph from ``{node: (type, rotation)}`` and ``(parent, child, face)`` triples.
+
+    Values may be enum members or their names; nodes are added in the given order.
+    """
+    graph = nx.DiGraph()
+    for node, (module_type, rotation) in nodes.items():
+        graph.add_node(node, type=module_type, rotation=rotation)
+    for parent, child, face in edges:
+        graph.add_edge(parent, child, face=face)
+    return graph
 
 
 def graph_to_plain(graph: nx.DiGraph) -> nx.DiGraph:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import networkx as nx
 
 from ariel.body_phenotypes.robogen_lite.config import ModuleFaces
+from ariel.body_phenotypes.robogen_lite.graph_io import robot_graph
 from ariel.body_phenotypes.robogen_lite.modules.brick import BrickModule
 from ariel.body_phenotypes.robogen_lite.modules.core import CoreModule
 from ariel.body_phenotypes.robogen_lite.modules.hinge import HingeModule
@@ -71,26 +72,23 @@ def gecko_graph() -> nx.DiGraph:
     the right legs' -90 and -45 become 90 and 45: same shape and mass, but those two joint
     axes are not mirrored as in ``gecko()``.
     """
-    graph = nx.DiGraph()
-    nodes = [
-        (0, "CORE", "DEG_0"),
-        (1, "HINGE", "DEG_0"),
-        (2, "BRICK", "DEG_0"),
-        (3, "HINGE", "DEG_0"),
-        (4, "BRICK", "DEG_0"),
-        (5, "HINGE", "DEG_90"),
-        (15, "HINGE", "DEG_90"),
-        (6, "BRICK", "DEG_0"),
-        (7, "HINGE", "DEG_90"),
-        (17, "HINGE", "DEG_90"),
-        (8, "BRICK", "DEG_0"),
-        (9, "HINGE", "DEG_45"),
-        (10, "BRICK", "DEG_0"),
-        (11, "HINGE", "DEG_45"),
-        (12, "BRICK", "DEG_0"),
-    ]
-    for node, module_type, rotation in nodes:
-        graph.add_node(node, type=module_type, rotation=rotation)
+    nodes = {
+        0: ("CORE", "DEG_0"),
+        1: ("HINGE", "DEG_0"),
+        2: ("BRICK", "DEG_0"),
+        3: ("HINGE", "DEG_0"),
+        4: ("BRICK", "DEG_0"),
+        5: ("HINGE", "DEG_90"),
+        15: ("HINGE", "DEG_90"),
+        6: ("BRICK", "DEG_0"),
+        7: ("HINGE", "DEG_90"),
+        17: ("HINGE", "DEG_90"),
+        8: ("BRICK", "DEG_0"),
+        9: ("HINGE", "DEG_45"),
+        10: ("BRICK", "DEG_0"),
+        11: ("HINGE", "DEG_45"),
+        12: ("BRICK", "DEG_0"),
+    }
     edges = [
         (0, 1, "FRONT"),
         (1, 2, "FRONT"),
@@ -107,6 +105,4 @@ def gecko_graph() -> nx.DiGraph:
         (4, 11, "RIGHT"),
         (11, 12, "FRONT"),
     ]
-    for parent, child, face in edges:
-        graph.add_edge(parent, child, face=face)
-    return graph
+    return robot_graph(nodes, edges)
