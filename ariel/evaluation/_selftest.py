@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from ariel.evaluation.executors import THREAD_LIMIT_VARIABLES
+from ariel.evaluation.executors import THREAD_LIMIT_VARIABLES, evaluation_threads
 
 
 def seeded_sum(seed: int, n: int = 1000) -> float:
@@ -19,6 +19,11 @@ def thread_environment() -> dict[str, str | None]:
     env: dict[str, str | None] = {name: os.environ.get(name) for name in THREAD_LIMIT_VARIABLES}
     env["pid"] = str(os.getpid())
     return env
+
+
+def thread_share() -> tuple[int, int]:
+    """``(evaluation_threads(), CPUs in this process's affinity mask)`` as the worker sees them."""
+    return evaluation_threads(), len(os.sched_getaffinity(0))
 
 
 def fail(message: str) -> None:

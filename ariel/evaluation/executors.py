@@ -28,11 +28,13 @@ if TYPE_CHECKING:
     from distributed import Client
 
 __all__ = [
+    "EVAL_THREADS_VARIABLE",
     "EXECUTOR_KINDS",
     "THREAD_LIMIT_VARIABLES",
     "DaskExecutor",
     "SerialExecutor",
     "default_workers",
+    "evaluation_threads",
     "make_executor",
     "map_ordered",
     "worker_environment",
@@ -53,6 +55,9 @@ THREAD_LIMIT_VARIABLES: tuple[str, ...] = (
     "NUMEXPR_NUM_THREADS",
 )
 
+#: Environment variable that tells `evaluation_threads` its share of the CPUs in a worker.
+EVAL_THREADS_VARIABLE = "ARIEL_EVAL_THREADS"
+
 _DASK_MISSING = "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
 
 
@@ -63,11 +68,58 @@ def default_workers() -> int:
     return max(1, os.cpu_count() or 1)
 
 
-def worker_environment(threads: int = 1) -> dict[str, str]:
-    """The thread-limit variables set in every worker (BLAS is 3-57x slower oversubscribed)."""
-    if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
+def _is_count(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 1
+
+
+def worker_environment(threads: int = 1, *, workers: int | None = None) -> dict[str, str]:
+    """The variables set in every worker process.
+
+    The BLAS/OpenMP/numexpr thread limits (BLAS is 3-57x slower oversubscribed) and, given the
+    number of worker ``workers`` sharing this machine, `EVAL_THREADS_VARIABLE`: each one's share
+    of this process's CPUs, which `evaluation_threads` reads.
+    """
+    if not _is_count(threads):
         raise ValueError(f"blas_threads must be an integer >= 1, got {threads!r}")
-    return dict.fromkeys(THREAD_LIMIT_VARIABLES, str(threads))
+    env = dict.fromkeys(THREAD_LIMIT_VARIABLES, str(threads))
+    if workers is not None:
+        if not _is_count(workers):
+            raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+        env[EVAL_THREADS_VARIABLE] = str(max(1, default_workers() // workers))
+    return env
+
+
+def _in_dask_worker() -> bool:
+    distributed = sys.modules.get("distributed")  # never imported just to ask
+    if distributed is None:
+        return False
+    try:
+        distributed.get_worker()
+    except ValueError:  # "No worker found": a client or plain process that imported Dask
+        return False
+    return True
+
+
+def evaluation_threads() -> int:
+    """Threads one call of `evaluate_batch` may use here: never more than the affinity mask.
+
+    In the main process: every CPU this process may use. In a worker of the ``local`` executor
+    or of a Dask ``LocalCluster`` from `make_executor`: its share of them (the
+    `EVAL_THREADS_VARIABLE` they were started with), so N workers do not each start one thread
+    per core. In a Dask worker without that variable (a remote cluster): 1, because the number
+    of workers sharing its machine is not known there; set the variable on those workers (e.g.
+    in dask-jobqueue's ``job_script_prologue``) to give them more.
+    """
+    cpus = default_workers()
+    value = os.environ.get(EVAL_THREADS_VARIABLE, "").strip()
+    if value:
+        try:
+            return min(max(1, int(value)), cpus)
+        except ValueError:
+            raise ValueError(
+                f"{EVAL_THREADS_VARIABLE} must be a whole number of threads, not {value!r}"
+            ) from None
+    return 1 if _in_dask_worker() else cpus
 
 
 # --------------------------------------------------------------------------------------------
@@ -188,7 +240,8 @@ def _make_local(
     initargs: tuple[Any, ...] = (),
     **pool_options: Any,
 ) -> cf.ProcessPoolExecutor:
-    env = worker_environment(blas_threads)
+    workers = workers or default_workers()
+    env = worker_environment(blas_threads, workers=workers)
     if mp_context is None:
         context = _default_mp_context()
     elif isinstance(mp_context, str):
@@ -197,7 +250,7 @@ def _make_local(
         context = mp_context
     return _LocalProcessPool(
         worker_env=env,
-        max_workers=workers or default_workers(),
+        max_workers=workers,
         mp_context=context,
         initializer=_initialize_worker,
         initargs=(env, blas_threads, initializer, tuple(initargs)),
@@ -265,14 +318,18 @@ def _make_dask(
         from distributed import Client, LocalCluster
     except ImportError as exc:
         raise ImportError(_DASK_MISSING) from exc
-    env = worker_environment(blas_threads)
     if scheduler is None:
+        n_workers = cluster_options.pop("n_workers", None) or workers or default_workers()
+        per_worker = cluster_options.pop("threads_per_worker", None) or 1
+        # Every Dask thread may run an evaluation batch: they share the CPUs.
+        env = worker_environment(blas_threads, workers=n_workers * per_worker)
         settings: dict[str, Any] = {
-            "n_workers": workers or default_workers(),
-            "threads_per_worker": 1,
+            "n_workers": n_workers,
+            "threads_per_worker": per_worker,
             "processes": True,
             "dashboard_address": None,
-            "env": env,  # the nanny sets these before the worker process starts
+            # The nanny sets these before the worker process starts; the caller's env wins.
+            "env": {**env, **(cluster_options.pop("env", None) or {})},
         }
         if "dashboard_address" not in cluster_options:
             # Without a dashboard the scheduler still serves HTTP (health, metrics) on 8787 and

@@ -14,8 +14,11 @@ import pytest
 
 from ariel.evaluation import _selftest
 from ariel.evaluation.executors import (
+    EVAL_THREADS_VARIABLE,
     THREAD_LIMIT_VARIABLES,
+    DaskExecutor,
     SerialExecutor,
+    evaluation_threads,
     make_executor,
     map_ordered,
 )
@@ -81,6 +84,42 @@ def test_workers_run_with_one_blas_thread(executor: cf.Executor) -> None:
     )
     # Starting workers must not leave the variables changed in this process.
     assert {name: os.environ.get(name) for name in THREAD_LIMIT_VARIABLES} == parent_before
+
+
+def test_each_worker_gets_its_share_of_the_cpus(executor: cf.Executor) -> None:
+    before = os.environ.get(EVAL_THREADS_VARIABLE)
+    shares = [executor.submit(_selftest.thread_share).result() for _ in range(4)]
+    if isinstance(executor, SerialExecutor):
+        workers = 1
+    elif isinstance(executor, DaskExecutor):
+        workers = len(executor.cluster.workers)
+    else:
+        workers = executor._max_workers
+    for threads, affinity in shares:
+        assert 1 <= threads <= affinity
+        assert threads == max(1, affinity // workers)
+    assert os.environ.get(EVAL_THREADS_VARIABLE) == before  # this process is left alone
+
+
+def test_two_local_workers_on_this_machine_get_one_thread_each() -> None:
+    affinity = len(os.sched_getaffinity(0))
+    with make_executor("local", workers=2) as ex:
+        shares = {ex.submit(_selftest.thread_share).result() for _ in range(4)}
+    assert shares == {(max(1, affinity // 2), affinity)}
+    if affinity == 2:  # this project's machine
+        assert shares == {(1, 2)}
+
+
+def test_evaluation_threads_never_exceed_the_affinity_mask(monkeypatch: pytest.MonkeyPatch) -> None:
+    affinity = len(os.sched_getaffinity(0))
+    monkeypatch.delenv(EVAL_THREADS_VARIABLE, raising=False)
+    assert evaluation_threads() == affinity  # the main process: the whole mask
+    for value, expected in (("1", 1), ("0", 1), (str(affinity + 64), affinity), (" 1 ", 1)):
+        monkeypatch.setenv(EVAL_THREADS_VARIABLE, value)
+        assert evaluation_threads() == expected
+    monkeypatch.setenv(EVAL_THREADS_VARIABLE, "many")
+    with pytest.raises(ValueError, match=EVAL_THREADS_VARIABLE):
+        evaluation_threads()
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/self/environ"), reason="needs Linux /proc")
@@ -207,6 +246,8 @@ def test_dask_on_an_existing_scheduler() -> None:
         with ex:
             task = functools.partial(_selftest.seeded_sum, n=N_DRAWS)
             assert [r.hex() for r in map_ordered(ex, task, SEEDS)] == expected_bits()
+            # A worker we did not start does not know how many share its machine: 1 thread.
+            assert ex.submit(_selftest.thread_share).result()[0] == 1
         assert ex.client.status == "closed"  # the executor closes the client it made ...
         assert ex.cluster is None
         assert cluster.status.name == "running"  # ... but not a cluster it did not start
