@@ -10,6 +10,7 @@ from typing import Any
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
+    "BodyBuildError": "ariel.evaluation._engine",
     "BodySpec": "ariel.evaluation._task",
     "EvaluationResult": "ariel.evaluation._task",
     "EvaluationTask": "ariel.evaluation._task",
@@ -20,6 +21,7 @@ _LAZY: dict[str, str] = {
     "EXECUTOR_KINDS": "ariel.evaluation.executors",
     "DaskExecutor": "ariel.evaluation.executors",
     "SerialExecutor": "ariel.evaluation.executors",
+    "evaluation_threads": "ariel.evaluation.executors",
     "make_executor": "ariel.evaluation.executors",
     "map_ordered": "ariel.evaluation.executors",
 }

@@ -9,19 +9,21 @@
   between policy calls, never a Python callback per physics step.
 * Control semantics are the tutorial `Controller`'s (same formula, `blend_and_clip`): the
   controller runs at physics steps ``k % control_period == 0``, its output is blended with the
-  previous control by ``smoothing`` (the tutorial's ``alpha``, 0.5) and clipped to the actuator
-  ranges. Hence the fast path and the tutorial path give identical trajectories.
-* Physics instability (MuJoCo warnings such as bad accelerations, NaN or inf state) gives
-  status ``unstable`` and the worst fitness; a body that cannot be built gives ``error``.
+  previous control by the task's ``smoothing`` (the tutorial's ``alpha``, 0.5) and clipped to
+  the actuator ranges. Hence the fast path and the tutorial path give identical trajectories.
+* Failures: the caller's mistakes (unknown plugin names, options a plugin rejects, a wrong
+  number of parameters) raise at once. A genotype whose body cannot be built gives status
+  ``error`` (`BodyBuildError` inside), physics instability (MuJoCo warnings such as bad
+  accelerations, NaN or inf state) status ``unstable``; both with the worst fitness.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import inspect
 import json
 import math
-import os
 import queue
 import sys
 import threading
@@ -40,6 +42,7 @@ from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.controller import actuator_bounds, blend_and_clip
 
 __all__ = [
+    "BodyBuildError",
     "BuiltBody",
     "TrajectoryRecord",
     "build",
@@ -47,6 +50,7 @@ __all__ = [
     "evaluate",
     "evaluate_batch",
     "frame_steps",
+    "open_loop_targets",
 ]
 
 SPAWN_PREFIX = "robot1_"
@@ -55,6 +59,15 @@ _BAD_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
 )
+
+
+class BodyBuildError(RuntimeError):
+    """A genotype whose body cannot be built: decoding, construction, spawning or compiling failed.
+
+    Raised by `build` only for faults of the genotype (the cause is chained), never for the
+    caller's mistakes, which propagate as they are; `evaluate_batch` turns it into ``error``
+    results, and a driver that builds bodies itself can catch just this.
+    """
 
 
 @dataclass(frozen=True)
@@ -107,52 +120,73 @@ def _build_key(task: EvaluationTask) -> str:
     )
 
 
-def _robot_module(task: EvaluationTask) -> tuple[Any, dict[str, float]]:
+def _plugin(registry: Any, name: str, options: dict[str, Any]) -> Any:
+    """``registry.make(name, **options)``; options it rejects raise naming the plugin."""
+    from ariel.plugins import DuplicatePluginError, UnknownPluginError
+
+    try:
+        return registry.make(name, **options)
+    except (UnknownPluginError, DuplicatePluginError):
+        raise
+    except (TypeError, ValueError) as exc:  # an unknown keyword or a bad value: the caller's
+        kind = TypeError if isinstance(exc, TypeError) else ValueError
+        raise kind(f"{registry.label} {name!r} rejected options {options}: {exc}") from exc
+
+
+def _robot_module(encoder: Any, genotype: Any) -> tuple[Any, dict[str, float]]:
     """The robot's root module (a CoreModule) and its morphology descriptors."""
     from ariel.body_phenotypes.robogen_lite.constructor import (
         construct_mjspec_from_graph,
         validate_robot_graph,
     )
     from ariel.body_phenotypes.robogen_lite.descriptors import morphology_descriptors
-    from ariel.plugins import body_encoders
 
-    encoder = body_encoders.make(task.body.encoder, **task.body.options)
     build_direct = getattr(encoder, "build", None)
     tree = None
     if build_direct is None:
-        tree = validate_robot_graph(encoder.decode(task.body.genotype))
+        tree = validate_robot_graph(encoder.decode(genotype))
         core = construct_mjspec_from_graph(tree)
     else:
-        core = build_direct(task.body.genotype)
-        with contextlib.suppress(ValueError):
-            tree = validate_robot_graph(encoder.decode(task.body.genotype))
+        core = build_direct(genotype)
+        with contextlib.suppress(ValueError):  # a body without a graph form has no descriptors
+            tree = validate_robot_graph(encoder.decode(genotype))
     descriptors = morphology_descriptors(tree) if tree is not None else {}
     return core, descriptors
 
 
 def build(task: EvaluationTask) -> BuiltBody:
-    """Compile ``task``'s body in its world (cached per process by body, world and spawn)."""
+    """Compile ``task``'s body in its world (cached per process by body, world and spawn).
+
+    Raises `BodyBuildError` when the genotype cannot become a body; unknown plugin names and
+    options the encoder or world rejects raise their own errors (the caller's mistakes).
+    """
     key = _build_key(task)
     cached = _BUILD_CACHE.get(key)
     if cached is not None:
         _BUILD_CACHE.move_to_end(key)
         return cached
 
-    from ariel.plugins import worlds
+    from ariel.plugins import body_encoders, worlds
 
     start = _time.perf_counter()
-    core, descriptors = _robot_module(task)
-    world = worlds.make(task.world, **task.world_options)
-    world.spawn(core.spec, position=task.spawn_position, rotation=task.spawn_rotation)
-    with control_callback_unset():
-        model = world.spec.compile()
+    encoder = _plugin(body_encoders, task.body.encoder, task.body.options)
+    world = _plugin(worlds, task.world, task.world_options)
+    try:
+        core, descriptors = _robot_module(encoder, task.body.genotype)
+        world.spawn(core.spec, position=task.spawn_position, rotation=task.spawn_rotation)
+        with control_callback_unset():
+            model = world.spec.compile()
+        core_geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, SPAWN_PREFIX + "core")
+        if core_geom < 0:
+            raise ValueError(f"the robot has no core geom named {SPAWN_PREFIX + 'core'!r}")
+    except Exception as exc:
+        raise BodyBuildError(
+            f"body encoder {task.body.encoder!r}: this genotype cannot be built: {_one_line(exc)}"
+        ) from exc
 
     body_name = functools.partial(mujoco.mj_id2name, model, mujoco.mjtObj.mjOBJ_BODY)
     names = [body_name(i) for i in range(model.nbody)]
     robot_bodies = np.array([i for i, n in enumerate(names) if n.startswith(SPAWN_PREFIX)])
-    core_geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, SPAWN_PREFIX + "core")
-    if core_geom < 0:
-        raise ValueError(f"the robot has no core geom named {SPAWN_PREFIX + 'core'!r}")
     joints = model.actuator_trnid[:, 0]
     data = mujoco.MjData(model)
     mujoco.mj_resetData(model, data)
@@ -250,8 +284,24 @@ def _worst(maximise: bool) -> float:
     return -math.inf if maximise else math.inf
 
 
-def _score(fitness_fn: Any, options: dict[str, Any], record: TrajectoryRecord) -> float:
-    value = float(fitness_fn(record, **options))
+def _check_fitness_options(name: str, fitness_fn: Any, options: dict[str, Any]) -> None:
+    """Unknown fitness options raise before any physics runs, not after the rollout."""
+    try:
+        signature = inspect.signature(fitness_fn)
+    except (TypeError, ValueError):  # no signature to read (e.g. a C function): checked later
+        return
+    try:
+        signature.bind(None, **options)
+    except TypeError as exc:
+        raise TypeError(f"fitness function {name!r} rejected options {options}: {exc}") from None
+
+
+def _score(name: str, fitness_fn: Any, options: dict[str, Any], record: TrajectoryRecord) -> float:
+    try:
+        value = float(fitness_fn(record, **options))
+    except (TypeError, ValueError) as exc:  # e.g. a bad option value: the caller's mistake
+        kind = TypeError if isinstance(exc, TypeError) else ValueError
+        raise kind(f"fitness function {name!r} failed with options {options}: {exc}") from exc
     return value if math.isfinite(value) else _worst(fitness_fn.maximise)
 
 
@@ -283,6 +333,39 @@ def _rollout_pool(nthread: int) -> _rollout.Rollout:
     return pool
 
 
+def open_loop_targets(
+    controller: Any,
+    params: np.ndarray,
+    seeds: Sequence[int],
+    sample_times: np.ndarray,
+    model: mujoco.MjModel,
+    *,
+    name: str = "",
+) -> np.ndarray:
+    """Targets ``(B, T, nu)`` of an open-loop controller for rows ``params`` with their seeds.
+
+    ``controller.targets`` is called once per distinct seed on that seed's rows (vectorised
+    within the group) and always gets one Python ``int``, as the protocol promises; results
+    come back in input order. Shapes and values are checked (a plugin's bug raises here).
+    """
+    label = f"controller {name or type(controller).__name__!r}"
+    rows_by_seed: dict[int, list[int]] = {}
+    for row, seed in enumerate(seeds):
+        rows_by_seed.setdefault(int(seed), []).append(row)
+    out = np.empty((len(seeds), sample_times.size, model.nu))
+    for seed, rows in rows_by_seed.items():
+        part = np.asarray(controller.targets(params[rows], sample_times, model, seed=seed))
+        if part.shape != (len(rows), sample_times.size, model.nu):
+            raise ValueError(
+                f"{label}: targets() returned shape {part.shape}; expected "
+                f"{(len(rows), sample_times.size, model.nu)} (candidates, calls, actuators)"
+            )
+        if not np.all(np.isfinite(part)):
+            raise ValueError(f"{label}: targets() returned NaN or inf")
+        out[rows] = part
+    return out
+
+
 def _open_loop(
     tasks: Sequence[EvaluationTask],
     built: BuiltBody,
@@ -294,20 +377,24 @@ def _open_loop(
     model = built.model
     nstep = num_steps(head, model)
     period = head.control_period
-    smoothing = float(head.controller_options.get("smoothing", 0.5))
+    smoothing = head.smoothing
     dt = model.opt.timestep
     call_times = np.arange(0, nstep, period) * dt
     params = np.array([t.params for t in tasks], dtype=np.float64)
 
+    from ariel.evaluation.executors import evaluation_threads
+
     start = _time.perf_counter()
-    if len(tasks) == 1 and hasattr(controller, "iter_targets") and (os.cpu_count() or 1) > 1:
+    # The pipelined path keeps a second thread busy: only where this process has CPUs to spare.
+    if len(tasks) == 1 and hasattr(controller, "iter_targets") and evaluation_threads() > 1:
         states, controls = _pipelined_single(
             head, built, controller, params, call_times, nstep, period, smoothing
         )
     else:
         seeds = [t.seed for t in tasks]
-        shared = seeds.count(seeds[0]) == len(seeds)
-        targets = controller.targets(params, call_times, model, seed=seeds[0] if shared else seeds)
+        targets = open_loop_targets(
+            controller, params, seeds, call_times, model, name=head.controller
+        )
         controls = control_sequence(targets, nstep, period, smoothing, built.low, built.high)
         nthread = max(1, min(nthread, len(tasks)))
         datas = [mujoco.MjData(model) for _ in range(nthread)]
@@ -364,7 +451,7 @@ def _pipelined_single(
     def produce() -> None:
         try:
             for piece in controller.iter_targets(
-                params, call_times, model, seed=task.seed, chunks=chunks
+                params, call_times, model, seed=int(task.seed), chunks=chunks
             ):
                 pieces.put(piece)
         except BaseException as exc:  # handed to the stepping thread, which raises it
@@ -439,7 +526,7 @@ def _finish(
         joint_angle=qpos[:, built.joint_qpos],
         target=built.target,
     )
-    fitness = _score(fitness_fn, task.fitness_options, record) if stable else None
+    fitness = _score(task.fitness, fitness_fn, task.fitness_options, record) if stable else None
     return EvaluationResult(
         eval_id=task.eval_id,
         fitness=fitness if fitness is not None else _worst(fitness_fn.maximise),
@@ -472,7 +559,7 @@ def _closed_loop(
     model = built.model
     nstep = num_steps(task, model)
     period = task.control_period
-    smoothing = float(task.controller_options.get("smoothing", 0.5))
+    smoothing = task.smoothing
     policy = controller.make_policy(np.asarray(task.params), model)
     observe = getattr(controller, "observation", hinge_observation)
     steps = frame_steps(nstep, task.record_every)
@@ -528,6 +615,7 @@ def _group_key(task: EvaluationTask) -> str:
             task.fitness_options,
             task.duration,
             task.control_period,
+            task.smoothing,
             task.record_every,
             task.record_bodies,
         ],
@@ -541,15 +629,16 @@ def evaluate_batch(
     """Evaluate many tasks, compiling each body once; results in input order.
 
     Tasks that share a body, world, controller and timing run as one batch: open-loop ones in a
-    single threaded rollout over ``nthread`` threads (default: all cores this process may use).
-    Unknown plugin names or bad options raise; a body that fails to build gives ``error``
-    results, unstable physics ``unstable`` ones.
+    single threaded rollout over ``nthread`` threads (default: `evaluation_threads`, this
+    process's share of the CPUs). Every group is checked before any physics runs: unknown
+    plugin names, options a plugin rejects and wrong parameter counts raise. A body that cannot
+    be built gives ``error`` results, unstable physics ``unstable`` ones.
     """
-    from ariel.evaluation.executors import default_workers
-    from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
+    from ariel.evaluation.executors import evaluation_threads
+    from ariel.plugins import controllers, fitness_functions
 
     if nthread is None:
-        nthread = default_workers()
+        nthread = evaluation_threads()
     groups: dict[str, list[int]] = {}
     for i, task in enumerate(tasks):
         if not isinstance(task, EvaluationTask):
@@ -557,28 +646,29 @@ def evaluate_batch(
         groups.setdefault(_group_key(task), []).append(i)
 
     results: list[EvaluationResult | None] = [None] * len(tasks)
+    ready = []
     for indices in groups.values():
         group = [tasks[i] for i in indices]
         head = group[0]
-        options = {k: v for k, v in head.controller_options.items() if k != "smoothing"}
-        controller = controllers.make(head.controller, **options)
+        controller = _plugin(controllers, head.controller, head.controller_options)
         fitness_fn = fitness_functions.get(head.fitness)
-        worlds.get(head.world)  # unknown names are the caller's mistake: raise, listing names
-        body_encoders.get(head.body.encoder)
+        _check_fitness_options(head.fitness, fitness_fn, head.fitness_options)
         try:
             built = build(head)
-            expected = controller.num_parameters(built.model)
-            for task in group:
-                if len(task.params) != expected:
-                    raise ValueError(
-                        f"controller {task.controller!r} needs {expected} parameters for this "
-                        f"body ({built.model.nu} actuators); task {task.eval_id!r} has "
-                        f"{len(task.params)}"
-                    )
-        except Exception as exc:  # a body that cannot be built is a result, not a crash
+        except BodyBuildError as exc:  # a genotype that cannot be built is a result
             for i, task in zip(indices, group):
                 results[i] = _error_result(task, fitness_fn, exc)
             continue
+        expected = controller.num_parameters(built.model)
+        for task in group:
+            if len(task.params) != expected:
+                raise ValueError(
+                    f"controller {task.controller!r} needs {expected} parameters for this body "
+                    f"({built.model.nu} actuators); task {task.eval_id!r} has {len(task.params)}"
+                )
+        ready.append((indices, group, built, controller, fitness_fn))
+
+    for indices, group, built, controller, fitness_fn in ready:
         if controller.open_loop:
             outs = _open_loop(group, built, controller, fitness_fn, nthread)
         else:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
@@ -70,9 +71,13 @@ class EvaluationTask:
         fitness: registered fitness name, e.g. ``"xy_displacement"``.
         duration: simulated seconds.
         control_period: physics steps between controller calls (the tutorial's 50).
+        smoothing: each controller call sets ``ctrl = ctrl * (1 - smoothing) + target *
+            smoothing`` (then clipped to the actuator ranges): the tutorial `Controller`'s
+            ``alpha``, 0.5. In (0, 1]; 1 applies the target at once.
         record_every: physics steps between recorded frames (0: only first and last frame).
         record_bodies: also record every body's world pose (for 3D replays).
-        seed: seeds everything stochastic in this evaluation (e.g. the CPG's initial state).
+        seed: seeds everything stochastic in this evaluation (e.g. the CPG's initial state); an
+            integer, stored as a Python ``int``.
         spawn_position / spawn_rotation: where the robot is spawned (rotation: Euler degrees).
         eval_id: the caller's id for this evaluation, copied into the result.
     """
@@ -87,6 +92,7 @@ class EvaluationTask:
     fitness_options: dict[str, Any] = field(default_factory=dict)
     duration: float = 15.0
     control_period: int = 50
+    smoothing: float = 0.5
     record_every: int = 50
     record_bodies: bool = True
     seed: int = 0
@@ -108,6 +114,21 @@ class EvaluationTask:
                 f"control_period must be a whole number of physics steps >= 1, "
                 f"not {self.control_period!r}"
             )
+        if not (
+            isinstance(self.smoothing, numbers.Real)
+            and not isinstance(self.smoothing, bool)
+            and math.isfinite(self.smoothing)
+            and 0 < self.smoothing <= 1
+        ):
+            raise ValueError(
+                f"smoothing must be a finite number in (0, 1] (1: no smoothing), "
+                f"not {self.smoothing!r}"
+            )
+        object.__setattr__(self, "smoothing", float(self.smoothing))
+        # Plugins get the seed as a Python int (np.random.default_rng takes lists silently).
+        if not isinstance(self.seed, numbers.Integral) or isinstance(self.seed, bool):
+            raise ValueError(f"seed must be an integer, not {self.seed!r}")
+        object.__setattr__(self, "seed", int(self.seed))
         if int(self.record_every) != self.record_every or self.record_every < 0:
             raise ValueError(
                 f"record_every must be a whole number of physics steps >= 0 (0: first and "

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -261,20 +262,6 @@ class NaCPGController:
         """The oscillators' initial state for an evaluation seed (``(nu, 2)`` arrays)."""
         return cpg_kernel.random_state(model.nu, np.random.default_rng(seed))
 
-    def _initial_states(
-        self, model: mujoco.MjModel, seed: int | Sequence[int], batch: int
-    ) -> cpg_kernel.CPGState:
-        """One state for all rows (an int seed) or one per row (a seed per row)."""
-        if np.ndim(seed) == 0:
-            return self.initial_state(model, int(seed))
-        seeds = [int(s) for s in seed]
-        if len(seeds) != batch:
-            raise ValueError(f"got {len(seeds)} seeds for {batch} parameter vectors")
-        states = [self.initial_state(model, s) for s in seeds]
-        return cpg_kernel.CPGState(
-            np.stack([s.xy for s in states]), np.stack([s.xy_dot_old for s in states])
-        )
-
     def adjacency(self, n: int) -> np.ndarray:
         if self.coupling == "none":
             return np.zeros((n, n), dtype=bool)
@@ -286,12 +273,12 @@ class NaCPGController:
         sample_times: np.ndarray,
         model: mujoco.MjModel,
         *,
-        seed: int | Sequence[int],
+        seed: int,
     ) -> np.ndarray:
         """Targets ``(B, T, nu)`` at ascending ``sample_times`` (seconds).
 
-        ``seed``: one evaluation seed for all rows, or one per row (all rows still integrate
-        in a single vectorised pass).
+        ``seed``: the evaluation seed; every row starts from the state it draws (the engine
+        groups candidates by seed).
         """
         (out,) = self.iter_targets(params, sample_times, model, seed=seed, chunks=1)
         return out
@@ -302,7 +289,7 @@ class NaCPGController:
         sample_times: np.ndarray,
         model: mujoco.MjModel,
         *,
-        seed: int | Sequence[int],
+        seed: int,
         chunks: int | Sequence[int],
     ) -> Iterator[np.ndarray]:
         """`targets` in consecutive pieces along time, computed lazily: ``chunks`` equal pieces,
@@ -314,7 +301,8 @@ class NaCPGController:
         kernel = cpg_kernel.NaCPGKernel(
             batch, self.adjacency(model.nu), alpha=self.alpha, dt=self.dt
         )
-        kernel.set_state(*self._initial_states(model, seed, batch.shape[0]))
+        # operator.index: a list of seeds is refused, not hashed into one seed by default_rng.
+        kernel.set_state(*self.initial_state(model, operator.index(seed)))
         steps = cpg_kernel.cpg_steps(sample_times, self.dt)
         if np.any(np.diff(steps) < 0):
             raise ValueError("sample_times must be ascending")

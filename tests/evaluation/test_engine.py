@@ -3,12 +3,21 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from typing import ClassVar
 
 import mujoco
 import numpy as np
 import pytest
 
-from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate, evaluate_batch
+from ariel.evaluation import (
+    BodyBuildError,
+    BodySpec,
+    EvaluationTask,
+    build,
+    evaluate,
+    evaluate_batch,
+)
 from ariel.evaluation.builtin_plugins import NaCPGController
 
 GECKO = BodySpec("prebuilt", "gecko")
@@ -162,10 +171,69 @@ def test_a_body_that_cannot_be_built_gives_an_error_result() -> None:
     assert "3" in result.error and "\n" not in result.error
 
 
-def test_wrong_parameter_count_names_the_expected_count() -> None:
-    result = evaluate(task(np.zeros(7)))
-    assert result.status == "error"
-    assert "needs 40 parameters" in result.error and "has 7" in result.error
+def test_build_raises_body_build_error_for_genotypes_only() -> None:
+    from ariel.plugins import UnknownPluginError
+
+    bad_genotypes = [BodySpec("nde", [[0.1] * 64] * 2), BodySpec("prebuilt", "dragon")]
+    for body in bad_genotypes:
+        with pytest.raises(BodyBuildError, match=f"body encoder {body.encoder!r}") as info:
+            build(EvaluationTask(body=body))
+        assert info.value.__cause__ is not None
+    # The caller's mistakes are not the genotype's: they propagate as they are.
+    with pytest.raises(UnknownPluginError):
+        build(EvaluationTask(body=GECKO, world="moon"))
+    with pytest.raises(TypeError, match="world 'flat'") as info:
+        build(EvaluationTask(body=GECKO, world_options={"gravity_scale": 2}))
+    assert not isinstance(info.value, BodyBuildError)
+    with pytest.raises(ValueError, match="body encoder 'nde'"):
+        build(EvaluationTask(body=BodySpec("nde", [[0.1] * 64] * 3, {"number_of_modules": 1})))
+
+
+def test_only_unbuildable_bodies_become_error_results_in_a_batch() -> None:
+    bad = EvaluationTask(body=BodySpec("prebuilt", "dragon"), duration=0.5, eval_id="bad")
+    good = task(gecko_params(1)[0], duration=0.5, eval_id="good")
+    results = evaluate_batch([bad, good])
+    assert [r.status for r in results] == ["error", "ok"]
+    assert "BodyBuildError" in results[0].error and "dragon" in results[0].error
+
+
+def test_wrong_parameter_count_raises_naming_controller_count_actuators_and_id() -> None:
+    with pytest.raises(ValueError, match="parameters") as info:
+        evaluate_batch([task(np.zeros(40)), task(np.zeros(7), eval_id="gen3-7")])
+    message = str(info.value)
+    for part in ("'na_cpg'", "needs 40", "8 actuators", "'gen3-7'", "has 7"):
+        assert part in message
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "plugin"),
+    [
+        ({"world_options": {"no_such_option": 1}}, TypeError, "world 'flat'"),
+        ({"world": "rugged", "world_options": {"no_such_option": 1}}, TypeError, "'rugged'"),
+        ({"controller_options": {"no_such_option": 1}}, TypeError, "controller 'na_cpg'"),
+        ({"controller_options": {"coupling": "ring"}}, ValueError, "controller 'na_cpg'"),
+        ({"fitness_options": {"no_such_option": 1}}, TypeError, "'xy_displacement'"),
+        (
+            {"fitness": "distance_to_target", "fitness_options": {"target": "north"}},
+            ValueError,
+            "fitness function 'distance_to_target'",
+        ),
+    ],
+)
+def test_bad_plugin_options_raise_naming_the_plugin(
+    kwargs: dict, error: type[Exception], plugin: str
+) -> None:
+    with pytest.raises(error, match=plugin):
+        evaluate(task(gecko_params(1)[0], duration=0.2, **kwargs))
+
+
+def test_bad_body_encoder_options_raise_naming_the_encoder() -> None:
+    body = BodySpec("nde", [[0.5] * 64] * 3, {"number_of_modules": 0})
+    with pytest.raises(ValueError, match="body encoder 'nde'"):
+        evaluate(EvaluationTask(body=body, duration=0.2))
+    body = BodySpec("prebuilt", "gecko", {"size": 2})
+    with pytest.raises(TypeError, match="body encoder 'prebuilt'"):
+        evaluate(EvaluationTask(body=body, duration=0.2))
 
 
 @pytest.mark.parametrize(
@@ -200,3 +268,91 @@ def test_batch_with_a_seed_per_candidate_equals_single_evaluations() -> None:
     tasks = [task(p, seed=100 + i) for i, p in enumerate(params)]
     for t, r in zip(tasks, evaluate_batch(tasks, nthread=2)):
         assert_same_result(evaluate(t), r)
+
+
+class SeededNoiseController:
+    """Open-loop test plugin: a sine per actuator plus noise from ``default_rng(seed)``."""
+
+    open_loop = True
+    calls: ClassVar[list[int]] = []
+
+    def num_parameters(self, model: mujoco.MjModel) -> int:
+        return model.nu
+
+    def random_parameters(self, model: mujoco.MjModel, rng: np.random.Generator, n: int):
+        return rng.uniform(0.2, 1.0, (n, model.nu))
+
+    def targets(self, params, sample_times, model, *, seed):
+        assert type(seed) is int, f"seed is {type(seed).__name__}, not int"
+        SeededNoiseController.calls.append(seed)
+        # Noise depends on the seed only, never on which other rows share the call.
+        noise = np.random.default_rng(seed).uniform(-0.3, 0.3, (sample_times.size, model.nu))
+        wave = np.sin(2 * np.pi * sample_times)[None, :, None]
+        return params[:, None, :] * wave + noise[None]
+
+
+@pytest.fixture
+def seeded_noise() -> Iterator[str]:
+    from ariel.plugins import controllers
+
+    controllers.register("test_seeded_noise", SeededNoiseController)
+    SeededNoiseController.calls.clear()
+    try:
+        yield "test_seeded_noise"
+    finally:
+        controllers.unregister("test_seeded_noise")
+
+
+def test_a_batch_mixing_seeds_calls_targets_once_per_seed_with_an_int(seeded_noise: str) -> None:
+    model = build(EvaluationTask(body=GECKO)).model
+    params = SeededNoiseController().random_parameters(model, np.random.default_rng(2), 6)
+    seeds = [3, np.int64(1), 3, 2, 1, 2]
+    tasks = [
+        task(p, controller=seeded_noise, seed=s, eval_id=str(i))
+        for i, (p, s) in enumerate(zip(params, seeds))
+    ]
+    batch = evaluate_batch(tasks, nthread=2)
+    assert SeededNoiseController.calls == [3, 1, 2]  # one call per distinct seed, first-seen order
+    assert [r.eval_id for r in batch] == [str(i) for i in range(6)]
+    for t, r in zip(tasks, batch):
+        assert_same_result(evaluate(t), r)
+    assert not np.array_equal(batch[0].joint_target, batch[3].joint_target)
+
+
+def test_a_seed_must_be_one_integer() -> None:
+    assert type(task(np.zeros(40), seed=np.int64(5)).seed) is int
+    for bad in ([1, 2], 1.5, True, "3"):
+        with pytest.raises(ValueError, match="seed must be an integer"):
+            task(np.zeros(40), seed=bad)
+    model = build(EvaluationTask(body=GECKO)).model
+    with pytest.raises(TypeError):
+        NaCPGController().targets(gecko_params(2), np.zeros(3), model, seed=[1, 2])
+
+
+def test_smoothing_is_a_task_field_that_changes_the_trajectory() -> None:
+    params = gecko_params(1, seed=8)[0]
+    default, fast = evaluate(task(params)), evaluate(task(params, smoothing=1.0))
+    assert default.status == fast.status == "ok"
+    assert not np.array_equal(default.joint_target, fast.joint_target)
+    assert not np.array_equal(default.core_pos, fast.core_pos)
+    assert_same_result(evaluate(task(params, smoothing=0.5)), default)
+    batch = evaluate_batch([task(params), task(params, smoothing=1.0)], nthread=2)
+    assert_same_result(batch[0], default)  # smoothing is part of the batch group key
+    assert_same_result(batch[1], fast)
+    from ariel.plugins import controllers
+
+    model = build(EvaluationTask(body=GECKO)).model
+    mlp = controllers.make("mlp").random_parameters(model, np.random.default_rng(0), 1)[0]
+    closed = [evaluate(task(mlp, controller="mlp", smoothing=s)) for s in (0.2, 1.0)]
+    assert not np.array_equal(closed[0].joint_target, closed[1].joint_target)
+
+
+@pytest.mark.parametrize("bad", [0, -0.1, 1.5, float("nan"), float("inf"), True, "0.5"])
+def test_smoothing_outside_0_1_is_rejected(bad: object) -> None:
+    with pytest.raises(ValueError, match=r"smoothing must be a finite number in \(0, 1\]"):
+        task(np.zeros(40), smoothing=bad)
+
+
+def test_smoothing_is_no_longer_a_controller_option() -> None:
+    with pytest.raises(TypeError, match=r"controller .na_cpg.*smoothing"):
+        evaluate(task(gecko_params(1)[0], controller_options={"smoothing": 0.3}))
