@@ -1,8 +1,19 @@
 """ARIEL workbench: evolve modular robots (body and brain) in MuJoCo.
 
 Importing this package does nothing else: no folders, no logging set-up, no RNG seeding, and no
-heavy imports (torch, matplotlib and rerun load only where they are used).
+heavy imports (torch, matplotlib and rerun load only where they are used). `run_experiment`
+loads the co-evolution loop on first use.
 """
 
+from typing import Any
+
 __version__ = "0.1.0"
-__all__ = ["__version__"]
+__all__ = ["__version__", "run_experiment"]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "run_experiment":
+        from ariel.evolution import run_experiment
+
+        return run_experiment
+    raise AttributeError(f"module 'ariel' has no attribute {name!r}")

@@ -1,47 +1,211 @@
 """The ``ariel`` command.
 
-Sub-commands grow with the project; each imports what it needs only when it runs, so
-``ariel --help`` stays instant.
+Each sub-command imports what it needs only when it runs, so ``ariel --help`` stays instant.
+Bad input (an unknown plugin, a bad config key or value, an existing output folder, ...) is
+one line on stderr and exit code 2, before anything is written.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import shlex
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
 
 from ariel import __version__
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (the message and where to get help)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _fail(message: str) -> int:
+    print(f"ariel: error: {message}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, not {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, not {value}")
+    return value
+
+
+def _how_to_look(path: Path) -> str:
+    quoted = shlex.quote(str(path))
+    return (
+        "look at the results:\n"
+        f"  ariel runs {shlex.quote(str(path.parent))}\n"
+        f'  python -c "from ariel.recording import load_run; '
+        f"r = load_run('{path}'); print(r.generations)\"\n"
+        f"  (tables: {quoted}/evaluations, bodies, trajectories; one Parquet file per generation)"
+    )
+
+
+def _print_result(result: object) -> None:
+    r = result  # RunResult
+    print(
+        f"{r.status}: {r.run_id}: best fitness {r.best_fitness:.6g} "  # type: ignore[attr-defined]
+        f"(body {r.best_body_id}, evaluation {r.best_eval_id or '-'}), "  # type: ignore[attr-defined]
+        f"{r.evaluations} evaluations in {r.wall_seconds:.1f} s"  # type: ignore[attr-defined]
+    )
+    print(f"run folder: {r.run_dir}")  # type: ignore[attr-defined]
+    print(_how_to_look(Path(r.run_dir)))  # type: ignore[attr-defined]
+
+
+def _run_guarded(start: object, path_hint: str | None) -> int:
+    """Run ``start()``; bad input -> one line and exit 2; Ctrl-C -> how to resume."""
+    from ariel.evolution import ConfigError
+    from ariel.plugins import DuplicatePluginError, PluginLoadError
+    from ariel.recording import NotARunError
+
+    try:
+        result = start()  # type: ignore[operator]
+    except (ConfigError, FileExistsError, NotARunError, DuplicatePluginError,
+            PluginLoadError) as exc:
+        return _fail(str(exc))
+    except KeyboardInterrupt:
+        hint = f"; continue it with: ariel resume {path_hint}" if path_hint else ""
+        print(f"\ninterrupted{hint}", file=sys.stderr)
+        return 130
+    _print_result(result)
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from ariel.evolution import run_experiment
+
+    def start() -> object:
+        return run_experiment(
+            args.config,
+            out=args.out,
+            overwrite=args.overwrite,
+            executor=args.executor,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=None if not args.quiet else False,
+            overrides=args.set,
+        )
+
+    return _run_guarded(start, args.out or "data/runs/<run-id>")
+
+
+def _cmd_resume(args: argparse.Namespace) -> int:
+    from ariel.evolution import resume_experiment
+
+    def start() -> object:
+        try:
+            return resume_experiment(
+                args.run_dir,
+                executor=args.executor,
+                workers=args.workers,
+                scheduler=args.scheduler,
+                progress=None if not args.quiet else False,
+            )
+        except ValueError as exc:
+            from ariel.evolution import ConfigError
+
+            raise ConfigError(str(exc)) from None
+
+    return _run_guarded(start, args.run_dir)
+
+
+def _cmd_runs(args: argparse.Namespace) -> int:
+    from ariel.recording import list_runs
+
+    runs = list_runs(args.folder)
+    if not runs:
+        print(f"no runs under {args.folder}")
+        return 0
+    width = max(len(r["run_id"]) for r in runs)
+    print(f"{'run':<{width}}  {'status':<11} {'generations':>11} {'evaluations':>11}  best")
+    for r in runs:
+        best = r["best_fitness"]
+        shown = f"{best:.6g}" if isinstance(best, float) and math.isfinite(best) else "-"
+        gens = f"{r['generations_done']}/{r['generations']}"
+        print(
+            f"{r['run_id']:<{width}}  {r['status'] or '?':<11} {gens:>11} "
+            f"{r['evaluations']:>11}  {shown}"
+        )
+    return 0
 
 
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from ariel.plugins import REGISTRIES
 
-    for kind, registry in REGISTRIES.items():
-        print(f"{kind}: {', '.join(registry.names())}")
-    return 0
+    if not args.check:
+        for kind, registry in REGISTRIES.items():
+            print(f"{kind}: {', '.join(registry.names())}")
+        return 0
+    from ariel.plugins import check_all
+
+    failures = 0
+    for kind, name, problem in check_all():
+        print(f"{'FAIL' if problem else 'ok  '} {kind} {name}{': ' + problem if problem else ''}")
+        failures += problem is not None
+    print(f"{failures} plugin(s) failed their checks" if failures else "all plugins pass")
+    return 1 if failures else 0
 
 
 def _cmd_quickstart(args: argparse.Namespace) -> int:
     import runpy
-    from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "experiments" / "quickstart.py"
     if not script.exists():
-        print(f"error: {script} not found (run from a source checkout)", file=sys.stderr)
-        return 2
+        return _fail(f"{script} not found (run from a source checkout)")
     sys.argv = [str(script), *args.rest]
     runpy.run_path(str(script), run_name="__main__")
     return 0
 
 
+def _add_executor_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--executor", choices=("local", "dask", "serial"),
+                   help="where evaluations run (default: the config's executor.kind)")
+    p.add_argument("--workers", type=_positive_int, help="worker processes (default: all CPUs)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a running Dask scheduler, e.g. tcp://host:8786 (with --executor dask)")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="ariel", description="ARIEL workbench: evolve modular robots in MuJoCo."
-    )
+    parser = _Parser(prog="ariel", description="ARIEL workbench: evolve modular robots in MuJoCo.")
     parser.add_argument("--version", action="version", version=f"ariel {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    p = sub.add_parser("run", help="run an experiment (default: experiments/coevolve_flat.toml)")
+    p.add_argument("config", nargs="?", help="experiment TOML file")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a config value, e.g. --set brain.popsize=16 (repeatable)")
+    p.add_argument("--out", metavar="DIR", help="the run folder (default: data/runs/<run-id>)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
+    _add_executor_options(p)
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("resume", help="continue a killed or interrupted run")
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    _add_executor_options(p)
+    p.set_defaults(func=_cmd_resume)
+
+    p = sub.add_parser("runs", help="list the runs in a folder: status, generations, best")
+    p.add_argument("folder", nargs="?", default="data/runs", metavar="DIR")
+    p.set_defaults(func=_cmd_runs)
+
     p = sub.add_parser("plugins", help="list the registered plugins of every kind")
+    p.add_argument("--check", action="store_true",
+                   help="run the plugin checkers on every registered plugin")
     p.set_defaults(func=_cmd_plugins)
+
     p = sub.add_parser("quickstart", help="run the quick-start tutorial flow as a script")
     p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the script")
     p.set_defaults(func=_cmd_quickstart)

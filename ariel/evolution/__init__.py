@@ -1,0 +1,43 @@
+"""Evolution: the co-evolution loop (body GA x brain CMA-ES), its configs and its results.
+
+Cheap to import: names are loaded from their modules on first access.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+# public name -> module that defines it
+_LAZY: dict[str, str] = {
+    "BodyConfig": "ariel.evolution._config",
+    "BrainConfig": "ariel.evolution._config",
+    "ConfigError": "ariel.evolution._config",
+    "ExecutorConfig": "ariel.evolution._config",
+    "ExperimentConfig": "ariel.evolution._config",
+    "RecordConfig": "ariel.evolution._config",
+    "TaskConfig": "ariel.evolution._config",
+    "WorldConfig": "ariel.evolution._config",
+    "load_config": "ariel.evolution._config",
+    "BrainRun": "ariel.evolution._brain",
+    "RunResult": "ariel.evolution._loop",
+    "resume_experiment": "ariel.evolution._loop",
+    "run_experiment": "ariel.evolution._loop",
+    "derive_rng": "ariel.evolution._seeds",
+    "derive_seed": "ariel.evolution._seeds",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'ariel.evolution' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

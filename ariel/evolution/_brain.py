@@ -1,0 +1,112 @@
+"""Brain learning: CMA-ES (Hansen & Ostermeier 2001; the ``cma`` package) over controller
+parameters, one ask/tell run per body.
+
+pycma draws its samples from ``numpy.random``'s global generator unless given ``randn``; with
+several runs progressing side by side that would make each run depend on the others' timing.
+So every run owns its generator (`_Randn`), seeded from the run seed and the body, and the
+whole run pickles (checkpoints hold it between generations).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["BrainRun"]
+
+
+class _Randn:
+    """``randn(*shape)`` from a run's own generator (pycma's ``randn`` option); picklable."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+
+    def __call__(self, *shape: int) -> np.ndarray:
+        return self.rng.standard_normal(shape)
+
+
+@dataclass
+class BrainRun:
+    """One body's CMA-ES run, `ask` / `tell` one iteration (a batch of ``popsize``) at a time.
+
+    A body without parameters (no actuators) gets one evaluation of the empty vector.
+    ``best_params`` / ``best_fitness`` track the best candidate seen (in the fitness's own
+    direction, ``maximise``).
+    """
+
+    n_params: int
+    popsize: int
+    maximise: bool
+    x0: np.ndarray
+    sigma0: float
+    seed: int
+    iteration: int = 0
+    best_params: np.ndarray | None = None
+    best_fitness: float = field(default=math.nan)
+    _es: object | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.n_params == 0:
+            return
+        import cma
+
+        options = {
+            "popsize": self.popsize,
+            "seed": math.nan,  # "do nothing" to the global RNG; samples come from randn
+            "randn": _Randn(np.random.default_rng(self.seed)),
+            "verbose": -9,
+            "verb_log": 0,  # no outcmaes/ files
+            "verb_disp": 0,
+            "CMA_diagonal": False,
+        }
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self._es = cma.CMAEvolutionStrategy(np.asarray(self.x0, float), self.sigma0, options)
+
+    @property
+    def batch_size(self) -> int:
+        return 1 if self.n_params == 0 else self.popsize
+
+    def ask(self) -> np.ndarray:
+        """The next iteration's candidates, ``(batch_size, n_params)`` float64."""
+        if self._es is None:
+            return np.zeros((1, 0))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return np.array(self._es.ask(), dtype=np.float64)
+
+    def tell(self, params: np.ndarray, fitness: np.ndarray) -> int | None:
+        """Report the fitness of the candidates `ask` gave (same order).
+
+        Returns the index of this batch's candidate that became the best so far, or None.
+        """
+        fitness = np.asarray(fitness, dtype=np.float64)
+        finite = np.isfinite(fitness)
+        improved = None
+        if finite.any():
+            if self.maximise:
+                best = int(np.argmax(np.where(finite, fitness, -np.inf)))
+            else:
+                best = int(np.argmin(np.where(finite, fitness, np.inf)))
+            if self.best_params is None or self._better(fitness[best], self.best_fitness):
+                self.best_fitness = float(fitness[best])
+                self.best_params = np.array(params[best], dtype=np.float64)
+                improved = best
+        if self._es is not None:
+            # CMA-ES minimises; failed candidates (inf/NaN) rank last with a finite penalty.
+            cost = -fitness if self.maximise else fitness.copy()
+            worst = float(np.max(cost[finite])) if finite.any() else 0.0
+            cost[~finite] = worst + 1e6
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                self._es.tell(list(params), cost.tolist())
+        self.iteration += 1
+        return improved
+
+    def _better(self, a: float, b: float) -> bool:
+        if math.isnan(b):
+            return True
+        return a > b if self.maximise else a < b

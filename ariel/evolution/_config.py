@@ -1,0 +1,250 @@
+"""Experiment configuration: TOML files validated into typed, frozen config objects.
+
+Every key has a type and a range; unknown keys are rejected. Errors are `ConfigError`, one
+line naming the dotted key, what was given and what is allowed, e.g.
+``brain.popsize: must be >= 2 (got 0)``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import json
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+__all__ = [
+    "BodyConfig",
+    "BrainConfig",
+    "ConfigError",
+    "ExecutorConfig",
+    "ExperimentConfig",
+    "RecordConfig",
+    "TaskConfig",
+    "WorldConfig",
+    "apply_overrides",
+    "config_hash",
+    "load_config",
+]
+
+
+class ConfigError(ValueError):
+    """A bad experiment configuration: one line naming the key and what is allowed."""
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class BodyConfig(_Section):
+    """The body GA (ignored, but for ``genotype``, when the encoder cannot vary)."""
+
+    encoder: str = "nde"
+    options: dict[str, Any] = Field(default_factory=dict)
+    genotype: Any = None  # a fixed body, e.g. "gecko" for encoder "prebuilt"
+    population: int = Field(8, ge=1)
+    offspring: int = Field(8, ge=1)
+    survivors: Literal["plus", "generational"] = "plus"
+    tournament: int = Field(2, ge=1)
+    crossover_rate: float = Field(0.5, ge=0.0, le=1.0)
+
+
+class BrainConfig(_Section):
+    """CMA-ES over the controller's parameters, run for every new body."""
+
+    controller: str = "na_cpg"
+    options: dict[str, Any] = Field(default_factory=dict)
+    popsize: int = Field(8, ge=2)
+    iterations: int = Field(6, ge=1)
+    sigma0: float = Field(1.0, gt=0.0)
+    inherit: bool = False
+    smoothing: float = Field(0.5, gt=0.0, le=1.0)
+    control_period: int = Field(50, ge=1)
+
+
+class WorldConfig(_Section):
+    name: str = "flat"
+    options: dict[str, Any] = Field(default_factory=dict)
+
+
+class TaskConfig(_Section):
+    fitness: str = "xy_displacement"
+    options: dict[str, Any] = Field(default_factory=dict)
+    duration: float = Field(10.0, gt=0.0)
+    spawn_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @field_validator("duration")
+    @classmethod
+    def _finite(cls, value: float) -> float:
+        if not math.isfinite(value):
+            raise ValueError("must be a finite number of seconds")
+        return value
+
+
+class RecordConfig(_Section):
+    rerun: bool = False
+    rate_hz: float = Field(10.0, gt=0.0)
+    trajectories: bool = True
+
+
+class ExecutorConfig(_Section):
+    kind: Literal["serial", "local", "dask"] = "local"
+    workers: int | None = Field(None, ge=1)
+    scheduler: str | None = None
+
+
+class ExperimentConfig(_Section):
+    """One experiment. ``generations`` counts the random first generation too."""
+
+    name: str = Field("experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    description: str = ""
+    seed: int = Field(0, ge=0, lt=2**63)
+    generations: int = Field(10, ge=1)
+    body: BodyConfig = Field(default_factory=BodyConfig)
+    brain: BrainConfig = Field(default_factory=BrainConfig)
+    world: WorldConfig = Field(default_factory=WorldConfig)
+    task: TaskConfig = Field(default_factory=TaskConfig)
+    record: RecordConfig = Field(default_factory=RecordConfig)
+    executor: ExecutorConfig = Field(default_factory=ExecutorConfig)
+
+    def to_plain(self) -> dict[str, Any]:
+        """JSON-able dict (what run.json stores and `from_plain` reads back)."""
+        return self.model_dump(mode="json")
+
+    @classmethod
+    def from_plain(cls, data: Mapping[str, Any]) -> ExperimentConfig:
+        return _validate(data)
+
+
+def config_hash(config: ExperimentConfig) -> str:
+    """SHA-256 of everything that decides results (the executor section does not)."""
+    plain = config.to_plain()
+    plain.pop("executor")
+    text = json.dumps(plain, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+# --------------------------------------------------------------------------------------------
+# Errors: pydantic's first error -> one line
+# --------------------------------------------------------------------------------------------
+
+
+def _model_at(loc: Sequence[Any]) -> type[BaseModel] | None:
+    model: type[BaseModel] = ExperimentConfig
+    for part in loc:
+        field = model.model_fields.get(str(part))
+        annotation = getattr(field, "annotation", None)
+        if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
+            return None
+        model = annotation
+    return model
+
+
+def _one_line(error: ValidationError) -> str:
+    first = error.errors()[0]
+    loc = [str(p) for p in first["loc"]]
+    key = ".".join(loc) or "(top level)"
+    if first["type"] == "extra_forbidden":
+        parent = _model_at(loc[:-1])
+        allowed = sorted(parent.model_fields) if parent is not None else []
+        text = f"unknown key '{key}'; allowed: {', '.join(allowed)}"
+        close = difflib.get_close_matches(loc[-1], allowed, n=1)
+        return text + (f"; did you mean '{'.'.join([*loc[:-1], close[0]])}'?" if close else "")
+    message = first["msg"]
+    for prefix in ("Value error, ", "Input should be "):
+        if message.startswith(prefix):
+            message = ("must be " if prefix == "Input should be " else "") + message[len(prefix) :]
+    given = first.get("input")
+    shown = "" if isinstance(given, dict) else f" (got {given!r})"
+    return f"{key}: {message}{shown}"
+
+
+def _validate(data: Mapping[str, Any]) -> ExperimentConfig:
+    try:
+        return ExperimentConfig.model_validate(dict(data))
+    except ValidationError as exc:
+        raise ConfigError(_one_line(exc)) from None
+
+
+# --------------------------------------------------------------------------------------------
+# Loading and --set overrides
+# --------------------------------------------------------------------------------------------
+
+
+def _parse_value(text: str) -> Any:
+    """A TOML value (``8``, ``true``, ``"flat"``, ``[0, 0, 0]``); anything else is a string."""
+    try:
+        return tomllib.loads(f"value = {text}")["value"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """Apply ``key=value`` overrides (dotted keys) to raw config data; the key must exist.
+
+    Keys under an ``options`` table are free (plugins define them).
+    """
+    result = json.loads(json.dumps(dict(data)))  # deep copy of plain data
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise ConfigError(f"--set {item!r}: expected key=value, e.g. brain.popsize=16")
+        parts = key.split(".")
+        model: type[BaseModel] | None = ExperimentConfig
+        for depth, part in enumerate(parts):
+            if model is None:  # inside a free `options` table
+                break
+            if part not in model.model_fields:
+                allowed = ", ".join(sorted(model.model_fields))
+                where = ".".join(parts[:depth]) or "the top level"
+                raise ConfigError(f"--set {key}: no such key; keys under {where}: {allowed}")
+            if depth < len(parts) - 1:
+                annotation = model.model_fields[part].annotation
+                if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+                    model = annotation
+                elif part == "options":
+                    model = None
+                else:
+                    raise ConfigError(f"--set {key}: '{part}' is a value, not a table")
+        node = result
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise ConfigError(f"--set {key}: '{part}' is a value, not a table")
+        node[parts[-1]] = _parse_value(text.strip())
+    return result
+
+
+def load_config(
+    source: str | Path | Mapping[str, Any] | ExperimentConfig | None = None,
+    overrides: Sequence[str] = (),
+) -> ExperimentConfig:
+    """A validated config from a TOML file, a dict or a config (None: the default experiment)."""
+    if isinstance(source, ExperimentConfig):
+        data: Mapping[str, Any] = source.to_plain()
+    elif isinstance(source, Mapping):
+        data = source
+    else:
+        path = Path(source) if source is not None else default_config_path()
+        if source is None and not path.is_file():  # an installed package without experiments/
+            return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
+        if not path.is_file():
+            raise ConfigError(f"config file {str(path)!r} not found")
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError(f"{path}: malformed TOML: {exc}") from None
+        except UnicodeDecodeError:
+            raise ConfigError(f"{path}: not a UTF-8 text file") from None
+    return _validate(apply_overrides(data, overrides))
+
+
+def default_config_path() -> Path:
+    """``experiments/coevolve_flat.toml`` of this checkout (the default experiment)."""
+    return Path(__file__).resolve().parents[2] / "experiments" / "coevolve_flat.toml"

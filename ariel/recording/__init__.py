@@ -1,0 +1,33 @@
+"""Run records: the run folder, its Parquet tables and checkpoints, and `load_run`.
+
+Cheap to import: names are loaded from their modules on first access.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+# public name -> module that defines it
+_LAZY: dict[str, str] = {
+    "Run": "ariel.recording._load",
+    "load_run": "ariel.recording._load",
+    "list_runs": "ariel.recording._load",
+    "NotARunError": "ariel.recording._run_folder",
+    "RunFolder": "ariel.recording._run_folder",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'ariel.recording' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

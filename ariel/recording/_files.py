@@ -1,0 +1,66 @@
+"""Crash-safe file writing: whole files under a temporary name, fsynced, then renamed.
+
+A reader (or a resumed run) therefore sees either the previous file or the complete new one,
+never a half-written file, whenever the writing process is killed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+__all__ = ["atomic_write", "atomic_write_bytes", "atomic_write_json", "remove_temporaries"]
+
+TEMP_SUFFIX = ".tmp"
+
+
+def _temporary(path: Path) -> Path:
+    # Hidden ("." prefix): Parquet dataset readers and globs for gen-*.parquet skip it.
+    return path.with_name(f".{path.name}{TEMP_SUFFIX}")
+
+
+def _fsync_dir(folder: Path) -> None:
+    with contextlib.suppress(OSError):  # not every file system lets a directory be opened
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def atomic_write(path: Path, write: Callable[[Path], Any]) -> None:
+    """Call ``write(temporary_path)``, fsync the result and rename it to ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = _temporary(path)
+    try:
+        write(temporary)
+        with open(temporary, "rb+") as file:
+            os.fsync(file.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            temporary.unlink()
+        raise
+    _fsync_dir(path.parent)
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    atomic_write(path, lambda temporary: temporary.write_bytes(data))
+
+
+def atomic_write_json(path: Path, data: Any) -> None:
+    text = json.dumps(data, indent=2, sort_keys=False, allow_nan=True) + "\n"
+    atomic_write_bytes(path, text.encode())
+
+
+def remove_temporaries(folder: Path) -> Iterator[Path]:
+    """Delete leftover temporary files under ``folder`` (a killed writer's); yields each."""
+    for temporary in Path(folder).rglob(f".*{TEMP_SUFFIX}"):
+        with contextlib.suppress(OSError):
+            temporary.unlink()
+            yield temporary

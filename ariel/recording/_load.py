@@ -1,0 +1,122 @@
+"""Load a run folder into pandas: `load_run(path)` and `list_runs(folder)`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+from ariel.recording._run_folder import NotARunError, RunFolder
+from ariel.recording._tables import read_table
+
+__all__ = ["Run", "list_runs", "load_run"]
+
+
+@dataclass
+class Run:
+    """A run's records. Tables load on first access and hold finished generations only.
+
+    Attributes:
+        path: the run folder.
+        info: ``run.json`` (status, seed, versions, plugin provenance, times, ...).
+        config: the resolved experiment config as a dict.
+    """
+
+    path: Path
+    info: dict[str, Any]
+    config: dict[str, Any] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.config = self.info.get("config", {})
+
+    @property
+    def generations_done(self) -> int:
+        return int(self.info.get("generations_done", 0))
+
+    def _table(self, name: str) -> Any:
+        return read_table(self.path, name, up_to=self.generations_done - 1).to_pandas()
+
+    @cached_property
+    def evaluations(self) -> Any:
+        """One row per evaluation (ids, genotype, controller params, fitness, status, ...)."""
+        return self._table("evaluations")
+
+    @cached_property
+    def bodies(self) -> Any:
+        """One row per body per generation (``selected``: it survived into the next one)."""
+        return self._table("bodies")
+
+    @cached_property
+    def trajectories(self) -> Any:
+        """One row per recorded frame: ``eval_id``, ``t``, core position, joint lists."""
+        return self._table("trajectories")
+
+    @cached_property
+    def generations(self) -> Any:
+        """Per generation: evaluations, failures, and best / mean / median fitness of the
+        population after selection."""
+        import pandas as pd
+
+        evaluations, bodies = self.evaluations, self.bodies
+        maximise = True
+        if len(evaluations):
+            from ariel.plugins import fitness_functions
+
+            maximise = bool(fitness_functions.get(evaluations["fitness_fn"].iloc[0]).maximise)
+        rows = []
+        for generation, group in bodies.groupby("generation", sort=True):
+            alive = group[group["selected"]]["fitness"]
+            alive = alive[alive.map(math.isfinite)]
+            evals = evaluations[evaluations["generation"] == generation]
+            rows.append(
+                {
+                    "generation": int(generation),
+                    "evaluations": len(evals),
+                    "new_bodies": int(group["is_new"].sum()),
+                    "errors": int((evals["status"] == "error").sum()),
+                    "unstable": int((evals["status"] == "unstable").sum()),
+                    "best_fitness": (alive.max() if maximise else alive.min())
+                    if len(alive)
+                    else math.nan,
+                    "mean_fitness": alive.mean() if len(alive) else math.nan,
+                    "median_fitness": alive.median() if len(alive) else math.nan,
+                }
+            )
+        return pd.DataFrame(rows)
+
+
+def load_run(path: str | Path) -> Run:
+    """The records of the run in ``path`` (a folder made by `ariel run`)."""
+    folder = RunFolder(path)
+    return Run(path=folder.path, info=folder.read_info())
+
+
+def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
+    """One summary per run folder directly under ``root`` (folders that are not runs skipped)."""
+    root = Path(root)
+    if not root.is_dir():
+        return []
+    found = []
+    for child in sorted(root.iterdir()):
+        if not child.is_dir():
+            continue
+        try:
+            info = RunFolder(child).read_info()
+        except NotARunError:
+            continue
+        config = info.get("config", {})
+        found.append(
+            {
+                "path": str(child),
+                "run_id": info.get("run_id", child.name),
+                "status": info.get("status"),
+                "generations_done": info.get("generations_done", 0),
+                "generations": config.get("generations"),
+                "evaluations": info.get("evaluations_done", 0),
+                "best_fitness": info.get("best_fitness"),
+                "created": info.get("created"),
+            }
+        )
+    return found

@@ -1,0 +1,150 @@
+"""The run's Parquet tables: one file per table per generation, written whole.
+
+``evaluations/gen-NNNNNN.parquet``: one row per evaluation. ``bodies/gen-NNNNNN.parquet``: one
+row per body taking part in the generation (its parents and its offspring). 
+``trajectories/gen-NNNNNN.parquet``: one row per recorded frame of every evaluation.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from ariel.recording._files import atomic_write
+
+__all__ = [
+    "TABLES",
+    "body_schema",
+    "evaluation_schema",
+    "generation_file",
+    "read_table",
+    "table_generations",
+    "trajectory_schema",
+    "write_table",
+]
+
+#: Table name -> folder in the run folder.
+TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories")
+_GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
+
+
+def _descriptor_fields() -> list[pa.Field]:
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    return [pa.field(name, pa.float64()) for name in DESCRIPTOR_NAMES]
+
+
+@cache
+def evaluation_schema() -> pa.Schema:
+    return pa.schema(
+        [
+            ("run_id", pa.string()),
+            ("generation", pa.int32()),
+            ("body_id", pa.string()),
+            ("eval_id", pa.string()),
+            ("iteration", pa.int32()),
+            ("candidate", pa.int32()),
+            ("parent_ids", pa.list_(pa.string())),
+            ("body_encoder", pa.string()),
+            ("body_genotype", pa.string()),  # JSON of the genotype's plain data
+            ("controller", pa.string()),
+            ("controller_params", pa.list_(pa.float64())),
+            ("world", pa.string()),
+            ("fitness_fn", pa.string()),
+            ("fitness", pa.float64()),
+            ("status", pa.string()),
+            ("error", pa.string()),
+            *_descriptor_fields(),
+            ("n_joints", pa.int32()),
+            ("joint_names", pa.list_(pa.string())),
+            ("seed", pa.int64()),
+            ("sim_seconds", pa.float64()),
+            ("wall_seconds", pa.float64()),
+        ]
+    )
+
+
+@cache
+def body_schema() -> pa.Schema:
+    return pa.schema(
+        [
+            ("run_id", pa.string()),
+            ("generation", pa.int32()),
+            ("body_id", pa.string()),
+            ("parent_ids", pa.list_(pa.string())),
+            ("born_generation", pa.int32()),
+            ("body_encoder", pa.string()),
+            ("body_genotype", pa.string()),
+            ("graph", pa.string()),  # networkx node-link JSON of the decoded robot graph
+            *_descriptor_fields(),
+            ("n_joints", pa.int32()),
+            ("status", pa.string()),
+            ("error", pa.string()),
+            ("fitness", pa.float64()),
+            ("best_eval_id", pa.string()),
+            ("evaluations", pa.int32()),
+            ("is_new", pa.bool_()),
+            ("selected", pa.bool_()),
+        ]
+    )
+
+
+@cache
+def trajectory_schema() -> pa.Schema:
+    return pa.schema(
+        [
+            ("generation", pa.int32()),
+            ("eval_id", pa.string()),
+            ("t", pa.float64()),
+            ("core_x", pa.float64()),
+            ("core_y", pa.float64()),
+            ("core_z", pa.float64()),
+            ("joint_target", pa.list_(pa.float64())),
+            ("joint_angle", pa.list_(pa.float64())),
+        ]
+    )
+
+
+_SCHEMAS = {
+    "evaluations": evaluation_schema,
+    "bodies": body_schema,
+    "trajectories": trajectory_schema,
+}
+
+
+def generation_file(run_dir: Path, table: str, generation: int) -> Path:
+    return Path(run_dir) / table / f"gen-{generation:06d}.parquet"
+
+
+def write_table(
+    run_dir: Path, table: str, generation: int, columns: Mapping[str, Sequence[Any]]
+) -> Path:
+    """Write one generation's rows (as columns) of ``table``, atomically; returns the path."""
+    schema = _SCHEMAS[table]()
+    arrow = pa.Table.from_pydict({f.name: columns[f.name] for f in schema}, schema=schema)
+    path = generation_file(run_dir, table, generation)
+    atomic_write(path, lambda tmp: pq.write_table(arrow, tmp, compression="zstd"))
+    return path
+
+
+def table_generations(run_dir: Path, table: str) -> list[int]:
+    """Generations with a finished file of ``table``, ascending."""
+    folder = Path(run_dir) / table
+    if not folder.is_dir():
+        return []
+    found = (_GEN_FILE.match(p.name) for p in folder.iterdir())
+    return sorted(int(m.group(1)) for m in found if m)
+
+
+def read_table(run_dir: Path, table: str, up_to: int | None = None) -> pa.Table:
+    """All generations of ``table`` (those <= ``up_to`` when given) as one Arrow table."""
+    schema = _SCHEMAS[table]()
+    gens = [g for g in table_generations(run_dir, table) if up_to is None or g <= up_to]
+    parts = [pq.read_table(generation_file(run_dir, table, g), schema=schema) for g in gens]
+    return pa.concat_tables(parts) if parts else schema.empty_table()
