@@ -141,8 +141,11 @@ def _resolve(config: ExperimentConfig) -> _Plugins:
         fitness = fitness_functions.get(config.task.fitness)
     except (KeyError, ValueError, ImportError) as exc:
         raise ConfigError(f"task.fitness: {exc}") from None
-    with contextlib.suppress(TypeError, ValueError):  # builtins without a signature: skip
+    try:
         signature = inspect.signature(fitness)
+    except (TypeError, ValueError):  # a callable without a readable signature: not checked
+        signature = None
+    if signature is not None:
         try:
             signature.bind(None, **config.task.options)
         except TypeError as exc:
