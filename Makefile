@@ -25,8 +25,10 @@ setup: $(VENV)/.stamp-setup
 gl:
 	@bash .ci/install-gl.sh || echo "note: GL libraries not installed; rendering will be unavailable"
 
+# The main job: the default co-evolution experiment (experiments/coevolve_flat.toml) into
+# data/runs/<run-id>/. Pass options through ARGS, e.g. make run ARGS="--set generations=20".
 run: setup gl
-	$(GL_ENV) $(PY) experiments/quickstart.py
+	$(GL_ENV) $(PY) -m ariel.cli run $(ARGS)
 
 test: setup gl
 	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q

@@ -47,6 +47,15 @@ def _probe(module: str, cwd: Path) -> dict:
         "ariel.simulation.controllers.cpg_kernel",
         "ariel.evaluation._engine",
         "ariel.evaluation.builtin_plugins",
+        "ariel.ec.genotypes.nde.encoder",
+        "ariel.body_phenotypes.robogen_lite.prebuilt_robots.encoder",
+        "ariel.body_phenotypes.robogen_lite.graph_encoder",
+        "ariel._plugin_checks",
+        "ariel.evolution",
+        "ariel.evolution._loop",
+        "ariel.recording",
+        "ariel.recording._load",
+        "ariel.cli",
     ],
 )
 def test_import_loads_no_heavy_library_and_writes_no_file(module: str, tmp_path: Path) -> None:
