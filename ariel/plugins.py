@@ -28,6 +28,12 @@ Rules:
 - Unknown names raise `UnknownPluginError` (a `KeyError` and a `ValueError`) listing the known
   names.
 
+Checkers, in the spirit of Gymnasium's ``check_env``: `check_body_encoder`, `check_world`,
+`check_controller` and `check_fitness` test one plugin's contract (protocol, determinism for a
+seed, shapes, plain-data round trips, a short evaluation of the gecko) and raise
+`PluginCheckError`; `check_all` runs them over every registered name. They live in
+``ariel._plugin_checks`` (it needs MuJoCo) and are imported on first use.
+
 The in-tree registrations need mujoco and numpy, so they are not imported with this module:
 each registry imports its in-tree modules (`BUILTIN_PLUGIN_MODULES`) on its first lookup.
 """
@@ -39,7 +45,16 @@ import importlib
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar, overload, runtime_checkable
+from typing import (
+    TYPE_CHECKING,
+    Any,
+    Generic,
+    NoReturn,
+    Protocol,
+    TypeVar,
+    overload,
+    runtime_checkable,
+)
 
 if TYPE_CHECKING:
     import importlib.metadata
@@ -47,6 +62,14 @@ if TYPE_CHECKING:
     import mujoco
     import networkx as nx
     import numpy as np
+
+    from ariel._plugin_checks import (
+        check_all,
+        check_body_encoder,
+        check_controller,
+        check_fitness,
+        check_world,
+    )
 
 __all__ = [
     "BUILTIN_PLUGIN_MODULES",
@@ -58,6 +81,7 @@ __all__ = [
     "DuplicatePluginError",
     "FitnessFunction",
     "OpenLoopController",
+    "PluginCheckError",
     "PluginLoadError",
     "Policy",
     "Registry",
@@ -65,6 +89,12 @@ __all__ = [
     "World",
     "WorldFactory",
     "body_encoders",
+    "cannot_vary",
+    "check_all",
+    "check_body_encoder",
+    "check_controller",
+    "check_fitness",
+    "check_world",
     "controllers",
     "fitness_function",
     "fitness_functions",
@@ -109,6 +139,10 @@ class PluginLoadError(ImportError):
     """An entry point that could not be imported, or that gave an unusable object."""
 
 
+class PluginCheckError(AssertionError):
+    """A plugin that breaks its contract; the one-line message names the plugin and the fault."""
+
+
 # --------------------------------------------------------------------------------------------
 # Protocols, one per kind. The evaluation engine may refine the controller protocol.
 # --------------------------------------------------------------------------------------------
@@ -120,9 +154,15 @@ class BodyEncoder(Protocol):
 
     Genotypes are plain data (numpy arrays, lists, dicts of those) so they can be stored in
     Parquet and sent to workers. Every operation draws only from the ``rng`` it is given.
+    ``evolvable`` says whether ``mutate``/``crossover`` work: an encoder of fixed bodies (e.g.
+    ``prebuilt``) sets it False and raises `NotImplementedError` from both (see `cannot_vary`);
+    the co-evolution loop then evolves brains only. An encoder may also define
+    ``build(genotype) -> CoreModule`` for bodies a graph cannot express; the engine then
+    builds with it and uses ``decode`` only for the morphology descriptors.
     """
 
     name: str
+    evolvable: bool
 
     def random_genotype(self, rng: np.random.Generator) -> Any:
         """A new random genotype."""
@@ -218,6 +258,18 @@ class FitnessFunction(Protocol):
     maximise: bool
 
     def __call__(self, trajectory: Any) -> float: ...
+
+
+def cannot_vary(encoder: str) -> NoReturn:
+    """Raise the error of a body encoder with fixed genotypes (``evolvable = False``).
+
+    Call it from such an encoder's ``mutate`` and ``crossover``: returning the input unchanged
+    would let an evolutionary loop run on without ever changing a body.
+    """
+    raise NotImplementedError(
+        f"body encoder {encoder!r} cannot vary its genotypes; it serves fixed bodies "
+        "(evolvable is False): evolve brains only, or use an evolvable encoder such as 'nde'"
+    )
 
 
 def fitness_function(*, maximise: bool) -> Callable[[F], F]:
@@ -639,3 +691,15 @@ def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | Non
             raise ValueError(f"unknown plugin kind '{kind}'; known: {', '.join(REGISTRIES)}")
         result[kind] = REGISTRIES[kind].provenance(name)
     return result
+
+
+# The checkers need MuJoCo and the engine: imported on first use, so this module stays light.
+_CHECKS = ("check_all", "check_body_encoder", "check_controller", "check_fitness", "check_world")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _CHECKS:
+        value = getattr(importlib.import_module("ariel._plugin_checks"), name)
+        globals()[name] = value  # cache: __getattr__ runs once per name
+        return value
+    raise AttributeError(f"module 'ariel.plugins' has no attribute {name!r}")

@@ -1,22 +1,26 @@
 """In-tree plugin registrations: body encoders, worlds, controllers and fitness functions.
 
 `ariel.plugins` imports this module on the first lookup in any registry (never on
-``import ariel``). Each plugin is a small class or function over code that lives elsewhere in
-the package; nothing here re-implements it.
+``import ariel``). Body encoders live beside their encodings (`NDEEncoder` in
+``ariel.ec.genotypes.nde.encoder``, `PrebuiltEncoder` in ``...prebuilt_robots.encoder``,
+`GraphEncoder` in ``...robogen_lite.graph_encoder``) and are only registered here; worlds,
+controllers and fitness functions are small adapters over code that lives elsewhere in the
+package; nothing here re-implements it.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import operator
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import mujoco
-import networkx as nx
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.graph_encoder import GraphEncoder
+from ariel.body_phenotypes.robogen_lite.prebuilt_robots.encoder import PrebuiltEncoder
+from ariel.ec.genotypes.nde.encoder import NDEEncoder
 from ariel.plugins import body_encoders, controllers, fitness_function, fitness_functions, worlds
 from ariel.simulation.controllers import cpg_kernel
 from ariel.simulation.tasks.gait_learning import x_speed as _x_speed
@@ -25,6 +29,7 @@ from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _di
 from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning_in_place
 
 __all__ = [
+    "GraphEncoder",
     "MLPController",
     "NDEEncoder",
     "NaCPGController",
@@ -34,159 +39,12 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------------------------
-# Body encoders
+# Body encoders: each lives beside the code it encodes, with its variation operators
 # --------------------------------------------------------------------------------------------
 
-
-@functools.lru_cache(maxsize=8)
-def _nde_weights(number_of_modules: int, genotype_size: int, nde_seed: int) -> dict:
-    """NDE weights as numpy arrays, made once per process (torch only for the initialisation)."""
-    import torch
-
-    from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)  # a second spinning OpenMP thread slows everything else down
-    try:
-        nde = NeuralDevelopmentalEncoding(number_of_modules, genotype_size, seed=nde_seed)
-        return nde.to_numpy_weights()
-    finally:
-        torch.set_num_threads(threads)
-
-
-@body_encoders.register("nde")
-class NDEEncoder:
-    """Three float chromosomes -> NDE (fixed weights from ``nde_seed``) -> greedy decoder -> graph.
-
-    Options: ``number_of_modules`` (20), ``genotype_size`` (64), ``nde_seed`` (0: the NDE's
-    weights, fixed for a whole run), ``mutation_std`` (0.1), ``mutation_rate`` (1.0: fraction of
-    genes perturbed). Genes start uniform in [0, 1) as in the tutorials.
-    """
-
-    name = "nde"
-
-    def __init__(
-        self,
-        *,
-        number_of_modules: int = 20,
-        genotype_size: int = 64,
-        nde_seed: int = 0,
-        mutation_std: float = 0.1,
-        mutation_rate: float = 1.0,
-    ) -> None:
-        if int(number_of_modules) < 2:
-            raise ValueError(f"number_of_modules must be >= 2, not {number_of_modules!r}")
-        if int(genotype_size) < 1:
-            raise ValueError(f"genotype_size must be >= 1, not {genotype_size!r}")
-        if not 0.0 <= float(mutation_rate) <= 1.0:
-            raise ValueError(f"mutation_rate must be in [0, 1], not {mutation_rate!r}")
-        self.number_of_modules = int(number_of_modules)
-        self.genotype_size = int(genotype_size)
-        self.nde_seed = int(nde_seed)
-        self.mutation_std = float(mutation_std)
-        self.mutation_rate = float(mutation_rate)
-
-    def random_genotype(self, rng: np.random.Generator) -> np.ndarray:
-        return rng.random((3, self.genotype_size)).astype(np.float32)
-
-    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> np.ndarray:
-        std = float(options.get("mutation_std", self.mutation_std))
-        rate = float(options.get("mutation_rate", self.mutation_rate))
-        genes = np.array(genotype, dtype=np.float32).reshape(3, self.genotype_size)
-        noise = rng.normal(0.0, std, genes.shape)
-        mask = rng.random(genes.shape) < rate
-        return (genes + (noise * mask)).astype(np.float32)
-
-    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> np.ndarray:
-        """Uniform crossover, chromosome-aligned gene by gene."""
-        ga = np.array(a, dtype=np.float32).reshape(3, self.genotype_size)
-        gb = np.array(b, dtype=np.float32).reshape(3, self.genotype_size)
-        return np.where(rng.random(ga.shape) < 0.5, ga, gb)
-
-    def decode(self, genotype: Any) -> nx.DiGraph:
-        from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
-        from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
-
-        weights = _nde_weights(self.number_of_modules, self.genotype_size, self.nde_seed)
-        matrices = nde_forward_numpy(weights, genotype)
-        return HighProbabilityDecoder(self.number_of_modules).probability_matrices_to_graph(
-            *matrices
-        )
-
-
-@body_encoders.register("prebuilt")
-class PrebuiltEncoder:
-    """A fixed named body (``"gecko"``, ``"spider"``, ...) for brain-only experiments.
-
-    The genotype is the body's name; there is nothing to mutate or cross over.
-    """
-
-    name = "prebuilt"
-
-    def __init__(self) -> None:
-        pass
-
-    @staticmethod
-    def _check(genotype: Any) -> str:
-        from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
-
-        if not isinstance(genotype, str) or genotype not in PREBUILT_ROBOTS:
-            raise ValueError(
-                f"unknown prebuilt body {genotype!r}; known: {', '.join(sorted(PREBUILT_ROBOTS))}"
-            )
-        return genotype
-
-    def random_genotype(self, rng: np.random.Generator) -> str:
-        return "gecko"
-
-    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> str:
-        return self._check(genotype)
-
-    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> str:
-        return self._check(a)
-
-    def build(self, genotype: Any) -> Any:
-        """The exact prebuilt body (a CoreModule), which a graph cannot always express."""
-        from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
-
-        return PREBUILT_ROBOTS[self._check(genotype)]()
-
-    def decode(self, genotype: Any) -> nx.DiGraph:
-        from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_GRAPHS
-
-        name = self._check(genotype)
-        if name not in PREBUILT_GRAPHS:
-            raise ValueError(
-                f"prebuilt body {name!r} has no graph form; bodies with one: "
-                f"{', '.join(sorted(PREBUILT_GRAPHS))}"
-            )
-        return PREBUILT_GRAPHS[name]()
-
-
-@body_encoders.register("graph")
-class GraphEncoder:
-    """A robot graph given directly, as networkx node-link data (``edges="edges"``)."""
-
-    name = "graph"
-
-    def __init__(self) -> None:
-        pass
-
-    def random_genotype(self, rng: np.random.Generator) -> Any:
-        raise ValueError("the 'graph' body encoder holds fixed graphs; it cannot make random ones")
-
-    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> Any:
-        return genotype
-
-    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> Any:
-        return a
-
-    def decode(self, genotype: Any) -> nx.DiGraph:
-        if isinstance(genotype, nx.DiGraph):
-            return genotype
-        if not isinstance(genotype, dict) or "nodes" not in genotype:
-            raise ValueError("a 'graph' body must be networkx node-link data (a dict with 'nodes')")
-        return nx.node_link_graph(genotype, directed=True, multigraph=False, edges="edges")
+body_encoders.register("nde", NDEEncoder)
+body_encoders.register("prebuilt", PrebuiltEncoder)
+body_encoders.register("graph", GraphEncoder)
 
 
 # --------------------------------------------------------------------------------------------

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ariel.evaluation import BodySpec, EvaluationTask, evaluate, evaluate_batch, make_executor
+from ariel.evaluation import (
+    BodySpec,
+    EvaluationTask,
+    build,
+    evaluate,
+    evaluate_batch,
+    make_executor,
+)
 from ariel.evaluation.executors import map_ordered
 
 
@@ -16,7 +23,11 @@ def _tasks() -> list[EvaluationTask]:
     tasks = [
         EvaluationTask(body=gecko, params=p, duration=0.5, seed=i) for i, p in enumerate(params)
     ]
-    tasks.append(EvaluationTask(body=nde, params=(), duration=0.5))  # may have no hinges
+    nu = build(EvaluationTask(body=nde)).model.nu
+    nde_params = np.random.default_rng(4).uniform(-1, 1, 5 * nu)  # na_cpg: 5 per actuator
+    tasks.append(EvaluationTask(body=nde, params=nde_params, duration=0.5))
+    # A genotype that cannot be built is an "error" result wherever it runs.
+    tasks.append(EvaluationTask(body=BodySpec("prebuilt", "dragon"), duration=0.5))
     return tasks
 
 
@@ -26,7 +37,9 @@ def _fingerprint(results) -> list[tuple]:
 
 @pytest.fixture(scope="module")
 def reference() -> list[tuple]:
-    return _fingerprint([evaluate(t) for t in _tasks()])
+    results = [evaluate(t) for t in _tasks()]
+    assert [r.status for r in results] == ["ok"] * 4 + ["error"]
+    return _fingerprint(results)
 
 
 @pytest.mark.parametrize(
