@@ -72,8 +72,13 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
 
     try:
         result = start()  # type: ignore[operator]
-    except (ConfigError, FileExistsError, NotARunError, DuplicatePluginError,
-            PluginLoadError) as exc:
+    except (
+        ConfigError,
+        FileExistsError,
+        NotARunError,
+        DuplicatePluginError,
+        PluginLoadError,
+    ) as exc:
         return _fail(str(exc))
     except KeyboardInterrupt:
         hint = f"; continue it with: ariel resume {path_hint}" if path_hint else ""
@@ -170,11 +175,17 @@ def _cmd_quickstart(args: argparse.Namespace) -> int:
 
 
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--executor", choices=("local", "dask", "serial"),
-                   help="where evaluations run (default: the config's executor.kind)")
+    p.add_argument(
+        "--executor",
+        choices=("local", "dask", "serial"),
+        help="where evaluations run (default: the config's executor.kind)",
+    )
     p.add_argument("--workers", type=_positive_int, help="worker processes (default: all CPUs)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="a running Dask scheduler, e.g. tcp://host:8786 (with --executor dask)")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a running Dask scheduler, e.g. tcp://host:8786 (with --executor dask)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
@@ -185,8 +196,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run an experiment (default: experiments/coevolve_flat.toml)")
     p.add_argument("config", nargs="?", help="experiment TOML file")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a config value, e.g. --set brain.popsize=16 (repeatable)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a config value, e.g. --set brain.popsize=16 (repeatable)",
+    )
     p.add_argument("--out", metavar="DIR", help="the run folder (default: data/runs/<run-id>)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
     _add_executor_options(p)
@@ -202,8 +218,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_runs)
 
     p = sub.add_parser("plugins", help="list the registered plugins of every kind")
-    p.add_argument("--check", action="store_true",
-                   help="run the plugin checkers on every registered plugin")
+    p.add_argument(
+        "--check", action="store_true", help="run the plugin checkers on every registered plugin"
+    )
     p.set_defaults(func=_cmd_plugins)
 
     p = sub.add_parser("quickstart", help="run the quick-start tutorial flow as a script")

@@ -78,7 +78,8 @@ class LoopState:
     next_body: int
     population: list[Body]
     brain: BrainRun | None = None  # brain-only: the run that goes on across generations
-    evaluations_done: int = 0
+    evaluations_done: int = 0  # rows in the evaluations table
+    budget_done: int = 0  # progress: evaluations run or skipped (failed bodies)
     wall_seconds: float = 0.0
 
 
@@ -135,7 +136,9 @@ def _resolve(config: ExperimentConfig) -> _Plugins:
             raise ConfigError(f"{options_key}: {registry.label} '{name}': {exc}") from None
 
     encoder = make("body.encoder", body_encoders, config.body.encoder, config.body.options)
-    controller = make("brain.controller", controllers, config.brain.controller, config.brain.options)
+    controller = make(
+        "brain.controller", controllers, config.brain.controller, config.brain.options
+    )
     make("world.name", worlds, config.world.name, config.world.options)
     try:
         fitness = fitness_functions.get(config.task.fitness)
@@ -152,6 +155,11 @@ def _resolve(config: ExperimentConfig) -> _Plugins:
             raise ConfigError(
                 f"task.options: fitness function '{config.task.fitness}': {exc}"
             ) from None
+    if getattr(encoder, "evolvable", False) and config.body.genotype is not None:
+        raise ConfigError(
+            f"body.genotype: a fixed body is only for encoders that cannot vary (such as "
+            f"'prebuilt'); '{config.body.encoder}' evolves its own genotypes"
+        )
     if config.body.survivors == "generational" and config.body.offspring < config.body.population:
         raise ConfigError(
             f"body.offspring: generational survival needs offspring >= population "
@@ -192,6 +200,7 @@ class _Experiment:
         self._rows: dict[tuple[int, int, int], dict[str, Any]] = {}
         self._frames: dict[tuple[int, int, int], Any] = {}
         self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
+        self.rows_written = 0  # evaluations rows of the last generation written
 
     # -- bodies --------------------------------------------------------------------------------
 
@@ -290,8 +299,14 @@ class _Experiment:
 
     # -- brain learning: all jobs side by side -------------------------------------------------
 
-    def learn(self, jobs: Sequence[_Job], generation: int, executor: Any, capacity: int,
-              progress: Progress) -> None:
+    def learn(
+        self,
+        jobs: Sequence[_Job],
+        generation: int,
+        executor: Any,
+        capacity: int,
+        progress: Progress,
+    ) -> None:
         from ariel.evaluation import evaluate_batch
 
         in_flight: dict[cf.Future, tuple[_Job, np.ndarray]] = {}
@@ -435,12 +450,21 @@ class _Experiment:
             return {f.name: [row.get(f.name) for row in rows] for f in schema}
 
         rows = [self._rows[key] for key in sorted(self._rows)]
+        self.rows_written = len(rows)
         write_table(self.folder.path, "evaluations", generation, columns(rows, evaluation_schema()))
         if self.config.record.trajectories:
             frames: dict[str, list[Any]] = {
                 name: []
-                for name in ("generation", "eval_id", "t", "core_x", "core_y", "core_z",
-                             "joint_target", "joint_angle")
+                for name in (
+                    "generation",
+                    "eval_id",
+                    "t",
+                    "core_x",
+                    "core_y",
+                    "core_z",
+                    "joint_target",
+                    "joint_angle",
+                )
             }
             for key in sorted(self._frames):
                 eval_id, result = self._frames[key]
@@ -521,6 +545,21 @@ class _Experiment:
 # --------------------------------------------------------------------------------------------
 
 
+def _fixed_genotype(config: ExperimentConfig, plugins: _Plugins) -> Any:
+    """The body of a brain-only run: ``body.genotype``, else the encoder's random one."""
+    if config.body.genotype is not None:
+        return config.body.genotype
+    return plugins.encoder.random_genotype(derive_rng(config.seed, "body-init", 0))
+
+
+def _check_fixed_body(experiment: _Experiment) -> None:
+    """A brain-only run's body must build: a bad ``body.genotype`` is a config error."""
+    config = experiment.config
+    body = experiment.new_body(0, _fixed_genotype(config, experiment.plugins), [], 0)
+    if body.status == "error":
+        raise ConfigError(f"body.genotype: {config.body.genotype!r} gives no body: {body.error}")
+
+
 def _budget(config: ExperimentConfig, brain_only: bool) -> int:
     per_body = config.brain.popsize * config.brain.iterations
     if brain_only:
@@ -562,10 +601,14 @@ def _drive(
     config, folder = experiment.config, experiment.folder
     start = time.perf_counter()
     total = _budget(config, experiment.brain_only)
-    done = state.evaluations_done if state else 0
+    done = state.budget_done if state else 0
     wall_before = state.wall_seconds if state else 0.0
-    progress = Progress(total=total, done=done, enabled=show_progress is not False,
-                        live=None if show_progress is None else show_progress)
+    progress = Progress(
+        total=total,
+        done=done,
+        enabled=show_progress is not False,
+        live=None if show_progress is None else show_progress,
+    )
     options: dict[str, Any] = {"workers": workers}
     if executor_kind == "dask":
         options["scheduler"] = scheduler
@@ -575,15 +618,18 @@ def _drive(
     status = "failed"
     try:
         # BLAS in this process (pycma's eigendecompositions) stays on one thread.
-        with threadpool_limits(limits=1), make_executor(executor_kind, **options) as executor, \
-                progress:
+        with (
+            threadpool_limits(limits=1),
+            make_executor(executor_kind, **options) as executor,
+            progress,
+        ):
             capacity = _executor_capacity(executor_kind, executor, workers)
             first = 0 if state is None else state.generation + 1
             for generation in range(first, config.generations):
                 progress.start_generation(generation)
-                state = _one_generation(experiment, state, generation, executor, capacity,
-                                        progress)
-                state.evaluations_done = progress.done
+                state = _one_generation(experiment, state, generation, executor, capacity, progress)
+                state.evaluations_done += experiment.rows_written
+                state.budget_done = progress.done
                 state.wall_seconds = wall_before + time.perf_counter() - start
                 folder.save_checkpoint(state)
                 best, mean = _summary(state.population, experiment.plugins.maximise)
@@ -630,14 +676,9 @@ def _one_generation(
     config = experiment.config
     if experiment.brain_only:
         if state is None:
-            genotype = config.body.genotype
-            if genotype is None:
-                genotype = experiment.plugins.encoder.random_genotype(
-                    derive_rng(config.seed, "body-init", 0)
-                )
-            body = experiment.new_body(0, genotype, [], 0)
-            if body.status == "error":
-                raise ConfigError(f"body.genotype: the body cannot be built: {body.error}")
+            body = experiment.new_body(0, _fixed_genotype(config, experiment.plugins), [], 0)
+            if body.status == "error":  # checked in run_experiment already
+                raise RuntimeError(f"the fixed body cannot be built: {body.error}")
             state = LoopState(config_hash(config), -1, 1, [body], experiment.new_brain(body, {}))
         body = state.population[0]
         assert state.brain is not None
@@ -729,6 +770,9 @@ def run_experiment(
     if out is not None:
         run_id = path.name or run_id
     RunFolder.check_new(path, overwrite=overwrite)
+    experiment = _Experiment(config, plugins, RunFolder(path), run_id)
+    if experiment.brain_only:
+        _check_fixed_body(experiment)
     provenance = plugin_provenance(
         {
             "body_encoder": config.body.encoder,
@@ -737,7 +781,7 @@ def run_experiment(
             "fitness": config.task.fitness,
         }
     )
-    folder = RunFolder.create(
+    RunFolder.create(
         path,
         {
             "run_id": run_id,
@@ -755,7 +799,6 @@ def run_experiment(
         },
         overwrite=overwrite,
     )
-    experiment = _Experiment(config, plugins, folder, run_id)
     return _drive(experiment, None, kind, workers, scheduler, progress)
 
 
@@ -763,8 +806,9 @@ def _check_executor(kind: str, workers: int | None, scheduler: str | None) -> No
     from ariel.evaluation.executors import EXECUTOR_KINDS
 
     if kind not in EXECUTOR_KINDS:
-        raise ConfigError(f"executor.kind: unknown executor {kind!r}; known: "
-                          f"{', '.join(EXECUTOR_KINDS)}")
+        raise ConfigError(
+            f"executor.kind: unknown executor {kind!r}; known: {', '.join(EXECUTOR_KINDS)}"
+        )
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise ConfigError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
     if kind == "serial" and workers not in (None, 1):

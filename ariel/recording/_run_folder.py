@@ -137,7 +137,9 @@ class RunFolder:
         try:
             info = json.loads(self.run_json.read_text(encoding="utf-8"))
         except FileNotFoundError:
-            raise NotARunError(f"{str(self.path)!r} is not an ariel run folder (no run.json)")
+            raise NotARunError(
+                f"{str(self.path)!r} is not an ariel run folder (no run.json)"
+            ) from None
         except (OSError, ValueError) as exc:
             raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
         if not isinstance(info, dict) or info.get("format") != RUN_FORMAT:

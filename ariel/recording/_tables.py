@@ -1,7 +1,7 @@
 """The run's Parquet tables: one file per table per generation, written whole.
 
 ``evaluations/gen-NNNNNN.parquet``: one row per evaluation. ``bodies/gen-NNNNNN.parquet``: one
-row per body taking part in the generation (its parents and its offspring). 
+row per body taking part in the generation (its parents and its offspring).
 ``trajectories/gen-NNNNNN.parquet``: one row per recorded frame of every evaluation.
 """
 

@@ -76,8 +76,14 @@ def test_unknown_plugins_and_bad_plugin_options_are_config_errors(data: dict, me
 
 def test_set_overrides_parse_toml_values_and_reject_missing_keys() -> None:
     config = load_config(
-        {}, ["brain.popsize=12", "world.name=rugged", "task.spawn_position=[0, 1, 0]",
-             "body.options.number_of_modules=9", "record.rerun=true"]
+        {},
+        [
+            "brain.popsize=12",
+            "world.name=rugged",
+            "task.spawn_position=[0, 1, 0]",
+            "body.options.number_of_modules=9",
+            "record.rerun=true",
+        ],
     )
     assert config.brain.popsize == 12 and config.world.name == "rugged"
     assert config.task.spawn_position == (0.0, 1.0, 0.0)

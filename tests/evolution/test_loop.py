@@ -96,8 +96,9 @@ def test_a_different_seed_gives_a_different_run(reference, tmp_path: Path) -> No
     assert not np.array_equal(other.evaluations["fitness"], run.evaluations["fitness"])
 
 
-def test_an_interrupted_run_resumes_to_the_same_records(reference, tmp_path: Path,
-                                                         monkeypatch) -> None:
+def test_an_interrupted_run_resumes_to_the_same_records(
+    reference, tmp_path: Path, monkeypatch
+) -> None:
     _, run = reference
     original = Progress.end_generation
 
@@ -121,8 +122,9 @@ def test_an_interrupted_run_resumes_to_the_same_records(reference, tmp_path: Pat
         resume_experiment(out)
 
 
-def test_resume_refuses_an_edited_config_and_a_folder_that_is_not_a_run(tmp_path: Path,
-                                                                        monkeypatch) -> None:
+def test_resume_refuses_an_edited_config_and_a_folder_that_is_not_a_run(
+    tmp_path: Path, monkeypatch
+) -> None:
     import json
 
     monkeypatch.setattr(Progress, "end_generation", _raise_interrupt)
@@ -144,7 +146,7 @@ def _raise_interrupt(self, generation, *args, **kwargs):
 
 def test_bad_input_writes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "never"
-    with pytest.raises(ConfigError, match="brain.controller"):
+    with pytest.raises(ConfigError, match=r"brain\.controller"):
         run_experiment(tiny(brain={"controller": "nope"}), out=out)
     with pytest.raises(ConfigError, match="generations"):
         run_experiment(tiny(generations=0), out=out)
@@ -159,8 +161,7 @@ def test_bad_input_writes_nothing(tmp_path: Path) -> None:
 
 
 def test_a_prebuilt_body_is_not_evolved_the_run_is_brain_only(tmp_path: Path) -> None:
-    config = tiny(body={"encoder": "prebuilt", "genotype": "gecko", "options": {}},
-                  generations=2)
+    config = tiny(body={"encoder": "prebuilt", "genotype": "gecko", "options": {}}, generations=2)
     result = run_experiment(config, out=tmp_path / "gecko")
     run = load_run(result.run_dir)
     assert set(run.bodies["body_id"]) == {"b000000"}
@@ -178,10 +179,20 @@ def test_generational_survival_replaces_the_parents(tmp_path: Path) -> None:
     last = run.bodies[run.bodies["generation"] == 2]
     assert last[last["selected"]]["is_new"].all()
     with pytest.raises(ConfigError, match="offspring >= population"):
-        run_experiment(tiny(body={"survivors": "generational", "offspring": 2}),
-                       out=tmp_path / "x")
+        run_experiment(tiny(body={"survivors": "generational", "offspring": 2}), out=tmp_path / "x")
 
 
 def test_default_experiment_budget_is_what_the_config_says() -> None:
     config = load_config(None)
     assert config.generations >= 10
+
+
+def test_a_bad_fixed_body_is_a_config_error_and_writes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "dragon"
+    with pytest.raises(ConfigError, match=r"^body.genotype: 'dragon' gives no body"):
+        run_experiment(
+            tiny(body={"encoder": "prebuilt", "genotype": "dragon", "options": {}}), out=out
+        )
+    with pytest.raises(ConfigError, match=r"^body.genotype: a fixed body is only for"):
+        run_experiment(tiny(body={"genotype": [[0.5]]}), out=out)
+    assert not out.exists()
