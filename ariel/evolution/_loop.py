@@ -155,6 +155,8 @@ def _resolve(config: ExperimentConfig) -> _Plugins:
             raise ConfigError(
                 f"task.options: fitness function '{config.task.fitness}': {exc}"
             ) from None
+    if config.record.rerun:
+        raise ConfigError("record.rerun: Rerun recordings are not available yet; set it to false")
     if getattr(encoder, "evolvable", False) and config.body.genotype is not None:
         raise ConfigError(
             f"body.genotype: a fixed body is only for encoders that cannot vary (such as "
@@ -815,6 +817,11 @@ def _check_executor(kind: str, workers: int | None, scheduler: str | None) -> No
         raise ConfigError(f"executor.workers: the serial executor has 1 worker (got {workers})")
     if scheduler is not None and kind != "dask":
         raise ConfigError(f"executor.scheduler: only for the dask executor, not {kind!r}")
+    if scheduler is not None and workers is not None:
+        raise ConfigError(
+            "executor.workers: sizes a local cluster; with executor.scheduler the cluster's own "
+            "workers are used (scale the cluster instead)"
+        )
 
 
 def resume_experiment(

@@ -82,13 +82,13 @@ def test_set_overrides_parse_toml_values_and_reject_missing_keys() -> None:
             "world.name=rugged",
             "task.spawn_position=[0, 1, 0]",
             "body.options.number_of_modules=9",
-            "record.rerun=true",
+            "brain.inherit=true",
         ],
     )
     assert config.brain.popsize == 12 and config.world.name == "rugged"
     assert config.task.spawn_position == (0.0, 1.0, 0.0)
     assert config.body.options == {"number_of_modules": 9}
-    assert config.record.rerun is True
+    assert config.brain.inherit is True
     with pytest.raises(ConfigError, match=r"--set brain.popsiz: no such key; keys under brain"):
         load_config({}, ["brain.popsiz=3"])
     with pytest.raises(ConfigError, match=r"expected key=value"):
