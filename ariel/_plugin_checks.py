@@ -74,6 +74,10 @@ class _Checker:
             raise PluginCheckError(f"{self.prefix}: {what} raised {_one_line(exc)}") from exc
 
 
+def _make_call(options: dict[str, Any]) -> str:
+    return f"make(**{options})" if options else "make()"
+
+
 def _rng(seed: int = CHECK_SEED) -> np.random.Generator:
     return np.random.default_rng(seed)
 
@@ -153,7 +157,7 @@ def check_body_encoder(name: str, **options: Any) -> None:
     False``: ``mutate`` and ``crossover`` raise `NotImplementedError`.
     """
     check = _Checker("body encoder", name)
-    with check.step(f"make(**{options})"):
+    with check.step(_make_call(options)):
         encoder = body_encoders.make(name, **options)
     check.expect(isinstance(getattr(encoder, "name", None), str), "needs a str attribute 'name'")
     _expect_bool(check, encoder, "evolvable")
@@ -254,7 +258,7 @@ def check_world(name: str, **options: Any) -> None:
     check = _Checker("world", name)
     models = []
     for _ in range(2):
-        with check.step(f"make(**{options})"):
+        with check.step(_make_call(options)):
             world = worlds.make(name, **options)
         check.expect(
             isinstance(getattr(world, "spec", None), mujoco.MjSpec),
@@ -306,7 +310,7 @@ def check_controller(name: str, **options: Any) -> None:
     deterministically. Evaluations of the gecko run stable and repeat bit for bit.
     """
     check = _Checker("controller", name)
-    with check.step(f"make(**{options})"):
+    with check.step(_make_call(options)):
         controller = controllers.make(name, **options)
     _expect_bool(check, controller, "open_loop")
     open_loop = controller.open_loop

@@ -6,7 +6,7 @@ name back into the object, in the parent process and in every spawned worker ali
 Two ways in:
 
 - In-tree (or a script): ``@controllers.register("na_cpg")`` on a class or function, or
-  ``controllers.register("na_cpg", NaCPGPlugin)``.
+  ``controllers.register("na_cpg", NaCPGController)``.
 - A third-party package: an entry point in its ``pyproject.toml``::
 
       [project.entry-points."ariel.controllers"]
@@ -229,7 +229,11 @@ class OpenLoopController(ControllerPlugin, Protocol):
     ) -> np.ndarray:
         """Actuator targets ``(B, T, nu)`` for params ``(B, P)`` at ``sample_times`` ``(T,)``.
 
-        ``seed`` is the evaluation's seed (for e.g. an oscillator's random initial state).
+        ``seed`` is exactly one Python ``int``, the evaluation's seed (for e.g. an oscillator's
+        random initial state: ``np.random.default_rng(seed)``). The engine groups a batch's
+        candidates by seed and calls this once per distinct seed, so each row must depend only
+        on its own parameters and the seed. An optional ``iter_targets(params, sample_times,
+        model, *, seed, chunks)`` yields the same array in pieces along time.
         """
         ...
 
