@@ -1,4 +1,4 @@
-"""Headless runners (tutorial API, DECISIONS 12).
+"""Headless runners (tutorial API; how they differ from upstream: docs/decisions.md, Control).
 
 ``simple_runner`` resets the data and steps exactly ``round(duration / timestep)`` physics
 steps, in chunks, letting whatever control callback is registered drive the robot.

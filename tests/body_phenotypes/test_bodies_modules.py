@@ -153,7 +153,7 @@ def test_hinge_bodies_geoms_masses_and_colours() -> None:
     assert hinge.module_type is ModuleType.HINGE
     model, _ = _compile(hinge)
     assert [model.body(i).name for i in range(model.nbody)] == ["world", "hinge", "stator", "rotor"]
-    # Physical masses only: nothing on the root body (DECISIONS 2).
+    # Physical masses only: nothing on the root body (docs/decisions.md).
     assert model.body("hinge").mass[0] == 0.0
     assert model.body("stator").mass[0] == pytest.approx(0.02)
     assert model.body("rotor").mass[0] == pytest.approx(0.04)

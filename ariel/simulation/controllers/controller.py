@@ -1,4 +1,6 @@
-"""Controller: wraps a callable into a MuJoCo control callback (tutorial API, DECISIONS 11).
+"""Controller: wraps a callable into a MuJoCo control callback (tutorial API).
+
+It counts physics steps exactly, unlike upstream ARIEL (docs/decisions.md, Control).
 
 ``mujoco.set_mjcb_control(controller.set_control)`` makes MuJoCo call ``set_control`` once per
 physics step (before actuation). With ``k = round(data.time / model.opt.timestep)``, the

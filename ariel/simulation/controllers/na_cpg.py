@@ -2,7 +2,7 @@
 
 The arithmetic lives in :mod:`ariel.simulation.controllers.cpg_kernel` (numpy, batch of one
 here); this module adds the torch parameter interface the tutorials use. Differences from
-upstream ARIEL (see DECISIONS.md 9-10):
+upstream ARIEL (see docs/decisions.md, Control):
 
 * ``forward(time)`` is a function of simulated time: it integrates from its last internal step
   to ``floor(time / dt + 1e-9)`` steps of ``dt``, so the gait does not depend on how often it is
@@ -114,7 +114,7 @@ class NaCPG(nn.Module):
         self.num_of_parameters = NUM_PARAMETER_GROUPS * self.n
         self.num_of_parameter_groups = NUM_PARAMETER_GROUPS
 
-        # A private generator when seeded; torch's global RNG otherwise (DECISIONS 7).
+        # A private generator when seeded; torch's global RNG otherwise (docs/decisions.md).
         generator = None if seed is None else torch.Generator().manual_seed(int(seed))
 
         def uniform(low: float, high: float, *shape: int) -> torch.Tensor:

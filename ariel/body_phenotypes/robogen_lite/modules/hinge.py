@@ -61,7 +61,8 @@ HINGE_SITES: dict[ModuleFaces, tuple[str, tuple[float, ...], tuple[float, ...]]]
 class HingeModule(Module):
     """A hinge: bodies "hinge" (root, massless) > "stator", "rotor"; joint and actuator "servo".
 
-    Mass is physical: stator 0.02 kg + rotor 0.04 kg, nothing on the root body (DECISIONS 2).
+    Mass is physical: stator 0.02 kg + rotor 0.04 kg, nothing on the root body
+    (docs/decisions.md, Bodies).
     """
 
     module_type = ModuleType.HINGE
