@@ -1,4 +1,5 @@
-"""Smoke test of experiments/benchmarks/evaluation.py: it runs and ends with its JSON summary.
+"""Smoke tests of experiments/benchmarks/evaluation.py and coevolution.py: each runs and ends
+with its JSON summary.
 
 Tiny settings and no timing assertions (the machine's load decides the numbers).
 """
@@ -46,3 +47,47 @@ def test_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     result = _run("--repeats", "0", cwd=tmp_path)
     assert result.returncode == 2
     assert "--repeats must be an integer >= 1" in result.stderr
+
+
+COEVOLUTION = SCRIPT.with_name("coevolution.py")
+COEVOLUTION_KEYS = (
+    "loop_vs_raw_ratio",
+    "loop_evals_per_s",
+    "raw_evals_per_s",
+    "evaluations",
+    "threads",
+)
+
+
+def _run_coevolution(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, str(COEVOLUTION), *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=300,
+    )
+
+
+def test_coevolution_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
+    result = _run_coevolution("--quick", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    lines = result.stdout.strip().splitlines()
+    summary = json.loads(lines[-1])
+    for key in COEVOLUTION_KEYS:
+        value = summary[key]
+        assert isinstance(value, int | float) and not isinstance(value, bool), key
+        assert math.isfinite(value) and value > 0, (key, value)
+    # --quick: 1 generation x 1 iteration x popsize 4.
+    assert summary["evaluations"] == 4 and summary["repeats"] == 1
+    table = "\n".join(lines[:-1])
+    for label in ("raw mujoco.rollout", "co-evolution loop"):
+        assert label in table
+    # The runs went into a temporary folder that is gone again; nothing written here.
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_coevolution_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
+    result = _run_coevolution("--popsize", "1", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "--popsize must be an integer >= 2" in result.stderr
