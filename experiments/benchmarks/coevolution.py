@@ -362,7 +362,10 @@ def main(argv: list[str] | None = None) -> int:
     # Share of the loop's worker time spent in the engine's controls + physics, and that time
     # per evaluation (against the reference's physics per evaluation and thread: the same work?)
     busy = [e / (s * workers) for e, s in zip(info["engine"], loop_seconds)]
-    engine_ms = statistics.median(info["engine"]) / evaluations * 1e3
+    # An evaluation's wall_seconds is its batch's time / batch size, on each worker's share of
+    # the CPUs (as evaluation_threads gives it): times that share is thread time.
+    worker_threads = max(1, threads // workers)
+    engine_ms = statistics.median(info["engine"]) * worker_threads / evaluations * 1e3
     raw_thread_ms = statistics.median(raw_seconds) * threads / evaluations * 1e3
     ratio = statistics.median(ratios)
     loop_rate = statistics.median(loop_rates)
@@ -401,8 +404,8 @@ def main(argv: list[str] | None = None) -> int:
         f"{statistics.median(info['pool_start']):.2f} s"
     )
     print(
-        f"loop workers: engine controls + physics {engine_ms:.1f} ms per evaluation (raw physics "
-        f"{raw_thread_ms:.1f} ms per evaluation and thread), busy {statistics.median(busy):.0%} "
+        f"loop workers: engine controls + physics {engine_ms:.1f} ms per evaluation and thread "
+        f"(raw physics {raw_thread_ms:.1f} ms), busy {statistics.median(busy):.0%} "
         f"of the workers' time; load average after {load_after}"
     )
 
@@ -419,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
         "raw_s": [round(s, 3) for s in raw_seconds],
         "pool_start_s": round(statistics.median(info["pool_start"]), 3),
         "engine_busy_fraction": round(statistics.median(busy), 4),
-        "engine_ms_per_eval": round(engine_ms, 3),
+        "engine_thread_ms_per_eval": round(engine_ms, 3),
         "raw_thread_ms_per_eval": round(raw_thread_ms, 3),
         "first_run_ratio": round(first_ratio, 4),
         "generations": args.generations,
