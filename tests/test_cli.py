@@ -2,6 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
 from ariel import __version__
@@ -27,3 +35,264 @@ def test_unknown_command_exits_with_usage(capsys: pytest.CaptureFixture[str]) ->
         main(["fly"])
     assert info.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------------------------
+# ariel run / resume / runs: the happy path and bad input
+# --------------------------------------------------------------------------------------------
+
+TINY_TOML = """
+name = "clitiny"
+seed = 2
+generations = 2
+
+[body]
+options = { number_of_modules = 10 }
+population = 2
+offspring = 2
+
+[brain]
+popsize = 2
+iterations = 1
+
+[task]
+duration = 0.3
+
+[executor]
+kind = "serial"
+"""
+
+
+@pytest.fixture(scope="module")
+def tiny_toml(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("config") / "tiny.toml"
+    path.write_text(TINY_TOML)
+    return path
+
+
+@pytest.fixture(scope="module")
+def finished_run(tiny_toml: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """A finished run made by ``ariel run``, and what the command printed."""
+    out = tmp_path_factory.mktemp("runs") / "finished"
+    capture = io.StringIO()
+    with contextlib.redirect_stdout(capture):
+        assert main(["run", str(tiny_toml), "--out", str(out), "--quiet"]) == 0
+    return out, capture.getvalue()
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def _exit_code(argv: list[str]) -> int:
+    """``main(argv)``'s exit code, whether it returns it or argparse exits."""
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return int(exc.code)  # type: ignore[arg-type]
+
+
+def _one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    err = capsys.readouterr().err
+    lines = err.splitlines()
+    assert len(lines) == 1 and err.endswith("\n"), f"expected one line on stderr, got {err!r}"
+    assert lines[0].startswith("ariel") and "error: " in lines[0], lines[0]
+    return lines[0]
+
+
+def test_run_prints_the_folder_the_best_fitness_and_how_to_look(finished_run) -> None:
+    from ariel.recording import load_run
+
+    out, printed = finished_run
+    run = load_run(out)
+    assert run.info["status"] == "finished"
+    summary = next(line for line in printed.splitlines() if line.startswith("finished: "))
+    best = float(re.search(r"best fitness (\S+) ", summary).group(1))  # type: ignore[union-attr]
+    assert best == pytest.approx(run.info["best_fitness"], rel=1e-5)
+    assert best == pytest.approx(run.bodies["fitness"].max(), rel=1e-5)
+    assert f"{len(run.evaluations)} evaluations" in summary
+    assert f"run folder: {out}" in printed.splitlines()
+    assert f"ariel runs {out.parent}" in printed
+    assert f"load_run('{out}')" in printed
+
+
+def test_runs_lists_a_finished_run(finished_run, capsys: pytest.CaptureFixture[str]) -> None:
+    out, _ = finished_run
+    assert main(["runs", str(out.parent)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split()[:2] == ["run", "status"]
+    row = next(line.split() for line in lines[1:] if line.split()[0] == out.name)
+    assert row[1:3] == ["finished", "2/2"]
+    assert main(["runs", str(out.parent / "nothing-here")]) == 0
+    assert "no runs under" in capsys.readouterr().out
+
+
+BAD_RUN_INPUT = {
+    # unknown plugin names
+    "body-encoder": (["--set", "body.encoder=nope"], "body.encoder: unknown body encoder"),
+    "controller": (["--set", "brain.controller=nope"], "brain.controller: unknown controller"),
+    "world": (["--set", "world.name=nope"], "world.name: unknown world"),
+    "fitness": (["--set", "task.fitness=nope"], "task.fitness: unknown fitness function"),
+    "plugin-option": (["--set", "body.options.number_of_modulez=3"], "body.options"),
+    # unknown or mistyped keys and values via --set
+    "set-unknown-key": (["--set", "brain.nope=1"], "--set brain.nope: no such key"),
+    "set-mistyped-key": (["--set", "generation=3"], "--set generation: no such key"),
+    "set-value-as-table": (["--set", "seed.x=3"], "'seed' is a value, not a table"),
+    "set-without-equals": (["--set", "brain.popsize"], "expected key=value"),
+    "set-bad-type": (["--set", "generations=many"], "generations: must be a valid integer"),
+    # budgets that are zero or negative
+    "generations=0": (["--set", "generations=0"], "generations: must be greater than or equal"),
+    "population=0": (["--set", "body.population=0"], "body.population: must be greater"),
+    "popsize=0": (["--set", "brain.popsize=0"], "brain.popsize: must be greater"),
+    "popsize=1": (["--set", "brain.popsize=1"], "brain.popsize: must be greater"),
+    "iterations=0": (["--set", "brain.iterations=0"], "brain.iterations: must be greater"),
+    "duration=-1": (["--set", "task.duration=-1"], "task.duration: must be greater than 0"),
+    "duration=nan": (["--set", "task.duration=nan"], "task.duration"),
+    # executor options
+    "workers=0": (["--workers", "0"], "--workers: must be an integer >= 1"),
+    "serial-workers": (["--executor", "serial", "--workers", "2"], "executor.workers"),
+    "unknown-executor": (["--executor", "gpu9"], "--executor: invalid choice"),
+}
+
+
+@pytest.mark.parametrize(("extra", "message"), BAD_RUN_INPUT.values(), ids=BAD_RUN_INPUT)
+def test_bad_run_input_is_one_line_exit_2_and_writes_nothing(
+    tiny_toml: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    extra: list[str],
+    message: str,
+) -> None:
+    out = tmp_path / "never"
+    assert _exit_code(["run", str(tiny_toml), "--out", str(out), "--quiet", *extra]) == 2
+    assert message in _one_error_line(capsys)
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+BAD_TOML = {
+    "unknown-key": ("generation = 3\n", "unknown key 'generation'"),
+    "unknown-section": ("[brian]\npopsize = 3\n", "unknown key 'brian'"),
+    "unknown-nested-key": ("[brain]\npopsise = 3\n", "unknown key 'brain.popsise'"),
+    "mistyped-value": ('[brain]\npopsize = "many"\n', "brain.popsize: must be a valid integer"),
+    "zero-budget": ("generations = 0\n", "generations: must be greater than or equal to 1"),
+    "malformed": ("[brain\npopsize = 3\n", "malformed TOML"),
+    "not-utf8": (b"name = '\xff\xfe'\n", "not a UTF-8 text file"),
+}
+
+
+@pytest.mark.parametrize(("text", "message"), BAD_TOML.values(), ids=BAD_TOML)
+def test_a_bad_config_file_is_one_line_exit_2_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str | bytes, message: str
+) -> None:
+    config = tmp_path / "bad.toml"
+    if isinstance(text, bytes):
+        config.write_bytes(text)
+    else:
+        config.write_text(text)
+    out = tmp_path / "never"
+    assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
+    assert message in _one_error_line(capsys)
+    assert not out.exists()
+
+
+def test_a_missing_config_file_is_one_line_exit_2(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "never"
+    assert main(["run", str(tmp_path / "nope.toml"), "--out", str(out)]) == 2
+    assert "nope.toml' not found" in _one_error_line(capsys)
+    assert not out.exists()
+
+
+def test_an_existing_output_folder_is_left_alone(
+    tiny_toml: Path, finished_run, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep me")
+    run_dir, _ = finished_run
+    for folder in (mine, run_dir):
+        before = _snapshot(folder)
+        assert main(["run", str(tiny_toml), "--out", str(folder), "--quiet"]) == 2
+        assert "already exists; pass --overwrite" in _one_error_line(capsys)
+        assert _snapshot(folder) == before
+    # --overwrite replaces runs only, never another folder.
+    assert main(["run", str(tiny_toml), "--out", str(mine), "--overwrite", "--quiet"]) == 2
+    assert "not an ariel run folder" in _one_error_line(capsys)
+    assert (mine / "notes.txt").read_text() == "keep me"
+
+
+@pytest.fixture
+def interrupted_run(
+    tiny_toml: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> Path:
+    """A run stopped by Ctrl-C after its first generation (exit 130, how to resume)."""
+    from ariel.evolution._progress import Progress
+
+    def interrupt(self: Progress, generation: int, *args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    out = tmp_path / "interrupted"
+    with monkeypatch.context() as patch:
+        patch.setattr(Progress, "end_generation", interrupt)
+        assert main(["run", str(tiny_toml), "--out", str(out), "--quiet"]) == 130
+    assert f"continue it with: ariel resume {out}" in capsys.readouterr().err
+    return out
+
+
+def test_resume_refuses_what_it_cannot_resume_and_changes_nothing(
+    interrupted_run: Path, finished_run, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    finished, _ = finished_run
+    info = json.loads((interrupted_run / "run.json").read_text())
+    info["config"]["brain"]["popsize"] = 3
+    (interrupted_run / "run.json").write_text(json.dumps(info))
+    cases = {
+        empty: "not an ariel run folder",
+        tmp_path / "missing": "not an ariel run folder",
+        finished: "already finished",
+        interrupted_run: "config was edited",
+    }
+    for folder, message in cases.items():
+        before = _snapshot(folder) if folder.exists() else None
+        assert main(["resume", str(folder), "--quiet"]) == 2
+        assert message in _one_error_line(capsys)
+        assert (_snapshot(folder) if folder.exists() else None) == before
+
+
+def test_an_interrupted_run_resumes_from_the_cli(
+    interrupted_run: Path, finished_run, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from ariel.recording import load_run
+
+    assert main(["resume", str(interrupted_run), "--quiet"]) == 0
+    assert "finished: " in capsys.readouterr().out
+    columns = ["eval_id", "fitness"]
+    expected = load_run(finished_run[0]).evaluations[columns]
+    assert load_run(interrupted_run).evaluations[columns].equals(expected)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [(["--workers", "0"], "--workers"), (["--set", "task.fitness=nope"], "task.fitness")],
+    ids=["argparse", "config"],
+)
+def test_bad_input_exit_code_of_the_real_command(
+    tiny_toml: Path, tmp_path: Path, extra: list[str], message: str
+) -> None:
+    out = tmp_path / "never"
+    done = subprocess.run(
+        [sys.executable, "-m", "ariel.cli", "run", str(tiny_toml), "--out", str(out), *extra],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 2
+    assert len(done.stderr.splitlines()) == 1 and message in done.stderr, done.stderr
+    assert done.stdout == ""
+    assert not out.exists()

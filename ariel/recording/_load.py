@@ -84,7 +84,17 @@ class Run:
                     "median_fitness": alive.median() if len(alive) else math.nan,
                 }
             )
-        return pd.DataFrame(rows)
+        columns = [
+            "generation",
+            "evaluations",
+            "new_bodies",
+            "errors",
+            "unstable",
+            "best_fitness",
+            "mean_fitness",
+            "median_fitness",
+        ]
+        return pd.DataFrame(rows, columns=columns)  # the columns even before a generation ends
 
 
 def load_run(path: str | Path) -> Run:
