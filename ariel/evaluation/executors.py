@@ -19,6 +19,7 @@ import contextlib
 import functools
 import multiprocessing
 import os
+import signal
 import sys
 import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -201,7 +202,12 @@ def _initialize_worker(
     initializer: Callable[..., object] | None,
     initargs: tuple[Any, ...],
 ) -> None:
-    """Process-pool initializer: thread limits first, then the caller's own initializer."""
+    """Process-pool initializer: thread limits first, then the caller's own initializer.
+
+    Workers ignore SIGINT: Ctrl-C reaches the whole process group, and the parent, which
+    catches it, shuts the pool down; workers dying mid-task would only add tracebacks.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ.update(env)
     _limit_loaded_thread_pools(threads)
     if initializer is not None:

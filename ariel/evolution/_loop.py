@@ -614,7 +614,10 @@ def _drive(
     options: dict[str, Any] = {"workers": workers}
     if executor_kind == "dask":
         options["scheduler"] = scheduler
-    folder.update_info(status="running", executor={"kind": executor_kind, "workers": workers})
+    folder.update_info(
+        status="running",
+        executor={"kind": executor_kind, "workers": workers, "scheduler": scheduler},
+    )
     if progress.enabled:
         print(f"run {experiment.run_id}: {folder.path} ({total} evaluations)", flush=True)
     status = "failed"
@@ -853,9 +856,12 @@ def resume_experiment(
             f"run {str(folder.path)!r}: its config was edited after the run started (hash "
             "mismatch); start a new run with the new config instead"
         )
-    kind = executor or info.get("executor", {}).get("kind") or config.executor.kind
-    workers = workers if workers is not None else config.executor.workers
-    scheduler = scheduler if scheduler is not None else config.executor.scheduler
+    # Unless told otherwise, continue where the run last ran (results do not depend on it).
+    last = info.get("executor") or {}
+    kind = executor or last.get("kind") or config.executor.kind
+    if executor is None or executor == last.get("kind"):
+        workers = workers if workers is not None else last.get("workers")
+        scheduler = scheduler if scheduler is not None else last.get("scheduler")
     _check_executor(kind, workers, scheduler)
     plugins = _resolve(config)
     folder.discard_after(state.generation if state is not None else -1)

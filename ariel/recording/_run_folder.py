@@ -19,7 +19,12 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
-from ariel.recording._files import atomic_write_bytes, atomic_write_json, remove_temporaries
+from ariel.recording._files import (
+    TEMP_SUFFIX,
+    atomic_write_bytes,
+    atomic_write_json,
+    remove_temporaries,
+)
 from ariel.recording._tables import TABLES, generation_file, table_generations
 
 __all__ = [
@@ -34,6 +39,10 @@ __all__ = [
 RUN_FORMAT = 1
 CHECKPOINT_FORMAT = 1
 _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
+
+
+def _is_temporary(path: Path) -> bool:
+    return path.is_file() and path.name.startswith(".") and path.name.endswith(TEMP_SUFFIX)
 
 
 class NotARunError(ValueError):
@@ -108,7 +117,9 @@ class RunFolder:
         path = Path(path)
         if path.exists() and not path.is_dir():
             raise FileExistsError(f"output {str(path)!r} exists and is not a folder")
-        if not path.is_dir() or not any(path.iterdir()):
+        # A folder holding only a killed writer's temporaries (killed while being created)
+        # counts as empty.
+        if not path.is_dir() or all(_is_temporary(p) for p in path.iterdir()):
             return
         if not overwrite:
             raise FileExistsError(
@@ -125,7 +136,7 @@ class RunFolder:
         cls.check_new(path, overwrite=overwrite)
         path = Path(path)
         if path.is_dir() and any(path.iterdir()):
-            shutil.rmtree(path)
+            shutil.rmtree(path)  # a run folder (check_new refuses anything else) or temporaries
         path.mkdir(parents=True, exist_ok=True)
         folder = cls(path)
         folder.write_info({"format": RUN_FORMAT, **info})

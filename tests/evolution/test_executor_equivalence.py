@@ -102,7 +102,11 @@ def serial(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[tuple]]:
 def test_every_executor_gives_the_serial_run(serial, kind: str, tmp_path: Path) -> None:
     result = run_experiment(CONFIG, out=tmp_path / kind, executor=kind, workers=2)
     assert result.status == "finished"
-    assert load_run(result.run_dir).info["executor"] == {"kind": kind, "workers": 2}
+    assert load_run(result.run_dir).info["executor"] == {
+        "kind": kind,
+        "workers": 2,
+        "scheduler": None,
+    }
     records = _records(result.run_dir)
     for table, rows in serial.items():
         assert len(records[table]) == len(rows), table

@@ -1,0 +1,44 @@
+"""Run folders: creation rules and crash leftovers."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from ariel.recording import RunFolder
+from ariel.recording._files import atomic_write_bytes, remove_temporaries
+
+
+def test_a_folder_killed_while_being_created_may_be_reused(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / ".run.json.tmp").write_text('{"form')  # a writer killed before its rename
+    RunFolder.check_new(out, overwrite=False)  # counts as empty
+    RunFolder.create(out, {"run_id": "run"}, overwrite=False)
+    assert RunFolder(out).read_info()["run_id"] == "run"
+    assert not (out / ".run.json.tmp").exists()
+
+
+def test_overwrite_replaces_only_run_folders(tmp_path: Path) -> None:
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("x")
+    with pytest.raises(FileExistsError, match="already exists"):
+        RunFolder.check_new(mine, overwrite=False)
+    with pytest.raises(FileExistsError, match="not an ariel run folder"):
+        RunFolder.check_new(mine, overwrite=True)
+    run = tmp_path / "run"
+    RunFolder.create(run, {"run_id": "a"}, overwrite=False)
+    RunFolder.create(run, {"run_id": "b"}, overwrite=True)
+    assert RunFolder(run).read_info()["run_id"] == "b"
+
+
+def test_atomic_writes_leave_no_temporary_and_leftovers_are_removed(tmp_path: Path) -> None:
+    target = tmp_path / "sub" / "file.bin"
+    atomic_write_bytes(target, b"abc")
+    assert target.read_bytes() == b"abc"
+    assert [p.name for p in target.parent.iterdir()] == ["file.bin"]
+    (target.parent / ".gen-000001.parquet.tmp").write_bytes(b"half")
+    assert [p.name for p in remove_temporaries(tmp_path)] == [".gen-000001.parquet.tmp"]
+    assert [p.name for p in target.parent.iterdir()] == ["file.bin"]
