@@ -35,6 +35,7 @@ from ariel.evolution._brain import BrainRun
 from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash, load_config
 from ariel.evolution._progress import Progress
 from ariel.evolution._seeds import derive_rng, derive_seed
+from ariel.evolution._tasks import body_spec, evaluation_task, record_steps
 
 __all__ = ["Body", "LoopState", "RunResult", "resume_experiment", "run_experiment"]
 
@@ -207,30 +208,11 @@ class _Experiment:
     # -- bodies --------------------------------------------------------------------------------
 
     def body_spec(self, genotype: Any) -> Any:
-        from ariel.evaluation import BodySpec
-
-        return BodySpec(self.config.body.encoder, genotype, self.config.body.options)
+        return body_spec(self.config, genotype)
 
     def task(self, spec: Any, params: Any = (), **kwargs: Any) -> Any:
-        from ariel.evaluation import EvaluationTask
-
-        c = self.config
-        return EvaluationTask(
-            body=spec,
-            params=params,
-            controller=c.brain.controller,
-            controller_options=c.brain.options,
-            world=c.world.name,
-            world_options=c.world.options,
-            fitness=c.task.fitness,
-            fitness_options=c.task.options,
-            duration=c.task.duration,
-            control_period=c.brain.control_period,
-            smoothing=c.brain.smoothing,
-            record_bodies=False,
-            spawn_position=c.task.spawn_position,
-            **kwargs,
-        )
+        # One place builds a run's tasks (`_tasks.evaluation_task`): replay rebuilds the same.
+        return evaluation_task(self.config, spec, params, **kwargs)
 
     def new_body(self, number: int, genotype: Any, parents: list[str], generation: int) -> Body:
         """Decode and compile a body in this process (for its parameter count and records)."""
@@ -283,7 +265,7 @@ class _Experiment:
 
     def job(self, body: Body, run: BrainRun, target: int) -> _Job:
         timestep = self.model(body).opt.timestep
-        record_every = max(1, round(1.0 / (self.config.record.rate_hz * timestep)))
+        record_every = record_steps(self.config, timestep)
         return _Job(
             body=body,
             spec=self.body_spec(body.genotype),

@@ -1,0 +1,58 @@
+"""The evaluation task of a run: built here, by the loop and by replay alike.
+
+Everything an evaluation depends on comes from the experiment config (plugins, their options,
+duration, control, spawn, record rate) and three values of the evaluation itself (genotype,
+controller parameters, seed), all stored in the run folder. Building the task in one place is
+what lets `ariel.recording.replay` reproduce a stored fitness bit for bit.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ariel.evolution._config import ExperimentConfig
+
+__all__ = ["body_spec", "evaluation_task", "record_steps"]
+
+
+def body_spec(config: ExperimentConfig, genotype: Any) -> Any:
+    """The `BodySpec` of ``genotype`` under the config's body encoder and options."""
+    from ariel.evaluation import BodySpec
+
+    return BodySpec(config.body.encoder, genotype, config.body.options)
+
+
+def record_steps(config: ExperimentConfig, timestep: float) -> int:
+    """Physics steps between recorded frames for ``record.rate_hz`` on a model's timestep.
+
+    The recorded frames are what the fitness function sees, so this is part of the experiment.
+    """
+    return max(1, round(1.0 / (config.record.rate_hz * timestep)))
+
+
+def evaluation_task(config: ExperimentConfig, body: Any, params: Any = (), **fields: Any) -> Any:
+    """The `EvaluationTask` of one evaluation of ``body`` (a `BodySpec`) in this experiment.
+
+    ``fields`` sets the per-evaluation ones (``seed``, ``record_every``, ``eval_id``) and may
+    override any other (replay asks for full-rate frames with ``record_every=1``).
+    """
+    from ariel.evaluation import EvaluationTask
+
+    c = config
+    values: dict[str, Any] = {
+        "body": body,
+        "params": params,
+        "controller": c.brain.controller,
+        "controller_options": c.brain.options,
+        "world": c.world.name,
+        "world_options": c.world.options,
+        "fitness": c.task.fitness,
+        "fitness_options": c.task.options,
+        "duration": c.task.duration,
+        "control_period": c.brain.control_period,
+        "smoothing": c.brain.smoothing,
+        "record_bodies": False,
+        "spawn_position": c.task.spawn_position,
+    }
+    values.update(fields)
+    return EvaluationTask(**values)
