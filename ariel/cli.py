@@ -174,6 +174,75 @@ def _cmd_quickstart(args: argparse.Namespace) -> int:
     return 0
 
 
+def _headless_unless_display() -> None:
+    """Render off-screen (EGL) where no window can open; must run before mujoco is imported."""
+    from ariel.recording._replay import has_display
+    from ariel.utils._gl import ensure_headless_gl
+
+    if not has_display():
+        ensure_headless_gl()
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from ariel.recording._replay import has_display
+
+    if args.viewer and not has_display():
+        return _fail(
+            "--viewer needs a display (DISPLAY is not set); write a video with --video FILE "
+            "or a Rerun recording with --rrd FILE instead"
+        )
+    _headless_unless_display()
+    from ariel.recording import NotARunError
+    from ariel.recording._replay import UnknownEvaluationError, replay
+
+    try:
+        replayed = replay(args.run_dir, args.eval_id)
+    except (NotARunError, UnknownEvaluationError) as exc:
+        return _fail(str(exc))
+    row = replayed.row
+    print(
+        f"evaluation {replayed.eval_id} (generation {int(row['generation'])}, body "
+        f"{row['body_id']}) of run {replayed.run.info.get('run_id', args.run_dir)}"
+    )
+    print(f"stored fitness:   {replayed.stored_fitness!r} ({replayed.stored_status})")
+    print(f"replayed fitness: {replayed.fitness!r} ({replayed.status})")
+    if replayed.identical:
+        print("identical: yes, bit for bit")
+    else:
+        print("identical: NO")
+        for name, (then, now) in replayed.version_differences.items():
+            print(f"  {name}: the run used {then}, this replay {now}")
+    try:
+        if args.rrd or args.video or args.viewer:
+            dense = replayed.full_rate()
+            print(
+                f"full rate (every physics step, {len(dense.time)} frames): fitness "
+                f"{float(dense.fitness)!r}"
+            )
+        if args.rrd:
+            print(f"wrote {replayed.write_rrd(args.rrd)}")
+        if args.video:
+            print(f"wrote {replayed.write_video(args.video)}")
+        if args.viewer:
+            replayed.view()
+    except (ValueError, RuntimeError, ImportError) as exc:
+        return _fail(str(exc).splitlines()[0])
+    return 0 if replayed.identical else 1
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    _headless_unless_display()
+    from ariel.recording import NotARunError
+    from ariel.recording._report import make_report, print_report
+
+    try:
+        report = make_report(args.run_dir, render=not args.no_render)
+    except NotARunError as exc:
+        return _fail(str(exc))
+    print_report(report)
+    return 0
+
+
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--executor",
@@ -216,6 +285,26 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("runs", help="list the runs in a folder: status, generations, best")
     p.add_argument("folder", nargs="?", default="data/runs", metavar="DIR")
     p.set_defaults(func=_cmd_runs)
+
+    p = sub.add_parser(
+        "replay",
+        help="re-simulate one evaluation of a run and check its stored fitness bit for bit",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("eval_id", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'")
+    p.add_argument("--rrd", metavar="FILE", help="write a full-rate Rerun recording")
+    p.add_argument("--video", metavar="FILE", help="write an MP4 (camera tracking the robot)")
+    p.add_argument("--viewer", action="store_true", help="play it in the MuJoCo viewer")
+    p.set_defaults(func=_cmd_replay)
+
+    p = sub.add_parser(
+        "report", help="per-generation table and figures of a run (PNGs in RUN_DIR/report/)"
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument(
+        "--no-render", action="store_true", help="leave out the rendered image of the best body"
+    )
+    p.set_defaults(func=_cmd_report)
 
     p = sub.add_parser("plugins", help="list the registered plugins of every kind")
     p.add_argument(

@@ -55,6 +55,9 @@ def _probe(module: str, cwd: Path) -> dict:
         "ariel.evolution._loop",
         "ariel.recording",
         "ariel.recording._load",
+        "ariel.recording._replay",
+        "ariel.recording._report",
+        "ariel.evolution._tasks",
         "ariel.cli",
     ],
 )

@@ -1,4 +1,5 @@
-"""Run records: the run folder, its Parquet tables and checkpoints, and `load_run`.
+"""Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay` and
+`make_report`.
 
 Cheap to import: names are loaded from their modules on first access.
 """
@@ -15,6 +16,11 @@ _LAZY: dict[str, str] = {
     "list_runs": "ariel.recording._load",
     "NotARunError": "ariel.recording._run_folder",
     "RunFolder": "ariel.recording._run_folder",
+    "ReplayResult": "ariel.recording._replay",
+    "UnknownEvaluationError": "ariel.recording._replay",
+    "replay": "ariel.recording._replay",
+    "Report": "ariel.recording._report",
+    "make_report": "ariel.recording._report",
 }
 
 __all__ = sorted(_LAZY)

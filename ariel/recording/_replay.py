@@ -1,0 +1,354 @@
+"""Replay one evaluation of a run from its run folder alone, reproducing its stored fitness.
+
+The run folder holds everything an evaluation depends on: the resolved config in ``run.json``
+(plugins, options, duration, control, spawn, record rate) and the evaluation's row (genotype,
+controller parameters as float64, seed). `replay` rebuilds the very task the loop built (both
+call `ariel.evolution._tasks.evaluation_task`), evaluates it, and compares the fitness bit for
+bit. Same software versions => the same fitness; `ReplayResult.version_differences` names the
+versions that differ from those the run recorded.
+
+Fitness functions see the recorded frames, so the stored fitness is reproduced at the run's own
+``record.rate_hz``; `ReplayResult.full_rate` re-simulates the same evaluation recording every
+physics step and every body's pose (for a Rerun recording, a video or the viewer). Recording
+does not change the physics: the full-rate trajectory passes through the same states.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.recording._load import Run, load_run
+
+__all__ = ["ReplayResult", "UnknownEvaluationError", "has_display", "replay"]
+
+#: `replay(run, BEST)` replays the run's best evaluation.
+BEST = "best"
+
+# Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
+_DECISIVE = ("mujoco", "numpy", "torch", "ariel")
+
+
+class UnknownEvaluationError(KeyError):
+    """An evaluation id that is not in the run's finished generations."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0])
+
+
+def _fitness_bits(value: float) -> bytes:
+    return np.float64(value).tobytes()
+
+
+def _same_bits(a: float, b: float) -> bool:
+    """Bit-identical float64 values (so 0.0 and -0.0 differ, and NaN equals the same NaN)."""
+    return _fitness_bits(a) == _fitness_bits(b)
+
+
+def has_display() -> bool:
+    """Whether an interactive window can open here (Linux/BSD: ``DISPLAY`` or Wayland)."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+@dataclass
+class ReplayResult:
+    """One evaluation re-simulated from its run folder.
+
+    Attributes:
+        run: the loaded run (`ariel.recording.Run`).
+        row: the evaluation's row of the evaluations table (a dict).
+        task: the rebuilt `EvaluationTask` (the loop's task, bit for bit).
+        result: the `EvaluationResult` of evaluating it again.
+        stored_fitness / fitness: the fitness in the table and the replayed one.
+        identical: the two are the same float64, bit for bit (and so are the statuses).
+        version_differences: ``{package: (recorded, now)}`` for versions that decide results.
+    """
+
+    run: Run
+    row: dict[str, Any]
+    task: Any
+    result: Any
+    version_differences: dict[str, tuple[Any, Any]] = field(default_factory=dict)
+    _full_rate: Any = field(default=None, repr=False)
+
+    @property
+    def eval_id(self) -> str:
+        return str(self.row["eval_id"])
+
+    @property
+    def stored_fitness(self) -> float:
+        return float(self.row["fitness"])
+
+    @property
+    def fitness(self) -> float:
+        return float(self.result.fitness)
+
+    @property
+    def stored_status(self) -> str:
+        return str(self.row["status"])
+
+    @property
+    def status(self) -> str:
+        return str(self.result.status)
+
+    @property
+    def identical(self) -> bool:
+        return _same_bits(self.fitness, self.stored_fitness) and self.status == self.stored_status
+
+    @property
+    def model(self) -> Any:
+        """The compiled body in its world (`ariel.evaluation.build`); raises for an error body."""
+        from ariel.evaluation import build
+
+        return build(self.task).model
+
+    # -- full-rate re-simulation ---------------------------------------------------------------
+
+    def full_rate(self) -> Any:
+        """The same evaluation with a frame every physics step and every body's pose.
+
+        Its ``fitness`` is the fitness function on these dense frames, which may differ from
+        the stored one (computed on the run's ``record.rate_hz`` frames) for functions that
+        look at more than the first and last frame.
+        """
+        if self._full_rate is None:
+            from ariel.evaluation import evaluate
+
+            dense = replace(self.task, record_every=1, record_bodies=True)
+            self._full_rate = evaluate(dense)
+        return self._full_rate
+
+    def controls(self) -> np.ndarray:
+        """The control in force during each physics step, ``(nstep, nu)``."""
+        dense = self.full_rate()
+        return np.asarray(dense.joint_target[:-1])
+
+    def properties(self) -> dict[str, Any]:
+        """What a recording of this replay stores about it (plain values)."""
+        row = self.row
+        dense = self.full_rate()
+        return {
+            "run_id": str(row.get("run_id", "")),
+            "eval_id": self.eval_id,
+            "generation": int(row["generation"]),
+            "body_id": str(row["body_id"]),
+            "body_encoder": str(row["body_encoder"]),
+            "body_genotype": str(row["body_genotype"]),
+            "controller": str(row["controller"]),
+            "controller_params": [float(v) for v in row["controller_params"]],
+            "world": str(row["world"]),
+            "fitness_fn": str(row["fitness_fn"]),
+            "seed": int(row["seed"]),
+            "fitness": self.stored_fitness,
+            "replayed_fitness": self.fitness,
+            "identical": self.identical,
+            "full_rate_fitness": float(dense.fitness),
+            "record_every": 1,
+            "status": self.status,
+        }
+
+    def graph_json(self) -> str | None:
+        """The body's morphology graph (networkx node-link JSON) from the bodies table."""
+        bodies = self.run.bodies
+        mine = bodies[bodies["body_id"] == self.row["body_id"]]
+        graphs = [g for g in mine["graph"] if isinstance(g, str) and g]
+        return graphs[0] if graphs else None
+
+    def write_rrd(self, path: str | Path) -> Path:
+        """A Rerun recording of the full-rate replay (3D bodies over time, joints, graph)."""
+        from ariel.recording._rerun import write_evaluation_recording
+
+        self._need_body("a recording")
+        dense = self.full_rate()
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return write_evaluation_recording(
+            path,
+            model=self.model,
+            body_names=dense.body_names,
+            result=dense,
+            properties=self.properties(),
+            graph_json=self.graph_json(),
+            transforms=True,
+        )
+
+    def write_video(
+        self, path: str | Path, *, width: int = 640, height: int = 480, fps: int = 30
+    ) -> Path:
+        """An MP4 of the replay, filmed by a camera that tracks the robot's core."""
+        import mujoco
+
+        from ariel.evaluation._engine import SPAWN_PREFIX
+        from ariel.utils.renderers import tracking_video_renderer
+        from ariel.utils.video_recorder import VideoRecorder
+
+        self._need_body("a video")
+        model = self.model
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".replay-") as scratch:
+            recorder = VideoRecorder(
+                "replay", output_folder=scratch, width=width, height=height, fps=fps
+            )
+            with self.driven(model):
+                tracking_video_renderer(
+                    model,
+                    mujoco.MjData(model),
+                    duration=self.task.duration,
+                    video_recorder=recorder,
+                    geom_to_track=SPAWN_PREFIX + "core",
+                )
+            os.replace(recorder.path, path)  # the recorder stamps its names; keep the asked one
+        return path
+
+    def view(self, *, loop: bool = True) -> None:
+        """Play the replay in MuJoCo's interactive viewer, in real time (needs a display)."""
+        import mujoco
+        import mujoco.viewer
+
+        if not has_display():
+            raise RuntimeError("no display: the viewer needs a desktop session (DISPLAY unset)")
+        self._need_body("the viewer")
+        model = self.model
+        controls = self.controls()
+        data = mujoco.MjData(model)
+        dt = float(model.opt.timestep)
+        with mujoco.viewer.launch_passive(model, data) as viewer:
+            while viewer.is_running():
+                mujoco.mj_resetData(model, data)
+                start = time.perf_counter()
+                for k in range(controls.shape[0]):
+                    if not viewer.is_running():
+                        return
+                    data.ctrl[:] = controls[k]
+                    mujoco.mj_step(model, data)
+                    viewer.sync()
+                    ahead = (k + 1) * dt - (time.perf_counter() - start)
+                    if ahead > 0:
+                        time.sleep(ahead)
+                if not loop:
+                    return
+
+    @contextlib.contextmanager
+    def driven(self, model: Any) -> Iterator[None]:
+        """While inside, every ``mj_step`` of ``model`` applies this replay's controls.
+
+        Sets the process-wide ``mjcb_control`` (what the tutorial renderers step with) to set
+        ``ctrl`` to the control of the current physics step, and restores the previous one.
+        """
+        import mujoco
+
+        controls = self.controls()
+        dt = float(model.opt.timestep)
+        last = controls.shape[0] - 1
+
+        def apply(m: Any, d: Any) -> None:
+            if m.nu:
+                d.ctrl[:] = controls[min(max(0, round(d.time / dt)), last)]
+
+        previous = mujoco.get_mjcb_control()
+        mujoco.set_mjcb_control(apply)
+        try:
+            yield
+        finally:
+            mujoco.set_mjcb_control(previous)
+
+    def _need_body(self, what: str) -> None:
+        if self.stored_status == "error":
+            raise ValueError(
+                f"evaluation {self.eval_id!r} has no body to show in {what}: its genotype "
+                f"cannot be built ({self.row.get('error') or 'build error'})"
+            )
+
+
+def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
+    evals = run.evaluations
+    if eval_id == BEST:
+        ok = evals[evals["fitness"].map(math.isfinite)]
+        if len(ok):
+            from ariel.plugins import fitness_functions
+
+            maximise = bool(fitness_functions.get(ok["fitness_fn"].iloc[0]).maximise)
+            index = ok["fitness"].idxmax() if maximise else ok["fitness"].idxmin()
+            return evals.loc[index].to_dict()
+    else:
+        found = evals[evals["eval_id"] == eval_id]
+        if len(found):
+            return found.iloc[0].to_dict()
+    quoted = str(run.path)
+    where = (
+        f"no finished generation in run {quoted!r} yet"
+        if not len(evals)
+        else f"no evaluation {eval_id!r} in the finished generations of run {quoted!r}"
+    )
+    raise UnknownEvaluationError(
+        f"{where}; ids look like b000012-i003-c005 ('best' for the best one); list them with "
+        f'python -c "from ariel.recording import load_run; '
+        f"print(load_run('{quoted}').evaluations[['generation', 'eval_id', 'fitness']])\""
+    )
+
+
+def _version_differences(run: Run) -> dict[str, tuple[Any, Any]]:
+    from ariel.recording._run_folder import git_commit, software_versions
+
+    recorded = run.info.get("versions") or {}
+    now = software_versions()
+    differences = {
+        name: (recorded.get(name), now.get(name))
+        for name in _DECISIVE
+        if name in recorded and recorded.get(name) != now.get(name)
+    }
+    commit = git_commit()
+    if run.info.get("git_commit") and commit and run.info["git_commit"] != commit:
+        differences["git_commit"] = (run.info["git_commit"], commit)
+    return differences
+
+
+def replay_task(run: Run, row: dict[str, Any]) -> Any:
+    """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``."""
+    from ariel.evaluation import BodyBuildError, build
+    from ariel.evolution import ExperimentConfig
+    from ariel.evolution._tasks import body_spec, evaluation_task, record_steps
+
+    config = ExperimentConfig.from_plain(run.config)
+    spec = body_spec(config, json.loads(row["body_genotype"]))
+    fields: dict[str, Any] = {
+        "seed": int(row["seed"]),
+        "eval_id": str(row["eval_id"]),
+    }
+    # An error row's body cannot be built: evaluating its task gives the same error again.
+    with contextlib.suppress(BodyBuildError):
+        model = build(evaluation_task(config, spec)).model
+        fields["record_every"] = record_steps(config, model.opt.timestep)
+    params = np.asarray(row["controller_params"], dtype=np.float64)
+    return evaluation_task(config, spec, params, **fields)
+
+
+def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
+    """Re-simulate evaluation ``eval_id`` (or ``"best"``) of the run in ``run_dir``.
+
+    Raises `UnknownEvaluationError` for an id not in the run's finished generations, and
+    `ariel.recording.NotARunError` for a folder that is not a run.
+    """
+    from ariel.evaluation import evaluate
+
+    run = load_run(run_dir)
+    row = _find_row(run, eval_id)
+    task = replay_task(run, row)
+    result = evaluate(task)
+    return ReplayResult(
+        run=run, row=row, task=task, result=result, version_differences=_version_differences(run)
+    )

@@ -1,0 +1,377 @@
+"""`ariel report`: a per-generation table and PNG figures of a run, from its run folder alone.
+
+Figures go to ``RUN_DIR/report/``: ``fitness.png`` (best / mean / median of the population per
+generation, every evaluation as a dot), ``morphology.png`` (the population's morphology
+descriptors per generation; co-evolution only), ``trajectory.png`` and ``joints.png`` (the best
+evaluation's core path and every joint's target and angle, from the trajectories table) and
+``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing).
+Only finished generations are reported, so a running or killed run reports what it has.
+
+matplotlib is imported here only, and drawn through the Agg canvas without pyplot, so making a
+report never changes the caller's matplotlib backend.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.recording._load import Run, load_run
+
+__all__ = ["Report", "make_report", "print_report"]
+
+#: The table's columns: ``Run.generations`` column -> heading.
+TABLE_COLUMNS = {
+    "generation": "generation",
+    "evaluations": "evaluations",
+    "best_fitness": "best",
+    "mean_fitness": "mean",
+    "median_fitness": "median",
+    "errors": "errors",
+    "unstable": "unstable",
+}
+_DPI = 110
+
+
+@dataclass
+class Report:
+    """What `make_report` found and wrote.
+
+    Attributes:
+        run: the loaded run.
+        table: one row per finished generation (``TABLE_COLUMNS``).
+        best: the best evaluation's row (a dict), or None before any finite fitness.
+        written: the PNG files written, in order.
+        notes: one line per figure left out, and why.
+    """
+
+    run: Run
+    table: Any
+    best: dict[str, Any] | None
+    written: list[Path] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def folder(self) -> Path:
+        return self.run.path / "report"
+
+
+def _maximise(run: Run) -> bool:
+    from ariel.plugins import fitness_functions
+
+    name = run.config.get("task", {}).get("fitness", "xy_displacement")
+    return bool(fitness_functions.get(name).maximise)
+
+
+def _best_row(run: Run, maximise: bool) -> dict[str, Any] | None:
+    evals = run.evaluations
+    ok = evals[evals["fitness"].map(math.isfinite)]
+    if not len(ok):
+        return None
+    index = ok["fitness"].idxmax() if maximise else ok["fitness"].idxmin()
+    return evals.loc[index].to_dict()
+
+
+def _frames(run: Run, row: dict[str, Any]) -> Any:
+    """The trajectories rows of one evaluation (read from its generation's file only)."""
+    import pyarrow.parquet as pq
+
+    from ariel.recording._tables import generation_file, trajectory_schema
+
+    path = generation_file(run.path, "trajectories", int(row["generation"]))
+    if not path.is_file():
+        return None
+    table = pq.read_table(
+        path, schema=trajectory_schema(), filters=[("eval_id", "==", row["eval_id"])]
+    )
+    return table.to_pandas().sort_values("t")
+
+
+def _figure(width: float, height: float) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), dpi=_DPI, layout="constrained")
+
+
+def _save(figure: Any, path: Path, report: Report) -> None:
+    figure.savefig(path, dpi=_DPI)
+    report.written.append(path)
+
+
+def _run_title(run: Run) -> str:
+    return str(run.info.get("run_id") or run.path.name)
+
+
+# --------------------------------------------------------------------------------------------
+# Figures
+# --------------------------------------------------------------------------------------------
+
+
+def _fitness_figure(report: Report, maximise: bool) -> None:
+    run, table = report.run, report.table
+    fitness_fn = run.config.get("task", {}).get("fitness", "fitness")
+    figure = _figure(8, 4.8)
+    axes = figure.add_subplot()
+    evals = run.evaluations
+    finite = evals[evals["fitness"].map(math.isfinite)]
+    if len(finite):
+        rng = np.random.default_rng(0)  # jitter only, for legibility
+        x = finite["generation"].to_numpy() + rng.uniform(-0.15, 0.15, len(finite))
+        axes.scatter(x, finite["fitness"], s=6, color="0.7", label="evaluations", zorder=1)
+    gens = table["generation"].to_numpy()
+    for column, label, style in (
+        ("best_fitness", "best", "-o"),
+        ("mean_fitness", "mean", "-s"),
+        ("median_fitness", "median", "--^"),
+    ):
+        axes.plot(gens, table[column].to_numpy(dtype=float), style, label=label, zorder=2)
+    axes.set_xlabel("generation")
+    axes.set_ylabel(f"fitness ({fitness_fn}, {'higher' if maximise else 'lower'} is better)")
+    axes.set_title(f"{_run_title(run)}: fitness of the population after selection")
+    axes.set_xticks(gens)
+    axes.grid(alpha=0.3)
+    axes.legend(loc="best")
+    _save(figure, report.folder / "fitness.png", report)
+
+
+def _morphology_figure(report: Report) -> None:
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    run = report.run
+    bodies = run.bodies
+    population = bodies[bodies["selected"] & (bodies["status"] == "ok")]
+    if run.info.get("config", {}).get("body", {}).get("encoder") == "prebuilt" or (
+        len(population) and population["body_id"].nunique() == 1
+    ):
+        report.notes.append("morphology.png: left out (brain-only run: one fixed body)")
+        return
+    names = [n for n in DESCRIPTOR_NAMES if n in population and population[n].notna().any()]
+    if not len(population) or not names:
+        report.notes.append("morphology.png: left out (no body with morphology descriptors)")
+        return
+    gens = sorted(population["generation"].unique())
+    cols = 4
+    rows = math.ceil(len(names) / cols)
+    figure = _figure(4 * cols, 2.9 * rows)
+    figure.suptitle(
+        f"{_run_title(run)}: morphology of the population after selection, per generation"
+    )
+    rng = np.random.default_rng(0)
+    for i, name in enumerate(names):
+        axes = figure.add_subplot(rows, cols, i + 1)
+        values = [
+            population.loc[population["generation"] == g, name].dropna().to_numpy() for g in gens
+        ]
+        axes.boxplot(values, positions=gens, widths=0.6, showfliers=False)
+        for g, v in zip(gens, values):
+            axes.scatter(g + rng.uniform(-0.12, 0.12, v.size), v, s=8, alpha=0.6, color="C0")
+        axes.set_title(name)
+        axes.set_xlabel("generation")
+        axes.grid(alpha=0.3)
+    _save(figure, report.folder / "morphology.png", report)
+
+
+def _trajectory_figures(report: Report, frames: Any) -> None:
+    run, best = report.run, report.best
+    assert best is not None
+    label = f"{best['eval_id']} (fitness {best['fitness']:.6g})"
+    t = frames["t"].to_numpy()
+    x, y = frames["core_x"].to_numpy(), frames["core_y"].to_numpy()
+
+    figure = _figure(6.4, 6)
+    axes = figure.add_subplot()
+    axes.plot(x, y, color="0.6", lw=1, zorder=1)
+    points = axes.scatter(x, y, c=t, cmap="viridis", s=14, zorder=2)
+    axes.plot(x[0], y[0], "o", ms=10, mfc="none", mec="green", mew=2, label="start")
+    axes.plot(x[-1], y[-1], "X", ms=10, color="red", label="end")
+    figure.colorbar(points, ax=axes, label="time (s)")
+    axes.set_aspect("equal", adjustable="datalim")
+    axes.set_xlabel("core x (m)")
+    axes.set_ylabel("core y (m)")
+    axes.set_title(f"{_run_title(run)}\nbest evaluation {label}: core path")
+    axes.grid(alpha=0.3)
+    axes.legend(loc="best")
+    _save(figure, report.folder / "trajectory.png", report)
+
+    names = [str(n) for n in best.get("joint_names", [])]
+    if not names:
+        report.notes.append("joints.png: left out (the best body has no joints)")
+        return
+    target = np.array(frames["joint_target"].tolist(), dtype=float)
+    angle = np.array(frames["joint_angle"].tolist(), dtype=float)
+    cols = min(3, len(names))
+    rows = math.ceil(len(names) / cols)
+    figure = _figure(4.2 * cols, 2.4 * rows + 0.6)
+    figure.suptitle(f"{_run_title(run)}: best evaluation {label}: joints")
+    for j, name in enumerate(names):
+        axes = figure.add_subplot(rows, cols, j + 1)
+        axes.plot(t, target[:, j], "--", lw=1.2, label="target")
+        axes.plot(t, angle[:, j], lw=1.2, label="angle")
+        axes.set_title(name, fontsize=9)
+        axes.set_xlabel("time (s)")
+        axes.set_ylabel("rad")
+        axes.grid(alpha=0.3)
+        if j == 0:
+            axes.legend(loc="best", fontsize=8)
+    _save(figure, report.folder / "joints.png", report)
+
+
+def _three_quarter_view(built: Any, size: float) -> dict[str, Any]:
+    """ "ortho-cam" overrides that frame the robot from the front-left, 30 degrees above."""
+    import mujoco
+
+    model = built.model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    target = data.subtree_com[model.geom_bodyid[built.core_geom]].copy()
+    azimuth, elevation = math.radians(135.0), math.radians(-30.0)  # the tracking video's view
+    forward = np.array(
+        [
+            math.cos(elevation) * math.cos(azimuth),
+            math.cos(elevation) * math.sin(azimuth),
+            math.sin(elevation),
+        ]
+    )
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    frame = np.column_stack([right, up, -forward])  # a camera looks along its -z axis
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, frame.ravel())
+    return {
+        "cam_pos": target - 3.0 * forward,
+        "cam_quat": quat,
+        "cam_fovy": max(0.4, 1.8 * size),  # orthographic: the visible height in metres
+    }
+
+
+def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
+    import mujoco
+
+    from ariel.evaluation._engine import build
+    from ariel.recording._replay import replay_task
+    from ariel.utils.renderers import single_frame_renderer
+
+    best = report.best
+    assert best is not None
+    built = build(replay_task(report.run, best))
+    model = built.model
+    size = max(float(best.get(k) or 0.0) for k in ("extent_x", "extent_y", "extent_z"))
+    try:
+        try:
+            view = _three_quarter_view(built, size or 1.0)
+            image = single_frame_renderer(
+                model, mujoco.MjData(model), steps=0, width=width, height=height, **view
+            )
+        except ValueError:  # a model without "ortho-cam": the free camera frames everything
+            image = single_frame_renderer(
+                model, mujoco.MjData(model), steps=0, width=width, height=height
+            )
+    except RuntimeError as exc:  # no OpenGL backend here
+        report.notes.append(f"best_body.png: left out ({exc})")
+        return
+    figure = _figure(width / _DPI, height / _DPI + 0.5)
+    axes = figure.add_subplot()
+    axes.imshow(np.asarray(image))
+    axes.set_axis_off()
+    modules = best.get("num_modules")
+    shape = (
+        f"{int(modules)} modules, {int(best.get('num_hinges') or 0)} hinges"
+        if modules is not None and math.isfinite(modules)
+        else f"{int(best.get('n_joints') or 0)} joints"
+    )
+    axes.set_title(
+        f"{_run_title(report.run)}: best body {best['body_id']} ({shape}), "
+        f"evaluation {best['eval_id']}",
+        fontsize=10,
+    )
+    _save(figure, report.folder / "best_body.png", report)
+
+
+# --------------------------------------------------------------------------------------------
+# Entry points
+# --------------------------------------------------------------------------------------------
+
+
+def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
+    """Write the report figures of the run in ``run_dir`` to ``RUN_DIR/report/``.
+
+    ``render=False`` leaves out the rendered image of the best body (no OpenGL needed).
+    Raises `ariel.recording.NotARunError` for a folder that is not a run.
+    """
+    run = load_run(run_dir)
+    table = run.generations[list(TABLE_COLUMNS)]
+    maximise = _maximise(run) if len(run.evaluations) else True
+    report = Report(run=run, table=table, best=_best_row(run, maximise))
+    if not len(table):
+        report.notes.append("no finished generation yet: no figures")
+        return report
+    report.folder.mkdir(parents=True, exist_ok=True)
+    _fitness_figure(report, maximise)
+    _morphology_figure(report)
+    if report.best is None:
+        report.notes.append("trajectory.png, joints.png, best_body.png: no evaluation succeeded")
+        return report
+    frames = _frames(run, report.best)
+    if frames is None or not len(frames):
+        report.notes.append(
+            "trajectory.png, joints.png: left out (the run kept no trajectories: "
+            "record.trajectories = false)"
+        )
+    else:
+        _trajectory_figures(report, frames)
+    if render:
+        _body_image(report)
+    else:
+        report.notes.append("best_body.png: left out (rendering off)")
+    return report
+
+
+def print_report(report: Report, console: Any = None) -> None:
+    """The per-generation table, the best evaluation, the files written and the notes."""
+    from rich import box
+    from rich.console import Console
+    from rich.table import Table
+
+    if console is None:
+        console = Console()
+        if not console.is_terminal:  # a file or a pipe: no need to fit 80 columns
+            console = Console(width=120)
+    run = report.run
+    status = run.info.get("status", "?")
+    done, total = run.generations_done, run.config.get("generations", "?")
+    table = Table(
+        title=f"{_run_title(run)}: {status}, {done}/{total} generations",
+        box=box.SIMPLE_HEAD,
+        show_edge=False,
+        pad_edge=False,
+        padding=(0, 1, 0, 0),  # fits 80 columns
+    )
+    for heading in TABLE_COLUMNS.values():
+        wide = 10 if heading in ("best", "mean", "median") else len(heading)  # -0.0123456
+        table.add_column(heading, justify="right", no_wrap=True, min_width=wide)
+    for row in report.table.itertuples(index=False):
+        cells = []
+        for column, value in zip(TABLE_COLUMNS, row):
+            if column.endswith("_fitness"):
+                cells.append(f"{value:.6g}" if math.isfinite(value) else "-")
+            else:
+                cells.append(str(int(value)))
+        table.add_row(*cells)
+    console.print(table)
+    console.print("best, mean, median: fitness of the population after selection")
+    if report.best is not None:
+        best = report.best
+        console.print(
+            f"best evaluation: {best['eval_id']} (generation {int(best['generation'])}, "
+            f"fitness {float(best['fitness'])!r})",
+            highlight=False,
+        )
+    for path in report.written:
+        console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+    for note in report.notes:
+        console.print(note, highlight=False, soft_wrap=True)
