@@ -296,3 +296,126 @@ def test_bad_input_exit_code_of_the_real_command(
     assert len(done.stderr.splitlines()) == 1 and message in done.stderr, done.stderr
     assert done.stdout == ""
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------------------------
+# ariel replay / report
+# --------------------------------------------------------------------------------------------
+
+
+def _fitness_lines(out: str) -> dict[str, str]:
+    """``{"stored": repr, "replayed": repr}`` from what ``ariel replay`` printed."""
+    found = {}
+    for line in out.splitlines():
+        match = re.fullmatch(r"(stored|replayed) fitness: +(\S+) \((\w+)\)", line)
+        if match:
+            found[match.group(1)] = match.group(2)
+    return found
+
+
+def test_replay_prints_both_fitnesses_in_full_precision(
+    finished_run, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from ariel.recording import load_run
+
+    out, _ = finished_run
+    evals = load_run(out).evaluations.set_index("eval_id")
+    later = evals[evals["generation"] == 1].index[-1]
+    for eval_id in ("best", later):
+        assert main(["replay", str(out), eval_id]) == 0
+        printed = capsys.readouterr().out
+        shown = _fitness_lines(printed)
+        assert shown["stored"] == shown["replayed"]
+        replayed_id = printed.split()[1]
+        assert shown["stored"] == repr(float(evals.loc[replayed_id, "fitness"]))  # every digit
+        assert "identical: yes, bit for bit" in printed
+    assert replayed_id == later
+
+
+def test_replay_of_an_unknown_evaluation_or_folder_is_one_line_exit_2(
+    finished_run, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    out, _ = finished_run
+    assert main(["replay", str(out), "b999999-i000-c000"]) == 2
+    line = _one_error_line(capsys)
+    assert "no evaluation 'b999999-i000-c000'" in line and "load_run" in line
+    assert main(["replay", str(tmp_path), "best"]) == 2
+    assert "not an ariel run folder" in _one_error_line(capsys)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["replay", str(out), "best", "--viewer"]) == 2
+    assert "--viewer needs a display" in _one_error_line(capsys)
+    assert _exit_code(["replay", str(out)]) == 2  # EVAL_ID is required
+    assert "EVAL_ID" in _one_error_line(capsys)
+
+
+def test_replay_exits_1_when_the_stored_fitness_is_not_reproduced(
+    finished_run, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out, _ = finished_run
+    copy = tmp_path / "tampered"
+    shutil.copytree(out, copy)
+    path = copy / "evaluations" / "gen-000000.parquet"
+    table = pq.read_table(path)
+    fitness = table.column("fitness").to_pylist()
+    fitness[0] = float(np.nextafter(fitness[0], np.inf))  # one ulp away
+    index = table.schema.get_field_index("fitness")
+    table = table.set_column(index, "fitness", pa.array(fitness, pa.float64()))
+    pq.write_table(table, path)
+    assert main(["replay", str(copy), table.column("eval_id")[0].as_py()]) == 1
+    printed = capsys.readouterr().out
+    shown = _fitness_lines(printed)
+    assert shown["stored"] == repr(fitness[0]) != shown["replayed"]
+    assert "identical: NO" in printed
+
+
+def test_replay_writes_a_recording_and_a_video(
+    finished_run, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("ariel.recording._rerun", reason="Rerun recordings not in this tree")
+    import mujoco
+
+    from ariel.utils._gl import create_renderer
+
+    try:
+        create_renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16).close()
+    except RuntimeError as exc:
+        pytest.skip(str(exc))
+    out, _ = finished_run
+    rrd, video = tmp_path / "best.rrd", tmp_path / "clips" / "best.mp4"
+    argv = ["replay", str(out), "best", "--rrd", str(rrd), "--video", str(video)]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert f"wrote {rrd}" in printed and f"wrote {video}" in printed
+    assert any(line.startswith("full rate (every physics step, ") for line in printed)
+    assert rrd.read_bytes()[:4] == b"RRF2"
+    assert video.stat().st_size > 1000
+
+
+def test_report_prints_every_generation_and_the_files_it_wrote(
+    finished_run, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, _ = finished_run
+    assert main(["report", str(out), "--no-render"]) == 0
+    printed = capsys.readouterr().out
+    lines = printed.splitlines()
+    header = next(
+        i for i, line in enumerate(lines) if line.split()[:2] == ["generation", "evaluations"]
+    )
+    assert [line.split()[0] for line in lines[header + 2 : header + 4]] == ["0", "1"]
+    for name in ("fitness", "morphology", "trajectory", "joints"):
+        path = out / "report" / f"{name}.png"
+        assert f"wrote {path}" in lines and path.is_file()
+    assert "best_body.png: left out (rendering off)" in lines
+
+
+def test_report_of_a_folder_that_is_not_a_run_is_one_line_exit_2(tmp_path: Path, capsys) -> None:
+    assert main(["report", str(tmp_path)]) == 2
+    assert "not an ariel run folder" in _one_error_line(capsys)
+    assert list(tmp_path.iterdir()) == []

@@ -91,6 +91,17 @@ def _frames(run: Run, row: dict[str, Any]) -> Any:
     return table.to_pandas().sort_values("t")
 
 
+def _brain_only(run: Run) -> bool:
+    """One fixed body (an encoder that cannot vary its genotypes, e.g. ``prebuilt``)."""
+    from ariel.plugins import body_encoders
+
+    name = run.config.get("body", {}).get("encoder", "nde")
+    try:
+        return not bool(getattr(body_encoders.get(name), "evolvable", True))
+    except (KeyError, ValueError, ImportError):  # not installed here: judge from the records
+        return run.bodies["body_id"].nunique() == 1
+
+
 def _figure(width: float, height: float) -> Any:
     from matplotlib.figure import Figure
 
@@ -123,15 +134,21 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
         x = finite["generation"].to_numpy() + rng.uniform(-0.15, 0.15, len(finite))
         axes.scatter(x, finite["fitness"], s=6, color="0.7", label="evaluations", zorder=1)
     gens = table["generation"].to_numpy()
-    for column, label, style in (
-        ("best_fitness", "best", "-o"),
-        ("mean_fitness", "mean", "-s"),
-        ("median_fitness", "median", "--^"),
-    ):
+    if _brain_only(run):  # one body: its best brain so far is best, mean and median at once
+        lines = [("best_fitness", "best so far (the fixed body)", "-o")]
+        title = "fitness of the fixed body's best brain"
+    else:
+        lines = [
+            ("mean_fitness", "mean", "-s"),
+            ("median_fitness", "median", "--^"),
+            ("best_fitness", "best", "-o"),  # drawn last: on top where the lines meet
+        ]
+        title = "fitness of the population after selection"
+    for column, label, style in lines:
         axes.plot(gens, table[column].to_numpy(dtype=float), style, label=label, zorder=2)
     axes.set_xlabel("generation")
     axes.set_ylabel(f"fitness ({fitness_fn}, {'higher' if maximise else 'lower'} is better)")
-    axes.set_title(f"{_run_title(run)}: fitness of the population after selection")
+    axes.set_title(f"{_run_title(run)}: {title}")
     axes.set_xticks(gens)
     axes.grid(alpha=0.3)
     axes.legend(loc="best")
@@ -144,9 +161,7 @@ def _morphology_figure(report: Report) -> None:
     run = report.run
     bodies = run.bodies
     population = bodies[bodies["selected"] & (bodies["status"] == "ok")]
-    if run.info.get("config", {}).get("body", {}).get("encoder") == "prebuilt" or (
-        len(population) and population["body_id"].nunique() == 1
-    ):
+    if _brain_only(run):
         report.notes.append("morphology.png: left out (brain-only run: one fixed body)")
         return
     names = [n for n in DESCRIPTOR_NAMES if n in population and population[n].notna().any()]

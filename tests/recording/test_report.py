@@ -1,0 +1,193 @@
+"""`make_report`: the per-generation table and the PNG figures of a run."""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import pytest
+from PIL import Image
+
+from ariel.evolution import run_experiment
+from ariel.recording import load_run, make_report
+from ariel.recording._report import TABLE_COLUMNS, print_report
+
+CONFIG = {
+    "name": "reporttiny",
+    "seed": 4,
+    "generations": 3,
+    "body": {"options": {"number_of_modules": 6}, "population": 3, "offspring": 2},
+    "brain": {"popsize": 3, "iterations": 2},
+    "task": {"duration": 0.5},
+    "executor": {"kind": "serial"},
+}
+FIGURES = ["fitness.png", "morphology.png", "trajectory.png", "joints.png"]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("runs") / "coevolution"
+    run_experiment(CONFIG, out=out)
+    return out
+
+
+@pytest.fixture(scope="module")
+def report(run_dir: Path):
+    return make_report(run_dir, render=False)
+
+
+def _check_png(path: Path, min_size: tuple[int, int] = (500, 350)) -> np.ndarray:
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with Image.open(path) as image:
+        image.verify()
+    with Image.open(path) as image:
+        assert image.format == "PNG"
+        assert image.width >= min_size[0] and image.height >= min_size[1], image.size
+        pixels = np.asarray(image.convert("RGB"))
+    assert pixels.std() > 5  # not a blank canvas
+    return pixels
+
+
+def _table_text(report) -> str:
+    out = io.StringIO()
+    from rich.console import Console
+
+    print_report(report, Console(file=out, width=100))
+    return out.getvalue()
+
+
+def test_the_report_writes_every_figure_as_a_readable_png(run_dir: Path, report) -> None:
+    folder = run_dir / "report"
+    assert report.written == [folder / name for name in FIGURES]
+    assert sorted(p.name for p in folder.iterdir()) == sorted(FIGURES)
+    for path in report.written:
+        _check_png(path)
+    assert report.notes == ["best_body.png: left out (rendering off)"]
+
+
+def test_the_table_lists_every_generation(run_dir: Path, report) -> None:
+    run = load_run(run_dir)
+    table = report.table
+    assert list(table.columns) == list(TABLE_COLUMNS)
+    assert table["generation"].tolist() == [0, 1, 2]
+    assert table["evaluations"].tolist() == [
+        int((run.evaluations["generation"] == g).sum()) for g in range(3)
+    ]
+    assert table["best_fitness"].tolist() == run.generations["best_fitness"].tolist()
+    text = _table_text(report)
+    header = next(line for line in text.splitlines() if "generation" in line and "best" in line)
+    assert header.split() == list(TABLE_COLUMNS.values())
+    rows = [line.split() for line in text.splitlines() if line.split()[:1] in (["0"], ["1"], ["2"])]
+    assert [r[0] for r in rows] == ["0", "1", "2"]
+    assert [int(r[1]) for r in rows] == table["evaluations"].tolist()
+    best = report.best
+    assert best["fitness"] == run.evaluations["fitness"].max()
+    assert f"best evaluation: {best['eval_id']}" in text and repr(best["fitness"]) in text
+    for path in report.written:
+        assert f"wrote {path}" in text
+
+
+def test_a_brain_only_run_reports_without_morphology(tmp_path: Path) -> None:
+    config = {
+        **CONFIG,
+        "generations": 2,
+        "body": {"encoder": "prebuilt", "genotype": "gecko"},
+    }
+    out = tmp_path / "brain"
+    run_experiment(config, out=out)
+    report = make_report(out, render=False)
+    assert [p.name for p in report.written] == ["fitness.png", "trajectory.png", "joints.png"]
+    assert any(n.startswith("morphology.png: left out (brain-only") for n in report.notes)
+    assert report.table["generation"].tolist() == [0, 1]
+    # the gecko has 8 joints: one panel each in a 3-column grid
+    _check_png(out / "report" / "joints.png", min_size=(1000, 700))
+
+
+def test_a_killed_run_reports_its_finished_generations_only(run_dir: Path, tmp_path: Path) -> None:
+    killed = tmp_path / "killed"
+    shutil.copytree(run_dir, killed)
+    shutil.rmtree(killed / "report", ignore_errors=True)
+    info = json.loads((killed / "run.json").read_text())
+    info.update(status="running", generations_done=2)  # generation 2's files are not counted
+    (killed / "run.json").write_text(json.dumps(info))
+    report = make_report(killed, render=False)
+    assert report.table["generation"].tolist() == [0, 1]
+    assert report.best["generation"] <= 1
+    assert [p.name for p in report.written] == FIGURES
+    assert "running, 2/3 generations" in _table_text(report)
+
+
+def test_a_run_without_finished_generations_writes_nothing(run_dir: Path, tmp_path: Path) -> None:
+    fresh = tmp_path / "fresh"
+    shutil.copytree(run_dir, fresh)
+    shutil.rmtree(fresh / "report", ignore_errors=True)
+    info = json.loads((fresh / "run.json").read_text())
+    info.update(status="running", generations_done=0)
+    (fresh / "run.json").write_text(json.dumps(info))
+    report = make_report(fresh)
+    assert report.written == [] and len(report.table) == 0
+    assert report.notes == ["no finished generation yet: no figures"]
+    assert not (fresh / "report").exists()
+
+
+def test_a_copied_run_reports_into_the_copy(run_dir: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "a" / "copy"
+    shutil.copytree(run_dir, copy)
+    shutil.rmtree(copy / "report", ignore_errors=True)
+    away = run_dir.with_name(run_dir.name + "-away")
+    run_dir.rename(away)  # nothing may still point at the original folder
+    backend = matplotlib.get_backend()
+    try:
+        report = make_report(copy, render=False)
+    finally:
+        away.rename(run_dir)
+    assert report.written == [copy / "report" / name for name in FIGURES]
+    assert matplotlib.get_backend() == backend  # drawn on Agg canvases, pyplot untouched
+
+
+def test_without_opengl_the_body_image_is_left_out_with_a_note(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import ariel.utils.renderers
+
+    def no_gl(*args, **kwargs):
+        raise RuntimeError("no OpenGL backend available for headless rendering (test)")
+
+    monkeypatch.setattr(ariel.utils.renderers, "create_renderer", no_gl)
+    copy = tmp_path / "nogl"
+    shutil.copytree(run_dir, copy)
+    report = make_report(copy)
+    assert [p.name for p in report.written] == FIGURES
+    assert report.notes == [
+        "best_body.png: left out (no OpenGL backend available for headless rendering (test))"
+    ]
+
+
+@pytest.fixture
+def gl_available() -> None:
+    import mujoco
+
+    from ariel.utils._gl import create_renderer
+
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
+    try:
+        create_renderer(model, 16, 16).close()
+    except RuntimeError as exc:
+        pytest.skip(str(exc))
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_the_best_body_is_rendered(run_dir: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "render"
+    shutil.copytree(run_dir, copy)
+    report = make_report(copy)
+    assert report.notes == []
+    assert report.written[-1] == copy / "report" / "best_body.png"
+    pixels = _check_png(report.written[-1])
+    # The core module is yellow: the body is in the picture.
+    yellow = (pixels[..., 0] > 150) & (pixels[..., 1] > 150) & (pixels[..., 2] < 100)
+    assert yellow.sum() > 500
