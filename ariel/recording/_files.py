@@ -32,21 +32,28 @@ def _fsync_dir(folder: Path) -> None:
             os.close(fd)
 
 
-def atomic_write(path: Path, write: Callable[[Path], Any]) -> None:
-    """Call ``write(temporary_path)``, fsync the result and rename it to ``path``."""
+def atomic_write(path: Path, write: Callable[[Path], Any], *, fsync: bool = True) -> None:
+    """Call ``write(temporary_path)``, fsync the result and rename it to ``path``.
+
+    ``fsync=False`` skips both fsyncs (the rename still makes the file appear whole to any
+    reader and to a killed writer's resume; durability across a power cut is then the
+    caller's business, e.g. one ``os.sync()`` for many files).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = _temporary(path)
     try:
         write(temporary)
-        with open(temporary, "rb+") as file:
-            os.fsync(file.fileno())
+        if fsync:
+            with open(temporary, "rb+") as file:
+                os.fsync(file.fileno())
         os.replace(temporary, path)
     except BaseException:
         with contextlib.suppress(OSError):
             temporary.unlink()
         raise
-    _fsync_dir(path.parent)
+    if fsync:
+        _fsync_dir(path.parent)
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

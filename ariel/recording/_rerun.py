@@ -1,0 +1,679 @@
+"""Rerun recordings: one ``.rrd`` per evaluation, a run-level ``run.rrd``, a viewer blueprint.
+
+Parquet is the canonical record; these files are for looking (``rerun blueprint.rbl
+recordings/gen-000003/*.rrd``). Rerun is imported here only, on first use.
+
+Each recording is built after its rollout, column-wise (``send_columns`` on a ``sim_time``
+timeline, never a ``log`` call per frame), in its own `RecordingStream` (never the global
+one) whose bytes are then written whole under a temporary name and renamed (`atomic_write`):
+a killed writer never leaves an unreadable ``.rrd``. Application id ``ariel``; the recording
+id and name of an evaluation's recording are its eval id.
+
+Entities of an evaluation recording (few on purpose: every entity's data is a separate Arrow
+chunk of ~1.5 kB overhead and ~0.3 ms to encode, so one entity per body and per joint would
+triple both the size and the time of a recording):
+
+* ``/world``: the view coordinates (z up) and the floor, static: a plane as a thin box, a
+  heightfield as a `Mesh3D` (cropped to the robot's path, see `TERRAIN_MARGIN`); other world
+  geoms (walls, platforms) under ``/world/<geom>``.
+* ``/world/robot``: every robot body's geometry as one `Boxes3D` batch, one box per body geom,
+  coloured by module type (core yellow, brick blue, hinge red), labelled with the body name.
+  With body poses (``transforms``) the boxes' world poses (centers + quaternions) change over
+  ``sim_time``, one row per recorded frame, one instance per body geom: a 3D replay. Without,
+  the robot stands in its start pose.
+* ``/world/trajectory``: the core's path, a `LineStrips3D`.
+* ``/joints/target`` and ``/joints/angle``: one scalar series per joint (named after the
+  joint, `SeriesLines` names) over ``sim_time``: the control target and the measured angle.
+* ``/graph``: the morphology graph, `GraphNodes` labelled and coloured by module type, and
+  directed `GraphEdges` (parent -> child).
+* recording properties (``/__properties/ariel``): the caller's ``properties``.
+
+``run.rrd`` (`write_run_recording`) holds per-generation fitness and diversity on a
+``generation`` timeline and the best body of each generation; ``blueprint.rbl``
+(`write_blueprint`) the default layout for all of them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections import OrderedDict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.recording._files import atomic_write
+
+__all__ = [
+    "APPLICATION_ID",
+    "TERRAIN_MARGIN",
+    "module_colours",
+    "module_type_of",
+    "write_blueprint",
+    "write_evaluation_recording",
+    "write_run_recording",
+]
+
+APPLICATION_ID = "ariel"
+ROBOT_PREFIX = "robot1_"
+#: Metres of terrain drawn around the robot's path (a heightfield mesh of a whole arena is up
+#: to 150 kB per recording; the part the robot walked on is what one looks at).
+TERRAIN_MARGIN = 1.0
+#: Largest number of heightfield rows or columns drawn (subsampled beyond).
+TERRAIN_MAX_SIDE = 64
+#: Half-extent drawn for an infinite MuJoCo plane (size 0).
+INFINITE_PLANE_HALF_EXTENT = 20.0
+_OTHER_COLOUR = (128, 128, 128, 255)
+
+
+def _rr() -> Any:
+    import rerun
+
+    return rerun
+
+
+def _rgba255(colour: Sequence[float]) -> tuple[int, int, int, int]:
+    r, g, b, a = (round(255 * float(c)) for c in colour[:4])
+    return r, g, b, a
+
+
+@cache
+def module_colours() -> dict[str, tuple[int, int, int, int]]:
+    """Module type -> RGBA (0-255): the colours the robogen-lite modules give their geoms."""
+    from ariel.body_phenotypes.robogen_lite.modules.brick import BRICK_COLOUR
+    from ariel.body_phenotypes.robogen_lite.modules.core import CORE_COLOUR
+    from ariel.body_phenotypes.robogen_lite.modules.hinge import STATOR_COLOUR
+
+    return {
+        "CORE": _rgba255(CORE_COLOUR),
+        "BRICK": _rgba255(BRICK_COLOUR),
+        "HINGE": _rgba255(STATOR_COLOUR),
+    }
+
+
+def module_type_of(geom_name: str) -> str:
+    """The module type (CORE, BRICK, HINGE, else OTHER) of a robot geom, from its name.
+
+    The constructor names geoms after their module: ``...core``, ``...brick``, and a hinge's
+    ``...stator`` and ``...rotor``.
+    """
+    name = geom_name.lower()
+    if name.endswith("core"):
+        return "CORE"
+    if name.endswith("brick"):
+        return "BRICK"
+    if name.endswith(("stator", "rotor", "hinge")):
+        return "HINGE"
+    return "OTHER"
+
+
+def _short(name: str) -> str:
+    return name[len(ROBOT_PREFIX) :] if name.startswith(ROBOT_PREFIX) else name
+
+
+def _xyzw(wxyz: np.ndarray) -> np.ndarray:
+    """MuJoCo quaternions (w, x, y, z) -> Rerun's (x, y, z, w), float32."""
+    return np.ascontiguousarray(np.asarray(wxyz, dtype=np.float32)[..., [1, 2, 3, 0]])
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products of (w, x, y, z) quaternions, broadcast."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)`` (w, x, y, z)."""
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+# --------------------------------------------------------------------------------------------
+# What every recording of one compiled model shares (built once per model, cached)
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Heightfield:
+    path: str
+    pos: np.ndarray  # geom world position
+    quat: np.ndarray  # geom world quaternion (w, x, y, z)
+    heights: np.ndarray  # (nrow, ncol), metres above the geom frame
+    radius: tuple[float, float]
+    colour: tuple[int, int, int, int]
+
+
+@dataclass
+class _Scene:
+    model: Any  # kept alive so the cache key (its id) stays unique
+    world: list[tuple[str, list[Any]]]  # entity -> static archetypes
+    heightfields: list[_Heightfield]
+    boxes: Any  # rr.Boxes3D of the robot's geoms: sizes, colours, labels
+    geom_body: np.ndarray  # (G,) column in body_names of each robot box
+    geom_pos: np.ndarray  # (G, 3) in its body's frame
+    geom_quat: np.ndarray  # (G, 4) in its body's frame, (w, x, y, z)
+    start_centers: np.ndarray  # (G, 3) world, at the model's reference configuration
+    start_quats: np.ndarray  # (G, 4) world, (x, y, z, w)
+
+
+_SCENES: OrderedDict[tuple[int, tuple[str, ...]], _Scene] = OrderedDict()
+_SCENE_CACHE_SIZE = 8
+
+
+def _scene(model: Any, body_names: Sequence[str]) -> _Scene:
+    key = (id(model), tuple(body_names))
+    scene = _SCENES.get(key)
+    if scene is not None and scene.model is model:
+        _SCENES.move_to_end(key)
+        return scene
+    scene = _build_scene(model, body_names)
+    _SCENES[key] = scene
+    while len(_SCENES) > _SCENE_CACHE_SIZE:
+        _SCENES.popitem(last=False)
+    return scene
+
+
+def _build_scene(model: Any, body_names: Sequence[str]) -> _Scene:
+    import mujoco
+
+    rr = _rr()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    geom_xquat = np.empty((model.ngeom, 4))
+    for g in range(model.ngeom):
+        mujoco.mju_mat2Quat(geom_xquat[g], data.geom_xmat[g])
+    geom_names = [
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(model.ngeom)
+    ]
+    body_index = {
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or "": b for b in range(model.nbody)
+    }
+    robot_bodies = []
+    for name in body_names:
+        if name not in body_index:
+            raise ValueError(f"body {name!r} is not in the model")
+        robot_bodies.append(body_index[name])
+    column = {b: i for i, b in enumerate(robot_bodies)}
+
+    # The robot: box geoms of the given bodies.
+    box = mujoco.mjtGeom.mjGEOM_BOX
+    geoms = [
+        g
+        for g in range(model.ngeom)
+        if int(model.geom_bodyid[g]) in column and int(model.geom_type[g]) == box
+    ]
+    colours = [_rgba255(model.geom_rgba[g]) for g in geoms]
+    labels = [_short(geom_names[g]) or f"geom{g}" for g in geoms]
+    boxes = rr.Boxes3D(
+        half_sizes=np.asarray(model.geom_size[geoms], dtype=np.float32).reshape(-1, 3),
+        colors=colours,
+        labels=labels,
+        show_labels=False,
+        fill_mode="solid",
+    )
+
+    # The world: everything else. Boxes (and planes, as thin boxes) form one batch at /world,
+    # with the view coordinates: one chunk for a flat floor or a whole arena.
+    world_boxes: dict[str, list[Any]] = {
+        k: [] for k in ("half", "center", "quat", "colour", "label")
+    }
+    world: list[tuple[str, list[Any]]] = []
+    heightfields: list[_Heightfield] = []
+    kinds = mujoco.mjtGeom
+    robot_geoms = set(np.flatnonzero(np.isin(model.geom_bodyid, robot_bodies)).tolist())
+    for g in range(model.ngeom):
+        if g in robot_geoms or geom_names[g].startswith(ROBOT_PREFIX):
+            continue
+        kind = int(model.geom_type[g])
+        size = np.asarray(model.geom_size[g], dtype=np.float64)
+        colour = _rgba255(model.geom_rgba[g])
+        name = geom_names[g] or f"geom{g}"
+        pos, quat = data.geom_xpos[g].copy(), geom_xquat[g].copy()
+        path = f"/world/{rr.escape_entity_path_part(name)}"
+        if kind in (kinds.mjGEOM_PLANE, kinds.mjGEOM_BOX):
+            if kind == kinds.mjGEOM_PLANE:  # a thin box whose top is the plane
+                half = [float(s) if s > 0 else INFINITE_PLANE_HALF_EXTENT for s in size[:2]]
+                size = np.array([half[0], half[1], 0.001])
+                pos = pos - _rotate(quat, np.array([0.0, 0.0, 0.001]))
+            world_boxes["half"].append(size)
+            world_boxes["center"].append(pos)
+            world_boxes["quat"].append(quat)
+            world_boxes["colour"].append(colour)
+            world_boxes["label"].append(name)
+        elif kind == kinds.mjGEOM_HFIELD:
+            field = int(model.geom_dataid[g])
+            nrow, ncol = int(model.hfield_nrow[field]), int(model.hfield_ncol[field])
+            rx, ry, top, _base = (float(v) for v in model.hfield_size[field])
+            start = int(model.hfield_adr[field])
+            heights = np.asarray(model.hfield_data[start : start + nrow * ncol], dtype=np.float64)
+            heightfields.append(
+                _Heightfield(path, pos, quat, heights.reshape(nrow, ncol) * top, (rx, ry), colour)
+            )
+        elif kind in (kinds.mjGEOM_SPHERE, kinds.mjGEOM_ELLIPSOID):
+            half = [size[0]] * 3 if kind == kinds.mjGEOM_SPHERE else size
+            shape = rr.Ellipsoids3D(
+                half_sizes=[half], centers=[pos], quaternions=[_xyzw(quat)], colors=[colour]
+            )
+            world.append((path, [shape]))
+        elif kind == kinds.mjGEOM_CAPSULE:  # Rerun's capsule starts at its translation
+            base = pos - _rotate(quat, np.array([0.0, 0.0, size[1]]))
+            shape = rr.Capsules3D(
+                lengths=[2 * size[1]],
+                radii=[size[0]],
+                translations=[base],
+                quaternions=[_xyzw(quat)],
+                colors=[colour],
+            )
+            world.append((path, [shape]))
+        elif kind == kinds.mjGEOM_CYLINDER:
+            shape = rr.Cylinders3D(
+                lengths=[2 * size[1]],
+                radii=[size[0]],
+                centers=[pos],
+                quaternions=[_xyzw(quat)],
+                colors=[colour],
+            )
+            world.append((path, [shape]))
+        # meshes and other shapes of a world: not drawn
+    ground: list[Any] = [rr.ViewCoordinates.RIGHT_HAND_Z_UP]
+    if world_boxes["half"]:
+        ground.append(
+            rr.Boxes3D(
+                half_sizes=np.array(world_boxes["half"], dtype=np.float32),
+                centers=np.array(world_boxes["center"], dtype=np.float32),
+                quaternions=_xyzw(np.array(world_boxes["quat"])),
+                colors=world_boxes["colour"],
+                labels=world_boxes["label"],
+                show_labels=False,
+                fill_mode="solid",
+            )
+        )
+    world.insert(0, ("/world", ground))
+
+    body_xpos = data.xpos[robot_bodies] if robot_bodies else np.zeros((0, 3))
+    body_xquat = data.xquat[robot_bodies] if robot_bodies else np.zeros((0, 4))
+    geom_body = np.array([column[int(model.geom_bodyid[g])] for g in geoms], dtype=np.int64)
+    geom_pos = np.asarray(model.geom_pos[geoms], dtype=np.float64).reshape(-1, 3)
+    geom_quat = np.asarray(model.geom_quat[geoms], dtype=np.float64).reshape(-1, 4)
+    centers, quats = _box_poses(body_xpos[None], body_xquat[None], geom_body, geom_pos, geom_quat)
+    return _Scene(
+        model=model,
+        world=world,
+        heightfields=heightfields,
+        boxes=boxes,
+        geom_body=geom_body,
+        geom_pos=geom_pos,
+        geom_quat=geom_quat,
+        start_centers=centers[0],
+        start_quats=quats[0],
+    )
+
+
+def _box_poses(
+    body_pos: np.ndarray,
+    body_quat: np.ndarray,
+    geom_body: np.ndarray,
+    geom_pos: np.ndarray,
+    geom_quat: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """World centers ``(T, G, 3)`` and quaternions ``(T, G, 4)`` (x, y, z, w) of the boxes."""
+    bp = np.asarray(body_pos, dtype=np.float64)[:, geom_body]
+    bq = np.asarray(body_quat, dtype=np.float64)[:, geom_body]
+    centers = bp + _rotate(bq, np.broadcast_to(geom_pos, bp.shape))
+    quats = _quat_mul(bq, np.broadcast_to(geom_quat, bq.shape))
+    return centers.astype(np.float32), _xyzw(quats)
+
+
+def _terrain(field: _Heightfield, path_xy: np.ndarray) -> Any:
+    """A world-frame `Mesh3D` of the heightfield around ``path_xy`` (the core's x, y)."""
+    rr = _rr()
+    nrow, ncol = field.heights.shape
+    rx, ry = field.radius
+    xs = np.linspace(-rx, rx, ncol)
+    ys = np.linspace(-ry, ry, nrow)
+    cols, rows = np.arange(ncol), np.arange(nrow)
+    inverse = field.quat * np.array([1.0, -1.0, -1.0, -1.0])
+    if path_xy.size:
+        # The path in the field's frame (exact for fields rotated about z, close enough for
+        # tilted ones given the margin).
+        path = np.column_stack([path_xy, np.zeros(len(path_xy))]) - field.pos
+        local = _rotate(inverse, path)
+        lo, hi = local[:, :2].min(0) - TERRAIN_MARGIN, local[:, :2].max(0) + TERRAIN_MARGIN
+        cols = cols[(xs >= lo[0]) & (xs <= hi[0])]
+        rows = rows[(ys >= lo[1]) & (ys <= hi[1])]
+    if len(rows) < 2 or len(cols) < 2:
+        rows, cols = np.arange(nrow), np.arange(ncol)
+    if len(rows) > TERRAIN_MAX_SIDE:
+        rows = rows[np.linspace(0, len(rows) - 1, TERRAIN_MAX_SIDE).round().astype(int)]
+    if len(cols) > TERRAIN_MAX_SIDE:
+        cols = cols[np.linspace(0, len(cols) - 1, TERRAIN_MAX_SIDE).round().astype(int)]
+    xx, yy = np.meshgrid(xs[cols], ys[rows])
+    zz = field.heights[np.ix_(rows, cols)]
+    local = np.stack([xx, yy, zz], axis=-1).reshape(-1, 3)
+    vertices = (field.pos + _rotate(field.quat, local)).astype(np.float32)
+    r, c = len(rows), len(cols)
+    index = np.arange(r * c, dtype=np.uint32).reshape(r, c)
+    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()
+    d, e = index[1:, :-1].ravel(), index[1:, 1:].ravel()
+    triangles = np.concatenate([np.stack([a, b, e], 1), np.stack([a, e, d], 1)])
+    return rr.Mesh3D(
+        vertex_positions=vertices, triangle_indices=triangles, albedo_factor=field.colour
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Morphology graph and properties
+# --------------------------------------------------------------------------------------------
+
+
+def _graph_parts(graph_json: str | Mapping[str, Any]) -> tuple[list[str], list[str], list[Any]]:
+    """Node ids, their module types and (parent, child) edges of a node-link graph."""
+    data = json.loads(graph_json) if isinstance(graph_json, str) else graph_json
+    nodes = data.get("nodes", [])
+    ids = [str(node["id"]) for node in nodes]
+    types = [str(node.get("type", "?")).upper() for node in nodes]
+    links = data.get("edges", data.get("links", []))
+    edges = [(str(e["source"]), str(e["target"])) for e in links]
+    return ids, types, edges
+
+
+def _graph_archetypes(graph_json: str | Mapping[str, Any]) -> list[Any]:
+    rr = _rr()
+    ids, types, edges = _graph_parts(graph_json)
+    if not ids:
+        return []
+    palette = module_colours()
+    return [
+        rr.GraphNodes(
+            ids,
+            labels=[f"{t.lower()} {i}" for i, t in zip(ids, types)],
+            colors=[palette.get(t, _OTHER_COLOUR) for t in types],
+            show_labels=True,
+        ),
+        rr.GraphEdges(edges, graph_type="directed"),
+    ]
+
+
+def _property_value(value: Any) -> Any:
+    """A value `AnyValues` holds: a number, bool or string; lists of them; else JSON text."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None:
+        return None
+    if isinstance(value, bool | int | float | str):
+        return [value]
+    if isinstance(value, Sequence) and value and all(isinstance(v, str) for v in value):
+        return list(value)
+    if (
+        isinstance(value, Sequence)
+        and value
+        and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+    ):
+        return [float(v) for v in value]
+    return [json.dumps(value, default=str)]
+
+
+def _send_properties(rec: Any, properties: Mapping[str, Any], name: str) -> None:
+    rec.send_recording_name(name)
+    values = {str(k): _property_value(v) for k, v in properties.items()}
+    values = {k: v for k, v in values.items() if v is not None}
+    if values:
+        rec.send_property("ariel", _rr().AnyValues(**values))
+
+
+def _write_stream(path: Path, recording_id: str, fill: Any, *, fsync: bool) -> Path:
+    """Build a recording in memory with ``fill(rec)``, then write it whole to ``path``."""
+    rr = _rr()
+
+    def write(temporary: Path) -> None:
+        # NEVER: no batching thread flushing on a timer; everything goes out on the flush
+        # below, as the chunks were logged (each call here is one whole chunk already).
+        rec = rr.RecordingStream(
+            APPLICATION_ID,
+            recording_id=recording_id,
+            batcher_config=rr.ChunkBatcherConfig.NEVER(),
+        )
+        try:
+            stream = rec.binary_stream()
+            fill(rec)
+            data = stream.read(flush=True)
+        finally:
+            rec.disconnect()
+        temporary.write_bytes(data or b"")
+
+    atomic_write(path, write, fsync=fsync)
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# One evaluation
+# --------------------------------------------------------------------------------------------
+
+
+def write_evaluation_recording(
+    path: str | os.PathLike[str],
+    *,
+    model: Any,
+    body_names: Sequence[str],
+    result: Any,
+    properties: Mapping[str, Any],
+    graph_json: str | Mapping[str, Any] | None = None,
+    transforms: bool = True,
+    fsync: bool = False,
+) -> Path:
+    """Write one evaluation's ``.rrd`` (entities: see the module docstring); returns its path.
+
+    ``model``: the compiled robot + world (``ariel.evaluation.build(task).model``).
+    ``body_names``: the robot bodies ``result.body_pos`` refers to (``result.body_names``).
+    ``result``: an `EvaluationResult`. ``properties``: plain values (eval_id, body_id, run_id,
+    generation, fitness, status, seed, controller, ...) stored as recording properties; the
+    recording id and name are ``properties["eval_id"]`` (else ``result.eval_id``).
+    ``graph_json``: the morphology as networkx node-link JSON (or its dict).
+    ``transforms``: the bodies' poses over ``sim_time`` (a 3D replay), when ``result`` has
+    them (``body_pos``/``body_quat``, from ``EvaluationTask(record_bodies=True)``); else the
+    robot is drawn in its start pose.
+    ``fsync``: also fsync the file (a killed writer never leaves a partial file either way;
+    fsync costs ~2 ms a file and only matters for a power cut).
+    Safe to call from a loop and from threads: no global state but a small per-model cache.
+    """
+    path = Path(path)
+    eval_id = str(properties.get("eval_id") or getattr(result, "eval_id", "") or path.stem)
+    scene = _scene(model, body_names)
+
+    def fill(rec: Any) -> None:
+        rr = _rr()
+        _send_properties(rec, properties, eval_id)
+        core = np.asarray(result.core_pos, dtype=np.float32).reshape(-1, 3)
+        for entity, archetypes in scene.world:
+            rec.log(entity, *archetypes, static=True)
+        for field in scene.heightfields:
+            rec.log(field.path, _terrain(field, core[:, :2]), static=True)
+
+        times = np.asarray(result.time, dtype=np.float64)
+        sim_time = rr.TimeColumn("sim_time", duration=times)
+        body_pos = getattr(result, "body_pos", None)
+        body_quat = getattr(result, "body_quat", None)
+        moving = (
+            transforms
+            and body_pos is not None
+            and body_quat is not None
+            and len(body_pos) == len(times) > 0
+            and np.shape(body_pos)[1] == len(body_names)
+        )
+        boxes = len(scene.geom_body)
+        if moving and boxes:
+            rec.log("/world/robot", scene.boxes, static=True)
+            centers, quats = _box_poses(
+                body_pos, body_quat, scene.geom_body, scene.geom_pos, scene.geom_quat
+            )
+            columns = rr.Boxes3D.columns(
+                centers=centers.reshape(-1, 3), quaternions=quats.reshape(-1, 4)
+            )
+            rec.send_columns(
+                "/world/robot",
+                indexes=[sim_time],
+                columns=columns.partition([boxes] * len(times)),
+            )
+        elif boxes:
+            start = rr.Boxes3D.from_fields(
+                centers=scene.start_centers, quaternions=scene.start_quats
+            )
+            rec.log("/world/robot", scene.boxes, start, static=True)
+        if len(core):
+            rec.log(
+                "/world/trajectory",
+                rr.LineStrips3D([core], colors=[module_colours()["CORE"]], radii=[0.005]),
+                static=True,
+            )
+
+        targets = np.asarray(result.joint_target, dtype=np.float64)
+        angles = np.asarray(result.joint_angle, dtype=np.float64)
+        joints = targets.shape[1] if targets.ndim == 2 and len(times) else 0
+        if joints:
+            names = [_short(n) for n in (getattr(result, "joint_names", None) or [])]
+            names += [f"joint{j}" for j in range(len(names), joints)]
+            for leaf, values in (("target", targets), ("angle", angles)):
+                rec.log(f"/joints/{leaf}", rr.SeriesLines(names=names[:joints]), static=True)
+                rec.send_columns(
+                    f"/joints/{leaf}",
+                    indexes=[sim_time],
+                    columns=rr.Scalars.columns(scalars=values.ravel()).partition(
+                        [joints] * len(times)
+                    ),
+                )
+        if graph_json:
+            graph = _graph_archetypes(graph_json)
+            if graph:
+                rec.log("/graph", *graph, static=True)
+
+    return _write_stream(path, eval_id, fill, fsync=fsync)
+
+
+# --------------------------------------------------------------------------------------------
+# The run
+# --------------------------------------------------------------------------------------------
+
+#: Columns of ``generations_df`` that `write_run_recording` plots, and their entities.
+RUN_SERIES: dict[str, str] = {
+    "best_fitness": "/fitness/best",
+    "mean_fitness": "/fitness/mean",
+    "median_fitness": "/fitness/median",
+    "diversity": "/diversity/descriptor_distance",
+    "distinct_morphologies": "/diversity/distinct_morphologies",
+}
+
+
+def write_run_recording(
+    path: str | os.PathLike[str],
+    generations_df: Any,
+    best_bodies: Mapping[int, Mapping[str, Any]] | Sequence[Mapping[str, Any]],
+    *,
+    run_id: str = "",
+    properties: Mapping[str, Any] | None = None,
+    fsync: bool = True,
+) -> Path:
+    """Write the run-level ``run.rrd`` on a ``generation`` timeline; returns its path.
+
+    ``generations_df``: one row per generation (a DataFrame or a dict of columns) with
+    ``generation`` and any of the `RUN_SERIES` columns (``best_fitness``, ``mean_fitness``,
+    ``median_fitness``, ``diversity``, ``distinct_morphologies``), each a scalar series.
+    ``best_bodies``: the best body of each generation, as a mapping generation -> body or as
+    rows with a ``generation`` key; a body has ``body_id``, ``fitness`` and ``graph``
+    (node-link JSON): logged at ``/best/graph`` (its morphology) and ``/best/body`` (text).
+    """
+    path = Path(path)
+    generation = np.asarray(generations_df["generation"], dtype=np.int64)
+    columns = set(getattr(generations_df, "columns", generations_df))
+    if isinstance(best_bodies, Mapping):
+        bests = sorted((int(g), b) for g, b in best_bodies.items())
+    else:
+        bests = sorted(((int(b["generation"]), b) for b in best_bodies), key=lambda gb: gb[0])
+    name = run_id or path.parent.name or "run"
+
+    def fill(rec: Any) -> None:
+        rr = _rr()
+        _send_properties(rec, dict(properties or {}), name)
+        index = rr.TimeColumn("generation", sequence=generation)
+        for column, entity in RUN_SERIES.items():
+            if column in columns and len(generation):
+                values = np.asarray(generations_df[column], dtype=np.float64)
+                rec.log(entity, rr.SeriesLines(names=[column.replace("_", " ")]), static=True)
+                rec.send_columns(
+                    entity, indexes=[index], columns=rr.Scalars.columns(scalars=values)
+                )
+        for gen, body in bests:
+            rec.set_time("generation", sequence=gen)
+            fitness = float(body.get("fitness", math.nan))
+            rec.log("/best/body", rr.TextDocument(f"{body.get('body_id', '')}: {fitness:.6g}"))
+            if body.get("graph"):
+                graph = _graph_archetypes(body["graph"])
+                if graph:
+                    rec.log("/best/graph", *graph)
+
+    return _write_stream(path, name, fill, fsync=fsync)
+
+
+# --------------------------------------------------------------------------------------------
+# Blueprint
+# --------------------------------------------------------------------------------------------
+
+
+def blueprint() -> Any:
+    """The default layout: the 3D replay and the morphology above, joints and fitness below."""
+    rrb = _rr().blueprint
+    return rrb.Blueprint(
+        rrb.Vertical(
+            rrb.Horizontal(
+                rrb.Spatial3DView(name="robot", origin="/world"),
+                rrb.Vertical(
+                    rrb.GraphView(name="morphology", origin="/graph"),
+                    rrb.GraphView(name="best body", origin="/best/graph"),
+                ),
+                column_shares=[3, 1],
+            ),
+            rrb.Horizontal(
+                rrb.TimeSeriesView(name="joint targets", origin="/joints/target"),
+                rrb.TimeSeriesView(name="joint angles", origin="/joints/angle"),
+                rrb.TimeSeriesView(name="fitness", origin="/fitness"),
+                rrb.TimeSeriesView(name="diversity", origin="/diversity"),
+            ),
+            row_shares=[3, 2],
+        ),
+        collapse_panels=False,
+    )
+
+
+def write_blueprint(path: str | os.PathLike[str]) -> Path:
+    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``).
+
+    Open it with the recordings: ``rerun blueprint.rbl run.rrd recordings/gen-000000/*.rrd``.
+    """
+    path = Path(path)
+
+    def write(temporary: Path) -> None:
+        # Rerun writes blueprints to paths ending in .rbl only: build beside, then move.
+        staging = temporary.with_name(temporary.name + ".rbl")
+        try:
+            blueprint().save(APPLICATION_ID, str(staging))
+            os.replace(staging, temporary)
+        finally:
+            if staging.exists():
+                staging.unlink()
+
+    atomic_write(path, write)
+    return path
