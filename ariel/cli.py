@@ -146,6 +146,59 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     return 0
 
 
+class _IntermixedParser(_Parser):
+    """Options and positionals in any order: argparse (Python 3.11, 3.12) binds an optional
+    positional (``EVAL_ID``) too early, and ``ariel view RUN --web EVAL_ID`` would fail."""
+
+    _inner = False
+
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        if self._inner:  # parse_known_intermixed_args calls back here
+            return super().parse_known_args(args, namespace)
+        self._inner = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        finally:
+            self._inner = False
+
+
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {text!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {value}")
+    return value
+
+
+def _generation(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, not {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, not {value}")
+    return value
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from ariel.recording._view import ViewError, view
+
+    try:
+        return view(
+            args.run_dir,
+            best=args.best,
+            generation=args.generation,
+            eval_id=args.eval_id,
+            web=args.web,
+            port=args.port,
+            grpc_port=args.grpc_port,
+        )
+    except ViewError as exc:
+        return _fail(str(exc))
+
+
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from ariel.plugins import REGISTRIES
 
@@ -311,6 +364,39 @@ def build_parser() -> argparse.ArgumentParser:
         "--check", action="store_true", help="run the plugin checkers on every registered plugin"
     )
     p.set_defaults(func=_cmd_plugins)
+
+    p = sub.add_parser(
+        "view",
+        help="open a run's Rerun recordings in the viewer (--web: serve it for an SSH tunnel)",
+        description="Open Rerun recordings of a run with its blueprint: by default run.rrd and "
+        "the best evaluation's recording.",
+    )
+    p.__class__ = _IntermixedParser  # EVAL_ID may follow the options
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("eval_id", nargs="?", metavar="EVAL_ID", help="one evaluation")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument(
+        "--best", type=_positive_int, metavar="K", help="the K best evaluations of the run"
+    )
+    which.add_argument(
+        "--generation", type=_generation, metavar="G", help="every recording of generation G"
+    )
+    p.add_argument(
+        "--web",
+        action="store_true",
+        help="serve the web viewer on 127.0.0.1 (no browser is opened; prints the SSH tunnel)",
+    )
+    p.add_argument(
+        "--port", type=_port, metavar="PORT", help="web viewer port (default 9090; 0: any free)"
+    )
+    p.add_argument(
+        "--grpc-port",
+        type=_port,
+        metavar="PORT",
+        help="port of the gRPC proxy the web viewer reads the recordings from "
+        "(default 9876; 0: any free)",
+    )
+    p.set_defaults(func=_cmd_view)
 
     p = sub.add_parser("quickstart", help="run the quick-start tutorial flow as a script")
     p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the script")

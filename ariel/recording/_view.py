@@ -1,0 +1,442 @@
+"""`ariel view`: open a run's Rerun recordings in the viewer, native or served to a browser.
+
+The viewer is the ``rerun`` binary of rerun-sdk, started as a child process in its own
+session: whatever ends this command (its own end, Ctrl-C, SIGTERM, SIGHUP when an SSH session
+drops) terminates the child's process group, and on Linux the child also gets SIGTERM if this
+process is killed outright (``PR_SET_PDEATHSIG``). ``--web`` binds to 127.0.0.1 only, never
+opens a browser, and prints the SSH tunnel that reaches it from another machine.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import getpass
+import importlib.util
+import math
+import os
+import re
+import shlex
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+from urllib.parse import quote
+
+__all__ = [
+    "DEFAULT_GRPC_PORT",
+    "DEFAULT_WEB_PORT",
+    "Selection",
+    "ViewError",
+    "best_evaluations",
+    "has_display",
+    "recording_path",
+    "rerun_binary",
+    "select_recordings",
+    "view",
+]
+
+RECORDINGS = "recordings"
+RUN_RECORDING = "run.rrd"
+BLUEPRINT = "blueprint.rbl"
+DEFAULT_WEB_PORT = 9090  # rerun's defaults: the web viewer over HTTP, and its gRPC proxy
+DEFAULT_GRPC_PORT = 9876
+LOCALHOST = "127.0.0.1"
+READY_TIMEOUT_S = 60.0
+STOP_TIMEOUT_S = 5.0
+_EVAL_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
+
+
+class ViewError(Exception):
+    """Bad input or a missing file: one line for the user (exit code 2)."""
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The recordings to open: ``.rrd`` paths, the blueprint (or None) and a description."""
+
+    run_dir: Path
+    recordings: tuple[Path, ...]
+    blueprint: Path | None
+    description: str
+
+
+def recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
+    """Where an evaluation's recording lives: ``recordings/gen-NNNNNN/<eval_id>.rrd``."""
+    return Path(run_dir) / RECORDINGS / f"gen-{int(generation):06d}" / f"{eval_id}.rrd"
+
+
+def _rrd_files(folder: Path) -> list[Path]:
+    """The finished ``.rrd`` files in ``folder`` (temporaries are hidden ``.name.tmp`` files)."""
+    if not folder.is_dir():
+        return []
+    return sorted(p for p in folder.glob("*.rrd") if p.is_file() and not p.name.startswith("."))
+
+
+def best_evaluations(evaluations: Any, k: int, *, maximise: bool) -> Any:
+    """The ``k`` best finished evaluations (status ``ok``, finite fitness), best first; ties
+    keep table order (earlier generation, then earlier evaluation)."""
+    finite = evaluations["fitness"].map(lambda f: math.isfinite(f))
+    ok = evaluations[(evaluations["status"] == "ok") & finite]
+    return ok.sort_values("fitness", ascending=not maximise, kind="stable").head(k)
+
+
+def _maximise(evaluations: Any) -> bool:
+    if not len(evaluations):
+        return True
+    from ariel.plugins import fitness_functions
+
+    return bool(fitness_functions.get(str(evaluations["fitness_fn"].iloc[0])).maximise)
+
+
+def _no_recordings(run: Any) -> ViewError:
+    rerun_on = bool(run.config.get("record", {}).get("rerun", False))
+    why = (
+        "none written yet"
+        if rerun_on
+        else "the run was made with record.rerun = false; "
+        "run it with --set record.rerun=true to record them"
+    )
+    return ViewError(f"no Rerun recordings in {run.path} ({why})")
+
+
+def select_recordings(
+    run_dir: str | Path,
+    *,
+    best: int | None = None,
+    generation: int | None = None,
+    eval_id: str | None = None,
+) -> Selection:
+    """Pick recordings of a run: the ``best`` K evaluations, one ``generation``'s, one
+    ``eval_id``'s, or by default ``run.rrd`` and the best evaluation's. Raises `ViewError`."""
+    from ariel.recording._load import load_run
+    from ariel.recording._run_folder import NotARunError
+
+    if sum(x is not None for x in (best, generation, eval_id)) > 1:
+        raise ViewError("choose one of --best, --generation and EVAL_ID")
+    try:
+        run = load_run(run_dir)
+    except NotARunError as exc:
+        raise ViewError(str(exc)) from None
+    folder = run.path
+    blueprint = folder / BLUEPRINT
+    blueprint_or_none = blueprint if blueprint.is_file() else None
+    run_rrd = folder / RUN_RECORDING
+    if not run_rrd.is_file() and not any((folder / RECORDINGS).glob("gen-*/*.rrd")):
+        raise _no_recordings(run)
+
+    def chosen(paths: Sequence[Path], description: str) -> Selection:
+        return Selection(folder, tuple(paths), blueprint_or_none, description)
+
+    if eval_id is not None:
+        if not _EVAL_ID.fullmatch(eval_id):
+            raise ViewError(f"not an evaluation id: {eval_id!r} (ids look like b000012-i003-c005)")
+        found = sorted((folder / RECORDINGS).glob(f"gen-*/{eval_id}.rrd"))
+        if found:
+            return chosen(found[:1], f"evaluation {eval_id}")
+        known = run.evaluations["eval_id"] == eval_id
+        if known.any():
+            generation_of = int(run.evaluations.loc[known, "generation"].iloc[0])
+            expected = recording_path(folder, generation_of, eval_id).relative_to(folder)
+            raise ViewError(f"evaluation {eval_id} has no recording ({expected} is missing)")
+        raise ViewError(
+            f"no evaluation {eval_id} in {folder} (ids look like b000012-i003-c005; "
+            "`ariel view RUN --best 5` opens the best ones)"
+        )
+
+    if generation is not None:
+        found = _rrd_files(folder / RECORDINGS / f"gen-{generation:06d}")
+        if found:
+            return chosen(found, f"generation {generation} ({len(found)} recordings)")
+        done = run.generations_done
+        if not 0 <= generation < max(done, 1) or done == 0:
+            span = f"generations 0..{done - 1}" if done else "no finished generation"
+            raise ViewError(f"no generation {generation} in {folder} (it has {span})")
+        raise ViewError(f"no recordings of generation {generation} in {folder}")
+
+    evaluations = run.evaluations
+    ranked = best_evaluations(evaluations, best or 1, maximise=_maximise(evaluations))
+    paths = [recording_path(folder, g, e) for g, e in zip(ranked["generation"], ranked["eval_id"])]
+    if best is not None:
+        missing = [p for p in paths if not p.is_file()]
+        if missing:
+            raise ViewError(
+                f"{len(missing)} of the {len(paths)} best evaluations have no recording "
+                f"(first: {missing[0].relative_to(folder)})"
+            )
+        if not paths:
+            raise ViewError(f"no finished evaluation in {folder} to rank")
+        return chosen(paths, f"the {len(paths)} best evaluations")
+
+    # Default: the run-level recording and the best evaluation's, whichever exist.
+    picked = [run_rrd] if run_rrd.is_file() else []
+    parts = [RUN_RECORDING] if picked else []
+    if paths and paths[0].is_file():
+        picked.append(paths[0])
+        parts.append(f"the best evaluation {paths[0].stem}")
+    if not picked:
+        raise _no_recordings(run)
+    return chosen(picked, " and ".join(parts))
+
+
+# --- the rerun binary and its child process --------------------------------------------------
+
+
+def rerun_binary() -> Path:
+    """The ``rerun`` executable of rerun-sdk (``RERUN_CLI_PATH`` overrides it, as in rerun-sdk).
+
+    The binary itself, not the ``rerun`` Python wrapper script: the wrapper would run it as a
+    grandchild that outlives the wrapper when that is killed.
+    """
+    override = os.environ.get("RERUN_CLI_PATH")
+    if override:
+        return Path(override)
+    spec = importlib.util.find_spec("rerun_cli")
+    for base in (spec.submodule_search_locations or []) if spec else []:
+        for name in ("Rerun.app/Contents/MacOS/Rerun", "rerun", "rerun.exe"):
+            candidate = Path(base) / name
+            if candidate.is_file():
+                return candidate
+    found = shutil.which("rerun")
+    if found:
+        return Path(found)
+    raise ViewError("the Rerun viewer is not installed (pip install rerun-sdk)")
+
+
+def has_display() -> bool:
+    """Whether a window can open here (Linux and other X11/Wayland systems: ``DISPLAY`` or
+    ``WAYLAND_DISPLAY``; macOS and Windows always)."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _die_with_parent() -> Callable[[], None] | None:
+    """A ``preexec_fn`` asking Linux to SIGTERM the child when this process dies."""
+    if not sys.platform.startswith("linux"):
+        return None
+    import ctypes
+
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+    parent = os.getpid()
+    pr_set_pdeathsig = 1
+
+    def preexec() -> None:
+        prctl(pr_set_pdeathsig, int(signal.SIGTERM), 0, 0, 0)
+        if os.getppid() != parent:  # the parent died before prctl took effect
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    return preexec
+
+
+class _Stopped(BaseException):  # like KeyboardInterrupt: not caught as an Exception
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_stopped(signum: int, frame: object) -> None:
+    raise _Stopped(signum)
+
+
+def _terminate(proc: subprocess.Popen[bytes]) -> None:
+    """End the child and anything it started (its process group), politely, then not."""
+    for sig, grace in ((signal.SIGTERM, STOP_TIMEOUT_S), (signal.SIGKILL, STOP_TIMEOUT_S)):
+        if proc.poll() is not None:
+            break
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(proc.pid, sig)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            proc.wait(timeout=grace)
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)  # stragglers of the group, if any
+    proc.wait()
+
+
+def _run_child(
+    command: Sequence[str], *, when_started: Callable[[subprocess.Popen[bytes]], None] | None
+) -> int:
+    """Run ``command`` until it ends or this process is stopped; never leave it behind.
+
+    Returns the child's exit code, 0 after Ctrl-C, 128 + n after signal n (SIGTERM, SIGHUP).
+    """
+    env = dict(os.environ)
+    env.setdefault("RUST_LOG", "warn")  # rerun's info lines repeat (and contradict) ours
+    handled = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
+    previous = {s: signal.signal(s, _raise_stopped) for s in handled}
+    proc: subprocess.Popen[bytes] | None = None
+    try:
+        proc = subprocess.Popen(
+            list(command),
+            stdin=subprocess.DEVNULL,
+            env=env,
+            start_new_session=True,  # Ctrl-C reaches us; we stop the whole group
+            # Only idle pool threads (pyarrow) exist here, so a preexec_fn is safe enough.
+            preexec_fn=_die_with_parent(),
+        )
+        if when_started is not None:
+            when_started(proc)
+        return proc.wait()
+    except KeyboardInterrupt:
+        print("\nstopped the Rerun viewer", file=sys.stderr)
+        return 0
+    except _Stopped as stop:
+        return 128 + stop.signum
+    finally:
+        if proc is not None:
+            _terminate(proc)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+# --- web: ports, readiness, the tunnel --------------------------------------------------------
+
+
+def _port_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server will
+        try:
+            s.bind((LOCALHOST, port))
+        except OSError:
+            return False
+    return True
+
+
+def _any_free_port(exclude: set[int]) -> int:
+    while True:
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+            s.bind((LOCALHOST, 0))
+            port = int(s.getsockname()[1])
+        if port not in exclude:
+            return port
+
+
+def _choose_port(requested: int | None, default: int, option: str, taken: set[int]) -> int:
+    """``requested`` as given (0: any free port); unset: ``default``, or a free one if busy."""
+    if requested:
+        if requested in taken or not _port_free(requested):
+            raise ViewError(f"port {requested} on {LOCALHOST} is in use; choose another {option}")
+        return requested
+    if requested is None and default not in taken and _port_free(default):
+        return default
+    return _any_free_port(taken)
+
+
+def _listening(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.settimeout(0.5)
+        return s.connect_ex((LOCALHOST, port)) == 0
+
+
+def web_url(web_port: int, grpc_port: int) -> str:
+    """The web viewer's address, connected to the gRPC proxy that serves the recordings."""
+    proxy = f"rerun+http://{LOCALHOST}:{grpc_port}/proxy"
+    return f"http://{LOCALHOST}:{web_port}/?url={quote(proxy, safe='')}"
+
+
+def tunnel_command(ports: Sequence[int]) -> str:
+    """The SSH command that forwards ``ports`` of this machine's 127.0.0.1 to the same ports
+    on the caller's machine."""
+    try:
+        user = getpass.getuser()
+    except (KeyError, OSError):
+        user = os.environ.get("USER", "user")
+    forwards = " ".join(f"-L {p}:{LOCALHOST}:{p}" for p in ports)
+    return f"ssh -N {forwards} {shlex.quote(user)}@{socket.gethostname()}"
+
+
+def _memory_limit(paths: Sequence[Path]) -> str:
+    """The gRPC server keeps what it serves in memory and drops the oldest data beyond its
+    limit (1 GiB by default): make room for three times the files."""
+    total = sum(p.stat().st_size for p in paths)
+    return f"{max(1024, math.ceil(3 * total / 2**20))}MiB"
+
+
+def web_command(selection: Selection, web_port: int, grpc_port: int) -> list[str]:
+    files = [*selection.recordings, *([selection.blueprint] if selection.blueprint else [])]
+    return [
+        str(rerun_binary()),
+        "--serve-web",  # serve, never open a browser
+        "--bind",
+        LOCALHOST,
+        "--web-viewer-port",
+        str(web_port),
+        "--port",
+        str(grpc_port),
+        "--server-memory-limit",
+        _memory_limit(files),
+        *map(str, files),
+    ]
+
+
+def native_command(selection: Selection) -> list[str]:
+    files = [*selection.recordings, *([selection.blueprint] if selection.blueprint else [])]
+    return [str(rerun_binary()), *map(str, files)]
+
+
+def _serve_web(selection: Selection, port: int | None, grpc_port: int | None) -> int:
+    web_port = _choose_port(port, DEFAULT_WEB_PORT, "--port", set())
+    grpc = _choose_port(grpc_port, DEFAULT_GRPC_PORT, "--grpc-port", {web_port})
+    command = web_command(selection, web_port, grpc)
+
+    def announce(proc: subprocess.Popen[bytes]) -> None:
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        while not (_listening(web_port) and _listening(grpc)):
+            if proc.poll() is not None:
+                return  # it failed; its own messages are above, the exit code follows
+            if time.monotonic() > deadline:
+                raise ViewError(f"the Rerun server did not start in {READY_TIMEOUT_S:.0f} s")
+            time.sleep(0.1)
+        count = len(selection.recordings)
+        print(
+            f"Rerun web viewer: {selection.description} ({count} file{'s' * (count != 1)}) "
+            f"of {selection.run_dir}\n"
+            f"  open  {web_url(web_port, grpc)}\n"
+            f"From another computer (this one being a cluster node), tunnel both ports first:\n"
+            f"  {tunnel_command([web_port, grpc])}\n"
+            f"  (add -J user@login-node when this node is reached through a login node)\n"
+            f"The server listens on {LOCALHOST} only. Ctrl-C stops it.",
+            flush=True,
+        )
+
+    code = _run_child(command, when_started=announce)
+    if code not in (0, 128 + signal.SIGTERM, 128 + getattr(signal, "SIGHUP", 1)):
+        print(f"ariel: the Rerun server exited with code {code}", file=sys.stderr)
+    return code
+
+
+def view(
+    run_dir: str | Path,
+    *,
+    best: int | None = None,
+    generation: int | None = None,
+    eval_id: str | None = None,
+    web: bool = False,
+    port: int | None = None,
+    grpc_port: int | None = None,
+) -> int:
+    """Open the chosen recordings (see `select_recordings`) with the run's blueprint.
+
+    ``web``: serve the web viewer on 127.0.0.1 (``port``, default 9090; its gRPC proxy on
+    ``grpc_port``, default 9876; busy defaults fall back to free ports, 0 asks for any) until
+    Ctrl-C. Otherwise the native viewer, which needs a display. Returns the exit code; bad
+    input raises `ViewError`.
+    """
+    selection = select_recordings(run_dir, best=best, generation=generation, eval_id=eval_id)
+    if web:
+        return _serve_web(selection, port, grpc_port)
+    if not has_display():
+        raise ViewError(
+            "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); "
+            "serve it to a browser instead: ariel view RUN_DIR --web"
+        )
+    print(f"Rerun viewer: {selection.description} of {selection.run_dir}", flush=True)
+    return _run_child(native_command(selection), when_started=None)

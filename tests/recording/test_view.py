@@ -1,0 +1,496 @@
+"""`ariel view`: which recordings it opens, its one-line errors, and its viewer child process:
+bound to 127.0.0.1 only, loaded by a real headless browser, and gone after every way the
+command can end."""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import io
+import json
+import os
+import queue
+import re
+import select
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+import pytest
+import rerun as rr
+import rerun.blueprint as rrb
+
+from ariel.evolution import run_experiment
+from ariel.recording import load_run
+from ariel.recording._view import (
+    ViewError,
+    best_evaluations,
+    recording_path,
+    select_recordings,
+    web_url,
+)
+
+CHROMIUM = Path("/usr/bin/chromium")
+# A small co-evolution run (like TINY in tests/evolution/test_loop.py): 3 generations, no
+# recordings of its own (the tests write stand-ins).
+TINY = {
+    "name": "tiny",
+    "seed": 5,
+    "generations": 3,
+    "body": {"options": {"number_of_modules": 6}, "population": 3, "offspring": 3},
+    "brain": {"popsize": 4, "iterations": 2},
+    "task": {"duration": 1.0},
+    "executor": {"kind": "serial"},
+    "record": {"rerun": False},
+}
+RED, BLUE = (255, 0, 0), (0, 0, 255)
+
+
+def _write_rrd(path: Path, recording_id: str, colour: tuple[int, int, int]) -> None:
+    """A stand-in recording: one solid-colour image (the browser test looks for its pixels)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rec = rr.RecordingStream("ariel", recording_id=recording_id)
+    rec.save(str(path))
+    rec.log("image", rr.Image(np.full((48, 64, 3), colour, dtype=np.uint8)))
+    rec.flush()
+
+
+@pytest.fixture(scope="module")
+def bare_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished run made with record.rerun = false: tables, no recordings."""
+    out = tmp_path_factory.mktemp("view") / "bare"
+    run_experiment(TINY, out=out, progress=False)
+    return out
+
+
+@pytest.fixture(scope="module")
+def recorded_run(bare_run: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The same run with a recording per evaluation, run.rrd and blueprint.rbl."""
+    out = tmp_path_factory.mktemp("view") / "recorded"
+    shutil.copytree(bare_run, out)
+    evaluations = load_run(out).evaluations
+    best = best_evaluations(evaluations, 1, maximise=True)["eval_id"].iloc[0]
+    for generation, eval_id in zip(evaluations["generation"], evaluations["eval_id"]):
+        path = recording_path(out, generation, eval_id)
+        _write_rrd(path, eval_id, RED if eval_id == best else (40, 40, 40))
+    _write_rrd(out / "run.rrd", "run", BLUE)
+    rrb.Blueprint(rrb.Spatial2DView(origin="/image")).save("ariel", str(out / "blueprint.rbl"))
+    return out
+
+
+def _ariel(*args: str, env: dict[str, str] | None = None, **kwargs) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "ariel.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        **kwargs,
+    )
+
+
+def _ariel_run(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "ariel.cli", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+
+
+def _no_display_env() -> dict[str, str]:
+    return {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+
+
+# --- which recordings ----------------------------------------------------------------------
+
+
+def test_the_best_are_ranked_by_fitness_best_first(recorded_run: Path) -> None:
+    evaluations = load_run(recorded_run).evaluations
+    chosen = select_recordings(recorded_run, best=3)
+    ranked = evaluations[evaluations["status"] == "ok"].sort_values("fitness", ascending=False)
+    expected = [
+        recording_path(recorded_run, g, e)
+        for g, e in zip(ranked["generation"][:3], ranked["eval_id"][:3])
+    ]
+    assert list(chosen.recordings) == expected
+    fitness = evaluations.set_index("eval_id").loc[[p.stem for p in chosen.recordings], "fitness"]
+    assert list(fitness) == sorted(fitness, reverse=True)
+    assert chosen.blueprint == recorded_run / "blueprint.rbl"
+
+
+def test_default_is_run_rrd_and_the_best_evaluation(recorded_run: Path) -> None:
+    chosen = select_recordings(recorded_run)
+    best = select_recordings(recorded_run, best=1).recordings[0]
+    assert chosen.recordings == (recorded_run / "run.rrd", best)
+    assert best.stem in chosen.description
+
+
+def test_a_generation_and_one_evaluation(recorded_run: Path) -> None:
+    evaluations = load_run(recorded_run).evaluations
+    gen1 = evaluations[evaluations["generation"] == 1]["eval_id"]
+    chosen = select_recordings(recorded_run, generation=1)
+    assert sorted(p.stem for p in chosen.recordings) == sorted(gen1)
+    assert {p.parent.name for p in chosen.recordings} == {"gen-000001"}
+    one = gen1.iloc[2]
+    assert select_recordings(recorded_run, eval_id=one).recordings == (
+        recording_path(recorded_run, 1, one),
+    )
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"eval_id": "b999999-i000-c000"}, "no evaluation b999999-i000-c000"),
+        ({"eval_id": "../../etc/passwd"}, "not an evaluation id"),
+        ({"generation": 7}, "no generation 7"),
+        ({"best": 2, "generation": 1}, "choose one of"),
+    ],
+)
+def test_bad_choices_are_view_errors(recorded_run: Path, options: dict, message: str) -> None:
+    with pytest.raises(ViewError, match=re.escape(message)):
+        select_recordings(recorded_run, **options)
+
+
+def test_an_evaluation_whose_recording_is_missing(recorded_run: Path, tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    shutil.copytree(recorded_run, run)
+    victim = select_recordings(run, best=2).recordings[1]
+    victim.unlink()
+    with pytest.raises(ViewError, match=r"1 of the 2 best evaluations have no recording"):
+        select_recordings(run, best=2)
+    with pytest.raises(ViewError, match=rf"evaluation {victim.stem} has no recording"):
+        select_recordings(run, eval_id=victim.stem)
+
+
+# --- the command's one-line errors ----------------------------------------------------------
+
+
+def _one_line_exit_2(result: subprocess.CompletedProcess, *needles: str) -> None:
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    for needle in needles:
+        assert needle in lines[0]
+
+
+def test_a_run_without_recordings_is_one_line_exit_2(bare_run: Path) -> None:
+    for extra in ([], ["--web"], ["--best", "3"]):
+        result = _ariel_run("view", str(bare_run), *extra)
+        _one_line_exit_2(result, "no Rerun recordings", "record.rerun")
+        assert result.stdout == ""
+
+
+def test_no_display_without_web_is_one_line_exit_2_suggesting_web(recorded_run: Path) -> None:
+    result = _ariel_run("view", str(recorded_run), env=_no_display_env())
+    _one_line_exit_2(result, "no display", "--web")
+
+
+def test_bad_input_is_one_line_exit_2(recorded_run: Path, tmp_path: Path) -> None:
+    _one_line_exit_2(_ariel_run("view", str(tmp_path)), "ariel: error:")
+    _one_line_exit_2(_ariel_run("view", str(recorded_run), "--best", "0"), "--best")
+    _one_line_exit_2(
+        _ariel_run("view", str(recorded_run), "b000000-i000-c000", "--best", "2"),
+        "choose one of",
+    )
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = str(taken.getsockname()[1])
+        result = _ariel_run("view", str(recorded_run), "--web", "--port", port)
+    _one_line_exit_2(result, f"port {port}", "in use")
+
+
+# --- the native viewer (a stand-in binary: there is no display here) ------------------------
+
+
+def _fake_rerun(tmp_path: Path, body: str) -> dict[str, str]:
+    script = tmp_path / "fake-rerun"
+    script.write_text(f'#!/bin/sh\necho $$ > {tmp_path}/pid\necho "$@" > {tmp_path}/argv\n{body}\n')
+    script.chmod(0o755)
+    return {**_no_display_env(), "DISPLAY": ":99", "RERUN_CLI_PATH": str(script)}
+
+
+def test_native_viewer_gets_the_recordings_and_the_blueprint(recorded_run: Path, tmp_path):
+    env = _fake_rerun(tmp_path, "exit 0")
+    result = _ariel_run("view", str(recorded_run), "--best", "2", env=env)
+    assert result.returncode == 0, result.stderr
+    best = select_recordings(recorded_run, best=2).recordings
+    argv = (tmp_path / "argv").read_text().split()
+    assert argv == [*map(str, best), str(recorded_run / "blueprint.rbl")]
+
+
+def test_the_viewer_exit_code_comes_back(recorded_run: Path, tmp_path: Path) -> None:
+    result = _ariel_run("view", str(recorded_run), env=_fake_rerun(tmp_path, "exit 3"))
+    assert result.returncode == 3
+
+
+def _eventually(condition, timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+def _gone(pid: int, timeout: float = 10.0) -> bool:
+    """Whether process ``pid`` ended: gone, or a zombie nobody reaped whose threads all ended
+    (while other threads still exit, the leader already shows as a zombie)."""
+
+    def ended() -> bool:
+        try:
+            status = psutil.Process(pid).status()
+            if status == psutil.STATUS_ZOMBIE:
+                return len(list(Path(f"/proc/{pid}/task").iterdir())) <= 1
+            return status == psutil.STATUS_DEAD
+        except (psutil.NoSuchProcess, FileNotFoundError):
+            return True
+
+    return _eventually(ended, timeout)
+
+
+def _wait_for(path: Path, timeout: float = 20.0) -> str:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if path.exists() and path.read_text().strip():
+            return path.read_text().strip()
+        time.sleep(0.05)
+    raise AssertionError(f"{path} never appeared")
+
+
+def test_a_terminated_native_viewer_command_leaves_no_viewer(recorded_run, tmp_path) -> None:
+    env = _fake_rerun(tmp_path, "exec sleep 60")
+    proc = _ariel("view", str(recorded_run), env=env)
+    child = int(_wait_for(tmp_path / "pid"))
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=20) == 128 + signal.SIGTERM
+    assert _gone(child)
+
+
+# --- the web viewer: the real rerun server ---------------------------------------------------
+
+
+class _Served:
+    """``ariel view ... --web`` running: its printed address and tunnel, its rerun child."""
+
+    def __init__(self, run_dir: Path, *extra: str) -> None:
+        self.proc = _ariel("view", str(run_dir), "--web", "--port", "0", "--grpc-port", "0", *extra)
+        lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(
+            target=lambda: [lines.put(x) for x in self.proc.stdout], daemon=True
+        ).start()
+        self.text = ""
+        deadline = time.monotonic() + 60
+        while "Ctrl-C stops it" not in self.text:
+            if self.proc.poll() is not None or time.monotonic() > deadline:
+                raise AssertionError(self.text + self.proc.stderr.read())
+            with contextlib.suppress(queue.Empty):
+                self.text += lines.get(timeout=0.2)
+        self.url = re.search(r"open\s+(http://\S+)", self.text).group(1)
+        self.tunnel = re.search(r"^\s*(ssh .*)$", self.text, re.MULTILINE).group(1)
+        (self.rerun,) = psutil.Process(self.proc.pid).children(recursive=True)
+
+    def listening(self) -> list:
+        return [c for c in self.rerun.net_connections("inet") if c.status == psutil.CONN_LISTEN]
+
+    def stop(self, signum: int) -> int:
+        self.proc.send_signal(signum)
+        return self.proc.wait(timeout=30)
+
+
+def _ports(url: str) -> tuple[int, int]:
+    """The web viewer's port and the gRPC proxy's, from the printed address."""
+    web, grpc = re.search(r":(\d+)/\?url=.*%3A(\d+)%2Fproxy$", url).groups()
+    return int(web), int(grpc)
+
+
+def _ports_closed(ports: set[int]) -> bool:
+    for port in ports:
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return False
+    return True
+
+
+@pytest.mark.parametrize(
+    ("signum", "code"),
+    [
+        (signal.SIGINT, 0),  # Ctrl-C: the normal way to stop serving
+        (signal.SIGTERM, 128 + signal.SIGTERM),
+        (signal.SIGHUP, 128 + signal.SIGHUP),  # the SSH session dropped
+        (signal.SIGKILL, -signal.SIGKILL),  # no handler runs: the kernel's parent-death signal
+    ],
+)
+def test_web_serves_on_localhost_only_and_leaves_nothing_behind(recorded_run, signum, code):
+    served = _Served(recorded_run)
+    try:
+        listening = served.listening()
+        ports = {c.laddr.port for c in listening}
+        assert {c.laddr.ip for c in listening} == {"127.0.0.1"}
+        assert len(ports) == 2
+        web, grpc = _ports(served.url)
+        assert ports == {web, grpc} and served.url == web_url(web, grpc)
+        forwards = re.findall(r"-L (\d+):127\.0\.0\.1:(\d+)", served.tunnel)
+        assert sorted(forwards) == sorted((str(p), str(p)) for p in ports)
+        assert re.fullmatch(r"ssh -N( -L \S+)+ \S+@\S+", served.tunnel)
+        # The recordings and the blueprint are what the server was given.
+        cmdline = served.rerun.cmdline()
+        assert "--serve-web" in cmdline and "--web-viewer" not in cmdline  # never a browser
+        assert cmdline[-3:] == [
+            *map(str, select_recordings(recorded_run).recordings),
+            str(recorded_run / "blueprint.rbl"),
+        ]
+    finally:
+        assert served.stop(signum) == code
+    assert _gone(served.rerun.pid)
+    assert _eventually(lambda: _ports_closed(ports))
+
+
+def test_the_server_ending_by_itself_ends_the_command(recorded_run, tmp_path) -> None:
+    env = {**os.environ, **_fake_rerun(tmp_path, "exit 4")}
+    result = _ariel_run("view", str(recorded_run), "--web", "--port", "0", env=env)
+    assert result.returncode == 4
+    assert "exited with code 4" in result.stderr
+
+
+# --- a real headless browser opens the served viewer -----------------------------------------
+
+
+class _Chromium:
+    """Headless Chromium driven over the DevTools protocol on a pipe (fds 3 and 4)."""
+
+    def __init__(self, profile: Path) -> None:
+        to_chrome, self._write = os.pipe()
+        self._read, from_chrome = os.pipe()
+
+        def fds() -> None:  # the pipe ends become the child's fds 3 and 4, inheritable
+            a, b = os.dup(to_chrome), os.dup(from_chrome)
+            os.dup2(a, 3)
+            os.dup2(b, 4)
+
+        self.proc = subprocess.Popen(
+            [
+                str(CHROMIUM),
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--no-first-run",
+                f"--user-data-dir={profile}",
+                "--window-size=1280,800",
+                "--remote-debugging-pipe",
+                "about:blank",
+            ],
+            preexec_fn=fds,
+            close_fds=False,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+        os.close(to_chrome)
+        os.close(from_chrome)
+        self._buffer = b""
+        self._id = 0
+        target = self.call("Target.createTarget", url="about:blank")["targetId"]
+        self.session = self.call("Target.attachToTarget", targetId=target, flatten=True)[
+            "sessionId"
+        ]
+
+    def call(self, method: str, session: str | None = None, **params: object) -> dict:
+        self._id += 1
+        message = {"id": self._id, "method": method, "params": params}
+        if session:
+            message["sessionId"] = session
+        os.write(self._write, json.dumps(message).encode() + b"\0")
+        deadline = time.monotonic() + 30
+        while True:
+            while b"\0" not in self._buffer:
+                left = deadline - time.monotonic()
+                assert left > 0, f"no answer to {method}"
+                if select.select([self._read], [], [], left)[0]:
+                    chunk = os.read(self._read, 1 << 20)
+                    assert chunk, "chromium closed its DevTools pipe"
+                    self._buffer += chunk
+            raw, self._buffer = self._buffer.split(b"\0", 1)
+            reply = json.loads(raw)
+            if reply.get("id") == self._id:
+                assert "error" not in reply, reply
+                return reply["result"]
+
+    def page(self, method: str, **params: object) -> dict:
+        return self.call(method, session=self.session, **params)
+
+    def evaluate(self, expression: str) -> object:
+        return self.page("Runtime.evaluate", expression=expression, returnByValue=True)[
+            "result"
+        ].get("value")
+
+    def screenshot(self) -> np.ndarray:
+        from PIL import Image
+
+        png = base64.b64decode(self.page("Page.captureScreenshot", format="png")["data"])
+        return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+
+    def close(self) -> None:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        self.proc.wait()
+        os.close(self._write)
+        os.close(self._read)
+
+
+def _share(image: np.ndarray, colour: tuple[int, int, int]) -> float:
+    near = np.abs(image.astype(int) - np.array(colour)).sum(axis=-1) < 60
+    return float(near.mean())
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason=f"{CHROMIUM} missing (apt-get install chromium)")
+def test_a_headless_browser_loads_the_recording_from_the_served_viewer(recorded_run, tmp_path):
+    best = select_recordings(recorded_run, best=1).recordings[0].stem
+    served = _Served(recorded_run, best)  # EVAL_ID after the options
+    browser = _Chromium(tmp_path / "profile")
+    try:
+        browser.page("Page.enable")
+        browser.page("Page.navigate", url=served.url)
+        # The viewer's wasm starts: its canvas replaces the loading text (no error shown).
+        deadline = time.monotonic() + 60
+        state = None
+        while time.monotonic() < deadline:
+            state = browser.evaluate(
+                "[document.title, document.getElementById('the_canvas_id')?.className,"
+                " document.getElementById('center_text')?.innerText]"
+            )
+            if state and state[1] == "visible":
+                break
+            time.sleep(0.25)
+        assert state and state[0] == "Rerun Viewer" and state[1] == "visible", state
+        # The browser connected to the gRPC proxy serving the recording...
+        _, grpc = _ports(served.url)
+        clients = [
+            c
+            for c in served.rerun.net_connections("inet")
+            if c.status == psutil.CONN_ESTABLISHED and c.laddr.port == grpc
+        ]
+        assert clients, "no browser connection to the gRPC proxy"
+        # ...and drew it: the recording is one red image, which fills the blueprint's 2D view.
+        share = 0.0
+        while time.monotonic() < deadline and share < 0.05:
+            time.sleep(0.5)
+            share = _share(browser.screenshot(), RED)
+        assert share >= 0.05, f"red covers {share:.1%} of the page"
+    finally:
+        browser.close()
+        assert served.stop(signal.SIGINT) == 0
+    assert _gone(served.rerun.pid)
