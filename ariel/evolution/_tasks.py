@@ -12,7 +12,7 @@ from typing import Any
 
 from ariel.evolution._config import ExperimentConfig
 
-__all__ = ["body_spec", "evaluation_task", "record_steps"]
+__all__ = ["body_spec", "evaluation_task", "record_bodies", "record_steps"]
 
 
 def body_spec(config: ExperimentConfig, genotype: Any) -> Any:
@@ -28,6 +28,16 @@ def record_steps(config: ExperimentConfig, timestep: float) -> int:
     The recorded frames are what the fitness function sees, so this is part of the experiment.
     """
     return max(1, round(1.0 / (config.record.rate_hz * timestep)))
+
+
+def record_bodies(config: ExperimentConfig) -> bool:
+    """Whether evaluations return every body's pose: for Rerun recordings that show them.
+
+    Poses are computed from the recorded frames after the physics, so this never changes a
+    fitness; it is part of the task only so that replay rebuilds the loop's task exactly.
+    """
+    record = config.record
+    return bool(getattr(record, "rerun", False)) and getattr(record, "bodies", "none") != "none"
 
 
 def evaluation_task(config: ExperimentConfig, body: Any, params: Any = (), **fields: Any) -> Any:
@@ -51,7 +61,7 @@ def evaluation_task(config: ExperimentConfig, body: Any, params: Any = (), **fie
         "duration": c.task.duration,
         "control_period": c.brain.control_period,
         "smoothing": c.brain.smoothing,
-        "record_bodies": False,
+        "record_bodies": record_bodies(config),
         "spawn_position": c.task.spawn_position,
     }
     values.update(fields)
