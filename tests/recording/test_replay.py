@@ -276,3 +276,41 @@ def test_an_error_row_has_no_body_to_show(coevolution, tmp_path: Path) -> None:
     assert replayed.status == "error" and replayed.identical
     with pytest.raises(ValueError, match="no body to show"):
         replayed.write_video(tmp_path / "x.mp4")
+
+
+def test_the_viewer_plays_the_evaluated_motion(
+    coevolution, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """No display here: a stand-in for MuJoCo's passive viewer records what it is shown."""
+    import mujoco.viewer
+
+    import ariel.recording._replay as replay_module
+
+    shown: list[np.ndarray] = []
+
+    class FakeViewer:
+        def __init__(self, model, data) -> None:
+            self.data = data
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc) -> None:
+            return None
+
+        def is_running(self) -> bool:
+            return True
+
+        def sync(self) -> None:
+            shown.append(self.data.qpos.copy())
+
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.setattr(mujoco.viewer, "launch_passive", FakeViewer)
+    monkeypatch.setattr(replay_module.time, "sleep", lambda seconds: None)
+    run_dir, _ = coevolution
+    replayed = replay(run_dir, "best")
+    replayed.view(loop=False)
+    model, dense = replayed.model, replayed.full_rate()
+    assert len(shown) == replayed.controls().shape[0]
+    joints = model.jnt_qposadr[model.actuator_trnid[:, 0]]
+    np.testing.assert_array_equal(shown[-1][joints], dense.joint_angle[-1])
