@@ -354,6 +354,7 @@ def test_replay_exits_1_when_the_stored_fitness_is_not_reproduced(
 ) -> None:
     import shutil
 
+    import mujoco
     import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -368,11 +369,15 @@ def test_replay_exits_1_when_the_stored_fitness_is_not_reproduced(
     index = table.schema.get_field_index("fitness")
     table = table.set_column(index, "fitness", pa.array(fitness, pa.float64()))
     pq.write_table(table, path)
+    info = json.loads((copy / "run.json").read_text())
+    info["versions"]["mujoco"] = "3.0.0"  # as if the run had been made with another MuJoCo
+    (copy / "run.json").write_text(json.dumps(info))
     assert main(["replay", str(copy), table.column("eval_id")[0].as_py()]) == 1
     printed = capsys.readouterr().out
     shown = _fitness_lines(printed)
     assert shown["stored"] == repr(fitness[0]) != shown["replayed"]
     assert "identical: NO" in printed
+    assert f"  mujoco: the run used 3.0.0, this replay {mujoco.__version__}" in printed
 
 
 def test_replay_writes_a_recording_and_a_video(

@@ -94,7 +94,8 @@ def test_replayed_fitness_is_the_stored_one_bit_for_bit(coevolution, which: str)
     assert replayed.stored_fitness == stored["fitness"]
     assert _bits(replayed.fitness) == _bits(stored["fitness"])
     assert replayed.identical and replayed.status == stored["status"] == "ok"
-    assert replayed.version_differences == {}
+    # (the git commit may turn "-dirty" while others edit this checkout: not a package version)
+    assert set(replayed.version_differences) <= {"git_commit"}
     if which == "later generation":
         assert replayed.row["generation"] == 2
 
