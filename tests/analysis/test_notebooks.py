@@ -1,0 +1,188 @@
+"""The analysis notebooks run top to bottom on a tiny run (a real Jupyter kernel from this
+environment's ipykernel) and show what they promise; the stored notebooks hold no outputs."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import re
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+from ariel.evolution import run_experiment
+from ariel.recording import load_run
+
+EXTRA = "the analysis extra (pip install -e '.[analysis]')"
+nbformat = pytest.importorskip("nbformat", reason=EXTRA)
+nbclient = pytest.importorskip("nbclient", reason=EXTRA)
+pytest.importorskip("ipykernel", reason=EXTRA)
+pytest.importorskip("duckdb", reason=EXTRA)
+
+ANALYSIS = Path(__file__).resolve().parents[2] / "analysis"
+NOTEBOOKS = ("fitness_and_diversity", "gait_of_best")
+# Like TINY in tests/evolution/test_loop.py: 3 generations of 3 + 3 bodies, ~2 s serial.
+TINY = {
+    "name": "tiny",
+    "seed": 5,
+    "generations": 3,
+    "body": {"options": {"number_of_modules": 6}, "population": 3, "offspring": 3},
+    "brain": {"popsize": 4, "iterations": 2},
+    "task": {"duration": 1.0},
+    "executor": {"kind": "serial"},
+    "record": {"rerun": False},
+}
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("analysis") / "tiny"
+    run_experiment(TINY, out=out, progress=False)
+    return out
+
+
+def _execute(notebook, *, cwd: Path, home: Path, run_dir: Path | None) -> None:
+    """Run ``notebook`` in place, in a kernel of this interpreter's ipykernel, in ``cwd``, with
+    ``ARIEL_RUN_DIR`` set to ``run_dir`` (unset for None); Jupyter's files go under ``home``."""
+    from ipykernel.kernelspec import write_kernel_spec
+    from jupyter_client.manager import AsyncKernelManager
+
+    spec = write_kernel_spec(home / "kernels" / "ariel-test")
+    assert json.loads((Path(spec) / "kernel.json").read_text())["argv"][0] == sys.executable
+    with pytest.MonkeyPatch.context() as env:
+        if run_dir is None:
+            env.delenv("ARIEL_RUN_DIR", raising=False)
+        else:
+            env.setenv("ARIEL_RUN_DIR", str(run_dir))
+        env.setenv("JUPYTER_PATH", str(home))
+        env.setenv("IPYTHONDIR", str(home / "ipython"))
+        env.setenv("JUPYTER_RUNTIME_DIR", str(home / "runtime"))
+        env.delenv("MPLBACKEND", raising=False)  # the notebooks pick `inline` themselves
+        # IPC sockets in the temporary folder: no TCP ports, nothing in the working tree.
+        manager = AsyncKernelManager(
+            kernel_name="ariel-test", transport="ipc", ip=str(home / "ipc")
+        )
+        client = nbclient.NotebookClient(
+            notebook, km=manager, timeout=120, resources={"metadata": {"path": str(cwd)}}
+        )
+        client.execute()  # raises CellExecutionError at the first failing cell
+
+
+@pytest.fixture(scope="module")
+def executed(tiny_run: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """Both notebooks executed against the tiny run, from analysis/ as Jupyter would."""
+    done = {}
+    for name in NOTEBOOKS:
+        notebook = nbformat.read(ANALYSIS / f"{name}.ipynb", as_version=4)
+        _execute(notebook, cwd=ANALYSIS, home=tmp_path_factory.mktemp(name), run_dir=tiny_run)
+        done[name] = notebook
+    return done
+
+
+def _outputs(notebook) -> list:
+    return [o for cell in notebook.cells if cell.cell_type == "code" for o in cell.outputs]
+
+
+def _text(notebook) -> str:
+    return "".join(o.get("text", "") for o in _outputs(notebook) if o.output_type == "stream")
+
+
+def _figures(notebook) -> int:
+    return sum("image/png" in o.get("data", {}) for o in _outputs(notebook))
+
+
+def _cell_with(notebook, needle: str):
+    (cell,) = [c for c in notebook.cells if c.cell_type == "code" and needle in c.source]
+    return cell
+
+
+@pytest.mark.parametrize("name", NOTEBOOKS)
+def test_stored_notebooks_have_no_outputs(name: str) -> None:
+    notebook = nbformat.read(ANALYSIS / f"{name}.ipynb", as_version=4)
+    nbformat.validate(notebook)
+    code = [c for c in notebook.cells if c.cell_type == "code"]
+    assert code
+    for cell in code:
+        assert cell.outputs == [] and cell.execution_count is None, cell.source[:60]
+    # The first code cell names the run: RUN_DIR, overridable by ARIEL_RUN_DIR.
+    assert "RUN_DIR = None" in code[0].source and "ARIEL_RUN_DIR" in code[0].source
+
+
+def test_fitness_and_diversity_draws_curves_descriptors_and_the_lineage_of_the_best(
+    executed: dict, tiny_run: Path
+) -> None:
+    notebook = executed["fitness_and_diversity"]
+    assert str(tiny_run) in _text(notebook)  # it read the run named by ARIEL_RUN_DIR
+    assert _figures(notebook) == 3  # fitness curves, descriptor boxplots, lineage graph
+    for needle in ("ax.scatter(ok", "ax.boxplot(", "nx.draw_networkx_nodes("):
+        assert any("image/png" in o.get("data", {}) for o in _cell_with(notebook, needle).outputs)
+
+    # The lineage ends at the best body, and each step is a parent -> child link in the table.
+    run = load_run(tiny_run)
+    bodies = run.bodies.drop_duplicates("body_id").set_index("body_id")
+    ok = bodies[(bodies["status"] == "ok") & bodies["fitness"].map(math.isfinite)]
+    best = ok.sort_values("fitness", ascending=False, kind="stable").index[0]
+    assert re.search(rf"^best body: {best} ", _text(notebook), re.MULTILINE)
+    line = re.search(r"^lineage: (.*)$", _text(notebook), re.MULTILINE).group(1).split(" -> ")
+    assert line[-1] == best and len(line) >= 2  # generation 2's best has ancestors
+    first = bodies.loc[line[0]]
+    assert first["born_generation"] == 0 and not len(first["parent_ids"])  # a random body
+    for parent, child in itertools.pairwise(line):
+        assert bodies.loc[child, "parent_ids"][0] == parent
+    ancestors, todo = set(), [best]
+    while todo:
+        for parent in bodies.loc[todo.pop(), "parent_ids"]:
+            if parent not in ancestors:
+                ancestors.add(parent)
+                todo.append(parent)
+    assert f"ancestors: {len(ancestors)}\n" in _text(notebook)
+
+
+def test_duckdb_reads_the_parquet_tables_in_place(executed: dict, tiny_run: Path) -> None:
+    cell = _cell_with(executed["fitness_and_diversity"], "duckdb.sql(")
+    (table,) = [o for o in cell.outputs if "text/plain" in o.get("data", {})]
+    shown = table["data"]["text/plain"]
+    assert "best_fitness" in shown and "evaluations" in shown
+    run = load_run(tiny_run)
+    ok = run.evaluations[run.evaluations["status"] == "ok"]
+    for generation, count in ok.groupby("generation").size().items():
+        assert re.search(rf"^\d+\s+{generation}\s+{count}\s", shown, re.MULTILINE), shown
+
+
+def test_gait_of_best_plots_the_core_path_and_joint_signals_of_the_best(
+    executed: dict, tiny_run: Path
+) -> None:
+    notebook = executed["gait_of_best"]
+    evaluations = load_run(tiny_run).evaluations
+    ok = evaluations[evaluations["status"] == "ok"]
+    best = ok.sort_values("fitness", ascending=False, kind="stable").iloc[0]
+    assert f"best evaluation: {best['eval_id']} " in _text(notebook)
+    assert "11 frames over 1.00 simulated seconds" in _text(notebook)  # 10 Hz over 1 s
+    assert _figures(notebook) == 2  # the core's path, the joints
+    joints = _cell_with(notebook, "joint_target")
+    tracking = [o for o in joints.outputs if "text/html" in o.get("data", {})]
+    html = tracking[0]["data"]["text/html"]
+    for name in best["joint_names"]:
+        assert name in html
+
+
+def test_without_run_dir_the_newest_run_under_data_runs_is_read(tiny_run: Path, tmp_path) -> None:
+    """The first cell, run from a checkout whose data/runs holds two runs."""
+    checkout = tmp_path / "checkout"
+    (checkout / "analysis").mkdir(parents=True)
+    (checkout / "pyproject.toml").write_text("")
+    for name, created in (
+        ("older", "2026-01-02T00:00:00+00:00"),
+        ("newer", "2026-03-04T00:00:00+00:00"),
+    ):
+        folder = checkout / "data" / "runs" / name
+        shutil.copytree(tiny_run, folder)
+        info = json.loads((folder / "run.json").read_text())
+        (folder / "run.json").write_text(json.dumps({**info, "created": created, "run_id": name}))
+    notebook = nbformat.read(ANALYSIS / "gait_of_best.ipynb", as_version=4)
+    notebook.cells = [next(c for c in notebook.cells if c.cell_type == "code")]
+    _execute(notebook, cwd=checkout / "analysis", home=tmp_path / "jupyter", run_dir=None)
+    assert _text(notebook).startswith("run newer (finished)")
