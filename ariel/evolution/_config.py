@@ -87,7 +87,15 @@ class TaskConfig(_Section):
 
 
 class RecordConfig(_Section):
-    rerun: bool = False
+    """What a run records besides its evaluations and bodies tables (docs/records.md).
+
+    ``rerun``: a Rerun ``.rrd`` per evaluation plus ``run.rrd`` and ``blueprint.rbl``.
+    ``bodies``: which recordings hold the bodies' poses over time (a 3D replay): ``all``,
+    ``elites`` (each new best of a body's brain run) or ``none``.
+    """
+
+    rerun: bool = True
+    bodies: Literal["all", "elites", "none"] = "all"
     rate_hz: float = Field(10.0, gt=0.0)
     trajectories: bool = True
 

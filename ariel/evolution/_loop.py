@@ -156,8 +156,6 @@ def _resolve(config: ExperimentConfig) -> _Plugins:
             raise ConfigError(
                 f"task.options: fitness function '{config.task.fitness}': {exc}"
             ) from None
-    if config.record.rerun:
-        raise ConfigError("record.rerun: Rerun recordings are not available yet; set it to false")
     if getattr(encoder, "evolvable", False) and config.body.genotype is not None:
         raise ConfigError(
             f"body.genotype: a fixed body is only for encoders that cannot vary (such as "
@@ -204,6 +202,17 @@ class _Experiment:
         self._frames: dict[tuple[int, int, int], Any] = {}
         self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
         self.rows_written = 0  # evaluations rows of the last generation written
+        self.recorder = None  # Rerun recordings (record.rerun), `_recorder.RerunRecorder`
+        if config.record.rerun:
+            from ariel.evolution._recorder import RerunRecorder
+
+            self.recorder = RerunRecorder(
+                folder.path,
+                run_id=run_id,
+                bodies=config.record.bodies,
+                maximise=plugins.maximise,
+                config=config,
+            )
 
     # -- bodies --------------------------------------------------------------------------------
 
@@ -305,6 +314,7 @@ class _Experiment:
                     p,
                     seed=job.eval_seed,
                     record_every=job.record_every,
+                    record_bodies=self.recorder is not None and self.recorder.record_bodies,
                     eval_id=f"{job.body.body_id}-i{iteration:03d}-c{k:03d}",
                 )
                 for k, p in enumerate(params)
@@ -359,6 +369,18 @@ class _Experiment:
         for k, (task, result) in enumerate(zip(batch["tasks"], results)):
             key = (body.number, iteration, k)
             self._rows[key] = self.evaluation_row(body, task, result, generation, iteration, k)
+            if self.recorder is not None and result.time.size:
+                self.recorder.evaluation(
+                    model=self.model(body),
+                    body=body,
+                    task=task,
+                    result=result,
+                    generation=generation,
+                    iteration=iteration,
+                    candidate=k,
+                    new_best=k == improved,
+                )
+                result.body_pos = result.body_quat = None  # recorded; not kept till the tables
             if self.config.record.trajectories and result.time.size:
                 self._frames[key] = (task.eval_id, result)
         if improved is not None:
@@ -488,6 +510,8 @@ class _Experiment:
         from ariel.recording._tables import body_schema
 
         write_table(self.folder.path, "bodies", generation, columns(body_rows, body_schema()))
+        if self.recorder is not None:
+            self.recorder.generation(generation, body_rows)
         self._rows.clear()
         self._frames.clear()
 

@@ -448,6 +448,8 @@ def _write_stream(path: Path, recording_id: str, fill: Any, *, fsync: bool) -> P
             recording_id=recording_id,
             batcher_config=rr.ChunkBatcherConfig.NEVER(),
         )
+        rec.set_log_time_enabled(False)  # data times are sim_time / generation only
+        rec.set_log_tick_enabled(False)
         try:
             stream = rec.binary_stream()
             fill(rec)

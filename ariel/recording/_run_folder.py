@@ -14,6 +14,7 @@ import importlib.metadata
 import json
 import pickle
 import platform
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -187,7 +188,8 @@ class RunFolder:
         return table_generations(self.path, table)
 
     def discard_after(self, generation: int) -> list[Path]:
-        """Delete table files of generations after ``generation`` and temporaries (resume)."""
+        """Delete table files and Rerun recordings of generations after ``generation``, and
+        temporaries (resume)."""
         removed = list(remove_temporaries(self.path))
         for table in TABLES:
             for gen in table_generations(self.path, table):
@@ -196,4 +198,11 @@ class RunFolder:
                     with contextlib.suppress(FileNotFoundError):
                         path.unlink()
                     removed.append(path)
+        recordings = self.path / "recordings"
+        if recordings.is_dir():
+            for folder in sorted(recordings.iterdir()):
+                found = re.fullmatch(r"gen-(\d{6})", folder.name)
+                if found and int(found.group(1)) > generation and folder.is_dir():
+                    shutil.rmtree(folder, ignore_errors=True)
+                    removed.append(folder)
         return removed

@@ -98,7 +98,7 @@ PAUSING_LAUNCHER = textwrap.dedent(
     original = files.atomic_write
     checkpoints = 0
 
-    def atomic_write(path, write):
+    def atomic_write(path, write, **options):
         global checkpoints
         path = Path(path)
         if path.as_posix().endswith(target) and checkpoints == checkpoints_before:
@@ -109,8 +109,8 @@ PAUSING_LAUNCHER = textwrap.dedent(
                 marker.touch()
                 time.sleep(3600)
 
-            original(path, half_written)
-        original(path, write)
+            original(path, half_written, **options)
+        original(path, write, **options)
         if path.as_posix().endswith("checkpoints/state.pkl"):
             checkpoints += 1
 

@@ -1,0 +1,229 @@
+"""What the loop records in Rerun (``record.rerun``): a ``.rrd`` per evaluation, ``run.rrd``
+and ``blueprint.rbl`` in the run folder.
+
+* ``recordings/gen-NNNNNN/<eval_id>.rrd``: written by the driver as each batch of evaluations
+  returns (so writing overlaps the workers' physics), after CMA-ES was told the batch's fitness.
+  ``record.bodies`` decides which hold the bodies' poses over time (a 3D replay): ``all``;
+  ``elites``, the evaluations that were their body's best so far when their batch returned
+  (each improvement of its brain run, hence always its final best; in a brain-only run, each
+  new best of the one brain run); ``none``. The others show the robot in its start pose,
+  with its path, joint series and graph. A body that cannot be built has no recording.
+* ``run.rrd``: per generation the best, mean and median fitness of the population after
+  selection (as ``Run.generations`` computes them), two diversity measures of that population
+  (``diversity``: the mean pairwise Euclidean distance between the bodies' morphology
+  descriptor vectors, the 12 descriptors as stored; ``distinct_morphologies``: the number of
+  distinct robot graphs) and the best body's graph; rewritten whole after every generation.
+* ``blueprint.rbl``: the viewer layout, written once.
+
+Files are written whole under a temporary name and renamed, so a killed run leaves no
+unreadable recording; recordings are not fsynced one by one (that costs ~2 ms each; Parquet,
+fsynced, is the canonical record), so after a power cut the last generations' recordings may
+be empty files. Resume deletes the recordings of unfinished generations (`RunFolder
+.discard_after`) and redoes them.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["RerunRecorder", "generation_summary", "recording_path"]
+
+
+def recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
+    """Where the loop writes an evaluation's recording."""
+    return Path(run_dir) / "recordings" / f"gen-{generation:06d}" / f"{eval_id}.rrd"
+
+
+def _sort_key(fitness: float, maximise: bool) -> float:
+    if not math.isfinite(fitness):
+        return math.inf
+    return -fitness if maximise else fitness
+
+
+def generation_summary(
+    generation: int, body_rows: Sequence[Mapping[str, Any]], maximise: bool
+) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """One generation's ``run.rrd`` row and its best body, from its rows of the bodies table.
+
+    The population is the bodies ``selected`` into the next generation. Returns the row
+    (generation, best/mean/median fitness of its finite fitnesses, ``diversity`` and
+    ``distinct_morphologies``, see the module docstring) and the best body (``body_id``,
+    ``fitness``, ``graph``; None when no body has a finite fitness).
+    """
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    population = [row for row in body_rows if row.get("selected")]
+    fitness = np.array([float(row["fitness"]) for row in population], dtype=np.float64)
+    finite = fitness[np.isfinite(fitness)]
+    best = float((finite.max() if maximise else finite.min()) if finite.size else math.nan)
+    built = [row for row in population if row.get("status", "ok") == "ok"]
+    vectors = np.array(
+        [[float(row.get(name) or 0.0) for name in DESCRIPTOR_NAMES] for row in built],
+        dtype=np.float64,
+    ).reshape(len(built), len(DESCRIPTOR_NAMES))
+    pairs = list(itertools.combinations(range(len(built)), 2))
+    diversity = (
+        float(np.mean([np.linalg.norm(vectors[i] - vectors[j]) for i, j in pairs]))
+        if pairs
+        else 0.0
+    )
+    row = {
+        "generation": int(generation),
+        "best_fitness": best,
+        "mean_fitness": float(finite.mean()) if finite.size else math.nan,
+        "median_fitness": float(np.median(finite)) if finite.size else math.nan,
+        "diversity": diversity,
+        "distinct_morphologies": float(len({r.get("graph") or r["body_id"] for r in built})),
+    }
+    ranked = sorted(
+        population, key=lambda r: (_sort_key(float(r["fitness"]), maximise), r["body_id"])
+    )
+    top = ranked[0] if ranked and math.isfinite(float(ranked[0]["fitness"])) else None
+    best_body = (
+        None
+        if top is None
+        else {
+            "generation": int(generation),
+            "body_id": top["body_id"],
+            "fitness": float(top["fitness"]),
+            "graph": top.get("graph") or "",
+        }
+    )
+    return row, best_body
+
+
+class RerunRecorder:
+    """Writes a run's Rerun files (see the module docstring); one per run, in the driver."""
+
+    def __init__(
+        self, run_dir: str | Path, *, run_id: str, bodies: str, maximise: bool, config: Any
+    ) -> None:
+        if bodies not in ("all", "elites", "none"):
+            raise ValueError(f"record.bodies must be all, elites or none, not {bodies!r}")
+        self.run_dir = Path(run_dir)
+        self.run_id = run_id
+        self.bodies = bodies
+        self.maximise = maximise
+        self.config = config
+        self._rows: dict[int, dict[str, Any]] = {}
+        self._best: dict[int, dict[str, Any]] = {}
+        self._blueprint = False
+
+    @property
+    def record_bodies(self) -> bool:
+        """Whether evaluations must return body poses (``EvaluationTask.record_bodies``)."""
+        return self.bodies != "none"
+
+    def evaluation(
+        self,
+        *,
+        model: Any,
+        body: Any,
+        task: Any,
+        result: Any,
+        generation: int,
+        iteration: int,
+        candidate: int,
+        new_best: bool,
+    ) -> Path:
+        """Write one evaluation's recording; ``new_best``: it improved its body's best."""
+        from ariel.recording._rerun import write_evaluation_recording
+
+        if not self._blueprint:
+            self.write_blueprint()
+        c = self.config
+        properties = {
+            "eval_id": task.eval_id,
+            "run_id": self.run_id,
+            "generation": generation,
+            "body_id": body.body_id,
+            "iteration": iteration,
+            "candidate": candidate,
+            "parent_ids": list(body.parent_ids),
+            "fitness": float(result.fitness),
+            "status": result.status,
+            "error": result.error,
+            "new_best": bool(new_best),
+            "seed": int(task.seed),
+            "body_encoder": c.body.encoder,
+            "body_genotype_sha1": task.body.key,
+            "controller": c.brain.controller,
+            "n_params": len(task.params),
+            "world": c.world.name,
+            "fitness_fn": c.task.fitness,
+            "duration": float(c.task.duration),
+            **{name: float(value) for name, value in body.descriptors.items()},
+        }
+        transforms = self.bodies == "all" or (self.bodies == "elites" and new_best)
+        return write_evaluation_recording(
+            recording_path(self.run_dir, generation, task.eval_id),
+            model=model,
+            body_names=result.body_names,
+            result=result,
+            properties=properties,
+            graph_json=body.graph or None,
+            transforms=transforms,
+        )
+
+    def generation(self, generation: int, body_rows: Sequence[Mapping[str, Any]]) -> Path:
+        """After a generation's tables: add its summary and rewrite ``run.rrd``."""
+        from ariel.recording._rerun import write_run_recording
+
+        if not self._blueprint:
+            self.write_blueprint()
+        self._load_earlier(generation)
+        row, best = generation_summary(generation, body_rows, self.maximise)
+        self._rows[generation] = row
+        if best is not None:
+            self._best[generation] = best
+        gens = sorted(g for g in self._rows if g <= generation)
+        columns = {key: [self._rows[g][key] for g in gens] for key in row}
+        c = self.config
+        return write_run_recording(
+            self.run_dir / "run.rrd",
+            columns,
+            {g: b for g, b in self._best.items() if g <= generation},
+            run_id=self.run_id,
+            properties={
+                "run_id": self.run_id,
+                "name": c.name,
+                "seed": c.seed,
+                "generations": c.generations,
+                "generations_done": generation + 1,
+                "body_encoder": c.body.encoder,
+                "controller": c.brain.controller,
+                "world": c.world.name,
+                "fitness_fn": c.task.fitness,
+                "config": json.dumps(c.to_plain(), sort_keys=True),
+            },
+        )
+
+    def _load_earlier(self, generation: int) -> None:
+        """A resumed run: summarise the finished generations from the bodies table, once."""
+        missing = [g for g in range(generation) if g not in self._rows]
+        if not missing:
+            return
+        from ariel.recording._tables import read_table
+
+        rows = read_table(self.run_dir, "bodies", up_to=generation - 1).to_pylist()
+        for g in missing:
+            row, best = generation_summary(
+                g, [r for r in rows if r["generation"] == g], self.maximise
+            )
+            self._rows[g] = row
+            if best is not None:
+                self._best[g] = best
+
+    def write_blueprint(self) -> Path:
+        from ariel.recording._rerun import write_blueprint
+
+        path = write_blueprint(self.run_dir / "blueprint.rbl")
+        self._blueprint = True
+        return path

@@ -1,0 +1,294 @@
+"""Rerun recordings of a run: one readable .rrd per evaluation (3D replay, joints, graph,
+properties), run.rrd, blueprint.rbl; record.bodies; crash safety and resume."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+rr = pytest.importorskip("rerun")
+
+from ariel.evolution import ConfigError, load_config, resume_experiment, run_experiment  # noqa: E402
+from ariel.recording import load_run  # noqa: E402
+
+SMALL = {
+    "name": "rrd",
+    "seed": 3,
+    "generations": 2,
+    "body": {"options": {"number_of_modules": 6}, "population": 2, "offspring": 2},
+    "brain": {"popsize": 3, "iterations": 2},
+    "task": {"duration": 0.5},
+    "record": {"rerun": True, "bodies": "all", "rate_hz": 10},
+    "executor": {"kind": "serial"},
+}
+FRAMES = 6  # 10 Hz over 0.5 s, first frame at t = 0
+
+
+def small(**record: Any) -> dict[str, Any]:
+    config = json.loads(json.dumps(SMALL))
+    config["record"].update(record)
+    return config
+
+
+def chunks(path: Path) -> dict[tuple[str, bool], Any]:
+    """(entity, static) -> that chunk's Arrow record batch, read back from an .rrd."""
+    store = rr.chunk.RrdReader(path).stream().collect()
+    found = {}
+    for chunk in store.stream().to_chunks():
+        key = (chunk.entity_path, chunk.is_static)
+        if key == ("/__properties", True):  # Rerun's own: start time, name
+            continue
+        assert key not in found, f"{path.name}: two chunks for {key}"
+        found[key] = chunk.to_record_batch()
+    return found
+
+
+def column(batch: Any, name: str) -> list[Any]:
+    return batch.column(name).to_pylist()
+
+
+def recordings(run_dir: Path) -> dict[str, Path]:
+    return {p.stem: p for p in sorted((run_dir / "recordings").glob("gen-*/*.rrd"))}
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory: pytest.TempPathFactory):
+    out = tmp_path_factory.mktemp("runs") / "recorded"
+    result = run_experiment(small(), out=out)
+    return result, load_run(out)
+
+
+def test_every_evaluation_has_one_readable_recording_named_after_it(recorded) -> None:
+    result, run = recorded
+    ran = run.evaluations[run.evaluations["status"] != "error"]
+    files = recordings(result.run_dir)
+    assert len(files) == len(ran) > 0
+    assert set(files) == set(ran["eval_id"])
+    for _, row in ran.iterrows():
+        path = files[row["eval_id"]]
+        assert path.parent.name == f"gen-{row['generation']:06d}"
+        (entry,) = rr.chunk.RrdReader(path).recordings()
+        assert entry.application_id == "ariel" and entry.recording_id == row["eval_id"]
+    assert not list(result.run_dir.rglob("*.tmp"))
+
+
+def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables(
+    recorded,
+) -> None:
+    result, run = recorded
+    evals = run.evaluations[run.evaluations["status"] == "ok"]
+    traj = run.trajectories
+    for _, row in evals.iterrows():
+        found = chunks(recordings(result.run_dir)[row["eval_id"]])
+        # Geometry: one box per module geom (a hinge has two: stator and rotor), coloured
+        # by module type; their poses over sim_time, every frame, every box.
+        boxes = int(row["num_modules"] + row["num_hinges"])
+        static = found[("/world/robot", True)]
+        assert len(column(static, "Boxes3D:half_sizes")[0]) == boxes
+        assert len(set(column(static, "Boxes3D:colors")[0])) == (
+            1 + (row["num_bricks"] > 0) + 2 * (row["num_hinges"] > 0)
+        )
+        moving = found[("/world/robot", False)]
+        assert moving.num_rows == FRAMES
+        centers = column(moving, "Boxes3D:centers")
+        quats = np.array(column(moving, "Boxes3D:quaternions"))
+        assert all(len(frame) == boxes for frame in centers)
+        assert np.allclose(np.linalg.norm(quats, axis=-1), 1.0, atol=1e-5)
+        assert column(moving, "sim_time")[-1].total_seconds() == pytest.approx(0.5)
+        # The core box follows the core's recorded path (the core geom is the first box).
+        mine = traj[traj["eval_id"] == row["eval_id"]]
+        core = np.array([frame[0] for frame in centers])
+        path = mine[["core_x", "core_y", "core_z"]].to_numpy()
+        assert np.allclose(core, path, atol=1e-5)
+        # Joints: target and angle of every joint, named, equal to the trajectories table.
+        for leaf, table_column in (("target", "joint_target"), ("angle", "joint_angle")):
+            names = column(found[(f"/joints/{leaf}", True)], "SeriesLines:names")[0]
+            assert names == [n.removeprefix("robot1_") for n in row["joint_names"]]
+            series = np.array(column(found[(f"/joints/{leaf}", False)], "Scalars:scalars"))
+            assert series.shape == (FRAMES, row["n_joints"])
+            assert np.array_equal(series, np.stack(mine[table_column].to_numpy()))
+        # Morphology graph: a node per module, a directed edge per attachment.
+        graph = found[("/graph", True)]
+        nodes = column(graph, "GraphNodes:node_ids")[0]
+        assert len(nodes) == row["num_modules"]
+        assert len(column(graph, "GraphEdges:edges")[0]) == row["num_modules"] - 1
+        assert sorted(label.split()[0] for label in column(graph, "GraphNodes:labels")[0])[0] in (
+            "brick",
+            "core",
+            "hinge",
+        )
+        # Properties: the evaluation's ids and fitness; the world (floor) is drawn.
+        props = found[("/__properties/ariel", True)]
+        assert column(props, "eval_id")[0] == [row["eval_id"]]
+        assert column(props, "body_id")[0] == [row["body_id"]]
+        assert column(props, "fitness")[0] == [row["fitness"]]
+        assert column(props, "generation")[0] == [row["generation"]]
+        world = found[("/world", True)]
+        assert "floor" in column(world, "Boxes3D:labels")[0]
+
+
+def test_run_rrd_holds_fitness_diversity_and_best_bodies_and_the_blueprint_reads_back(
+    recorded,
+) -> None:
+    result, run = recorded
+    found = chunks(result.run_dir / "run.rrd")
+    generations = run.generations
+    for name, entity in (
+        ("best_fitness", "/fitness/best"),
+        ("mean_fitness", "/fitness/mean"),
+        ("median_fitness", "/fitness/median"),
+    ):
+        batch = found[(entity, False)]
+        assert column(batch, "generation") == generations["generation"].tolist()
+        values = [v[0] for v in column(batch, "Scalars:scalars")]
+        assert np.allclose(values, generations[name].to_numpy(), equal_nan=True)
+    diversity = [
+        v[0] for v in column(found[("/diversity/descriptor_distance", False)], "Scalars:scalars")
+    ]
+    assert len(diversity) == 2 and all(d >= 0 for d in diversity)
+    distinct = [
+        v[0] for v in column(found[("/diversity/distinct_morphologies", False)], "Scalars:scalars")
+    ]
+    assert all(1 <= d <= 2 for d in distinct)  # population 2
+    best = found[("/best/body", False)]
+    texts = [t[0] for t in column(best, "TextDocument:text")]
+    bodies = run.bodies[run.bodies["selected"]]
+    for generation, text in zip(column(best, "generation"), texts):
+        population = bodies[bodies["generation"] == generation]
+        top = population.sort_values("fitness", ascending=False).iloc[0]
+        assert text.startswith(top["body_id"])
+    assert found[("/best/graph", False)].num_rows == len(texts)
+    (blueprint,) = rr.chunk.RrdReader(result.run_dir / "blueprint.rbl").blueprints()
+    assert blueprint.application_id == "ariel"
+    layout = rr.chunk.RrdReader(result.run_dir / "blueprint.rbl").stream(store=blueprint)
+    views = {}
+    for chunk in layout.to_chunks():
+        batch = chunk.to_record_batch()
+        if "ViewBlueprint:display_name" in batch.schema.names:
+            (name,) = column(batch, "ViewBlueprint:display_name")[0]
+            (kind,) = column(batch, "ViewBlueprint:class_identifier")[0]
+            views[name] = kind
+    assert views["robot"] == "3D" and views["morphology"] == "Graph"
+    assert views["joint angles"] == views["fitness"] == "TimeSeries"
+
+
+def test_elites_replay_only_each_new_best_and_none_replays_nothing(tmp_path: Path) -> None:
+    result = run_experiment(small(bodies="elites"), out=tmp_path / "elites")
+    run = load_run(result.run_dir)
+    files = recordings(result.run_dir)
+    replayed = {
+        eval_id for eval_id, path in files.items() if ("/world/robot", False) in chunks(path)
+    }
+    # A batch's best that beat its body's best so far: per body, the running record.
+    expected = set()
+    for _body_id, group in run.evaluations.groupby("body_id"):
+        best = -math.inf
+        for _, batch in group.groupby("iteration", sort=True):
+            top = batch.loc[batch["fitness"].idxmax()]
+            if top["fitness"] > best:
+                best = top["fitness"]
+                expected.add(top["eval_id"])
+    assert replayed == expected
+    assert set(run.bodies["best_eval_id"]) <= replayed
+    assert len(files) > len(replayed)  # the others: start pose, path, joints, graph
+    for eval_id in set(files) - replayed:
+        static = chunks(files[eval_id])[("/world/robot", True)]
+        assert "Boxes3D:centers" in static.schema.names
+
+    off = run_experiment(small(rerun=False), out=tmp_path / "off")
+    assert not (off.run_dir / "recordings").exists()
+    assert not (off.run_dir / "run.rrd").exists() and not (off.run_dir / "blueprint.rbl").exists()
+
+
+def test_record_bodies_must_be_all_elites_or_none() -> None:
+    with pytest.raises(ConfigError, match=r"record\.bodies"):
+        load_config(small(bodies="best"))
+    assert load_config({}).record.rerun is True and load_config({}).record.bodies == "all"
+
+
+def test_a_killed_writers_temporary_rrd_does_not_block_resume(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import ariel.recording._rerun as rerun_files
+
+    out = tmp_path / "killed"
+    original = rerun_files.atomic_write
+    calls = {"n": 0}
+
+    def killed_midway(path: Path, write: Any, **options: Any) -> None:
+        # The 15th recording (in generation 1): left half written under its temporary
+        # name, as SIGKILL would leave it, and the run stops there.
+        calls["n"] += 1
+        if calls["n"] < 15 or Path(path).suffix != ".rrd":
+            return original(path, write, **options)
+        temporary = Path(path).with_name(f".{Path(path).name}.tmp")
+        temporary.parent.mkdir(parents=True, exist_ok=True)
+        write(temporary)
+        data = temporary.read_bytes()
+        temporary.write_bytes(data[: len(data) // 2])
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(rerun_files, "atomic_write", killed_midway)
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(small(), out=out)
+    monkeypatch.setattr(rerun_files, "atomic_write", original)
+    leftovers = list(out.rglob("*.rrd.tmp"))
+    assert len(leftovers) == 1 and leftovers[0].parent.name == "gen-000001"
+    assert load_run(out).info["generations_done"] == 1
+
+    result = resume_experiment(out)
+    assert result.status == "finished"
+    run = load_run(out)
+    files = recordings(out)
+    assert set(files) == set(run.evaluations.loc[run.evaluations["status"] != "error", "eval_id"])
+    assert not list(out.rglob("*.tmp"))
+    for path in files.values():
+        assert ("/world/robot", True) in chunks(path)  # every file whole and readable
+
+
+def test_write_evaluation_recording_draws_terrain_near_the_path_and_a_still_robot(
+    tmp_path: Path,
+) -> None:
+    from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate
+    from ariel.plugins import controllers
+    from ariel.recording._rerun import TERRAIN_MAX_SIDE, write_evaluation_recording
+
+    def gecko_task(params: Any = ()) -> EvaluationTask:
+        return EvaluationTask(
+            body=BodySpec("prebuilt", "gecko"),
+            params=params,
+            world="rugged",
+            duration=0.5,
+            record_every=25,
+            eval_id="gecko-on-hills",
+        )
+
+    built = build(gecko_task())
+    n = controllers.make("na_cpg").num_parameters(built.model)
+    task = gecko_task(np.random.default_rng(0).uniform(-1, 1, n))
+    result = evaluate(task)
+    assert result.body_pos is not None
+    path = write_evaluation_recording(
+        tmp_path / "gecko.rrd",
+        model=built.model,
+        body_names=result.body_names,
+        result=result,
+        properties={"eval_id": "gecko-on-hills", "fitness": result.fitness, "note": {"a": 1}},
+        transforms=False,
+    )
+    found = chunks(path)
+    vertices = np.array(column(found[("/world/floor", True)], "Mesh3D:vertex_positions")[0])
+    assert 4 <= len(vertices) <= TERRAIN_MAX_SIDE**2 < 100 * 100
+    core = result.core_pos[:, :2]
+    assert vertices[:, 0].min() <= core[:, 0].min() and vertices[:, 0].max() >= core[:, 0].max()
+    # transforms=False: the robot stands in its start pose, nothing moves; no graph given.
+    assert ("/world/robot", False) not in found and ("/graph", True) not in found
+    static = found[("/world/robot", True)]
+    assert len(column(static, "Boxes3D:centers")[0]) == len(column(static, "Boxes3D:half_sizes")[0])
+    props = found[("/__properties/ariel", True)]
+    assert column(props, "note")[0] == ['{"a": 1}']
