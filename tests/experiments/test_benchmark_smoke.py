@@ -1,5 +1,5 @@
-"""Smoke tests of experiments/benchmarks/evaluation.py and coevolution.py: each runs and ends
-with its JSON summary.
+"""Smoke tests of experiments/benchmarks/evaluation.py, coevolution.py and recording.py: each
+runs and ends with its JSON summary.
 
 Tiny settings and no timing assertions (the machine's load decides the numbers).
 """
@@ -91,3 +91,41 @@ def test_coevolution_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     result = _run_coevolution("--popsize", "1", cwd=tmp_path)
     assert result.returncode == 2
     assert "--popsize must be an integer >= 2" in result.stderr
+
+
+RECORDING = SCRIPT.with_name("recording.py")
+RECORDING_KEYS = ("recording_overhead_ratio", "rrd_bytes_per_eval", "parquet_bytes_per_eval")
+
+
+def _run_recording(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, str(RECORDING), *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=300,
+    )
+
+
+def test_recording_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
+    result = _run_recording("--quick", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    lines = result.stdout.strip().splitlines()
+    summary = json.loads(lines[-1])
+    for key in RECORDING_KEYS:
+        value = summary[key]
+        assert isinstance(value, int | float) and not isinstance(value, bool), key
+        assert math.isfinite(value) and value > 0, (key, value)
+    # --quick: 1 generation of 2 bodies x 1 iteration x popsize 3, serial; one round.
+    assert summary["evaluations"] == 6 and summary["repeats"] == 1
+    assert summary["folder_bytes"] > summary["folder_bytes_off"]
+    table = "\n".join(lines[:-1])
+    for label in ("recording_overhead_ratio", ".rrd bytes per evaluation", "Parquet bytes"):
+        assert label in table
+    assert list(tmp_path.iterdir()) == []  # the runs went into a temporary folder
+
+
+def test_recording_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
+    result = _run_recording("--repeats", "0", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "--repeats must be an integer >= 1" in result.stderr

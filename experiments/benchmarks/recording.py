@@ -1,0 +1,320 @@
+"""Recording benchmark: what Rerun recordings cost a run, in time and in bytes.
+
+The same experiment runs twice per round, into temporary folders deleted afterwards: with
+``record.rerun = false`` and with ``record.rerun = true`` (``record.bodies`` from
+``--bodies``, default ``all``: every evaluation a 3D replay). Default: the default experiment
+(``experiments/coevolve_flat.toml``: 10 generations, 8 + 8 bodies, 8 x 6 brain evaluations of 8
+simulated seconds = 3,840 evaluations, about 3 minutes a run on 2 CPUs) on its ``local``
+executor; ``--generations``, ``--population``, ``--offspring``, ``--popsize``,
+``--iterations`` and ``--duration`` scale it down. ``--quick`` is a smoke run (one tiny
+generation).
+
+What is timed: the whole ``run_experiment`` call, ``time.perf_counter`` around it (config,
+folder, pool start-up and shutdown, every evaluation, Parquet tables, checkpoints, and with
+recording on every ``.rrd``, ``run.rrd`` and ``blueprint.rbl``). Both runs of a round have the
+same seed, so they evaluate exactly the same bodies and brains (checked: identical fitness
+columns): the difference is the recording. Rounds alternate which run goes first;
+``gc.collect()`` runs before each. A tiny untimed run of each kind first pays the process's
+one-time imports (rerun's about 0.5 s among them), as a long run pays them once. The overhead
+ratio is the median over rounds of (time with recording) / (time without); target <= 1.15.
+
+Bytes (from the recording run's folder): ``.rrd`` bytes per evaluation (the recordings under
+``recordings/``; ``run.rrd`` and ``blueprint.rbl`` reported apart), Parquet bytes per
+evaluation (all tables), and the whole folder. Also reported: the driver's wall time per
+recording written (``write_evaluation_recording``, measured inside the run) and, for a
+scaled-down run, the folder size projected to the default run's 3,840 evaluations.
+
+Prints a table, then as the last line one JSON object with ``recording_overhead_ratio``,
+``rrd_bytes_per_eval``, ``parquet_bytes_per_eval`` and context.
+
+    python experiments/benchmarks/recording.py [--generations 10] [--population 8]
+        [--offspring 8] [--popsize 8] [--iterations 6] [--duration 8] [--bodies all]
+        [--workers N] [--repeats 1] [--seed 1] [--quick]
+"""
+
+from __future__ import annotations
+
+import os
+
+# As the other benchmarks: BLAS/OpenMP pools sized before numpy is imported (the loop's
+# workers get the same limits from the executor).
+for _variable in (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+):
+    os.environ[_variable] = "1"
+
+import argparse  # noqa: E402
+import gc  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+from unittest import mock  # noqa: E402
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+import ariel.recording._rerun as rerun_files  # noqa: E402
+from ariel.evaluation.executors import default_workers  # noqa: E402
+from ariel.evolution import ExperimentConfig, load_config, run_experiment  # noqa: E402
+from ariel.recording import load_run  # noqa: E402
+
+CONFIG = Path(__file__).resolve().parents[1] / "coevolve_flat.toml"
+DEFAULT_EVALUATIONS = 3840  # the default experiment's budget
+TARGET = 1.15  # recording_overhead_ratio <= TARGET
+QUICK = {
+    "generations": 1,
+    "population": 2,
+    "offspring": 2,
+    "popsize": 3,
+    "iterations": 1,
+    "duration": 0.5,
+    "repeats": 1,
+    "executor": "serial",
+}
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--generations", type=int, default=None, help="default: the config's")
+    parser.add_argument("--population", type=int, default=None, help="body.population")
+    parser.add_argument("--offspring", type=int, default=None, help="body.offspring")
+    parser.add_argument("--popsize", type=int, default=None, help="brain.popsize")
+    parser.add_argument("--iterations", type=int, default=None, help="brain.iterations")
+    parser.add_argument("--duration", type=float, default=None, help="simulated seconds")
+    parser.add_argument(
+        "--bodies", choices=("all", "elites", "none"), default="all", help="record.bodies"
+    )
+    parser.add_argument(
+        "--executor",
+        choices=("serial", "local", "dask"),
+        default=None,
+        help="default: the config's (local)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=None, help="worker processes (default: one per CPU)"
+    )
+    parser.add_argument("--repeats", type=int, default=1, help="rounds (each: off and on)")
+    parser.add_argument("--seed", type=int, default=None, help="default: the config's (1)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="tiny smoke run: "
+        + ", ".join(f"{k} {v}" for k, v in QUICK.items())
+        + " (overrides those options)",
+    )
+    args = parser.parse_args(argv)
+    if args.quick:
+        for name, value in QUICK.items():
+            setattr(args, name, value)
+    for name in ("generations", "population", "offspring", "iterations", "repeats"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            parser.error(f"--{name} must be an integer >= 1, got {value}")
+    if args.popsize is not None and args.popsize < 2:
+        parser.error(f"--popsize must be an integer >= 2, got {args.popsize}")
+    if args.workers is not None and args.workers < 1:
+        parser.error(f"--workers must be an integer >= 1, got {args.workers}")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
+    if args.seed is not None and args.seed < 0:
+        parser.error(f"--seed must be >= 0, got {args.seed}")
+    return args
+
+
+def load_average() -> tuple[float, float, float] | None:
+    try:
+        with open("/proc/loadavg") as file:
+            one, five, fifteen = file.read().split()[:3]
+    except OSError:
+        return None
+    return float(one), float(five), float(fifteen)
+
+
+def experiment_config(args: argparse.Namespace, record: bool) -> ExperimentConfig:
+    overrides = [f"record.rerun={'true' if record else 'false'}", f'record.bodies="{args.bodies}"']
+    for key, value in (
+        ("seed", args.seed),
+        ("generations", args.generations),
+        ("body.population", args.population),
+        ("body.offspring", args.offspring),
+        ("brain.popsize", args.popsize),
+        ("brain.iterations", args.iterations),
+        ("task.duration", args.duration),
+        ("executor.kind", args.executor and f'"{args.executor}"'),
+    ):
+        if value is not None:
+            overrides.append(f"{key}={value}")
+    return load_config(CONFIG, overrides)
+
+
+def folder_bytes(folder: Path, pattern: str = "*") -> int:
+    return sum(p.stat().st_size for p in folder.rglob(pattern) if p.is_file())
+
+
+class RecordingTimer:
+    """Wall seconds the driver spends in ``write_evaluation_recording`` (patched in place)."""
+
+    def __init__(self) -> None:
+        self.seconds: list[float] = []
+        self._original = rerun_files.write_evaluation_recording
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Path:
+        start = time.perf_counter()
+        try:
+            return self._original(*args, **kwargs)
+        finally:
+            self.seconds.append(time.perf_counter() - start)
+
+
+def one_run(config: ExperimentConfig, out: Path, workers: int | None) -> dict[str, Any]:
+    timer = RecordingTimer()
+    gc.collect()
+    with mock.patch.object(rerun_files, "write_evaluation_recording", timer):
+        start = time.perf_counter()
+        result = run_experiment(config, out=out, workers=workers, progress=False)
+        seconds = time.perf_counter() - start
+    if result.status != "finished":
+        raise RuntimeError(f"benchmark: the run ended {result.status!r}")
+    run = load_run(out)
+    recordings = sorted((out / "recordings").glob("gen-*/*.rrd"))
+    ran = int((run.evaluations["status"] != "error").sum())
+    if config.record.rerun and len(recordings) != ran:
+        raise RuntimeError(f"benchmark: {len(recordings)} recordings for {ran} evaluations")
+    return {
+        "seconds": seconds,
+        "evaluations": result.evaluations,
+        "fitness": run.evaluations.set_index("eval_id")["fitness"].sort_index(),
+        "rrd_bytes": sum(p.stat().st_size for p in recordings),
+        "run_rrd_bytes": folder_bytes(out, "run.rrd"),
+        "blueprint_bytes": folder_bytes(out, "blueprint.rbl"),
+        "parquet_bytes": folder_bytes(out, "*.parquet"),
+        "folder_bytes": folder_bytes(out),
+        "recording_ms": [s * 1e3 for s in timer.seconds],
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    off_config = experiment_config(args, record=False)
+    on_config = experiment_config(args, record=True)
+    c = on_config
+    workers = 1 if c.executor.kind == "serial" else args.workers or default_workers()
+    print(
+        f"ARIEL recording benchmark: {CONFIG.name}, {c.generations} generations, "
+        f"{c.body.population} + {c.body.offspring} bodies, {c.brain.iterations} x popsize "
+        f"{c.brain.popsize} brain evaluations of {c.task.duration:g} s at {c.record.rate_hz:g} Hz; "
+        f"record.bodies = {args.bodies}"
+    )
+    print(
+        f"mujoco {mujoco.__version__}, numpy {np.__version__}, python "
+        f"{platform.python_version()}, {default_workers()} CPUs, {c.executor.kind} executor, "
+        f"{workers} workers; "
+        f"{args.repeats} round(s) of (off, on); load average {load_average()}"
+    )
+    offs: list[dict[str, Any]] = []
+    ons: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory(prefix="ariel-recording-bench-") as tmp:
+        # Warm-up, untimed: a tiny run of each kind pays this process's one-time imports
+        # (pycma, pyarrow, networkx; rerun for the recording run: ~0.5 s, once per process).
+        tiny = argparse.Namespace(**{**vars(args), **QUICK})
+        for record in (False, True):
+            one_run(experiment_config(tiny, record), Path(tmp) / f"warm-{record}", None)
+        for round_ in range(args.repeats):
+            order = [("off", off_config, offs), ("on", on_config, ons)]
+            for label, config, samples in order if round_ % 2 == 0 else order[::-1]:
+                out = Path(tmp) / f"{label}-{round_}"
+                samples.append(one_run(config, out, args.workers))
+                print(f"  round {round_ + 1}, recording {label}: {samples[-1]['seconds']:.2f} s")
+    load_after = load_average()
+    for off, on in zip(offs, ons):
+        if not off["fitness"].equals(on["fitness"]):
+            raise RuntimeError("benchmark: the runs with and without recording differ")
+
+    ratios = [on["seconds"] / off["seconds"] for off, on in zip(offs, ons)]
+    ratio = statistics.median(ratios)
+    last = ons[-1]
+    evaluations = last["evaluations"]
+    rrd_per_eval = last["rrd_bytes"] / evaluations
+    parquet_per_eval = last["parquet_bytes"] / evaluations
+    recording_ms = [ms for on in ons for ms in on["recording_ms"]]
+    write_ms = statistics.median(recording_ms) if recording_ms else 0.0
+    projected = last["folder_bytes"] / evaluations * DEFAULT_EVALUATIONS
+    off_seconds = statistics.median(o["seconds"] for o in offs)
+    on_seconds = statistics.median(o["seconds"] for o in ons)
+
+    print()
+    print(f"{'figure':<52}{'value':>16}  target")
+    print("-" * 78)
+    print(f"{'run without recording (median)':<52}{off_seconds:>14.2f} s")
+    print(f"{'run with recording (median)':<52}{on_seconds:>14.2f} s")
+    print(
+        f"{'recording_overhead_ratio (on / off)':<52}{ratio:>16.3f}  <= {TARGET:g}  "
+        f"{'ok' if ratio <= TARGET else 'MISSED'}"
+    )
+    print(f"{'.rrd bytes per evaluation':<52}{rrd_per_eval:>16,.0f}")
+    print(f"{'Parquet bytes per evaluation (all tables)':<52}{parquet_per_eval:>16,.0f}")
+    run_level = last["run_rrd_bytes"] + last["blueprint_bytes"]
+    print(f"{'run.rrd + blueprint.rbl bytes':<52}{run_level:>16,}")
+    folder_label = f"run folder bytes ({evaluations} evaluations)"
+    print(f"{folder_label:<52}{last['folder_bytes']:>16,}")
+    print(
+        f"{'  projected to ' + str(DEFAULT_EVALUATIONS) + ' evaluations':<52}{projected:>16,.0f}"
+        f"  < 500 MB  {'ok' if projected < 500e6 else 'MISSED'}"
+    )
+    print(f"{'driver wall time per recording (median)':<52}{write_ms:>13.2f} ms")
+    print()
+    print(
+        "per round: "
+        + "; ".join(
+            f"off {o['seconds']:.2f} s, on {n['seconds']:.2f} s, ratio {r:.3f}"
+            for o, n, r in zip(offs, ons, ratios)
+        )
+    )
+    print(f"load average after {load_after}")
+
+    summary = {
+        "recording_overhead_ratio": round(ratio, 4),
+        "rrd_bytes_per_eval": round(rrd_per_eval, 1),
+        "parquet_bytes_per_eval": round(parquet_per_eval, 1),
+        "evaluations": evaluations,
+        "off_s": [round(o["seconds"], 3) for o in offs],
+        "on_s": [round(o["seconds"], 3) for o in ons],
+        "ratios": [round(r, 4) for r in ratios],
+        "run_rrd_bytes": last["run_rrd_bytes"],
+        "blueprint_bytes": last["blueprint_bytes"],
+        "folder_bytes": last["folder_bytes"],
+        "folder_bytes_off": offs[-1]["folder_bytes"],
+        "projected_default_folder_bytes": round(projected),
+        "recording_write_ms": round(write_ms, 3),
+        "bodies": args.bodies,
+        "generations": c.generations,
+        "population": c.body.population,
+        "offspring": c.body.offspring,
+        "popsize": c.brain.popsize,
+        "iterations": c.brain.iterations,
+        "duration_s": c.task.duration,
+        "rate_hz": c.record.rate_hz,
+        "executor": c.executor.kind,
+        "workers": workers,
+        "repeats": args.repeats,
+        "cpus": os.cpu_count(),
+        "mujoco": mujoco.__version__,
+        "loadavg_after": load_after,
+    }
+    print(json.dumps(summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
