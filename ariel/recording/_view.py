@@ -152,7 +152,7 @@ def select_recordings(
     if generation is not None:
         found = _rrd_files(folder / RECORDINGS / f"gen-{generation:06d}")
         if found:
-            return chosen(found, f"generation {generation} ({len(found)} recordings)")
+            return chosen(found, f"generation {generation}")
         done = run.generations_done
         if not 0 <= generation < max(done, 1) or done == 0:
             span = f"generations 0..{done - 1}" if done else "no finished generation"

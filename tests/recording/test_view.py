@@ -127,6 +127,21 @@ def test_the_best_are_ranked_by_fitness_best_first(recorded_run: Path) -> None:
     assert chosen.blueprint == recorded_run / "blueprint.rbl"
 
 
+def test_best_follows_the_fitness_direction_and_skips_failures() -> None:
+    import pandas as pd
+
+    table = pd.DataFrame(
+        {
+            "eval_id": ["a", "b", "c", "d", "e", "f"],
+            "fitness": [0.5, float("inf"), 0.2, 0.5, float("nan"), 0.1],
+            "status": ["ok", "ok", "ok", "ok", "ok", "unstable"],
+        }
+    )
+    assert list(best_evaluations(table, 3, maximise=True)["eval_id"]) == ["a", "d", "c"]
+    assert list(best_evaluations(table, 3, maximise=False)["eval_id"]) == ["c", "a", "d"]
+    assert list(best_evaluations(table, 10, maximise=True)["eval_id"]) == ["a", "d", "c"]
+
+
 def test_default_is_run_rrd_and_the_best_evaluation(recorded_run: Path) -> None:
     chosen = select_recordings(recorded_run)
     best = select_recordings(recorded_run, best=1).recordings[0]
