@@ -161,6 +161,19 @@ def test_a_generation_and_one_evaluation(recorded_run: Path) -> None:
     )
 
 
+def test_the_loop_s_own_recordings_are_found(tmp_path: Path) -> None:
+    """With record.rerun on, the files the loop writes are the ones `ariel view` opens."""
+    result = run_experiment({**TINY, "record": {"rerun": True}}, out=tmp_path / "run")
+    chosen = select_recordings(result.run_dir)
+    evaluations = load_run(result.run_dir).evaluations.set_index("eval_id")
+    generation = evaluations.loc[result.best_eval_id, "generation"]
+    best = recording_path(result.run_dir, generation, result.best_eval_id)
+    assert result.best_eval_id.startswith(result.best_body_id)
+    assert chosen.recordings == (result.run_dir / "run.rrd", best)
+    assert chosen.blueprint == result.run_dir / "blueprint.rbl"
+    assert all(p.is_file() for p in select_recordings(result.run_dir, best=5).recordings)
+
+
 @pytest.mark.parametrize(
     ("options", "message"),
     [
