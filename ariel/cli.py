@@ -229,15 +229,14 @@ def _cmd_quickstart(args: argparse.Namespace) -> int:
 
 def _headless_unless_display() -> None:
     """Render off-screen (EGL) where no window can open; must run before mujoco is imported."""
-    from ariel.recording._replay import has_display
-    from ariel.utils._gl import ensure_headless_gl
+    from ariel.utils._gl import ensure_headless_gl, has_display
 
     if not has_display():
         ensure_headless_gl()
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
-    from ariel.recording._replay import has_display
+    from ariel.utils._gl import has_display
 
     if args.viewer and not has_display():
         return _fail(

@@ -19,7 +19,6 @@ import contextlib
 import json
 import math
 import os
-import sys
 import tempfile
 import time
 from collections.abc import Iterator
@@ -30,8 +29,9 @@ from typing import Any
 import numpy as np
 
 from ariel.recording._load import Run, load_run
+from ariel.utils._gl import has_display
 
-__all__ = ["ReplayResult", "UnknownEvaluationError", "has_display", "replay"]
+__all__ = ["ReplayResult", "UnknownEvaluationError", "replay"]
 
 #: `replay(run, BEST)` replays the run's best evaluation.
 BEST = "best"
@@ -54,13 +54,6 @@ def _fitness_bits(value: float) -> bytes:
 def _same_bits(a: float, b: float) -> bool:
     """Bit-identical float64 values (so 0.0 and -0.0 differ, and NaN equals the same NaN)."""
     return _fitness_bits(a) == _fitness_bits(b)
-
-
-def has_display() -> bool:
-    """Whether an interactive window can open here (Linux/BSD: ``DISPLAY`` or Wayland)."""
-    if sys.platform in ("darwin", "win32"):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 @dataclass

@@ -28,13 +28,14 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+from ariel.utils._gl import has_display
+
 __all__ = [
     "DEFAULT_GRPC_PORT",
     "DEFAULT_WEB_PORT",
     "Selection",
     "ViewError",
     "best_evaluations",
-    "has_display",
     "recording_path",
     "rerun_binary",
     "select_recordings",
@@ -206,14 +207,6 @@ def rerun_binary() -> Path:
     if found:
         return Path(found)
     raise ViewError("the Rerun viewer is not installed (pip install rerun-sdk)")
-
-
-def has_display() -> bool:
-    """Whether a window can open here (Linux and other X11/Wayland systems: ``DISPLAY`` or
-    ``WAYLAND_DISPLAY``; macOS and Windows always)."""
-    if sys.platform in ("darwin", "win32"):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 def _die_with_parent() -> Callable[[], None] | None:

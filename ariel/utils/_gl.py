@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import mujoco
 
-__all__ = ["NO_GL_MESSAGE", "create_renderer", "ensure_headless_gl"]
+__all__ = ["NO_GL_MESSAGE", "create_renderer", "ensure_headless_gl", "has_display"]
 
 NO_GL_MESSAGE = (
     "no OpenGL backend available for headless rendering (MUJOCO_GL={backend}): "
@@ -78,3 +78,11 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
     finally:
         # The framebuffer is allocated when the context is made; the model can be restored.
         global_vis.offwidth, global_vis.offheight = old_size
+
+
+def has_display() -> bool:
+    """Whether an interactive window can open here (Linux and other X11/Wayland systems:
+    ``DISPLAY`` or ``WAYLAND_DISPLAY``; macOS and Windows always)."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
