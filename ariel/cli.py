@@ -46,6 +46,9 @@ def _how_to_look(path: Path) -> str:
     quoted = shlex.quote(str(path))
     return (
         "look at the results:\n"
+        f"  ariel report {quoted}            # summary table and figures in {quoted}/report\n"
+        f"  ariel view {quoted}              # Rerun viewer (--web on a headless node)\n"
+        f"  ariel replay {quoted} best       # re-simulate the best evaluation\n"
         f"  ariel runs {shlex.quote(str(path.parent))}\n"
         f'  python -c "from ariel.recording import load_run; '
         f"r = load_run('{path}'); print(r.generations)\"\n"
