@@ -203,6 +203,7 @@ class _Experiment:
         self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
         self.rows_written = 0  # evaluations rows of the last generation written
         self.recorder = None  # Rerun recordings (record.rerun), `_recorder.RerunRecorder`
+        self._recordings: list[dict[str, Any]] = []  # evaluations waiting for their recording
         if config.record.rerun:
             from ariel.evolution._recorder import RerunRecorder
 
@@ -349,6 +350,7 @@ class _Experiment:
                     progress.advance(len(batch["tasks"]), self.best_so_far(jobs))
                     if job.run.iteration < job.target:
                         launch(job)
+                    self.write_recordings()  # once the job's next batch is on its way
         except BaseException:
             for future in in_flight:
                 future.cancel()
@@ -370,23 +372,32 @@ class _Experiment:
             key = (body.number, iteration, k)
             self._rows[key] = self.evaluation_row(body, task, result, generation, iteration, k)
             if self.recorder is not None and result.time.size:
-                self.recorder.evaluation(
-                    model=self.model(body),
-                    body=body,
-                    task=task,
-                    result=result,
-                    generation=generation,
-                    iteration=iteration,
-                    candidate=k,
-                    new_best=k == improved,
+                self._recordings.append(
+                    dict(
+                        model=self.model(body),
+                        body=body,
+                        task=task,
+                        result=result,
+                        generation=generation,
+                        iteration=iteration,
+                        candidate=k,
+                        new_best=k == improved,
+                    )
                 )
-                result.body_pos = result.body_quat = None  # recorded; not kept till the tables
             if self.config.record.trajectories and result.time.size:
                 self._frames[key] = (task.eval_id, result)
         if improved is not None:
             body.fitness = job.run.best_fitness
             body.best_params = job.run.best_params.tolist()  # type: ignore[union-attr]
             body.best_eval_id = batch["tasks"][improved].eval_id
+
+    def write_recordings(self) -> None:
+        """Write the Rerun recordings of the evaluations finished since the last call."""
+        while self._recordings:
+            evaluation = self._recordings.pop(0)
+            self.recorder.evaluation(**evaluation)  # type: ignore[union-attr]
+            result = evaluation["result"]
+            result.body_pos = result.body_quat = None  # recorded; not kept till the tables
 
     def evaluation_row(
         self, body: Body, task: Any, result: Any, generation: int, iteration: int, k: int
