@@ -2,7 +2,8 @@
 
 The loop: ``ariel.evolution.run_experiment(config, out=<temporary folder>, progress=False)`` on
 ``experiments/gecko_gait.toml`` (brain-only: CMA-ES over the NA-CPG of the fixed gecko on the
-flat world, the config's recording settings) with ``--generations``, ``--popsize`` and
+flat world, the config's record rate; Rerun recordings off, ``record.rerun = false``: their
+cost is what ``recording.py`` measures) with ``--generations``, ``--popsize`` and
 ``--iterations`` CMA-ES iterations per generation, ``--duration`` simulated seconds per
 evaluation, on the default ``local`` executor (one worker process per CPU, or ``--workers``).
 That is ``generations x iterations x popsize`` evaluations.
@@ -160,6 +161,7 @@ def experiment_config(args: argparse.Namespace) -> ExperimentConfig:
             f"brain.iterations={args.iterations}",
             f"task.duration={args.duration!r}",
             'executor.kind="local"',
+            "record.rerun=false",  # recordings: experiments/benchmarks/recording.py
         ],
     )
 

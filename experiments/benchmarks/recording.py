@@ -49,6 +49,7 @@ for _variable in (
     os.environ[_variable] = "1"
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import gc  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
@@ -56,6 +57,7 @@ import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
+import threading  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
@@ -177,10 +179,55 @@ class RecordingTimer:
             self.seconds.append(time.perf_counter() - start)
 
 
+class CpuMeter:
+    """CPU seconds of this process and its descendants (the pool's workers) over a block.
+
+    Workers are polled every 0.2 s (psutil) and their last reading kept, since they exit
+    before the block ends; this process's own time comes from ``time.process_time``. Unlike
+    wall time, CPU time hardly changes with other processes' load on a shared machine.
+    None when psutil is missing.
+    """
+
+    def __init__(self) -> None:
+        try:
+            import psutil
+        except ImportError:
+            self._psutil = None
+        else:
+            self._psutil = psutil
+        self._last: dict[tuple[int, float], float] = {}
+        self._stop = threading.Event()
+        self.seconds: float | None = None
+
+    def _poll(self) -> None:
+        me = self._psutil.Process()
+        while True:
+            for child in me.children(recursive=True):
+                with contextlib.suppress(self._psutil.Error):
+                    times = child.cpu_times()
+                    self._last[(child.pid, child.create_time())] = times.user + times.system
+            if self._stop.wait(0.2):
+                return
+
+    def __enter__(self) -> CpuMeter:
+        self._start = time.process_time()
+        if self._psutil is not None:
+            self._thread = threading.Thread(target=self._poll, daemon=True)
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        own = time.process_time() - self._start
+        if self._psutil is not None:
+            self._stop.set()
+            self._thread.join()
+            self.seconds = own + sum(self._last.values())
+
+
 def one_run(config: ExperimentConfig, out: Path, workers: int | None) -> dict[str, Any]:
     timer = RecordingTimer()
     gc.collect()
-    with mock.patch.object(rerun_files, "write_evaluation_recording", timer):
+    with mock.patch.object(rerun_files, "write_evaluation_recording", timer), CpuMeter() as cpu:
         start = time.perf_counter()
         result = run_experiment(config, out=out, workers=workers, progress=False)
         seconds = time.perf_counter() - start
@@ -193,6 +240,7 @@ def one_run(config: ExperimentConfig, out: Path, workers: int | None) -> dict[st
         raise RuntimeError(f"benchmark: {len(recordings)} recordings for {ran} evaluations")
     return {
         "seconds": seconds,
+        "cpu_seconds": cpu.seconds,
         "evaluations": result.evaluations,
         "fitness": run.evaluations.set_index("eval_id")["fitness"].sort_index(),
         "rrd_bytes": sum(p.stat().st_size for p in recordings),
@@ -243,6 +291,12 @@ def main(argv: list[str] | None = None) -> int:
 
     ratios = [on["seconds"] / off["seconds"] for off, on in zip(offs, ons)]
     ratio = statistics.median(ratios)
+    measured = [(off, on) for off, on in zip(offs, ons) if off["cpu_seconds"] and on["cpu_seconds"]]
+    cpu_ratio = (
+        statistics.median(on["cpu_seconds"] / off["cpu_seconds"] for off, on in measured)
+        if measured
+        else None
+    )
     last = ons[-1]
     evaluations = last["evaluations"]
     rrd_per_eval = last["rrd_bytes"] / evaluations
@@ -262,6 +316,8 @@ def main(argv: list[str] | None = None) -> int:
         f"{'recording_overhead_ratio (on / off)':<52}{ratio:>16.3f}  <= {TARGET:g}  "
         f"{'ok' if ratio <= TARGET else 'MISSED'}"
     )
+    if cpu_ratio is not None:
+        print(f"{'  CPU time ratio, driver + workers (on / off)':<52}{cpu_ratio:>16.3f}")
     print(f"{'.rrd bytes per evaluation':<52}{rrd_per_eval:>16,.0f}")
     print(f"{'Parquet bytes per evaluation (all tables)':<52}{parquet_per_eval:>16,.0f}")
     run_level = last["run_rrd_bytes"] + last["blueprint_bytes"]
@@ -278,6 +334,11 @@ def main(argv: list[str] | None = None) -> int:
         "per round: "
         + "; ".join(
             f"off {o['seconds']:.2f} s, on {n['seconds']:.2f} s, ratio {r:.3f}"
+            + (
+                f" (CPU {o['cpu_seconds']:.1f} / {n['cpu_seconds']:.1f} s)"
+                if o["cpu_seconds"] and n["cpu_seconds"]
+                else ""
+            )
             for o, n, r in zip(offs, ons, ratios)
         )
     )
@@ -285,11 +346,14 @@ def main(argv: list[str] | None = None) -> int:
 
     summary = {
         "recording_overhead_ratio": round(ratio, 4),
+        "recording_cpu_ratio": None if cpu_ratio is None else round(cpu_ratio, 4),
         "rrd_bytes_per_eval": round(rrd_per_eval, 1),
         "parquet_bytes_per_eval": round(parquet_per_eval, 1),
         "evaluations": evaluations,
         "off_s": [round(o["seconds"], 3) for o in offs],
         "on_s": [round(o["seconds"], 3) for o in ons],
+        "off_cpu_s": [o["cpu_seconds"] and round(o["cpu_seconds"], 2) for o in offs],
+        "on_cpu_s": [o["cpu_seconds"] and round(o["cpu_seconds"], 2) for o in ons],
         "ratios": [round(r, 4) for r in ratios],
         "run_rrd_bytes": last["run_rrd_bytes"],
         "blueprint_bytes": last["blueprint_bytes"],
