@@ -58,6 +58,8 @@ def _probe(module: str, cwd: Path) -> dict:
         "ariel.recording._replay",
         "ariel.recording._report",
         "ariel.evolution._tasks",
+        "ariel.evolution._recorder",
+        "ariel.recording._rerun",
         "ariel.cli",
     ],
 )
