@@ -158,8 +158,10 @@ class RerunRecorder:
             "n_params": len(task.params),
             "world": c.world.name,
             "fitness_fn": c.task.fitness,
-            "duration": float(c.task.duration),
-            **{name: float(value) for name, value in body.descriptors.items()},
+            # One text property, not twelve: each property is a column of ~300 bytes.
+            "morphology": json.dumps(
+                {name: float(value) for name, value in body.descriptors.items()}
+            ),
         }
         transforms = self.bodies == "all" or (self.bodies == "elites" and new_best)
         return write_evaluation_recording(

@@ -42,6 +42,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import threading
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -69,7 +70,7 @@ ROBOT_PREFIX = "robot1_"
 #: to 150 kB per recording; the part the robot walked on is what one looks at).
 TERRAIN_MARGIN = 1.0
 #: Largest number of heightfield rows or columns drawn (subsampled beyond).
-TERRAIN_MAX_SIDE = 64
+TERRAIN_MAX_SIDE = 32
 #: Half-extent drawn for an infinite MuJoCo plane (size 0).
 INFINITE_PLANE_HALF_EXTENT = 20.0
 _OTHER_COLOUR = (128, 128, 128, 255)
@@ -178,19 +179,22 @@ class _Scene:
 
 
 _SCENES: OrderedDict[tuple[int, tuple[str, ...]], _Scene] = OrderedDict()
-_SCENE_CACHE_SIZE = 8
+_SCENE_CACHE_SIZE = 32  # more than the bodies a generation usually learns side by side
+_CACHE_LOCK = threading.Lock()
 
 
 def _scene(model: Any, body_names: Sequence[str]) -> _Scene:
     key = (id(model), tuple(body_names))
-    scene = _SCENES.get(key)
-    if scene is not None and scene.model is model:
-        _SCENES.move_to_end(key)
-        return scene
+    with _CACHE_LOCK:
+        scene = _SCENES.get(key)
+        if scene is not None and scene.model is model:
+            _SCENES.move_to_end(key)
+            return scene
     scene = _build_scene(model, body_names)
-    _SCENES[key] = scene
-    while len(_SCENES) > _SCENE_CACHE_SIZE:
-        _SCENES.popitem(last=False)
+    with _CACHE_LOCK:
+        _SCENES[key] = scene
+        while len(_SCENES) > _SCENE_CACHE_SIZE:
+            _SCENES.popitem(last=False)
     return scene
 
 
@@ -422,14 +426,16 @@ _GRAPHS: OrderedDict[str, Any] = OrderedDict()  # graph JSON -> its static /grap
 def _graph_chunk(graph_json: str | Mapping[str, Any]) -> Any:
     """The static ``/graph`` chunk of a morphology (cached: a body's evaluations share it)."""
     key = graph_json if isinstance(graph_json, str) else json.dumps(graph_json, sort_keys=True)
-    if key in _GRAPHS:
-        _GRAPHS.move_to_end(key)
-        return _GRAPHS[key]
+    with _CACHE_LOCK:
+        if key in _GRAPHS:
+            _GRAPHS.move_to_end(key)
+            return _GRAPHS[key]
     archetypes = _graph_archetypes(graph_json)
     chunk = _static("/graph", *archetypes) if archetypes else None
-    _GRAPHS[key] = chunk
-    while len(_GRAPHS) > 64:
-        _GRAPHS.popitem(last=False)
+    with _CACHE_LOCK:
+        _GRAPHS[key] = chunk
+        while len(_GRAPHS) > 64:
+            _GRAPHS.popitem(last=False)
     return chunk
 
 

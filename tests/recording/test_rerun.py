@@ -128,6 +128,8 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
         assert column(props, "body_id")[0] == [row["body_id"]]
         assert column(props, "fitness")[0] == [row["fitness"]]
         assert column(props, "generation")[0] == [row["generation"]]
+        morphology = json.loads(column(props, "morphology")[0][0])
+        assert morphology["num_modules"] == row["num_modules"]
         world = found[("/world", True)]
         assert "floor" in column(world, "Boxes3D:labels")[0]
 
