@@ -1,5 +1,6 @@
-"""Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay` and
-`make_report`.
+"""Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay`,
+`make_report`, and the Rerun writers (`write_evaluation_recording`, `write_run_recording`,
+`write_blueprint`).
 
 Cheap to import: names are loaded from their modules on first access.
 """
@@ -21,6 +22,9 @@ _LAZY: dict[str, str] = {
     "replay": "ariel.recording._replay",
     "Report": "ariel.recording._report",
     "make_report": "ariel.recording._report",
+    "write_evaluation_recording": "ariel.recording._rerun",
+    "write_run_recording": "ariel.recording._rerun",
+    "write_blueprint": "ariel.recording._rerun",
 }
 
 __all__ = sorted(_LAZY)
