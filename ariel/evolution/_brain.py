@@ -15,7 +15,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["BrainRun"]
+__all__ = ["BrainRun", "fitness_rank"]
+
+
+def fitness_rank(fitness: float, maximise: bool) -> float:
+    """A sort key, smaller is better, whichever way the fitness points; failures (NaN, inf)
+    rank last."""
+    if not math.isfinite(fitness):
+        return math.inf
+    return -fitness if maximise else fitness
 
 
 class _Randn:

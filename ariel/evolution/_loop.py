@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ariel.evolution._brain import BrainRun
+from ariel.evolution._brain import BrainRun, fitness_rank
 from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash, load_config
 from ariel.evolution._progress import Progress
 from ariel.evolution._seeds import derive_rng, derive_seed
@@ -172,13 +172,6 @@ def _resolve(config: ExperimentConfig) -> _Plugins:
 # --------------------------------------------------------------------------------------------
 # The experiment
 # --------------------------------------------------------------------------------------------
-
-
-def _sort_key(fitness: float, maximise: bool) -> float:
-    """Smaller is better; failed bodies (NaN, inf) last."""
-    if not math.isfinite(fitness):
-        return math.inf
-    return -fitness if maximise else fitness
 
 
 @dataclass
@@ -533,7 +526,7 @@ class _Experiment:
         picks = rng.choice(len(population), size=size, replace=False)
         return min(
             (population[i] for i in sorted(picks)),
-            key=lambda b: (_sort_key(b.fitness, self.plugins.maximise), b.number),
+            key=lambda b: (fitness_rank(b.fitness, self.plugins.maximise), b.number),
         )
 
     def offspring(self, state: LoopState, generation: int) -> list[Body]:
@@ -555,7 +548,9 @@ class _Experiment:
 
     def survivors(self, parents: list[Body], children: list[Body]) -> list[Body]:
         pool = children if self.config.body.survivors == "generational" else parents + children
-        ranked = sorted(pool, key=lambda b: (_sort_key(b.fitness, self.plugins.maximise), b.number))
+        ranked = sorted(
+            pool, key=lambda b: (fitness_rank(b.fitness, self.plugins.maximise), b.number)
+        )
         return ranked[: self.config.body.population]
 
 
@@ -672,7 +667,7 @@ def _drive(
     assert state is not None
     best_body = min(
         state.population,
-        key=lambda b: (_sort_key(b.fitness, experiment.plugins.maximise), b.number),
+        key=lambda b: (fitness_rank(b.fitness, experiment.plugins.maximise), b.number),
     )
     return RunResult(
         run_dir=folder.path,

@@ -33,18 +33,10 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["RerunRecorder", "generation_summary", "recording_path"]
+from ariel.evolution._brain import fitness_rank
+from ariel.recording._tables import recording_path
 
-
-def recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
-    """Where the loop writes an evaluation's recording."""
-    return Path(run_dir) / "recordings" / f"gen-{generation:06d}" / f"{eval_id}.rrd"
-
-
-def _sort_key(fitness: float, maximise: bool) -> float:
-    if not math.isfinite(fitness):
-        return math.inf
-    return -fitness if maximise else fitness
+__all__ = ["RerunRecorder", "generation_summary"]
 
 
 def generation_summary(
@@ -83,7 +75,7 @@ def generation_summary(
         "distinct_morphologies": float(len({r.get("graph") or r["body_id"] for r in built})),
     }
     ranked = sorted(
-        population, key=lambda r: (_sort_key(float(r["fitness"]), maximise), r["body_id"])
+        population, key=lambda r: (fitness_rank(float(r["fitness"]), maximise), r["body_id"])
     )
     top = ranked[0] if ranked and math.isfinite(float(ranked[0]["fitness"])) else None
     best_body = (

@@ -24,6 +24,7 @@ __all__ = [
     "evaluation_schema",
     "generation_file",
     "read_table",
+    "recording_path",
     "table_generations",
     "trajectory_schema",
     "write_table",
@@ -116,6 +117,11 @@ _SCHEMAS = {
     "bodies": body_schema,
     "trajectories": trajectory_schema,
 }
+
+
+def recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
+    """Where an evaluation's Rerun recording lives: ``recordings/gen-NNNNNN/<eval_id>.rrd``."""
+    return Path(run_dir) / "recordings" / f"gen-{int(generation):06d}" / f"{eval_id}.rrd"
 
 
 def generation_file(run_dir: Path, table: str, generation: int) -> Path:

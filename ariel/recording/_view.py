@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+from ariel.recording._tables import recording_path
 from ariel.utils._gl import has_display
 
 __all__ = [
@@ -65,11 +66,6 @@ class Selection:
     recordings: tuple[Path, ...]
     blueprint: Path | None
     description: str
-
-
-def recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
-    """Where an evaluation's recording lives: ``recordings/gen-NNNNNN/<eval_id>.rrd``."""
-    return Path(run_dir) / RECORDINGS / f"gen-{int(generation):06d}" / f"{eval_id}.rrd"
 
 
 def _rrd_files(folder: Path) -> list[Path]:
