@@ -294,3 +294,23 @@ def test_write_evaluation_recording_draws_terrain_near_the_path_and_a_still_robo
     assert len(column(static, "Boxes3D:centers")[0]) == len(column(static, "Boxes3D:half_sizes")[0])
     props = found[("/__properties/ariel", True)]
     assert column(props, "note")[0] == ['{"a": 1}']
+
+
+def test_discard_after_drops_the_recordings_of_unfinished_generations(tmp_path: Path) -> None:
+    from ariel.recording import RunFolder
+
+    for generation in (0, 1, 2):
+        folder = tmp_path / "recordings" / f"gen-{generation:06d}"
+        folder.mkdir(parents=True)
+        (folder / f"b00000{generation}-i000-c000.rrd").write_bytes(b"rrd")
+    (tmp_path / "recordings" / "gen-000002" / ".b000002-i000-c001.rrd.tmp").write_bytes(b"half")
+    (tmp_path / "recordings" / "notes").mkdir()  # not a generation: left alone
+    removed = RunFolder(tmp_path).discard_after(0)
+    left = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*"))
+    assert left == [
+        "recordings",
+        "recordings/gen-000000",
+        "recordings/gen-000000/b000000-i000-c000.rrd",
+        "recordings/notes",
+    ]
+    assert {p.name for p in removed} >= {"gen-000001", "gen-000002"}
