@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import shlex
 import sys
 from collections.abc import Sequence
@@ -185,6 +186,25 @@ def _generation(text: str) -> int:
     return value
 
 
+def _png_path(text: str) -> Path:
+    path = Path(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"must be a .png file, not {text!r}")
+    if not path.parent.is_dir():
+        raise argparse.ArgumentTypeError(f"folder {str(path.parent)!r} does not exist")
+    return path
+
+
+def _size(text: str) -> tuple[int, int]:
+    match = re.fullmatch(r"(\d+)x(\d+)", text)
+    width, height = (int(g) for g in match.groups()) if match else (0, 0)
+    if not (320 <= width <= 7680 and 240 <= height <= 4320):
+        raise argparse.ArgumentTypeError(
+            f"must be WIDTHxHEIGHT, 320x240 to 7680x4320 pixels, not {text!r}"
+        )
+    return width, height
+
+
 def _cmd_view(args: argparse.Namespace) -> int:
     from ariel.recording._view import ViewError, view
 
@@ -197,6 +217,8 @@ def _cmd_view(args: argparse.Namespace) -> int:
             web=args.web,
             port=args.port,
             grpc_port=args.grpc_port,
+            screenshot=args.screenshot,
+            size=args.size,
         )
     except ViewError as exc:
         return _fail(str(exc))
@@ -397,6 +419,19 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PORT",
         help="port of the gRPC proxy the web viewer reads the recordings from "
         "(default 9876; 0: any free)",
+    )
+    p.add_argument(
+        "--screenshot",
+        type=_png_path,
+        metavar="FILE.png",
+        help="instead of serving: draw the web viewer in a headless Chromium, save it, stop",
+    )
+    p.add_argument(
+        "--size",
+        type=_size,
+        default=(1600, 900),
+        metavar="WxH",
+        help="screenshot size in pixels (default 1600x900)",
     )
     p.set_defaults(func=_cmd_view)
 

@@ -666,13 +666,35 @@ def write_run_recording(
 # --------------------------------------------------------------------------------------------
 
 
-def blueprint() -> Any:
-    """The default layout: the 3D replay and the morphology above, joints and fitness below."""
+def blueprint(*, panels: bool = True) -> Any:
+    """The default layout: the 3D replay and the morphology above, joints and fitness below.
+
+    The 3D camera looks at the start, from 1.5 m away. ``panels=False`` collapses the side
+    panels (the blueprint tree, the selection) for pictures of the views alone.
+    """
     rrb = _rr().blueprint
+    side = (
+        []
+        if panels
+        else [
+            rrb.BlueprintPanel(state="collapsed"),
+            rrb.SelectionPanel(state="collapsed"),
+            rrb.TimePanel(state="collapsed"),
+        ]
+    )
     return rrb.Blueprint(
         rrb.Vertical(
             rrb.Horizontal(
-                rrb.Spatial3DView(name="robot", origin="/world"),
+                rrb.Spatial3DView(
+                    name="robot",
+                    origin="/world",
+                    eye_controls=rrb.EyeControls3D(
+                        kind=rrb.components.Eye3DKind.Orbital,
+                        position=(0.8, -1.2, 0.7),
+                        look_target=(0.1, 0.0, 0.0),
+                        eye_up=(0.0, 0.0, 1.0),
+                    ),
+                ),
                 rrb.Vertical(
                     rrb.GraphView(name="morphology", origin="/graph"),
                     rrb.GraphView(name="best body", origin="/best/graph"),
@@ -687,12 +709,14 @@ def blueprint() -> Any:
             ),
             row_shares=[3, 2],
         ),
+        *side,
         collapse_panels=False,
     )
 
 
-def write_blueprint(path: str | os.PathLike[str]) -> Path:
-    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``).
+def write_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Path:
+    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``);
+    ``panels=False``: with the side panels collapsed (see `blueprint`).
 
     Open it with the recordings: ``rerun blueprint.rbl run.rrd recordings/gen-000000/*.rrd``.
     """
@@ -702,7 +726,7 @@ def write_blueprint(path: str | os.PathLike[str]) -> Path:
         # Rerun writes blueprints to paths ending in .rbl only: build beside, then move.
         staging = temporary.with_name(temporary.name + ".rbl")
         try:
-            blueprint().save(APPLICATION_ID, str(staging))
+            blueprint(panels=panels).save(APPLICATION_ID, str(staging))
             os.replace(staging, temporary)
         finally:
             if staging.exists():

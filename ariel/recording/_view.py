@@ -10,6 +10,7 @@ opens a browser, and prints the SSH tunnel that reaches it from another machine.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import getpass
 import importlib.util
 import math
@@ -371,19 +372,26 @@ def native_command(selection: Selection) -> list[str]:
     return [str(rerun_binary()), *map(str, files)]
 
 
+def _wait_until_serving(proc: subprocess.Popen[bytes], web_port: int, grpc: int) -> bool:
+    """Whether both ports listen (False: the server ended; its messages are above)."""
+    deadline = time.monotonic() + READY_TIMEOUT_S
+    while not (_listening(web_port) and _listening(grpc)):
+        if proc.poll() is not None:
+            return False
+        if time.monotonic() > deadline:
+            raise ViewError(f"the Rerun server did not start in {READY_TIMEOUT_S:.0f} s")
+        time.sleep(0.1)
+    return True
+
+
 def _serve_web(selection: Selection, port: int | None, grpc_port: int | None) -> int:
     web_port = _choose_port(port, DEFAULT_WEB_PORT, "--port", set())
     grpc = _choose_port(grpc_port, DEFAULT_GRPC_PORT, "--grpc-port", {web_port})
     command = web_command(selection, web_port, grpc)
 
     def announce(proc: subprocess.Popen[bytes]) -> None:
-        deadline = time.monotonic() + READY_TIMEOUT_S
-        while not (_listening(web_port) and _listening(grpc)):
-            if proc.poll() is not None:
-                return  # it failed; its own messages are above, the exit code follows
-            if time.monotonic() > deadline:
-                raise ViewError(f"the Rerun server did not start in {READY_TIMEOUT_S:.0f} s")
-            time.sleep(0.1)
+        if not _wait_until_serving(proc, web_port, grpc):
+            return  # it failed; the exit code follows
         count = len(selection.recordings)
         print(
             f"Rerun web viewer: {selection.description} ({count} file{'s' * (count != 1)}) "
@@ -402,6 +410,73 @@ def _serve_web(selection: Selection, port: int | None, grpc_port: int | None) ->
     return code
 
 
+def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s: float) -> int:
+    """Serve the web viewer on free ports, draw it in a headless browser, save a PNG."""
+    import tempfile
+
+    from ariel.recording._browser import BrowserError, HeadlessChromium, find_chromium
+    from ariel.recording._files import atomic_write_bytes
+    from ariel.recording._rerun import write_blueprint
+
+    try:
+        chromium = find_chromium()
+    except BrowserError as exc:
+        raise ViewError(f"--screenshot: {exc}") from None
+    web_port = _any_free_port(set())
+    grpc = _any_free_port({web_port})
+    taken: list[str] = []
+    scratch = tempfile.mkdtemp(prefix="ariel-screenshot-")  # the browser profile, the layout
+    # The run's layout with the side panels collapsed: the picture shows the views.
+    layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
+    selection = dataclasses.replace(selection, blueprint=layout)
+
+    def capture(proc: subprocess.Popen[bytes]) -> None:
+        try:
+            if not _wait_until_serving(proc, web_port, grpc):
+                return
+            with HeadlessChromium(Path(scratch), size=size, binary=chromium) as browser:
+                browser.open(web_url(web_port, grpc))
+                atomic_write_bytes(out, wait_for_drawing(browser, settle_s))
+            taken.append(str(out))
+        except BrowserError as exc:
+            raise ViewError(f"--screenshot: {exc}") from None
+        finally:
+            _terminate(proc)
+
+    try:
+        code = _run_child(web_command(selection, web_port, grpc), when_started=capture)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    if not taken:
+        return code or 1
+    print(f"wrote {out} ({selection.description} of {selection.run_dir})")
+    return 0
+
+
+def wait_for_drawing(browser: Any, settle_s: float) -> bytes:
+    """The viewer page as a PNG once it has drawn: its canvas is shown (the app started), then
+    ``settle_s`` seconds for the recordings to stream in, then until two captures a second
+    apart agree (or another ``settle_s`` passed)."""
+    deadline = time.monotonic() + READY_TIMEOUT_S
+    while browser.evaluate(_CANVAS_SHOWN) is not True:
+        if time.monotonic() > deadline:
+            raise ViewError(f"the web viewer did not start in {READY_TIMEOUT_S:.0f} s")
+        time.sleep(0.25)
+    time.sleep(settle_s)
+    last, deadline = browser.png(), time.monotonic() + settle_s
+    while time.monotonic() < deadline:
+        time.sleep(1.0)
+        now = browser.png()
+        if now == last:
+            break
+        last = now
+    return last
+
+
+# The viewer's canvas is shown once its WebAssembly app runs (the loading text is hidden then).
+_CANVAS_SHOWN = "document.getElementById('the_canvas_id')?.className === 'visible'"
+
+
 def view(
     run_dir: str | Path,
     *,
@@ -411,15 +486,21 @@ def view(
     web: bool = False,
     port: int | None = None,
     grpc_port: int | None = None,
+    screenshot: str | Path | None = None,
+    size: tuple[int, int] = (1600, 900),
+    settle_s: float = 5.0,
 ) -> int:
     """Open the chosen recordings (see `select_recordings`) with the run's blueprint.
 
     ``web``: serve the web viewer on 127.0.0.1 (``port``, default 9090; its gRPC proxy on
     ``grpc_port``, default 9876; busy defaults fall back to free ports, 0 asks for any) until
-    Ctrl-C. Otherwise the native viewer, which needs a display. Returns the exit code; bad
-    input raises `ViewError`.
+    Ctrl-C. Otherwise the native viewer, which needs a display. ``screenshot``: instead,
+    draw the web viewer (``size`` pixels) in a headless Chromium, save it as that PNG and stop.
+    Returns the exit code; bad input raises `ViewError`.
     """
     selection = select_recordings(run_dir, best=best, generation=generation, eval_id=eval_id)
+    if screenshot is not None:
+        return _screenshot(selection, Path(screenshot), size, settle_s)
     if web:
         return _serve_web(selection, port, grpc_port)
     if not has_display():

@@ -4,19 +4,17 @@ command can end."""
 
 from __future__ import annotations
 
-import base64
 import contextlib
 import io
-import json
 import os
 import queue
 import re
-import select
 import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -29,6 +27,8 @@ import rerun.blueprint as rrb
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run
+from ariel.recording._browser import HeadlessChromium
+from ariel.recording._rerun import module_colours
 from ariel.recording._view import (
     ViewError,
     best_evaluations,
@@ -393,90 +393,10 @@ def test_the_server_ending_by_itself_ends_the_command(recorded_run, tmp_path) ->
 # --- a real headless browser opens the served viewer -----------------------------------------
 
 
-class _Chromium:
-    """Headless Chromium driven over the DevTools protocol on a pipe (fds 3 and 4)."""
+def _pixels(png: bytes) -> np.ndarray:
+    from PIL import Image
 
-    def __init__(self, profile: Path) -> None:
-        to_chrome, self._write = os.pipe()
-        self._read, from_chrome = os.pipe()
-
-        def fds() -> None:  # the pipe ends become the child's fds 3 and 4, inheritable
-            a, b = os.dup(to_chrome), os.dup(from_chrome)
-            os.dup2(a, 3)
-            os.dup2(b, 4)
-
-        self.proc = subprocess.Popen(
-            [
-                str(CHROMIUM),
-                "--headless",
-                "--no-sandbox",
-                "--disable-gpu",
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                "--no-first-run",
-                f"--user-data-dir={profile}",
-                "--window-size=1280,800",
-                "--remote-debugging-pipe",
-                "about:blank",
-            ],
-            preexec_fn=fds,
-            close_fds=False,
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
-        )
-        os.close(to_chrome)
-        os.close(from_chrome)
-        self._buffer = b""
-        self._id = 0
-        target = self.call("Target.createTarget", url="about:blank")["targetId"]
-        self.session = self.call("Target.attachToTarget", targetId=target, flatten=True)[
-            "sessionId"
-        ]
-
-    def call(self, method: str, session: str | None = None, **params: object) -> dict:
-        self._id += 1
-        message = {"id": self._id, "method": method, "params": params}
-        if session:
-            message["sessionId"] = session
-        os.write(self._write, json.dumps(message).encode() + b"\0")
-        deadline = time.monotonic() + 30
-        while True:
-            while b"\0" not in self._buffer:
-                left = deadline - time.monotonic()
-                assert left > 0, f"no answer to {method}"
-                if select.select([self._read], [], [], left)[0]:
-                    chunk = os.read(self._read, 1 << 20)
-                    assert chunk, "chromium closed its DevTools pipe"
-                    self._buffer += chunk
-            raw, self._buffer = self._buffer.split(b"\0", 1)
-            reply = json.loads(raw)
-            if reply.get("id") == self._id:
-                assert "error" not in reply, reply
-                return reply["result"]
-
-    def page(self, method: str, **params: object) -> dict:
-        return self.call(method, session=self.session, **params)
-
-    def evaluate(self, expression: str) -> object:
-        return self.page("Runtime.evaluate", expression=expression, returnByValue=True)[
-            "result"
-        ].get("value")
-
-    def screenshot(self) -> np.ndarray:
-        from PIL import Image
-
-        png = base64.b64decode(self.page("Page.captureScreenshot", format="png")["data"])
-        return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
-
-    def close(self) -> None:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(self.proc.pid, signal.SIGKILL)
-        self.proc.wait()
-        os.close(self._write)
-        os.close(self._read)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
 
 
 def _share(image: np.ndarray, colour: tuple[int, int, int]) -> float:
@@ -488,10 +408,9 @@ def _share(image: np.ndarray, colour: tuple[int, int, int]) -> float:
 def test_a_headless_browser_loads_the_recording_from_the_served_viewer(recorded_run, tmp_path):
     best = select_recordings(recorded_run, best=1).recordings[0].stem
     served = _Served(recorded_run, best)  # EVAL_ID after the options
-    browser = _Chromium(tmp_path / "profile")
+    browser = HeadlessChromium(tmp_path / "profile", binary=CHROMIUM)
     try:
-        browser.page("Page.enable")
-        browser.page("Page.navigate", url=served.url)
+        browser.open(served.url)
         # The viewer's wasm starts: its canvas replaces the loading text (no error shown).
         deadline = time.monotonic() + 60
         state = None
@@ -516,9 +435,62 @@ def test_a_headless_browser_loads_the_recording_from_the_served_viewer(recorded_
         share = 0.0
         while time.monotonic() < deadline and share < 0.05:
             time.sleep(0.5)
-            share = _share(browser.screenshot(), RED)
+            share = _share(_pixels(browser.png()), RED)
         assert share >= 0.05, f"red covers {share:.1%} of the page"
     finally:
         browser.close()
         assert served.stop(signal.SIGINT) == 0
     assert _gone(served.rerun.pid)
+
+
+# --- --screenshot: the viewer drawn by a headless browser, saved ----------------------------
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason=f"{CHROMIUM} missing (apt-get install chromium)")
+def test_a_screenshot_shows_the_robot_drawn_in_3d(tmp_path: Path) -> None:
+    result = run_experiment({**TINY, "record": {"rerun": True}}, out=tmp_path / "run")
+    shot = tmp_path / "viewer.png"
+    env = {**os.environ, "ARIEL_CHROMIUM": str(CHROMIUM)}
+    done = _ariel_run(
+        "view",
+        str(result.run_dir),
+        "--best",
+        "1",
+        "--screenshot",
+        str(shot),
+        "--size",
+        "960x600",
+        env=env,
+    )
+    assert done.returncode == 0, done.stderr
+    assert f"wrote {shot}" in done.stdout
+    image = _pixels(shot.read_bytes())
+    assert image.shape == (600, 960, 3)
+    # The 3D view (top left) shows the robot: its core's colour, shaded by at most ~20%.
+    robot_view = image[: 600 // 2, : 960 * 2 // 3]
+    assert _share(robot_view, module_colours()["CORE"][:3]) > 0.001
+
+    # Nothing is left behind: no server (its command line names the run's files), no browser
+    # (its profile is the scratch folder), no scratch folder.
+    def ours(proc: psutil.Process) -> bool:
+        with contextlib.suppress(psutil.Error):
+            line = " ".join(proc.cmdline())
+            return str(result.run_dir) in line or "ariel-screenshot-" in line
+        return False
+
+    assert _eventually(lambda: not [p for p in psutil.process_iter() if ours(p)])
+    assert not list(Path(tempfile.gettempdir()).glob("ariel-screenshot-*"))
+
+
+def test_screenshot_bad_input_is_one_line_exit_2(recorded_run: Path, tmp_path: Path) -> None:
+    run = str(recorded_run)
+    _one_line_exit_2(_ariel_run("view", run, "--screenshot", str(tmp_path / "a.jpg")), ".png")
+    _one_line_exit_2(
+        _ariel_run("view", run, "--screenshot", str(tmp_path / "no" / "a.png")), "does not exist"
+    )
+    shot = str(tmp_path / "a.png")
+    small = _ariel_run("view", run, "--screenshot", shot, "--size", "10x10")
+    _one_line_exit_2(small, "WIDTHxHEIGHT")
+    env = {**os.environ, "ARIEL_CHROMIUM": str(tmp_path / "no-browser")}
+    _one_line_exit_2(_ariel_run("view", run, "--screenshot", shot, env=env), "ARIEL_CHROMIUM")
+    assert not (tmp_path / "a.png").exists()
