@@ -195,6 +195,7 @@ class _Experiment:
         self._frames: dict[tuple[int, int, int], Any] = {}
         self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
         self.rows_written = 0  # evaluations rows of the last generation written
+        self.failed_written: dict[str, int] = {}  # of those: "error" and "unstable" counts
         self.recorder = None  # Rerun recordings (record.rerun), `_recorder.RerunRecorder`
         self._recordings: list[dict[str, Any]] = []  # evaluations waiting for their recording
         if config.record.rerun:
@@ -461,6 +462,9 @@ class _Experiment:
 
         rows = [self._rows[key] for key in sorted(self._rows)]
         self.rows_written = len(rows)
+        self.failed_written = {
+            status: sum(row["status"] == status for row in rows) for status in ("error", "unstable")
+        }
         write_table(self.folder.path, "evaluations", generation, columns(rows, evaluation_schema()))
         if self.config.record.trajectories:
             frames: dict[str, list[Any]] = {
@@ -656,7 +660,9 @@ def _drive(
                     best_fitness=best,
                     updated=now(),
                 )
-                progress.end_generation(generation, best, mean)
+                failed = experiment.failed_written
+                extra = "".join(f", {n} {status}" for status, n in failed.items() if n)
+                progress.end_generation(generation, best, mean, extra)
         status = "finished"
     except KeyboardInterrupt:
         status = "interrupted"
