@@ -35,7 +35,7 @@ from ariel.evolution._brain import BrainRun, fitness_rank
 from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash, load_config
 from ariel.evolution._progress import Progress
 from ariel.evolution._seeds import derive_rng, derive_seed
-from ariel.evolution._tasks import body_spec, evaluation_task, record_steps
+from ariel.evolution._tasks import body_spec, evaluation_task, record_steps, shipped_body
 
 __all__ = ["Body", "LoopState", "RunResult", "resume_experiment", "run_experiment"]
 
@@ -272,7 +272,7 @@ class _Experiment:
         record_every = record_steps(self.config, timestep)
         return _Job(
             body=body,
-            spec=self.body_spec(body.genotype),
+            spec=shipped_body(self.config, self.body_spec(body.genotype)),
             run=run,
             target=target if body.n_params else 1,
             eval_seed=derive_seed(self.config.seed, "evaluation", body.number),

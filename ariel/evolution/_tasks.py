@@ -12,7 +12,7 @@ from typing import Any
 
 from ariel.evolution._config import ExperimentConfig
 
-__all__ = ["body_spec", "evaluation_task", "record_bodies", "record_steps"]
+__all__ = ["body_spec", "evaluation_task", "record_bodies", "record_steps", "shipped_body"]
 
 
 def body_spec(config: ExperimentConfig, genotype: Any) -> Any:
@@ -20,6 +20,37 @@ def body_spec(config: ExperimentConfig, genotype: Any) -> Any:
     from ariel.evaluation import BodySpec
 
     return BodySpec(config.body.encoder, genotype, config.body.options)
+
+
+def shipped_body(config: ExperimentConfig, body: Any) -> Any:
+    """The form of ``body`` (a `BodySpec`) that evaluation tasks carry to the workers.
+
+    A body whose encoder decodes it to a robot graph travels as that graph (the ``graph``
+    encoder's node-link data): the driver decodes each body once, and a worker needs only the
+    constructor, never the encoder. For the NDE that keeps torch (~250 MiB resident, needed to
+    make its weights) out of every worker. The compiled model is the same byte for byte, so
+    fitness is too. A body that does not decode to a valid graph keeps its genotype (the worker
+    then reports the error the driver saw), as does one whose encoder builds it directly
+    (``prebuilt``).
+    """
+    if body.encoder == "graph":
+        return body
+    import networkx as nx
+
+    from ariel.body_phenotypes.robogen_lite.constructor import validate_robot_graph
+    from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
+    from ariel.evaluation import BodySpec
+    from ariel.plugins import body_encoders
+
+    encoder = body_encoders.make(body.encoder, **body.options)
+    if hasattr(encoder, "build"):
+        return body
+    try:
+        graph = encoder.decode(body.genotype)
+        validate_robot_graph(graph)
+    except Exception:  # the worker's build raises it again, as `BodyBuildError`
+        return body
+    return BodySpec("graph", nx.node_link_data(graph_to_plain(graph), edges="edges"))
 
 
 def record_steps(config: ExperimentConfig, timestep: float) -> int:

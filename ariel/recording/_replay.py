@@ -314,10 +314,10 @@ def replay_task(run: Run, row: dict[str, Any]) -> Any:
     """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``."""
     from ariel.evaluation import BodyBuildError, build
     from ariel.evolution import ExperimentConfig
-    from ariel.evolution._tasks import body_spec, evaluation_task, record_steps
+    from ariel.evolution._tasks import body_spec, evaluation_task, record_steps, shipped_body
 
     config = ExperimentConfig.from_plain(run.config)
-    spec = body_spec(config, json.loads(row["body_genotype"]))
+    spec = shipped_body(config, body_spec(config, json.loads(row["body_genotype"])))
     fields: dict[str, Any] = {
         "seed": int(row["seed"]),
         "eval_id": str(row["eval_id"]),
