@@ -633,6 +633,8 @@ def _drive(
     folder.update_info(
         status="running",
         executor={"kind": executor_kind, "workers": workers, "scheduler": scheduler},
+        # What the checkpoint holds: run.json may lag behind it when a kill came between them.
+        generations_done=0 if state is None else state.generation + 1,
     )
     if progress.enabled:
         print(f"run {experiment.run_id}: {folder.path} ({total} evaluations)", flush=True)

@@ -92,6 +92,7 @@ PAUSING_LAUNCHER = textwrap.dedent(
     from pathlib import Path
 
     import ariel.recording._files as files
+    import ariel.recording._rerun as rerun_files
     import ariel.recording._tables as tables
 
     target, checkpoints_before, marker = sys.argv[1], int(sys.argv[2]), Path(sys.argv[3])
@@ -116,6 +117,7 @@ PAUSING_LAUNCHER = textwrap.dedent(
 
     files.atomic_write = atomic_write
     tables.atomic_write = atomic_write
+    rerun_files.atomic_write = atomic_write
     from ariel.cli import main
 
     sys.exit(main(sys.argv[4:]))
@@ -230,6 +232,34 @@ def _kill_while_writing(
     assert half.is_file() and half.stat().st_size > 0, f"{target}: the kill missed the write"
 
 
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """Which version of a file is there (each atomic write is a new inode)."""
+    try:
+        stat = path.stat()
+    except FileNotFoundError:
+        return None
+    return stat.st_ino, stat.st_mtime_ns
+
+
+def _first_new_body(reference: Path, generation: int) -> str:
+    bodies = load_run(reference).bodies
+    born = bodies[(bodies["generation"] == generation) & bodies["is_new"]]
+    return str(sorted(born["body_id"])[0])
+
+
+def _assert_recordings_like(run_dir: Path, reference: Path) -> None:
+    """The same recordings as the uninterrupted run, every one readable."""
+    import rerun as rr
+
+    def names(folder: Path) -> list[str]:
+        return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.rrd"))
+
+    assert names(run_dir) == names(reference)
+    for path in run_dir.rglob("*.rrd"):
+        (entry,) = rr.chunk.RrdReader(path).recordings()
+        assert entry.application_id == "ariel", path
+
+
 def _run_info(run_dir: Path) -> dict[str, Any]:
     try:
         return json.loads((run_dir / "run.json").read_text())
@@ -306,6 +336,7 @@ def _resume_and_check(run_dir: Path, reference: Path, generations: int = 3, *ext
     for table in TABLES:
         assert sorted(os.listdir(run_dir / table)) == expected, table
     _assert_same_records(run_dir, reference)
+    _assert_recordings_like(run_dir, reference)
 
 
 # --------------------------------------------------------------------------------------------
@@ -391,13 +422,53 @@ def test_killed_while_writing_again_and_again(configs, reference, tmp_path: Path
         ("checkpoints/state.pkl", 0, 1),
         # run.json after generation 1's checkpoint: it still says 1 generation done.
         ("run.json", 1, 1),
+        # The run-level recording after generation 2's tables (the resume went on from
+        # generation 1's checkpoint, and run.json says so again).
+        ("run.rrd", 0, 2),
+        # An evaluation's recording of generation 2, redone (written while its brains learn).
+        ("-i001-c002.rrd", 0, 2),
     ]
     command = ["run", str(configs["coevolve"]), "--out", str(run_dir), "--executor", "serial"]
     for target, checkpoints_before, finished in kills:
+        if target.endswith("-i001-c002.rrd"):  # its body's id: the first one of generation 2
+            target = f"recordings/gen-000002/{_first_new_body(reference, 2)}{target}"
         _kill_while_writing(launcher, target, checkpoints_before, [*command, "--quiet"], run_dir)
         assert _assert_killed_run_loads(run_dir, reference) == finished, target
         command = ["resume", str(run_dir)]
     _resume_and_check(run_dir, reference)
+
+
+@pytest.mark.slow
+def test_killed_at_random_moments_many_times(configs, reference, tmp_path: Path) -> None:
+    """SIGKILL after a random delay, again and again (the delays drawn from a seeded
+    generator, so a failure reproduces): every kill leaves a run that loads and resumes, and
+    the last resume ends with the uninterrupted records."""
+    rng = np.random.default_rng(20261123)
+    run_dir = tmp_path / "run"
+    command = ["run", str(configs["coevolve"]), "--out", str(run_dir), "--executor", "serial"]
+    kills = 0
+    for _ in range(10):
+        before = _stamp(run_dir / "run.json")
+        process = _Process(_cli(*command, "--quiet"), tmp_path)
+        # From the moment it runs (it rewrites run.json; the imports before take longer than
+        # the run itself, ~1.5 s on 2 cores), a random delay: anywhere in a generation,
+        # between writes or in one.
+        process.wait_until(lambda b=before: _stamp(run_dir / "run.json") != b, "the run to start")
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.popen.wait(timeout=float(rng.uniform(0.0, 1.0)))
+        if process.popen.poll() is not None:
+            assert process.popen.returncode == 0, process.output()
+            break
+        process.kill()
+        kills += 1
+        _assert_killed_run_loads(run_dir, reference)
+        command = ["resume", str(run_dir)]
+    assert kills >= 2, "the kills came too late to interrupt the run"
+    if _run_info(run_dir).get("status") != "finished":
+        _resume_and_check(run_dir, reference)
+    else:
+        _assert_same_records(run_dir, reference)
+        _assert_recordings_like(run_dir, reference)
 
 
 @pytest.mark.slow
