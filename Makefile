@@ -15,7 +15,7 @@ $(VENV)/.stamp-setup: pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --upgrade pip >/dev/null
 	$(PIP) install "$(TORCH_SPEC)"
-	$(PIP) install -e ".[dev,distributed,analysis]"
+	$(PIP) install -e ".[dev,distributed,analysis,gpu]"
 	touch $@
 
 setup: $(VENV)/.stamp-setup
