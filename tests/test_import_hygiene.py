@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-HEAVY = ("torch", "matplotlib", "rerun")
+HEAVY = ("torch", "matplotlib", "rerun", "warp", "mujoco_warp")
 
 PROBE = """
 import json, sys, os
@@ -46,6 +46,8 @@ def _probe(module: str, cwd: Path) -> dict:
         "ariel.simulation.controllers.controller",
         "ariel.simulation.controllers.cpg_kernel",
         "ariel.evaluation._engine",
+        "ariel.evaluation._warp",
+        "ariel.evaluation.executors",
         "ariel.evaluation.builtin_plugins",
         "ariel.ec.genotypes.nde.encoder",
         "ariel.body_phenotypes.robogen_lite.prebuilt_robots.encoder",

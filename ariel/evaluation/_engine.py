@@ -513,12 +513,20 @@ def _finish(
     joint_target: np.ndarray,
     stable: bool,
     wall: float,
+    poses: tuple[np.ndarray, np.ndarray | None, np.ndarray | None] | None = None,
+    backend: str = "mujoco",
 ) -> EvaluationResult:
-    """Turn recorded frames into a result (kinematics, fitness, status)."""
+    """Turn recorded frames into a result (kinematics, fitness, status).
+
+    ``poses``: the core position and robot body poses of the frames where the caller computed
+    them already (the Warp evaluator, on the device); else they come from ``qpos`` here.
+    """
     if stable and not np.all(np.isfinite(qpos)):
         stable = False
-    safe_qpos = np.where(np.isfinite(qpos), qpos, 0.0)
-    core, body_pos, body_quat = _kinematics_frames(built, safe_qpos, task.record_bodies)
+    if poses is None:
+        safe_qpos = np.where(np.isfinite(qpos), qpos, 0.0)
+        poses = _kinematics_frames(built, safe_qpos, task.record_bodies)
+    core, body_pos, body_quat = poses
     record = TrajectoryRecord(
         time=times,
         core_pos=core,
@@ -543,6 +551,7 @@ def _finish(
         body_quat=body_quat,
         body_names=list(built.body_names),
         joint_names=list(built.joint_names),
+        backend=backend,
     )
 
 
@@ -635,10 +644,45 @@ def evaluate_batch(
     be built gives ``error`` results, unstable physics ``unstable`` ones.
     """
     from ariel.evaluation.executors import evaluation_threads
-    from ariel.plugins import controllers, fitness_functions
 
     if nthread is None:
         nthread = evaluation_threads()
+    results, ready = prepare_groups(tasks)
+    for group in ready:
+        if group.controller.open_loop:
+            outs = _open_loop(group.tasks, group.built, group.controller, group.fitness_fn, nthread)
+        else:
+            outs = [
+                _closed_loop(task, group.built, group.controller, group.fitness_fn)
+                for task in group.tasks
+            ]
+        for i, out in zip(group.indices, outs):
+            results[i] = out
+    return results  # type: ignore[return-value]
+
+
+@dataclass
+class TaskGroup:
+    """Tasks that share a body, world, controller and timing: they run as one batch."""
+
+    indices: list[int]  # positions in the caller's list
+    tasks: list[EvaluationTask]
+    built: BuiltBody
+    controller: Any
+    fitness_fn: Any
+
+
+def prepare_groups(
+    tasks: Sequence[EvaluationTask],
+) -> tuple[list[EvaluationResult | None], list[TaskGroup]]:
+    """Group ``tasks`` into batches and check each before any physics runs.
+
+    Returns the results known already (``error`` ones for bodies that cannot be built; None
+    elsewhere) and the groups to run. Unknown plugin names, options a plugin rejects and wrong
+    parameter counts raise.
+    """
+    from ariel.plugins import controllers, fitness_functions
+
     groups: dict[str, list[int]] = {}
     for i, task in enumerate(tasks):
         if not isinstance(task, EvaluationTask):
@@ -646,7 +690,7 @@ def evaluate_batch(
         groups.setdefault(_group_key(task), []).append(i)
 
     results: list[EvaluationResult | None] = [None] * len(tasks)
-    ready = []
+    ready: list[TaskGroup] = []
     for indices in groups.values():
         group = [tasks[i] for i in indices]
         head = group[0]
@@ -666,16 +710,8 @@ def evaluate_batch(
                     f"controller {task.controller!r} needs {expected} parameters for this body "
                     f"({built.model.nu} actuators); task {task.eval_id!r} has {len(task.params)}"
                 )
-        ready.append((indices, group, built, controller, fitness_fn))
-
-    for indices, group, built, controller, fitness_fn in ready:
-        if controller.open_loop:
-            outs = _open_loop(group, built, controller, fitness_fn, nthread)
-        else:
-            outs = [_closed_loop(task, built, controller, fitness_fn) for task in group]
-        for i, out in zip(indices, outs):
-            results[i] = out
-    return results  # type: ignore[return-value]
+        ready.append(TaskGroup(indices, group, built, controller, fitness_fn))
+    return results, ready
 
 
 def evaluate(task: EvaluationTask) -> EvaluationResult:

@@ -155,7 +155,8 @@ class EvaluationResult:
     the end of the run: ``time (T,)``, ``core_pos (T, 3)`` (centre of the core geom, as the
     tutorial's tracker reports it), ``joint_target (T, nu)`` (the control in force), ``joint_angle
     (T, nu)``, and with ``record_bodies`` ``body_pos (T, nbody, 3)`` / ``body_quat (T, nbody, 4)``
-    (robot bodies only, names in ``body_names``).
+    (robot bodies only, names in ``body_names``). ``backend`` names the simulator that produced
+    it: ``"mujoco"`` (the CPU engine) or ``"mujoco-warp:<device>"`` (`ariel.evaluation._warp`).
     """
 
     eval_id: str
@@ -173,6 +174,7 @@ class EvaluationResult:
     body_quat: np.ndarray | None = None
     body_names: list[str] = field(default_factory=list)
     joint_names: list[str] = field(default_factory=list)
+    backend: str = "mujoco"
 
     @property
     def ok(self) -> bool:

@@ -1,0 +1,461 @@
+"""MuJoCo Warp: many brains of ONE body stepped at once, as parallel worlds on a GPU.
+
+`WarpEvaluator.evaluate_batch` takes the same tasks and gives the same `EvaluationResult`s as
+`ariel.evaluation.evaluate_batch`, for open-loop controllers (the CPGs) of a body that many
+tasks share:
+
+* The body is compiled by the CPU engine (`build`) and copied to the device once.
+* Controls follow the CPU engine to the letter: the controller's targets at every controller
+  call, blended and clipped (`held_controls`), are computed on the host in float64 and uploaded
+  (as float32) once per batch; each call's control holds for ``control_period`` steps.
+* Steps between two events (a controller call, a recorded frame) run as one captured graph:
+  a CUDA graph on a GPU, Warp's CPU graph on the CPU. At each recorded frame the device
+  computes the kinematics and copies qpos, the core geom's position and (``record_bodies``)
+  the robot's body poses into frame buffers, which come back to the host once at the end.
+* Fitness comes from the same registered fitness functions, on the same frames (`_finish`).
+
+MuJoCo Warp computes in float32 and sums contact forces with atomics, so results agree with
+the CPU engine closely but not bit for bit, and a GPU run is not bitwise repeatable; results
+name their backend (``mujoco-warp:cuda`` or ``mujoco-warp:cpu``). A world whose state leaves
+the finite range MuJoCo allows (|x| <= 1e10) is ``unstable``. A world whose contacts or
+constraints overflow the device buffers is re-run with larger buffers.
+
+Closed-loop controllers (a policy per call) are not batched here: their tasks run on the CPU
+engine in this process (backend ``mujoco``). Import cost: `warp` and `mujoco_warp` load on the
+first evaluator only.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import functools
+import time as _time
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ariel.evaluation._engine import (
+    BuiltBody,
+    _build_key,
+    _closed_loop,
+    _finish,
+    frame_steps,
+    held_controls,
+    num_steps,
+    open_loop_targets,
+    prepare_groups,
+)
+from ariel.evaluation._task import EvaluationResult, EvaluationTask
+from ariel.evaluation.executors import SerialExecutor
+
+__all__ = [
+    "BACKEND",
+    "DEVICES",
+    "INSTALL_HINT",
+    "WarpEvaluator",
+    "WarpExecutor",
+    "WarpUnavailableError",
+    "check_device",
+    "cuda_available",
+]
+
+BACKEND = "mujoco-warp"
+#: Devices the evaluator runs on: "cuda" (an NVIDIA GPU), "cpu" (Warp's CPU device: slow,
+#: for tests and machines without a GPU).
+DEVICES: tuple[str, ...] = ("cuda", "cpu")
+INSTALL_HINT = "pip install 'ariel[gpu]'"
+
+# MuJoCo's limit on |qpos|, |qvel| (mjMAXVAL): beyond it the CPU engine warns and stops.
+_MAX_VALUE = 1e10
+# Buffer sizes grow this many times at most when contacts or constraints overflow them.
+_MAX_GROWTH = 4
+_CACHE_SIZE = 4
+
+
+class WarpUnavailableError(RuntimeError):
+    """MuJoCo Warp is not installed, or the device asked for is not there (one line)."""
+
+
+def warp_modules() -> tuple[Any, Any]:
+    """``(warp, mujoco_warp)``, imported now; `WarpUnavailableError` naming the extra if not."""
+    try:
+        import mujoco_warp
+        import warp
+    except ImportError as exc:
+        raise WarpUnavailableError(
+            f"the gpu backend needs MuJoCo Warp ({exc.name} is not installed): {INSTALL_HINT}"
+        ) from None
+    if warp.config.log_level < warp.LOG_WARNING:
+        # Warp logs one line per kernel module it loads (hundreds on a first compile).
+        warp.config.log_level = warp.LOG_WARNING
+    return warp, mujoco_warp
+
+
+def cuda_available() -> bool:
+    """Whether Warp sees a CUDA device here (imports Warp)."""
+    wp, _ = warp_modules()
+    return bool(wp.is_cuda_available())
+
+
+def check_device(device: str) -> str:
+    """``device`` if the evaluator can run there; `WarpUnavailableError` (one line) if not."""
+    if device not in DEVICES:
+        raise ValueError(f"device must be one of {', '.join(DEVICES)}, not {device!r}")
+    if device == "cuda" and not cuda_available():
+        raise WarpUnavailableError(
+            "the gpu executor found no CUDA device (no NVIDIA GPU or driver visible to Warp); "
+            "to run MuJoCo Warp on the CPU instead (slow; for tests), set "
+            'executor.device = "cpu" (ariel run ... --set executor.device=cpu)'
+        )
+    return device
+
+
+# --------------------------------------------------------------------------------------------
+# Device kernels (defined on first use, so that importing this module needs no Warp)
+# --------------------------------------------------------------------------------------------
+
+
+@functools.cache
+def _kernels() -> Any:
+    wp, _ = warp_modules()
+
+    @wp.kernel
+    def record_state(
+        frame: int,
+        core_geom: int,
+        qpos: wp.array2d(dtype=wp.float32),
+        geom_xpos: wp.array2d(dtype=wp.vec3),
+        out_qpos: wp.array3d(dtype=wp.float32),
+        out_core: wp.array2d(dtype=wp.vec3),
+    ):
+        world, i = wp.tid()
+        out_qpos[frame, world, i] = qpos[world, i]
+        if i == 0:
+            out_core[frame, world] = geom_xpos[world, core_geom]
+
+    @wp.kernel
+    def record_bodies(
+        frame: int,
+        bodies: wp.array(dtype=wp.int32),
+        xpos: wp.array2d(dtype=wp.vec3),
+        xquat: wp.array2d(dtype=wp.quat),
+        out_pos: wp.array3d(dtype=wp.vec3),
+        out_quat: wp.array3d(dtype=wp.quat),
+    ):
+        world, j = wp.tid()
+        out_pos[frame, world, j] = xpos[world, bodies[j]]
+        out_quat[frame, world, j] = xquat[world, bodies[j]]
+
+    return record_state, record_bodies
+
+
+# --------------------------------------------------------------------------------------------
+# One body on the device
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Worlds:
+    """Device state for ``nworld`` copies of a body, and graphs captured on it."""
+
+    data: Any
+    nworld: int
+    sizes: tuple[int, int]  # (nconmax, njmax) it was made with
+    graphs: dict[int, Any]  # steps -> captured graph of that many steps
+
+
+@dataclass
+class _DeviceBody:
+    built: BuiltBody
+    model: Any  # mujoco_warp.Model
+    sizes: tuple[int, int] | None = None  # grown (nconmax, njmax), None: MuJoCo Warp's defaults
+    worlds: _Worlds | None = None
+
+
+@dataclass
+class _Frames:
+    qpos: np.ndarray  # (F, B, nq)
+    core: np.ndarray  # (F, B, 3)
+    body_pos: np.ndarray | None  # (F, B, nbody, 3)
+    body_quat: np.ndarray | None  # (F, B, nbody, 4), MuJoCo's (w, x, y, z) order
+    final_qvel: np.ndarray  # (B, nv)
+    overflowed: np.ndarray  # (B,) bool: contacts or constraints did not fit
+
+
+class WarpEvaluator:
+    """Evaluates batches of tasks on MuJoCo Warp (see the module docs for the semantics).
+
+    Args:
+        device: ``"cuda"`` (default) or ``"cpu"``; checked now (`WarpUnavailableError`).
+        max_worlds: most worlds stepped at once (a larger group runs in pieces); None: all of
+            a group at once.
+    """
+
+    def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
+        if max_worlds is not None and (not isinstance(max_worlds, int) or max_worlds < 1):
+            raise ValueError(f"max_worlds must be an integer >= 1 or None, got {max_worlds!r}")
+        self.device = check_device(device)
+        self.max_worlds = max_worlds
+        self._bodies: OrderedDict[str, _DeviceBody] = OrderedDict()
+
+    @property
+    def backend(self) -> str:
+        """What results of this evaluator record as their backend, e.g. ``mujoco-warp:cuda``."""
+        return f"{BACKEND}:{self.device}"
+
+    def __repr__(self) -> str:
+        return f"WarpEvaluator(device={self.device!r}, max_worlds={self.max_worlds!r})"
+
+    # -- public ----------------------------------------------------------------------------------
+
+    def evaluate_batch(self, tasks: Sequence[EvaluationTask]) -> list[EvaluationResult]:
+        """Like `ariel.evaluation.evaluate_batch`: results in input order, checks first."""
+        results, groups = prepare_groups(tasks)
+        for group in groups:
+            if group.controller.open_loop:
+                outs: list[EvaluationResult] = []
+                size = self.max_worlds or len(group.tasks)
+                for start in range(0, len(group.tasks), size):
+                    piece = group.tasks[start : start + size]
+                    outs.extend(
+                        self._open_loop(piece, group.built, group.controller, group.fitness_fn)
+                    )
+            else:  # a policy per controller call: the CPU engine, here
+                outs = [
+                    _closed_loop(task, group.built, group.controller, group.fitness_fn)
+                    for task in group.tasks
+                ]
+            for i, out in zip(group.indices, outs):
+                results[i] = out
+        return results  # type: ignore[return-value]
+
+    # -- internals -------------------------------------------------------------------------------
+
+    def _device_body(self, task: EvaluationTask, built: BuiltBody) -> _DeviceBody:
+        key = _build_key(task)
+        body = self._bodies.get(key)
+        if body is None or body.built is not built:
+            wp, mjw = warp_modules()
+            with wp.ScopedDevice(self.device):
+                model = mjw.put_model(built.model)
+            model.opt.warn_overflow = 0  # overflows are handled here (re-run, larger buffers)
+            body = self._bodies[key] = _DeviceBody(built=built, model=model)
+        self._bodies.move_to_end(key)
+        while len(self._bodies) > _CACHE_SIZE:
+            self._bodies.popitem(last=False)
+        return body
+
+    def _worlds(self, body: _DeviceBody, nworld: int) -> _Worlds:
+        """Device data for ``nworld`` worlds (kept for the next batch of the same size)."""
+        worlds = body.worlds
+        if worlds is not None and worlds.nworld == nworld and worlds.sizes == body.sizes:
+            return worlds
+        import mujoco
+
+        wp, mjw = warp_modules()
+        body.worlds = None  # free the old buffers first
+        model = body.built.model
+        nconmax, njmax = body.sizes or (None, None)
+        with wp.ScopedDevice(self.device):
+            data = mjw.put_data(
+                model, mujoco.MjData(model), nworld=nworld, nconmax=nconmax, njmax=njmax
+            )
+        body.worlds = _Worlds(data, nworld, (data.naconmax // nworld, data.njmax), {})
+        if body.sizes is None:
+            body.sizes = body.worlds.sizes
+        return body.worlds
+
+    def _open_loop(
+        self,
+        tasks: Sequence[EvaluationTask],
+        built: BuiltBody,
+        controller: Any,
+        fitness_fn: Any,
+    ) -> list[EvaluationResult]:
+        head = tasks[0]
+        model = built.model
+        nstep = num_steps(head, model)
+        period = head.control_period
+        dt = model.opt.timestep
+        steps = frame_steps(nstep, head.record_every)
+        start = _time.perf_counter()
+        params = np.array([t.params for t in tasks], dtype=np.float64)
+        call_times = np.arange(0, nstep, period) * dt
+        targets = open_loop_targets(
+            controller, params, [t.seed for t in tasks], call_times, model, name=head.controller
+        )
+        held = held_controls(targets, head.smoothing, built.low, built.high)  # (B, calls, nu)
+        del targets
+        body = self._device_body(head, built)
+        frames = self._simulate(body, held, nstep, period, steps, head.record_bodies)
+        for _ in range(_MAX_GROWTH):
+            if not frames.overflowed.any():
+                break
+            nconmax, njmax = body.sizes  # type: ignore[misc]
+            body.sizes = (2 * nconmax, 2 * njmax)  # kept for this body's later batches
+            frames = self._simulate(body, held, nstep, period, steps, head.record_bodies)
+        wall = (_time.perf_counter() - start) / len(tasks)
+
+        times = steps * dt
+        # The control in force at each frame (the last step's at the end), as the CPU engine.
+        joint_target = held[:, np.minimum(steps, nstep - 1) // period]
+        within = np.abs(frames.qpos) <= _MAX_VALUE  # False for NaN and inf
+        stable = within.all(axis=(0, 2)) & (np.abs(frames.final_qvel) <= _MAX_VALUE).all(axis=1)
+        results = []
+        for b, task in enumerate(tasks):
+            if frames.overflowed[b]:
+                results.append(_overflow_result(task, fitness_fn, body.sizes, self.backend))
+                continue
+            poses = None  # unstable: the host computes poses from the finite part, as on CPU
+            if stable[b]:
+                poses = (
+                    frames.core[:, b],
+                    None if frames.body_pos is None else frames.body_pos[:, b],
+                    None if frames.body_quat is None else frames.body_quat[:, b],
+                )
+            results.append(
+                _finish(
+                    task,
+                    built,
+                    fitness_fn,
+                    times,
+                    frames.qpos[:, b],
+                    joint_target[b],
+                    bool(stable[b]),
+                    wall,
+                    poses=poses,
+                    backend=self.backend,
+                )
+            )
+        return results
+
+    def _simulate(
+        self,
+        body: _DeviceBody,
+        held: np.ndarray,
+        nstep: int,
+        period: int,
+        steps: np.ndarray,
+        record_bodies: bool,
+    ) -> _Frames:
+        """Step every world from the initial state with its controls; frames at ``steps``."""
+        wp, mjw = warp_modules()
+        record_state, record_pose = _kernels()
+        built = body.built
+        nworld = held.shape[0]
+        nq = built.model.nq
+        nframes = steps.size
+        nrobot = len(built.robot_bodies)
+        frame_of = {int(k): f for f, k in enumerate(steps)}
+        events = sorted(set(range(0, nstep, period)) | set(frame_of))
+        with wp.ScopedDevice(self.device):
+            worlds = self._worlds(body, nworld)
+            m, d = body.model, worlds.data
+            mjw.reset_data(m, d)
+            # Controls as (call, world, actuator): one contiguous block per controller call.
+            controls = wp.array(np.ascontiguousarray(held.transpose(1, 0, 2)), dtype=wp.float32)
+            out_qpos = wp.empty((nframes, nworld, nq), dtype=wp.float32)
+            out_core = wp.empty((nframes, nworld), dtype=wp.vec3)
+            if record_bodies:
+                bodies = wp.array(built.robot_bodies.astype(np.int32), dtype=wp.int32)
+                out_pos = wp.empty((nframes, nworld, nrobot), dtype=wp.vec3)
+                out_quat = wp.empty((nframes, nworld, nrobot), dtype=wp.quat)
+            for i, k in enumerate(events):
+                if k % period == 0 and k < nstep:
+                    wp.copy(d.ctrl, controls[k // period])
+                frame = frame_of.get(k)
+                if frame is not None:
+                    mjw.kinematics(m, d)
+                    wp.launch(
+                        record_state,
+                        dim=(nworld, nq),
+                        inputs=[frame, built.core_geom, d.qpos, d.geom_xpos, out_qpos, out_core],
+                    )
+                    if record_bodies:
+                        wp.launch(
+                            record_pose,
+                            dim=(nworld, nrobot),
+                            inputs=[frame, bodies, d.xpos, d.xquat, out_pos, out_quat],
+                        )
+                if k < nstep:
+                    end = events[i + 1] if i + 1 < len(events) else nstep
+                    wp.capture_launch(self._graph(worlds, m, end - k))
+            wp.synchronize()
+            return _Frames(
+                qpos=out_qpos.numpy().astype(np.float64),
+                core=out_core.numpy().astype(np.float64),
+                body_pos=out_pos.numpy().astype(np.float64) if record_bodies else None,
+                # MuJoCo Warp keeps MuJoCo's (w, x, y, z) order in its quaternions.
+                body_quat=out_quat.numpy().astype(np.float64) if record_bodies else None,
+                final_qvel=d.qvel.numpy().astype(np.float64),
+                overflowed=(d.overflow.numpy() & _capacity_bits(mjw)) != 0,
+            )
+
+    def _graph(self, worlds: _Worlds, model: Any, nsteps: int) -> Any:
+        """The captured graph of ``nsteps`` physics steps on these worlds (captured once)."""
+        graph = worlds.graphs.get(nsteps)
+        if graph is None:
+            wp, mjw = warp_modules()
+            with wp.ScopedCapture() as capture:
+                for _ in range(nsteps):
+                    mjw.step(model, worlds.data)
+            graph = worlds.graphs[nsteps] = capture.graph
+        return graph
+
+
+def _capacity_bits(mjw: Any) -> int:
+    """Overflow flags that mean dropped contacts or constraints (not solver iteration limits)."""
+    kinds = mjw.OverflowType
+    bits = 0
+    for name in ("NEFC", "NJMAX_NNZ", "BROADPHASE", "NARROWPHASE", "CCD", "HFIELD", "NVMAX"):
+        bits |= int(getattr(kinds, name, 0))
+    return bits
+
+
+def _overflow_result(
+    task: EvaluationTask, fitness_fn: Any, sizes: Any, backend: str
+) -> EvaluationResult:
+    worst = -np.inf if fitness_fn.maximise else np.inf
+    return EvaluationResult(
+        eval_id=task.eval_id,
+        fitness=float(worst),
+        status="error",
+        error=(
+            f"MuJoCo Warp: contacts or constraints overflowed the device buffers even at "
+            f"(nconmax, njmax) = {sizes}"
+        ),
+        backend=backend,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# The `gpu` executor
+# --------------------------------------------------------------------------------------------
+
+
+class WarpExecutor(SerialExecutor):
+    """The ``gpu`` executor: runs calls here, in the driver, and evaluates batches on a device.
+
+    Its `evaluate_batch` (a `WarpEvaluator`'s) is what the loop sends each brain batch to; any
+    other submitted call runs as in `SerialExecutor`.
+    """
+
+    def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
+        super().__init__()
+        self.evaluator = WarpEvaluator(device, max_worlds=max_worlds)
+
+    @property
+    def device(self) -> str:
+        return self.evaluator.device
+
+    def evaluate_batch(self, tasks: Sequence[EvaluationTask]) -> list[EvaluationResult]:
+        return self.evaluator.evaluate_batch(tasks)
+
+    def __repr__(self) -> str:
+        return f"WarpExecutor(device={self.device!r})"
+
+    def __enter__(self) -> cf.Executor:
+        return self

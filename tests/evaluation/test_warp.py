@@ -1,0 +1,166 @@
+"""The MuJoCo Warp evaluator, on Warp's CPU device: same frames and fitness as the CPU engine.
+
+Warp computes in float32, so the comparison is to a tolerance (the issue's: 1e-3 m of core
+position after 1 simulated second on flat ground); what is computed on the host (times, joint
+targets, the fitness function) must be equal. The first test of a fresh machine compiles
+MuJoCo Warp's kernels (~20 s on 2 cores; cached on disk afterwards).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+
+from ariel.evaluation import BodySpec, EvaluationTask, TrajectoryRecord, build, evaluate_batch
+from ariel.evaluation.builtin_plugins import NaCPGController
+
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
+pytestmark = pytest.mark.warp
+
+from ariel.evaluation._warp import (  # noqa: E402
+    WarpEvaluator,
+    WarpUnavailableError,
+    check_device,
+    cuda_available,
+    warp_modules,
+)
+
+GECKO = BodySpec("prebuilt", "gecko")
+
+
+@pytest.fixture(scope="module")
+def evaluator() -> WarpEvaluator:
+    return WarpEvaluator("cpu")
+
+
+def gecko_tasks(n: int, *, seed: int = 1, **fields: object) -> list[EvaluationTask]:
+    model = build(EvaluationTask(body=GECKO)).model
+    params = NaCPGController().random_parameters(model, np.random.default_rng(seed), n)
+    fields = {"duration": 1.0, "record_every": 50, "seed": 3, **fields}
+    return [
+        EvaluationTask(body=GECKO, params=p, eval_id=f"e{i}", **fields)  # type: ignore[arg-type]
+        for i, p in enumerate(params)
+    ]
+
+
+def test_trajectories_match_the_cpu_engine_after_one_second(evaluator) -> None:
+    tasks = gecko_tasks(6)
+    cpu = evaluate_batch(tasks)
+    warp = evaluator.evaluate_batch(tasks)
+    core = max(np.abs(a.core_pos - b.core_pos).max() for a, b in zip(cpu, warp))
+    angle = max(np.abs(a.joint_angle - b.joint_angle).max() for a, b in zip(cpu, warp))
+    pose = max(np.abs(a.body_pos - b.body_pos).max() for a, b in zip(cpu, warp))
+    print(f"after 1 s: core {core:.2e} m, joints {angle:.2e} rad, bodies {pose:.2e} m apart")
+    assert core < 1e-3
+    assert angle < 1e-2 and pose < 1e-3
+    # The robots did move: the comparison is not between two robots lying still.
+    assert max(np.abs(a.joint_angle - a.joint_angle[0]).max() for a in cpu) > 0.3
+    for a, b in zip(cpu, warp):
+        assert (b.eval_id, b.status, b.backend) == (a.eval_id, "ok", "mujoco-warp:cpu")
+        assert a.backend == "mujoco"
+        np.testing.assert_array_equal(b.time, a.time)
+        np.testing.assert_array_equal(b.joint_target, a.joint_target)  # host-side controls
+        assert b.body_names == a.body_names and b.joint_names == a.joint_names
+        assert b.body_quat.shape == a.body_quat.shape
+        np.testing.assert_allclose(b.body_quat, a.body_quat, atol=1e-3)  # (w, x, y, z) both
+        assert b.fitness == pytest.approx(a.fitness, abs=1e-3)
+        assert b.descriptors == a.descriptors and b.sim_time == a.sim_time
+
+
+@pytest.mark.parametrize("name", ["xy_displacement", "x_speed", "turning_in_place"])
+def test_fitness_is_the_registered_function_on_the_recorded_frames(evaluator, name) -> None:
+    from ariel.plugins import fitness_functions
+
+    tasks = gecko_tasks(3, seed=2, fitness=name, record_bodies=False)
+    warp = evaluator.evaluate_batch(tasks)
+    cpu = evaluate_batch(tasks)
+    fitness = fitness_functions.get(name)
+    for a, b in zip(cpu, warp):
+        frames = TrajectoryRecord(b.time, b.core_pos, b.joint_target, b.joint_angle)
+        assert b.fitness == float(fitness(frames))  # the same function, on these frames
+        assert b.fitness == pytest.approx(a.fitness, abs=1e-3)
+        assert b.body_pos is None
+
+
+def test_recording_rate_does_not_change_the_physics(evaluator) -> None:
+    sparse = evaluator.evaluate_batch(gecko_tasks(3, record_every=0, record_bodies=False))
+    dense = evaluator.evaluate_batch(gecko_tasks(3, record_every=10, record_bodies=False))
+    for a, b in zip(sparse, dense):
+        assert a.time.tolist() == [0.0, pytest.approx(1.0)]
+        assert b.time.size == 51
+        np.testing.assert_array_equal(a.core_pos[-1], b.core_pos[-1])
+        assert a.fitness == b.fitness
+
+
+def test_the_same_batch_twice_gives_the_same_results_on_the_cpu_device(evaluator) -> None:
+    # Each batch starts from a reset of the same device data and replays the same graphs.
+    tasks = gecko_tasks(3, record_bodies=False)
+    first, second = evaluator.evaluate_batch(tasks), evaluator.evaluate_batch(tasks)
+    for a, b in zip(first, second):
+        np.testing.assert_array_equal(a.core_pos, b.core_pos)
+
+
+def test_unstable_physics_gives_status_unstable_and_the_worst_fitness(evaluator) -> None:
+    exploding = {"timestep": 0.05, "mujoco_config": {"integrator": "EULER"}}
+    results = evaluator.evaluate_batch(gecko_tasks(2, world_options=exploding))
+    for result in results:
+        assert result.status == "unstable" and "unstable" in result.error
+        assert result.fitness == -math.inf
+        assert np.all(np.isfinite(result.core_pos))  # poses of the finite state, as on CPU
+
+
+def test_buffers_that_overflow_grow_and_the_batch_runs_again(evaluator) -> None:
+    tasks = gecko_tasks(2, seed=7, record_bodies=False)
+    small = WarpEvaluator("cpu")
+    body = small._device_body(tasks[0], build(tasks[0]))
+    body.sizes = (4, 8)  # room for 4 contacts and 8 constraint rows per world
+    results = small.evaluate_batch(tasks)
+    assert body.sizes[0] > 1 and body.sizes[1] > 1
+    cpu = evaluate_batch(tasks)
+    for a, b in zip(cpu, results):
+        assert b.status == "ok"
+        assert np.abs(a.core_pos - b.core_pos).max() < 1e-3
+
+
+def test_groups_mix_open_and_closed_loop_and_bad_bodies_in_input_order(evaluator) -> None:
+    from ariel.evaluation.builtin_plugins import MLPController
+
+    model = build(EvaluationTask(body=GECKO)).model
+    mlp = MLPController().random_parameters(model, np.random.default_rng(0), 1)[0]
+    tasks = [
+        *gecko_tasks(1, record_bodies=False),
+        EvaluationTask(body=GECKO, params=mlp, controller="mlp", duration=0.2, eval_id="mlp"),
+        EvaluationTask(body=BodySpec("graph", {"nodes": []}), duration=0.2, eval_id="bad"),
+    ]
+    results = evaluator.evaluate_batch(tasks)
+    assert [r.eval_id for r in results] == ["e0", "mlp", "bad"]
+    assert results[0].backend == "mujoco-warp:cpu"
+    assert results[1].backend == "mujoco" and results[1].status == "ok"  # the CPU engine
+    assert results[2].status == "error"
+    with pytest.raises(ValueError, match="needs 40 parameters"):
+        evaluator.evaluate_batch([EvaluationTask(body=GECKO, params=[0.0] * 3)])
+
+
+def test_devices_are_checked_with_one_line(monkeypatch) -> None:
+    with pytest.raises(ValueError, match="device must be one of cuda, cpu"):
+        check_device("tpu")
+    assert check_device("cpu") == "cpu"
+    if not cuda_available():
+        with pytest.raises(WarpUnavailableError, match=r'executor\.device = "cpu"') as info:
+            WarpEvaluator("cuda")
+        assert "\n" not in str(info.value)
+    monkeypatch.setitem(sys.modules, "mujoco_warp", None)  # as if it were not installed
+    with pytest.raises(WarpUnavailableError, match=r"pip install 'ariel\[gpu\]'"):
+        warp_modules()
+
+
+def test_a_world_that_overflows_every_size_tried_is_an_error_result() -> None:
+    tasks = gecko_tasks(1, seed=7, record_bodies=False)
+    small = WarpEvaluator("cpu")
+    small._device_body(tasks[0], build(tasks[0])).sizes = (1, 1)  # 4 doublings: still short
+    (result,) = small.evaluate_batch(tasks)
+    assert result.status == "error" and result.fitness == -math.inf
+    assert "overflowed the device buffers" in result.error
