@@ -27,7 +27,6 @@ first evaluator only.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import functools
 import time as _time
 from collections import OrderedDict
@@ -42,6 +41,7 @@ from ariel.evaluation._engine import (
     _build_key,
     _closed_loop,
     _finish,
+    evaluate_batch,
     frame_steps,
     held_controls,
     num_steps,
@@ -437,10 +437,12 @@ def _overflow_result(
 
 
 class WarpExecutor(SerialExecutor):
-    """The ``gpu`` executor: runs calls here, in the driver, and evaluates batches on a device.
+    """The ``gpu`` executor: calls run here, in the driver, and batches run on a device.
 
-    Its `evaluate_batch` (a `WarpEvaluator`'s) is what the loop sends each brain batch to; any
-    other submitted call runs as in `SerialExecutor`.
+    A submitted call of `ariel.evaluation.evaluate_batch` (what the loop sends each brain batch
+    to) runs on this executor's `WarpEvaluator` instead, with the same tasks and the same kind
+    of results; any other call runs as in `SerialExecutor`. The loop sends a body's whole
+    batch in one call (its capacity for ``gpu`` is 1), so a batch is one set of worlds.
     """
 
     def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
@@ -451,11 +453,10 @@ class WarpExecutor(SerialExecutor):
     def device(self) -> str:
         return self.evaluator.device
 
-    def evaluate_batch(self, tasks: Sequence[EvaluationTask]) -> list[EvaluationResult]:
-        return self.evaluator.evaluate_batch(tasks)
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Any:
+        if fn is evaluate_batch:
+            fn = self.evaluator.evaluate_batch
+        return super().submit(fn, *args, **kwargs)
 
     def __repr__(self) -> str:
         return f"WarpExecutor(device={self.device!r})"
-
-    def __enter__(self) -> cf.Executor:
-        return self

@@ -7,6 +7,8 @@ Everything that runs evaluations talks to a `concurrent.futures.Executor` made h
   ``forkserver`` (``spawn`` where that is missing), BLAS/OpenMP limited to one thread per worker.
 - ``dask``: Dask distributed, on a ``LocalCluster`` or on an existing scheduler (e.g. one run by
   dask-jobqueue on SLURM); needs ``pip install 'ariel[distributed]'``.
+- ``gpu``: in this process, each batch of one body's brains as parallel worlds on MuJoCo Warp
+  (`ariel.evaluation._warp.WarpExecutor`, docs/gpu.md); needs ``pip install 'ariel[gpu]'``.
 
 Functions shipped to workers must be plain top-level functions taking plain data: workers
 import them by name and rebuild plugins from registry names (see ``docs/executors.md``).
@@ -44,7 +46,7 @@ __all__ = [
 R = TypeVar("R")
 
 #: The executor kinds `make_executor` knows.
-EXECUTOR_KINDS: tuple[str, ...] = ("serial", "local", "dask")
+EXECUTOR_KINDS: tuple[str, ...] = ("serial", "local", "dask", "gpu")
 
 #: Environment variables that size the thread pools of BLAS, OpenMP and numexpr.
 THREAD_LIMIT_VARIABLES: tuple[str, ...] = (
@@ -384,7 +386,8 @@ def make_executor(
     """A `concurrent.futures.Executor` of ``kind`` (use it as a context manager).
 
     Args:
-        kind: ``"serial"``, ``"local"`` or ``"dask"``.
+        kind: ``"serial"``, ``"local"``, ``"dask"`` or ``"gpu"`` (options ``device``:
+            ``"cuda"`` or ``"cpu"``, and ``max_worlds``; see `WarpExecutor`).
         workers: processes for ``local`` and for a Dask ``LocalCluster`` (default: one per
             usable CPU); ``serial`` accepts only 1.
         scheduler: ``dask`` only: an address like ``"tcp://host:8786"``, a cluster object
@@ -410,6 +413,14 @@ def make_executor(
         if options:
             raise TypeError(f"the serial executor takes no options, got {sorted(options)}")
         return SerialExecutor()
+    if kind == "gpu":
+        if workers not in (None, 1):
+            raise ValueError(
+                f"the gpu executor runs in this process on one device; no workers (got {workers})"
+            )
+        from ariel.evaluation._warp import WarpExecutor  # imports no Warp until it is made
+
+        return WarpExecutor(**options)
     if kind == "local":
         return _make_local(workers, **options)
     return _make_dask(workers, scheduler, **options)

@@ -101,9 +101,12 @@ class RecordConfig(_Section):
 
 
 class ExecutorConfig(_Section):
-    kind: Literal["serial", "local", "dask"] = "local"
+    kind: Literal["serial", "local", "dask", "gpu"] = "local"
     workers: int | None = Field(None, ge=1)
     scheduler: str | None = None
+    # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).
+    # Unlike the other kinds, ``gpu`` does change results: float32 physics (docs/gpu.md).
+    device: Literal["cuda", "cpu"] = "cuda"
 
 
 class ExperimentConfig(_Section):

@@ -420,6 +420,7 @@ class _Experiment:
             "seed": task.seed,
             "sim_seconds": float(result.sim_time),
             "wall_seconds": float(result.wall_time),
+            "backend": result.backend,
         }
 
     def error_row(self, body: Body, generation: int) -> None:
@@ -588,7 +589,7 @@ def _budget(config: ExperimentConfig, brain_only: bool) -> int:
 def _executor_capacity(kind: str, executor: Any, workers: int | None) -> int:
     from ariel.evaluation.executors import default_workers
 
-    if kind == "serial":
+    if kind in ("serial", "gpu"):  # gpu: a body's whole batch as one set of worlds
         return 1
     if kind == "dask":
         with contextlib.suppress(Exception):
@@ -628,6 +629,8 @@ def _drive(
         live=None if show_progress is None else show_progress,
     )
     options: dict[str, Any] = {"workers": workers}
+    if executor_kind == "gpu":
+        options["device"] = config.executor.device
     if executor_kind == "dask":
         options["scheduler"] = scheduler
     folder.update_info(
@@ -789,6 +792,7 @@ def run_experiment(
     workers = workers if workers is not None else config.executor.workers
     scheduler = scheduler if scheduler is not None else config.executor.scheduler
     _check_executor(kind, workers, scheduler)
+    _check_gpu(kind, workers, config.executor.device)
     plugins = _resolve(config)
     run_id = _new_run_id(config)
     path = Path(out) if out is not None else Path("data") / "runs" / run_id
@@ -825,6 +829,24 @@ def run_experiment(
         overwrite=overwrite,
     )
     return _drive(experiment, None, kind, workers, scheduler, progress)
+
+
+def _check_gpu(kind: str, workers: int | None, device: str) -> None:
+    """Executor ``gpu``: MuJoCo Warp installed and its device here, else one `ConfigError` line."""
+    if kind != "gpu":
+        return
+    if workers not in (None, 1):
+        raise ConfigError(f"executor.workers: the gpu executor runs on one device (got {workers})")
+    from ariel.evaluation._warp import WarpUnavailableError, check_device, warp_modules
+
+    try:
+        warp_modules()
+    except WarpUnavailableError as exc:
+        raise ConfigError(f"executor.kind: {exc}") from None
+    try:
+        check_device(device)
+    except WarpUnavailableError as exc:
+        raise ConfigError(f"executor.device: {exc}; or the CPU engine: --executor local") from None
 
 
 def _check_executor(kind: str, workers: int | None, scheduler: str | None) -> None:
@@ -883,6 +905,7 @@ def resume_experiment(
         workers = workers if workers is not None else last.get("workers")
         scheduler = scheduler if scheduler is not None else last.get("scheduler")
     _check_executor(kind, workers, scheduler)
+    _check_gpu(kind, workers, config.executor.device)
     plugins = _resolve(config)
     folder.discard_after(state.generation if state is not None else -1)
     experiment = _Experiment(config, plugins, folder, info["run_id"])

@@ -11,6 +11,12 @@ Fitness functions see the recorded frames, so the stored fitness is reproduced a
 ``record.rate_hz``; `ReplayResult.full_rate` re-simulates the same evaluation recording every
 physics step and every body's pose (for a Rerun recording, a video or the viewer). Recording
 does not change the physics: the full-rate trajectory passes through the same states.
+
+An evaluation run on MuJoCo Warp (``backend`` ``mujoco-warp:<device>``, executor ``gpu``) is
+re-simulated on MuJoCo Warp again where its device is available here (else on the CPU engine),
+as a batch of one world: float32 physics whose summation order depends on the batch, so the
+replayed fitness is close to the stored one but not expected to equal it;
+`ReplayResult.difference` says by how much.
 """
 
 from __future__ import annotations
@@ -67,6 +73,9 @@ class ReplayResult:
         result: the `EvaluationResult` of evaluating it again.
         stored_fitness / fitness: the fitness in the table and the replayed one.
         identical: the two are the same float64, bit for bit (and so are the statuses).
+        stored_backend / backend: the simulator of the stored and of the replayed fitness.
+        exact: whether a bit-for-bit match is expected (both on the CPU engine).
+        difference: replayed minus stored fitness.
         version_differences: ``{package: (recorded, now)}`` for versions that decide results.
     """
 
@@ -96,6 +105,23 @@ class ReplayResult:
     @property
     def status(self) -> str:
         return str(self.result.status)
+
+    @property
+    def stored_backend(self) -> str:
+        backend = self.row.get("backend")
+        return backend if isinstance(backend, str) and backend else "mujoco"
+
+    @property
+    def backend(self) -> str:
+        return str(self.result.backend)
+
+    @property
+    def exact(self) -> bool:
+        return self.stored_backend == "mujoco" and self.backend == "mujoco"
+
+    @property
+    def difference(self) -> float:
+        return self.fitness - self.stored_fitness
 
     @property
     def identical(self) -> bool:
@@ -336,12 +362,26 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
     Raises `UnknownEvaluationError` for an id not in the run's finished generations, and
     `ariel.recording.NotARunError` for a folder that is not a run.
     """
-    from ariel.evaluation import evaluate
-
     run = load_run(run_dir)
     row = _find_row(run, eval_id)
     task = replay_task(run, row)
-    result = evaluate(task)
+    result = _evaluate_as_stored(task, row.get("backend"))
     return ReplayResult(
         run=run, row=row, task=task, result=result, version_differences=_version_differences(run)
     )
+
+
+def _evaluate_as_stored(task: Any, backend: Any) -> Any:
+    """Evaluate ``task`` on the simulator the row names where it is here, else the CPU engine."""
+    from ariel.evaluation import evaluate
+
+    prefix = "mujoco-warp:"
+    if isinstance(backend, str) and backend.startswith(prefix):
+        from ariel.evaluation._warp import WarpEvaluator, WarpUnavailableError
+
+        try:
+            evaluator = WarpEvaluator(backend[len(prefix) :])
+        except (WarpUnavailableError, ValueError):  # not installed, no such device, unknown
+            return evaluate(task)
+        return evaluator.evaluate_batch([task])[0]
+    return evaluate(task)

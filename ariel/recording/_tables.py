@@ -67,8 +67,15 @@ def evaluation_schema() -> pa.Schema:
             ("seed", pa.int64()),
             ("sim_seconds", pa.float64()),
             ("wall_seconds", pa.float64()),
+            # The simulator that produced the fitness: "mujoco" (the CPU engine) or
+            # "mujoco-warp:<device>"; null for a body that could not be built (no physics ran).
+            ("backend", pa.string()),
         ]
     )
+
+
+#: Columns added after runs were recorded, and what an older file's rows read as.
+_ADDED_COLUMNS: dict[str, dict[str, Any]] = {"evaluations": {"backend": "mujoco"}}
 
 
 @cache
@@ -152,5 +159,17 @@ def read_table(run_dir: Path, table: str, up_to: int | None = None) -> pa.Table:
     """All generations of ``table`` (those <= ``up_to`` when given) as one Arrow table."""
     schema = _SCHEMAS[table]()
     gens = [g for g in table_generations(run_dir, table) if up_to is None or g <= up_to]
-    parts = [pq.read_table(generation_file(run_dir, table, g), schema=schema) for g in gens]
+    parts = [_read_file(generation_file(run_dir, table, g), table, schema) for g in gens]
     return pa.concat_tables(parts) if parts else schema.empty_table()
+
+
+def _read_file(path: Path, table: str, schema: pa.Schema) -> pa.Table:
+    """One file in today's schema; columns it predates get the value they meant then."""
+    part = pq.read_table(path, schema=schema)
+    stored = set(pq.read_schema(path).names)
+    for name, value in _ADDED_COLUMNS.get(table, {}).items():
+        if name not in stored:
+            index = part.schema.get_field_index(name)
+            column = pa.array([value] * part.num_rows, type=schema.field(name).type)
+            part = part.set_column(index, schema.field(name), column)
+    return part

@@ -157,7 +157,7 @@ def test_serial_executor_captures_exceptions_in_the_future() -> None:
 def test_unknown_kind_lists_the_kinds() -> None:
     with pytest.raises(ValueError) as info:
         make_executor("threads")
-    assert str(info.value) == "unknown executor kind 'threads'; known: serial, local, dask"
+    assert str(info.value) == "unknown executor kind 'threads'; known: serial, local, dask, gpu"
 
 
 @pytest.mark.parametrize(

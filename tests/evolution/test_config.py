@@ -45,7 +45,11 @@ def test_default_config_is_the_flat_coevolution() -> None:
         ({"record": {"rate_hz": 0}}, r"^record.rate_hz: must be greater than 0"),
         ({"brain": {"control_period": 0}}, r"^brain.control_period: must be greater than"),
         ({"seed": "one"}, r"^seed: must be a valid integer"),
-        ({"executor": {"kind": "gpuu"}}, r"^executor.kind: must be 'serial', 'local' or 'dask'"),
+        (
+            {"executor": {"kind": "gpuu"}},
+            r"^executor.kind: must be 'serial', 'local', 'dask' or 'gpu'",
+        ),
+        ({"executor": {"device": "tpu"}}, r"^executor.device: must be 'cuda' or 'cpu'"),
         ({"body": {"survivors": "best"}}, r"^body.survivors: must be 'plus' or 'generational'"),
     ],
 )
