@@ -91,7 +91,35 @@ def warp_modules() -> tuple[Any, Any]:
     if warp.config.log_level < warp.LOG_WARNING:
         # Warp logs one line per kernel module it loads (hundreds on a first compile).
         warp.config.log_level = warp.LOG_WARNING
+    _init_quietly(warp)
     return warp, mujoco_warp
+
+
+# What Warp's native library prints on a machine without an NVIDIA driver, at initialisation;
+# the device check says it in its own words (one line), and the CPU device works without it.
+_NO_DRIVER_NOTE = b"Could not find or load the NVIDIA CUDA driver"
+
+
+@functools.cache
+def _init_quietly(wp: Any) -> None:
+    """``wp.init()`` with the native no-driver note dropped from stderr (the rest kept)."""
+    import os
+    import sys
+    import tempfile
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as captured:
+        os.dup2(captured.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            captured.seek(0)
+            kept = [line for line in captured.readlines() if _NO_DRIVER_NOTE not in line]
+    if kept:
+        sys.stderr.write(b"".join(kept).decode(errors="replace"))
 
 
 def cuda_available() -> bool:
