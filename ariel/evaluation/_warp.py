@@ -30,7 +30,7 @@ from __future__ import annotations
 import functools
 import time as _time
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -309,22 +309,20 @@ class WarpEvaluator:
         period = head.control_period
         dt = model.opt.timestep
         steps = frame_steps(nstep, head.record_every)
+        ncalls = len(range(0, nstep, period))
         start = _time.perf_counter()
-        params = np.array([t.params for t in tasks], dtype=np.float64)
-        call_times = np.arange(0, nstep, period) * dt
-        targets = open_loop_targets(
-            controller, params, [t.seed for t in tasks], call_times, model, name=head.controller
-        )
-        held = held_controls(targets, head.smoothing, built.low, built.high)  # (B, calls, nu)
-        del targets
         body = self._device_body(head, built)
-        frames = self._simulate(body, held, nstep, period, steps, head.record_bodies)
+        parts: list[np.ndarray] = []
+        pieces = _control_pieces(tasks, built, controller, np.arange(ncalls) * period * dt)
+        shape = (len(tasks), ncalls, nstep, period, steps, head.record_bodies)
+        frames = self._simulate(body, _kept(pieces, parts), *shape)
+        held = np.concatenate(parts, axis=1)  # (B, calls, nu): the control after each call
         for _ in range(_MAX_GROWTH):
             if not frames.overflowed.any():
                 break
             nconmax, njmax = body.sizes  # type: ignore[misc]
             body.sizes = (2 * nconmax, 2 * njmax)  # kept for this body's later batches
-            frames = self._simulate(body, held, nstep, period, steps, head.record_bodies)
+            frames = self._simulate(body, iter([held]), *shape)
         wall = (_time.perf_counter() - start) / len(tasks)
 
         times = steps * dt
@@ -363,35 +361,48 @@ class WarpEvaluator:
     def _simulate(
         self,
         body: _DeviceBody,
-        held: np.ndarray,
+        pieces: Iterator[np.ndarray],
+        nworld: int,
+        ncalls: int,
         nstep: int,
         period: int,
         steps: np.ndarray,
         record_bodies: bool,
     ) -> _Frames:
-        """Step every world from the initial state with its controls; frames at ``steps``."""
+        """Step every world from the initial state with its controls; frames at ``steps``.
+
+        ``pieces``: the held controls ``(B, n, nu)`` of consecutive controller calls. Each is
+        uploaded and its steps launched before the next is asked for: on a GPU, launches
+        return at once, so the host computes the next piece while the device steps this one.
+        """
         wp, mjw = warp_modules()
         record_state, record_pose = _kernels()
         built = body.built
-        nworld = held.shape[0]
-        nq = built.model.nq
+        nq, nu = built.model.nq, built.model.nu
         nframes = steps.size
         nrobot = len(built.robot_bodies)
+        record_bodies = record_bodies and nrobot > 0
         frame_of = {int(k): f for f, k in enumerate(steps)}
         events = sorted(set(range(0, nstep, period)) | set(frame_of))
         with wp.ScopedDevice(self.device):
+            cuda = wp.get_device().is_cuda
             worlds = self._worlds(body, nworld)
             m, d = body.model, worlds.data
             mjw.reset_data(m, d)
-            # Controls as (call, world, actuator): one contiguous block per controller call.
-            controls = wp.array(np.ascontiguousarray(held.transpose(1, 0, 2)), dtype=wp.float32)
+            # Controls as (call, world, actuator): one contiguous block per controller call,
+            # staged in page-locked host memory on a GPU so that uploads do not wait.
+            controls = wp.empty((ncalls, nworld, nu), dtype=wp.float32)
+            staging = wp.empty((ncalls, nworld, nu), dtype=wp.float32, device="cpu", pinned=cuda)
+            staged = staging.numpy()
             out_qpos = wp.empty((nframes, nworld, nq), dtype=wp.float32)
             out_core = wp.empty((nframes, nworld), dtype=wp.vec3)
             if record_bodies:
                 bodies = wp.array(built.robot_bodies.astype(np.int32), dtype=wp.int32)
                 out_pos = wp.empty((nframes, nworld, nrobot), dtype=wp.vec3)
                 out_quat = wp.empty((nframes, nworld, nrobot), dtype=wp.quat)
-            for i, k in enumerate(events):
+
+            def run_event(i: int) -> None:
+                k = events[i]
                 if k % period == 0 and k < nstep:
                     wp.copy(d.ctrl, controls[k // period])
                 frame = frame_of.get(k)
@@ -411,6 +422,23 @@ class WarpEvaluator:
                 if k < nstep:
                     end = events[i + 1] if i + 1 < len(events) else nstep
                     wp.capture_launch(self._graph(worlds, m, end - k))
+
+            uploaded = 0  # controller calls on the device
+            i = 0  # next event
+            for piece in pieces:
+                n = piece.shape[1]
+                staged[uploaded : uploaded + n] = piece.transpose(1, 0, 2)
+                offset = uploaded * nworld * nu
+                wp.copy(controls, staging, offset, offset, n * nworld * nu)
+                uploaded += n
+                while i < len(events) and events[i] < uploaded * period:
+                    run_event(i)
+                    i += 1
+            if uploaded != ncalls:
+                raise RuntimeError(f"controls for {uploaded} controller calls, not {ncalls}")
+            while i < len(events):  # the last frame, at the end of the run
+                run_event(i)
+                i += 1
             wp.synchronize()
             return _Frames(
                 qpos=out_qpos.numpy().astype(np.float64),
@@ -432,6 +460,53 @@ class WarpEvaluator:
                     mjw.step(model, worlds.data)
             graph = worlds.graphs[nsteps] = capture.graph
         return graph
+
+
+def _control_pieces(
+    tasks: Sequence[EvaluationTask], built: BuiltBody, controller: Any, call_times: np.ndarray
+) -> Iterator[np.ndarray]:
+    """The held controls ``(B, n, nu)`` of consecutive controller calls: the CPU engine's.
+
+    In pieces of 1, 2, 4, 8, then 16 calls where the controller computes its targets piecewise
+    (`iter_targets`, as the NA-CPG does) and the tasks share one seed (a brain batch of the
+    loop does), so the device starts stepping early; otherwise in one piece.
+    """
+    head = tasks[0]
+    model = built.model
+    params = np.array([t.params for t in tasks], dtype=np.float64)
+    seeds = {t.seed for t in tasks}
+    if not (hasattr(controller, "iter_targets") and len(seeds) == 1 and call_times.size > 1):
+        seeds_in_order = [t.seed for t in tasks]
+        targets = open_loop_targets(
+            controller, params, seeds_in_order, call_times, model, name=head.controller
+        )
+        yield held_controls(targets, head.smoothing, built.low, built.high)
+        return
+    sizes: list[int] = []
+    while sum(sizes) < call_times.size:
+        sizes.append(min(2 ** len(sizes), 16, call_times.size - sum(sizes)))
+    label = f"controller {head.controller!r}"
+    ctrl = None
+    pieces = controller.iter_targets(params, call_times, model, seed=head.seed, chunks=sizes)
+    for size, piece in zip(sizes, pieces, strict=True):
+        piece = np.asarray(piece)
+        if piece.shape != (len(tasks), size, model.nu):
+            raise ValueError(
+                f"{label}: iter_targets() gave a piece of shape {piece.shape}; expected "
+                f"{(len(tasks), size, model.nu)} (candidates, calls, actuators)"
+            )
+        if not np.all(np.isfinite(piece)):
+            raise ValueError(f"{label}: iter_targets() returned NaN or inf")
+        held = held_controls(piece, head.smoothing, built.low, built.high, ctrl)
+        ctrl = held[:, -1]
+        yield held
+
+
+def _kept(pieces: Iterator[np.ndarray], into: list[np.ndarray]) -> Iterator[np.ndarray]:
+    """``pieces``, each also appended to ``into``."""
+    for piece in pieces:
+        into.append(piece)
+        yield piece
 
 
 def _capacity_bits(mjw: Any) -> int:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -164,3 +165,15 @@ def test_a_world_that_overflows_every_size_tried_is_an_error_result() -> None:
     (result,) = small.evaluate_batch(tasks)
     assert result.status == "error" and result.fitness == -math.inf
     assert "overflowed the device buffers" in result.error
+
+
+def test_tasks_with_different_seeds_get_their_own_controls(evaluator) -> None:
+    # One seed: controls computed piecewise along time; several: in one piece. Same values.
+    tasks = [
+        replace(t, seed=s)
+        for t, s in zip(gecko_tasks(2, duration=0.3, record_bodies=False), (5, 6))
+    ]
+    warp, cpu = evaluator.evaluate_batch(tasks), evaluate_batch(tasks)
+    for a, b in zip(cpu, warp):
+        np.testing.assert_array_equal(b.joint_target, a.joint_target)
+    assert not np.array_equal(warp[0].joint_target, warp[1].joint_target)
