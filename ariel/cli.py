@@ -69,10 +69,11 @@ def _print_result(result: object) -> None:
 
 
 def _run_guarded(start: object, path_hint: str | None) -> int:
-    """Run ``start()``; bad input -> one line and exit 2; Ctrl-C -> how to resume."""
+    """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
+    -> one line and exit 2; Ctrl-C -> how to resume."""
     from ariel.evolution import ConfigError
     from ariel.plugins import DuplicatePluginError, PluginLoadError
-    from ariel.recording import NotARunError
+    from ariel.recording import NotARunError, RunInUseError, RunStorageError
 
     try:
         result = start()  # type: ignore[operator]
@@ -82,6 +83,8 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
         NotARunError,
         DuplicatePluginError,
         PluginLoadError,
+        RunInUseError,
+        RunStorageError,
     ) as exc:
         return _fail(str(exc))
     except KeyboardInterrupt:
@@ -138,13 +141,17 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         print(f"no runs under {args.folder}")
         return 0
     width = max(len(r["run_id"]) for r in runs)
-    print(f"{'run':<{width}}  {'status':<11} {'generations':>11} {'evaluations':>11}  best")
+    status_width = max(11, *(len(str(r["status"])) for r in runs))
+    print(
+        f"{'run':<{width}}  {'status':<{status_width}} {'generations':>11} {'evaluations':>11}"
+        "  best"
+    )
     for r in runs:
         best = r["best_fitness"]
         shown = f"{best:.6g}" if isinstance(best, float) and math.isfinite(best) else "-"
         gens = f"{r['generations_done']}/{r['generations']}"
         print(
-            f"{r['run_id']:<{width}}  {r['status'] or '?':<11} {gens:>11} "
+            f"{r['run_id']:<{width}}  {r['status'] or '?':<{status_width}} {gens:>11} "
             f"{r['evaluations']:>11}  {shown}"
         )
     return 0

@@ -158,7 +158,9 @@ class BodyEncoder(Protocol):
     ``prebuilt``) sets it False and raises `NotImplementedError` from both (see `cannot_vary`);
     the co-evolution loop then evolves brains only. An encoder may also define
     ``build(genotype) -> CoreModule`` for bodies a graph cannot express; the engine then
-    builds with it and uses ``decode`` only for the morphology descriptors.
+    builds with it and uses ``decode`` only for the morphology descriptors. An encoder of
+    array genotypes may declare their ``genotype_shape`` (e.g. ``(3, 64)``): a fixed genotype
+    (``body.genotype``, perhaps from a file) is then checked against it before a run starts.
     """
 
     name: str

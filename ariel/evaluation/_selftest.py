@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import signal
+import time
 
 from ariel.evaluation.executors import THREAD_LIMIT_VARIABLES, evaluation_threads
 
@@ -40,3 +42,32 @@ def initial_environment() -> dict[str, str]:
         entries = file.read().split(b"\0")
     pairs = (entry.decode(errors="replace").partition("=") for entry in entries if entry)
     return {name: value for name, _, value in pairs}
+
+
+def pid() -> int:
+    """This process's id (which worker ran the call)."""
+    return os.getpid()
+
+
+def die_once(marker: str) -> int:
+    """SIGKILL this process the first time ``marker`` (a file path) is seen missing, else pid.
+
+    The marker is created atomically first, so exactly one call dies, wherever it runs.
+    """
+    try:
+        os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except FileExistsError:
+        return os.getpid()
+    os.kill(os.getpid(), signal.SIGKILL)
+    raise AssertionError("unreachable: SIGKILL cannot be caught")
+
+
+def die() -> None:
+    """SIGKILL this process, every time (a call that always takes its worker down)."""
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def sleep(seconds: float) -> float:
+    """Sleep ``seconds`` (a call that hangs, as far as a short timeout can tell); return them."""
+    time.sleep(seconds)
+    return seconds

@@ -4,7 +4,9 @@ Everything that runs evaluations talks to a `concurrent.futures.Executor` made h
 
 - ``serial``: in this process, one call after another (debugging, tests, profiling).
 - ``local`` (default): a process pool on this machine, one worker per CPU, started with
-  ``forkserver`` (``spawn`` where that is missing), BLAS/OpenMP limited to one thread per worker.
+  ``forkserver`` (``spawn`` where that is missing), BLAS/OpenMP limited to one thread per worker;
+  a call whose worker dies is retried on a fresh one, a call past its timeout is stopped
+  (`ariel.evaluation._pool.LocalPool`).
 - ``dask``: Dask distributed, on a ``LocalCluster`` or on an existing scheduler (e.g. one run by
   dask-jobqueue on SLURM); needs ``pip install 'ariel[distributed]'``.
 - ``gpu``: in this process, each batch of one body's brains as parallel worlds on MuJoCo Warp
@@ -17,30 +19,37 @@ import them by name and rebuild plugins from registry names (see ``docs/executor
 from __future__ import annotations
 
 import concurrent.futures as cf
-import contextlib
 import functools
 import multiprocessing
 import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING, Any, TypeVar
+
+from ariel.evaluation._pool import CallTimeoutError, LocalPool, WorkerLostError, call_with_timeout
 
 if TYPE_CHECKING:
     from distributed import Client
 
 __all__ = [
+    "DEFAULT_MAX_RETRIES",
     "EVAL_THREADS_VARIABLE",
     "EXECUTOR_KINDS",
     "THREAD_LIMIT_VARIABLES",
+    "CallTimeoutError",
     "DaskExecutor",
+    "LocalPool",
     "SerialExecutor",
+    "WorkerLostError",
     "default_workers",
     "evaluation_threads",
     "make_executor",
     "map_ordered",
+    "submit_with_timeout",
     "worker_environment",
+    "worker_fault",
 ]
 
 R = TypeVar("R")
@@ -60,6 +69,9 @@ THREAD_LIMIT_VARIABLES: tuple[str, ...] = (
 
 #: Environment variable that tells `evaluation_threads` its share of the CPUs in a worker.
 EVAL_THREADS_VARIABLE = "ARIEL_EVAL_THREADS"
+
+#: Times a call is tried again after its worker died (``local``; a Dask ``LocalCluster``).
+DEFAULT_MAX_RETRIES = 2
 
 _DASK_MISSING = "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
 
@@ -167,24 +179,6 @@ class SerialExecutor(cf.Executor):
 # local process pool
 # --------------------------------------------------------------------------------------------
 
-# Serialises our temporary edits of os.environ (process creation may run on the pool's thread).
-_ENVIRON_LOCK = threading.Lock()
-
-
-@contextlib.contextmanager
-def _temporary_environ(env: Mapping[str, str]) -> Iterator[None]:
-    with _ENVIRON_LOCK:
-        saved = {name: os.environ.get(name) for name in env}
-        os.environ.update(env)
-        try:
-            yield
-        finally:
-            for name, value in saved.items():
-                if value is None:
-                    os.environ.pop(name, None)
-                else:
-                    os.environ[name] = value
-
 
 def _limit_loaded_thread_pools(threads: int) -> None:
     """Cap thread pools of libraries imported before the initializer ran (e.g. by __main__)."""
@@ -216,23 +210,6 @@ def _initialize_worker(
         initializer(*initargs)
 
 
-class _LocalProcessPool(cf.ProcessPoolExecutor):
-    """A process pool whose workers start with the thread-limit variables in their environment.
-
-    The initializer sets them too, but a worker may import numpy before the initializer runs
-    (spawn and forkserver import the main module first), and BLAS reads them only at load.
-    So every worker process, and the forkserver if this pool starts it, is created with them.
-    """
-
-    def __init__(self, *, worker_env: Mapping[str, str], **kwargs: Any) -> None:
-        self._worker_env = dict(worker_env)
-        super().__init__(**kwargs)
-
-    def _spawn_process(self) -> None:  # CPython's single point of worker creation (3.9+)
-        with _temporary_environ(self._worker_env):
-            super()._spawn_process()  # type: ignore[misc]
-
-
 def _default_mp_context() -> multiprocessing.context.BaseContext:
     # Never fork: forking a process that holds threads (MuJoCo, Dask, torch) can deadlock.
     methods = multiprocessing.get_all_start_methods()
@@ -242,12 +219,13 @@ def _default_mp_context() -> multiprocessing.context.BaseContext:
 def _make_local(
     workers: int | None,
     *,
+    max_retries: int | None = None,
     blas_threads: int = 1,
     mp_context: str | multiprocessing.context.BaseContext | None = None,
     initializer: Callable[..., object] | None = None,
     initargs: tuple[Any, ...] = (),
-    **pool_options: Any,
-) -> cf.ProcessPoolExecutor:
+    max_tasks_per_child: int | None = None,
+) -> LocalPool:
     workers = workers or default_workers()
     env = worker_environment(blas_threads, workers=workers)
     if mp_context is None:
@@ -256,13 +234,14 @@ def _make_local(
         context = multiprocessing.get_context(mp_context)
     else:
         context = mp_context
-    return _LocalProcessPool(
-        worker_env=env,
-        max_workers=workers,
+    return LocalPool(
+        workers,
         mp_context=context,
+        worker_env=env,
         initializer=_initialize_worker,
         initargs=(env, blas_threads, initializer, tuple(initargs)),
-        **pool_options,
+        max_tasks_per_child=max_tasks_per_child,
+        max_retries=DEFAULT_MAX_RETRIES if max_retries is None else max_retries,
     )
 
 
@@ -290,6 +269,16 @@ class DaskExecutor(cf.Executor):
 
     def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
         return self._executor.submit(fn, *args, **kwargs)
+
+    def submit_with_timeout(
+        self, timeout: float | None, fn: Callable[..., R], /, *args: Any, **kwargs: Any
+    ) -> cf.Future[R]:
+        """`submit` with a soft wall-clock limit: past ``timeout`` seconds the future fails with
+        `CallTimeoutError`, but the call's thread keeps running in its Dask worker until it ends
+        (Dask gives no way to stop one task)."""
+        if timeout is None:
+            return self.submit(fn, *args, **kwargs)
+        return self._executor.submit(call_with_timeout, timeout, fn, *args, **kwargs)
 
     def map(
         self,
@@ -320,7 +309,12 @@ class DaskExecutor(cf.Executor):
 
 
 def _make_dask(
-    workers: int | None, scheduler: Any, *, blas_threads: int = 1, **cluster_options: Any
+    workers: int | None,
+    scheduler: Any,
+    *,
+    max_retries: int | None = None,
+    blas_threads: int = 1,
+    **cluster_options: Any,
 ) -> DaskExecutor:
     try:
         from distributed import Client, LocalCluster
@@ -335,6 +329,9 @@ def _make_dask(
             "n_workers": n_workers,
             "threads_per_worker": per_worker,
             "processes": True,
+            # Scheduler, nannies and workers (and their HTTP endpoints) listen on the loopback
+            # interface only: nothing is reachable from other machines unless asked for.
+            "host": "127.0.0.1",
             "dashboard_address": None,
             # The nanny sets these before the worker process starts; the caller's env wins.
             "env": {**env, **(cluster_options.pop("env", None) or {})},
@@ -345,6 +342,14 @@ def _make_dask(
             quiet_http = {"dashboard": False, "dashboard_address": "127.0.0.1:0"}
             cluster_options["scheduler_kwargs"] = {
                 **quiet_http,
+                **(cluster_options.get("scheduler_kwargs") or {}),
+            }
+        if max_retries is not None:
+            # Dask reschedules the tasks of a lost worker itself; a task whose workers died
+            # more than ``allowed_failures`` times fails with KilledWorker.
+            _check_retries(max_retries)
+            cluster_options["scheduler_kwargs"] = {
+                "allowed_failures": max_retries,
                 **(cluster_options.get("scheduler_kwargs") or {}),
             }
         settings.update(cluster_options)
@@ -360,10 +365,11 @@ def _make_dask(
             "workers= sizes a LocalCluster; with scheduler= the cluster's own workers are used "
             "(scale the cluster instead)"
         )
-    if cluster_options:
+    if cluster_options or max_retries is not None:
+        given = sorted(cluster_options) + (["max_retries"] if max_retries is not None else [])
         raise TypeError(
-            f"options {sorted(cluster_options)} are for a LocalCluster; "
-            "they cannot be used with scheduler="
+            f"options {given} are for a LocalCluster; they cannot be used with scheduler= "
+            "(a scheduler's retries are its distributed.scheduler.allowed-failures setting)"
         )
     if isinstance(scheduler, Client):
         return DaskExecutor(scheduler, close_client=False)  # the caller owns it
@@ -376,11 +382,17 @@ def _make_dask(
 # --------------------------------------------------------------------------------------------
 
 
+def _check_retries(max_retries: object) -> None:
+    if not isinstance(max_retries, int) or isinstance(max_retries, bool) or max_retries < 0:
+        raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
+
+
 def make_executor(
     kind: str = "local",
     *,
     workers: int | None = None,
     scheduler: Any = None,
+    max_retries: int | None = None,
     **options: Any,
 ) -> cf.Executor:
     """A `concurrent.futures.Executor` of ``kind`` (use it as a context manager).
@@ -393,6 +405,10 @@ def make_executor(
         scheduler: ``dask`` only: an address like ``"tcp://host:8786"``, a cluster object
             (e.g. dask-jobqueue's ``SLURMCluster``) or a ``distributed.Client``. Without it a
             ``LocalCluster`` is started, and closed again on shutdown.
+        max_retries: ``local`` and a Dask ``LocalCluster``: how many times a call is tried
+            again after the worker process running it died (default `DEFAULT_MAX_RETRIES`
+            for ``local``, Dask's ``allowed-failures`` setting for Dask); then its future
+            fails (`WorkerLostError`, Dask's ``KilledWorker``). Not for ``serial`` (it runs here).
         **options: ``blas_threads`` (default 1, for ``local`` and ``dask``); for ``local`` also
             ``mp_context``, ``initializer``, ``initargs``, ``max_tasks_per_child``; for a Dask
             ``LocalCluster`` any of its keyword arguments.
@@ -410,8 +426,9 @@ def make_executor(
             raise ValueError(
                 f"the serial executor runs in this process; workers must be 1, got {workers}"
             )
-        if options:
-            raise TypeError(f"the serial executor takes no options, got {sorted(options)}")
+        if options or max_retries is not None:
+            given = sorted(options) + (["max_retries"] if max_retries is not None else [])
+            raise TypeError(f"the serial executor takes no options, got {given}")
         return SerialExecutor()
     if kind == "gpu":
         if workers not in (None, 1):
@@ -422,8 +439,44 @@ def make_executor(
 
         return WarpExecutor(**options)
     if kind == "local":
-        return _make_local(workers, **options)
-    return _make_dask(workers, scheduler, **options)
+        return _make_local(workers, max_retries=max_retries, **options)
+    return _make_dask(workers, scheduler, max_retries=max_retries, **options)
+
+
+def submit_with_timeout(
+    executor: cf.Executor, timeout: float | None, fn: Callable[..., R], /, *args: Any
+) -> cf.Future[R]:
+    """``executor.submit(fn, *args)`` with a wall-clock limit where the executor has one.
+
+    ``local``: past ``timeout`` seconds (from the call's start in a worker) the worker is killed
+    and replaced, and the future fails with `CallTimeoutError`. ``dask``: the same exception, but
+    the call goes on in its worker's thread until it ends. ``serial`` (and any other executor):
+    no limit, the call runs as it would.
+    """
+    if timeout is not None and not timeout > 0:
+        raise ValueError(f"timeout must be > 0 seconds or None, got {timeout!r}")
+    method = getattr(executor, "submit_with_timeout", None)
+    if method is None:
+        return executor.submit(fn, *args)
+    return method(timeout, fn, *args)
+
+
+def worker_fault(exc: BaseException) -> str | None:
+    """One line on how a call was lost to its worker (died too often, or timed out), or None.
+
+    Knows `WorkerLostError` and `CallTimeoutError` (``local``, and the soft timeout on Dask) and
+    Dask's ``KilledWorker``; any other exception is the call's own and gives None.
+    """
+    if isinstance(exc, CallTimeoutError):
+        return f"timeout: {exc}"
+    if isinstance(exc, WorkerLostError):
+        return f"worker lost: {exc}"
+    if type(exc).__name__ == "KilledWorker" and type(exc).__module__.startswith("distributed"):
+        # Dask's own text names a task key and a worker address: not the same in two runs.
+        tries = getattr(exc, "allowed_failures", None)
+        times = f"{tries + 1} times" if isinstance(tries, int) else "too often"
+        return f"worker lost: Dask workers died {times} running this call (KilledWorker)"
+    return None
 
 
 def _check_shippable(fn: Callable[..., Any]) -> None:

@@ -42,11 +42,16 @@ class _Section(BaseModel):
 
 
 class BodyConfig(_Section):
-    """The body GA (ignored, but for ``genotype``, when the encoder cannot vary)."""
+    """The body GA (ignored, but for ``genotype``, in a brain-only run).
+
+    ``genotype``: a fixed body, which makes the run brain-only: a prebuilt name ("gecko" for
+    encoder "prebuilt"), a genotype, or a ``.json`` / ``.npy`` file holding one (a path in a
+    TOML file is relative to that file). A run stores the genotype, not the path.
+    """
 
     encoder: str = "nde"
     options: dict[str, Any] = Field(default_factory=dict)
-    genotype: Any = None  # a fixed body, e.g. "gecko" for encoder "prebuilt"
+    genotype: Any = None
     population: int = Field(8, ge=1)
     offspring: int = Field(8, ge=1)
     survivors: Literal["plus", "generational"] = "plus"
@@ -101,12 +106,29 @@ class RecordConfig(_Section):
 
 
 class ExecutorConfig(_Section):
+    """Where evaluations run (docs/executors.md); none of it changes a finished evaluation.
+
+    ``timeout``: seconds one evaluation may take before it is stopped and recorded as an
+    ``error`` (a call of k evaluations gets k times as long); ``local`` kills the worker, Dask
+    only stops waiting, ``serial`` has no timeout. ``max_retries``: how often an evaluation
+    whose worker process died is tried again (``local``, a Dask ``LocalCluster``).
+    """
+
     kind: Literal["serial", "local", "dask", "gpu"] = "local"
     workers: int | None = Field(None, ge=1)
     scheduler: str | None = None
     # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).
     # Unlike the other kinds, ``gpu`` does change results: float32 physics (docs/gpu.md).
     device: Literal["cuda", "cpu"] = "cuda"
+    timeout: float = Field(600.0, gt=0.0)
+    max_retries: int = Field(2, ge=0)
+
+    @field_validator("timeout")
+    @classmethod
+    def _finite(cls, value: float) -> float:
+        if not math.isfinite(value):
+            raise ValueError("must be a finite number of seconds")
+        return value
 
 
 class ExperimentConfig(_Section):
@@ -253,7 +275,20 @@ def load_config(
             raise ConfigError(f"{path}: malformed TOML: {exc}") from None
         except UnicodeDecodeError:
             raise ConfigError(f"{path}: not a UTF-8 text file") from None
+        data = _genotype_file_beside(data, path)
     return _validate(apply_overrides(data, overrides))
+
+
+def _genotype_file_beside(data: dict[str, Any], config_path: Path) -> dict[str, Any]:
+    """A relative ``body.genotype`` file named in a TOML file is relative to that file."""
+    from ariel.evolution._genotype import is_genotype_file
+
+    body = data.get("body")
+    genotype = body.get("genotype") if isinstance(body, dict) else None
+    if not is_genotype_file(genotype) or Path(genotype).is_absolute():
+        return data
+    beside = str(config_path.parent / genotype)
+    return {**data, "body": {**body, "genotype": beside}}
 
 
 def default_config_path() -> Path:

@@ -11,9 +11,9 @@ in which results arrive: each run changes only through its own results, every ra
 comes from a stream derived from the run seed (`ariel.evolution._seeds`), and rows are written
 in id order.
 
-An encoder that cannot vary its genotypes (``evolvable = False``, e.g. ``prebuilt``) gives a
-brain-only experiment: one fixed body whose CMA-ES run goes on across generations, each
-generation adding ``brain.iterations`` iterations.
+An encoder that cannot vary its genotypes (``evolvable = False``, e.g. ``prebuilt``), or a
+fixed ``body.genotype`` under any encoder, gives a brain-only experiment: one fixed body whose
+CMA-ES run goes on across generations, each generation adding ``brain.iterations`` iterations.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import numpy as np
 
 from ariel.evolution._brain import BrainRun, fitness_rank
 from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash, load_config
+from ariel.evolution._genotype import check_genotype, describe, is_genotype_file
 from ariel.evolution._progress import Progress
 from ariel.evolution._seeds import derive_rng, derive_seed
 from ariel.evolution._tasks import body_spec, evaluation_task, record_steps, shipped_body
@@ -156,11 +157,8 @@ def _resolve(config: ExperimentConfig) -> _Plugins:
             raise ConfigError(
                 f"task.options: fitness function '{config.task.fitness}': {exc}"
             ) from None
-    if getattr(encoder, "evolvable", False) and config.body.genotype is not None:
-        raise ConfigError(
-            f"body.genotype: a fixed body is only for encoders that cannot vary (such as "
-            f"'prebuilt'); '{config.body.encoder}' evolves its own genotypes"
-        )
+    if config.body.genotype is not None and not is_genotype_file(config.body.genotype):
+        check_genotype(config.body.genotype, encoder)  # a file is checked as it is read
     if config.body.survivors == "generational" and config.body.offspring < config.body.population:
         raise ConfigError(
             f"body.offspring: generational survival needs offspring >= population "
@@ -190,7 +188,10 @@ class _Experiment:
         self.plugins = plugins
         self.folder = folder
         self.run_id = run_id
-        self.brain_only = not bool(getattr(plugins.encoder, "evolvable", False))
+        # A fixed body (``body.genotype``) makes the run brain-only for any encoder.
+        self.brain_only = config.body.genotype is not None or not bool(
+            getattr(plugins.encoder, "evolvable", False)
+        )
         self._rows: dict[tuple[int, int, int], dict[str, Any]] = {}
         self._frames: dict[tuple[int, int, int], Any] = {}
         self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
@@ -296,9 +297,17 @@ class _Experiment:
         progress: Progress,
     ) -> None:
         from ariel.evaluation import evaluate_batch
+        from ariel.evaluation.executors import submit_with_timeout, worker_fault
 
-        in_flight: dict[cf.Future, tuple[_Job, np.ndarray]] = {}
+        in_flight: dict[cf.Future, tuple[_Job, Any]] = {}
         batches: dict[int, dict[str, Any]] = {}
+        timeout = self.config.executor.timeout
+
+        def send(job: _Job, tasks: list[Any], part: Any) -> None:
+            # A call of k evaluations may take k times one evaluation's timeout.
+            chunk = [tasks[i] for i in part]
+            future = submit_with_timeout(executor, timeout * len(chunk), evaluate_batch, chunk)
+            in_flight[future] = (job, part)
 
         def launch(job: _Job) -> None:
             params = job.run.ask()
@@ -323,8 +332,7 @@ class _Experiment:
                 "left": chunks,
             }
             for part in np.array_split(np.arange(len(tasks)), chunks):
-                future = executor.submit(evaluate_batch, [tasks[i] for i in part])
-                in_flight[future] = (job, part)
+                send(job, tasks, part)
 
         try:
             for job in jobs:
@@ -335,7 +343,19 @@ class _Experiment:
                 for future in done:
                     job, part = in_flight.pop(future)
                     batch = batches[job.body.number]
-                    for i, result in zip(part, future.result()):
+                    try:
+                        results = future.result()
+                    except Exception as exc:
+                        reason = worker_fault(exc)  # its worker died too often, or a timeout
+                        if reason is None:
+                            raise
+                        if len(part) > 1:  # one at a time: the bad one fails, the rest finish
+                            batch["left"] += len(part) - 1
+                            for i in part:
+                                send(job, batch["tasks"], [i])
+                            continue
+                        results = [self.failed_result(batch["tasks"][part[0]], reason)]
+                    for i, result in zip(part, results):
                         batch["results"][i] = result
                     batch["left"] -= 1
                     if batch["left"]:
@@ -349,6 +369,13 @@ class _Experiment:
             for future in in_flight:
                 future.cancel()
             raise
+
+    def failed_result(self, task: Any, reason: str) -> Any:
+        """The result of an evaluation lost to its worker: ``error``, the worst fitness."""
+        from ariel.evaluation import EvaluationResult
+
+        worst = -math.inf if self.plugins.maximise else math.inf
+        return EvaluationResult(eval_id=task.eval_id, fitness=worst, status="error", error=reason)
 
     def best_so_far(self, jobs: Sequence[_Job]) -> float:
         values = [j.run.best_fitness for j in jobs if not math.isnan(j.run.best_fitness)]
@@ -576,7 +603,8 @@ def _check_fixed_body(experiment: _Experiment) -> None:
     config = experiment.config
     body = experiment.new_body(0, _fixed_genotype(config, experiment.plugins), [], 0)
     if body.status == "error":
-        raise ConfigError(f"body.genotype: {config.body.genotype!r} gives no body: {body.error}")
+        shown = describe(config.body.genotype)
+        raise ConfigError(f"body.genotype: {shown} gives no body: {body.error}")
 
 
 def _budget(config: ExperimentConfig, brain_only: bool) -> int:
@@ -633,6 +661,8 @@ def _drive(
         options["device"] = config.executor.device
     if executor_kind == "dask":
         options["scheduler"] = scheduler
+    if executor_kind == "local" or (executor_kind == "dask" and scheduler is None):
+        options["max_retries"] = config.executor.max_retries
     folder.update_info(
         status="running",
         executor={"kind": executor_kind, "workers": workers, "scheduler": scheduler},
@@ -674,7 +704,9 @@ def _drive(
         raise
     finally:
         wall = wall_before + time.perf_counter() - start
-        folder.update_info(status=status, ended=now(), wall_seconds=wall)
+        # On a full disk this write fails too: then the first error is the one to tell.
+        with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
+            folder.update_info(status=status, ended=now(), wall_seconds=wall)
     assert state is not None
     best_body = min(
         state.population,
@@ -785,7 +817,14 @@ def run_experiment(
     Everything is validated before anything is written.
     """
     from ariel.plugins import plugin_provenance
-    from ariel.recording._run_folder import RunFolder, git_commit, now, software_versions
+    from ariel.recording._lock import RunLock
+    from ariel.recording._run_folder import (
+        RunFolder,
+        git_commit,
+        now,
+        software_versions,
+        storage_errors,
+    )
 
     config = load_config(config, overrides)
     kind = executor or config.executor.kind
@@ -794,6 +833,7 @@ def run_experiment(
     _check_executor(kind, workers, scheduler)
     _check_gpu(kind, workers, config.executor.device)
     plugins = _resolve(config)
+    config = _read_genotype_file(config, plugins.encoder)
     run_id = _new_run_id(config)
     path = Path(out) if out is not None else Path("data") / "runs" / run_id
     if out is not None:
@@ -810,25 +850,37 @@ def run_experiment(
             "fitness": config.task.fitness,
         }
     )
-    RunFolder.create(
-        path,
-        {
-            "run_id": run_id,
-            "name": config.name,
-            "status": "created",
-            "seed": config.seed,
-            "config": config.to_plain(),
-            "config_hash": config_hash(config),
-            "versions": software_versions(),
-            "git_commit": git_commit(),
-            "plugins": provenance,
-            "created": now(),
-            "generations_done": 0,
-            "evaluations_done": 0,
-        },
-        overwrite=overwrite,
-    )
-    return _drive(experiment, None, kind, workers, scheduler, progress)
+    info = {
+        "run_id": run_id,
+        "name": config.name,
+        "status": "created",
+        "seed": config.seed,
+        "config": config.to_plain(),
+        "config_hash": config_hash(config),
+        "versions": software_versions(),
+        "git_commit": git_commit(),
+        "plugins": provenance,
+        "created": now(),
+        "generations_done": 0,
+        "evaluations_done": 0,
+    }
+    # The lock is held for the whole run; create() checks the folder again under it.
+    with storage_errors(path), RunLock(path, create=True):
+        RunFolder.create(path, info, overwrite=overwrite, locked=True)
+        return _drive(experiment, None, kind, workers, scheduler, progress)
+
+
+def _read_genotype_file(config: ExperimentConfig, encoder: Any) -> ExperimentConfig:
+    """The config holding the genotype itself when ``body.genotype`` names a file (checked)."""
+    from ariel.evolution._genotype import read_genotype_file
+
+    if not is_genotype_file(config.body.genotype):
+        return config
+    path = config.body.genotype
+    genotype = read_genotype_file(path)
+    check_genotype(genotype, encoder, f"body.genotype: file {path!r}")
+    body = config.body.model_copy(update={"genotype": genotype})
+    return config.model_copy(update={"body": body})
 
 
 def _check_gpu(kind: str, workers: int | None, device: str) -> None:
@@ -879,11 +931,33 @@ def resume_experiment(
 ) -> RunResult:
     """Continue a killed or interrupted run from its last finished generation.
 
-    Refuses a folder that is not a run, a finished run, and a run whose config was edited.
+    Refuses a folder that is not a run, a finished run, a run whose config was edited, and a
+    run that another process is running (`RunInUseError`), before writing anything.
     """
-    from ariel.recording._run_folder import RunFolder
+    from ariel.recording._lock import RunLock
+    from ariel.recording._run_folder import RunFolder, storage_errors
 
     folder = RunFolder(run_dir)
+    info, config, state = _resumable(folder)
+    # Unless told otherwise, continue where the run last ran (results do not depend on it).
+    last = info.get("executor") or {}
+    kind = executor or last.get("kind") or config.executor.kind
+    if executor is None or executor == last.get("kind"):
+        workers = workers if workers is not None else last.get("workers")
+        scheduler = scheduler if scheduler is not None else last.get("scheduler")
+    _check_executor(kind, workers, scheduler)
+    _check_gpu(kind, workers, config.executor.device)
+    plugins = _resolve(config)
+    with storage_errors(folder.path), RunLock(folder.path):
+        # Again under the lock: another resume may have run (or finished) the run meanwhile.
+        info, config, state = _resumable(folder)
+        folder.discard_after(state.generation if state is not None else -1)
+        experiment = _Experiment(config, plugins, folder, info["run_id"])
+        return _drive(experiment, state, kind, workers, scheduler, progress)
+
+
+def _resumable(folder: Any) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:
+    """run.json, config and checkpoint of a run that may be resumed; `ValueError` else."""
     info = folder.read_info()
     if info.get("status") == "finished":
         raise ValueError(f"run {str(folder.path)!r} is already finished; nothing to resume")
@@ -898,15 +972,4 @@ def resume_experiment(
             f"run {str(folder.path)!r}: its config was edited after the run started (hash "
             "mismatch); start a new run with the new config instead"
         )
-    # Unless told otherwise, continue where the run last ran (results do not depend on it).
-    last = info.get("executor") or {}
-    kind = executor or last.get("kind") or config.executor.kind
-    if executor is None or executor == last.get("kind"):
-        workers = workers if workers is not None else last.get("workers")
-        scheduler = scheduler if scheduler is not None else last.get("scheduler")
-    _check_executor(kind, workers, scheduler)
-    _check_gpu(kind, workers, config.executor.device)
-    plugins = _resolve(config)
-    folder.discard_after(state.generation if state is not None else -1)
-    experiment = _Experiment(config, plugins, folder, info["run_id"])
-    return _drive(experiment, state, kind, workers, scheduler, progress)
+    return info, config, state

@@ -7,15 +7,24 @@ never a half-written file, whenever the writing process is killed.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
+import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_write", "atomic_write_bytes", "atomic_write_json", "remove_temporaries"]
+__all__ = [
+    "atomic_write",
+    "atomic_write_bytes",
+    "atomic_write_json",
+    "remove_temporaries",
+    "require_free_space",
+]
 
 TEMP_SUFFIX = ".tmp"
+_OS_ERROR = re.compile(r"\(os error (\d+)\)")
 
 
 def _temporary(path: Path) -> Path:
@@ -48,12 +57,29 @@ def atomic_write(path: Path, write: Callable[[Path], Any], *, fsync: bool = True
             with open(temporary, "rb+") as file:
                 os.fsync(file.fileno())
         os.replace(temporary, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             temporary.unlink()
+        if isinstance(exc, OSError) and exc.filename is None:
+            exc.filename = str(path)  # e.g. pyarrow's errors name no file: say which one
+        found = _OS_ERROR.search(str(exc)) if isinstance(exc, RuntimeError) else None
+        if found:  # Rerun's writers report a failed write as RuntimeError("... (os error 28)")
+            number = int(found.group(1))
+            raise OSError(number, os.strerror(number), str(path)) from exc
         raise
     if fsync:
         _fsync_dir(path.parent)
+
+
+def require_free_space(folder: Path, needed: int) -> None:
+    """Raise ``OSError(ENOSPC)`` when ``folder``'s file system has less than ``needed`` bytes
+    free, for writers that report a full disk only in a log (Rerun's blueprint writer)."""
+    try:
+        stats = os.statvfs(folder)
+    except (OSError, AttributeError):  # unknown: let the write itself find out
+        return
+    if stats.f_bavail * stats.f_frsize < needed:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(folder))
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

@@ -103,8 +103,18 @@ def load_run(path: str | Path) -> Run:
     return Run(path=folder.path, info=folder.read_info())
 
 
+#: `list_runs` status of a run whose run.json says "running" but whose lock is free: its
+#: process ended without saying so (SIGKILL, power cut, out of memory); `ariel resume` it.
+STOPPED = "stopped (killed?)"
+
+
 def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
-    """One summary per run folder directly under ``root`` (folders that are not runs skipped)."""
+    """One summary per run folder directly under ``root`` (folders that are not runs skipped).
+
+    ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
+    """
+    from ariel.recording._lock import lock_holder
+
     root = Path(root)
     if not root.is_dir():
         return []
@@ -117,11 +127,14 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
         except NotARunError:
             continue
         config = info.get("config", {})
+        status = info.get("status")
+        if status == "running" and lock_holder(child) is None:
+            status = STOPPED
         found.append(
             {
                 "path": str(child),
                 "run_id": info.get("run_id", child.name),
-                "status": info.get("status"),
+                "status": status,
                 "generations_done": info.get("generations_done", 0),
                 "generations": config.get("generations"),
                 "evaluations": info.get("evaluations_done", 0),

@@ -92,9 +92,12 @@ def _frames(run: Run, row: dict[str, Any]) -> Any:
 
 
 def _brain_only(run: Run) -> bool:
-    """One fixed body (an encoder that cannot vary its genotypes, e.g. ``prebuilt``)."""
+    """One fixed body: ``body.genotype`` set, or an encoder that cannot vary its genotypes
+    (e.g. ``prebuilt``)."""
     from ariel.plugins import body_encoders
 
+    if run.config.get("body", {}).get("genotype") is not None:
+        return True
     name = run.config.get("body", {}).get("encoder", "nde")
     try:
         return not bool(getattr(body_encoders.get(name), "evolvable", True))

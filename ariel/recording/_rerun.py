@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from ariel.recording._files import atomic_write
+from ariel.recording._files import atomic_write, require_free_space
 
 __all__ = [
     "APPLICATION_ID",
@@ -74,6 +74,7 @@ TERRAIN_MAX_SIDE = 32
 #: Half-extent drawn for an infinite MuJoCo plane (size 0).
 INFINITE_PLANE_HALF_EXTENT = 20.0
 _OTHER_COLOUR = (128, 128, 128, 255)
+_BLUEPRINT_ROOM = 1 << 20  # bytes free before a blueprint (~70 kB) is written
 
 
 def _rr() -> Any:
@@ -723,6 +724,8 @@ def write_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Pat
     path = Path(path)
 
     def write(temporary: Path) -> None:
+        # Rerun's blueprint writer logs a full disk and leaves a cut file: check first.
+        require_free_space(temporary.parent, _BLUEPRINT_ROOM)
         # Rerun writes blueprints to paths ending in .rbl only: build beside, then move.
         staging = temporary.with_name(temporary.name + ".rbl")
         try:

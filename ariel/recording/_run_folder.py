@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import importlib.metadata
 import json
+import os
 import pickle
 import platform
 import re
 import shutil
 import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +29,7 @@ from ariel.recording._files import (
     atomic_write_json,
     remove_temporaries,
 )
+from ariel.recording._lock import LOCK_NAME, in_use_error, lock_holder
 from ariel.recording._tables import TABLES, generation_file, table_generations
 
 __all__ = [
@@ -33,8 +37,10 @@ __all__ = [
     "RUN_FORMAT",
     "NotARunError",
     "RunFolder",
+    "RunStorageError",
     "now",
     "software_versions",
+    "storage_errors",
 ]
 
 RUN_FORMAT = 1
@@ -46,8 +52,79 @@ def _is_temporary(path: Path) -> bool:
     return path.is_file() and path.name.startswith(".") and path.name.endswith(TEMP_SUFFIX)
 
 
+def _is_leftover(path: Path) -> bool:
+    """A killed writer's temporary, or the (free) lock file of a killed run."""
+    return _is_temporary(path) or (path.name == LOCK_NAME and path.is_file())
+
+
 class NotARunError(ValueError):
     """A folder that is not an ariel run folder (no readable run.json)."""
+
+
+class RunStorageError(RuntimeError):
+    """The run folder cannot be written: disk full, read-only, no permission, not a folder.
+
+    One line naming the file and the problem. The generations finished before it stay in
+    the folder, and ``ariel resume`` continues the run once the problem is fixed.
+    """
+
+
+# Problems of the storage itself, not of the run: these become a `RunStorageError`.
+_STORAGE_ERRNOS = {
+    errno.ENOSPC,
+    errno.EDQUOT,
+    errno.EFBIG,
+    errno.EROFS,
+    errno.EACCES,
+    errno.EPERM,
+    errno.ENOTDIR,
+    errno.EIO,
+}
+_SPACE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG}
+
+
+def _within(name: str, run_dir: Path) -> bool:
+    """``name`` lies in ``run_dir`` (or is it, or one of the folders it is made in)."""
+    path, run_dir = Path(os.path.abspath(name)), Path(os.path.abspath(run_dir))
+    return path == run_dir or run_dir in path.parents or path in run_dir.parents
+
+
+def _storage_message(exc: OSError, run_dir: Path) -> str | None:
+    if exc.errno not in _STORAGE_ERRNOS:
+        return None
+    name = exc.filename
+    if name is None and exc.errno not in _SPACE_ERRNOS:
+        return None  # a permission error from elsewhere (a plugin, a socket) is not ours
+    if name is not None and not _within(os.fsdecode(name), run_dir):
+        return None
+    shown = Path(os.fsdecode(name)) if name is not None else run_dir
+    if shown.name.startswith(".") and shown.name.endswith(TEMP_SUFFIX):  # say the real file
+        shown = shown.with_name(shown.name[1 : -len(TEMP_SUFFIX)])
+    problem = f"cannot write {str(shown)!r}: {os.strerror(exc.errno)}"
+    try:
+        info = RunFolder(run_dir).read_info()
+    except NotARunError:
+        return f"{problem}; the run did not start"
+    done = int(info.get("generations_done", 0))
+    return (
+        f"{problem}; the run stopped, its {done} finished generation(s) are kept: "
+        f"make room (or fix the folder), then continue with: ariel resume {run_dir}"
+    )
+
+
+@contextlib.contextmanager
+def storage_errors(run_dir: str | Path) -> Iterator[None]:
+    """Turn a failed write in ``run_dir`` (disk full, read-only, ...) into `RunStorageError`.
+
+    Other errors pass unchanged.
+    """
+    try:
+        yield
+    except OSError as exc:
+        message = _storage_message(exc, Path(run_dir))
+        if message is None:
+            raise
+        raise RunStorageError(message) from exc
 
 
 def now() -> str:
@@ -109,18 +186,22 @@ class RunFolder:
     # -- creation ------------------------------------------------------------------------------
 
     @staticmethod
-    def check_new(path: str | Path, *, overwrite: bool) -> None:
+    def check_new(path: str | Path, *, overwrite: bool, locked: bool = False) -> None:
         """Raise `FileExistsError` unless ``path`` may become a new run folder.
 
         An existing non-empty folder needs ``overwrite``, and is only ever replaced when it
-        is a run folder (never an arbitrary directory).
+        is a run folder (never an arbitrary directory). A folder that another process runs
+        in raises `RunInUseError` (``locked``: this process holds its lock).
         """
         path = Path(path)
         if path.exists() and not path.is_dir():
             raise FileExistsError(f"output {str(path)!r} exists and is not a folder")
+        holder = None if locked or not path.is_dir() else lock_holder(path)
+        if holder is not None:
+            raise in_use_error(path, holder)
         # A folder holding only a killed writer's temporaries (killed while being created)
         # counts as empty.
-        if not path.is_dir() or all(_is_temporary(p) for p in path.iterdir()):
+        if not path.is_dir() or all(_is_leftover(p) for p in path.iterdir()):
             return
         if not overwrite:
             raise FileExistsError(
@@ -133,11 +214,19 @@ class RunFolder:
             )
 
     @classmethod
-    def create(cls, path: str | Path, info: dict[str, Any], *, overwrite: bool) -> RunFolder:
-        cls.check_new(path, overwrite=overwrite)
+    def create(
+        cls, path: str | Path, info: dict[str, Any], *, overwrite: bool, locked: bool = False
+    ) -> RunFolder:
+        cls.check_new(path, overwrite=overwrite, locked=locked)
         path = Path(path)
-        if path.is_dir() and any(path.iterdir()):
-            shutil.rmtree(path)  # a run folder (check_new refuses anything else) or temporaries
+        if path.is_dir():  # a run folder (check_new refuses anything else) or leftovers
+            for child in path.iterdir():
+                if child.name == LOCK_NAME and locked:
+                    continue  # the lock this process holds
+                if child.is_dir() and not child.is_symlink():
+                    shutil.rmtree(child)
+                else:
+                    child.unlink()
         path.mkdir(parents=True, exist_ok=True)
         folder = cls(path)
         folder.write_info({"format": RUN_FORMAT, **info})
@@ -148,10 +237,11 @@ class RunFolder:
     def read_info(self) -> dict[str, Any]:
         try:
             info = json.loads(self.run_json.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise NotARunError(
-                f"{str(self.path)!r} is not an ariel run folder (no run.json)"
-            ) from None
+        except (FileNotFoundError, NotADirectoryError):
+            why = "no run.json" if self.path.is_dir() else "no such folder"
+            if self.path.exists() and not self.path.is_dir():
+                why = "a file, not a folder"
+            raise NotARunError(f"{str(self.path)!r} is not an ariel run folder ({why})") from None
         except (OSError, ValueError) as exc:
             raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
         if not isinstance(info, dict) or info.get("format") != RUN_FORMAT:
@@ -177,9 +267,16 @@ class RunFolder:
         """The last saved state, or None when no generation finished yet."""
         if not self.checkpoint.is_file():
             return None
-        payload = pickle.loads(self.checkpoint.read_bytes())
-        if payload.get("format") != CHECKPOINT_FORMAT:
-            raise NotARunError(f"{self.checkpoint}: checkpoint format {payload.get('format')}")
+        try:
+            payload = pickle.loads(self.checkpoint.read_bytes())
+        except Exception as exc:  # written atomically, so only damage from outside gets here
+            first = (str(exc).splitlines() or [""])[0]
+            raise NotARunError(
+                f"{self.checkpoint}: unreadable checkpoint ({type(exc).__name__}: {first})"
+            ) from None
+        if not isinstance(payload, dict) or payload.get("format") != CHECKPOINT_FORMAT:
+            found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+            raise NotARunError(f"{self.checkpoint}: checkpoint format {found}")
         return payload["state"]
 
     # -- tables --------------------------------------------------------------------------------

@@ -51,6 +51,9 @@ def test_default_config_is_the_flat_coevolution() -> None:
         ),
         ({"executor": {"device": "tpu"}}, r"^executor.device: must be 'cuda' or 'cpu'"),
         ({"body": {"survivors": "best"}}, r"^body.survivors: must be 'plus' or 'generational'"),
+        ({"executor": {"timeout": 0}}, r"^executor.timeout: must be greater than 0"),
+        ({"executor": {"timeout": "inf"}}, r"^executor.timeout: must be a finite number"),
+        ({"executor": {"max_retries": -1}}, r"^executor.max_retries: must be greater than or"),
     ],
 )
 def test_bad_values_and_keys_give_one_line_naming_the_key(data: dict, message: str) -> None:

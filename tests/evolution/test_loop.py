@@ -193,6 +193,6 @@ def test_a_bad_fixed_body_is_a_config_error_and_writes_nothing(tmp_path: Path) -
         run_experiment(
             tiny(body={"encoder": "prebuilt", "genotype": "dragon", "options": {}}), out=out
         )
-    with pytest.raises(ConfigError, match=r"^body.genotype: a fixed body is only for"):
+    with pytest.raises(ConfigError, match=r"^body.genotype: shape \(1, 1\), expected \(3, 64\)"):
         run_experiment(tiny(body={"genotype": [[0.5]]}), out=out)
     assert not out.exists()

@@ -67,6 +67,11 @@ class NDEEncoder:
         self.mutation_std = float(mutation_std)
         self.mutation_rate = float(mutation_rate)
 
+    @property
+    def genotype_shape(self) -> tuple[int, int]:
+        """The shape of a genotype: checked when a fixed genotype is loaded (``body.genotype``)."""
+        return (NUM_CHROMOSOMES, self.genotype_size)
+
     def _genes(self, genotype: Any) -> np.ndarray:
         """A float32 copy shaped ``(3, genotype_size)`` (never a view: inputs stay unchanged)."""
         genes = np.array(genotype, dtype=np.float32)

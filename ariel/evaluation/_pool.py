@@ -1,0 +1,565 @@
+"""The ``local`` executor's process pool: one call per worker, survives workers that die or hang.
+
+CPython's `concurrent.futures.ProcessPoolExecutor` breaks as a whole when one worker dies
+(every pending future fails with ``BrokenProcessPool``), cannot tell which call killed it, and
+cannot stop a call that hangs. This pool keeps, in one driver thread, which worker runs which
+call and since when, so that:
+
+- a worker that dies (a segfault, the OOM killer, a SIGKILL) costs only its own call, which
+  runs again on a fresh worker, at most ``max_retries`` times; after that its future fails
+  with `WorkerLostError`, naming how the process ended;
+- a call given a ``timeout`` (`LocalPool.submit_with_timeout`) that has no result in time has
+  its worker killed and replaced, and its future fails with `CallTimeoutError` (no retry: a call
+  that hangs once would hang again).
+
+Workers are started when work arrives and no worker is idle, up to ``max_workers``; each runs
+one call at a time. Arguments and results travel pickled over a pipe per worker.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import contextvars
+import multiprocessing
+import os
+import pickle
+import signal
+import threading
+import time
+import traceback
+import weakref
+from collections import deque
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from multiprocessing.connection import wait as wait_for_ready
+from typing import Any, TypeVar
+
+__all__ = [
+    "CallTimeoutError",
+    "LocalPool",
+    "WorkerLostError",
+    "call_with_timeout",
+    "temporary_environ",
+]
+
+R = TypeVar("R")
+
+_STOP = b""  # sent to an idle worker: exit
+# Time a call's timeout does not count: a fresh worker starting and importing what the call
+# needs (unpickling it); a worker that takes longer than this as well is stopped too.
+_START_SECONDS = 120.0
+
+
+class WorkerLostError(RuntimeError):
+    """The worker process running a call died every time the call was tried."""
+
+
+class CallTimeoutError(TimeoutError):
+    """A call gave no result within its timeout (its worker was stopped, or left behind)."""
+
+
+# --------------------------------------------------------------------------------------------
+# Worker side
+# --------------------------------------------------------------------------------------------
+
+
+class _RemoteTracebackError(Exception):
+    """The worker's traceback, chained to an exception that came back (as CPython's pool does)."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__(text)
+        self.text = text
+
+    def __str__(self) -> str:
+        return self.text
+
+
+def _worker_main(
+    conn: Connection,
+    initializer: Callable[..., object] | None,
+    initargs: tuple[Any, ...],
+    max_tasks: int | None,
+) -> None:
+    """A worker's life: initializer, then calls one at a time until told to stop.
+
+    Messages to the driver: ``("started",)`` once a call is unpickled (its imports done), then
+    ``("done", ok, value, traceback_text, retiring)``. An initializer that raises sends
+    ``("broken", text)`` and exits.
+    """
+    if initializer is not None:
+        try:
+            initializer(*initargs)
+        except BaseException:
+            conn.send(("broken", traceback.format_exc()))
+            return
+    calls = 0
+    while True:
+        try:
+            payload = conn.recv_bytes()
+        except (EOFError, OSError):  # the driver is gone
+            return
+        if payload == _STOP:
+            return
+        try:
+            fn, args, kwargs = pickle.loads(payload)
+            conn.send(("started",))
+            value, ok, text = fn(*args, **kwargs), True, ""
+        except BaseException as exc:
+            value, ok, text = exc, False, traceback.format_exc()
+        calls += 1
+        retiring = max_tasks is not None and calls >= max_tasks
+        try:
+            message = pickle.dumps(("done", ok, value, text, retiring))
+        except Exception as exc:  # a result or exception that cannot be pickled
+            error = RuntimeError(
+                f"the call's {'result' if ok else 'exception'} cannot be sent back: {exc!r}"
+            )
+            message = pickle.dumps(("done", False, error, traceback.format_exc(), retiring))
+        del value
+        conn.send_bytes(message)
+        if retiring:
+            return
+
+
+# --------------------------------------------------------------------------------------------
+# Driver side
+# --------------------------------------------------------------------------------------------
+
+# Serialises temporary edits of os.environ (worker processes are created on the driver thread).
+_ENVIRON_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def temporary_environ(env: Mapping[str, str]) -> Iterator[None]:
+    """``os.environ`` updated with ``env`` for the duration (process creation inherits it)."""
+    with _ENVIRON_LOCK:
+        saved = {name: os.environ.get(name) for name in env}
+        os.environ.update(env)
+        try:
+            yield
+        finally:
+            for name, value in saved.items():
+                if value is None:
+                    os.environ.pop(name, None)
+                else:
+                    os.environ[name] = value
+
+
+@dataclass
+class _Call:
+    future: cf.Future
+    payload: bytes
+    timeout: float | None
+    deaths: int = 0
+    running: bool = False  # its future is marked running (it was handed to a worker once)
+
+
+@dataclass
+class _Worker:
+    process: Any  # multiprocessing.Process of the pool's context
+    conn: Connection
+    call: _Call | None = None
+    deadline: float | None = None
+    retiring: bool = False
+    killed: str = ""  # why the pool killed it ("timeout", "closed"): not the call's fault
+
+
+def _unpickle(data: bytes) -> tuple[Any, ...]:
+    try:
+        return pickle.loads(data)
+    except Exception as exc:  # e.g. an exception class that cannot be rebuilt from its args
+        error = RuntimeError(f"the call's outcome could not be unpickled here: {exc!r}")
+        return ("done", False, error, "", False)
+
+
+def _ended_how(exitcode: int | None) -> str:
+    if exitcode is None:
+        return "ended without an exit code"
+    if exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        return f"killed by {name}"
+    return f"exit code {exitcode}"
+
+
+class _Driver:
+    """State shared by the pool object and its driver thread (which holds no pool reference)."""
+
+    def __init__(
+        self,
+        max_workers: int,
+        context: multiprocessing.context.BaseContext,
+        worker_env: Mapping[str, str],
+        initializer: Callable[..., object] | None,
+        initargs: tuple[Any, ...],
+        max_tasks_per_child: int | None,
+        max_retries: int,
+    ) -> None:
+        self.max_workers = max_workers
+        self.context = context
+        self.worker_env = dict(worker_env)
+        self.initializer = initializer
+        self.initargs = initargs
+        self.max_tasks = max_tasks_per_child
+        self.max_retries = max_retries
+        self.lock = threading.Lock()
+        self.pending: deque[_Call] = deque()
+        self.workers: list[_Worker] = []
+        self.shutting_down = False
+        self.broken: str | None = None
+        self._wake_reader, self._wake_writer = multiprocessing.Pipe(duplex=False)
+        self._woken = False
+        self.thread = threading.Thread(target=self.run, name="ariel-local-pool", daemon=True)
+
+    # -- called from any thread ----------------------------------------------------------------
+
+    def wake(self) -> None:
+        with self.lock:
+            if self._woken:
+                return
+            self._woken = True
+        with contextlib.suppress(OSError):
+            self._wake_writer.send_bytes(b"!")
+
+    def stop(self, *, cancel: bool, kill: bool, wait: bool) -> None:
+        with self.lock:
+            self.shutting_down = True
+            if cancel:  # calls waiting for their first worker; a retry goes on
+                for call in self.pending:
+                    if not call.running:
+                        call.future.cancel()
+                self.pending = deque(call for call in self.pending if call.running)
+            if kill:
+                for worker in self.workers:
+                    worker.killed = "closed"
+                    with contextlib.suppress(Exception):
+                        worker.process.kill()
+        self.wake()
+        if wait and self.thread.is_alive() and threading.current_thread() is not self.thread:
+            self.thread.join()
+
+    # -- the driver thread -----------------------------------------------------------------------
+
+    def run(self) -> None:
+        try:
+            while self._step():
+                pass
+        except BaseException as exc:  # a bug here must not leave futures waiting forever
+            self._fail_everything(f"the pool's driver thread failed: {exc!r}")
+            raise
+        finally:
+            self._close_workers()
+
+    def _step(self) -> bool:
+        """One round: hand out work, wait for news, handle it. False: the pool is done."""
+        self._dispatch()
+        with self.lock:
+            busy = any(w.call is not None for w in self.workers)
+            if self.shutting_down and not self.pending and not busy:
+                return False
+        deadlines = [w.deadline for w in self.workers if w.deadline is not None]
+        timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+        waitables: list[Any] = [self._wake_reader]
+        for worker in self.workers:
+            waitables += [worker.conn, worker.process.sentinel]
+        ready = set(wait_for_ready(waitables, timeout))
+        if self._wake_reader in ready:
+            with self.lock:
+                while self._wake_reader.poll():
+                    self._wake_reader.recv_bytes()
+                self._woken = False
+        for worker in list(self.workers):
+            # A closed pipe, or a process that ended (after its last message was read).
+            closed = worker.conn in ready and not self._read(worker)
+            if closed or worker.process.sentinel in ready:
+                self._lost(worker)
+        now = time.monotonic()
+        for worker in list(self.workers):
+            if worker.call is not None and worker.deadline is not None and worker.deadline <= now:
+                self._time_out(worker)
+        return True
+
+    def _dispatch(self) -> None:
+        while True:
+            with self.lock:
+                if not self.pending or self.broken is not None:
+                    return
+                idle = [w for w in self.workers if w.call is None and not w.retiring]
+                if not idle and len(self.workers) >= self.max_workers:
+                    return
+                call = self.pending.popleft()
+            if not call.running:
+                if not call.future.set_running_or_notify_cancel():
+                    continue  # cancelled while it waited
+                call.running = True
+            try:
+                worker = idle[0] if idle else self._start_worker()
+            except BaseException:  # e.g. no more processes: the pool fails, with this call
+                with self.lock:
+                    self.pending.appendleft(call)
+                raise
+            try:
+                worker.conn.send_bytes(call.payload)
+            except OSError:  # the worker died while idle: the call never reached it
+                with self.lock:
+                    self.pending.appendleft(call)
+                self._lost(worker)
+                continue
+            worker.call = call
+            if call.timeout is not None:  # the clock starts once the call is unpickled
+                worker.deadline = time.monotonic() + _START_SECONDS + call.timeout
+
+    def _start_worker(self) -> _Worker:
+        mine, theirs = self.context.Pipe(duplex=True)
+        process = self.context.Process(
+            target=_worker_main,
+            args=(theirs, self.initializer, self.initargs, self.max_tasks),
+            name="ariel-local-worker",
+        )
+        # The thread limits must be in the environment the process starts with: BLAS reads them
+        # when numpy is first imported, which spawn/forkserver may do before the initializer.
+        with temporary_environ(self.worker_env):
+            process.start()
+        theirs.close()
+        worker = _Worker(process, mine)
+        with self.lock:
+            self.workers.append(worker)
+        return worker
+
+    def _read(self, worker: _Worker) -> bool:
+        """Handle every message the worker has sent; False when its pipe is closed."""
+        try:
+            while worker.conn.poll():
+                message = _unpickle(worker.conn.recv_bytes())
+                kind = message[0]
+                if kind == "started":
+                    call = worker.call
+                    if call is not None and call.timeout is not None:
+                        worker.deadline = time.monotonic() + call.timeout
+                elif kind == "done":
+                    _, ok, value, text, retiring = message
+                    call, worker.call, worker.deadline = worker.call, None, None
+                    worker.retiring = retiring
+                    if call is not None:
+                        if ok:
+                            call.future.set_result(value)
+                        else:
+                            if text and isinstance(value, BaseException):
+                                value.__cause__ = _RemoteTracebackError(text)
+                            call.future.set_exception(value)
+                elif kind == "broken":
+                    self._fail_everything(
+                        "a worker's initializer failed: " + message[1].strip().splitlines()[-1]
+                    )
+                    return False
+        except (EOFError, OSError):
+            return False
+        return True
+
+    def _lost(self, worker: _Worker) -> None:
+        """A worker process ended (or its pipe broke): retry or fail its call; forget it."""
+        with contextlib.suppress(Exception):
+            if worker.process.is_alive():
+                worker.process.kill()
+        worker.process.join(timeout=10)
+        with self.lock:
+            if worker in self.workers:
+                self.workers.remove(worker)
+        worker.conn.close()
+        call, worker.call = worker.call, None
+        if call is None or worker.killed == "timeout":  # `_time_out` fails the future
+            return
+        if worker.killed:
+            if not call.future.done():
+                call.future.set_exception(BrokenProcessPool("the pool was closed during the call"))
+            return
+        call.deaths += 1
+        how = _ended_how(worker.process.exitcode)
+        if call.deaths > self.max_retries:
+            times = "once" if call.deaths == 1 else f"{call.deaths} times"
+            call.future.set_exception(
+                WorkerLostError(f"worker process died {times} running this call (last: {how})")
+            )
+            return
+        with self.lock:
+            self.pending.appendleft(call)  # next in line, on a fresh worker
+
+    def _time_out(self, worker: _Worker) -> None:
+        call = worker.call
+        assert call is not None and call.timeout is not None
+        worker.killed = "timeout"
+        with contextlib.suppress(Exception):
+            worker.process.kill()
+        self._lost(worker)
+        call.future.set_exception(
+            CallTimeoutError(f"no result after {call.timeout:g} s; the worker was stopped")
+        )
+
+    def _fail_everything(self, reason: str) -> None:
+        with self.lock:
+            self.broken = reason
+            calls = list(self.pending) + [w.call for w in self.workers if w.call is not None]
+            self.pending.clear()
+            for worker in self.workers:
+                worker.call, worker.killed = None, "closed"
+            self.shutting_down = True
+        for call in calls:
+            if not call.running and not call.future.set_running_or_notify_cancel():
+                continue  # cancelled
+            if not call.future.done():
+                call.future.set_exception(BrokenProcessPool(reason))
+
+    def _close_workers(self) -> None:
+        with self.lock:
+            workers = list(self.workers)
+            self.workers.clear()
+        for worker in workers:
+            with contextlib.suppress(OSError):
+                worker.conn.send_bytes(_STOP)
+        for worker in workers:
+            worker.process.join(timeout=5)
+            if worker.process.is_alive():
+                worker.process.kill()
+                worker.process.join()
+            worker.conn.close()
+        self._wake_reader.close()
+
+
+class LocalPool(cf.Executor):
+    """A process pool that survives workers dying or hanging (see the module docstring).
+
+    Args:
+        max_workers: worker processes at most (started on demand).
+        mp_context: the multiprocessing context that starts them (never use fork if the
+            calling process runs threads).
+        worker_env: variables every worker process is started with.
+        initializer, initargs: run once in every worker before its first call; if it raises,
+            the pool is broken (every future fails with ``BrokenProcessPool``).
+        max_tasks_per_child: a worker exits after this many calls (a fresh one replaces it).
+        max_retries: how many times a call whose worker died is tried again.
+    """
+
+    def __init__(
+        self,
+        max_workers: int,
+        *,
+        mp_context: multiprocessing.context.BaseContext,
+        worker_env: Mapping[str, str] | None = None,
+        initializer: Callable[..., object] | None = None,
+        initargs: tuple[Any, ...] = (),
+        max_tasks_per_child: int | None = None,
+        max_retries: int = 2,
+    ) -> None:
+        if not isinstance(max_workers, int) or isinstance(max_workers, bool) or max_workers < 1:
+            raise ValueError(f"max_workers must be an integer >= 1, got {max_workers!r}")
+        if not isinstance(max_retries, int) or isinstance(max_retries, bool) or max_retries < 0:
+            raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
+        if max_tasks_per_child is not None and (
+            not isinstance(max_tasks_per_child, int) or max_tasks_per_child < 1
+        ):
+            raise ValueError(
+                f"max_tasks_per_child must be an integer >= 1 or None, got {max_tasks_per_child!r}"
+            )
+        self._max_workers = max_workers
+        self.max_retries = max_retries
+        self._driver = _Driver(
+            max_workers,
+            mp_context,
+            worker_env or {},
+            initializer,
+            tuple(initargs),
+            max_tasks_per_child,
+            max_retries,
+        )
+        self._started = False
+        # Dropped without shutdown, or still open at exit: stop the workers, do not hang.
+        self._finalizer = weakref.finalize(
+            self, self._driver.stop, cancel=True, kill=True, wait=True
+        )
+
+    @property
+    def max_workers(self) -> int:
+        return self._max_workers
+
+    def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
+        return self._submit(None, fn, args, kwargs)
+
+    def submit_with_timeout(
+        self, timeout: float | None, fn: Callable[..., R], /, *args: Any, **kwargs: Any
+    ) -> cf.Future[R]:
+        """`submit` with a wall-clock limit in seconds, counted from the call's start in a worker
+        (after its function and arguments are unpickled). Past it the worker is killed and
+        replaced, and the future fails with `CallTimeoutError`. None: no limit."""
+        if timeout is not None and not timeout > 0:
+            raise ValueError(f"timeout must be > 0 seconds or None, got {timeout!r}")
+        return self._submit(timeout, fn, args, kwargs)
+
+    def _submit(
+        self, timeout: float | None, fn: Callable[..., R], args: tuple, kwargs: dict
+    ) -> cf.Future[R]:
+        driver = self._driver
+        future: cf.Future[R] = cf.Future()
+        try:
+            payload = pickle.dumps((fn, args, kwargs))
+        except Exception as exc:  # as a pool does: the error is the future's, not submit's
+            future.set_running_or_notify_cancel()
+            future.set_exception(exc)
+            return future
+        with driver.lock:
+            if driver.broken is not None:
+                raise BrokenProcessPool(driver.broken)
+            if driver.shutting_down:
+                raise RuntimeError("cannot schedule new futures after shutdown")
+            driver.pending.append(_Call(future, payload, timeout))
+            if not self._started:
+                self._started = True
+                driver.thread.start()
+        driver.wake()
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._finalizer.detach()  # from here on the driver stops once its work is done
+        with self._driver.lock:
+            started = self._started
+            self._driver.shutting_down = True
+        if started:
+            self._driver.stop(cancel=cancel_futures, kill=False, wait=wait)
+
+    def __repr__(self) -> str:
+        return f"LocalPool(max_workers={self._max_workers}, max_retries={self.max_retries})"
+
+
+# --------------------------------------------------------------------------------------------
+# A soft timeout, where killing the worker is not ours to do (Dask)
+# --------------------------------------------------------------------------------------------
+
+
+def call_with_timeout(timeout: float, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> R:
+    """``fn(*args, **kwargs)`` in a helper thread, waiting at most ``timeout`` seconds for it.
+
+    Past the timeout `CallTimeoutError` is raised and the helper thread is left running (a thread
+    cannot be stopped): the caller moves on, but the thread may keep a CPU busy until it ends.
+    The thread runs in a copy of this thread's context (e.g. Dask's current worker).
+    """
+    outcome: dict[str, Any] = {}
+    context = contextvars.copy_context()
+
+    def target() -> None:
+        try:
+            outcome["value"] = context.run(fn, *args, **kwargs)
+        except BaseException as exc:
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=target, name="ariel-timed-call", daemon=True)
+    thread.start()
+    thread.join(timeout)
+    if thread.is_alive():
+        raise CallTimeoutError(f"no result after {timeout:g} s; the call was left running")
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]

@@ -1,0 +1,165 @@
+"""One process at a time per run folder: an OS lock on ``RUN_DIR/.lock``.
+
+`ariel run` and `ariel resume` hold ``fcntl.flock`` on that file for the whole run. The
+kernel drops the lock when the process ends, however it ends (SIGKILL and power cuts
+included), so a killed run never leaves a stale lock behind: the next `ariel resume` simply
+takes it. The file holds the holder's pid and host name, only for the refusal message, and is
+deleted when the run ends (a killed run leaves it, unlocked and harmless).
+
+On a file system without ``flock`` support the run goes on unlocked, with a warning.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import socket
+import time
+import warnings
+from pathlib import Path
+
+__all__ = ["LOCK_NAME", "RunInUseError", "RunLock", "in_use_error", "lock_holder"]
+
+LOCK_NAME = ".lock"
+# A probe (`lock_holder`, e.g. from `ariel runs`) holds a shared lock for microseconds;
+# retrying a few times keeps it from making a starting run refuse.
+_TRIES = 4
+_PAUSE_S = 0.05
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX
+    fcntl = None  # type: ignore[assignment]
+
+
+class RunInUseError(RuntimeError):
+    """Another process is running (or resuming) this run folder."""
+
+
+def _holder_text(path: Path) -> str:
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        text = path.read_text(encoding="utf-8").strip()
+        if text:
+            return text
+    return "another process"
+
+
+def in_use_error(run_dir: Path, holder: str) -> RunInUseError:
+    return RunInUseError(
+        f"run folder {str(run_dir)!r} is in use by {holder}; wait for that run to end "
+        "(or stop it), then try again"
+    )
+
+
+def lock_holder(run_dir: str | Path) -> str | None:
+    """Who holds the run folder's lock (``"pid N on host H"``), or None when it is free.
+
+    Reads only: a folder without a lock file is free, and nothing is created.
+    """
+    path = Path(run_dir) / LOCK_NAME
+    if fcntl is None:
+        return None
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return _holder_text(path)
+    except OSError:  # no flock on this file system: nothing to tell
+        return None
+    finally:
+        os.close(fd)  # closing also drops the probe's shared lock
+    return None
+
+
+class RunLock:
+    """The exclusive lock of one run folder; ``with RunLock(path):`` holds it.
+
+    ``create=True`` makes the folder when it is missing (a new run), and removes it again on
+    release when it is still empty (a run that refused to start).
+    """
+
+    def __init__(self, run_dir: str | Path, *, create: bool = False) -> None:
+        self.run_dir = Path(run_dir)
+        self.path = self.run_dir / LOCK_NAME
+        self.create = create
+        self._fd: int | None = None
+        self._made_folder = False
+
+    def acquire(self) -> RunLock:
+        if fcntl is None:  # pragma: no cover - not POSIX
+            return self
+        if self.create and not self.run_dir.is_dir():
+            self.run_dir.mkdir(parents=True, exist_ok=True)
+            self._made_folder = True
+        for attempt in range(100):
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            if not self._lock(fd, attempt):
+                continue
+            # The last holder deletes the file on release: a lock taken on a file that was
+            # deleted meanwhile guards nothing, so take the one now at the path instead.
+            try:
+                current = os.stat(self.path)
+            except FileNotFoundError:
+                current = None
+            mine = os.fstat(fd)
+            if current is None or (current.st_ino, current.st_dev) != (mine.st_ino, mine.st_dev):
+                os.close(fd)
+                continue
+            os.ftruncate(fd, 0)
+            os.write(fd, f"pid {os.getpid()} on host {socket.gethostname()}\n".encode())
+            self._fd = fd
+            return self
+        raise in_use_error(self.run_dir, "another process")  # pragma: no cover - never settles
+
+    def _lock(self, fd: int, attempt: int) -> bool:
+        """Take the lock on ``fd``; False: retry (closed); raises when the run is in use."""
+        for tries in range(_TRIES):
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return True
+            except BlockingIOError:
+                if tries + 1 < _TRIES:
+                    time.sleep(_PAUSE_S)
+            except OSError as exc:
+                if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS):
+                    os.close(fd)
+                    raise
+                warnings.warn(
+                    f"{self.path}: this file system cannot lock files ({exc.strerror}); "
+                    "the run goes on without protection against a second run in this folder",
+                    stacklevel=3,
+                )
+                return True
+        holder = _holder_text(self.path)
+        os.close(fd)
+        self._cleanup_folder()
+        raise in_use_error(self.run_dir, holder)
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        with contextlib.suppress(OSError):
+            self.path.unlink()  # before unlocking: see `acquire`
+        os.close(self._fd)  # drops the lock
+        self._fd = None
+        self._cleanup_folder()
+
+    def _cleanup_folder(self) -> None:
+        if self._made_folder:
+            with contextlib.suppress(OSError):
+                self.run_dir.rmdir()  # only when empty
+            self._made_folder = False
+
+    @property
+    def held(self) -> bool:
+        return self._fd is not None
+
+    def __enter__(self) -> RunLock:
+        return self.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()

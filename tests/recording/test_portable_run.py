@@ -1,0 +1,109 @@
+"""A run folder holds no absolute path of the machine that made it, and no secret: a finished
+run (with Rerun recordings) copied elsewhere, its original moved away, still loads, replays
+(the stored fitness, bit for bit) and reports."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import shutil
+import socket
+from pathlib import Path
+
+import pytest
+
+from ariel.cli import main
+from ariel.recording import load_run
+
+REPO = Path(__file__).resolve().parents[2]
+
+TOML = """
+name = "portable"
+seed = 9
+generations = 2
+
+[body]
+options = { number_of_modules = 10 }
+population = 2
+offspring = 2
+
+[brain]
+popsize = 2
+iterations = 2
+
+[task]
+duration = 0.3
+
+[record]
+rerun = true
+bodies = "all"
+
+[executor]
+kind = "serial"
+"""
+
+
+def _needles(*paths: Path) -> dict[str, bytes]:
+    """What must not appear in any file: these paths (as given and resolved), the host name,
+    the home folder and values of secret-looking environment variables."""
+    found: dict[str, bytes] = {}
+    for path in paths:
+        for form in {str(path), str(path.resolve())}:
+            found[f"path {form}"] = form.encode()
+    host = socket.gethostname()
+    if len(host) >= 6:  # shorter names turn up by chance in compressed bytes
+        found[f"host {host}"] = host.encode()
+    home = os.path.expanduser("~")
+    if len(home) >= 6:
+        found[f"home {home}"] = home.encode()
+    secret = re.compile(r"TOKEN|SECRET|PASSWORD|PASSWD|API_?KEY|CREDENTIAL", re.IGNORECASE)
+    for name, value in os.environ.items():
+        if secret.search(name) and len(value) >= 8:
+            found[f"${name}"] = value.encode()
+    return found
+
+
+def test_a_copied_run_has_no_machine_paths_and_loads_replays_and_reports(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    origin = tmp_path / "made-here-3f9c1e"
+    origin.mkdir()
+    (origin / "portable.toml").write_text(TOML)
+    out = origin / "runs" / "portable"
+    monkeypatch.chdir(origin)
+    with contextlib.redirect_stdout(None):
+        assert main(["run", "portable.toml", "--out", str(out), "--quiet"]) == 0
+    original = load_run(out)
+    expected = [original.evaluations, original.bodies, original.trajectories]  # read now
+    assert list(out.glob("recordings/gen-*/*.rrd")), "the run has per-evaluation recordings"
+    assert (out / "run.rrd").is_file() and (out / "blueprint.rbl").is_file()
+
+    copy = tmp_path / "elsewhere" / "copy"
+    shutil.copytree(out, copy)
+    shutil.move(origin, tmp_path / "moved-away")  # nothing can be read from the original
+    monkeypatch.chdir(tmp_path)
+
+    files = [p for p in copy.rglob("*") if p.is_file()]
+    kinds = {p.suffix for p in files}
+    assert {".json", ".parquet", ".rrd", ".rbl", ".pkl"} <= kinds, kinds
+    for needle_name, needle in _needles(out, origin, REPO).items():
+        holding = [str(p.relative_to(copy)) for p in files if needle in p.read_bytes()]
+        assert holding == [], f"{needle_name} is in {holding}"
+    assert not (copy / ".lock").exists()
+
+    run = load_run(copy)
+    assert run.info == original.info
+    for table, want in zip((run.evaluations, run.bodies, run.trajectories), expected, strict=True):
+        assert len(table) and table.equals(want)
+
+    assert main(["replay", str(copy), "best"]) == 0
+    printed = capsys.readouterr().out
+    assert "identical: yes, bit for bit" in printed
+    best = expected[0].loc[expected[0]["fitness"].idxmax()]
+    assert f"stored fitness:   {float(best['fitness'])!r}" in printed
+
+    assert main(["report", str(copy), "--no-render"]) == 0
+    printed = capsys.readouterr().out
+    assert f"wrote {copy / 'report' / 'fitness.png'}" in printed
+    assert (copy / "report" / "fitness.png").stat().st_size > 1000

@@ -1,0 +1,365 @@
+"""Bad input to ``ariel``, one table: each case is one line on stderr, exit code 2, and NOTHING
+written: a new output folder is never created, and an existing run folder (given with
+``--overwrite``, or to ``resume`` / ``replay``) stays byte for byte as it was.
+
+The cases are the list of issue 9: malformed TOML, wrong types, out-of-range values, unknown
+plugin names, genotype files of the wrong shape or with NaN, ``resume`` of a folder that is
+not a run, of a run with a changed config or of a finished run, ``replay`` of an unknown
+evaluation id.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import pickle
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ariel.cli import main
+
+BASE = """
+name = "badinput"
+seed = 1
+generations = 2
+
+[body]
+options = { number_of_modules = 10 }
+population = 2
+offspring = 2
+
+[brain]
+popsize = 2
+iterations = 1
+
+[task]
+duration = 0.3
+
+[record]
+rerun = false
+
+[executor]
+kind = "serial"
+"""
+
+
+def _edit(text: str, section: str, line: str) -> str:
+    """``BASE`` with ``line`` added to ``[section]`` ("" for the top level)."""
+    if not section:
+        return f"{line}\n{text}"
+    return text.replace(f"[{section}]\n", f"[{section}]\n{line}\n", 1)
+
+
+def _npy(array: np.ndarray) -> Callable[[Path], None]:
+    return lambda path: np.save(path, array)
+
+
+def _text(text: str) -> Callable[[Path], None]:
+    return lambda path: path.write_text(text)
+
+
+@dataclass
+class RunCase:
+    """``ariel run CONFIG`` of ``BASE`` changed as given; ``files`` beside the config."""
+
+    message: str
+    toml: str = BASE
+    args: list[str] = field(default_factory=list)
+    files: dict[str, Callable[[Path], None]] = field(default_factory=dict)
+
+
+GOOD_NDE = np.full((3, 64), 0.5)
+NAN_NDE = GOOD_NDE.copy()
+NAN_NDE[1, 7] = np.nan
+
+RUN_CASES: dict[str, RunCase] = {
+    # malformed TOML
+    "toml-unclosed-table": RunCase("malformed TOML", "[brain\npopsize = 3\n"),
+    "toml-bad-value": RunCase("malformed TOML", "generations = [1,\n"),
+    # wrong types
+    "unknown-key": RunCase("unknown key 'generation'", _edit(BASE, "", "generation = 3")),
+    "type-int": RunCase(
+        "generations: must be a valid integer", BASE.replace("generations = 2", "generations = 2.5")
+    ),
+    "type-str-int": RunCase(
+        "brain.iterations: must be a valid integer",
+        BASE.replace("iterations = 1", 'iterations = "many"'),
+    ),
+    "type-table": RunCase("world: must be a valid dictionary", _edit(BASE, "", "world = 3")),
+    "type-spawn": RunCase("task.spawn_position", _edit(BASE, "task", 'spawn_position = "origin"')),
+    "type-bool": RunCase(
+        "brain.inherit: must be a valid boolean", _edit(BASE, "brain", "inherit = 7")
+    ),
+    # out-of-range values
+    "population-0": RunCase(
+        "body.population: must be greater than or equal to 1",
+        BASE.replace("population = 2", "population = 0"),
+    ),
+    "duration-negative": RunCase(
+        "task.duration: must be greater than 0", BASE.replace("duration = 0.3", "duration = -1.0")
+    ),
+    "control-period-0": RunCase(
+        "brain.control_period: must be greater than or equal to 1",
+        _edit(BASE, "brain", "control_period = 0"),
+    ),
+    "rate-0": RunCase(
+        "record.rate_hz: must be greater than 0", _edit(BASE, "record", "rate_hz = 0")
+    ),
+    "sigma-0": RunCase("brain.sigma0: must be greater than 0", _edit(BASE, "brain", "sigma0 = 0")),
+    "crossover-rate-2": RunCase(
+        "body.crossover_rate: must be less than or equal to 1",
+        _edit(BASE, "body", "crossover_rate = 2.0"),
+    ),
+    # unknown plugin names
+    "unknown-encoder": RunCase(
+        "body.encoder: unknown body encoder 'nope'", _edit(BASE, "body", 'encoder = "nope"')
+    ),
+    "unknown-controller": RunCase(
+        "brain.controller: unknown controller 'nope'", _edit(BASE, "brain", 'controller = "nope"')
+    ),
+    "unknown-world": RunCase(
+        "world.name: unknown world 'nope'", BASE + '\n[world]\nname = "nope"\n'
+    ),
+    "unknown-fitness": RunCase(
+        "task.fitness: unknown fitness function 'nope'", _edit(BASE, "task", 'fitness = "nope"')
+    ),
+    "unknown-prebuilt": RunCase(
+        "body.genotype: 'dragon' gives no body",
+        BASE.replace(
+            "options = { number_of_modules = 10 }", 'encoder = "prebuilt"\ngenotype = "dragon"'
+        ),
+    ),
+    # genotype files (a fixed NDE body: three chromosomes of genotype_size = 64 genes)
+    "genotype-json-shape": RunCase(
+        "body.genotype: file '{dir}/body.json': shape (2, 64), expected (3, 64)",
+        _edit(BASE, "body", 'genotype = "body.json"'),
+        files={"body.json": _text(json.dumps(GOOD_NDE[:2].tolist()))},
+    ),
+    "genotype-json-flat": RunCase(
+        "body.genotype: file '{dir}/body.json': shape (192,), expected (3, 64)",
+        _edit(BASE, "body", 'genotype = "body.json"'),
+        files={"body.json": _text(json.dumps(GOOD_NDE.ravel().tolist()))},
+    ),
+    "genotype-json-nan": RunCase(
+        "body.genotype: file '{dir}/body.json': 1 of 192 values are not finite (NaN or infinite)",
+        _edit(BASE, "body", 'genotype = "body.json"'),
+        files={"body.json": _text(json.dumps(NAN_NDE.tolist()))},
+    ),
+    "genotype-json-ragged": RunCase(
+        "body.genotype: file '{dir}/body.json': not an array of numbers",
+        _edit(BASE, "body", 'genotype = "body.json"'),
+        files={"body.json": _text(json.dumps([[0.5] * 64, [0.5] * 64, [0.5] * 63]))},
+    ),
+    "genotype-json-words": RunCase(
+        "body.genotype: file '{dir}/body.json': not an array of numbers",
+        _edit(BASE, "body", 'genotype = "body.json"'),
+        files={"body.json": _text(json.dumps([["a"] * 64] * 3))},
+    ),
+    "genotype-json-malformed": RunCase(
+        "body.genotype: file '{dir}/body.json': not valid JSON",
+        _edit(BASE, "body", 'genotype = "body.json"'),
+        files={"body.json": _text("[[0.5, 0.5")},
+    ),
+    "genotype-npy-shape": RunCase(
+        "body.genotype: file '{dir}/body.npy': shape (3, 32), expected (3, 64)",
+        _edit(BASE, "body", 'genotype = "body.npy"'),
+        files={"body.npy": _npy(np.zeros((3, 32), np.float32))},
+    ),
+    "genotype-npy-inf": RunCase(
+        "body.genotype: file '{dir}/body.npy': 192 of 192 values are not finite",
+        _edit(BASE, "body", 'genotype = "body.npy"'),
+        files={"body.npy": _npy(np.full((3, 64), np.inf))},
+    ),
+    "genotype-npy-pickled": RunCase(
+        "body.genotype: file '{dir}/body.npy': not a numeric .npy array",
+        _edit(BASE, "body", 'genotype = "body.npy"'),
+        files={"body.npy": _npy(np.array([{"not": "numbers"}], dtype=object))},
+    ),
+    "genotype-npy-not-npy": RunCase(
+        "body.genotype: file '{dir}/body.npy': not a numeric .npy array",
+        _edit(BASE, "body", 'genotype = "body.npy"'),
+        files={"body.npy": _text("hello")},
+    ),
+    "genotype-missing-file": RunCase(
+        "body.genotype: file '{dir}/nowhere.json' not found",
+        _edit(BASE, "body", 'genotype = "nowhere.json"'),
+    ),
+    "genotype-inline-nan": RunCase(
+        "body.genotype: 1 of 192 values are not finite",
+        _edit(BASE, "body", f"genotype = {json.dumps(NAN_NDE.tolist()).replace('NaN', 'nan')}"),
+    ),
+}
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("finished")
+    (folder / "base.toml").write_text(BASE)
+    out = folder / "run"
+    with contextlib.redirect_stdout(None):
+        assert main(["run", str(folder / "base.toml"), "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def _exit_code(argv: list[str]) -> int:
+    try:
+        return main(argv)
+    except SystemExit as exc:  # argparse
+        return int(exc.code)  # type: ignore[arg-type]
+
+
+def _one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and captured.err.endswith("\n"), captured.err
+    assert lines[0].startswith("ariel: error: "), lines[0]
+    assert captured.out == ""
+    return lines[0]
+
+
+@pytest.mark.parametrize("case", RUN_CASES.values(), ids=RUN_CASES)
+def test_bad_run_input(
+    case: RunCase, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "bad.toml"
+    config.write_text(case.toml)
+    for name, write in case.files.items():
+        write(tmp_path / name)
+    message = case.message.format(dir=tmp_path)
+    given = sorted(p.name for p in tmp_path.iterdir())
+    # A new folder is not created ...
+    out = tmp_path / "never"
+    assert _exit_code(["run", str(config), "--out", str(out), "--quiet", *case.args]) == 2
+    assert message in _one_error_line(capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == given
+    # ... and a run folder to be overwritten stays as it was.
+    before = _snapshot(finished_run)
+    argv = ["run", str(config), "--out", str(finished_run), "--overwrite", "--quiet", *case.args]
+    assert _exit_code(argv) == 2
+    assert message in _one_error_line(capsys)
+    assert _snapshot(finished_run) == before
+
+
+# --------------------------------------------------------------------------------------------
+# resume / replay of what cannot be resumed or replayed
+# --------------------------------------------------------------------------------------------
+
+
+def _not_a_run(finished: Path, tmp: Path) -> Path:
+    folder = tmp / "mine"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    return folder
+
+
+def _copy(finished: Path, tmp: Path) -> Path:
+    copy = tmp / "copy"
+    shutil.copytree(finished, copy)
+    return copy
+
+
+def _unfinished(finished: Path, tmp: Path) -> Path:
+    copy = _copy(finished, tmp)
+    info = json.loads((copy / "run.json").read_text())
+    info["status"] = "interrupted"
+    (copy / "run.json").write_text(json.dumps(info))
+    return copy
+
+
+def _edited_config(finished: Path, tmp: Path) -> Path:
+    copy = _unfinished(finished, tmp)
+    info = json.loads((copy / "run.json").read_text())
+    info["config"]["brain"]["popsize"] = 3
+    (copy / "run.json").write_text(json.dumps(info))
+    return copy
+
+
+def _bad_config(finished: Path, tmp: Path) -> Path:
+    copy = _unfinished(finished, tmp)
+    info = json.loads((copy / "run.json").read_text())
+    info["config"]["brain"]["popsize"] = "many"
+    (copy / "run.json").write_text(json.dumps(info))
+    return copy
+
+
+def _broken_run_json(finished: Path, tmp: Path) -> Path:
+    copy = _copy(finished, tmp)
+    (copy / "run.json").write_text('{"format": 1, "status": ')
+    return copy
+
+
+def _broken_checkpoint(finished: Path, tmp: Path) -> Path:
+    copy = _unfinished(finished, tmp)
+    (copy / "checkpoints" / "state.pkl").write_bytes(b"not a pickle")
+    return copy
+
+
+def _foreign_checkpoint(finished: Path, tmp: Path) -> Path:
+    copy = _unfinished(finished, tmp)
+    (copy / "checkpoints" / "state.pkl").write_bytes(pickle.dumps({"format": 99}))
+    return copy
+
+
+FOLDER_CASES: dict[str, tuple[Callable[[Path, Path], Path], list[str], str]] = {
+    "resume-not-a-run": (_not_a_run, ["resume"], "is not an ariel run folder (no run.json)"),
+    "resume-missing": (
+        lambda f, t: t / "missing",
+        ["resume"],
+        "is not an ariel run folder (no such folder)",
+    ),
+    "resume-file": (
+        lambda f, t: (t / "file.txt", (t / "file.txt").write_text("x"))[0],
+        ["resume"],
+        "is not an ariel run folder (a file, not a folder)",
+    ),
+    "resume-finished": (lambda f, t: _copy(f, t), ["resume"], "is already finished; nothing to"),
+    "resume-edited-config": (_edited_config, ["resume"], "its config was edited after the run"),
+    "resume-invalid-config": (_bad_config, ["resume"], "its config cannot be read (brain.popsize"),
+    "resume-broken-run-json": (_broken_run_json, ["resume"], "unreadable run.json"),
+    "resume-broken-checkpoint": (_broken_checkpoint, ["resume"], "unreadable checkpoint"),
+    "resume-foreign-checkpoint": (_foreign_checkpoint, ["resume"], "checkpoint format 99"),
+    "replay-unknown-id": (
+        lambda f, t: _copy(f, t),
+        ["replay", "{run}", "b999999-i000-c000"],
+        "no evaluation 'b999999-i000-c000'",
+    ),
+    "replay-malformed-id": (
+        lambda f, t: _copy(f, t),
+        ["replay", "{run}", "../../etc/passwd"],
+        "no evaluation '../../etc/passwd'",
+    ),
+    "replay-not-a-run": (_not_a_run, ["replay", "{run}", "best"], "is not an ariel run folder"),
+    "report-not-a-run": (_not_a_run, ["report", "{run}"], "is not an ariel run folder"),
+}
+
+
+@pytest.mark.parametrize(("make", "command", "message"), FOLDER_CASES.values(), ids=FOLDER_CASES)
+def test_bad_folder_input(
+    make: Callable[[Path, Path], Path],
+    command: list[str],
+    message: str,
+    finished_run: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    folder = make(finished_run, tmp_path)
+    argv = [part.format(run=folder) for part in command]
+    if "{run}" not in command:
+        argv.append(str(folder))
+    if argv[0] == "resume":
+        argv.append("--quiet")
+    listing = sorted(p.name for p in tmp_path.iterdir())
+    before = _snapshot(folder) if folder.is_dir() else None
+    assert _exit_code(argv) == 2
+    assert message in _one_error_line(capsys)
+    assert (_snapshot(folder) if folder.is_dir() else None) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == listing
