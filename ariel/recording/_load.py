@@ -113,7 +113,7 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
 
     ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
     """
-    from ariel.recording._lock import lock_holder
+    from ariel.recording._lock import lock_is_free
 
     root = Path(root)
     if not root.is_dir():
@@ -128,7 +128,7 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
             continue
         config = info.get("config", {})
         status = info.get("status")
-        if status == "running" and lock_holder(child) is None:
+        if status == "running" and lock_is_free(child):
             status = STOPPED
         found.append(
             {

@@ -19,7 +19,14 @@ import time
 import warnings
 from pathlib import Path
 
-__all__ = ["LOCK_NAME", "RunInUseError", "RunLock", "in_use_error", "lock_holder"]
+__all__ = [
+    "LOCK_NAME",
+    "RunInUseError",
+    "RunLock",
+    "in_use_error",
+    "lock_holder",
+    "lock_is_free",
+]
 
 LOCK_NAME = ".lock"
 # A probe (`lock_holder`, e.g. from `ariel runs`) holds a shared lock for microseconds;
@@ -52,27 +59,38 @@ def in_use_error(run_dir: Path, holder: str) -> RunInUseError:
     )
 
 
-def lock_holder(run_dir: str | Path) -> str | None:
-    """Who holds the run folder's lock (``"pid N on host H"``), or None when it is free.
-
-    Reads only: a folder without a lock file is free, and nothing is created.
-    """
+def _probe(run_dir: str | Path) -> tuple[str, str | None]:
+    """("free", None), ("held", who) or ("unknown", None); reads only, creates nothing."""
     path = Path(run_dir) / LOCK_NAME
     if fcntl is None:
-        return None
+        return "unknown", None
     try:
         fd = os.open(path, os.O_RDONLY)
+    except FileNotFoundError:
+        return "free", None
     except OSError:
-        return None
+        return "unknown", None
     try:
         fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
     except BlockingIOError:
-        return _holder_text(path)
-    except OSError:  # no flock on this file system: nothing to tell
-        return None
+        return "held", _holder_text(path)
+    except OSError:  # no flock on this file system
+        return "unknown", None
     finally:
         os.close(fd)  # closing also drops the probe's shared lock
-    return None
+    return "free", None
+
+
+def lock_holder(run_dir: str | Path) -> str | None:
+    """Who holds the run folder's lock (``"pid N on host H"``), or None when it is free (or
+    this file system cannot tell). Reads only: nothing is created."""
+    state, holder = _probe(run_dir)
+    return holder if state == "held" else None
+
+
+def lock_is_free(run_dir: str | Path) -> bool:
+    """True when surely no process holds the run folder's lock (False: held, or unknown)."""
+    return _probe(run_dir)[0] == "free"
 
 
 class RunLock:

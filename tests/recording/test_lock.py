@@ -235,3 +235,17 @@ def test_two_runs_on_one_folder_the_second_refuses_and_a_kill_leaves_it_resumabl
     assert "finished: " in capsys.readouterr().out
     assert [r["status"] for r in list_runs(out.parent)] == ["finished"]
     assert not (out / LOCK_NAME).exists()
+
+
+def test_runs_calls_a_run_stopped_only_when_its_lock_is_surely_free(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import ariel.recording._lock as lock_module
+    from ariel.recording import RunFolder
+
+    RunFolder.create(tmp_path / "r", {"run_id": "r", "status": "running"}, overwrite=False)
+    with RunLock(tmp_path / "r"):
+        assert [r["status"] for r in list_runs(tmp_path)] == ["running"]
+    assert [r["status"] for r in list_runs(tmp_path)] == ["stopped (killed?)"]
+    monkeypatch.setattr(lock_module, "fcntl", None)  # a platform that cannot tell
+    assert [r["status"] for r in list_runs(tmp_path)] == ["running"]
