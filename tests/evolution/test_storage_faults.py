@@ -307,3 +307,88 @@ def test_a_read_only_file_system(
     tmpfs("rw")
     _assert_finished_part_intact(out, reference, generations=1)
     _assert_resumes_to_reference(out, reference, capsys)
+
+
+def test_a_full_tmpfs_refuses_a_blueprint_instead_of_cutting_it(
+    tmpfs: Callable[..., None], tmp_path: Path
+) -> None:
+    """Rerun's blueprint writer only logs a full disk (and leaves a cut file): ariel checks
+    the free space first."""
+    from ariel.recording import write_blueprint
+
+    disk = tmp_path / "disk"
+    _fill(disk)
+    with pytest.raises(OSError) as raised:
+        write_blueprint(disk / "blueprint.rbl")
+    assert raised.value.errno == errno.ENOSPC
+    assert sorted(p.name for p in disk.iterdir()) == ["filler"]
+
+
+# --------------------------------------------------------------------------------------------
+# Which errors are the storage's
+# --------------------------------------------------------------------------------------------
+
+
+def test_atomic_write_names_the_file_of_nameless_and_rerun_errors(tmp_path: Path) -> None:
+    from ariel.recording._files import atomic_write
+
+    def pyarrow_like(temporary: Path) -> None:
+        raise OSError(errno.ENOSPC, "Error writing bytes to file")
+
+    def rerun_like(temporary: Path) -> None:
+        raise RuntimeError("Failed to write: No space left on device (os error 28)")
+
+    for write in (pyarrow_like, rerun_like):
+        with pytest.raises(OSError) as raised:
+            atomic_write(tmp_path / "x.parquet", write)
+        assert (raised.value.errno, raised.value.filename) == (
+            errno.ENOSPC,
+            str(tmp_path / "x.parquet"),
+        )
+    assert list(tmp_path.iterdir()) == []
+
+    def broken(temporary: Path) -> None:
+        raise RuntimeError("a bug, not a file problem")
+
+    with pytest.raises(RuntimeError, match="a bug, not a file problem"):  # passes unchanged
+        atomic_write(tmp_path / "y", broken)
+
+
+STORAGE_CASES = {
+    "full, unnamed": (OSError(errno.ENOSPC, "No space left on device"), True),
+    "quota, in the run": (OSError(errno.EDQUOT, "Disk quota exceeded", "{run}/run.json"), True),
+    "read-only, in the run": (OSError(errno.EROFS, "Read-only file system", "{run}/.lock"), True),
+    "no permission, in the run": (
+        PermissionError(errno.EACCES, "Permission denied", "{run}/x"),
+        True,
+    ),
+    "no permission, a parent": (PermissionError(errno.EACCES, "Permission denied", "{root}"), True),
+    "no permission, unnamed": (PermissionError(errno.EACCES, "Permission denied"), False),
+    "no permission, elsewhere": (
+        PermissionError(errno.EACCES, "Permission denied", "/etc/x"),
+        False,
+    ),
+    "not the disk": (ConnectionRefusedError(errno.ECONNREFUSED, "Connection refused"), False),
+    "missing input": (FileNotFoundError(errno.ENOENT, "No such file", "{run}/x"), False),
+}
+
+
+@pytest.mark.parametrize(("error", "ours"), STORAGE_CASES.values(), ids=STORAGE_CASES)
+def test_storage_errors_converts_only_failed_writes_in_the_run_folder(
+    tmp_path: Path, error: OSError, ours: bool
+) -> None:
+    from ariel.recording import RunStorageError
+    from ariel.recording._run_folder import storage_errors
+
+    run = tmp_path / "runs" / "r"
+    if error.filename:
+        error.filename = error.filename.format(run=run, root=tmp_path)
+    with pytest.raises(RunStorageError if ours else type(error)) as raised, storage_errors(run):
+        raise error
+    if ours:
+        message = str(raised.value)
+        assert "\n" not in message and message.startswith("cannot write '")
+        assert message.endswith("; the run did not start")  # no run.json there
+        assert raised.value.__cause__ is error
+    else:
+        assert raised.value is error
