@@ -151,7 +151,8 @@ def check_body_encoder(name: str, **options: Any) -> None:
 
     Protocol (``name``, bool ``evolvable``, the four methods); ``random_genotype`` is
     deterministic for a seed and plain data (JSON) whose decoding equals the original's; the
-    genotype decodes to a valid robot graph and builds. Evolvable encoders: ``mutate`` returns
+    genotype decodes to a valid robot graph and builds, and has the ``genotype_shape`` the
+    encoder declares (if it declares one). Evolvable encoders: ``mutate`` returns
     a new, different genotype, deterministically, and leaves its input unchanged; ``crossover``
     leaves its parents unchanged and gives a child that decodes. Encoders with ``evolvable =
     False``: ``mutate`` and ``crossover`` raise `NotImplementedError`.
@@ -177,6 +178,13 @@ def check_body_encoder(name: str, **options: Any) -> None:
     )
     with check.step("building the body of a random genotype"):
         build(EvaluationTask(body=BodySpec(name, plain, options)))
+    shape = getattr(encoder, "genotype_shape", None)
+    if shape is not None:  # what a fixed body.genotype is checked against
+        found = np.shape(plain)
+        check.expect(
+            found == tuple(shape),
+            f"genotype_shape is {tuple(shape)} but random_genotype gives shape {found}",
+        )
 
     if encoder.evolvable:
         _check_variation(check, encoder, genotype, plain)

@@ -214,6 +214,10 @@ class ObjectGenotypeNDE(NDEEncoder):
         return {"genes": super().random_genotype(rng), "born": object()}
 
 
+class MisdeclaredShapeNDE(NDEEncoder):
+    genotype_shape = (3, 99)
+
+
 class SilentPrebuilt(PrebuiltEncoder):
     def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> Any:
         return genotype
@@ -230,6 +234,7 @@ class VagueEvolvable(PrebuiltEncoder):
         (IdleNDE, "mutate returned a genotype equal to its input"),
         (GlobalRandomNDE, "random_genotype is not deterministic"),
         (ObjectGenotypeNDE, r"plain data \(JSON\) raised TypeError"),
+        (MisdeclaredShapeNDE, r"genotype_shape is \(3, 99\) but random_genotype gives shape"),
         (SilentPrebuilt, "mutate returned a genotype although evolvable is False"),
         (VagueEvolvable, "needs a bool attribute 'evolvable'"),
     ],

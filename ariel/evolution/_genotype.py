@@ -20,7 +20,13 @@ import numpy as np
 
 from ariel.evolution._config import ConfigError
 
-__all__ = ["GENOTYPE_FILE_SUFFIXES", "check_genotype", "is_genotype_file", "read_genotype_file"]
+__all__ = [
+    "GENOTYPE_FILE_SUFFIXES",
+    "check_genotype",
+    "describe",
+    "is_genotype_file",
+    "read_genotype_file",
+]
 
 GENOTYPE_FILE_SUFFIXES = (".json", ".npy")
 

@@ -17,6 +17,7 @@ import os
 import pickle
 import platform
 import re
+import shlex
 import shutil
 import subprocess
 from collections.abc import Iterator
@@ -108,7 +109,8 @@ def _storage_message(exc: OSError, run_dir: Path) -> str | None:
     done = int(info.get("generations_done", 0))
     return (
         f"{problem}; the run stopped, its {done} finished generation(s) are kept: "
-        f"make room (or fix the folder), then continue with: ariel resume {run_dir}"
+        f"make room (or fix the folder), then continue with: ariel resume "
+        f"{shlex.quote(str(run_dir))}"
     )
 
 
