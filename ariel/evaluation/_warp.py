@@ -291,6 +291,10 @@ class WarpEvaluator:
             data = mjw.put_data(
                 model, mujoco.MjData(model), nworld=nworld, nconmax=nconmax, njmax=njmax
             )
+            # One step outside any graph capture: every kernel a step needs is compiled and
+            # loaded now, not while a graph is being captured. Each batch resets the data.
+            mjw.step(body.model, data)
+            wp.synchronize()
         body.worlds = _Worlds(data, nworld, (data.naconmax // nworld, data.njmax), {})
         if body.sizes is None:
             body.sizes = body.worlds.sizes
