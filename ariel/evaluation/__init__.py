@@ -24,6 +24,8 @@ _LAZY: dict[str, str] = {
     "evaluation_threads": "ariel.evaluation.executors",
     "make_executor": "ariel.evaluation.executors",
     "map_ordered": "ariel.evaluation.executors",
+    # MuJoCo Warp (``pip install 'ariel[gpu]'``); importing the name imports no Warp yet.
+    "WarpEvaluator": "ariel.evaluation._warp",
 }
 
 __all__ = sorted(_LAZY)

@@ -177,3 +177,10 @@ def test_tasks_with_different_seeds_get_their_own_controls(evaluator) -> None:
     for a, b in zip(cpu, warp):
         np.testing.assert_array_equal(b.joint_target, a.joint_target)
     assert not np.array_equal(warp[0].joint_target, warp[1].joint_target)
+
+
+def test_the_package_exports_the_evaluator_lazily() -> None:
+    import ariel.evaluation
+
+    assert ariel.evaluation.WarpEvaluator is WarpEvaluator
+    assert "WarpEvaluator" in dir(ariel.evaluation)
