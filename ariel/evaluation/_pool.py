@@ -48,6 +48,8 @@ __all__ = [
 R = TypeVar("R")
 
 _STOP = b""  # sent to an idle worker: exit
+# Tags of a worker's messages (see `_worker_main`).
+_STARTED, _DONE, _RETIRING, _BROKEN = b"S", b"D", b"R", b"B"
 # Time a call's timeout does not count: a fresh worker starting and importing what the call
 # needs (unpickling it); a worker that takes longer than this as well is stopped too.
 _START_SECONDS = 120.0
@@ -85,15 +87,17 @@ def _worker_main(
 ) -> None:
     """A worker's life: initializer, then calls one at a time until told to stop.
 
-    Messages to the driver: ``("started",)`` once a call is unpickled (its imports done), then
-    ``("done", ok, value, traceback_text, retiring)``. An initializer that raises sends
-    ``("broken", text)`` and exits.
+    Messages to the driver start with a tag byte: `_STARTED` once a call is unpickled (its
+    imports done), then `_DONE` (or `_RETIRING`, when this worker exits after it) followed by
+    the pickled ``(ok, value, traceback_text)``. An initializer that raises sends `_BROKEN` and
+    its traceback, and the worker exits. The tag lets the driver hand this worker its next call
+    before it unpickles the result.
     """
     if initializer is not None:
         try:
             initializer(*initargs)
         except BaseException:
-            conn.send(("broken", traceback.format_exc()))
+            conn.send_bytes(_BROKEN + traceback.format_exc().encode(errors="replace"))
             return
     calls = 0
     while True:
@@ -105,21 +109,21 @@ def _worker_main(
             return
         try:
             fn, args, kwargs = pickle.loads(payload)
-            conn.send(("started",))
+            conn.send_bytes(_STARTED)
             value, ok, text = fn(*args, **kwargs), True, ""
         except BaseException as exc:
             value, ok, text = exc, False, traceback.format_exc()
         calls += 1
         retiring = max_tasks is not None and calls >= max_tasks
         try:
-            message = pickle.dumps(("done", ok, value, text, retiring))
+            message = pickle.dumps((ok, value, text))
         except Exception as exc:  # a result or exception that cannot be pickled
             error = RuntimeError(
                 f"the call's {'result' if ok else 'exception'} cannot be sent back: {exc!r}"
             )
-            message = pickle.dumps(("done", False, error, traceback.format_exc(), retiring))
+            message = pickle.dumps((False, error, traceback.format_exc()))
         del value
-        conn.send_bytes(message)
+        conn.send_bytes((_RETIRING if retiring else _DONE) + message)
         if retiring:
             return
 
@@ -167,12 +171,22 @@ class _Worker:
     killed: str = ""  # why the pool killed it ("timeout", "closed"): not the call's fault
 
 
-def _unpickle(data: bytes) -> tuple[Any, ...]:
+def _settle(call: _Call, data: bytes) -> None:
+    """Set a finished call's future from the worker's pickled ``(ok, value, traceback)``."""
     try:
-        return pickle.loads(data)
+        ok, value, text = pickle.loads(data)
     except Exception as exc:  # e.g. an exception class that cannot be rebuilt from its args
-        error = RuntimeError(f"the call's outcome could not be unpickled here: {exc!r}")
-        return ("done", False, error, "", False)
+        ok, value, text = (
+            False,
+            RuntimeError(f"the call's outcome cannot be unpickled: {exc!r}"),
+            "",
+        )
+    if ok:
+        call.future.set_result(value)
+        return
+    if text and isinstance(value, BaseException):
+        value.__cause__ = _RemoteTracebackError(text)
+    call.future.set_exception(value)
 
 
 def _ended_how(exitcode: int | None) -> str:
@@ -273,11 +287,16 @@ class _Driver:
                 while self._wake_reader.poll():
                     self._wake_reader.recv_bytes()
                 self._woken = False
+        finished: list[tuple[_Call, bytes]] = []
         for worker in list(self.workers):
             # A closed pipe, or a process that ended (after its last message was read).
-            closed = worker.conn in ready and not self._read(worker)
+            closed = worker.conn in ready and not self._read(worker, finished)
             if closed or worker.process.sentinel in ready:
                 self._lost(worker)
+        if finished:
+            self._dispatch()  # idle workers first, then the results
+            for call, data in finished:
+                _settle(call, data)
         now = time.monotonic()
         for worker in list(self.workers):
             if worker.call is not None and worker.deadline is not None and worker.deadline <= now:
@@ -331,31 +350,28 @@ class _Driver:
             self.workers.append(worker)
         return worker
 
-    def _read(self, worker: _Worker) -> bool:
-        """Handle every message the worker has sent; False when its pipe is closed."""
+    def _read(self, worker: _Worker, finished: list[tuple[_Call, bytes]]) -> bool:
+        """Take every message the worker has sent; False when its pipe is closed.
+
+        Finished calls go to ``finished`` with their pickled outcome, which the caller unpickles
+        after handing out new work (so that the worker does not wait for that).
+        """
         try:
             while worker.conn.poll():
-                message = _unpickle(worker.conn.recv_bytes())
-                kind = message[0]
-                if kind == "started":
+                data = worker.conn.recv_bytes()
+                tag = data[:1]
+                if tag == _STARTED:
                     call = worker.call
                     if call is not None and call.timeout is not None:
                         worker.deadline = time.monotonic() + call.timeout
-                elif kind == "done":
-                    _, ok, value, text, retiring = message
+                elif tag in (_DONE, _RETIRING):
                     call, worker.call, worker.deadline = worker.call, None, None
-                    worker.retiring = retiring
+                    worker.retiring = tag == _RETIRING
                     if call is not None:
-                        if ok:
-                            call.future.set_result(value)
-                        else:
-                            if text and isinstance(value, BaseException):
-                                value.__cause__ = _RemoteTracebackError(text)
-                            call.future.set_exception(value)
-                elif kind == "broken":
-                    self._fail_everything(
-                        "a worker's initializer failed: " + message[1].strip().splitlines()[-1]
-                    )
+                        finished.append((call, data[1:]))
+                elif tag == _BROKEN:
+                    last = data[1:].decode(errors="replace").strip().splitlines()[-1]
+                    self._fail_everything(f"a worker's initializer failed: {last}")
                     return False
         except (EOFError, OSError):
             return False

@@ -474,7 +474,10 @@ def worker_fault(exc: BaseException) -> str | None:
     if type(exc).__name__ == "KilledWorker" and type(exc).__module__.startswith("distributed"):
         # Dask's own text names a task key and a worker address: not the same in two runs.
         tries = getattr(exc, "allowed_failures", None)
-        times = f"{tries + 1} times" if isinstance(tries, int) else "too often"
+        if not isinstance(tries, int):
+            times = "too often"
+        else:
+            times = "once" if tries == 0 else f"{tries + 1} times"
         return f"worker lost: Dask workers died {times} running this call (KilledWorker)"
     return None
 

@@ -150,6 +150,13 @@ def test_dask_killed_worker_maps_to_a_worker_fault() -> None:
     assert worker_fault(exc) == (
         "worker lost: Dask workers died 3 times running this call (KilledWorker)"
     )
+    # The real thing: max_retries=0 is the scheduler's allowed_failures, so one death is enough.
+    with make_executor("dask", workers=1, max_retries=0) as ex:
+        with pytest.raises(KilledWorker) as info:
+            ex.submit(_selftest.die).result(timeout=120)
+        assert worker_fault(info.value) == (
+            "worker lost: Dask workers died once running this call (KilledWorker)"
+        )
 
 
 @needs_dask
