@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as _rollout
 
+from ariel.evaluation._heap import steady_heap
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
 from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.controller import actuator_bounds, blend_and_clip
@@ -645,6 +646,7 @@ def evaluate_batch(
     """
     from ariel.evaluation.executors import evaluation_threads
 
+    steady_heap()  # each batch's arrays of megabytes come and go: keep the heap from growing
     if nthread is None:
         nthread = evaluation_threads()
     results, ready = prepare_groups(tasks)

@@ -286,6 +286,13 @@ class _Experiment:
             self.new_body(body.number, body.genotype, body.parent_ids, body.born)
         return self._models[body.number]
 
+    def forget_models(self, alive: Sequence[Body]) -> None:
+        """Drop the compiled models of bodies not in ``alive`` (each holds ~0.3 MB: a run of
+        days would keep every body it ever made)."""
+        keep = {body.number for body in alive}
+        for number in [n for n in self._models if n not in keep]:
+            del self._models[number]
+
     # -- brain learning: all jobs side by side -------------------------------------------------
 
     def learn(
@@ -781,6 +788,7 @@ def _one_generation(
         generation, [(b, b in children, b.body_id in kept) for b in parents + children]
     )
     state.population = survivors
+    experiment.forget_models(survivors)
     state.generation = generation
     return state
 

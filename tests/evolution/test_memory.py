@@ -1,8 +1,9 @@
-"""Evaluation workers stay small: tasks carry each body as its decoded robot graph.
+"""Memory over a long run: small workers, and a driver that does not keep every body.
 
-The NDE needs torch (hundreds of MiB resident) to make its weights; a worker that decoded
-genotypes itself imported it. The driver now decodes every body once and ships the graph
-(`_tasks.shipped_body`), which compiles to the very same model, so fitness is unchanged.
+Workers: the NDE needs torch (hundreds of MiB resident) to make its weights; a worker that
+decoded genotypes itself imported it. The driver now decodes every body once and ships the
+graph (`_tasks.shipped_body`), which compiles to the very same model, so fitness is unchanged.
+Driver: it compiles each new body (~0.3 MB a model) and keeps the models of living bodies only.
 """
 
 from __future__ import annotations
@@ -133,3 +134,23 @@ def test_a_local_worker_evaluating_nde_bodies_never_imports_torch(tmp_path: Path
     assert facts["built"] > 0  # this worker compiled the bodies itself
     assert facts["torch"] == []
     assert facts["rss_mib"] < WORKER_RSS_LIMIT_MIB, facts["rss_mib"]
+
+
+def test_the_driver_keeps_compiled_models_of_living_bodies_only(tmp_path: Path) -> None:
+    seen: list[tuple[int, set[int], set[int]]] = []
+    original = loop._one_generation
+
+    def watched(experiment, state, generation, *args, **kwargs):
+        state = original(experiment, state, generation, *args, **kwargs)
+        alive = {body.number for body in state.population}
+        seen.append((generation, set(experiment._models), alive))
+        return state
+
+    config = {**copy.deepcopy(CONFIG), "generations": 4}
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(loop, "_one_generation", watched)
+        run_experiment(config, out=tmp_path / "run", progress=False)
+    assert [generation for generation, _, _ in seen] == [0, 1, 2, 3]
+    for generation, models, alive in seen:
+        assert models <= alive, generation  # 2 living bodies, though 2 + 2 x 3 were made
+    assert len(load_run(tmp_path / "run").bodies["body_id"].unique()) == 8
