@@ -1,5 +1,5 @@
-"""Smoke tests of experiments/benchmarks/evaluation.py, coevolution.py and recording.py: each
-runs and ends with its JSON summary.
+"""Smoke tests of experiments/benchmarks/evaluation.py, coevolution.py, recording.py and
+soak.py: each runs and ends with its JSON summary.
 
 Tiny settings and no timing assertions (the machine's load decides the numbers).
 """
@@ -129,3 +129,65 @@ def test_recording_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     result = _run_recording("--repeats", "0", cwd=tmp_path)
     assert result.returncode == 2
     assert "--repeats must be an integer >= 1" in result.stderr
+
+
+SOAK = SCRIPT.with_name("soak.py")
+SOAK_KEYS = (
+    "evals_per_s_first",
+    "evals_per_s_last",
+    "worker_rss_max_mib",
+    "driver_rss_first_mib",
+    "driver_rss_last_mib",
+    "raw_evals_per_s_before",
+    "raw_evals_per_s_after",
+)
+
+
+def _run_soak(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, str(SOAK), *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=300,
+    )
+
+
+def test_soak_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
+    result = _run_soak("--quick", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    lines = result.stdout.strip().splitlines()
+    summary = json.loads(lines[-1])
+    for key in SOAK_KEYS:
+        value = summary[key]
+        assert isinstance(value, int | float) and not isinstance(value, bool), key
+        assert math.isfinite(value) and value > 0, (key, value)
+    # --quick: 2 generations of 2 bodies x 1 iteration x popsize 3, on one local worker.
+    assert summary["evaluations"] == 12 and summary["workers"] == 1
+    assert len(summary["evals_per_s"]) == 2 and len(summary["driver_rss_mib"]) == 2
+    assert summary["evals_per_s"][0] == summary["evals_per_s_first"]
+    # Growth is a fraction, from readings taken after the first and the last generation.
+    first, last = summary["driver_rss_first_mib"], summary["driver_rss_last_mib"]
+    assert summary["driver_rss_growth"] == round(last / first - 1, 4)
+    assert -1 < summary["worker_rss_growth"] < 10
+    # The sampler saw the pool's worker (not only the forkserver) holding a whole engine.
+    assert summary["workers_seen"] >= 1
+    assert 30 < summary["worker_rss_max_mib"] < 4096
+    assert summary["driver_rss_peak_mib"] >= max(first, last)
+    for key in ("driver_fds_first", "driver_fds_last", "driver_fds_max", "worker_fds_max"):
+        assert isinstance(summary[key], int) and summary[key] > 0, key
+    assert summary["driver_fds_max"] >= summary["driver_fds_last"]
+    assert summary["driver_fd_growth"] == summary["driver_fds_last"] - summary["driver_fds_first"]
+    table = "\n".join(lines[:-1])
+    for label in ("evals/s, first generation", "driver RSS", "worker peak RSS", "descriptors"):
+        assert label in table
+    assert list(tmp_path.iterdir()) == []  # the run went into a temporary folder
+
+
+def test_soak_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
+    result = _run_soak("--generations", "1", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "--generations must be an integer >= 2" in result.stderr
+    result = _run_soak("--out", str(tmp_path), cwd=tmp_path)
+    assert result.returncode == 2
+    assert "exists already" in result.stderr
