@@ -73,5 +73,5 @@ def test_after_an_evaluation_large_arrays_do_not_grow_the_heap() -> None:
 def test_without_it_glibc_would_keep_them_on_the_heap() -> None:
     # The probe can tell the difference. Not in every process, though: where address-space
     # layout leaves no room to extend the heap with brk, glibc maps the blocks instead and
-    # the heap does not grow either (seen once in ~10 full-suite runs); one of three will.
+    # the heap does not grow either (seen once in a full-suite run); one of three will.
     assert max(_heap_growth_mib("plain") for _ in range(3)) >= 10
