@@ -490,7 +490,7 @@ class _Experiment:
 
     def write_generation(self, generation: int, bodies: list[tuple[Body, bool, bool]]) -> None:
         from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-        from ariel.recording._tables import evaluation_schema, write_table
+        from ariel.recording._tables import evaluation_schema, trajectory_columns, write_table
 
         def columns(rows: list[dict[str, Any]], schema: Any) -> dict[str, list[Any]]:
             return {f.name: [row.get(f.name) for row in rows] for f in schema}
@@ -502,30 +502,9 @@ class _Experiment:
         }
         write_table(self.folder.path, "evaluations", generation, columns(rows, evaluation_schema()))
         if self.config.record.trajectories:
-            frames: dict[str, list[Any]] = {
-                name: []
-                for name in (
-                    "generation",
-                    "eval_id",
-                    "t",
-                    "core_x",
-                    "core_y",
-                    "core_z",
-                    "joint_target",
-                    "joint_angle",
-                )
-            }
-            for key in sorted(self._frames):
-                eval_id, result = self._frames[key]
-                n = result.time.size
-                frames["generation"].extend([generation] * n)
-                frames["eval_id"].extend([eval_id] * n)
-                frames["t"].extend(result.time.tolist())
-                for axis, name in enumerate(("core_x", "core_y", "core_z")):
-                    frames[name].extend(result.core_pos[:, axis].tolist())
-                frames["joint_target"].extend(result.joint_target.tolist())
-                frames["joint_angle"].extend(result.joint_angle.tolist())
-            write_table(self.folder.path, "trajectories", generation, frames)
+            frames = [self._frames[key] for key in sorted(self._frames)]
+            trajectories = trajectory_columns(generation, frames)
+            write_table(self.folder.path, "trajectories", generation, trajectories)
         body_rows = []
         for body, is_new, selected in bodies:
             body_rows.append(

@@ -26,6 +26,7 @@ __all__ = [
     "read_table",
     "recording_path",
     "table_generations",
+    "trajectory_columns",
     "trajectory_schema",
     "write_table",
 ]
@@ -117,6 +118,40 @@ def trajectory_schema() -> pa.Schema:
             ("joint_angle", pa.list_(pa.float64())),
         ]
     )
+
+
+def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> dict[str, Any]:
+    """The ``trajectories`` columns of one generation, from ``(eval_id, result)`` pairs.
+
+    Arrow arrays made from the results' numpy arrays directly: as Python lists (an object per
+    number, about a million a generation) they left the driver's heap larger after every
+    generation (soak benchmark).
+    """
+    import numpy as np
+
+    counts = [int(result.time.size) for _, result in frames]
+    rows = np.repeat(np.arange(len(frames), dtype=np.int64), counts)
+
+    def numbers(values: list[Any]) -> Any:
+        flat = [np.asarray(v, dtype=np.float64).ravel() for v in values]
+        return pa.array(np.concatenate(flat) if flat else np.zeros(0), pa.float64())
+
+    def lists(name: str) -> Any:
+        blocks = [np.asarray(getattr(result, name), dtype=np.float64) for _, result in frames]
+        widths = np.repeat([block.shape[1] for block in blocks], counts).astype(np.int64)
+        offsets = pa.array(np.concatenate([[0], np.cumsum(widths)]).astype(np.int32))
+        return pa.ListArray.from_arrays(offsets, numbers(blocks))
+
+    columns = {
+        "generation": pa.array(np.full(rows.size, generation, dtype=np.int32)),
+        "eval_id": pa.array([eval_id for eval_id, _ in frames], pa.string()).take(rows),
+        "t": numbers([result.time for _, result in frames]),
+    }
+    for axis, name in enumerate(("core_x", "core_y", "core_z")):
+        columns[name] = numbers([np.asarray(result.core_pos)[:, axis] for _, result in frames])
+    columns["joint_target"] = lists("joint_target")
+    columns["joint_angle"] = lists("joint_angle")
+    return columns
 
 
 _SCHEMAS = {

@@ -3,7 +3,8 @@
 Workers: the NDE needs torch (hundreds of MiB resident) to make its weights; a worker that
 decoded genotypes itself imported it. The driver now decodes every body once and ships the
 graph (`_tasks.shipped_body`), which compiles to the very same model, so fitness is unchanged.
-Driver: it compiles each new body (~0.3 MB a model) and keeps the models of living bodies only.
+Driver: it compiles each new body (~0.3 MB a model) and keeps the models of living bodies only;
+it writes the trajectories table from numpy arrays, not from a million Python floats.
 """
 
 from __future__ import annotations
@@ -14,14 +15,16 @@ from typing import Any
 
 import mujoco
 import numpy as np
+import pyarrow as pa
 import pytest
 
 import ariel.evolution._loop as loop
-from ariel.evaluation import BodySpec, build, evaluate_batch, make_executor
+from ariel.evaluation import BodySpec, EvaluationResult, build, evaluate_batch, make_executor
 from ariel.evolution import ExperimentConfig, run_experiment
 from ariel.evolution._tasks import body_spec, evaluation_task, shipped_body
 from ariel.plugins import body_encoders
 from ariel.recording import load_run
+from ariel.recording._tables import trajectory_columns, trajectory_schema
 
 CONFIG = {
     "name": "workermemory",
@@ -154,3 +157,41 @@ def test_the_driver_keeps_compiled_models_of_living_bodies_only(tmp_path: Path) 
     for generation, models, alive in seen:
         assert models <= alive, generation  # 2 living bodies, though 2 + 2 x 3 were made
     assert len(load_run(tmp_path / "run").bodies["body_id"].unique()) == 8
+
+
+def _listed_columns(generation: int, frames: list) -> dict[str, list]:
+    """The trajectories columns as Python lists (how the loop built them before)."""
+    columns: dict[str, list] = {name: [] for name in trajectory_schema().names}
+    for eval_id, result in frames:
+        n = result.time.size
+        columns["generation"] += [generation] * n
+        columns["eval_id"] += [eval_id] * n
+        columns["t"] += result.time.tolist()
+        for axis, name in enumerate(("core_x", "core_y", "core_z")):
+            columns[name] += result.core_pos[:, axis].tolist()
+        columns["joint_target"] += result.joint_target.tolist()
+        columns["joint_angle"] += result.joint_angle.tolist()
+    return columns
+
+
+def test_trajectory_columns_from_arrays_are_the_table_lists_made() -> None:
+    rng = np.random.default_rng(0)
+    frames = []
+    for k, (frames_n, joints) in enumerate([(5, 3), (1, 0), (4, 8), (0, 2)]):
+        result = EvaluationResult(
+            eval_id=f"e{k}",
+            fitness=0.0,
+            status="ok",
+            time=rng.random(frames_n),
+            core_pos=rng.random((frames_n, 3)),
+            joint_target=rng.random((frames_n, joints)),
+            joint_angle=rng.random((frames_n, joints)),
+        )
+        frames.append((f"e{k}", result))
+    schema = trajectory_schema()
+    arrays = pa.Table.from_pydict(trajectory_columns(7, frames), schema=schema)
+    lists = pa.Table.from_pydict(_listed_columns(7, frames), schema=schema)
+    assert arrays.num_rows == 10
+    assert arrays.equals(lists)
+    empty = pa.Table.from_pydict(trajectory_columns(0, []), schema=schema)
+    assert empty.num_rows == 0
