@@ -57,8 +57,11 @@ needs_glibc = pytest.mark.skipif(not _glibc_with_mallinfo2(), reason="glibc >= 2
 
 
 def _heap_growth_mib(mode: str) -> int:
+    # glibc's defaults: importing Dask (other tests) sets MALLOC_TRIM_THRESHOLD_ in this
+    # process's environment for its workers, and a fixed trim threshold hides the effect.
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")}
     result = subprocess.run(
-        [sys.executable, "-c", PROBE, mode], capture_output=True, text=True, timeout=120
+        [sys.executable, "-c", PROBE, mode], capture_output=True, text=True, timeout=120, env=env
     )
     assert result.returncode == 0, result.stderr[-2000:]
     return int(result.stdout.strip())
@@ -71,7 +74,4 @@ def test_after_an_evaluation_large_arrays_do_not_grow_the_heap() -> None:
 
 @needs_glibc
 def test_without_it_glibc_would_keep_them_on_the_heap() -> None:
-    # The probe can tell the difference. Not in every process, though: where address-space
-    # layout leaves no room to extend the heap with brk, glibc maps the blocks instead and
-    # the heap does not grow either (seen once in a full-suite run); one of three will.
-    assert max(_heap_growth_mib("plain") for _ in range(3)) >= 10
+    assert _heap_growth_mib("plain") >= 10  # the probe can tell the difference
