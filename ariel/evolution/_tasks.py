@@ -27,7 +27,7 @@ def shipped_body(config: ExperimentConfig, body: Any) -> Any:
 
     A body whose encoder decodes it to a robot graph travels as that graph (the ``graph``
     encoder's node-link data): the driver decodes each body once, and a worker needs only the
-    constructor, never the encoder. For the NDE that keeps torch (~250 MiB resident, needed to
+    constructor, never the encoder. For the NDE that keeps torch (~220 MiB resident, needed to
     make its weights) out of every worker. The compiled model is the same byte for byte, so
     fitness is too. A body that does not decode to a valid graph keeps its genotype (the worker
     then reports the error the driver saw), as does one whose encoder builds it directly

@@ -18,7 +18,9 @@ What is watched, and how:
   load-independent figures sit beside it: the CPU time of the driver and its workers per
   evaluation (psutil), and raw ``mujoco.rollout`` evaluations/s of the gecko measured in this
   process just before and just after the run (if the raw rate fell as much, the machine got
-  busier, not the run slower).
+  busier, not the run slower). Also the workers' busy share: the evaluations' own time (their
+  ``wall_seconds``) over the generation's time x workers; overhead that grew in the driver
+  would lower it, slower physics on a busier machine does not.
 * Memory: a thread samples the driver and every descendant process (psutil) every
   ``--interval`` seconds: resident memory (RSS), peak RSS (``VmHWM`` from ``/proc``, so peaks
   between samples count), open file descriptors, threads and CPU time. Each generation's end
@@ -542,6 +544,8 @@ def main(argv: list[str] | None = None) -> int:
         "evals_per_s_last": round(rate_last, 4),
         "evals_per_s_ratio": round(ratio, 4),
         "evals_per_s": [round(r["evals_per_s"], 4) for r in rows],
+        "busy_first": round(rows[0]["busy"], 4),
+        "busy_last": round(rows[-1]["busy"], 4),
         "cpu_ms_per_eval_first": round(rows[0]["cpu_ms_per_eval"], 3),
         "cpu_ms_per_eval_last": round(rows[-1]["cpu_ms_per_eval"], 3),
         "raw_evals_per_s_before": round(raw_before, 3),
