@@ -45,10 +45,16 @@ def _positive_int(text: str) -> int:
 
 def _how_to_look(path: Path) -> str:
     quoted = shlex.quote(str(path))
+    recorded = (path / "run.rrd").is_file() or (path / "recordings").is_dir()
+    view = (
+        f"  ariel view {quoted}              # Rerun viewer (--web on a headless node)\n"
+        if recorded  # record.rerun = false: nothing to view
+        else ""
+    )
     return (
         "look at the results:\n"
         f"  ariel report {quoted}            # summary table and figures in {quoted}/report\n"
-        f"  ariel view {quoted}              # Rerun viewer (--web on a headless node)\n"
+        f"{view}"
         f"  ariel replay {quoted} best       # re-simulate the best evaluation\n"
         f"  ariel runs {shlex.quote(str(path.parent))}\n"
         f'  python -c "from ariel.recording import load_run; '

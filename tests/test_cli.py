@@ -114,6 +114,15 @@ def test_run_prints_the_folder_the_best_fitness_and_how_to_look(finished_run) ->
     assert f"run folder: {out}" in printed.splitlines()
     assert f"ariel runs {out.parent}" in printed
     assert f"load_run('{out}')" in printed
+    assert f"ariel view {out} " in printed  # it has recordings (record.rerun is on)
+
+
+def test_how_to_look_offers_the_viewer_only_with_recordings(tmp_path: Path) -> None:
+    from ariel.cli import _how_to_look
+
+    assert "ariel view" not in _how_to_look(tmp_path)  # record.rerun = false: none
+    (tmp_path / "run.rrd").write_bytes(b"")
+    assert f"ariel view {tmp_path} " in _how_to_look(tmp_path)
 
 
 def test_runs_lists_a_finished_run(finished_run, capsys: pytest.CaptureFixture[str]) -> None:
