@@ -58,19 +58,19 @@ Prints a table, then as the last line one JSON object with ``loop_vs_raw_ratio``
 
 from __future__ import annotations
 
-import os
+from _common import (
+    add_quick_option,
+    apply_quick,
+    check_at_least,
+    check_seconds,
+    check_seed,
+    load_average,
+    one_blas_thread,
+)
 
 # As in evaluation.py: BLAS/OpenMP pools are sized before numpy is imported (the loop's workers
 # get the same limits from the executor, and the driver limits its own BLAS around pycma).
-for _variable in (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "BLIS_NUM_THREADS",
-    "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
-):
-    os.environ[_variable] = "1"
+one_blas_thread()
 
 import argparse  # noqa: E402
 import concurrent.futures as cf  # noqa: E402
@@ -78,6 +78,7 @@ import contextlib  # noqa: E402
 import gc  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
+import os  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
@@ -116,39 +117,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--repeats", type=int, default=3, help="timed rounds")
     parser.add_argument("--seed", type=int, default=3, help="experiment seed (the config's: 3)")
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="tiny smoke run: "
-        + ", ".join(f"{k} {v}" for k, v in QUICK.items())
-        + " (overrides those options)",
-    )
+    add_quick_option(parser, QUICK)
     args = parser.parse_args(argv)
-    if args.quick:
-        for name, value in QUICK.items():
-            setattr(args, name, value)
-    for name in ("generations", "iterations", "repeats"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name} must be an integer >= 1, got {getattr(args, name)}")
-    if args.popsize < 2:
-        parser.error(f"--popsize must be an integer >= 2, got {args.popsize}")
-    if args.workers is not None and args.workers < 1:
-        parser.error(f"--workers must be an integer >= 1, got {args.workers}")
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
-    if args.seed < 0:
-        parser.error(f"--seed must be >= 0, got {args.seed}")
+    apply_quick(args, QUICK)
+    check_at_least(parser, args, 1, "generations", "iterations", "repeats")
+    check_at_least(parser, args, 2, "popsize")
+    check_at_least(parser, args, 1, "workers")
+    check_seconds(parser, args, "duration")
+    check_seed(parser, args)
     return args
-
-
-def load_average() -> tuple[float, float, float] | None:
-    """1, 5 and 15 minute load averages (None where /proc/loadavg does not exist)."""
-    try:
-        with open("/proc/loadavg") as file:
-            one, five, fifteen = file.read().split()[:3]
-    except OSError:
-        return None
-    return float(one), float(five), float(fifteen)
 
 
 def experiment_config(args: argparse.Namespace) -> ExperimentConfig:

@@ -37,21 +37,11 @@ Prints a table, then as the last line one JSON object with ``tutorial_path_ratio
 
 from __future__ import annotations
 
-import os
+from _common import check_at_least, check_seconds, load_average, one_blas_thread
 
 # BLAS/OpenMP pools must be sized before numpy (or torch) is first imported: they read these
-# variables once, at load. One thread each, as in the engine's workers: the benchmark measures
-# physics and Python overhead, and a second spinning BLAS/OpenMP thread would compete with
-# MuJoCo's rollout threads for the same cores and make the numbers noisy.
-for _variable in (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "BLIS_NUM_THREADS",
-    "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
-):
-    os.environ[_variable] = "1"
+# variables once, at load (see `one_blas_thread`).
+one_blas_thread()
 
 # The imports below must see the variables above, hence after code.
 import argparse  # noqa: E402
@@ -59,6 +49,7 @@ import contextlib  # noqa: E402
 import gc  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
+import os  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
@@ -109,22 +100,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="evaluation seeds of the batch: all the same, or one per candidate",
     )
     args = parser.parse_args(argv)
-    for name in ("repeats", "batch", "threads", "genotypes"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name} must be an integer >= 1, got {getattr(args, name)}")
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
+    check_at_least(parser, args, 1, "repeats", "batch", "threads", "genotypes")
+    check_seconds(parser, args, "duration")
     return args
-
-
-def load_average() -> tuple[float, float, float] | None:
-    """1, 5 and 15 minute load averages (None where /proc/loadavg does not exist)."""
-    try:
-        with open("/proc/loadavg") as file:
-            one, five, fifteen = file.read().split()[:3]
-    except OSError:
-        return None
-    return float(one), float(five), float(fifteen)
 
 
 Sample = Callable[[], dict[str, float]]

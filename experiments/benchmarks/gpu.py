@@ -30,12 +30,11 @@ Without a GPU: ``--device cpu --worlds 16,64 --duration 2`` (Warp's CPU device; 
 
 from __future__ import annotations
 
-import os
+from _common import check_at_least, check_seconds, load_average, one_blas_thread
 
 # One BLAS/OpenMP thread, as in the engine's workers, so that library threads do not compete
 # with MuJoCo's rollout threads (set before numpy is imported).
-for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_variable] = "1"
+one_blas_thread()
 
 import argparse  # noqa: E402
 import gc  # noqa: E402
@@ -82,21 +81,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         parser.error(f"--worlds must be comma-separated integers, got {args.worlds!r}")
     if not args.worlds or min(args.worlds) < 1:
         parser.error(f"--worlds must be integers >= 1, got {args.worlds}")
-    for name in ("repeats", "cpu_evals"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')} must be an integer >= 1")
-    if not 0 < args.duration < float("inf"):
-        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
+    check_at_least(parser, args, 1, "repeats", "cpu_evals")
+    check_seconds(parser, args, "duration")
     if not args.rate_hz > 0:
         parser.error(f"--rate-hz must be > 0, got {args.rate_hz}")
     return args
-
-
-def load_average() -> list[float] | None:
-    try:
-        return [round(v, 2) for v in os.getloadavg()]
-    except OSError:
-        return None
 
 
 def gecko_tasks(n: int, args: argparse.Namespace) -> list[EvaluationTask]:

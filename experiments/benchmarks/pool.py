@@ -29,24 +29,23 @@ the per-call milliseconds of both pools, ``recovery_s`` and context.
 
 from __future__ import annotations
 
-import os
+from _common import (
+    add_quick_option,
+    apply_quick,
+    check_at_least,
+    check_seconds,
+    load_average,
+    one_blas_thread,
+)
 
 # As in the other benchmarks: BLAS/OpenMP pools sized before numpy is imported.
-for _variable in (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "BLIS_NUM_THREADS",
-    "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
-):
-    os.environ[_variable] = "1"
+one_blas_thread()
 
 import argparse  # noqa: E402
 import concurrent.futures as cf  # noqa: E402
 import json  # noqa: E402
-import math  # noqa: E402
 import multiprocessing  # noqa: E402
+import os  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -85,22 +84,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--popsize", type=int, default=8, help="evaluations per batch")
     parser.add_argument("--duration", type=float, default=2.0, help="simulated seconds")
     parser.add_argument("--repeats", type=int, default=5, help="timed rounds")
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="smoke run: " + ", ".join(f"{k} {v}" for k, v in QUICK.items()),
-    )
+    add_quick_option(parser, QUICK)
     args = parser.parse_args(argv)
-    if args.quick:
-        for name, value in QUICK.items():
-            setattr(args, name, value)
-    for name in ("calls", "batches", "popsize", "repeats"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name} must be an integer >= 1, got {getattr(args, name)}")
-    if args.workers is not None and args.workers < 1:
-        parser.error(f"--workers must be an integer >= 1, got {args.workers}")
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
+    apply_quick(args, QUICK)
+    check_at_least(parser, args, 1, "calls", "batches", "popsize", "repeats", "workers")
+    check_seconds(parser, args, "duration")
     return args
 
 
@@ -176,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     counts = {"tiny": args.calls, "batch": len(batches)}
     seconds: dict[str, dict[str, list[float]]] = {w: {p: [] for p in pools} for w in workloads}
     ratios: dict[str, list[float]] = {w: [] for w in workloads}
-    load_before = os.getloadavg() if hasattr(os, "getloadavg") else None
+    load_before = load_average()
     try:
         for executor in pools.values():
             start_workers(executor, workers)
@@ -223,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
         "duration_s": args.duration,
         "repeats": args.repeats,
         "loadavg_before": load_before,
-        "loadavg_after": os.getloadavg() if hasattr(os, "getloadavg") else None,
+        "loadavg_after": load_average(),
     }
     print(json.dumps(summary))
     return 0

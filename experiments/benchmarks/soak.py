@@ -43,24 +43,27 @@ Prints a table per generation and a summary, then as the last line one JSON obje
 
 from __future__ import annotations
 
-import os
+from _common import (
+    add_quick_option,
+    add_run_options,
+    apply_quick,
+    check_at_least,
+    check_seconds,
+    check_seed,
+    load_average,
+    one_blas_thread,
+    run_overrides,
+)
 
 # As the other benchmarks: BLAS/OpenMP pools sized before numpy is imported (the loop's
 # workers get the same limits from the executor).
-for _variable in (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "BLIS_NUM_THREADS",
-    "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
-):
-    os.environ[_variable] = "1"
+one_blas_thread()
 
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
+import os  # noqa: E402
 import platform  # noqa: E402
 import resource  # noqa: E402
 import sys  # noqa: E402
@@ -97,24 +100,7 @@ QUICK = {
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--generations", type=int, default=None, help="default: the config's")
-    parser.add_argument("--population", type=int, default=None, help="body.population")
-    parser.add_argument("--offspring", type=int, default=None, help="body.offspring")
-    parser.add_argument("--popsize", type=int, default=None, help="brain.popsize")
-    parser.add_argument("--iterations", type=int, default=None, help="brain.iterations")
-    parser.add_argument("--duration", type=float, default=None, help="simulated seconds")
-    parser.add_argument(
-        "--bodies", choices=("all", "elites", "none"), default="all", help="record.bodies"
-    )
-    parser.add_argument(
-        "--executor",
-        choices=("serial", "local", "dask"),
-        default=None,
-        help="default: the config's (local)",
-    )
-    parser.add_argument(
-        "--workers", type=int, default=None, help="worker processes (default: one per CPU)"
-    )
+    add_run_options(parser)
     parser.add_argument("--seed", type=int, default=None, help="default: the config's (1)")
     parser.add_argument(
         "--interval", type=float, default=1.0, help="seconds between process samples"
@@ -122,66 +108,27 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--out", type=Path, default=None, help="run folder to keep (default: temporary)"
     )
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="tiny smoke run: "
-        + ", ".join(f"{k} {v}" for k, v in QUICK.items())
-        + " (overrides those options)",
-    )
+    add_quick_option(parser, QUICK)
     args = parser.parse_args(argv)
-    if args.quick:
-        for name, value in QUICK.items():
-            setattr(args, name, value)
+    apply_quick(args, QUICK)
     if args.generations is not None and args.generations < 2:
         parser.error(
             f"--generations must be an integer >= 2 (first and last), got {args.generations}"
         )
-    for name in ("population", "offspring", "iterations"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            parser.error(f"--{name} must be an integer >= 1, got {value}")
-    if args.popsize is not None and args.popsize < 2:
-        parser.error(f"--popsize must be an integer >= 2, got {args.popsize}")
-    if args.workers is not None and args.workers < 1:
-        parser.error(f"--workers must be an integer >= 1, got {args.workers}")
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
-    if not (math.isfinite(args.interval) and args.interval > 0):
-        parser.error(f"--interval must be > 0 seconds, got {args.interval}")
-    if args.seed is not None and args.seed < 0:
-        parser.error(f"--seed must be >= 0, got {args.seed}")
+    check_at_least(parser, args, 1, "population", "offspring", "iterations")
+    check_at_least(parser, args, 2, "popsize")
+    check_at_least(parser, args, 1, "workers")
+    check_seconds(parser, args, "duration", "interval")
+    check_seed(parser, args)
     if args.out is not None and args.out.exists():
         parser.error(f"--out {args.out} exists already; give a new folder")
     return args
 
 
-def load_average() -> tuple[float, float, float] | None:
-    try:
-        with open("/proc/loadavg") as file:
-            one, five, fifteen = file.read().split()[:3]
-    except OSError:
-        return None
-    return float(one), float(five), float(fifteen)
-
-
 def experiment_config(args: argparse.Namespace) -> ExperimentConfig:
     from ariel.evolution import load_config
 
-    overrides = ["record.rerun=true", f'record.bodies="{args.bodies}"']
-    for key, value in (
-        ("seed", args.seed),
-        ("generations", args.generations),
-        ("body.population", args.population),
-        ("body.offspring", args.offspring),
-        ("brain.popsize", args.popsize),
-        ("brain.iterations", args.iterations),
-        ("task.duration", args.duration),
-        ("executor.kind", args.executor and f'"{args.executor}"'),
-    ):
-        if value is not None:
-            overrides.append(f"{key}={value}")
-    return load_config(CONFIG, overrides)
+    return load_config(CONFIG, ["record.rerun=true", *run_overrides(args)])
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,127 @@
+"""Pieces the benchmark scripts share: thread limits, options, config overrides, load average.
+
+A benchmark runs as a script (``python experiments/benchmarks/x.py``), which puts this folder
+first on ``sys.path``, so the scripts import this module as ``_common``; so do the processes a
+script's pool starts (they get the script's ``sys.path``). It imports only the standard
+library: the pool's workers import the script, and with it this module, and a worker should
+hold no more than a worker of ``ariel run`` holds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from collections.abc import Mapping
+from typing import Any
+
+THREAD_VARIABLES = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
+
+
+def one_blas_thread() -> None:
+    """One BLAS/OpenMP thread, as in the engine's workers: call before numpy is imported.
+
+    The pools read these variables once, when they load. A second spinning library thread
+    would compete with MuJoCo's rollout threads for the same cores and make the figures noisy.
+    """
+    for variable in THREAD_VARIABLES:
+        os.environ[variable] = "1"
+
+
+def load_average() -> tuple[float, float, float] | None:
+    """1, 5 and 15 minute load averages (None where the system does not keep them)."""
+    try:
+        return os.getloadavg()
+    except (AttributeError, OSError):
+        return None
+
+
+# --- options ----------------------------------------------------------------------------------
+
+
+def add_quick_option(parser: argparse.ArgumentParser, quick: Mapping[str, Any]) -> None:
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="tiny smoke run: "
+        + ", ".join(f"{k} {v}" for k, v in quick.items())
+        + " (overrides those options)",
+    )
+
+
+def apply_quick(args: argparse.Namespace, quick: Mapping[str, Any]) -> None:
+    """With ``--quick``, the smoke run's settings replace the options' values."""
+    if args.quick:
+        for name, value in quick.items():
+            setattr(args, name, value)
+
+
+def check_at_least(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, minimum: int, *names: str
+) -> None:
+    """Exits (code 2) naming the first of ``names`` set below ``minimum``; None is allowed."""
+    for name in names:
+        value = getattr(args, name)
+        if value is not None and value < minimum:
+            option = name.replace("_", "-")
+            parser.error(f"--{option} must be an integer >= {minimum}, got {value}")
+
+
+def check_seconds(parser: argparse.ArgumentParser, args: argparse.Namespace, *names: str) -> None:
+    """Exits (code 2) naming the first of ``names`` that is not a finite number > 0."""
+    for name in names:
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value > 0):
+            parser.error(f"--{name} must be > 0 seconds, got {value}")
+
+
+def check_seed(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    if args.seed is not None and args.seed < 0:
+        parser.error(f"--seed must be >= 0, got {args.seed}")
+
+
+def add_run_options(parser: argparse.ArgumentParser) -> None:
+    """The size and executor of a run of ``experiments/coevolve_flat.toml`` (None: the config's)."""
+    parser.add_argument("--generations", type=int, default=None, help="default: the config's")
+    parser.add_argument("--population", type=int, default=None, help="body.population")
+    parser.add_argument("--offspring", type=int, default=None, help="body.offspring")
+    parser.add_argument("--popsize", type=int, default=None, help="brain.popsize")
+    parser.add_argument("--iterations", type=int, default=None, help="brain.iterations")
+    parser.add_argument("--duration", type=float, default=None, help="simulated seconds")
+    parser.add_argument(
+        "--bodies", choices=("all", "elites", "none"), default="all", help="record.bodies"
+    )
+    parser.add_argument(
+        "--executor",
+        choices=("serial", "local", "dask"),
+        default=None,
+        help="default: the config's (local)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=None, help="worker processes (default: one per CPU)"
+    )
+
+
+def run_overrides(args: argparse.Namespace) -> list[str]:
+    """Config overrides (``key=value``) for the options of `add_run_options` and ``--seed``."""
+    overrides = [f'record.bodies="{args.bodies}"']
+    for key, value in (
+        ("seed", args.seed),
+        ("generations", args.generations),
+        ("body.population", args.population),
+        ("body.offspring", args.offspring),
+        ("brain.popsize", args.popsize),
+        ("brain.iterations", args.iterations),
+        ("task.duration", args.duration),
+        ("executor.kind", args.executor and f'"{args.executor}"'),
+    ):
+        if value is not None:
+            overrides.append(f"{key}={value}")
+    return overrides
