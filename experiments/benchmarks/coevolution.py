@@ -94,10 +94,11 @@ import numpy as np  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
 import ariel.evaluation  # noqa: E402
-from ariel.evaluation import BodySpec, EvaluationTask, build  # noqa: E402
+from ariel.evaluation import build  # noqa: E402
 from ariel.evaluation._engine import control_sequence, num_steps  # noqa: E402
 from ariel.evaluation.executors import default_workers  # noqa: E402
 from ariel.evolution import ExperimentConfig, load_config, run_experiment  # noqa: E402
+from ariel.evolution._tasks import body_spec, evaluation_task  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / "gecko_gait.toml"
 TARGET = 0.85  # loop_vs_raw_ratio >= TARGET
@@ -242,15 +243,7 @@ def raw_sampler(
     config: ExperimentConfig, evaluations: int, threads: int, stack: contextlib.ExitStack
 ) -> Callable[[], float]:
     """Raw ``Rollout(nthread=threads)`` of ``evaluations`` runs in batches of ``popsize``."""
-    task = EvaluationTask(
-        body=BodySpec(config.body.encoder, config.body.genotype, config.body.options),
-        world=config.world.name,
-        world_options=config.world.options,
-        duration=config.task.duration,
-        control_period=config.brain.control_period,
-        smoothing=config.brain.smoothing,
-        spawn_position=config.task.spawn_position,
-    )
+    task = evaluation_task(config, body_spec(config, config.body.genotype))
     built = build(task)
     model = built.model
     nstep = num_steps(task, model)

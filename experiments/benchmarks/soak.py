@@ -280,18 +280,11 @@ def raw_rate(config: ExperimentConfig, threads: int, batch: int) -> float:
     import numpy as np
     from mujoco import rollout
 
-    from ariel.evaluation import BodySpec, EvaluationTask, build
+    from ariel.evaluation import BodySpec, build
     from ariel.evaluation._engine import control_sequence, num_steps
+    from ariel.evolution._tasks import evaluation_task
 
-    task = EvaluationTask(
-        body=BodySpec("prebuilt", "gecko"),
-        world=config.world.name,
-        world_options=config.world.options,
-        duration=config.task.duration,
-        control_period=config.brain.control_period,
-        smoothing=config.brain.smoothing,
-        spawn_position=config.task.spawn_position,
-    )
+    task = evaluation_task(config, BodySpec("prebuilt", "gecko"))  # the run's world and timing
     built = build(task)
     model = built.model
     nstep = num_steps(task, model)
