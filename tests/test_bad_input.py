@@ -10,7 +10,6 @@ evaluation id.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import pickle
 import shutil
@@ -20,32 +19,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _helpers import ariel_run, exit_code, one_error_line, snapshot, tiny_run_toml
 
-from ariel.cli import main
-
-BASE = """
-name = "badinput"
-seed = 1
-generations = 2
-
-[body]
-options = { number_of_modules = 10 }
-population = 2
-offspring = 2
-
-[brain]
-popsize = 2
-iterations = 1
-
-[task]
-duration = 0.3
-
-[record]
-rerun = false
-
-[executor]
-kind = "serial"
-"""
+BASE = tiny_run_toml("badinput", 1)
 
 
 def _edit(text: str, section: str, line: str) -> str:
@@ -201,29 +177,8 @@ def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("finished")
     (folder / "base.toml").write_text(BASE)
     out = folder / "run"
-    with contextlib.redirect_stdout(None):
-        assert main(["run", str(folder / "base.toml"), "--out", str(out), "--quiet"]) == 0
+    ariel_run(folder / "base.toml", out)
     return out
-
-
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
-
-
-def _exit_code(argv: list[str]) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse
-        return int(exc.code)  # type: ignore[arg-type]
-
-
-def _one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
-    captured = capsys.readouterr()
-    lines = captured.err.splitlines()
-    assert len(lines) == 1 and captured.err.endswith("\n"), captured.err
-    assert lines[0].startswith("ariel: error: "), lines[0]
-    assert captured.out == ""
-    return lines[0]
 
 
 @pytest.mark.parametrize("case", RUN_CASES.values(), ids=RUN_CASES)
@@ -238,15 +193,15 @@ def test_bad_run_input(
     given = sorted(p.name for p in tmp_path.iterdir())
     # A new folder is not created ...
     out = tmp_path / "never"
-    assert _exit_code(["run", str(config), "--out", str(out), "--quiet", *case.args]) == 2
-    assert message in _one_error_line(capsys)
+    assert exit_code(["run", str(config), "--out", str(out), "--quiet", *case.args]) == 2
+    assert message in one_error_line(capsys, quiet=True)
     assert sorted(p.name for p in tmp_path.iterdir()) == given
     # ... and a run folder to be overwritten stays as it was.
-    before = _snapshot(finished_run)
+    before = snapshot(finished_run)
     argv = ["run", str(config), "--out", str(finished_run), "--overwrite", "--quiet", *case.args]
-    assert _exit_code(argv) == 2
-    assert message in _one_error_line(capsys)
-    assert _snapshot(finished_run) == before
+    assert exit_code(argv) == 2
+    assert message in one_error_line(capsys, quiet=True)
+    assert snapshot(finished_run) == before
 
 
 # --------------------------------------------------------------------------------------------
@@ -358,8 +313,8 @@ def test_bad_folder_input(
     if argv[0] == "resume":
         argv.append("--quiet")
     listing = sorted(p.name for p in tmp_path.iterdir())
-    before = _snapshot(folder) if folder.is_dir() else None
-    assert _exit_code(argv) == 2
-    assert message in _one_error_line(capsys)
-    assert (_snapshot(folder) if folder.is_dir() else None) == before
+    before = snapshot(folder) if folder.is_dir() else None
+    assert exit_code(argv) == 2
+    assert message in one_error_line(capsys, quiet=True)
+    assert (snapshot(folder) if folder.is_dir() else None) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == listing

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import re
 import subprocess
@@ -11,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from _helpers import ariel_run, exit_code, one_error_line, snapshot, tiny_run_toml
 
 from ariel import __version__
 from ariel.cli import main
@@ -41,26 +40,7 @@ def test_unknown_command_exits_with_usage(capsys: pytest.CaptureFixture[str]) ->
 # ariel run / resume / runs: the happy path and bad input
 # --------------------------------------------------------------------------------------------
 
-TINY_TOML = """
-name = "clitiny"
-seed = 2
-generations = 2
-
-[body]
-options = { number_of_modules = 10 }
-population = 2
-offspring = 2
-
-[brain]
-popsize = 2
-iterations = 1
-
-[task]
-duration = 0.3
-
-[executor]
-kind = "serial"
-"""
+TINY_TOML = tiny_run_toml("clitiny", 2, record=None)
 
 
 @pytest.fixture(scope="module")
@@ -74,30 +54,7 @@ def tiny_toml(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def finished_run(tiny_toml: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     """A finished run made by ``ariel run``, and what the command printed."""
     out = tmp_path_factory.mktemp("runs") / "finished"
-    capture = io.StringIO()
-    with contextlib.redirect_stdout(capture):
-        assert main(["run", str(tiny_toml), "--out", str(out), "--quiet"]) == 0
-    return out, capture.getvalue()
-
-
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
-
-
-def _exit_code(argv: list[str]) -> int:
-    """``main(argv)``'s exit code, whether it returns it or argparse exits."""
-    try:
-        return main(argv)
-    except SystemExit as exc:
-        return int(exc.code)  # type: ignore[arg-type]
-
-
-def _one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
-    err = capsys.readouterr().err
-    lines = err.splitlines()
-    assert len(lines) == 1 and err.endswith("\n"), f"expected one line on stderr, got {err!r}"
-    assert lines[0].startswith("ariel") and "error: " in lines[0], lines[0]
-    return lines[0]
+    return out, ariel_run(tiny_toml, out)
 
 
 def test_run_prints_the_folder_the_best_fitness_and_how_to_look(finished_run) -> None:
@@ -173,8 +130,8 @@ def test_bad_run_input_is_one_line_exit_2_and_writes_nothing(
     message: str,
 ) -> None:
     out = tmp_path / "never"
-    assert _exit_code(["run", str(tiny_toml), "--out", str(out), "--quiet", *extra]) == 2
-    assert message in _one_error_line(capsys)
+    assert exit_code(["run", str(tiny_toml), "--out", str(out), "--quiet", *extra]) == 2
+    assert message in one_error_line(capsys, subcommand=True)
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
@@ -201,14 +158,14 @@ def test_a_bad_config_file_is_one_line_exit_2_and_writes_nothing(
         config.write_text(text)
     out = tmp_path / "never"
     assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
-    assert message in _one_error_line(capsys)
+    assert message in one_error_line(capsys, subcommand=True)
     assert not out.exists()
 
 
 def test_a_missing_config_file_is_one_line_exit_2(tmp_path: Path, capsys) -> None:
     out = tmp_path / "never"
     assert main(["run", str(tmp_path / "nope.toml"), "--out", str(out)]) == 2
-    assert "nope.toml' not found" in _one_error_line(capsys)
+    assert "nope.toml' not found" in one_error_line(capsys, subcommand=True)
     assert not out.exists()
 
 
@@ -220,13 +177,13 @@ def test_an_existing_output_folder_is_left_alone(
     (mine / "notes.txt").write_text("keep me")
     run_dir, _ = finished_run
     for folder in (mine, run_dir):
-        before = _snapshot(folder)
+        before = snapshot(folder)
         assert main(["run", str(tiny_toml), "--out", str(folder), "--quiet"]) == 2
-        assert "already exists; pass --overwrite" in _one_error_line(capsys)
-        assert _snapshot(folder) == before
+        assert "already exists; pass --overwrite" in one_error_line(capsys, subcommand=True)
+        assert snapshot(folder) == before
     # --overwrite replaces runs only, never another folder.
     assert main(["run", str(tiny_toml), "--out", str(mine), "--overwrite", "--quiet"]) == 2
-    assert "not an ariel run folder" in _one_error_line(capsys)
+    assert "not an ariel run folder" in one_error_line(capsys, subcommand=True)
     assert (mine / "notes.txt").read_text() == "keep me"
 
 
@@ -267,10 +224,10 @@ def test_resume_refuses_what_it_cannot_resume_and_changes_nothing(
         interrupted_run: "config was edited",
     }
     for folder, message in cases.items():
-        before = _snapshot(folder) if folder.exists() else None
+        before = snapshot(folder) if folder.exists() else None
         assert main(["resume", str(folder), "--quiet"]) == 2
-        assert message in _one_error_line(capsys)
-        assert (_snapshot(folder) if folder.exists() else None) == before
+        assert message in one_error_line(capsys, subcommand=True)
+        assert (snapshot(folder) if folder.exists() else None) == before
 
 
 def test_an_interrupted_run_resumes_from_the_cli(
@@ -346,16 +303,16 @@ def test_replay_of_an_unknown_evaluation_or_folder_is_one_line_exit_2(
 ) -> None:
     out, _ = finished_run
     assert main(["replay", str(out), "b999999-i000-c000"]) == 2
-    line = _one_error_line(capsys)
+    line = one_error_line(capsys, subcommand=True)
     assert "no evaluation 'b999999-i000-c000'" in line and "load_run" in line
     assert main(["replay", str(tmp_path), "best"]) == 2
-    assert "not an ariel run folder" in _one_error_line(capsys)
+    assert "not an ariel run folder" in one_error_line(capsys, subcommand=True)
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert main(["replay", str(out), "best", "--viewer"]) == 2
-    assert "--viewer needs a display" in _one_error_line(capsys)
-    assert _exit_code(["replay", str(out)]) == 2  # EVAL_ID is required
-    assert "EVAL_ID" in _one_error_line(capsys)
+    assert "--viewer needs a display" in one_error_line(capsys, subcommand=True)
+    assert exit_code(["replay", str(out)]) == 2  # EVAL_ID is required
+    assert "EVAL_ID" in one_error_line(capsys, subcommand=True)
 
 
 def test_replay_exits_1_when_the_stored_fitness_is_not_reproduced(
@@ -431,5 +388,5 @@ def test_report_prints_every_generation_and_the_files_it_wrote(
 
 def test_report_of_a_folder_that_is_not_a_run_is_one_line_exit_2(tmp_path: Path, capsys) -> None:
     assert main(["report", str(tmp_path)]) == 2
-    assert "not an ariel run folder" in _one_error_line(capsys)
+    assert "not an ariel run folder" in one_error_line(capsys, subcommand=True)
     assert list(tmp_path.iterdir()) == []

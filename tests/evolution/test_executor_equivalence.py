@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import importlib.util
 from pathlib import Path
-from typing import Any
 
-import numpy as np
 import pytest
+from _helpers import plain_rows
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run
@@ -57,28 +56,14 @@ needs_dask = pytest.mark.skipif(
 )
 
 
-def _plain(value: Any) -> Any:
-    """Bit-exact, comparable form of a table cell (floats as hex, arrays as tuples)."""
-    if isinstance(value, np.ndarray | list | tuple):
-        return tuple(_plain(v) for v in list(value))
-    if isinstance(value, float | np.floating):
-        return float(value).hex()
-    if isinstance(value, np.integer | np.bool_):
-        return value.item()
-    return value
-
-
-def _rows(frame: Any, columns: list[str], order: list[str]) -> list[tuple]:
-    frame = frame.sort_values(order, kind="stable")
-    return [tuple(_plain(v) for v in row) for row in frame[columns].itertuples(index=False)]
-
-
 def _records(run_dir: Path) -> dict[str, list[tuple]]:
     run = load_run(run_dir)
     return {
-        "evaluations": _rows(run.evaluations, EVALUATION_COLUMNS, ["eval_id"]),
-        "bodies": _rows(run.bodies, BODY_COLUMNS, ["generation", "body_id"]),
-        "trajectories": _rows(run.trajectories, list(run.trajectories.columns), ["eval_id", "t"]),
+        "evaluations": plain_rows(run.evaluations, EVALUATION_COLUMNS, ["eval_id"]),
+        "bodies": plain_rows(run.bodies, BODY_COLUMNS, ["generation", "body_id"]),
+        "trajectories": plain_rows(
+            run.trajectories, list(run.trajectories.columns), ["eval_id", "t"]
+        ),
     }
 
 

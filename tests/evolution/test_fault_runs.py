@@ -16,8 +16,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
+from _helpers import plain_rows
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run
@@ -69,20 +69,8 @@ needs_dask = pytest.mark.skipif(
 )
 
 
-def _plain(value: Any) -> Any:
-    if isinstance(value, np.ndarray | list | tuple):
-        return tuple(_plain(v) for v in list(value))
-    if isinstance(value, float | np.floating):
-        return float(value).hex()
-    if isinstance(value, np.integer | np.bool_):
-        return value.item()
-    return value
-
-
 def _table(frame: Any, columns: list[str], order: list[str]) -> dict[tuple, tuple]:
-    frame = frame.sort_values(order, kind="stable")
-    rows = [tuple(_plain(v) for v in row) for row in frame[columns].itertuples(index=False)]
-    return {row[: len(order)]: row for row in rows}
+    return {row[: len(order)]: row for row in plain_rows(frame, columns, order)}
 
 
 @pytest.fixture(scope="module")

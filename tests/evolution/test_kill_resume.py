@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from _helpers import plain_rows, repo_env
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run
@@ -130,12 +131,6 @@ PAUSING_LAUNCHER = textwrap.dedent(
 # --------------------------------------------------------------------------------------------
 
 
-def _env() -> dict[str, str]:
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(REPO), *filter(None, [env.get("PYTHONPATH")])])
-    return env
-
-
 _STARTED: list[_Process] = []  # killed at teardown if a failing test left one running
 
 
@@ -149,7 +144,7 @@ class _Process:
             self.popen = subprocess.Popen(
                 argv,
                 cwd=cwd,
-                env=_env(),
+                env=repo_env(),
                 stdout=log,
                 stderr=subprocess.STDOUT,
                 start_new_session=True,
@@ -267,19 +262,6 @@ def _run_info(run_dir: Path) -> dict[str, Any]:
         return {}
 
 
-def _plain(value: Any) -> Any:
-    """Bit-exact, comparable form of a table cell (floats as hex, arrays as tuples)."""
-    if isinstance(value, np.ndarray):
-        return tuple(_plain(v) for v in value.tolist())
-    if isinstance(value, list | tuple):
-        return tuple(_plain(v) for v in value)
-    if isinstance(value, float | np.floating):
-        return float(value).hex()
-    if isinstance(value, np.integer | np.bool_):
-        return value.item()
-    return value
-
-
 # Columns that differ between two runs of one config: the run id (the folder name) and times.
 _VARYING = {"run_id", "wall_seconds"}
 _SORT = {
@@ -297,11 +279,8 @@ def _records(run_dir: Path, before_generation: int | None = None) -> dict[str, l
         frame = getattr(run, table)
         if before_generation is not None:
             frame = frame[frame["generation"] < before_generation]
-        frame = frame.sort_values(_SORT[table], kind="stable")
         columns = [c for c in frame.columns if c not in _VARYING]
-        found[table] = [
-            tuple(_plain(v) for v in row) for row in frame[columns].itertuples(index=False)
-        ]
+        found[table] = plain_rows(frame, columns, _SORT[table])
     return found
 
 

@@ -20,34 +20,14 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from _helpers import ariel_run, one_error_line, snapshot, tiny_run_toml
 
 from ariel.cli import main
 from ariel.recording import list_runs, load_run
 
-TOML = """
-name = "diskfull"
-seed = 5
-generations = 3
-
-[body]
-options = { number_of_modules = 10 }
-population = 2
-offspring = 2
-
-[brain]
-popsize = 2
-iterations = 2
-inherit = true
-
-[task]
-duration = 0.3
-
-[record]
-bodies = "elites"
-
-[executor]
-kind = "serial"
-"""
+TOML = tiny_run_toml(
+    "diskfull", 5, generations=3, iterations=2, brain="inherit = true", record='bodies = "elites"'
+)
 
 COLUMNS = ["eval_id", "generation", "fitness", "status", "controller_params", "body_genotype"]
 
@@ -63,19 +43,8 @@ def config(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def reference(config: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The same run, never interrupted."""
     out = tmp_path_factory.mktemp("runs") / "reference"
-    with contextlib.redirect_stdout(None):
-        assert main(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    ariel_run(config, out)
     return out
-
-
-def _one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
-    err = capsys.readouterr().err
-    assert len(err.splitlines()) == 1 and err.startswith("ariel: error: "), err
-    return err.strip()
-
-
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
 
 
 def _records(run_dir: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -176,7 +145,7 @@ def test_a_full_disk_stops_the_run_with_one_line_and_resume_finishes_it(
     out = tmp_path / "run"
     with _disk_full_from(target):
         assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
-    line = _one_error_line(capsys)
+    line = one_error_line(capsys)
     assert f"cannot write '{out}/{named}" in line and "No space left on device" in line, line
     assert "its 2 finished generation(s) are kept" in line, line
     assert line.endswith(f"continue with: ariel resume {out}"), line
@@ -194,7 +163,7 @@ def test_an_output_path_below_a_regular_file_is_one_line_and_writes_nothing(
     blocker.write_text("a file, not a folder")
     out = blocker / "run"
     assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
-    line = _one_error_line(capsys)
+    line = one_error_line(capsys)
     assert f"cannot write '{out}': Not a directory; the run did not start" in line, line
     assert blocker.read_text() == "a file, not a folder"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]
@@ -263,13 +232,13 @@ def test_a_really_full_tmpfs(
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(Progress, "end_generation", end_generation)
         assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
-    line = _one_error_line(capsys)
+    line = one_error_line(capsys)
     assert f"cannot write '{out}/" in line and "No space left on device" in line, line
     assert "its 2 finished generation(s) are kept" in line, line
     _assert_finished_part_intact(out, reference, generations=2)
     # Resuming on the still full disk fails the same way and loses nothing.
     assert main(["resume", str(out), "--quiet"]) == 2
-    assert "No space left on device" in _one_error_line(capsys)
+    assert "No space left on device" in one_error_line(capsys)
     _assert_finished_part_intact(out, reference, generations=2)
     filler[0].unlink()  # space is back
     _assert_resumes_to_reference(out, reference, capsys)
@@ -295,14 +264,14 @@ def test_a_read_only_file_system(
         assert main(["run", str(config), "--out", str(out), "--quiet"]) == 130
     capsys.readouterr()
     tmpfs("ro")
-    before = _snapshot(out)
+    before = snapshot(out)
     assert main(["resume", str(out), "--quiet"]) == 2
-    line = _one_error_line(capsys)
+    line = one_error_line(capsys)
     assert f"cannot write '{out}/.lock': Read-only file system" in line, line
     assert main(["run", str(config), "--out", str(disk / "new"), "--quiet"]) == 2
-    line = _one_error_line(capsys)
+    line = one_error_line(capsys)
     assert f"cannot write '{disk / 'new'}': Read-only file system; the run did not start" in line
-    assert _snapshot(out) == before
+    assert snapshot(out) == before
     assert sorted(p.name for p in disk.iterdir()) == ["run"]
     tmpfs("rw")
     _assert_finished_part_intact(out, reference, generations=1)

@@ -20,40 +20,17 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from _helpers import one_error_line, repo_env, snapshot, tiny_run_toml
 
 from ariel.cli import main
 from ariel.recording import RunInUseError, RunLock, list_runs
 from ariel.recording._lock import LOCK_NAME, lock_holder
 
-REPO = Path(__file__).resolve().parents[2]
-
 pytestmark = pytest.mark.skipif(
     not hasattr(os, "killpg") or sys.platform == "win32", reason="needs POSIX flock and killpg"
 )
 
-TOML = """
-name = "locked"
-seed = 3
-generations = 2
-
-[body]
-options = { number_of_modules = 10 }
-population = 2
-offspring = 2
-
-[brain]
-popsize = 2
-iterations = 1
-
-[task]
-duration = 0.3
-
-[record]
-rerun = false
-
-[executor]
-kind = "serial"
-"""
+TOML = tiny_run_toml("locked", 3)
 
 # `ariel` (argv[2:]) whose run pauses after generation 0 (checkpoint and run.json written):
 # it touches the marker argv[1] and sleeps until killed, holding the run folder's lock.
@@ -79,21 +56,6 @@ PAUSING = textwrap.dedent(
 )
 
 
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
-
-
-def _one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
-    err = capsys.readouterr().err
-    assert len(err.splitlines()) == 1 and err.startswith("ariel: error: "), err
-    return err
-
-
-def _env() -> dict[str, str]:
-    paths = [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])]
-    return dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
-
-
 @contextlib.contextmanager
 def _started(argv: list[str], cwd: Path) -> Iterator[subprocess.Popen]:
     """A process in its own session (stderr in ``process.log``), SIGKILLed with its group on
@@ -103,7 +65,7 @@ def _started(argv: list[str], cwd: Path) -> Iterator[subprocess.Popen]:
         process = subprocess.Popen(
             argv,
             cwd=cwd,
-            env=_env(),
+            env=repo_env(),
             stdout=subprocess.DEVNULL,
             stderr=log,
             start_new_session=True,
@@ -212,7 +174,7 @@ def test_two_runs_on_one_folder_the_second_refuses_and_a_kill_leaves_it_resumabl
             f"{host}; wait for that run to end (or stop it), then try again"
         ], refusal
         assert running.poll() is None
-        before = _snapshot(out)
+        before = snapshot(out)
         assert (out / LOCK_NAME).is_file()
         # A third run, a run that overwrites and a resume refuse too, and change nothing.
         for command in (
@@ -221,9 +183,9 @@ def test_two_runs_on_one_folder_the_second_refuses_and_a_kill_leaves_it_resumabl
             ["resume", str(out), "--quiet"],
         ):
             assert main(command) == 2, command
-            line = _one_error_line(capsys)
+            line = one_error_line(capsys)
             assert f"{str(out)!r} is in use by pid {running.pid} on host {host}" in line, line
-        assert _snapshot(out) == before
+        assert snapshot(out) == before
         assert [r["status"] for r in list_runs(out.parent)] == ["running"]
         os.killpg(running.pid, signal.SIGKILL)
         running.wait(timeout=30)

@@ -12,36 +12,12 @@ import socket
 from pathlib import Path
 
 import pytest
+from _helpers import REPO, tiny_run_toml
 
 from ariel.cli import main
 from ariel.recording import load_run
 
-REPO = Path(__file__).resolve().parents[2]
-
-TOML = """
-name = "portable"
-seed = 9
-generations = 2
-
-[body]
-options = { number_of_modules = 10 }
-population = 2
-offspring = 2
-
-[brain]
-popsize = 2
-iterations = 2
-
-[task]
-duration = 0.3
-
-[record]
-rerun = true
-bodies = "all"
-
-[executor]
-kind = "serial"
-"""
+TOML = tiny_run_toml("portable", 9, iterations=2, record='rerun = true\nbodies = "all"')
 
 
 def _needles(*paths: Path) -> dict[str, bytes]:

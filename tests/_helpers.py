@@ -1,0 +1,117 @@
+"""Helpers several test modules share: tiny run configs, the ``ariel`` command, run folders.
+
+``tests/`` is no package; pytest puts it on ``sys.path`` for ``tests/conftest.py`` (rootdir
+conftest, default import mode), so a test module anywhere below imports this as ``_helpers``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from ariel.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def tiny_run_toml(
+    name: str,
+    seed: int,
+    *,
+    generations: int = 2,
+    iterations: int = 1,
+    brain: str = "",
+    record: str | None = "rerun = false",
+) -> str:
+    """A co-evolution config of a few seconds: 2 + 2 bodies of 10 modules, brains of popsize 2
+    for 0.3 s, serial. ``brain`` adds lines to ``[brain]``; ``record`` is the ``[record]``
+    table's body (None: no table, the defaults)."""
+    text = f"""
+name = "{name}"
+seed = {seed}
+generations = {generations}
+
+[body]
+options = {{ number_of_modules = 10 }}
+population = 2
+offspring = 2
+
+[brain]
+popsize = 2
+iterations = {iterations}
+{brain + chr(10) if brain else ""}
+[task]
+duration = 0.3
+"""
+    if record is not None:
+        text += f"\n[record]\n{record}\n"
+    return text + '\n[executor]\nkind = "serial"\n'
+
+
+def ariel_run(config: Path, out: Path, *extra: str) -> str:
+    """``ariel run CONFIG --out OUT --quiet``, in this process; asserts it finished and returns
+    what it printed."""
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["run", str(config), "--out", str(out), "--quiet", *extra]) == 0
+    return printed.getvalue()
+
+
+def exit_code(argv: list[str]) -> int:
+    """``main(argv)``'s exit code, whether it returns it or argparse exits."""
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return int(exc.code)  # type: ignore[arg-type]
+
+
+def one_error_line(
+    capsys: pytest.CaptureFixture[str], *, subcommand: bool = False, quiet: bool = False
+) -> str:
+    """The one line the command wrote to stderr, checked to be ``ariel: error: ...``
+    (``subcommand``: also ``ariel <command>: error: ...``, argparse's form); ``quiet``: and
+    nothing on stdout."""
+    captured = capsys.readouterr()
+    err = captured.err
+    lines = err.splitlines()
+    assert len(lines) == 1 and err.endswith("\n"), f"expected one line on stderr, got {err!r}"
+    prefix = r"ariel( [a-z]+)?: error: " if subcommand else r"ariel: error: "
+    assert re.match(prefix, lines[0]), lines[0]
+    if quiet:
+        assert captured.out == ""
+    return lines[0]
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    """Every file below ``folder`` (relative path -> bytes): equal snapshots, nothing changed."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def repo_env() -> dict[str, str]:
+    """This environment with the repository first on ``PYTHONPATH`` (for child processes)."""
+    paths = [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])]
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
+
+
+def plain(value: Any) -> Any:
+    """Bit-exact, comparable form of a table cell (floats as hex, arrays as tuples)."""
+    if isinstance(value, np.ndarray | list | tuple):
+        return tuple(plain(v) for v in list(value))
+    if isinstance(value, float | np.floating):
+        return float(value).hex()
+    if isinstance(value, np.integer | np.bool_):
+        return value.item()
+    return value
+
+
+def plain_rows(frame: Any, columns: list[str], order: list[str]) -> list[tuple]:
+    """``frame``'s ``columns`` as `plain` tuples, rows sorted by ``order``."""
+    frame = frame.sort_values(order, kind="stable")
+    return [tuple(plain(v) for v in row) for row in frame[columns].itertuples(index=False)]
