@@ -8,8 +8,12 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
+import math
 import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -115,3 +119,28 @@ def plain_rows(frame: Any, columns: list[str], order: list[str]) -> list[tuple]:
     """``frame``'s ``columns`` as `plain` tuples, rows sorted by ``order``."""
     frame = frame.sort_values(order, kind="stable")
     return [tuple(plain(v) for v in row) for row in frame[columns].itertuples(index=False)]
+
+
+def run_benchmark(name: str, *args: str, cwd: Path, timeout: float = 300) -> Any:
+    """``python experiments/benchmarks/NAME.py ARGS`` in ``cwd``: the `subprocess.CompletedProcess`
+    with its text output."""
+    script = REPO / "experiments" / "benchmarks" / name
+    return subprocess.run(
+        [sys.executable, str(script), *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=timeout,
+    )
+
+
+def benchmark_summary(result: Any, keys: tuple[str, ...]) -> tuple[dict[str, Any], str]:
+    """A benchmark's JSON last line (each of ``keys`` a finite number > 0) and the text above."""
+    assert result.returncode == 0, result.stderr[-3000:]
+    lines = result.stdout.strip().splitlines()
+    summary = json.loads(lines[-1])
+    for key in keys:
+        value = summary[key]
+        assert isinstance(value, int | float) and not isinstance(value, bool), key
+        assert math.isfinite(value) and value > 0, (key, value)
+    return summary, "\n".join(lines[:-1])

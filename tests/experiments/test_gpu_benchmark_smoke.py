@@ -5,26 +5,17 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from _helpers import run_benchmark
 
 pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
 pytestmark = pytest.mark.warp
 
-SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "benchmarks" / "gpu.py"
-
-
-def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, str(SCRIPT), *args], capture_output=True, text=True, cwd=cwd, timeout=600
-    )
-
 
 def test_gpu_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
-    result = _run("--quick", cwd=tmp_path)
+    result = run_benchmark("gpu.py", "--quick", cwd=tmp_path, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     summary = json.loads(result.stdout.strip().splitlines()[-1])
     for key in ("gpu_evals_per_s", "cpu_evals_per_s", "speedup"):
@@ -36,6 +27,6 @@ def test_gpu_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
 
 
 def test_gpu_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
-    result = _run("--worlds", "16,x", cwd=tmp_path)
+    result = run_benchmark("gpu.py", "--worlds", "16,x", cwd=tmp_path, timeout=600)
     assert result.returncode == 2
     assert "--worlds must be comma-separated integers" in result.stderr
