@@ -29,7 +29,7 @@ import sys
 import threading
 import time as _time
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -649,11 +649,23 @@ def evaluate_batch(
     steady_heap()  # each batch's arrays of megabytes come and go: keep the heap from growing
     if nthread is None:
         nthread = evaluation_threads()
+    threads: int = nthread
+    return run_groups(
+        tasks, lambda g: _open_loop(g.tasks, g.built, g.controller, g.fitness_fn, threads)
+    )
+
+
+def run_groups(
+    tasks: Sequence[EvaluationTask],
+    open_loop: Callable[[TaskGroup], list[EvaluationResult]],
+) -> list[EvaluationResult]:
+    """Checks and groups ``tasks`` (`prepare_groups`), then runs every group: an open-loop one
+    by ``open_loop`` (all its tasks), a closed-loop one task by task here; input order."""
     results, ready = prepare_groups(tasks)
     for group in ready:
         if group.controller.open_loop:
-            outs = _open_loop(group.tasks, group.built, group.controller, group.fitness_fn, nthread)
-        else:
+            outs = open_loop(group)
+        else:  # a policy per controller call: on the CPU, task by task
             outs = [
                 _closed_loop(task, group.built, group.controller, group.fitness_fn)
                 for task in group.tasks

@@ -38,15 +38,15 @@ import numpy as np
 
 from ariel.evaluation._engine import (
     BuiltBody,
+    TaskGroup,
     _build_key,
-    _closed_loop,
     _finish,
     evaluate_batch,
     frame_steps,
     held_controls,
     num_steps,
     open_loop_targets,
-    prepare_groups,
+    run_groups,
 )
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
 from ariel.evaluation.executors import SerialExecutor
@@ -241,26 +241,18 @@ class WarpEvaluator:
 
     def evaluate_batch(self, tasks: Sequence[EvaluationTask]) -> list[EvaluationResult]:
         """Like `ariel.evaluation.evaluate_batch`: results in input order, checks first."""
-        results, groups = prepare_groups(tasks)
-        for group in groups:
-            if group.controller.open_loop:
-                outs: list[EvaluationResult] = []
-                size = self.max_worlds or len(group.tasks)
-                for start in range(0, len(group.tasks), size):
-                    piece = group.tasks[start : start + size]
-                    outs.extend(
-                        self._open_loop(piece, group.built, group.controller, group.fitness_fn)
-                    )
-            else:  # a policy per controller call: the CPU engine, here
-                outs = [
-                    _closed_loop(task, group.built, group.controller, group.fitness_fn)
-                    for task in group.tasks
-                ]
-            for i, out in zip(group.indices, outs):
-                results[i] = out
-        return results  # type: ignore[return-value]
+        return run_groups(tasks, self._open_loop_group)
 
     # -- internals -------------------------------------------------------------------------------
+
+    def _open_loop_group(self, group: TaskGroup) -> list[EvaluationResult]:
+        """An open-loop group, ``max_worlds`` tasks at a time."""
+        size = self.max_worlds or len(group.tasks)
+        outs: list[EvaluationResult] = []
+        for start in range(0, len(group.tasks), size):
+            piece = group.tasks[start : start + size]
+            outs.extend(self._open_loop(piece, group.built, group.controller, group.fitness_fn))
+        return outs
 
     def _device_body(self, task: EvaluationTask, built: BuiltBody) -> _DeviceBody:
         key = _build_key(task)
