@@ -121,6 +121,11 @@ class _Plugins:
     def maximise(self) -> bool:
         return bool(self.fitness.maximise)
 
+    @property
+    def worst(self) -> float:
+        """The fitness of an evaluation that failed (as the engine gives it)."""
+        return -math.inf if self.maximise else math.inf
+
 
 def _resolve(config: ExperimentConfig) -> _Plugins:
     """Make every plugin the config names; a bad name or option is a `ConfigError`."""
@@ -381,8 +386,9 @@ class _Experiment:
         """The result of an evaluation lost to its worker: ``error``, the worst fitness."""
         from ariel.evaluation import EvaluationResult
 
-        worst = -math.inf if self.plugins.maximise else math.inf
-        return EvaluationResult(eval_id=task.eval_id, fitness=worst, status="error", error=reason)
+        return EvaluationResult(
+            eval_id=task.eval_id, fitness=self.plugins.worst, status="error", error=reason
+        )
 
     def best_so_far(self, jobs: Sequence[_Job]) -> float:
         values = [j.run.best_fitness for j in jobs if not math.isnan(j.run.best_fitness)]
@@ -460,7 +466,7 @@ class _Experiment:
     def error_row(self, body: Body, generation: int) -> None:
         """An unbuildable body still appears in the evaluations table, with its error."""
         c = self.config
-        worst = -math.inf if self.plugins.maximise else math.inf
+        worst = self.plugins.worst
         self._rows[(body.number, 0, 0)] = {
             "run_id": self.run_id,
             "generation": generation,
@@ -817,8 +823,7 @@ def run_experiment(
     kind = executor or config.executor.kind
     workers = workers if workers is not None else config.executor.workers
     scheduler = scheduler if scheduler is not None else config.executor.scheduler
-    _check_executor(kind, workers, scheduler)
-    _check_gpu(kind, workers, config.executor.device)
+    _check_executor(kind, workers, scheduler, config.executor.device)
     plugins = _resolve(config)
     config = _read_genotype_file(config, plugins.encoder)
     run_id = _new_run_id(config)
@@ -870,25 +875,8 @@ def _read_genotype_file(config: ExperimentConfig, encoder: Any) -> ExperimentCon
     return config.model_copy(update={"body": body})
 
 
-def _check_gpu(kind: str, workers: int | None, device: str) -> None:
-    """Executor ``gpu``: MuJoCo Warp installed and its device here, else one `ConfigError` line."""
-    if kind != "gpu":
-        return
-    if workers not in (None, 1):
-        raise ConfigError(f"executor.workers: the gpu executor runs on one device (got {workers})")
-    from ariel.evaluation._warp import WarpUnavailableError, check_device, warp_modules
-
-    try:
-        warp_modules()
-    except WarpUnavailableError as exc:
-        raise ConfigError(f"executor.kind: {exc}") from None
-    try:
-        check_device(device)
-    except WarpUnavailableError as exc:
-        raise ConfigError(f"executor.device: {exc}; or the CPU engine: --executor local") from None
-
-
-def _check_executor(kind: str, workers: int | None, scheduler: str | None) -> None:
+def _check_executor(kind: str, workers: int | None, scheduler: str | None, device: str) -> None:
+    """The executor's settings, and for ``gpu`` MuJoCo Warp and its device: `ConfigError`."""
     from ariel.evaluation.executors import EXECUTOR_KINDS
 
     if kind not in EXECUTOR_KINDS:
@@ -899,6 +887,8 @@ def _check_executor(kind: str, workers: int | None, scheduler: str | None) -> No
         raise ConfigError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
     if kind == "serial" and workers not in (None, 1):
         raise ConfigError(f"executor.workers: the serial executor has 1 worker (got {workers})")
+    if kind == "gpu" and workers not in (None, 1):
+        raise ConfigError(f"executor.workers: the gpu executor runs on one device (got {workers})")
     if scheduler is not None and kind != "dask":
         raise ConfigError(f"executor.scheduler: only for the dask executor, not {kind!r}")
     if scheduler is not None and workers is not None:
@@ -906,6 +896,19 @@ def _check_executor(kind: str, workers: int | None, scheduler: str | None) -> No
             "executor.workers: sizes a local cluster; with executor.scheduler the cluster's own "
             "workers are used (scale the cluster instead)"
         )
+    if kind == "gpu":
+        from ariel.evaluation._warp import WarpUnavailableError, check_device, warp_modules
+
+        try:
+            warp_modules()
+        except WarpUnavailableError as exc:
+            raise ConfigError(f"executor.kind: {exc}") from None
+        try:
+            check_device(device)
+        except WarpUnavailableError as exc:
+            raise ConfigError(
+                f"executor.device: {exc}; or the CPU engine: --executor local"
+            ) from None
 
 
 def resume_experiment(
@@ -932,8 +935,7 @@ def resume_experiment(
     if executor is None or executor == last.get("kind"):
         workers = workers if workers is not None else last.get("workers")
         scheduler = scheduler if scheduler is not None else last.get("scheduler")
-    _check_executor(kind, workers, scheduler)
-    _check_gpu(kind, workers, config.executor.device)
+    _check_executor(kind, workers, scheduler, config.executor.device)
     plugins = _resolve(config)
     with storage_errors(folder.path), RunLock(folder.path):
         # Again under the lock: another resume may have run (or finished) the run meanwhile.
