@@ -21,6 +21,7 @@ __all__ = [
     "atomic_write_json",
     "remove_temporaries",
     "require_free_space",
+    "written_path",
 ]
 
 TEMP_SUFFIX = ".tmp"
@@ -30,6 +31,14 @@ _OS_ERROR = re.compile(r"\(os error (\d+)\)")
 def _temporary(path: Path) -> Path:
     # Hidden ("." prefix): Parquet dataset readers and globs for gen-*.parquet skip it.
     return path.with_name(f".{path.name}{TEMP_SUFFIX}")
+
+
+def written_path(path: Path) -> Path | None:
+    """The file a temporary stands for (`_temporary`'s inverse); None for any other name."""
+    name = path.name
+    if name.startswith(".") and name.endswith(TEMP_SUFFIX) and len(name) > 1 + len(TEMP_SUFFIX):
+        return path.with_name(name[1 : -len(TEMP_SUFFIX)])
+    return None
 
 
 def _fsync_dir(folder: Path) -> None:

@@ -25,10 +25,10 @@ from pathlib import Path
 from typing import Any
 
 from ariel.recording._files import (
-    TEMP_SUFFIX,
     atomic_write_bytes,
     atomic_write_json,
     remove_temporaries,
+    written_path,
 )
 from ariel.recording._lock import LOCK_NAME, in_use_error, lock_holder
 from ariel.recording._tables import TABLES, generation_file, table_generations
@@ -50,7 +50,7 @@ _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "
 
 
 def _is_temporary(path: Path) -> bool:
-    return path.is_file() and path.name.startswith(".") and path.name.endswith(TEMP_SUFFIX)
+    return path.is_file() and written_path(path) is not None
 
 
 def _is_leftover(path: Path) -> bool:
@@ -99,8 +99,7 @@ def _storage_message(exc: OSError, run_dir: Path) -> str | None:
     if name is not None and not _within(os.fsdecode(name), run_dir):
         return None
     shown = Path(os.fsdecode(name)) if name is not None else run_dir
-    if shown.name.startswith(".") and shown.name.endswith(TEMP_SUFFIX):  # say the real file
-        shown = shown.with_name(shown.name[1 : -len(TEMP_SUFFIX)])
+    shown = written_path(shown) or shown  # a temporary's name: say the real file
     problem = f"cannot write {str(shown)!r}: {os.strerror(exc.errno)}"
     try:
         info = RunFolder(run_dir).read_info()
