@@ -113,10 +113,9 @@ class RunLock:
         if self.create and not self.run_dir.is_dir():
             self.run_dir.mkdir(parents=True, exist_ok=True)
             self._made_folder = True
-        for attempt in range(100):
+        for _ in range(100):
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-            if not self._lock(fd, attempt):
-                continue
+            self._lock(fd)
             # The last holder deletes the file on release: a lock taken on a file that was
             # deleted meanwhile guards nothing, so take the one now at the path instead.
             try:
@@ -133,12 +132,12 @@ class RunLock:
             return self
         raise in_use_error(self.run_dir, "another process")  # pragma: no cover - never settles
 
-    def _lock(self, fd: int, attempt: int) -> bool:
-        """Take the lock on ``fd``; False: retry (closed); raises when the run is in use."""
+    def _lock(self, fd: int) -> None:
+        """Take the lock on ``fd``; raises (``fd`` closed) when the run is in use."""
         for tries in range(_TRIES):
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                return True
+                return
             except BlockingIOError:
                 if tries + 1 < _TRIES:
                     time.sleep(_PAUSE_S)
@@ -151,7 +150,7 @@ class RunLock:
                     "the run goes on without protection against a second run in this folder",
                     stacklevel=3,
                 )
-                return True
+                return
         holder = _holder_text(self.path)
         os.close(fd)
         self._cleanup_folder()
