@@ -210,6 +210,21 @@ def _fill(folder: Path) -> Path:
     return filler
 
 
+def _run_calling(after_generation: Callable[[int], None], config: Path, out: Path) -> int:
+    """`ariel run` calling ``after_generation(g)`` as each generation ends; its exit code."""
+    from ariel.evolution._progress import Progress
+
+    original = Progress.end_generation
+
+    def end_generation(self: Progress, generation: int, *args: object, **kwargs: object) -> None:
+        original(self, generation, *args, **kwargs)
+        after_generation(generation)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Progress, "end_generation", end_generation)
+        return main(["run", str(config), "--out", str(out), "--quiet"])
+
+
 def test_a_really_full_tmpfs(
     tmpfs: Callable[..., None],
     config: Path,
@@ -217,21 +232,15 @@ def test_a_really_full_tmpfs(
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    from ariel.evolution._progress import Progress
-
     disk = tmp_path / "disk"
     out = disk / "run"
-    original = Progress.end_generation
     filler: list[Path] = []
 
-    def end_generation(self: Progress, generation: int, *args: object, **kwargs: object) -> None:
-        original(self, generation, *args, **kwargs)
+    def fill_after_two(generation: int) -> None:
         if generation == 1:  # two generations finished: now the disk fills up
             filler.append(_fill(disk))
 
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(Progress, "end_generation", end_generation)
-        assert main(["run", str(config), "--out", str(out), "--quiet"]) == 2
+    assert _run_calling(fill_after_two, config, out) == 2
     line = one_error_line(capsys)
     assert f"cannot write '{out}/" in line and "No space left on device" in line, line
     assert "its 2 finished generation(s) are kept" in line, line
@@ -251,17 +260,13 @@ def test_a_read_only_file_system(
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    from ariel.evolution._progress import Progress
-
     disk = tmp_path / "disk"
     out = disk / "run"
 
-    def interrupt(self: Progress, generation: int, *args: object, **kwargs: object) -> None:
-        raise KeyboardInterrupt
+    def interrupt(generation: int) -> None:
+        raise KeyboardInterrupt  # Ctrl-C once generation 0 is finished
 
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(Progress, "end_generation", interrupt)
-        assert main(["run", str(config), "--out", str(out), "--quiet"]) == 130
+    assert _run_calling(interrupt, config, out) == 130
     capsys.readouterr()
     tmpfs("ro")
     before = snapshot(out)
