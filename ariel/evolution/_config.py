@@ -14,9 +14,9 @@ import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 
 __all__ = [
     "BodyConfig",
@@ -35,6 +35,16 @@ __all__ = [
 
 class ConfigError(ValueError):
     """A bad experiment configuration: one line naming the key and what is allowed."""
+
+
+def _finite_seconds(value: float) -> float:
+    if not math.isfinite(value):
+        raise ValueError("must be a finite number of seconds")
+    return value
+
+
+#: A duration in seconds: positive and finite.
+Seconds = Annotated[float, Field(gt=0.0), AfterValidator(_finite_seconds)]
 
 
 class _Section(BaseModel):
@@ -80,15 +90,8 @@ class WorldConfig(_Section):
 class TaskConfig(_Section):
     fitness: str = "xy_displacement"
     options: dict[str, Any] = Field(default_factory=dict)
-    duration: float = Field(10.0, gt=0.0)
+    duration: Seconds = 10.0
     spawn_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-    @field_validator("duration")
-    @classmethod
-    def _finite(cls, value: float) -> float:
-        if not math.isfinite(value):
-            raise ValueError("must be a finite number of seconds")
-        return value
 
 
 class RecordConfig(_Section):
@@ -120,15 +123,8 @@ class ExecutorConfig(_Section):
     # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).
     # Unlike the other kinds, ``gpu`` does change results: float32 physics (docs/gpu.md).
     device: Literal["cuda", "cpu"] = "cuda"
-    timeout: float = Field(600.0, gt=0.0)
+    timeout: Seconds = 600.0
     max_retries: int = Field(2, ge=0)
-
-    @field_validator("timeout")
-    @classmethod
-    def _finite(cls, value: float) -> float:
-        if not math.isfinite(value):
-            raise ValueError("must be a finite number of seconds")
-        return value
 
 
 class ExperimentConfig(_Section):
