@@ -13,7 +13,7 @@ __all__ = ["__version__", "run_experiment"]
 
 def __getattr__(name: str) -> Any:
     if name == "run_experiment":
-        from ariel.evolution import run_experiment
+        from ariel.runs import run_experiment
 
         return run_experiment
     raise AttributeError(f"module 'ariel' has no attribute {name!r}")

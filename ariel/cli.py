@@ -102,7 +102,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from ariel.evolution import run_experiment
+    from ariel.runs import run_experiment
 
     def start() -> object:
         return run_experiment(
@@ -120,7 +120,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_resume(args: argparse.Namespace) -> int:
-    from ariel.evolution import resume_experiment
+    from ariel.runs import resume_experiment
 
     def start() -> object:
         try:

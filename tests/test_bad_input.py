@@ -11,7 +11,6 @@ evaluation id.
 from __future__ import annotations
 
 import json
-import pickle
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -254,13 +253,13 @@ def _broken_run_json(finished: Path, tmp: Path) -> Path:
 
 def _broken_checkpoint(finished: Path, tmp: Path) -> Path:
     copy = _unfinished(finished, tmp)
-    (copy / "checkpoints" / "state.pkl").write_bytes(b"not a pickle")
+    (copy / "checkpoints" / "state.json").write_bytes(b"not JSON")
     return copy
 
 
 def _foreign_checkpoint(finished: Path, tmp: Path) -> Path:
     copy = _unfinished(finished, tmp)
-    (copy / "checkpoints" / "state.pkl").write_bytes(pickle.dumps({"format": 99}))
+    (copy / "checkpoints" / "state.json").write_text(json.dumps({"format": 99}))
     return copy
 
 

@@ -41,7 +41,6 @@ from ariel.evaluation._engine import (
     TaskGroup,
     _build_key,
     _finish,
-    evaluate_batch,
     frame_steps,
     held_controls,
     num_steps,
@@ -538,10 +537,10 @@ def _overflow_result(
 class WarpExecutor(SerialExecutor):
     """The ``gpu`` executor: calls run here, in the driver, and batches run on a device.
 
-    A submitted call of `ariel.evaluation.evaluate_batch` (what the loop sends each brain batch
-    to) runs on this executor's `WarpEvaluator` instead, with the same tasks and the same kind
-    of results; any other call runs as in `SerialExecutor`. The loop sends a body's whole
-    batch in one call (its capacity for ``gpu`` is 1), so a batch is one set of worlds.
+    `submit_batch` (what the scheduler sends each brain batch to) runs on this executor's
+    `WarpEvaluator`, with the same kind of results as `ariel.evaluation.evaluate_batch`; any
+    other call runs as in `SerialExecutor`. Its capacity is 1, so the scheduler sends a body's
+    whole batch in one call: one set of worlds.
     """
 
     def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
@@ -552,10 +551,11 @@ class WarpExecutor(SerialExecutor):
     def device(self) -> str:
         return self.evaluator.device
 
-    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Any:
-        if fn is evaluate_batch:
-            fn = self.evaluator.evaluate_batch
-        return super().submit(fn, *args, **kwargs)
+    kind = "gpu"
+
+    def submit_batch(self, tasks: list[Any], *, timeout: float | None = None) -> Any:
+        """The whole batch as one set of worlds on the device (no timeout: it runs here)."""
+        return self.submit(self.evaluator.evaluate_batch, tasks)
 
     def __repr__(self) -> str:
         return f"WarpExecutor(device={self.device!r})"

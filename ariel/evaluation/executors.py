@@ -38,15 +38,20 @@ __all__ = [
     "EVAL_THREADS_VARIABLE",
     "EXECUTOR_KINDS",
     "THREAD_LIMIT_VARIABLES",
+    "BatchExecutor",
     "CallTimeoutError",
     "DaskExecutor",
+    "ExecutorSettingsError",
+    "LocalExecutor",
     "LocalPool",
     "SerialExecutor",
     "WorkerLostError",
+    "check_settings",
     "default_workers",
     "evaluation_threads",
     "make_executor",
     "map_ordered",
+    "settings_options",
     "submit_with_timeout",
     "worker_environment",
     "worker_fault",
@@ -138,16 +143,46 @@ def evaluation_threads() -> int:
 
 
 # --------------------------------------------------------------------------------------------
+# what the loop needs of every executor: its capacity, and how it evaluates a batch
+# --------------------------------------------------------------------------------------------
+
+
+class BatchExecutor:
+    """What the scheduler uses: ``capacity`` (calls worth keeping in flight at once: one per
+    worker) and ``submit_batch(tasks, timeout=)`` (a future of `evaluate_batch`'s results).
+
+    Every executor `make_executor` returns has both; an executor kind says here how it
+    evaluates a batch, so nothing outside this module branches on kind names.
+    """
+
+    kind: str = ""
+
+    @property
+    def capacity(self) -> int:
+        return 1
+
+    def submit_batch(self, tasks: list[Any], *, timeout: float | None = None) -> cf.Future[Any]:
+        """Evaluate ``tasks`` (`ariel.evaluation.evaluate_batch`) within ``timeout`` seconds
+        where the executor can stop a call (`submit_with_timeout`)."""
+        import ariel.evaluation  # looked up when called (a test may wrap it in this process)
+
+        batch = ariel.evaluation.evaluate_batch
+        return submit_with_timeout(self, timeout, batch, tasks)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------------------------
 # serial
 # --------------------------------------------------------------------------------------------
 
 
-class SerialExecutor(cf.Executor):
+class SerialExecutor(BatchExecutor, cf.Executor):
     """Runs each submitted call at once, in this process; returns completed futures.
 
     An exception raised by the call is stored in its future (as in a process pool), not raised
     by ``submit``.
     """
+
+    kind = "serial"
 
     def __init__(self) -> None:
         self._shutdown = False
@@ -216,6 +251,16 @@ def _default_mp_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
+class LocalExecutor(BatchExecutor, LocalPool):
+    """The ``local`` executor: a `LocalPool` whose capacity is its worker count."""
+
+    kind = "local"
+
+    @property
+    def capacity(self) -> int:
+        return self.max_workers
+
+
 def _make_local(
     workers: int | None,
     *,
@@ -225,7 +270,7 @@ def _make_local(
     initializer: Callable[..., object] | None = None,
     initargs: tuple[Any, ...] = (),
     max_tasks_per_child: int | None = None,
-) -> LocalPool:
+) -> LocalExecutor:
     workers = workers or default_workers()
     env = worker_environment(blas_threads, workers=workers)
     if mp_context is None:
@@ -234,7 +279,7 @@ def _make_local(
         context = multiprocessing.get_context(mp_context)
     else:
         context = mp_context
-    return LocalPool(
+    return LocalExecutor(
         workers,
         mp_context=context,
         worker_env=env,
@@ -250,7 +295,7 @@ def _make_local(
 # --------------------------------------------------------------------------------------------
 
 
-class DaskExecutor(cf.Executor):
+class DaskExecutor(BatchExecutor, cf.Executor):
     """``client.get_executor(pure=False)`` that also closes what it started on shutdown.
 
     ``pure=False``: Dask would otherwise run identical calls once and share the result.
@@ -266,6 +311,16 @@ class DaskExecutor(cf.Executor):
         self._close_client = close_client
         self._executor = client.get_executor(pure=False)
         self._closed = False
+
+    kind = "dask"
+
+    @property
+    def capacity(self) -> int:
+        """The cluster's threads now (each may run a batch); 1 if the scheduler cannot say."""
+        try:
+            return max(1, sum(self.client.nthreads().values()))
+        except Exception:  # a scheduler that is gone or slow: still send work, one call
+            return 1
 
     def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
         return self._executor.submit(fn, *args, **kwargs)
@@ -387,19 +442,80 @@ def _check_retries(max_retries: object) -> None:
         raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
 
 
+class ExecutorSettingsError(ValueError):
+    """Bad executor settings; the message starts with the config key (``executor.workers: ...``)."""
+
+
+def check_settings(settings: Any) -> None:
+    """Check an ``[executor]`` section once, before anything runs: `ExecutorSettingsError`.
+
+    ``gpu`` also needs MuJoCo Warp and its device (``executor.device``).
+    """
+    kind, workers, scheduler = settings.kind, settings.workers, settings.scheduler
+    if kind not in EXECUTOR_KINDS:
+        raise ExecutorSettingsError(
+            f"executor.kind: unknown executor {kind!r}; known: {', '.join(EXECUTOR_KINDS)}"
+        )
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
+    one_worker = {
+        "serial": "the serial executor has 1 worker",
+        "gpu": "the gpu executor runs on one device",
+    }
+    if kind in one_worker and workers not in (None, 1):
+        raise ExecutorSettingsError(f"executor.workers: {one_worker[kind]} (got {workers})")
+    if scheduler is not None and kind != "dask":
+        raise ExecutorSettingsError(f"executor.scheduler: only for the dask executor, not {kind!r}")
+    if scheduler is not None and workers is not None:
+        raise ExecutorSettingsError(
+            "executor.workers: sizes a local cluster; with executor.scheduler the cluster's own "
+            "workers are used (scale the cluster instead)"
+        )
+    if kind == "gpu":
+        from ariel.evaluation._warp import WarpUnavailableError, check_device, warp_modules
+
+        try:
+            warp_modules()
+        except WarpUnavailableError as exc:
+            raise ExecutorSettingsError(f"executor.kind: {exc}") from None
+        try:
+            check_device(settings.device)
+        except WarpUnavailableError as exc:
+            raise ExecutorSettingsError(
+                f"executor.device: {exc}; or the CPU engine: --executor local"
+            ) from None
+
+
+def settings_options(settings: Any) -> dict[str, Any]:
+    """`make_executor`'s keyword arguments for an ``[executor]`` section (checked first)."""
+    check_settings(settings)
+    kind = settings.kind
+    options: dict[str, Any] = {"workers": settings.workers}
+    if kind == "gpu":
+        options["device"] = settings.device
+    if kind == "dask":
+        options["scheduler"] = settings.scheduler
+    if kind == "local" or (kind == "dask" and settings.scheduler is None):
+        options["max_retries"] = settings.max_retries
+    return options
+
+
 def make_executor(
-    kind: str = "local",
+    kind: Any = "local",
     *,
     workers: int | None = None,
     scheduler: Any = None,
     max_retries: int | None = None,
     **options: Any,
 ) -> cf.Executor:
-    """A `concurrent.futures.Executor` of ``kind`` (use it as a context manager).
+    """A `concurrent.futures.Executor` of ``kind`` (use it as a context manager), which is
+    also a `BatchExecutor` (``capacity``, ``submit_batch``).
 
     Args:
         kind: ``"serial"``, ``"local"``, ``"dask"`` or ``"gpu"`` (options ``device``:
-            ``"cuda"`` or ``"cpu"``, and ``max_worlds``; see `WarpExecutor`).
+            ``"cuda"`` or ``"cpu"``, and ``max_worlds``; see `WarpExecutor`); or an
+            experiment config's ``[executor]`` section (``kind``, ``workers``, ``scheduler``,
+            ``device``, ``max_retries``; checked with `check_settings`).
         workers: processes for ``local`` and for a Dask ``LocalCluster`` (default: one per
             usable CPU); ``serial`` accepts only 1.
         scheduler: ``dask`` only: an address like ``"tcp://host:8786"``, a cluster object
@@ -413,6 +529,8 @@ def make_executor(
             ``mp_context``, ``initializer``, ``initargs``, ``max_tasks_per_child``; for a Dask
             ``LocalCluster`` any of its keyword arguments.
     """
+    if not isinstance(kind, str):  # a config's [executor] section
+        return make_executor(kind.kind, **settings_options(kind))
     if kind not in EXECUTOR_KINDS:
         raise ValueError(f"unknown executor kind {kind!r}; known: {', '.join(EXECUTOR_KINDS)}")
     if workers is not None and (

@@ -1,4 +1,5 @@
-"""Evolution: the co-evolution loop (body GA x brain CMA-ES), its configs and its results.
+"""Evolution: the co-evolution loop (body optimizers x brain CMA-ES), its configs, the scheduler
+and the run driver.
 
 Cheap to import: names are loaded from their modules on first access.
 """
@@ -20,9 +21,11 @@ _LAZY: dict[str, str] = {
     "WorldConfig": "ariel.evolution._config",
     "load_config": "ariel.evolution._config",
     "BrainRun": "ariel.evolution._brain",
-    "RunResult": "ariel.evolution._loop",
-    "resume_experiment": "ariel.evolution._loop",
-    "run_experiment": "ariel.evolution._loop",
+    # The entry points live a layer up (`ariel.runs`: they tie a run folder to the driver);
+    # these names stay here for the scripts that import them from ariel.evolution.
+    "RunResult": "ariel.runs._experiment",
+    "resume_experiment": "ariel.runs._experiment",
+    "run_experiment": "ariel.runs._experiment",
     "derive_rng": "ariel.evolution._seeds",
     "derive_seed": "ariel.evolution._seeds",
 }

@@ -3,8 +3,9 @@ parameters, one ask/tell run per body.
 
 pycma draws its samples from ``numpy.random``'s global generator unless given ``randn``; with
 several runs progressing side by side that would make each run depend on the others' timing.
-So every run owns its generator (`_Randn`), seeded from the run seed and the body, and the
-whole run pickles (checkpoints hold it between generations).
+So every run owns its generator (`_Randn`), seeded from the run seed and the body. A run is
+stored as plain data (`BrainRun.to_plain`): its settings and the fitness it was told; loading
+it tells a fresh run the same again (`BrainRun.from_plain`), which rebuilds the same state.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -54,6 +56,7 @@ class BrainRun:
     iteration: int = 0
     best_params: np.ndarray | None = None
     best_fitness: float = field(default=math.nan)
+    told: list[list[float]] = field(default_factory=list)  # each iteration's fitness, in order
     _es: object | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
@@ -92,6 +95,7 @@ class BrainRun:
         Returns the index of this batch's candidate that became the best so far, or None.
         """
         fitness = np.asarray(fitness, dtype=np.float64)
+        self.told.append(fitness.tolist())
         finite = np.isfinite(fitness)
         improved = None
         if finite.any():
@@ -113,6 +117,31 @@ class BrainRun:
                 self._es.tell(list(params), cost.tolist())
         self.iteration += 1
         return improved
+
+    def to_plain(self) -> dict[str, Any]:
+        """The run as JSON-able data: its settings and every fitness it was told."""
+        return {
+            "n_params": self.n_params,
+            "popsize": self.popsize,
+            "maximise": self.maximise,
+            "x0": np.asarray(self.x0, dtype=np.float64).tolist(),
+            "sigma0": self.sigma0,
+            "seed": self.seed,
+            "told": [list(batch) for batch in self.told],
+        }
+
+    @classmethod
+    def from_plain(cls, data: dict[str, Any]) -> BrainRun:
+        """The run `to_plain` describes: a fresh run asked and told the same again."""
+        from threadpoolctl import threadpool_limits
+
+        told = data["told"]
+        run = cls(**{key: value for key, value in data.items() if key != "told"})
+        run.x0 = np.asarray(run.x0, dtype=np.float64)
+        with threadpool_limits(limits=1):  # as in the loop: the same eigendecompositions
+            for fitness in told:
+                run.tell(run.ask(), np.asarray(fitness, dtype=np.float64))
+        return run
 
     def _better(self, a: float, b: float) -> bool:
         if math.isnan(b):

@@ -52,7 +52,11 @@ class _Section(BaseModel):
 
 
 class BodyConfig(_Section):
-    """The body GA (ignored, but for ``genotype``, in a brain-only run).
+    """The body optimizer (ignored, but for ``genotype``, in a brain-only run).
+
+    ``optimizer``: a registered body optimizer (``ga``, ``map_elites``) with its
+    ``optimizer_options``; ``population`` bodies are asked for in generation 0 and
+    ``offspring`` in every later one.
 
     ``genotype``: a fixed body, which makes the run brain-only: a prebuilt name ("gecko" for
     encoder "prebuilt"), a genotype, or a ``.json`` / ``.npy`` file holding one (a path in a
@@ -61,6 +65,8 @@ class BodyConfig(_Section):
 
     encoder: str = "nde"
     options: dict[str, Any] = Field(default_factory=dict)
+    optimizer: str = "ga"
+    optimizer_options: dict[str, Any] = Field(default_factory=dict)
     genotype: Any = None
     population: int = Field(8, ge=1)
     offspring: int = Field(8, ge=1)
@@ -150,10 +156,18 @@ class ExperimentConfig(_Section):
         return _validate(data)
 
 
+# Keys added after runs were made, with the value that behaves as before they existed: left out
+# of the hash at that value, so the hash of an older run's config does not change.
+_LATER_KEYS = {("body", "optimizer"): "ga", ("body", "optimizer_options"): {}}
+
+
 def config_hash(config: ExperimentConfig) -> str:
     """SHA-256 of everything that decides results (the executor section does not)."""
     plain = config.to_plain()
     plain.pop("executor")
+    for (section, key), neutral in _LATER_KEYS.items():
+        if plain[section].get(key) == neutral:
+            del plain[section][key]
     text = json.dumps(plain, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
 

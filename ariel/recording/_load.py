@@ -8,6 +8,8 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ariel.recording._run_folder import NotARunError, RunFolder
 from ariel.recording._tables import read_table
 
@@ -54,9 +56,16 @@ class Run:
         return self._table("trajectories")
 
     @cached_property
+    def archive(self) -> Any:
+        """MAP-Elites runs: one row per filled cell of the archive after each generation
+        (``cell``, the elite's ``body_id``, ``fitness``, ``measures``, ``grid``); empty else."""
+        return self._table("archive")
+
+    @cached_property
     def generations(self) -> Any:
         """Per generation: evaluations, failures, and best / mean / median fitness of the
-        population after selection."""
+        population after selection (a MAP-Elites run: its elites), and for MAP-Elites runs
+        ``coverage`` (filled cells / cells) and ``qd_score`` (the elites' summed objective)."""
         import pandas as pd
 
         evaluations, bodies = self.evaluations, self.bodies
@@ -94,7 +103,16 @@ class Run:
             "mean_fitness",
             "median_fitness",
         ]
-        return pd.DataFrame(rows, columns=columns)  # the columns even before a generation ends
+        frame = pd.DataFrame(rows, columns=columns)  # the columns even before a generation ends
+        archive = self.archive
+        if len(archive):
+            grouped = archive.groupby("generation")
+            cells = grouped["grid"].first().map(lambda grid: int(np.prod(grid)))
+            quality = pd.DataFrame(
+                {"coverage": grouped.size() / cells, "qd_score": grouped["objective"].sum()}
+            )
+            frame = frame.join(quality, on="generation")
+        return frame
 
 
 def load_run(path: str | Path) -> Run:

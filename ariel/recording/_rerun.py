@@ -616,6 +616,7 @@ def write_run_recording(
     generations_df: Any,
     best_bodies: Mapping[int, Mapping[str, Any]] | Sequence[Mapping[str, Any]],
     *,
+    archives: Mapping[int, np.ndarray] | None = None,
     run_id: str = "",
     properties: Mapping[str, Any] | None = None,
     fsync: bool = True,
@@ -628,6 +629,8 @@ def write_run_recording(
     ``best_bodies``: the best body of each generation, as a mapping generation -> body or as
     rows with a ``generation`` key; a body has ``body_id``, ``fitness`` and ``graph``
     (node-link JSON): logged at ``/best/graph`` (its morphology) and ``/best/body`` (text).
+    ``archives``: a MAP-Elites run's grid of fitness per cell (NaN: empty) per generation,
+    logged at ``/archive`` as a tensor, so the viewer plays the archive over the generations.
     """
     path = Path(path)
     generation = np.asarray(generations_df["generation"], dtype=np.int64)
@@ -659,6 +662,9 @@ def write_run_recording(
             if graph:
                 at = [rr.TimeColumn("generation", sequence=[gen])]
                 chunks.append(Chunk.from_columns("/best/graph", at, _one_row(*graph)))
+    for gen, grid in sorted((archives or {}).items()):
+        at = [rr.TimeColumn("generation", sequence=[int(gen)])]
+        chunks.append(Chunk.from_columns("/archive", at, _one_row(rr.Tensor(grid))))
     return _write_chunks(path, name, chunks, fsync=fsync)
 
 

@@ -2,8 +2,9 @@
 
 ``run.json`` holds the resolved config, its hash, the seed, versions, the git commit,
 plugin provenance, status and times; it never holds an absolute path of this machine, so a
-run folder copied elsewhere still loads. The checkpoint (``checkpoints/state.pkl``) holds
-exactly what resume needs; it is replaced atomically after every generation's tables.
+run folder copied elsewhere still loads. The checkpoint (``checkpoints/state.json``) holds
+exactly what resume needs, as plain JSON data (never a pickle: loading a run folder runs no
+code from it); it is replaced atomically after every generation's tables.
 """
 
 from __future__ import annotations
@@ -14,7 +15,6 @@ import errno
 import importlib.metadata
 import json
 import os
-import pickle
 import platform
 import re
 import shlex
@@ -45,7 +45,7 @@ __all__ = [
 ]
 
 RUN_FORMAT = 1
-CHECKPOINT_FORMAT = 1
+CHECKPOINT_FORMAT = 2  # 1: a pickle (no longer loaded)
 _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
 
 
@@ -182,7 +182,7 @@ class RunFolder:
 
     @property
     def checkpoint(self) -> Path:
-        return self.path / "checkpoints" / "state.pkl"
+        return self.path / "checkpoints" / "state.json"
 
     # -- creation ------------------------------------------------------------------------------
 
@@ -260,17 +260,25 @@ class RunFolder:
 
     # -- checkpoints ---------------------------------------------------------------------------
 
-    def save_checkpoint(self, state: Any) -> None:
+    def save_checkpoint(self, state: dict[str, Any]) -> None:
+        """Replace the checkpoint with ``state`` (JSON-able plain data, no NaN)."""
         payload = {"format": CHECKPOINT_FORMAT, "state": state}
-        atomic_write_bytes(self.checkpoint, pickle.dumps(payload, protocol=5))
+        text = json.dumps(payload, allow_nan=False, separators=(",", ":"))
+        atomic_write_bytes(self.checkpoint, text.encode())
 
-    def load_checkpoint(self) -> Any | None:
-        """The last saved state, or None when no generation finished yet."""
+    def load_checkpoint(self) -> dict[str, Any] | None:
+        """The last saved state (plain data), or None when no generation finished yet."""
+        legacy = self.checkpoint.with_name("state.pkl")
+        if not self.checkpoint.is_file() and legacy.is_file():
+            raise NotARunError(
+                f"{legacy}: a pickle checkpoint of an older ariel, not loaded (unpickling runs "
+                "code from the file); the run's tables load, but it cannot be resumed"
+            )
         if not self.checkpoint.is_file():
             return None
         try:
-            payload = pickle.loads(self.checkpoint.read_bytes())
-        except Exception as exc:  # written atomically, so only damage from outside gets here
+            payload = json.loads(self.checkpoint.read_bytes())
+        except (OSError, ValueError) as exc:  # written atomically: only outside damage
             first = (str(exc).splitlines() or [""])[0]
             raise NotARunError(
                 f"{self.checkpoint}: unreadable checkpoint ({type(exc).__name__}: {first})"

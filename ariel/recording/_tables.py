@@ -3,6 +3,8 @@
 ``evaluations/gen-NNNNNN.parquet``: one row per evaluation. ``bodies/gen-NNNNNN.parquet``: one
 row per body taking part in the generation (its parents and its offspring).
 ``trajectories/gen-NNNNNN.parquet``: one row per recorded frame of every evaluation.
+``archive/gen-NNNNNN.parquet`` (MAP-Elites runs only): one row per filled cell of the archive
+after the generation.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from ariel.recording._files import atomic_write
 
 __all__ = [
     "TABLES",
+    "archive_schema",
     "body_schema",
     "evaluation_schema",
     "generation_file",
@@ -32,7 +35,7 @@ __all__ = [
 ]
 
 #: Table name -> folder in the run folder.
-TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories")
+TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories", "archive")
 _GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
 
 
@@ -120,6 +123,22 @@ def trajectory_schema() -> pa.Schema:
     )
 
 
+@cache
+def archive_schema() -> pa.Schema:
+    """A MAP-Elites archive after a generation: one row per filled cell."""
+    return pa.schema(
+        [
+            ("generation", pa.int32()),
+            ("cell", pa.int32()),  # the cell's index in the grid (row-major over the measures)
+            ("body_id", pa.string()),  # the elite
+            ("fitness", pa.float64()),
+            ("objective", pa.float64()),  # what the archive maximises: fitness, or -fitness
+            ("measures", pa.list_(pa.float64())),  # the elite's value of each measure
+            ("grid", pa.list_(pa.int32())),  # cells per measure (coverage = rows / their product)
+        ]
+    )
+
+
 def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> dict[str, Any]:
     """The ``trajectories`` columns of one generation, from ``(eval_id, result)`` pairs.
 
@@ -158,6 +177,7 @@ _SCHEMAS = {
     "evaluations": evaluation_schema,
     "bodies": body_schema,
     "trajectories": trajectory_schema,
+    "archive": archive_schema,
 }
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from ariel.evolution import ConfigError, ExperimentConfig, load_config
 from ariel.evolution._config import config_hash
-from ariel.evolution._loop import _resolve
+from ariel.runs._experiment import resolve_plugins as _resolve
 
 EXPERIMENTS = sorted((Path(__file__).resolve().parents[2] / "experiments").glob("*.toml"))
 

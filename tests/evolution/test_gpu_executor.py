@@ -119,12 +119,13 @@ def test_the_gpu_executor_takes_no_worker_count(tmp_path) -> None:
         run_experiment(config, out=tmp_path / "run")
 
 
-def test_make_executor_gpu_runs_evaluate_batch_on_warp() -> None:
-    from ariel.evaluation import BodySpec, EvaluationTask, evaluate_batch, make_executor
+def test_make_executor_gpu_evaluates_batches_on_warp() -> None:
+    from ariel.evaluation import BodySpec, EvaluationTask, make_executor
 
     task = EvaluationTask(body=BodySpec("prebuilt", "gecko"), params=[0.1] * 40, duration=0.1)
     with make_executor("gpu", device="cpu") as executor:
-        (result,) = executor.submit(evaluate_batch, [task]).result()
+        assert executor.capacity == 1  # a body's whole batch is one set of worlds
+        (result,) = executor.submit_batch([task]).result()
         assert executor.submit(len, [1, 2]).result() == 2  # any other call runs as it is
     assert result.backend == "mujoco-warp:cpu" and math.isfinite(result.fitness)
     with pytest.raises(ValueError, match="one device; no workers"):

@@ -113,7 +113,7 @@ PAUSING_LAUNCHER = textwrap.dedent(
 
             original(path, half_written, **options)
         original(path, write, **options)
-        if path.as_posix().endswith("checkpoints/state.pkl"):
+        if path.as_posix().endswith("checkpoints/state.json"):
             checkpoints += 1
 
     files.atomic_write = atomic_write
@@ -373,7 +373,7 @@ def test_killed_before_the_first_generation_then_after_a_checkpoint(
     process.wait_until(lambda: _run_info(run_dir).get("status") == "running", "the run started")
     process.kill()
     assert process.popen.returncode == -signal.SIGKILL
-    assert not (run_dir / "checkpoints" / "state.pkl").exists()
+    assert not (run_dir / "checkpoints" / "state.json").exists()
     assert _assert_killed_run_loads(run_dir, reference) == 0
     assert len(load_run(run_dir).evaluations) == 0
     # The resumed run (starting over) is killed again, after generation 1's checkpoint.
@@ -398,7 +398,7 @@ def test_killed_while_writing_again_and_again(configs, reference, tmp_path: Path
         # Its last table: evaluations and trajectories of generation 1 are already complete.
         ("bodies/gen-000001.parquet", 0, 1),
         # Its checkpoint: all tables of generation 1 exist, the checkpoint is generation 0's.
-        ("checkpoints/state.pkl", 0, 1),
+        ("checkpoints/state.json", 0, 1),
         # run.json after generation 1's checkpoint: it still says 1 generation done.
         ("run.json", 1, 1),
         # The run-level recording after generation 2's tables (the resume went on from

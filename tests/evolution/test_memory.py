@@ -18,9 +18,10 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-import ariel.evolution._loop as loop
+import ariel.evolution._bodies as bodies
 from ariel.evaluation import BodySpec, EvaluationResult, build, evaluate_batch, make_executor
 from ariel.evolution import ExperimentConfig, run_experiment
+from ariel.evolution._driver import RunDriver
 from ariel.evolution._tasks import body_spec, evaluation_task, shipped_body
 from ariel.plugins import body_encoders
 from ariel.recording import load_run
@@ -88,7 +89,7 @@ def _fitness_bits(run_dir: Path) -> list[tuple[str, str, str]]:
 def test_a_run_gives_the_same_fitness_as_with_genotypes_shipped(tmp_path: Path) -> None:
     shipped = run_experiment(copy.deepcopy(CONFIG), out=tmp_path / "graphs", progress=False)
     with pytest.MonkeyPatch.context() as patch:  # the former tasks: NDE genotypes
-        patch.setattr(loop, "shipped_body", lambda config, body: body)
+        patch.setattr(bodies, "shipped_body", lambda config, body: body)
         genotypes = run_experiment(
             copy.deepcopy(CONFIG), out=tmp_path / "genotypes", progress=False
         )
@@ -141,17 +142,16 @@ def test_a_local_worker_evaluating_nde_bodies_never_imports_torch(tmp_path: Path
 
 def test_the_driver_keeps_compiled_models_of_living_bodies_only(tmp_path: Path) -> None:
     seen: list[tuple[int, set[int], set[int]]] = []
-    original = loop._one_generation
+    original = RunDriver._end
 
-    def watched(experiment, state, generation, *args, **kwargs):
-        state = original(experiment, state, generation, *args, **kwargs)
-        alive = {body.number for body in state.population}
-        seen.append((generation, set(experiment._models), alive))
-        return state
+    def watched(driver, generation):
+        original(driver, generation)
+        alive = {body.number for body in driver.state.population}
+        seen.append((generation, set(driver.factory._models), alive))
 
     config = {**copy.deepcopy(CONFIG), "generations": 4}
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(loop, "_one_generation", watched)
+        patch.setattr(RunDriver, "_end", watched)
         run_experiment(config, out=tmp_path / "run", progress=False)
     assert [generation for generation, _, _ in seen] == [0, 1, 2, 3]
     for generation, models, alive in seen:

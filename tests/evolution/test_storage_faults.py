@@ -118,7 +118,7 @@ _CHECKPOINTS: list[Path] = []
 
 
 def _third_checkpoint(path: Path) -> bool:
-    if path.name == "state.pkl":
+    if path.name == "state.json":
         _CHECKPOINTS.append(path)
     return len(_CHECKPOINTS) == 3
 
@@ -128,7 +128,7 @@ FULL_AT = {
     # recording, or its checkpoint (written after its tables).
     "table": (lambda p: p.as_posix().endswith("evaluations/gen-000002.parquet"), "evaluations"),
     "recording": (lambda p: "recordings/gen-000002/" in p.as_posix(), "recordings/gen-000002"),
-    "checkpoint": (_third_checkpoint, "checkpoints/state.pkl"),
+    "checkpoint": (_third_checkpoint, "checkpoints/state.json"),
 }
 
 

@@ -36,7 +36,7 @@ import numpy as np
 from ariel.evolution._brain import fitness_rank
 from ariel.recording._tables import recording_path
 
-__all__ = ["RerunRecorder", "generation_summary"]
+__all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
 
 
 def generation_summary(
@@ -91,6 +91,15 @@ def generation_summary(
     return row, best_body
 
 
+def archive_grid(rows: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """A MAP-Elites archive's rows as its grid of fitness (NaN in empty cells)."""
+    grid = [int(n) for n in rows[0]["grid"]] if rows else [0]
+    values = np.full(int(np.prod(grid)), np.nan)
+    for row in rows:
+        values[int(row["cell"])] = float(row["fitness"])
+    return values.reshape(grid)
+
+
 class RerunRecorder:
     """Writes a run's Rerun files (see the module docstring); one per run, in the driver."""
 
@@ -106,6 +115,7 @@ class RerunRecorder:
         self.config = config
         self._rows: dict[int, dict[str, Any]] = {}
         self._best: dict[int, dict[str, Any]] = {}
+        self._archives: dict[int, np.ndarray] = {}  # MAP-Elites: fitness per cell
         self._blueprint = False
 
     @property
@@ -166,8 +176,14 @@ class RerunRecorder:
             transforms=transforms,
         )
 
-    def generation(self, generation: int, body_rows: Sequence[Mapping[str, Any]]) -> Path:
-        """After a generation's tables: add its summary and rewrite ``run.rrd``."""
+    def generation(
+        self,
+        generation: int,
+        body_rows: Sequence[Mapping[str, Any]],
+        archive: Sequence[Mapping[str, Any]] | None = None,
+    ) -> Path:
+        """After a generation's tables: add its summary (and its MAP-Elites archive) and
+        rewrite ``run.rrd``."""
         from ariel.recording._rerun import write_run_recording
 
         if not self._blueprint:
@@ -177,6 +193,8 @@ class RerunRecorder:
         self._rows[generation] = row
         if best is not None:
             self._best[generation] = best
+        if archive is not None:
+            self._archives[generation] = archive_grid(archive)
         gens = sorted(g for g in self._rows if g <= generation)
         columns = {key: [self._rows[g][key] for g in gens] for key in row}
         c = self.config
@@ -184,6 +202,7 @@ class RerunRecorder:
             self.run_dir / "run.rrd",
             columns,
             {g: b for g, b in self._best.items() if g <= generation},
+            archives={g: a for g, a in self._archives.items() if g <= generation},
             run_id=self.run_id,
             properties={
                 "run_id": self.run_id,
@@ -207,7 +226,11 @@ class RerunRecorder:
         from ariel.recording._tables import read_table
 
         rows = read_table(self.run_dir, "bodies", up_to=generation - 1).to_pylist()
+        cells = read_table(self.run_dir, "archive", up_to=generation - 1).to_pylist()
         for g in missing:
+            archive = [row for row in cells if row["generation"] == g]
+            if archive:
+                self._archives[g] = archive_grid(archive)
             row, best = generation_summary(
                 g, [r for r in rows if r["generation"] == g], self.maximise
             )

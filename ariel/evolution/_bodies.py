@@ -1,0 +1,141 @@
+"""Bodies in the driver: genotype -> decoded, compiled body; its brain run; its evaluation tasks.
+
+The driver compiles every new body once (for its parameter count, joints, descriptors and
+graph, and to record its evaluations) and keeps the compiled models of living bodies only (a
+run of days would otherwise keep every body it ever made). Workers get each body as its
+decoded robot graph (`shipped_body`), so they never need the encoder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ariel.evolution._brain import BrainRun
+from ariel.evolution._seeds import derive_rng, derive_seed
+from ariel.evolution._state import Body
+from ariel.evolution._tasks import body_spec, evaluation_task, record_steps, shipped_body
+
+__all__ = ["BodyFactory", "BrainJob"]
+
+
+@dataclass
+class BrainJob:
+    """One body's brain run in one generation: learn until ``run.iteration == target``."""
+
+    body: Body
+    spec: Any  # the shipped `BodySpec`
+    run: BrainRun
+    target: int
+    eval_seed: int
+    record_every: int
+
+
+class BodyFactory:
+    """Makes and compiles bodies, their brain runs and their evaluation tasks for one run."""
+
+    def __init__(self, config: Any, encoder: Any, controller: Any, maximise: bool) -> None:
+        self.config = config
+        self.encoder = encoder
+        self.controller = controller
+        self.maximise = maximise
+        self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
+
+    def task(self, spec: Any, params: Any = (), **fields: Any) -> Any:
+        # One place builds a run's tasks (`_tasks.evaluation_task`): replay rebuilds the same.
+        return evaluation_task(self.config, spec, params, **fields)
+
+    def new_body(self, number: int, genotype: Any, parents: list[str], generation: int) -> Body:
+        """Decode and compile a body here (its parameter count, joints, descriptors, graph)."""
+        from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
+        from ariel.evaluation import BodyBuildError, build
+
+        spec = body_spec(self.config, genotype)
+        body = Body(number=number, genotype=spec.genotype, parent_ids=parents, born=generation)
+        try:
+            built = build(self.task(spec))
+        except BodyBuildError as exc:
+            body.status, body.error = "error", str(exc).splitlines()[0]
+            return body
+        import networkx as nx
+
+        body.n_params = int(self.controller.num_parameters(built.model))
+        body.n_joints = int(built.model.nu)
+        body.joint_names = list(built.joint_names)
+        body.descriptors = dict(built.descriptors)
+        with contextlib.suppress(Exception):  # a body without a graph form (some prebuilts)
+            graph = graph_to_plain(self.encoder.decode(spec.genotype))
+            body.graph = json.dumps(nx.node_link_data(graph, edges="edges"), sort_keys=True)
+        self._models[number] = built.model
+        return body
+
+    def model(self, body: Body) -> Any:
+        """The body's compiled model (compiled again for a body restored from a checkpoint)."""
+        if body.number not in self._models:
+            self.new_body(body.number, body.genotype, body.parent_ids, body.born)
+        return self._models[body.number]
+
+    def forget_models(self, alive: Sequence[Body]) -> None:
+        """Drop the compiled models of bodies not in ``alive`` (each holds ~0.3 MB)."""
+        keep = {body.number for body in alive}
+        for number in [n for n in self._models if n not in keep]:
+            del self._models[number]
+
+    def new_brain(self, body: Body, population: Mapping[str, Body]) -> BrainRun:
+        """Body ``body``'s CMA-ES run: x0 random, or its first parent's best brain when
+        ``brain.inherit`` and the parameter counts agree."""
+        c, seed = self.config, self.config.seed
+        if body.n_params == 0:
+            x0 = np.zeros(0)
+        else:
+            rng = derive_rng(seed, "brain-x0", body.number)
+            x0 = self.controller.random_parameters(self.model(body), rng, 1)[0]
+            parent = population.get(body.parent_ids[0]) if body.parent_ids else None
+            if (
+                c.brain.inherit
+                and parent is not None
+                and parent.best_params is not None
+                and len(parent.best_params) == body.n_params
+            ):
+                x0 = np.asarray(parent.best_params, dtype=np.float64)
+        return BrainRun(
+            n_params=body.n_params,
+            popsize=c.brain.popsize,
+            maximise=self.maximise,
+            x0=x0,
+            sigma0=c.brain.sigma0,
+            seed=derive_seed(seed, "cma", body.number),
+        )
+
+    def job(self, body: Body, run: BrainRun, target: int) -> BrainJob:
+        """The brain job of ``body`` up to iteration ``target`` (1 for a body without
+        parameters: its one evaluation)."""
+        timestep = self.model(body).opt.timestep
+        return BrainJob(
+            body=body,
+            spec=shipped_body(self.config, body_spec(self.config, body.genotype)),
+            run=run,
+            target=target if body.n_params else 1,
+            eval_seed=derive_seed(self.config.seed, "evaluation", body.number),
+            record_every=record_steps(self.config, timestep),
+        )
+
+    def batch_tasks(self, job: BrainJob, params: np.ndarray, record_bodies: bool) -> list[Any]:
+        """The tasks of the job's next batch (candidate k of iteration i: ``-iIII-cKKK``)."""
+        iteration = job.run.iteration
+        return [
+            self.task(
+                job.spec,
+                p,
+                seed=job.eval_seed,
+                record_every=job.record_every,
+                record_bodies=record_bodies,
+                eval_id=f"{job.body.body_id}-i{iteration:03d}-c{k:03d}",
+            )
+            for k, p in enumerate(params)
+        ]

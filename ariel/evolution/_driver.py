@@ -1,0 +1,303 @@
+"""The run driver: one run's generations, as a group of work for the `Scheduler`.
+
+Per generation: the body optimizer asks for genotypes, each becomes a compiled body
+(`BodyFactory`), each buildable body gets a CMA-ES brain run (`BrainWork`), the scheduler runs
+all brain runs side by side, the optimizer is told the bodies, and the records writer writes
+the generation; then the checkpoint. A body's fitness is its best brain's fitness.
+
+An encoder that cannot vary its genotypes (``evolvable = False``, e.g. ``prebuilt``), or a
+fixed ``body.genotype`` under any encoder, gives a brain-only run: one fixed body whose CMA-ES
+run goes on across generations, each generation adding ``brain.iterations`` iterations.
+
+The driver writes nothing itself: it tells a records writer (``records``: `RunRecords`, made
+by `ariel.recording`) what happened.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from ariel.evolution._bodies import BodyFactory, BrainJob
+from ariel.evolution._brain import fitness_rank
+from ariel.evolution._config import ExperimentConfig, config_hash
+from ariel.evolution._progress import Progress
+from ariel.evolution._seeds import derive_rng
+from ariel.evolution._state import Body, LoopState, state_to_plain
+
+__all__ = ["Plugins", "RunDriver", "RunRecords", "budget", "fixed_genotype"]
+
+
+@dataclass
+class Plugins:
+    """A run's plugins, made once from the config (`ariel.runs`)."""
+
+    encoder: Any
+    controller: Any
+    fitness: Any
+    optimizer_factory: Any  # (**keywords) -> BodyOptimizer; None in a brain-only run
+
+    @property
+    def maximise(self) -> bool:
+        return bool(self.fitness.maximise)
+
+    @property
+    def worst(self) -> float:
+        """The fitness of an evaluation that failed (as the engine gives it)."""
+        return -math.inf if self.maximise else math.inf
+
+
+class RunRecords(Protocol):
+    """Where a run's records go (`ariel.recording.RunWriter`)."""
+
+    record_bodies: bool
+
+    def evaluated(self, body: Body, model: Any, tasks: Any, results: Any, **where: Any) -> None: ...
+    def body_failed(self, body: Body, generation: int, worst: float) -> None: ...
+    def flush(self) -> None: ...
+    def write_generation(self, generation: int, bodies: Any, archive: Any) -> dict[str, int]: ...
+    def save_checkpoint(self, state: dict[str, Any]) -> None: ...
+    def update_info(self, **changes: Any) -> None: ...
+
+
+def is_brain_only(config: ExperimentConfig, encoder: Any) -> bool:
+    """A fixed ``body.genotype``, or an encoder that cannot vary bodies."""
+    return config.body.genotype is not None or not bool(getattr(encoder, "evolvable", False))
+
+
+def fixed_genotype(config: ExperimentConfig, encoder: Any) -> Any:
+    """The body of a brain-only run: ``body.genotype``, else the encoder's random one."""
+    if config.body.genotype is not None:
+        return config.body.genotype
+    return encoder.random_genotype(derive_rng(config.seed, "body-init", 0))
+
+
+def budget(config: ExperimentConfig, brain_only: bool) -> int:
+    """Evaluations the run will make (bodies without parameters count as a full brain run)."""
+    per_body = config.brain.popsize * config.brain.iterations
+    if brain_only:
+        return config.generations * per_body
+    return (config.body.population + (config.generations - 1) * config.body.offspring) * per_body
+
+
+class BrainWork:
+    """A `BrainJob` as the scheduler's `Work`: ask CMA-ES, evaluate, tell, record."""
+
+    def __init__(self, driver: RunDriver, job: BrainJob, generation: int) -> None:
+        self.driver, self.job, self.generation = driver, job, generation
+        self._params: np.ndarray | None = None
+        self._tasks: list[Any] = []
+
+    def next_batch(self) -> list[Any] | None:
+        run = self.job.run
+        if run.iteration >= self.job.target:
+            return None
+        self._params = run.ask()
+        records = self.driver.records
+        self._tasks = self.driver.factory.batch_tasks(self.job, self._params, records.record_bodies)
+        return self._tasks
+
+    def batch_done(self, results: list[Any]) -> None:
+        job, driver = self.job, self.driver
+        iteration = job.run.iteration
+        improved = job.run.tell(self._params, np.array([r.fitness for r in results]))
+        body = job.body
+        body.evaluations += len(results)
+        driver.records.evaluated(
+            body,
+            driver.factory.model(body),
+            self._tasks,
+            results,
+            generation=self.generation,
+            iteration=iteration,
+            improved=improved,
+        )
+        if improved is not None:
+            body.fitness = job.run.best_fitness
+            body.best_params = job.run.best_params.tolist()  # type: ignore[union-attr]
+            body.best_eval_id = self._tasks[improved].eval_id
+        driver.progress.advance(len(results), driver.best_so_far())
+
+    def failed_result(self, task: Any, reason: str) -> Any:
+        from ariel.evaluation import EvaluationResult
+
+        worst = self.driver.plugins.worst
+        return EvaluationResult(eval_id=task.eval_id, fitness=worst, status="error", error=reason)
+
+    def flush(self) -> None:
+        self.driver.records.flush()
+
+
+class RunDriver:
+    """One run's generations (`generations`, a group for the `Scheduler`); see the module
+    docstring. ``state``: the checkpoint to continue from, or None for a new run."""
+
+    def __init__(
+        self,
+        config: ExperimentConfig,
+        plugins: Plugins,
+        records: RunRecords,
+        progress: Progress,
+        state: LoopState | None = None,
+    ) -> None:
+        self.config, self.plugins, self.records, self.progress = config, plugins, records, progress
+        self.brain_only = is_brain_only(config, plugins.encoder)
+        self.factory = BodyFactory(config, plugins.encoder, plugins.controller, plugins.maximise)
+        self.state = state
+        self.optimizer = None
+        if not self.brain_only:
+            self.optimizer = plugins.optimizer_factory(
+                encoder=plugins.encoder,
+                seed=config.seed,
+                maximise=plugins.maximise,
+                settings=config.body,
+            )
+            if state is not None:
+                self.optimizer.restore(state.optimizer, state.population)
+        self._jobs: list[BrainJob] = []
+        self._bodies: tuple[list[Body], list[Body]] = (
+            [],
+            [],
+        )  # this generation's parents, children
+        self._started = time.perf_counter()
+        self._wall_before = state.wall_seconds if state is not None else 0.0
+
+    @property
+    def first_generation(self) -> int:
+        return 0 if self.state is None else self.state.generation + 1
+
+    def best_so_far(self) -> float:
+        values = [j.run.best_fitness for j in self._jobs if not math.isnan(j.run.best_fitness)]
+        if not values:
+            return math.nan
+        return max(values) if self.plugins.maximise else min(values)
+
+    def generations(self) -> Iterator[list[BrainWork]]:
+        for generation in range(self.first_generation, self.config.generations):
+            self.progress.start_generation(generation)
+            jobs = (
+                self._brain_only_jobs(generation) if self.brain_only else self._jobs_of(generation)
+            )
+            self._jobs = jobs
+            yield [BrainWork(self, job, generation) for job in jobs]
+            self._end(generation)
+
+    # -- a generation's brain jobs -------------------------------------------------------------
+
+    def _brain_only_jobs(self, generation: int) -> list[BrainJob]:
+        config, factory = self.config, self.factory
+        if self.state is None:
+            body = factory.new_body(0, fixed_genotype(config, self.plugins.encoder), [], 0)
+            if body.status == "error":  # checked before the run started
+                raise RuntimeError(f"the fixed body cannot be built: {body.error}")
+            brain = factory.new_brain(body, {})
+            self.state = LoopState(config_hash(config), -1, 1, [body], brain)
+        body = self.state.population[0]
+        assert self.state.brain is not None
+        self._bodies = ([], [body])
+        target = (generation + 1) * config.brain.iterations
+        return [factory.job(body, self.state.brain, target)]
+
+    def _jobs_of(self, generation: int) -> list[BrainJob]:
+        config, factory, optimizer = self.config, self.factory, self.optimizer
+        assert optimizer is not None
+        if self.state is None:
+            self.state = LoopState(config_hash(config), -1, 0, [])
+        state = self.state
+        parents = optimizer.population
+        count = config.body.offspring if parents else config.body.population
+        children = []
+        for proposal in optimizer.ask(count):
+            body = factory.new_body(
+                state.next_body, proposal.genotype, proposal.parent_ids, generation
+            )
+            children.append(body)
+            state.next_body += 1
+        self._bodies = (parents, children)
+        by_id = {b.body_id: b for b in parents}
+        per_body = config.brain.popsize * config.brain.iterations
+        jobs = []
+        for child in children:
+            if child.status == "error":
+                self.records.body_failed(child, generation, self.plugins.worst)
+                child.fitness = self.plugins.worst
+                self.progress.advance(per_body)
+                continue
+            jobs.append(
+                factory.job(child, factory.new_brain(child, by_id), config.brain.iterations)
+            )
+            if child.n_params == 0:  # one evaluation: count the rest as done
+                self.progress.advance(per_body - 1)
+        return jobs
+
+    # -- the end of a generation ---------------------------------------------------------------
+
+    def _end(self, generation: int) -> None:
+        state, (parents, children) = self.state, self._bodies
+        assert state is not None
+        if self.optimizer is None:
+            rows = [(children[0], generation == 0, True)]
+        else:
+            self.optimizer.tell(children)
+            state.population = self.optimizer.population
+            state.optimizer = self.optimizer.state()
+            kept = {b.body_id for b in state.population}
+            new = {b.body_id for b in children}
+            rows = [(b, b.body_id in new, b.body_id in kept) for b in parents + children]
+            self.factory.forget_models(state.population)
+        state.generation = generation
+        archive = getattr(self.optimizer, "archive_rows", None)  # a quality-diversity archive
+        counts = self.records.write_generation(generation, rows, archive() if archive else None)
+        state.evaluations_done += counts["rows"]
+        state.budget_done = self.progress.done
+        state.wall_seconds = self.wall_seconds
+        self.records.save_checkpoint(state_to_plain(state))
+        best, mean = summary(state.population, self.plugins.maximise)
+        self.records.update_info(
+            generations_done=generation + 1,
+            evaluations_done=state.evaluations_done,
+            best_fitness=best,
+        )
+        extra = "".join(f", {counts[s]} {s}" for s in ("error", "unstable") if counts.get(s))
+        self.progress.end_generation(generation, best, mean, extra)
+
+    @property
+    def wall_seconds(self) -> float:
+        return self._wall_before + time.perf_counter() - self._started
+
+    def best_body(self) -> Body:
+        assert self.state is not None
+        return min(
+            self.state.population,
+            key=lambda b: (fitness_rank(b.fitness, self.plugins.maximise), b.number),
+        )
+
+
+def summary(population: Sequence[Body], maximise: bool) -> tuple[float, float]:
+    """Best and mean finite fitness of ``population`` (NaN when none is finite)."""
+    values = np.array([b.fitness for b in population if math.isfinite(b.fitness)])
+    if values.size == 0:
+        return math.nan, math.nan
+    return float(values.max() if maximise else values.min()), float(values.mean())
+
+
+def drive(driver: RunDriver, executor_settings: Any) -> None:
+    """Run ``driver``'s generations on the executor ``executor_settings`` describes."""
+    from threadpoolctl import threadpool_limits
+
+    from ariel.evaluation import make_executor
+    from ariel.evolution._scheduler import Scheduler
+
+    # BLAS in this process (pycma's eigendecompositions) stays on one thread.
+    with (
+        threadpool_limits(limits=1),
+        make_executor(executor_settings) as executor,
+        driver.progress,
+    ):
+        scheduler = Scheduler(executor, timeout=driver.config.executor.timeout)
+        scheduler.run([driver.generations()])

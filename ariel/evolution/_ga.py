@@ -1,0 +1,106 @@
+"""The genetic algorithm over bodies (``body.optimizer = "ga"``, the default).
+
+Generation 0 is ``body.population`` random genotypes. Every later generation breeds
+``body.offspring`` children: tournament selection (``body.tournament`` bodies drawn without
+replacement, the best wins), crossover with probability ``body.crossover_rate`` (a second
+tournament for the other parent), then mutation, all by the encoder's own operators. Survivors:
+``plus`` keeps the best ``body.population`` of parents and children (mu + lambda),
+``generational`` the best of the children only (mu, lambda). Eiben & Smith, *Introduction to
+Evolutionary Computing* (2015), ch. 5.
+
+Child j of generation g draws from its own stream (``variation``, g, j), random genotype i
+from (``body-init``, i): no draw depends on another, so results never depend on the order in
+which work is done.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ariel.evolution._optimizer import Proposal, ranked
+from ariel.evolution._seeds import derive_rng
+from ariel.evolution._state import Body
+
+__all__ = ["GeneticAlgorithm", "breed", "random_proposals"]
+
+
+def random_proposals(encoder: Any, seed: int, n: int) -> list[Proposal]:
+    """``n`` random genotypes, genotype i from its own stream."""
+    return [
+        Proposal(encoder.random_genotype(derive_rng(seed, "body-init", i)), []) for i in range(n)
+    ]
+
+
+def breed(
+    encoder: Any, rng: np.random.Generator, pick: Any, crossover_rate: float, can_cross: bool
+) -> Proposal:
+    """One child: ``pick(rng)`` a parent, perhaps a second one and crossover, then mutation."""
+    first = pick(rng)
+    if can_cross and rng.random() < crossover_rate:
+        second = pick(rng)
+        genotype = encoder.crossover(first.genotype, second.genotype, rng)
+        parents = [first.body_id, second.body_id]
+    else:
+        genotype, parents = first.genotype, [first.body_id]
+    return Proposal(encoder.mutate(genotype, rng), parents)
+
+
+class GeneticAlgorithm:
+    """Tournament selection, crossover, mutation and mu+lambda (or generational) survival."""
+
+    def __init__(
+        self, *, encoder: Any, seed: int, maximise: bool, settings: Any, **options: Any
+    ) -> None:
+        if options:
+            raise TypeError(f"the ga takes no body.optimizer_options, got {sorted(options)}")
+        self.encoder = encoder
+        self.seed = seed
+        self.maximise = maximise
+        self.settings = settings
+        self.generation = 0  # the generation the next `ask` breeds
+        self._population: list[Body] = []
+
+    @property
+    def population(self) -> list[Body]:
+        return list(self._population)
+
+    def tournament(self, rng: np.random.Generator) -> Body:
+        population = self._population
+        size = min(self.settings.tournament, len(population))
+        picks = rng.choice(len(population), size=size, replace=False)
+        return ranked([population[i] for i in sorted(picks)], self.maximise)[0]
+
+    def ask(self, n: int) -> list[Proposal]:
+        if not self._population:
+            return random_proposals(self.encoder, self.seed, n)
+        return [
+            breed(
+                self.encoder,
+                derive_rng(self.seed, "variation", self.generation, j),
+                self.tournament,
+                self.settings.crossover_rate,
+                len(self._population) > 1,
+            )
+            for j in range(n)
+        ]
+
+    def tell(self, bodies: Sequence[Body]) -> None:
+        children = list(bodies)
+        if not self._population:
+            survivors = children
+        else:
+            generational = self.settings.survivors == "generational"
+            pool = children if generational else self._population + children
+            survivors = ranked(pool, self.maximise)[: self.settings.population]
+        self._population = survivors
+        self.generation += 1
+
+    def state(self) -> dict[str, Any]:
+        return {"generation": self.generation}
+
+    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+        self.generation = int(state["generation"])
+        self._population = list(population)

@@ -1,0 +1,189 @@
+"""MAP-Elites over morphologies (``body.optimizer = "map_elites"``).
+
+Mouret & Clune, *Illuminating search spaces by mapping elites* (2015). A grid over chosen
+morphology measures (any column of the bodies table: the morphology descriptors and
+``n_joints``), a pyribs ``GridArchive``, keeps in each cell the best body seen there. Generation
+0 is ``body.population`` random genotypes; every later generation breeds ``body.offspring``
+children from elites drawn uniformly from the archive, with the encoder's own crossover (with
+probability ``body.crossover_rate``) and mutation. Every new body learns its brain with
+CMA-ES as in the GA, and its fitness is its best brain's.
+
+Options (``body.optimizer_options``): ``measures`` (default ``["num_limbs", "joints_ratio"]``),
+``bins`` (cells per measure, default 8 each) and ``ranges`` (``[low, high]`` per measure; a
+value outside is put in the edge cell; defaults for the descriptors below). Bodies that failed
+(no finite fitness) never enter the archive.
+
+Determinism: bodies enter the archive one at a time in body order, so a tie keeps the older
+body; child j of generation g draws its parents and variation from its own stream
+(``variation``, g, j); the archive's state is its elites (body, cell), rebuilt on resume by
+adding them again.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ariel.evolution._ga import breed, random_proposals
+from ariel.evolution._optimizer import Proposal
+from ariel.evolution._seeds import derive_rng
+from ariel.evolution._state import Body
+
+__all__ = ["DEFAULT_RANGES", "MapElites", "body_measures"]
+
+#: Ranges of the measures most worth mapping (others must be given).
+DEFAULT_RANGES: dict[str, tuple[float, float]] = {
+    "num_modules": (0.0, 20.0),
+    "num_hinges": (0.0, 12.0),
+    "num_bricks": (0.0, 12.0),
+    "num_limbs": (0.0, 8.0),
+    "num_core_children": (0.0, 4.0),
+    "depth": (0.0, 10.0),
+    "branching": (0.0, 1.0),
+    "joints_ratio": (0.0, 1.0),
+    "symmetry": (0.0, 1.0),
+    "n_joints": (0.0, 12.0),
+}
+
+
+def body_measures(body: Body, measures: Sequence[str]) -> list[float]:
+    """``body``'s value of each measure (a descriptor, or ``n_joints``)."""
+    values = {**body.descriptors, "n_joints": body.n_joints}
+    return [float(values.get(name, math.nan)) for name in measures]
+
+
+def _check_options(
+    measures: Any, bins: Any, ranges: Any
+) -> tuple[list[str], list[int], list[tuple[float, float]]]:
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    known = [*DESCRIPTOR_NAMES, "n_joints"]
+    if not isinstance(measures, list | tuple) or not measures:
+        raise ValueError(f"measures must be a non-empty list of: {', '.join(known)}")
+    for name in measures:
+        if name not in known:
+            raise ValueError(f"unknown measure {name!r}; known: {', '.join(known)}")
+    bins = [8] * len(measures) if bins is None else bins
+    if not isinstance(bins, list | tuple) or len(bins) != len(measures):
+        raise ValueError(f"bins must list one count per measure ({len(measures)}), got {bins!r}")
+    if any(not isinstance(b, int) or isinstance(b, bool) or b < 1 for b in bins):
+        raise ValueError(f"bins must be integers >= 1, got {bins!r}")
+    if ranges is None:
+        missing = [m for m in measures if m not in DEFAULT_RANGES]
+        if missing:
+            raise ValueError(f"ranges must be given for {', '.join(missing)} ([low, high] each)")
+        ranges = [DEFAULT_RANGES[m] for m in measures]
+    if not isinstance(ranges, list | tuple) or len(ranges) != len(measures):
+        raise ValueError(f"ranges must list one [low, high] per measure, got {ranges!r}")
+    checked = []
+    for pair in ranges:
+        low, high = (float(v) for v in pair) if len(pair) == 2 else (math.nan, math.nan)
+        if not (math.isfinite(low) and math.isfinite(high) and low < high):
+            raise ValueError(f"each range must be [low, high] with low < high, got {pair!r}")
+        checked.append((low, high))
+    return list(measures), [int(b) for b in bins], checked
+
+
+class MapElites:
+    """A pyribs ``GridArchive`` of bodies, bred from uniformly drawn elites."""
+
+    def __init__(
+        self,
+        *,
+        encoder: Any,
+        seed: int,
+        maximise: bool,
+        settings: Any,
+        measures: Sequence[str] = ("num_limbs", "joints_ratio"),
+        bins: Sequence[int] | None = None,
+        ranges: Sequence[Sequence[float]] | None = None,
+    ) -> None:
+        from ribs.archives import GridArchive
+
+        self.measures, self.bins, self.ranges = _check_options(list(measures), bins, ranges)
+        self.encoder, self.seed, self.maximise, self.settings = encoder, seed, maximise, settings
+        self.archive = GridArchive(
+            solution_dim=1, dims=self.bins, ranges=self.ranges, dtype=np.float64
+        )
+        self.generation = 0  # the generation the next `ask` breeds
+        self._bodies: dict[int, Body] = {}  # the elites, by body number
+
+    @property
+    def population(self) -> list[Body]:
+        """The elites, in body order."""
+        return [self._bodies[n] for n in sorted(self._bodies)]
+
+    def cells(self) -> list[tuple[int, Body]]:
+        """(cell index, elite) for every filled cell, in cell order."""
+        data = self.archive.data()
+        pairs = zip(data["index"].tolist(), data["solution"][:, 0].tolist())
+        return sorted((int(index), self._bodies[int(number)]) for index, number in pairs)
+
+    def ask(self, n: int) -> list[Proposal]:
+        elites = self.population
+        if not elites:
+            return random_proposals(self.encoder, self.seed, n)
+
+        def pick(rng: np.random.Generator) -> Body:
+            return elites[int(rng.integers(len(elites)))]
+
+        return [
+            breed(
+                self.encoder,
+                derive_rng(self.seed, "variation", self.generation, j),
+                pick,
+                self.settings.crossover_rate,
+                len(elites) > 1,
+            )
+            for j in range(n)
+        ]
+
+    def tell(self, bodies: Sequence[Body]) -> None:
+        for body in sorted(bodies, key=lambda b: b.number):
+            self._add(body)
+        self.generation += 1
+
+    def _add(self, body: Body) -> None:
+        if body.status != "ok" or not math.isfinite(body.fitness):
+            return
+        objective = body.fitness if self.maximise else -body.fitness
+        measures = np.array([body_measures(body, self.measures)])
+        if not np.isfinite(measures).all():
+            return
+        info = self.archive.add(np.array([[float(body.number)]]), np.array([objective]), measures)
+        if int(info["status"][0]) > 0:  # new cell or improved: the body is an elite now
+            self._bodies[body.number] = body
+            kept = {int(n) for n in self.archive.data()["solution"][:, 0].tolist()}
+            self._bodies = {n: b for n, b in self._bodies.items() if n in kept}
+
+    def archive_rows(self) -> list[dict[str, Any]]:
+        """The archive as rows of the ``archive`` table (one per filled cell, in cell order)."""
+        return [
+            {
+                "cell": index,
+                "body_id": body.body_id,
+                "fitness": float(body.fitness),
+                "objective": float(body.fitness if self.maximise else -body.fitness),
+                "measures": body_measures(body, self.measures),
+                "grid": list(self.bins),
+            }
+            for index, body in self.cells()
+        ]
+
+    def stats(self) -> dict[str, float]:
+        """Coverage (filled cells / cells) and QD-score (sum of the elites' objectives)."""
+        stats = self.archive.stats
+        return {"coverage": float(stats.coverage), "qd_score": float(stats.qd_score or 0.0)}
+
+    def state(self) -> dict[str, Any]:
+        return {"generation": self.generation}
+
+    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+        self.generation = int(state["generation"])
+        self.archive.clear()
+        self._bodies = {}
+        for body in sorted(population, key=lambda b: b.number):
+            self._add(body)

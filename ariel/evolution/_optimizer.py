@@ -1,0 +1,68 @@
+"""The body optimizer interface: ask for genotypes, tell how the bodies did.
+
+In the shape of pyribs' schedulers and evosax's strategies. The run driver asks for
+``body.population`` genotypes in generation 0 and ``body.offspring`` in every later one,
+builds a body from each, learns each body's brain with CMA-ES, and tells the optimizer the
+bodies (fitness = best brain's fitness, morphology descriptors, status). What the optimizer
+keeps (`BodyOptimizer.population`: a GA's survivors, a MAP-Elites archive's elites) is what the
+next generation breeds from and what the bodies table marks ``selected``.
+
+An optimizer is made by ``body_optimizers.make(name, encoder=..., seed=..., maximise=...,
+settings=..., **options)``: ``encoder`` the run's body encoder, ``seed`` the run seed (every
+random draw derives from it), ``maximise`` the fitness direction, ``settings`` the config's
+``[body]`` section (population, offspring, tournament, crossover_rate, survivors), and
+``options`` the config's ``body.optimizer_options``. Its state is plain data (`state` /
+`restore`), stored in the checkpoint; its bodies are stored by the driver.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+if TYPE_CHECKING:
+    from ariel.evolution._state import Body
+
+__all__ = ["BodyOptimizer", "Proposal", "ranked"]
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """A genotype the optimizer asks to evaluate, and the bodies it was made from."""
+
+    genotype: Any
+    parent_ids: list[str]
+
+
+@runtime_checkable
+class BodyOptimizer(Protocol):
+    """Ask / tell over bodies; see the module docstring."""
+
+    @property
+    def population(self) -> list[Body]:
+        """The bodies kept after the last `tell` (what the next `ask` breeds from)."""
+        ...
+
+    def ask(self, n: int) -> list[Proposal]:
+        """``n`` new genotypes (random ones while the population is empty)."""
+        ...
+
+    def tell(self, bodies: Sequence[Body]) -> None:
+        """The bodies made from the last `ask`, with their fitness and descriptors."""
+        ...
+
+    def state(self) -> dict[str, Any]:
+        """Plain data (JSON-able) that `restore` takes back."""
+        ...
+
+    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+        """Continue from `state` and the population kept when it was taken."""
+        ...
+
+
+def ranked(bodies: Sequence[Body], maximise: bool) -> list[Body]:
+    """Best first (failed bodies last); ties go to the older body (smaller number)."""
+    from ariel.evolution._brain import fitness_rank
+
+    return sorted(bodies, key=lambda b: (fitness_rank(b.fitness, maximise), b.number))

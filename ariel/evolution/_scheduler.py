@@ -1,0 +1,153 @@
+"""The scheduler: moves evaluation tasks to an executor and results back, nothing else.
+
+Work comes in groups (one per run: a generation's brain runs); every piece of work hands out
+one batch of tasks at a time and gets that batch's results back, and all pieces of all groups
+progress side by side, so every worker stays busy: a piece asks for its next batch as soon as
+its previous one returned. A batch is cut into chunks, about one per free worker, so a few
+big batches still fill a large pool. A chunk lost to its worker (it died too often, or timed
+out) is tried again one task at a time, so only the task that keeps failing fails: it gets an
+``error`` result with the worst fitness and the reason.
+
+A group is a generator: it yields a list of work, the scheduler runs that work to the end,
+and the generator goes on (writes the generation, makes the next one) and yields the next
+list, until it returns. Nothing here knows what a body, a brain or a generation is; the order
+in which results arrive changes nothing, since each piece changes only through its own results.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+__all__ = ["Scheduler", "Work"]
+
+
+class Work(Protocol):
+    """A piece of work: batches of evaluation tasks, one at a time."""
+
+    def next_batch(self) -> list[Any] | None:
+        """The next batch of tasks, or None when the work is done."""
+        ...
+
+    def batch_done(self, results: list[Any]) -> None:
+        """The results of the last batch, in task order."""
+        ...
+
+    def failed_result(self, task: Any, reason: str) -> Any:
+        """The result of a task lost to its worker (``error``, the worst fitness)."""
+        ...
+
+    def flush(self) -> None:
+        """Called once the work's next batch is on its way (a time to write records)."""
+        ...
+
+
+@dataclass
+class _Batch:
+    work: Work
+    group: int
+    tasks: list[Any]
+    results: list[Any] = field(default_factory=list)
+    left: int = 0
+
+
+class Scheduler:
+    """Runs groups of `Work` side by side on one executor (``capacity``, ``submit_batch``)."""
+
+    def __init__(self, executor: Any, *, timeout: float | None) -> None:
+        self.executor = executor
+        self.timeout = timeout
+        self._in_flight: dict[cf.Future, tuple[_Batch, np.ndarray]] = {}
+        self._working: dict[int, int] = {}  # group -> pieces of work not done yet
+
+    def run(self, groups: Sequence[Iterator[list[Work]]]) -> None:
+        """Run every group to its end (see the module docstring)."""
+        groups = list(groups)
+        try:
+            for index in range(len(groups)):
+                self._advance(groups, index)
+            while self._in_flight:
+                done, _ = cf.wait(list(self._in_flight), return_when=cf.FIRST_COMPLETED)
+                for future in done:
+                    batch, part = self._in_flight.pop(future)
+                    if self._collect(batch, part, future):
+                        self._finish(groups, batch)
+        except BaseException:
+            for future in self._in_flight:
+                future.cancel()
+            self._in_flight.clear()
+            raise
+
+    # -- groups and work -----------------------------------------------------------------------
+
+    def _advance(self, groups: list[Iterator[list[Work]]], index: int) -> None:
+        """Take the group's next list of work and start it (again while a list is empty)."""
+        while True:
+            try:
+                works = next(groups[index])
+            except StopIteration:
+                self._working.pop(index, None)
+                return
+            self._working[index] = len(works)
+            for work in works:
+                if not self._launch(work, index):
+                    self._working[index] -= 1
+            if self._working[index]:
+                return
+
+    def _launch(self, work: Work, group: int) -> bool:
+        """Send the work's next batch; False when it has none (it is done)."""
+        tasks = work.next_batch()
+        if tasks is None:
+            return False
+        batch = _Batch(work, group, list(tasks), [None] * len(tasks))
+        busy = sum(self._working.values()) or 1
+        chunks = max(1, min(len(tasks), math.ceil(self.executor.capacity / busy)))
+        batch.left = chunks
+        for part in np.array_split(np.arange(len(tasks)), chunks):
+            self._send(batch, part)
+        return True
+
+    def _finish(self, groups: list[Iterator[list[Work]]], batch: _Batch) -> None:
+        work = batch.work
+        work.batch_done(batch.results)
+        if not self._launch(work, batch.group):
+            self._working[batch.group] -= 1
+        work.flush()
+        if self._working.get(batch.group) == 0:
+            self._advance(groups, batch.group)
+
+    # -- chunks --------------------------------------------------------------------------------
+
+    def _send(self, batch: _Batch, part: np.ndarray) -> None:
+        chunk = [batch.tasks[i] for i in part]
+        # A call of k evaluations may take k times one evaluation's timeout.
+        timeout = None if self.timeout is None else self.timeout * len(chunk)
+        future = self.executor.submit_batch(chunk, timeout=timeout)
+        self._in_flight[future] = (batch, part)
+
+    def _collect(self, batch: _Batch, part: np.ndarray, future: cf.Future) -> bool:
+        """Store a chunk's results; True when the batch is complete."""
+        from ariel.evaluation.executors import worker_fault
+
+        try:
+            results = future.result()
+        except Exception as exc:
+            reason = worker_fault(exc)  # its worker died too often, or a timeout
+            if reason is None:
+                raise
+            if len(part) > 1:  # one at a time: the bad one fails, the rest finish
+                batch.left += len(part) - 1
+                for i in part:
+                    self._send(batch, np.array([i]))
+                return False
+            results = [batch.work.failed_result(batch.tasks[part[0]], reason)]
+        for i, result in zip(part, results):
+            batch.results[i] = result
+        batch.left -= 1
+        return batch.left == 0

@@ -1,0 +1,114 @@
+"""What a run is between generations, as plain data: bodies, the loop's counters, the body
+optimizer's state and a brain-only run's CMA-ES.
+
+A checkpoint is this state as JSON (`state_to_plain` / `state_from_plain`): no pickle, so
+loading a run folder never runs code from it. Floats round-trip exactly (Python writes the
+shortest text that reads back to the same double); NaN and infinities, which JSON lacks, are
+written as ``{"$float": "nan"}`` and read back. A CMA-ES run is stored as what it was told
+(`BrainRun.to_plain`) and rebuilt by telling a fresh run the same again, which gives the
+same state bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from ariel.evolution._brain import BrainRun
+
+__all__ = [
+    "Body",
+    "LoopState",
+    "from_json_safe",
+    "state_from_plain",
+    "state_to_plain",
+    "to_json_safe",
+]
+
+
+@dataclass
+class Body:
+    """One body: identity, genotype (plain data), lineage and its learned brain."""
+
+    number: int
+    genotype: Any
+    parent_ids: list[str]
+    born: int
+    status: str = "ok"  # "error": the genotype gives no buildable body
+    error: str = ""
+    n_params: int = 0
+    n_joints: int = 0
+    joint_names: list[str] = field(default_factory=list)
+    descriptors: dict[str, float] = field(default_factory=dict)
+    graph: str = ""
+    fitness: float = math.nan
+    best_params: list[float] | None = None
+    best_eval_id: str = ""
+    evaluations: int = 0
+
+    @property
+    def body_id(self) -> str:
+        return f"b{self.number:06d}"
+
+
+@dataclass
+class LoopState:
+    """Everything resume needs. RNG states are not stored: each draw's stream is derived."""
+
+    config_hash: str
+    generation: int  # the last finished generation
+    next_body: int
+    population: list[Body]  # what the body optimizer keeps (GA survivors, archive elites)
+    brain: BrainRun | None = None  # brain-only: the run that goes on across generations
+    evaluations_done: int = 0  # rows in the evaluations table
+    budget_done: int = 0  # progress: evaluations run or skipped (failed bodies)
+    wall_seconds: float = 0.0
+    optimizer: dict[str, Any] = field(default_factory=dict)  # the body optimizer's own state
+
+
+def to_json_safe(value: Any) -> Any:
+    """``value`` with every non-finite float as ``{"$float": text}`` (JSON has no NaN)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return {"$float": repr(value)}
+    if isinstance(value, dict):
+        return {key: to_json_safe(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [to_json_safe(item) for item in value]
+    return value
+
+
+def from_json_safe(value: Any) -> Any:
+    """The inverse of `to_json_safe`."""
+    if isinstance(value, dict):
+        if set(value) == {"$float"}:
+            return float(value["$float"])
+        return {key: from_json_safe(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [from_json_safe(item) for item in value]
+    return value
+
+
+def state_to_plain(state: LoopState) -> dict[str, Any]:
+    """``state`` as JSON-able data (see the module docstring)."""
+    plain = {f.name: getattr(state, f.name) for f in fields(LoopState)}
+    plain["population"] = [
+        {f.name: getattr(b, f.name) for f in fields(Body)} for b in state.population
+    ]
+    plain["brain"] = None if state.brain is None else state.brain.to_plain()
+    return to_json_safe(plain)
+
+
+def state_from_plain(data: Any) -> LoopState:
+    """A `LoopState` from `state_to_plain`'s data; `ValueError` (one line) for anything else."""
+    try:
+        data = from_json_safe(data)
+        population = [Body(**body) for body in data.pop("population")]
+        brain = data.pop("brain")
+        return LoopState(
+            population=population,
+            brain=None if brain is None else BrainRun.from_plain(brain),
+            **data,
+        )
+    except (AttributeError, KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"not a loop state ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,243 @@
+"""Rows of a run's tables, built beside their schemas (`_tables`), and the writer that collects
+one generation's rows and recordings and writes them when the generation ends.
+
+The run driver (`ariel.evolution`) hands the writer what happened (a batch of evaluations of a
+body, a body that could not be built, the end of a generation); the writer decides what the
+records look like. Rows are written in id order, so the order in which results arrived never
+shows in a table.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ariel.recording._tables import (
+    archive_schema,
+    body_schema,
+    evaluation_schema,
+    trajectory_columns,
+    write_table,
+)
+
+__all__ = ["RunWriter", "body_row", "error_row", "evaluation_row"]
+
+
+def _common(run_id: str, config: Any, body: Any, generation: int) -> dict[str, Any]:
+    return {
+        "run_id": run_id,
+        "generation": generation,
+        "body_id": body.body_id,
+        "parent_ids": list(body.parent_ids),
+        "body_encoder": config.body.encoder,
+        "body_genotype": json.dumps(body.genotype),
+    }
+
+
+def evaluation_row(
+    run_id: str,
+    config: Any,
+    body: Any,
+    task: Any,
+    result: Any,
+    generation: int,
+    iteration: int,
+    k: int,
+) -> dict[str, Any]:
+    """Candidate ``k`` of iteration ``iteration`` of ``body``'s brain run."""
+    return {
+        **_common(run_id, config, body, generation),
+        "eval_id": task.eval_id,
+        "iteration": iteration,
+        "candidate": k,
+        "controller": config.brain.controller,
+        "controller_params": list(task.params),
+        "world": config.world.name,
+        "fitness_fn": config.task.fitness,
+        "fitness": float(result.fitness),
+        "status": result.status,
+        "error": result.error,
+        **body.descriptors,
+        "n_joints": body.n_joints,
+        "joint_names": list(body.joint_names),
+        "seed": task.seed,
+        "sim_seconds": float(result.sim_time),
+        "wall_seconds": float(result.wall_time),
+        "backend": result.backend,
+    }
+
+
+def error_row(run_id: str, config: Any, body: Any, generation: int, worst: float) -> dict[str, Any]:
+    """An unbuildable body still appears in the evaluations table, with its error."""
+    return {
+        **_common(run_id, config, body, generation),
+        "eval_id": f"{body.body_id}-build",
+        "iteration": 0,
+        "candidate": 0,
+        "controller": config.brain.controller,
+        "controller_params": [],
+        "world": config.world.name,
+        "fitness_fn": config.task.fitness,
+        "fitness": worst,
+        "status": "error",
+        "error": body.error,
+        "n_joints": 0,
+        "joint_names": [],
+        "seed": 0,
+        "sim_seconds": 0.0,
+        "wall_seconds": 0.0,
+    }
+
+
+def body_row(
+    run_id: str, config: Any, body: Any, generation: int, is_new: bool, selected: bool
+) -> dict[str, Any]:
+    """``body`` in generation ``generation``: new in it, kept after it (``selected``)."""
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    return {
+        "run_id": run_id,
+        "generation": generation,
+        "body_id": body.body_id,
+        "parent_ids": list(body.parent_ids),
+        "born_generation": body.born,
+        "body_encoder": config.body.encoder,
+        "body_genotype": json.dumps(body.genotype),
+        "graph": body.graph,
+        **{name: body.descriptors.get(name) for name in DESCRIPTOR_NAMES},
+        "n_joints": body.n_joints,
+        "status": body.status,
+        "error": body.error,
+        "fitness": body.fitness,
+        "best_eval_id": body.best_eval_id,
+        "evaluations": body.evaluations,
+        "is_new": is_new,
+        "selected": selected,
+    }
+
+
+def _columns(rows: list[dict[str, Any]], schema: Any) -> dict[str, list[Any]]:
+    return {f.name: [row.get(f.name) for row in rows] for f in schema}
+
+
+class RunWriter:
+    """Collects a generation's rows, frames and Rerun recordings; writes them at its end."""
+
+    def __init__(self, folder: Any, config: Any, run_id: str, *, maximise: bool) -> None:
+        self.folder = folder
+        self.config = config
+        self.run_id = run_id
+        self._rows: dict[tuple[int, int, int], dict[str, Any]] = {}
+        self._frames: dict[tuple[int, int, int], Any] = {}
+        self._recordings: list[dict[str, Any]] = []  # evaluations waiting for their recording
+        self.recorder = None
+        if config.record.rerun:
+            from ariel.recording._recorder import RerunRecorder
+
+            self.recorder = RerunRecorder(
+                folder.path,
+                run_id=run_id,
+                bodies=config.record.bodies,
+                maximise=maximise,
+                config=config,
+            )
+
+    @property
+    def path(self) -> Path:
+        return Path(self.folder.path)
+
+    @property
+    def record_bodies(self) -> bool:
+        """Whether evaluations must return the bodies' poses (for the recordings)."""
+        return self.recorder is not None and self.recorder.record_bodies
+
+    def evaluated(
+        self,
+        body: Any,
+        model: Any,
+        tasks: Sequence[Any],
+        results: Sequence[Any],
+        *,
+        generation: int,
+        iteration: int,
+        improved: int | None,
+    ) -> None:
+        """A batch of ``body``'s brain run came back (``improved``: the candidate that became
+        the body's best, if any)."""
+        for k, (task, result) in enumerate(zip(tasks, results)):
+            key = (body.number, iteration, k)
+            self._rows[key] = evaluation_row(
+                self.run_id, self.config, body, task, result, generation, iteration, k
+            )
+            if self.recorder is not None and result.time.size:
+                self._recordings.append(
+                    dict(
+                        model=model,
+                        body=body,
+                        task=task,
+                        result=result,
+                        generation=generation,
+                        iteration=iteration,
+                        candidate=k,
+                        new_best=k == improved,
+                    )
+                )
+            if self.config.record.trajectories and result.time.size:
+                self._frames[key] = (task.eval_id, result)
+
+    def body_failed(self, body: Any, generation: int, worst: float) -> None:
+        """``body`` could not be built: its one row, with the error."""
+        self._rows[(body.number, 0, 0)] = error_row(
+            self.run_id, self.config, body, generation, worst
+        )
+
+    def flush(self) -> None:
+        """Write the Rerun recordings of the evaluations finished since the last call."""
+        while self._recordings:
+            evaluation = self._recordings.pop(0)
+            self.recorder.evaluation(**evaluation)  # type: ignore[union-attr]
+            result = evaluation["result"]
+            result.body_pos = result.body_quat = None  # recorded; not kept till the tables
+
+    def write_generation(
+        self,
+        generation: int,
+        bodies: Sequence[tuple[Any, bool, bool]],
+        archive: Sequence[dict[str, Any]] | None = None,
+    ) -> dict[str, int]:
+        """Write the generation's tables (``bodies``: (body, is_new, selected); ``archive``:
+        a MAP-Elites archive's rows, see `archive_schema`) and run.rrd.
+
+        Returns the counts of evaluations rows written, by status (``rows``: all of them).
+        """
+        rows = [self._rows[key] for key in sorted(self._rows)]
+        counts = {"rows": len(rows)}
+        counts.update({s: sum(row["status"] == s for row in rows) for s in ("error", "unstable")})
+        write_table(self.path, "evaluations", generation, _columns(rows, evaluation_schema()))
+        if self.config.record.trajectories:
+            frames = [self._frames[key] for key in sorted(self._frames)]
+            write_table(
+                self.path, "trajectories", generation, trajectory_columns(generation, frames)
+            )
+        body_rows = [
+            body_row(self.run_id, self.config, body, generation, is_new, selected)
+            for body, is_new, selected in bodies
+        ]
+        body_rows.sort(key=lambda row: row["body_id"])
+        write_table(self.path, "bodies", generation, _columns(body_rows, body_schema()))
+        if archive is not None:
+            rows = [{"generation": generation, **row} for row in archive]
+            write_table(self.path, "archive", generation, _columns(rows, archive_schema()))
+        if self.recorder is not None:
+            self.recorder.generation(generation, body_rows, archive)
+        self._rows.clear()
+        self._frames.clear()
+        return counts
+
+    def save_checkpoint(self, state: Any) -> None:
+        self.folder.save_checkpoint(state)
+
+    def update_info(self, **changes: Any) -> None:
+        self.folder.update_info(**changes)

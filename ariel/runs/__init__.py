@@ -1,0 +1,34 @@
+"""Runs end to end: an experiment config -> its plugins -> a run folder -> the evolution driver
+on an executor (`run_experiment`, `resume_experiment`).
+
+The layer above `ariel.recording` (the run folder, its writer) and `ariel.evolution` (the
+driver, the optimizers, the scheduler), which know nothing of each other's insides.
+Cheap to import: names are loaded from their modules on first access.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+# public name -> module that defines it
+_LAZY: dict[str, str] = {
+    "RunResult": "ariel.runs._experiment",
+    "resume_experiment": "ariel.runs._experiment",
+    "run_experiment": "ariel.runs._experiment",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'ariel.runs' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
