@@ -102,7 +102,9 @@ def test_individuals_round_trip_through_sqlite(tmp_path: Path) -> None:
     assert read == written
     assert read[0]["genotype_"] == [[1, 2], [3, 4]] and read[1]["tags_"] == {"n": [1, 2]}
     assert read[0]["time_of_birth"] == read[0]["time_of_death"] == 7
-    columns = {r[1] for r in sqlite3.connect(tmp_path / "db.db").execute("PRAGMA table_info(individual)")}
+    columns = {
+        r[1] for r in sqlite3.connect(tmp_path / "db.db").execute("PRAGMA table_info(individual)")
+    }
     assert columns == {
         "id", "alive", "time_of_birth", "time_of_death", "requires_eval", "fitness_",
         "requires_init", "genotype_", "tags_",
@@ -232,9 +234,7 @@ def test_ea_improves_and_records_lifetimes(tmp_path: Path) -> None:
     assert best.fitness == archive.best_individual("max").fitness
     assert archive.generation_range == (0, 5) and archive.size == 6 + 5 * 3
     for gen in range(6):  # the population at the end of each generation has 6 members
-        alive_at_end = [
-            i for i in archive.by_generation(gen) if i.time_of_death > gen or i.alive
-        ]
+        alive_at_end = [i for i in archive.by_generation(gen) if i.time_of_death > gen or i.alive]
         assert len(alive_at_end) == 6
     children = archive.by_generation(5).where(lambda i: "parent" in i.tags)
     assert all(i.time_of_birth >= 1 for i in children)
