@@ -68,6 +68,7 @@ def _probe(module: str, cwd: Path) -> dict:
         "ariel.ec.archive",
         "ariel.ec.crossover",
         "ariel.ec.generators",
+        "ariel.ec.a004",
     ],
 )
 def test_import_loads_no_heavy_library_and_writes_no_file(module: str, tmp_path: Path) -> None:
