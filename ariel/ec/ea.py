@@ -125,7 +125,11 @@ class EA:
         self.engine: Engine = self._setup_database(
             self.db_file_path, db_handling or config.db_handling
         )
-        self.population: Population = Population(population)
+        # Individuals saved in another database (e.g. another run's best) start as new rows.
+        self.population = Population(
+            ind if ind.id is None else fresh_copy(ind, time_of_birth=-1, time_of_death=-1)
+            for ind in population
+        )
         self._commit()
         self.console.rule("[blue]EA Initialized")
 

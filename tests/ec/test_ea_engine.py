@@ -334,3 +334,16 @@ def test_archive_queries_repeat_with_a_seed(tmp_path: Path) -> None:
     assert all(stats["min"] <= i.fitness <= stats["max"] for i in band) and 0 < len(band) < 21
     with pytest.raises(FileNotFoundError, match="archive database not found"):
         Archive(tmp_path / "nope.db")
+
+
+def test_individuals_from_another_run_seed_a_new_run(tmp_path: Path) -> None:
+    first = _run_ea(tmp_path, "first.db", steps=2)
+    champion = first.get_solution()
+    second = EA(Population([champion]), [evaluate], num_steps=1, db_file_path=tmp_path / "b.db")
+    second.run()  # upstream: StaleDataError (it UPDATEs a row of the first database)
+    (copy,) = Archive(tmp_path / "b.db").by_generation(1)
+    assert (copy.fitness, copy.genotype, copy.time_of_birth) == (
+        champion.fitness,
+        champion.genotype,
+        0,
+    )
