@@ -101,7 +101,14 @@ class EA:
         bad = [op for op in operations if not callable(op)]
         if bad:
             raise TypeError(f"every operation must be callable; not callable: {bad!r}")
+        target = Path(db_file_path or config.db_file_path)
         if restart is not None:
+            source = Path(restart if isinstance(restart, Path | str) else restart[0])
+            if source.resolve() == target.resolve():
+                raise ValueError(
+                    f"restart database {source} is also this run's db_file_path, which a new run "
+                    "replaces: give the restarted run another db_file_path"
+                )
             population, restart_generation = _load_restart(restart)
             if first_generation_id is None:
                 first_generation_id = restart_generation + 1
@@ -121,7 +128,7 @@ class EA:
         )
         self.num_steps: int = steps
         self.console = Console(quiet=config.quiet if quiet is None else quiet)
-        self.db_file_path = Path(db_file_path or config.db_file_path)
+        self.db_file_path = target
         self.engine: Engine = self._setup_database(
             self.db_file_path, db_handling or config.db_handling
         )

@@ -293,6 +293,8 @@ def test_ea_bad_input_gives_one_line_errors(tmp_path: Path) -> None:
         EA(pop, None, db_file_path=tmp_path / "x.db")
     with pytest.raises(ValueError, match="initial population, or restart"):
         EA(None, [evaluate], db_file_path=tmp_path / "x.db")
+    with pytest.raises(ValueError, match="also this run's db_file_path"):
+        EA(None, [evaluate], restart=tmp_path / "x.db", db_file_path=tmp_path / "x.db")
     with pytest.raises(FileNotFoundError, match="restart database not found"):
         EA(None, [evaluate], restart=tmp_path / "missing.db", db_file_path=tmp_path / "x.db")
     with pytest.raises(ValueError, match="db_handling must be 'delete' or 'halt'"):
