@@ -68,6 +68,12 @@ def _probe(module: str, cwd: Path) -> dict:
         "ariel.recording._recorder",
         "ariel.recording._rerun",
         "ariel.cli",
+        "ariel.ec",
+        "ariel.ec.ea",
+        "ariel.ec.archive",
+        "ariel.ec.crossover",
+        "ariel.ec.generators",
+        "ariel.ec.a004",
     ],
 )
 def test_import_loads_no_heavy_library_and_writes_no_file(module: str, tmp_path: Path) -> None:
@@ -80,3 +86,20 @@ def test_importing_the_tutorial_modules_writes_no_file(tmp_path: Path) -> None:
     # The NDE and NaCPG need torch (the tutorial API); they still create nothing.
     for module in ("ariel.ec.genotypes.nde.nde", "ariel.simulation.controllers.na_cpg"):
         assert _probe(module, tmp_path)["new_files"] == []
+
+
+def test_ec_loads_the_database_layer_only_when_the_engine_is_used(tmp_path: Path) -> None:
+    # Population, EAOperation and the operators are plain Python; Individual (an SQLModel table)
+    # and EA bring in sqlmodel/sqlalchemy, and only when a script asks for them.
+    code = (
+        "import sys, json, ariel, ariel.ec\n"
+        "from ariel.ec import Population, EAOperation, Crossover, set_seed\n"
+        "c = ariel.console\n"
+        "print(json.dumps(sorted(m for m in ('sqlmodel', 'sqlalchemy', 'pydantic_settings',"
+        " 'torch', 'matplotlib', 'rerun') if m in sys.modules)))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True
+    )
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == []
+    assert os.listdir(tmp_path) == []  # config's ./__data__ is not created either

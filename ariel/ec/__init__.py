@@ -1,1 +1,50 @@
-"""ARIEL subpackage."""
+"""Evolutionary computation: genotypes (``ariel.ec.genotypes``) and upstream's EA engine.
+
+The engine's names (``EA``, ``EAOperation``, ``Individual``, ``Population``, ``Crossover``, ...)
+load from their modules on first access, so ``import ariel.ec`` imports no database library.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+# public name -> module that defines it (upstream ARIEL's ariel.ec exports, plus its older ones)
+_LAZY: dict[str, str] = {
+    "Archive": "ariel.ec.archive",
+    "Crossover": "ariel.ec.crossover",
+    "EA": "ariel.ec.ea",
+    "DBHandlingMode": "ariel.ec._settings",
+    "EAOperation": "ariel.ec._operation",
+    "EASettings": "ariel.ec._settings",
+    "EAStep": "ariel.ec._operation",
+    "config": "ariel.ec._settings",
+    "SEED": "ariel.ec._rng",
+    "set_seed": "ariel.ec._rng",
+    "FloatMutator": "ariel.ec._mutators",
+    "IntegerMutator": "ariel.ec._mutators",
+    "Floats": "ariel.ec.generators",
+    "FloatsGenerator": "ariel.ec.generators",
+    "Integers": "ariel.ec.generators",
+    "IntegersGenerator": "ariel.ec.generators",
+    "Individual": "ariel.ec.individual",
+    "JSONIterable": "ariel.ec.individual",
+    "JSONPrimitive": "ariel.ec.individual",
+    "JSONType": "ariel.ec.individual",
+    "Population": "ariel.ec.population",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'ariel.ec' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # cache: __getattr__ runs once per name
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

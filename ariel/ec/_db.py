@@ -1,0 +1,46 @@
+"""The SQLite side of the EA engine: engines, sessions and copies of stored individuals."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from sqlalchemy import Engine, create_engine
+from sqlmodel import Session
+
+from ariel.ec.individual import Individual, to_json
+
+__all__ = ["fresh_copy", "open_engine", "session"]
+
+
+def _json_default(value: Any) -> Any:
+    # Genotypes and tags are usually plain lists already; numpy values left inside them
+    # (np.int64, arrays in a tag) would otherwise fail the commit of a whole generation.
+    if isinstance(value, np.ndarray | np.generic):
+        return to_json(value)
+    raise TypeError(f"{type(value).__name__} is not JSON data: store lists, numbers, strings")
+
+
+def _dumps(value: Any) -> str:
+    return json.dumps(value, default=_json_default)
+
+
+def open_engine(path: Path) -> Engine:
+    """An engine on the SQLite file ``path`` that can store numpy values in JSON columns."""
+    return create_engine(f"sqlite:///{path}", json_serializer=_dumps)
+
+
+def session(engine: Engine) -> Session:
+    """A session whose objects stay readable after commit and close (no lazy reloads)."""
+    return Session(engine, expire_on_commit=False)
+
+
+def fresh_copy(individual: Individual, **changes: Any) -> Individual:
+    """A new, unsaved `Individual` with the same values (no id), for inserting elsewhere."""
+    values = copy.deepcopy(individual.model_dump(exclude={"id"}))
+    values["tags_"] = values.get("tags_") or {}
+    values.update(changes)
+    return Individual(**values)

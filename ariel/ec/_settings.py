@@ -1,0 +1,45 @@
+"""`EASettings` and the module-level `config` the EA engine falls back on."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, computed_field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+__all__ = ["DBHandlingMode", "EASettings", "config"]
+
+#: What `EA` does when its database file already exists: delete it, or stop with an error.
+DBHandlingMode = Literal["delete", "halt"]
+
+
+class EASettings(BaseSettings):
+    """Defaults of the EA engine; each can be overridden by an ``ARIEL_EC_<NAME>`` variable.
+
+    ``output_folder`` defaults to ``./__data__`` of the working directory when the settings are
+    made; nothing is created until an `EA` opens its database.
+    """
+
+    # A prefix, because upstream's bare names (QUIET, NUM_STEPS, ...) collide with unrelated
+    # environment variables.
+    model_config = SettingsConfigDict(env_prefix="ARIEL_EC_", validate_assignment=True)
+
+    quiet: bool = False
+    is_maximisation: bool = True
+    first_generation_id: int = 0
+    num_steps: int = Field(default=100, ge=0)
+    target_population_size: int = Field(default=100, ge=0)
+    output_folder: Path = Field(default_factory=lambda: Path.cwd() / "__data__")
+    db_file_name: str = "database.db"
+    db_handling: DBHandlingMode = "delete"
+
+    @computed_field  # type: ignore[prop-decorator]
+    @property
+    def db_file_path(self) -> Path:
+        """``output_folder / db_file_name``."""
+        return self.output_folder / self.db_file_name
+
+
+#: The settings `EA` reads when an argument is not given (upstream's module-level ``config``).
+config: EASettings = EASettings()

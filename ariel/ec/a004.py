@@ -1,0 +1,103 @@
+"""Upstream ARIEL's earlier EA API (``from ariel.ec.a004 import EA, EAStep, EASettings``).
+
+Course material from 2025 uses it: ``EA(population_list, operations=[EAStep("name", f)],
+num_of_generations=100)`` with settings in this module's own ``config`` (which has
+``num_of_generations`` where the current API has ``num_steps``). It runs on the current engine;
+`fetch_population` keeps its old signature and puts the best individual first.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
+
+from pydantic import Field
+from sqlmodel import col, select
+
+from ariel.ec import _settings
+from ariel.ec import ea as _ea
+from ariel.ec._db import session
+from ariel.ec._operation import EAStep
+from ariel.ec.individual import Individual
+from ariel.ec.population import Population
+
+__all__ = ["EA", "EASettings", "EAStep", "Individual", "Population", "config"]
+
+
+class EASettings(_settings.EASettings):
+    """The current settings plus the old name for the number of generations."""
+
+    num_of_generations: int = Field(default=100, ge=0)
+
+
+#: This module's settings; the old `EA` reads these.
+config: EASettings = EASettings()
+
+
+class EA(_ea.EA):
+    """The old constructor on the current engine (database path and handling from ``config``)."""
+
+    def __init__(
+        self,
+        population: Sequence[Individual],
+        operations: Sequence[Callable[..., Any]],
+        num_of_generations: int | None = None,
+        *,
+        first_generation_id: int | None = None,
+        quiet: bool | None = None,
+    ) -> None:
+        super().__init__(
+            Population(population),
+            operations,
+            num_steps=config.num_of_generations
+            if num_of_generations is None
+            else num_of_generations,
+            first_generation_id=first_generation_id,
+            quiet=config.quiet if quiet is None else quiet,
+            db_file_path=config.db_file_path,
+            db_handling=config.db_handling,
+            is_maximisation=config.is_maximisation,
+        )
+        self.target_population_size = config.target_population_size
+
+    @property
+    def num_of_generations(self) -> int:
+        """The old name of ``num_steps``."""
+        return self.num_steps
+
+    @property
+    def population_size(self) -> int:
+        """The old name of ``size``: living individuals, read from the database."""
+        return self.size
+
+    def commit_population(self) -> None:
+        """Save the current population (the old name of the commit)."""
+        self._commit()
+
+    def fetch_population(  # type: ignore[override]
+        self,
+        best_comes: Literal["first", "last"] | None = "first",
+        *,
+        only_alive: bool = True,
+        already_evaluated: bool | None = None,
+        custom_logic: tuple[Any, ...] | None = None,
+        requires_eval: bool | None = None,
+    ) -> None:
+        """Reload the population, best first (``"first"``), best last, or stored order (None)."""
+        if best_comes not in ("first", "last", None):
+            raise ValueError(f"best_comes must be 'first', 'last' or None, not {best_comes!r}")
+        statement = select(Individual)
+        if only_alive:
+            statement = statement.where(col(Individual.alive))
+        if already_evaluated is not None:
+            statement = statement.where(Individual.requires_eval != already_evaluated)
+        if requires_eval is not None:
+            statement = statement.where(Individual.requires_eval == requires_eval)
+        if custom_logic:
+            statement = statement.where(*custom_logic)  # upstream built this and dropped it
+        if best_comes is not None:
+            descending = self.is_maximisation == (best_comes == "first")
+            fitness = col(Individual.fitness_)
+            statement = statement.order_by(fitness.desc() if descending else fitness.asc())
+        with session(self.engine) as s:
+            self.population = Population(s.exec(statement.order_by(col(Individual.id))).all())

@@ -1,0 +1,116 @@
+"""Random genotype generators (and, re-exported, the mutators), as upstream ARIEL names them.
+
+Every function takes ``seed=`` (a numpy Generator, an int, or ``None`` for NumPy's global RNG;
+see `ariel.ec._rng`) instead of upstream's shared module-level generator, and returns plain
+Python lists ready to store as a genotype.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ariel.ec._mutators import FloatMutator, IntegerMutator
+from ariel.ec._rng import SEED, SeedLike, resolve_rng, set_seed
+
+__all__ = [
+    "SEED",
+    "FloatMutator",
+    "Floats",
+    "FloatsGenerator",
+    "IntegerMutator",
+    "Integers",
+    "IntegersGenerator",
+    "set_seed",
+]
+
+Integers = Sequence[int]
+Floats = Sequence[float]
+Size = int | Sequence[int] | None
+
+
+class IntegersGenerator:
+    """Namespace of integer genotype generators."""
+
+    @staticmethod
+    def integers(
+        low: int,
+        high: int,
+        size: Size = 1,
+        *,
+        endpoint: bool = True,
+        seed: SeedLike = None,
+    ) -> Any:
+        """Uniform integers in ``[low, high]`` (``[low, high)`` with ``endpoint=False``)."""
+        return resolve_rng(seed).integers(low, high, size=size, endpoint=endpoint).tolist()
+
+    @staticmethod
+    def choice(
+        value_set: int | Integers,
+        size: Size = 1,
+        probabilities: Sequence[float] | None = None,
+        axis: int = 0,
+        *,
+        replace: bool = True,
+        shuffle: bool = False,
+        seed: SeedLike = None,
+    ) -> Any:
+        """Draws from ``value_set`` (an int ``n`` means ``range(n)``), as ``Generator.choice``."""
+        drawn = resolve_rng(seed).choice(
+            value_set, size=size, replace=replace, p=probabilities, axis=axis, shuffle=shuffle
+        )
+        return np.asarray(drawn).astype(int).tolist()
+
+    @staticmethod
+    def permutation(n: int, *, seed: SeedLike = None) -> list[int]:
+        """A random ordering of ``0 .. n - 1``."""
+        return resolve_rng(seed).permutation(n).tolist()
+
+
+class FloatsGenerator:
+    """Namespace of real-valued genotype generators."""
+
+    @staticmethod
+    def uniform(low: float, high: float, size: Size = 1, *, seed: SeedLike = None) -> Any:
+        """Uniform floats in ``[low, high)``."""
+        return resolve_rng(seed).uniform(low, high, size=size).tolist()
+
+    @staticmethod
+    def normal(
+        mean: float = 0.0, std: float = 1.0, size: Size = 1, *, seed: SeedLike = None
+    ) -> Any:
+        """Gaussian floats with the given mean and standard deviation."""
+        if std < 0:
+            raise ValueError(f"std must be >= 0, not {std!r}")
+        return resolve_rng(seed).normal(mean, std, size=size).tolist()
+
+    @staticmethod
+    def lognormal(
+        mean: float = 0.0, sigma: float = 1.0, size: Size = 1, *, seed: SeedLike = None
+    ) -> Any:
+        """Log-normal floats (``mean`` and ``sigma`` of the underlying normal)."""
+        if sigma < 0:
+            raise ValueError(f"sigma must be >= 0, not {sigma!r}")
+        return resolve_rng(seed).lognormal(mean, sigma, size=size).tolist()
+
+    @staticmethod
+    def choice(
+        value_set: Floats,
+        size: Size = 1,
+        probabilities: Sequence[float] | None = None,
+        *,
+        replace: bool = True,
+        seed: SeedLike = None,
+    ) -> Any:
+        """Draws from the floats in ``value_set``."""
+        drawn = resolve_rng(seed).choice(
+            np.asarray(value_set, dtype=float), size=size, replace=replace, p=probabilities
+        )
+        return np.asarray(drawn, dtype=float).tolist()
+
+    @staticmethod
+    def linspace(start: float, stop: float, num: int) -> list[float]:
+        """``num`` evenly spaced floats from ``start`` to ``stop`` (both included)."""
+        return np.linspace(start, stop, num).tolist()
