@@ -4,7 +4,8 @@ Figures go to ``RUN_DIR/report/``: ``fitness.png`` (best / mean / median of the 
 generation, every evaluation as a dot), ``morphology.png`` (the population's morphology
 descriptors per generation; co-evolution only), ``trajectory.png`` and ``joints.png`` (the best
 evaluation's core path and every joint's target and angle, from the trajectories table) and
-``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing).
+``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing);
+``archive.png`` for a MAP-Elites run (`_report_archive`).
 Only finished generations are reported, so a running or killed run reports what it has.
 
 matplotlib is imported here only, and drawn through the Agg canvas without pyplot, so making a
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ariel.recording._load import Run, load_run
+from ariel.recording._report_archive import archive_figure
 
 __all__ = ["Report", "make_report", "print_report"]
 
@@ -331,6 +333,7 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     report.folder.mkdir(parents=True, exist_ok=True)
     _fitness_figure(report, maximise)
     _morphology_figure(report)
+    archive_figure(report, maximise, render=render, figure=_figure, save=_save)
     if report.best is None:
         report.notes.append("trajectory.png, joints.png, best_body.png: no evaluation succeeded")
         return report
