@@ -102,7 +102,14 @@ from ariel.evolution._tasks import body_spec, evaluation_task  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / "gecko_gait.toml"
 TARGET = 0.85  # loop_vs_raw_ratio >= TARGET
-QUICK = {"generations": 1, "popsize": 4, "iterations": 1, "duration": 0.5, "repeats": 1}
+QUICK = {
+    "generations": 1,
+    "popsize": 4,
+    "iterations": 1,
+    "duration": 0.5,
+    "repeats": 1,
+    "coevolve_generations": 1,
+}
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -117,11 +124,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--workers", type=int, default=None, help="loop worker processes (default: one per CPU)"
     )
     parser.add_argument("--repeats", type=int, default=3, help="timed rounds")
+    parser.add_argument(
+        "--coevolve-generations",
+        type=int,
+        default=2,
+        help="generations of the co-evolution rows (ga, map_elites; _optimizer_rows.py)",
+    )
     parser.add_argument("--seed", type=int, default=3, help="experiment seed (the config's: 3)")
     add_quick_option(parser, QUICK)
     args = parser.parse_args(argv)
     apply_quick(args, QUICK)
-    check_at_least(parser, args, 1, "generations", "iterations", "repeats")
+    check_at_least(parser, args, 1, "generations", "iterations", "repeats", "coevolve_generations")
     check_at_least(parser, args, 2, "popsize")
     check_at_least(parser, args, 1, "workers")
     check_seconds(parser, args, "duration")
@@ -177,9 +190,13 @@ def prestarted_executor(executor: cf.Executor, workers: int | None) -> Iterator[
     Raises if the loop does not ask for it exactly once with that kind and workers: then the
     benchmark would not be timing what it says.
     """
+    from ariel.evaluation.executors import settings_options
+
     calls: list[tuple[str, dict[str, Any]]] = []
 
-    def factory(kind: str = "local", **options: Any) -> cf.Executor:
+    def factory(kind: Any = "local", **options: Any) -> cf.Executor:
+        if not isinstance(kind, str):  # the loop passes its config's [executor] section
+            kind, options = kind.kind, settings_options(kind)
         calls.append((kind, options))
         if kind != "local" or options.get("workers") != workers or len(calls) > 1:
             raise RuntimeError(
@@ -323,6 +340,21 @@ def main(argv: list[str] | None = None) -> int:
             for sample, seconds in order if round_ % 2 == 0 else order[::-1]:
                 gc.collect()
                 seconds.append(sample())
+
+        def timed_loop(experiment: ExperimentConfig, out: Path) -> float:
+            executor, _ = started_pool(args.workers)
+            try:
+                with prestarted_executor(executor, args.workers):
+                    gc.collect()
+                    start = time.perf_counter()
+                    run_experiment(experiment, out=out, workers=args.workers, progress=False)
+                    return time.perf_counter() - start
+            finally:
+                executor.shutdown(wait=True)
+
+        from _optimizer_rows import optimizer_rows
+
+        optimizers = optimizer_rows(args, args.workers, threads, Path(tmp), timed_loop)
     load_after = load_average()
 
     loop_rates = [evaluations / s for s in loop_seconds]
@@ -355,6 +387,12 @@ def main(argv: list[str] | None = None) -> int:
         f"{'co-evolution loop, run_experiment':<48}{loop_rate:>9.2f}{ratio:>8.3f}  "
         f">= {TARGET:g}  {'ok' if ratio >= TARGET else 'MISSED'}"
     )
+    for name, row in optimizers.items():
+        print(
+            f"{'co-evolution, body optimizer ' + name + ' (' + str(row['evaluations']) + ')':<48}"
+            f"{row['loop_evals_per_s']:>9.2f}{row['ratio']:>8.3f}  >= {TARGET:g}  "
+            f"{'ok' if row['ratio'] >= TARGET else 'MISSED'}  (raw {row['raw_evals_per_s']:.2f})"
+        )
     print(
         f"{'  incl. process-pool start-up (info)':<48}{'':>9}{statistics.median(end_to_end):>8.3f}"
     )
@@ -383,6 +421,11 @@ def main(argv: list[str] | None = None) -> int:
 
     summary = {
         "loop_vs_raw_ratio": round(ratio, 4),
+        **{f"{name}_vs_raw_ratio": round(row["ratio"], 4) for name, row in optimizers.items()},
+        **{
+            f"{name}_loop_evals_per_s": round(row["loop_evals_per_s"], 3)
+            for name, row in optimizers.items()
+        },
         "loop_evals_per_s": round(loop_rate, 3),
         "raw_evals_per_s": round(raw_rate, 3),
         "evaluations": evaluations,

@@ -33,6 +33,8 @@ def test_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
 
 COEVOLUTION_KEYS = (
     "loop_vs_raw_ratio",
+    "ga_vs_raw_ratio",
+    "map_elites_vs_raw_ratio",
     "loop_evals_per_s",
     "raw_evals_per_s",
     "evaluations",
@@ -45,7 +47,12 @@ def test_coevolution_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     summary, table = benchmark_summary(result, COEVOLUTION_KEYS)
     # --quick: 1 generation x 1 iteration x popsize 4.
     assert summary["evaluations"] == 4 and summary["repeats"] == 1
-    for label in ("raw mujoco.rollout", "co-evolution loop"):
+    for label in (
+        "raw mujoco.rollout",
+        "co-evolution loop",
+        "body optimizer ga",
+        "body optimizer map_elites",
+    ):
         assert label in table
     # The runs went into a temporary folder that is gone again; nothing written here.
     assert list(tmp_path.iterdir()) == []
