@@ -1,0 +1,133 @@
+"""The scheduler on its own: work of several groups side by side, batches cut into chunks,
+results back in task order whatever order they arrive in, lost chunks retried one by one."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import random
+import threading
+import time
+from typing import Any
+
+import pytest
+
+from ariel.evaluation.executors import WorkerLostError
+from ariel.evolution._scheduler import Scheduler
+
+
+class FakeExecutor:
+    """Squares numbers in threads, after a random delay: results arrive in any order."""
+
+    def __init__(self, capacity: int, seed: int = 0, lose: set[int] | None = None) -> None:
+        self.capacity = capacity
+        self.pool = cf.ThreadPoolExecutor(max_workers=capacity)
+        self.rng = random.Random(seed)
+        self.lose = lose or set()  # tasks whose chunk is lost while it holds more than one
+        self.chunks: list[list[int]] = []
+        self.in_flight: set[str] = set()
+        self.groups_together = 0  # chunks sent while another group's chunk was in flight
+        self.lock = threading.Lock()
+
+    def submit_batch(self, tasks: list[Any], *, timeout: float | None = None) -> cf.Future:
+        self.chunks.append([task for _, task in tasks])
+        groups = {group for group, _ in tasks}
+        with self.lock:
+            if self.in_flight - groups:
+                self.groups_together += 1
+            self.in_flight |= groups
+        delay = self.rng.random() * 0.01
+
+        def run() -> list[int]:
+            time.sleep(delay)
+            with self.lock:
+                self.in_flight -= groups
+            if len(tasks) > 1 and self.lose & {task for _, task in tasks}:
+                raise WorkerLostError("the worker died")
+            if len(tasks) == 1 and tasks[0][1] in self.lose:
+                raise WorkerLostError("the worker died again")
+            return [task * task for _, task in tasks]
+
+        return self.pool.submit(run)
+
+
+class Counting:
+    """Work of ``batches`` batches of ``size`` numbers; keeps what came back."""
+
+    def __init__(self, group: str, start: int, batches: int, size: int) -> None:
+        self.group, self.start, self.left, self.size = group, start, batches, size
+        self.sent: list[list[int]] = []
+        self.received: list[list[Any]] = []
+        self.flushed = 0
+
+    def next_batch(self) -> list[Any] | None:
+        if not self.left:
+            return None
+        self.left -= 1
+        first = self.start + len(self.sent) * self.size
+        self.sent.append(list(range(first, first + self.size)))
+        return [(self.group, n) for n in self.sent[-1]]
+
+    def batch_done(self, results: list[Any]) -> None:
+        self.received.append(results)
+
+    def failed_result(self, task: Any, reason: str) -> Any:
+        return f"error: {reason}"
+
+    def flush(self) -> None:
+        self.flushed += 1
+
+
+def group(name: str, lists: list[list[Counting]], log: list[str]):
+    for index, works in enumerate(lists):
+        log.append(f"{name} starts {index}")
+        yield works
+        log.append(f"{name} ends {index}")
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_every_group_runs_to_its_end_with_results_in_task_order(seed: int) -> None:
+    executor = FakeExecutor(capacity=3, seed=seed)
+    a = [[Counting("a", 0, 3, 4), Counting("a", 100, 2, 5)], [Counting("a", 200, 1, 3)]]
+    b = [[Counting("b", 1000, 4, 2)], [], [Counting("b", 2000, 2, 2)]]
+    log: list[str] = []
+    Scheduler(executor, timeout=None).run([group("a", a, log), group("b", b, log)])
+    for work in [w for lists in a + b for w in lists]:
+        assert work.left == 0
+        assert work.received == [[n * n for n in sent] for sent in work.sent]
+        assert work.flushed == len(work.sent)
+    # each group's lists one after the other, the empty one skipped at once
+    assert [line for line in log if line.startswith("b")] == [
+        "b starts 0",
+        "b ends 0",
+        "b starts 1",
+        "b ends 1",
+        "b starts 2",
+        "b ends 2",
+    ]
+    assert executor.groups_together > 0  # the two runs' work shared the executor
+
+
+def test_a_batch_is_cut_into_chunks_for_idle_workers() -> None:
+    executor = FakeExecutor(capacity=4)
+    work = Counting("a", 0, 1, 8)
+    Scheduler(executor, timeout=None).run([group("a", [[work]], [])])
+    assert sorted(len(chunk) for chunk in executor.chunks) == [2, 2, 2, 2]
+    assert work.received == [[n * n for n in range(8)]]
+
+
+def test_a_lost_chunk_is_retried_one_task_at_a_time() -> None:
+    executor = FakeExecutor(capacity=2, lose={5})
+    work = Counting("a", 0, 1, 8)
+    Scheduler(executor, timeout=None).run([group("a", [[work]], [])])
+    (results,) = work.received
+    assert results[5] == "error: worker lost: the worker died again"
+    assert [r for i, r in enumerate(results) if i != 5] == [n * n for n in range(8) if n != 5]
+
+
+def test_an_error_of_the_work_itself_stops_the_run() -> None:
+    class Broken(Counting):
+        def batch_done(self, results: list[Any]) -> None:
+            raise RuntimeError("broken bookkeeping")
+
+    with pytest.raises(RuntimeError, match="broken bookkeeping"):
+        Scheduler(FakeExecutor(2), timeout=None).run([group("a", [[Broken("a", 0, 2, 2)]], [])])
