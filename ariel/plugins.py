@@ -49,11 +49,18 @@ from typing import (
     TYPE_CHECKING,
     Any,
     Generic,
-    NoReturn,
     Protocol,
     TypeVar,
     overload,
     runtime_checkable,
+)
+
+from ariel.errors import (
+    DuplicatePluginError,
+    PluginCheckError,
+    PluginLoadError,
+    UnknownPluginError,
+    cannot_vary,
 )
 
 if TYPE_CHECKING:
@@ -116,31 +123,6 @@ ENTRY_POINT_GROUPS: dict[str, str] = {
 
 #: In-tree modules whose import registers the built-in plugins; imported on first lookup.
 BUILTIN_PLUGIN_MODULES: tuple[str, ...] = ("ariel.evaluation.builtin_plugins",)
-
-
-# --------------------------------------------------------------------------------------------
-# Errors
-# --------------------------------------------------------------------------------------------
-
-
-class UnknownPluginError(KeyError, ValueError):
-    """A name no registered plugin or installed entry point provides."""
-
-    def __str__(self) -> str:
-        # KeyError would quote the whole message; show it as written.
-        return str(self.args[0]) if self.args else ""
-
-
-class DuplicatePluginError(ValueError):
-    """Two providers for one name."""
-
-
-class PluginLoadError(ImportError):
-    """An entry point that could not be imported, or that gave an unusable object."""
-
-
-class PluginCheckError(AssertionError):
-    """A plugin that breaks its contract; the one-line message names the plugin and the fault."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -264,18 +246,6 @@ class FitnessFunction(Protocol):
     maximise: bool
 
     def __call__(self, trajectory: Any) -> float: ...
-
-
-def cannot_vary(encoder: str) -> NoReturn:
-    """Raise the error of a body encoder with fixed genotypes (``evolvable = False``).
-
-    Call it from such an encoder's ``mutate`` and ``crossover``: returning the input unchanged
-    would let an evolutionary loop run on without ever changing a body.
-    """
-    raise NotImplementedError(
-        f"body encoder {encoder!r} cannot vary its genotypes; it serves fixed bodies "
-        "(evolvable is False): evolve brains only, or use an evolvable encoder such as 'nde'"
-    )
 
 
 def fitness_function(*, maximise: bool) -> Callable[[F], F]:

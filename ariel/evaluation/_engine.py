@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as _rollout
 
+from ariel.errors import BodyBuildError
 from ariel.evaluation._heap import steady_heap
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
 from ariel.simulation.control_callback import control_callback_unset
@@ -60,15 +61,6 @@ _BAD_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
 )
-
-
-class BodyBuildError(RuntimeError):
-    """A genotype whose body cannot be built: decoding, construction, spawning or compiling failed.
-
-    Raised by `build` only for faults of the genotype (the cause is chained), never for the
-    caller's mistakes, which propagate as they are; `evaluate_batch` turns it into ``error``
-    results, and a driver that builds bodies itself can catch just this.
-    """
 
 
 @dataclass(frozen=True)

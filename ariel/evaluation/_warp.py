@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.errors import WarpUnavailableError
 from ariel.evaluation._engine import (
     BuiltBody,
     TaskGroup,
@@ -73,10 +74,6 @@ _MAX_VALUE = 1e10
 # Buffer sizes grow this many times at most when contacts or constraints overflow them.
 _MAX_GROWTH = 4
 _CACHE_SIZE = 4
-
-
-class WarpUnavailableError(RuntimeError):
-    """MuJoCo Warp is not installed, or the device asked for is not there (one line)."""
 
 
 def warp_modules() -> tuple[Any, Any]:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import networkx as nx
 
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
-from ariel.plugins import cannot_vary
+from ariel.errors import cannot_vary
 
 if TYPE_CHECKING:
     import numpy as np

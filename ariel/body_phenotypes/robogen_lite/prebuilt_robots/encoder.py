@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_GRAPHS, PREBUILT_ROBOTS
-from ariel.plugins import cannot_vary
+from ariel.errors import cannot_vary
 
 if TYPE_CHECKING:
     import networkx as nx
