@@ -7,7 +7,8 @@ loads the co-evolution loop on first use.
 
 from typing import Any
 
-__version__ = "0.1.0"
+from ariel._version import __version__
+
 __all__ = ["__version__", "run_experiment"]
 
 

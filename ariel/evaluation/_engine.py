@@ -556,7 +556,7 @@ def _finish(
 def _closed_loop(
     task: EvaluationTask, built: BuiltBody, controller: Any, fitness_fn: Any
 ) -> EvaluationResult:
-    from ariel.evaluation.builtin_plugins import hinge_observation
+    from ariel.simulation.controllers.observations import hinge_observation
 
     model = built.model
     nstep = num_steps(task, model)
