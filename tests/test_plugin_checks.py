@@ -336,4 +336,3 @@ def test_checks_need_no_registered_na_cpg_at_all(replace_builtin) -> None:
     assert "na_cpg" not in controllers
     check_world("tilted")
     check_fitness("distance_to_target")
-
