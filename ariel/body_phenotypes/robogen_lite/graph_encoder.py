@@ -2,7 +2,7 @@
 
 The genotype is the graph itself (``networkx.node_link_data(graph, edges="edges")``, as
 `graph_io` writes it), so it cannot vary: ``evolvable`` is False and `mutate`/`crossover`
-refuse. Registered as ``"graph"`` in `ariel.evaluation.builtin_plugins`.
+refuse. Registered as ``"graph"`` in ``ariel._builtin_names``.
 """
 
 from __future__ import annotations

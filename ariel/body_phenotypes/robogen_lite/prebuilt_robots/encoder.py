@@ -2,7 +2,7 @@
 
 For brain-only experiments: the genotype is the body's name and cannot vary, so
 ``evolvable`` is False and `mutate`/`crossover` refuse. Registered as ``"prebuilt"`` in
-`ariel.evaluation.builtin_plugins`.
+``ariel._builtin_names``.
 """
 
 from __future__ import annotations
