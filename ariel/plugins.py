@@ -431,13 +431,15 @@ class Registry(Generic[T]):
         with self._lock:
             current = self._registered.get(name)
             # The same definition registered again (a reloaded module, or a built-in's object
-            # over its "module:attr") is no clash.
-            same = (not entry.loaded or _has_own_path(obj)) and (
-                current is not None and current.path == path
+            # over its "module:attr") is no clash; instances have no definition of their own.
+            same_definition = (
+                current is not None
+                and current.path == path
+                and (not entry.loaded or _has_own_path(obj))
             )
-            if same and not entry.loaded and not replace:
-                return  # keep what is there: perhaps the object, already loaded
-            if current is not None and not replace and not same:
+            if same_definition and not entry.loaded and not replace:
+                return  # keep what is there: perhaps the object, loaded already
+            if current is not None and not replace and not same_definition:
                 raise DuplicatePluginError(
                     f"{self.label} '{name}' is already registered (by {current.path})"
                 )
@@ -566,26 +568,32 @@ class Registry(Generic[T]):
         ep = self._discover().get(name)
         if ep is None:
             raise self._unknown(name)
-        where = f"entry point {ep.value} ({_distribution_of_entry_point(ep)})"
-        obj = self._load(name, where, ep.load)
+        obj = self._load(
+            name, ep.load, lambda: f"entry point {ep.value} ({_distribution_of_entry_point(ep)})"
+        )
         self._loaded[name] = obj
         return obj
 
     def _load_declared(self, name: str, path: str) -> Any:
         """The object a registered ``module:attr`` string names, imported and checked."""
-        where = f"{path} ({_distribution_of_module(path.partition(':')[0])})"
-        return self._load(name, where, lambda: _resolve(path))
+        return self._load(
+            name,
+            lambda: _resolve(path),
+            lambda: f"{path} ({_distribution_of_module(path.partition(':')[0])})",
+        )
 
-    def _load(self, name: str, where: str, load: Callable[[], Any]) -> Any:
+    def _load(self, name: str, load: Callable[[], Any], where: Callable[[], str]) -> Any:
+        """``load()``, checked; an error names the plugin and ``where()`` it came from (only
+        then asked: finding a distribution's version reads package metadata)."""
         try:
             obj = load()
         except Exception as exc:
             raise PluginLoadError(
-                f"could not load {self.label} '{name}' from {where}: {type(exc).__name__}: {exc}"
+                f"could not load {self.label} '{name}' from {where()}: {type(exc).__name__}: {exc}"
             ) from exc
         problem = self._check(obj) if self._check is not None else None
         if problem is not None:
-            raise PluginLoadError(f"{self.label} '{name}' from {where} {problem}")
+            raise PluginLoadError(f"{self.label} '{name}' from {where()} {problem}")
         return obj
 
     def make(self, name: str, **options: Any) -> Any:
