@@ -33,11 +33,12 @@ run: setup gl
 test: setup gl
 	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q
 
+# ruff, then the layering of the package (import-linter: [tool.importlinter] in pyproject.toml).
 lint: setup
-	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
+	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check . && $(VENV)/bin/lint-imports
 
 format: setup
 	$(VENV)/bin/ruff format . && $(VENV)/bin/ruff check --fix .
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache *.egg-info
+	rm -rf $(VENV) .pytest_cache .ruff_cache .import_linter_cache *.egg-info

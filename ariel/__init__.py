@@ -8,7 +8,8 @@ loads the co-evolution loop on first use; `console` (upstream ARIEL's shared ric
 
 from typing import Any
 
-__version__ = "0.1.0"
+from ariel._version import __version__
+
 __all__ = ["__version__", "console", "run_experiment"]
 
 

@@ -2,7 +2,8 @@
 
 Each sub-command imports what it needs only when it runs, so ``ariel --help`` stays instant.
 Bad input (an unknown plugin, a bad config key or value, an existing output folder, ...) is
-one line on stderr and exit code 2, before anything is written.
+one line on stderr and exit code 2, before anything is written: every error the workbench
+raises on purpose is an `ariel.errors.ArielError`, caught here as one class.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from ariel import __version__
+from ariel.errors import ArielError, ConfigError
 
 EXIT_USAGE = 2
 
@@ -31,6 +33,10 @@ class _Parser(argparse.ArgumentParser):
 def _fail(message: str) -> int:
     print(f"ariel: error: {message}", file=sys.stderr)
     return EXIT_USAGE
+
+
+def _fail_with(exc: BaseException) -> int:
+    return _fail(str(exc) or type(exc).__name__)
 
 
 def _positive_int(text: str) -> int:
@@ -77,22 +83,10 @@ def _print_result(result: object) -> None:
 def _run_guarded(start: object, path_hint: str | None) -> int:
     """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
     -> one line and exit 2; Ctrl-C -> how to resume."""
-    from ariel.evolution import ConfigError
-    from ariel.plugins import DuplicatePluginError, PluginLoadError
-    from ariel.recording import NotARunError, RunInUseError, RunStorageError
-
     try:
         result = start()  # type: ignore[operator]
-    except (
-        ConfigError,
-        FileExistsError,
-        NotARunError,
-        DuplicatePluginError,
-        PluginLoadError,
-        RunInUseError,
-        RunStorageError,
-    ) as exc:
-        return _fail(str(exc))
+    except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
+        return _fail_with(exc)
     except KeyboardInterrupt:
         hint = f"; continue it with: ariel resume {path_hint}" if path_hint else ""
         print(f"\ninterrupted{hint}", file=sys.stderr)
@@ -132,8 +126,8 @@ def _cmd_resume(args: argparse.Namespace) -> int:
                 progress=None if not args.quiet else False,
             )
         except ValueError as exc:
-            from ariel.evolution import ConfigError
-
+            if isinstance(exc, ArielError):
+                raise
             raise ConfigError(str(exc)) from None
 
     return _run_guarded(start, args.run_dir)
@@ -219,22 +213,19 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    from ariel.recording._view import ViewError, view
+    from ariel.recording._view import view
 
-    try:
-        return view(
-            args.run_dir,
-            best=args.best,
-            generation=args.generation,
-            eval_id=args.eval_id,
-            web=args.web,
-            port=args.port,
-            grpc_port=args.grpc_port,
-            screenshot=args.screenshot,
-            size=args.size,
-        )
-    except ViewError as exc:
-        return _fail(str(exc))
+    return view(
+        args.run_dir,
+        best=args.best,
+        generation=args.generation,
+        eval_id=args.eval_id,
+        web=args.web,
+        port=args.port,
+        grpc_port=args.grpc_port,
+        screenshot=args.screenshot,
+        size=args.size,
+    )
 
 
 def _cmd_plugins(args: argparse.Namespace) -> int:
@@ -282,13 +273,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             "or a Rerun recording with --rrd FILE instead"
         )
     _headless_unless_display()
-    from ariel.recording import NotARunError
-    from ariel.recording._replay import UnknownEvaluationError, replay
+    from ariel.recording._replay import replay
 
-    try:
-        replayed = replay(args.run_dir, args.eval_id)
-    except (NotARunError, UnknownEvaluationError) as exc:
-        return _fail(str(exc))
+    replayed = replay(args.run_dir, args.eval_id)
     row = replayed.row
     print(
         f"evaluation {replayed.eval_id} (generation {int(row['generation'])}, body "
@@ -326,13 +313,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     _headless_unless_display()
-    from ariel.recording import NotARunError
     from ariel.recording._report import make_report, print_report
 
-    try:
-        report = make_report(args.run_dir, render=not args.no_render)
-    except NotARunError as exc:
-        return _fail(str(exc))
+    report = make_report(args.run_dir, render=not args.no_render)
     print_report(report)
     return 0
 
@@ -464,7 +447,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
-    return int(args.func(args))
+    try:
+        return int(args.func(args))
+    except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line
+        return _fail_with(exc)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -3,10 +3,13 @@
 Configs, Parquet rows and worker payloads name their plugins by string; a `Registry` turns a
 name back into the object, in the parent process and in every spawned worker alike.
 
-Two ways in:
+Three ways in:
 
-- In-tree (or a script): ``@controllers.register("na_cpg")`` on a class or function, or
-  ``controllers.register("na_cpg", NaCPGController)``.
+- Built in: a ``"module:attr"`` string per name in `BUILTIN_PLUGINS` (``ariel._builtin_names``),
+  as Gymnasium's ``register(id, entry_point="pkg.mod:Cls")``. Nothing is imported until a
+  name is first looked up, so importing this module imports no engine, MuJoCo or numpy.
+- A script or test: ``@controllers.register("sine")`` on a class or function, or
+  ``controllers.register("sine", SineController)`` (a ``"module:attr"`` string works too).
 - A third-party package: an entry point in its ``pyproject.toml``::
 
       [project.entry-points."ariel.controllers"]
@@ -28,32 +31,36 @@ Rules:
 - Unknown names raise `UnknownPluginError` (a `KeyError` and a `ValueError`) listing the known
   names.
 
-Checkers, in the spirit of Gymnasium's ``check_env``: `check_body_encoder`, `check_world`,
-`check_controller` and `check_fitness` test one plugin's contract (protocol, determinism for a
-seed, shapes, plain-data round trips, a short evaluation of the gecko) and raise
-`PluginCheckError`; `check_all` runs them over every registered name. They live in
-``ariel._plugin_checks`` (it needs MuJoCo) and are imported on first use.
-
-The in-tree registrations need mujoco and numpy, so they are not imported with this module:
-each registry imports its in-tree modules (`BUILTIN_PLUGIN_MODULES`) on its first lookup.
+The plugin checkers (``check_body_encoder``, ``check_world``, ``check_controller``,
+``check_fitness``, ``check_all``) run the engine, so they live a layer up, in
+`ariel.evaluation`; ``ariel.plugins.check_*`` still gives them, imported on first use.
 """
 
 from __future__ import annotations
 
 import difflib
 import importlib
+import re
 import threading
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import (
     TYPE_CHECKING,
     Any,
     Generic,
-    NoReturn,
     Protocol,
     TypeVar,
     overload,
     runtime_checkable,
+)
+
+from ariel._builtin_names import BUILTIN_PLUGINS
+from ariel.errors import (
+    DuplicatePluginError,
+    PluginCheckError,
+    PluginLoadError,
+    UnknownPluginError,
+    cannot_vary,
 )
 
 if TYPE_CHECKING:
@@ -63,16 +70,8 @@ if TYPE_CHECKING:
     import networkx as nx
     import numpy as np
 
-    from ariel._plugin_checks import (
-        check_all,
-        check_body_encoder,
-        check_controller,
-        check_fitness,
-        check_world,
-    )
-
 __all__ = [
-    "BUILTIN_PLUGIN_MODULES",
+    "BUILTIN_PLUGINS",
     "ENTRY_POINT_GROUPS",
     "REGISTRIES",
     "BodyEncoder",
@@ -90,11 +89,6 @@ __all__ = [
     "WorldFactory",
     "body_encoders",
     "cannot_vary",
-    "check_all",
-    "check_body_encoder",
-    "check_controller",
-    "check_fitness",
-    "check_world",
     "controllers",
     "fitness_function",
     "fitness_functions",
@@ -113,34 +107,6 @@ ENTRY_POINT_GROUPS: dict[str, str] = {
     "controller": "ariel.controllers",
     "fitness": "ariel.fitness",
 }
-
-#: In-tree modules whose import registers the built-in plugins; imported on first lookup.
-BUILTIN_PLUGIN_MODULES: tuple[str, ...] = ("ariel.evaluation.builtin_plugins",)
-
-
-# --------------------------------------------------------------------------------------------
-# Errors
-# --------------------------------------------------------------------------------------------
-
-
-class UnknownPluginError(KeyError, ValueError):
-    """A name no registered plugin or installed entry point provides."""
-
-    def __str__(self) -> str:
-        # KeyError would quote the whole message; show it as written.
-        return str(self.args[0]) if self.args else ""
-
-
-class DuplicatePluginError(ValueError):
-    """Two providers for one name."""
-
-
-class PluginLoadError(ImportError):
-    """An entry point that could not be imported, or that gave an unusable object."""
-
-
-class PluginCheckError(AssertionError):
-    """A plugin that breaks its contract; the one-line message names the plugin and the fault."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -266,18 +232,6 @@ class FitnessFunction(Protocol):
     def __call__(self, trajectory: Any) -> float: ...
 
 
-def cannot_vary(encoder: str) -> NoReturn:
-    """Raise the error of a body encoder with fixed genotypes (``evolvable = False``).
-
-    Call it from such an encoder's ``mutate`` and ``crossover``: returning the input unchanged
-    would let an evolutionary loop run on without ever changing a body.
-    """
-    raise NotImplementedError(
-        f"body encoder {encoder!r} cannot vary its genotypes; it serves fixed bodies "
-        "(evolvable is False): evolve brains only, or use an evolvable encoder such as 'nde'"
-    )
-
-
 def fitness_function(*, maximise: bool) -> Callable[[F], F]:
     """Decorator that marks a plain function as a fitness function (sets ``maximise``)."""
     if not isinstance(maximise, bool):
@@ -310,6 +264,18 @@ def _has_own_path(obj: object) -> bool:
     return isinstance(getattr(obj, "__qualname__", None), str)
 
 
+_OBJECT_PATH = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
+
+
+def _resolve(path: str) -> Any:
+    """The object a ``module:attr`` string names, importing its module (as an entry point)."""
+    module, _, attribute = path.partition(":")
+    obj: Any = importlib.import_module(module)
+    for part in attribute.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
 _packages_lock = threading.Lock()
 _packages_cache: dict[str, list[str]] | None = None
 
@@ -324,7 +290,7 @@ def _distribution_of_module(module: str) -> str | None:
         try:
             return f"ariel=={importlib.metadata.version('ariel')}"
         except importlib.metadata.PackageNotFoundError:
-            from ariel import __version__
+            from ariel._version import __version__
 
             return f"ariel=={__version__}"
     with _packages_lock:
@@ -350,8 +316,11 @@ def _distribution_of_entry_point(ep: importlib.metadata.EntryPoint) -> str | Non
 
 @dataclass(frozen=True)
 class _Registered:
-    obj: Any
+    """One registered name: its object, or only its ``module:attr`` until first looked up."""
+
     path: str
+    obj: Any = None
+    loaded: bool = True
 
 
 class Registry(Generic[T]):
@@ -360,7 +329,8 @@ class Registry(Generic[T]):
     Args:
         kind: short id of the kind, e.g. ``"controller"``.
         group: entry-point group to discover, e.g. ``"ariel.controllers"``; None for none.
-        builtin_modules: modules imported on first lookup (they call ``register``).
+        builtins: name -> ``"module:attr"`` of the built-in plugins, registered now and each
+            imported on its first lookup (``_builtin_names.BUILTIN_PLUGINS``).
         label: the kind as written in messages (default: ``kind`` with spaces).
         check: called as ``check(obj)`` on every registered or loaded object; returns an error
             text for an unusable object, or None.
@@ -371,23 +341,23 @@ class Registry(Generic[T]):
         kind: str,
         *,
         group: str | None = None,
-        builtin_modules: Sequence[str] = (),
+        builtins: Mapping[str, str] | None = None,
         label: str | None = None,
         check: Callable[[Any], str | None] | None = None,
     ) -> None:
         self.kind = kind
         self.group = group
         self.label = label if label is not None else kind.replace("_", " ")
-        self._builtin_modules = tuple(builtin_modules)
         self._check = check
-        # RLock: a built-in module imported under the lock calls register() on this registry.
+        # RLock: an entry point's module, imported under the lock, may register() here.
         self._lock = threading.RLock()
         self._registered: dict[str, _Registered] = {}
         self._overrides: set[str] = set()  # names registered with replace=True
-        self._builtins_imported = False
         self._entry_points: dict[str, importlib.metadata.EntryPoint] | None = None
         self._entry_point_clashes: dict[str, str] = {}  # name -> error text
-        self._loaded: dict[str, Any] = {}
+        self._loaded: dict[str, Any] = {}  # objects loaded from entry points
+        for name, path in (builtins or {}).items():
+            self.register(name, path)
 
     def __repr__(self) -> str:
         return f"Registry(kind={self.kind!r}, group={self.group!r})"
@@ -400,11 +370,16 @@ class Registry(Generic[T]):
     ) -> Callable[[T], T]: ...
 
     @overload
+    def register(self, name: str, obj: str, *, replace: bool = False) -> str: ...
+
+    @overload
     def register(self, name: str, obj: T, *, replace: bool = False) -> T: ...
 
-    def register(self, name: str, obj: T | None = None, *, replace: bool = False) -> Any:
+    def register(self, name: str, obj: T | str | None = None, *, replace: bool = False) -> Any:
         """Register ``obj`` under ``name``; without ``obj``, return a decorator that does.
 
+        ``obj`` may be a ``"module:attr"`` string (Gymnasium's ``entry_point``): nothing is
+        imported now; the first `get` imports the module and checks the object.
         ``replace=True`` overrides an existing registration or an installed entry point.
         """
         self._validate_name(name)
@@ -419,12 +394,16 @@ class Registry(Generic[T]):
         return obj
 
     def unregister(self, name: str) -> T:
-        """Remove a registered (not entry-point) name and return its object; for tests."""
+        """Remove a registered (not entry-point) name and return its object; for tests.
+
+        A name registered as a ``"module:attr"`` string is imported to return its object.
+        """
         with self._lock:
             if name not in self._registered:
                 raise self._unknown(name)
             self._overrides.discard(name)
-            return self._registered.pop(name).obj
+            removed = self._registered.pop(name)
+        return removed.obj if removed.loaded else self._load_declared(name, removed.path)
 
     def _validate_name(self, name: object) -> None:
         if not isinstance(name, str) or not name or name != name.strip() or " " in name:
@@ -432,16 +411,35 @@ class Registry(Generic[T]):
                 f"{self.label} name must be a non-empty string without spaces, got {name!r}"
             )
 
-    def _add(self, name: str, obj: Any, *, replace: bool) -> None:
+    def _entry(self, name: str, obj: Any) -> _Registered:
+        """What registering ``obj`` stores: the checked object, or a ``module:attr`` string."""
+        if isinstance(obj, str):
+            if not _OBJECT_PATH.fullmatch(obj):
+                raise ValueError(
+                    f"{self.label} '{name}': {obj!r} is not a 'module:attribute' string"
+                )
+            return _Registered(obj, loaded=False)  # checked when first loaded
         path = _object_path(obj)
         problem = self._check(obj) if self._check is not None else None
         if problem is not None:
             raise TypeError(f"{self.label} '{name}' ({path}) {problem}")
+        return _Registered(path, obj)
+
+    def _add(self, name: str, obj: Any, *, replace: bool) -> None:
+        entry = self._entry(name, obj)
+        path = entry.path
         with self._lock:
             current = self._registered.get(name)
-            # The same definition registered again (a reloaded module) is no clash.
-            reloaded = current is not None and _has_own_path(obj) and current.path == path
-            if current is not None and not replace and not reloaded:
+            # The same definition registered again (a reloaded module, or a built-in's object
+            # over its "module:attr") is no clash; instances have no definition of their own.
+            same_definition = (
+                current is not None
+                and current.path == path
+                and (not entry.loaded or _has_own_path(obj))
+            )
+            if same_definition and not entry.loaded and not replace:
+                return  # keep what is there: perhaps the object, loaded already
+            if current is not None and not replace and not same_definition:
                 raise DuplicatePluginError(
                     f"{self.label} '{name}' is already registered (by {current.path})"
                 )
@@ -452,26 +450,11 @@ class Registry(Generic[T]):
                         f"{self.label} '{name}' is already provided by entry point {ep.value} "
                         f"({_distribution_of_entry_point(ep)}) in group '{self.group}'"
                     )
-            self._registered[name] = _Registered(obj, path)
+            self._registered[name] = entry
             if replace:
                 self._overrides.add(name)
 
     # -- discovery ----------------------------------------------------------------------------
-
-    def _ensure_builtins(self) -> None:
-        if self._builtins_imported:
-            return
-        with self._lock:
-            if self._builtins_imported:
-                return
-            # Set first: a built-in module may look names up while it is being imported.
-            self._builtins_imported = True
-            try:
-                for module in self._builtin_modules:
-                    importlib.import_module(module)
-            except BaseException:
-                self._builtins_imported = False
-                raise
 
     def _discover(self) -> dict[str, importlib.metadata.EntryPoint]:
         found = self._entry_points
@@ -537,7 +520,6 @@ class Registry(Generic[T]):
 
     def names(self) -> list[str]:
         """Every known name, sorted; entry points are listed without being imported."""
-        self._ensure_builtins()
         entry_points = self._discover()
         with self._lock:
             return sorted(set(self._registered) | set(entry_points))
@@ -560,35 +542,58 @@ class Registry(Generic[T]):
         return UnknownPluginError(message)
 
     def get(self, name: str) -> T:
-        """The plugin registered as ``name``; an entry point is imported on first use."""
-        self._ensure_builtins()
+        """The plugin registered as ``name``; a ``module:attr`` string or an entry point is
+        imported on first use."""
         clash = self._clash(name)
         if clash is not None:
             raise DuplicatePluginError(clash)
         with self._lock:
             registered = self._registered.get(name)
-            if registered is not None:
+            if registered is None:
+                return self._entry_point_object(name)
+            if registered.loaded:
                 return registered.obj
-            if name in self._loaded:
-                return self._loaded[name]
-            ep = self._discover().get(name)
-            if ep is None:
-                raise self._unknown(name)
-            obj = self._load(name, ep)
-            self._loaded[name] = obj
-            return obj
+        # Imported outside the lock: a module being imported in another thread may look a
+        # plugin up, and would wait for this lock while this thread waits for its import.
+        obj = self._load_declared(name, registered.path)
+        with self._lock:
+            if self._registered.get(name) is registered:  # not replaced meanwhile
+                self._registered[name] = _Registered(registered.path, obj)
+        return obj
 
-    def _load(self, name: str, ep: importlib.metadata.EntryPoint) -> Any:
-        where = f"entry point {ep.value} ({_distribution_of_entry_point(ep)})"
+    def _entry_point_object(self, name: str) -> Any:
+        """The object of entry point ``name``, loaded once (call with the lock held)."""
+        if name in self._loaded:
+            return self._loaded[name]
+        ep = self._discover().get(name)
+        if ep is None:
+            raise self._unknown(name)
+        obj = self._load(
+            name, ep.load, lambda: f"entry point {ep.value} ({_distribution_of_entry_point(ep)})"
+        )
+        self._loaded[name] = obj
+        return obj
+
+    def _load_declared(self, name: str, path: str) -> Any:
+        """The object a registered ``module:attr`` string names, imported and checked."""
+        return self._load(
+            name,
+            lambda: _resolve(path),
+            lambda: f"{path} ({_distribution_of_module(path.partition(':')[0])})",
+        )
+
+    def _load(self, name: str, load: Callable[[], Any], where: Callable[[], str]) -> Any:
+        """``load()``, checked; an error names the plugin and ``where()`` it came from (only
+        then asked: finding a distribution's version reads package metadata)."""
         try:
-            obj = ep.load()
+            obj = load()
         except Exception as exc:
             raise PluginLoadError(
-                f"could not load {self.label} '{name}' from {where}: {type(exc).__name__}: {exc}"
+                f"could not load {self.label} '{name}' from {where()}: {type(exc).__name__}: {exc}"
             ) from exc
         problem = self._check(obj) if self._check is not None else None
         if problem is not None:
-            raise PluginLoadError(f"{self.label} '{name}' from {where} {problem}")
+            raise PluginLoadError(f"{self.label} '{name}' from {where()} {problem}")
         return obj
 
     def make(self, name: str, **options: Any) -> Any:
@@ -605,7 +610,6 @@ class Registry(Generic[T]):
         registered from a script or test that no installed distribution provides). Entry
         points are not imported for this.
         """
-        self._ensure_builtins()
         clash = self._clash(name)
         if clash is not None:
             raise DuplicatePluginError(clash)
@@ -651,25 +655,25 @@ def _check_fitness(obj: Any) -> str | None:
 body_encoders: Registry[Callable[..., BodyEncoder]] = Registry(
     "body_encoder",
     group=ENTRY_POINT_GROUPS["body_encoder"],
-    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    builtins=BUILTIN_PLUGINS["body_encoder"],
     check=_check_callable,
 )
 worlds: Registry[WorldFactory] = Registry(
     "world",
     group=ENTRY_POINT_GROUPS["world"],
-    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    builtins=BUILTIN_PLUGINS["world"],
     check=_check_callable,
 )
 controllers: Registry[Callable[..., ControllerPlugin]] = Registry(
     "controller",
     group=ENTRY_POINT_GROUPS["controller"],
-    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    builtins=BUILTIN_PLUGINS["controller"],
     check=_check_callable,
 )
 fitness_functions: Registry[FitnessFunction] = Registry(
     "fitness",
     group=ENTRY_POINT_GROUPS["fitness"],
-    builtin_modules=BUILTIN_PLUGIN_MODULES,
+    builtins=BUILTIN_PLUGINS["fitness"],
     label="fitness function",
     check=_check_fitness,
 )
@@ -699,13 +703,14 @@ def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | Non
     return result
 
 
-# The checkers need MuJoCo and the engine: imported on first use, so this module stays light.
+# The checkers' home is `ariel.evaluation` (they run the engine, a layer above this one); the
+# names here keep ``from ariel.plugins import check_all`` working, imported on first use.
 _CHECKS = ("check_all", "check_body_encoder", "check_controller", "check_fitness", "check_world")
 
 
 def __getattr__(name: str) -> Any:
     if name in _CHECKS:
-        value = getattr(importlib.import_module("ariel._plugin_checks"), name)
+        value = getattr(importlib.import_module("ariel.evaluation._checks"), name)
         globals()[name] = value  # cache: __getattr__ runs once per name
         return value
     raise AttributeError(f"module 'ariel.plugins' has no attribute {name!r}")

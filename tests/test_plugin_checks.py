@@ -12,6 +12,7 @@ import pytest
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.encoder import PrebuiltEncoder
 from ariel.ec.genotypes.nde.encoder import NDEEncoder
 from ariel.plugins import (
+    BUILTIN_PLUGINS,
     PluginCheckError,
     Registry,
     body_encoders,
@@ -278,3 +279,60 @@ def test_check_all_reports_broken_plugins_without_raising(register) -> None:
     rows = {(kind, name): error for kind, name, error in check_all()}
     assert "targets() has shape" in rows[("controller", "test_broken_ctrl")]
     assert rows[("controller", "na_cpg")] is None
+
+
+# --- checks of one plugin do not depend on another ------------------------------------------
+
+
+class RaisesEverywhere(Sine):
+    """What a user might register over "na_cpg": every call fails."""
+
+    def random_parameters(self, model: Any, rng: np.random.Generator, n: int) -> np.ndarray:
+        raise RuntimeError("broken on purpose")
+
+    def targets(self, params: Any, sample_times: Any, model: Any, *, seed: int) -> np.ndarray:
+        raise RuntimeError("broken on purpose")
+
+
+@fitness_function(maximise=True)
+def raises_when_scoring(record: Any) -> float:
+    raise RuntimeError("broken on purpose")
+
+
+@pytest.fixture
+def replace_builtin() -> Iterator[Callable[[Registry[Any], str, Any], None]]:
+    """``replace_builtin(registry, name, obj or None)``: a built-in replaced (None: removed)
+    for this test only; restored from its "module:attr" afterwards."""
+    replaced: list[tuple[Registry[Any], str]] = []
+
+    def replace(registry: Registry[Any], name: str, obj: Any) -> None:
+        if name in registry:
+            registry.unregister(name)
+        if obj is not None:
+            registry.register(name, obj)
+        replaced.append((registry, name))
+
+    yield replace
+    for registry, name in replaced:
+        if name in registry:
+            registry.unregister(name)
+        registry.register(name, BUILTIN_PLUGINS[registry.kind][name])
+
+
+def test_world_encoder_and_fitness_checks_survive_a_replaced_na_cpg(replace_builtin) -> None:
+    replace_builtin(controllers, "na_cpg", RaisesEverywhere)
+    replace_builtin(fitness_functions, "xy_displacement", raises_when_scoring)
+    # The replacements are in effect: their own checks fail ...
+    assert_fails(check_controller, "na_cpg", "random_parameters.*broken on purpose")
+    assert_fails(check_fitness, "xy_displacement", "broken on purpose")
+    # ... and the other plugins' checks, which drive the gecko with a CPG, still pass.
+    check_world("flat")
+    check_body_encoder("nde")
+    check_fitness("x_speed")
+
+
+def test_checks_need_no_registered_na_cpg_at_all(replace_builtin) -> None:
+    replace_builtin(controllers, "na_cpg", None)
+    assert "na_cpg" not in controllers
+    check_world("tilted")
+    check_fitness("distance_to_target")

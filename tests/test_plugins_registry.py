@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import types
 from typing import Any
 
 import pytest
@@ -50,6 +49,11 @@ class Beta:
 
 def fitness_without_direction(trajectory: Any) -> float:
     return 0.0
+
+
+@fitness_function(maximise=True)
+def marked_fitness(trajectory: Any) -> float:
+    return 1.0
 
 
 # --- registration ---------------------------------------------------------------------------
@@ -149,42 +153,106 @@ def test_fitness_registry_checks_direction() -> None:
         fitness_function(maximise="yes")  # type: ignore[arg-type]
 
 
-# --- lazy built-in modules ------------------------------------------------------------------
+# --- built-ins declared as "module:attr" strings --------------------------------------------
 
 
-def test_builtin_modules_are_imported_on_first_lookup(
+def test_declared_strings_are_imported_on_first_get_only(
     tmp_path: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    registry = make_registry(builtin_modules=["ariel_test_builtins_mod"])
-    holder = types.ModuleType("ariel_test_registry_holder")
-    holder.registry = registry  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "ariel_test_registry_holder", holder)
-    (tmp_path / "ariel_test_builtins_mod.py").write_text(
-        "from ariel_test_registry_holder import registry\n"
-        "@registry.register('builtin_one')\n"
-        "def builtin_one():\n"
-        "    return 1\n"
-    )
+    (tmp_path / "ariel_test_builtins_mod.py").write_text("def builtin_one():\n    return 1\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.delitem(sys.modules, "ariel_test_builtins_mod", raising=False)
+    registry = make_registry(builtins={"builtin_one": "ariel_test_builtins_mod:builtin_one"})
 
-    assert "ariel_test_builtins_mod" not in sys.modules
     assert registry.names() == ["builtin_one"]
-    assert "ariel_test_builtins_mod" in sys.modules
+    assert registry.provenance("builtin_one")["object"] == "ariel_test_builtins_mod:builtin_one"
+    assert "ariel_test_builtins_mod" not in sys.modules  # listing and provenance import nothing
     assert registry.make("builtin_one") == 1
+    assert "ariel_test_builtins_mod" in sys.modules
+    assert registry.get("builtin_one") is sys.modules["ariel_test_builtins_mod"].builtin_one
 
 
-def test_importing_plugins_loads_no_heavy_module() -> None:
+def test_a_declared_string_that_cannot_load_fails_on_use_only() -> None:
+    registry = Registry(
+        "fitness",
+        label="fitness function",
+        check=plugins._check_fitness,
+        builtins={
+            "missing_module": "ariel_test_nowhere_mod:thing",
+            "missing_attr": f"{__name__}:does_not_exist",
+            "no_direction": f"{__name__}:fitness_without_direction",
+            "marked": f"{__name__}:marked_fitness",
+        },
+    )
+    with pytest.raises(PluginLoadError, match="could not load fitness function 'missing_module'"):
+        registry.get("missing_module")
+    with pytest.raises(PluginLoadError, match=rf"'missing_attr' from {__name__}:does_not_exist"):
+        registry.get("missing_attr")
+    with pytest.raises(PluginLoadError, match="needs a bool attribute 'maximise'"):
+        registry.get("no_direction")
+    assert registry.get("marked") is marked_fitness  # unaffected
+
+
+@pytest.mark.parametrize("bad", ["no_colon", "mod:", ":attr", "a b:c", "mod:attr:more"])
+def test_register_refuses_a_malformed_declaration(bad: str) -> None:
+    with pytest.raises(ValueError, match="is not a 'module:attribute' string"):
+        make_registry().register("x", bad)
+
+
+def test_a_declared_string_and_its_object_are_one_definition() -> None:
+    registry = make_registry(builtins={"alpha": f"{__name__}:Alpha"})
+    registry.register("alpha", Alpha)  # the object the string names: no clash
+    registry.register("alpha", f"{__name__}:Alpha")  # and the string again: none either
+    assert registry.get("alpha") is Alpha
+    with pytest.raises(DuplicatePluginError, match=f"already registered \\(by {__name__}:Alpha"):
+        registry.register("alpha", Beta)
+    with pytest.raises(DuplicatePluginError):
+        registry.register("alpha", f"{__name__}:Beta")
+    declared = make_registry(builtins={"beta": f"{__name__}:Beta"})
+    assert declared.unregister("beta") is Beta  # the object, imported to be returned
+    assert "beta" not in declared
+
+
+def test_every_builtin_string_names_where_its_object_is_defined() -> None:
+    """So provenance is the same whether a built-in was registered by string or by object."""
+    assert set(plugins.BUILTIN_PLUGINS) == set(REGISTRIES)
+    for kind, table in plugins.BUILTIN_PLUGINS.items():
+        for name, path in table.items():
+            obj = plugins._resolve(path)
+            assert f"{obj.__module__}:{obj.__qualname__}" == path
+            assert REGISTRIES[kind].provenance(name) == {
+                "kind": kind,
+                "name": name,
+                "source": "registered",
+                "object": path,
+                "distribution": f"ariel=={ariel.__version__}",
+            }
+
+
+def test_importing_plugins_imports_no_engine() -> None:
+    """Listing every name and every built-in's provenance imports no plugin, engine or MuJoCo."""
     code = (
-        "import sys, ariel.plugins, ariel.evaluation\n"
-        "heavy = ['numpy', 'mujoco', 'torch', 'networkx', 'matplotlib', 'rerun', 'dask',\n"
-        "         'ariel.evaluation.builtin_plugins', 'ariel.evaluation.executors']\n"
-        "print(','.join(m for m in heavy if m in sys.modules))\n"
+        "import sys\n"
+        "from ariel.plugins import REGISTRIES\n"
+        "for registry in REGISTRIES.values():\n"
+        "    for name in registry.names():\n"
+        "        registry.provenance(name)\n"
+        "print(' '.join(sorted(m for m in sys.modules if m.startswith('ariel'))))\n"
+        "heavy = ['numpy', 'mujoco', 'torch', 'networkx', 'matplotlib', 'rerun', 'dask']\n"
+        "print(' '.join(m for m in heavy if m in sys.modules))\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout
-    assert out.strip() == ""
+    ariel_modules, heavy = out.split("\n")[:2]
+    assert ariel_modules.split() == [
+        "ariel",
+        "ariel._builtin_names",
+        "ariel._version",
+        "ariel.errors",
+        "ariel.plugins",
+    ]
+    assert heavy == ""
 
 
 # --- entry points ---------------------------------------------------------------------------

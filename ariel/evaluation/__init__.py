@@ -1,4 +1,5 @@
-"""Evaluation: evaluation tasks, the rollout engine and the executors that run them.
+"""Evaluation: evaluation tasks, the rollout engine, the executors that run them, and the
+plugin checkers (they run the engine).
 
 Cheap to import: names are loaded from their modules on first access.
 """
@@ -18,6 +19,12 @@ _LAZY: dict[str, str] = {
     "build": "ariel.evaluation._engine",
     "evaluate": "ariel.evaluation._engine",
     "evaluate_batch": "ariel.evaluation._engine",
+    # Plugin checkers (Gymnasium's check_env): they run the engine, so they live here.
+    "check_all": "ariel.evaluation._checks",
+    "check_body_encoder": "ariel.evaluation._checks",
+    "check_controller": "ariel.evaluation._checks",
+    "check_fitness": "ariel.evaluation._checks",
+    "check_world": "ariel.evaluation._checks",
     "EXECUTOR_KINDS": "ariel.evaluation.executors",
     "DaskExecutor": "ariel.evaluation.executors",
     "SerialExecutor": "ariel.evaluation.executors",

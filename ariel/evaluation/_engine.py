@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as _rollout
 
+from ariel.errors import BodyBuildError
 from ariel.evaluation._heap import steady_heap
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
 from ariel.simulation.control_callback import control_callback_unset
@@ -60,15 +61,6 @@ _BAD_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
 )
-
-
-class BodyBuildError(RuntimeError):
-    """A genotype whose body cannot be built: decoding, construction, spawning or compiling failed.
-
-    Raised by `build` only for faults of the genotype (the cause is chained), never for the
-    caller's mistakes, which propagate as they are; `evaluate_batch` turns it into ``error``
-    results, and a driver that builds bodies itself can catch just this.
-    """
 
 
 @dataclass(frozen=True)
@@ -383,7 +375,7 @@ def _open_loop(
     call_times = np.arange(0, nstep, period) * dt
     params = np.array([t.params for t in tasks], dtype=np.float64)
 
-    from ariel.evaluation.executors import evaluation_threads
+    from ariel.evaluation._threads import evaluation_threads
 
     start = _time.perf_counter()
     # The pipelined path keeps a second thread busy: only where this process has CPUs to spare.
@@ -564,7 +556,7 @@ def _finish(
 def _closed_loop(
     task: EvaluationTask, built: BuiltBody, controller: Any, fitness_fn: Any
 ) -> EvaluationResult:
-    from ariel.evaluation.builtin_plugins import hinge_observation
+    from ariel.simulation.controllers.observations import hinge_observation
 
     model = built.model
     nstep = num_steps(task, model)
@@ -644,7 +636,7 @@ def evaluate_batch(
     plugin names, options a plugin rejects and wrong parameter counts raise. A body that cannot
     be built gives ``error`` results, unstable physics ``unstable`` ones.
     """
-    from ariel.evaluation.executors import evaluation_threads
+    from ariel.evaluation._threads import evaluation_threads
 
     steady_heap()  # each batch's arrays of megabytes come and go: keep the heap from growing
     if nthread is None:

@@ -37,6 +37,8 @@ from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as wait_for_ready
 from typing import Any, TypeVar
 
+from ariel.errors import CallTimeoutError, WorkerLostError
+
 __all__ = [
     "CallTimeoutError",
     "LocalPool",
@@ -53,14 +55,6 @@ _STARTED, _DONE, _RETIRING, _BROKEN = b"S", b"D", b"R", b"B"
 # Time a call's timeout does not count: a fresh worker starting and importing what the call
 # needs (unpickling it); a worker that takes longer than this as well is stopped too.
 _START_SECONDS = 120.0
-
-
-class WorkerLostError(RuntimeError):
-    """The worker process running a call died every time the call was tried."""
-
-
-class CallTimeoutError(TimeoutError):
-    """A call gave no result within its timeout (its worker was stopped, or left behind)."""
 
 
 # --------------------------------------------------------------------------------------------

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.errors import WarpUnavailableError
 from ariel.evaluation._engine import (
     BuiltBody,
     TaskGroup,
@@ -48,14 +49,12 @@ from ariel.evaluation._engine import (
     run_groups,
 )
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
-from ariel.evaluation.executors import SerialExecutor
 
 __all__ = [
     "BACKEND",
     "DEVICES",
     "INSTALL_HINT",
     "WarpEvaluator",
-    "WarpExecutor",
     "WarpUnavailableError",
     "check_device",
     "cuda_available",
@@ -72,10 +71,6 @@ _MAX_VALUE = 1e10
 # Buffer sizes grow this many times at most when contacts or constraints overflow them.
 _MAX_GROWTH = 4
 _CACHE_SIZE = 4
-
-
-class WarpUnavailableError(RuntimeError):
-    """MuJoCo Warp is not installed, or the device asked for is not there (one line)."""
 
 
 def warp_modules() -> tuple[Any, Any]:
@@ -527,35 +522,3 @@ def _overflow_result(
         ),
         backend=backend,
     )
-
-
-# --------------------------------------------------------------------------------------------
-# The `gpu` executor
-# --------------------------------------------------------------------------------------------
-
-
-class WarpExecutor(SerialExecutor):
-    """The ``gpu`` executor: calls run here, in the driver, and batches run on a device.
-
-    `submit_batch` (what the scheduler sends each brain batch to) runs on this executor's
-    `WarpEvaluator`, with the same kind of results as `ariel.evaluation.evaluate_batch`; any
-    other call runs as in `SerialExecutor`. Its capacity is 1, so the scheduler sends a body's
-    whole batch in one call: one set of worlds.
-    """
-
-    def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
-        super().__init__()
-        self.evaluator = WarpEvaluator(device, max_worlds=max_worlds)
-
-    @property
-    def device(self) -> str:
-        return self.evaluator.device
-
-    kind = "gpu"
-
-    def submit_batch(self, tasks: list[Any], *, timeout: float | None = None) -> Any:
-        """The whole batch as one set of worlds on the device (no timeout: it runs here)."""
-        return self.submit(self.evaluator.evaluate_batch, tasks)
-
-    def __repr__(self) -> str:
-        return f"WarpExecutor(device={self.device!r})"

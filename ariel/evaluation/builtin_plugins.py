@@ -1,11 +1,11 @@
-"""In-tree plugin registrations: body encoders, worlds, controllers and fitness functions.
+"""The built-in controllers and fitness functions: small adapters over code that lives elsewhere
+in the package (the numpy CPG kernel, the tutorial's task functions); nothing here
+re-implements it.
 
-`ariel.plugins` imports this module on the first lookup in any registry (never on
-``import ariel``). Body encoders live beside their encodings (`NDEEncoder` in
-``ariel.ec.genotypes.nde.encoder``, `PrebuiltEncoder` in ``...prebuilt_robots.encoder``,
-`GraphEncoder` in ``...robogen_lite.graph_encoder``) and are only registered here; worlds,
-controllers and fitness functions are small adapters over code that lives elsewhere in the
-package; nothing here re-implements it.
+Importing this module registers nothing: the registries name these objects by
+``"module:attr"`` strings (``ariel._builtin_names``) and import this module on the first
+lookup of one of them. Body encoders live beside their encodings and worlds are their own
+factories, so neither needs an adapter here.
 """
 
 from __future__ import annotations
@@ -18,61 +18,23 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from ariel.body_phenotypes.robogen_lite.graph_encoder import GraphEncoder
-from ariel.body_phenotypes.robogen_lite.prebuilt_robots.encoder import PrebuiltEncoder
-from ariel.ec.genotypes.nde.encoder import NDEEncoder
-from ariel.plugins import body_encoders, controllers, fitness_function, fitness_functions, worlds
+from ariel.plugins import fitness_function
 from ariel.simulation.controllers import cpg_kernel
+from ariel.simulation.controllers.observations import hinge_observation
 from ariel.simulation.tasks.gait_learning import x_speed as _x_speed
 from ariel.simulation.tasks.gait_learning import xy_displacement as _xy_displacement
 from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _distance_to_target
 from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning_in_place
 
 __all__ = [
-    "GraphEncoder",
     "MLPController",
-    "NDEEncoder",
     "NaCPGController",
-    "PrebuiltEncoder",
-    "hinge_observation",
+    "distance_to_target",
+    "hinge_observation",  # re-exported from its home beside the controllers
+    "turning_in_place",
+    "x_speed",
+    "xy_displacement",
 ]
-
-
-# --------------------------------------------------------------------------------------------
-# Body encoders: each lives beside the code it encodes, with its variation operators
-# --------------------------------------------------------------------------------------------
-
-body_encoders.register("nde", NDEEncoder)
-body_encoders.register("prebuilt", PrebuiltEncoder)
-body_encoders.register("graph", GraphEncoder)
-
-
-# --------------------------------------------------------------------------------------------
-# Worlds: short names for every world class
-# --------------------------------------------------------------------------------------------
-
-
-def _world_factory(class_name: str) -> Callable[..., Any]:
-    def make(**options: Any) -> Any:
-        from ariel.simulation import environments
-
-        return getattr(environments, class_name)(**options)
-
-    make.__name__ = make.__qualname__ = f"make_{class_name}"
-    make.__doc__ = f"``{class_name}(**options)``."
-    return make
-
-
-for _name, _cls in {
-    "flat": "SimpleFlatWorld",
-    "tilted": "SimpleTiltedWorld",
-    "rugged": "RuggedTerrainWorld",
-    "rugged_tilted": "RuggedTiltedWorld",
-    "crater": "CraterTerrainWorld",
-    "amphitheatre": "AmphitheatreTerrainWorld",
-    "olympic_arena": "OlympicArena",
-}.items():
-    worlds.register(_name, _world_factory(_cls))
 
 
 # --------------------------------------------------------------------------------------------
@@ -80,7 +42,6 @@ for _name, _cls in {
 # --------------------------------------------------------------------------------------------
 
 
-@controllers.register("na_cpg")
 class NaCPGController:
     """Open-loop NA-CPG, one oscillator per actuator (the tutorial's NaCPG, batched in numpy).
 
@@ -181,22 +142,6 @@ class NaCPGController:
             yield out.astype(np.float32).astype(np.float64)
 
 
-def hinge_observation(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-    """Closed-loop input: actuated joint angles and velocities, gravity in the robot's frame.
-
-    Reads only ``qpos``/``qvel`` (current at every control call, no kinematics pass needed):
-    ``[q (nu), qdot (nu), g_body (3)]``, the gravity direction from the free joint's quaternion.
-    """
-    joints = model.actuator_trnid[:, 0]
-    q = data.qpos[model.jnt_qposadr[joints]]
-    qd = data.qvel[model.jnt_dofadr[joints]]
-    w, x, y, z = data.qpos[3:7] if model.nq >= 7 and model.jnt_type[0] == 0 else (1, 0, 0, 0)
-    # World "down" (0, 0, -1) expressed in the body frame: R^T @ (0, 0, -1).
-    g = -np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
-    return np.concatenate([q, qd, g])
-
-
-@controllers.register("mlp")
 class MLPController:
     """Closed-loop brain: a one-hidden-layer tanh network from joint state and body tilt.
 
@@ -250,14 +195,12 @@ class MLPController:
 # --------------------------------------------------------------------------------------------
 
 
-@fitness_functions.register("xy_displacement")
 @fitness_function(maximise=True)
 def xy_displacement(record: Any) -> float:
     """Planar distance between the core's first and last recorded position (m)."""
     return float(_xy_displacement(record.core_pos[0, :2], record.core_pos[-1, :2]))
 
 
-@fitness_functions.register("x_speed")
 @fitness_function(maximise=True)
 def x_speed(record: Any) -> float:
     """Mean speed along x over the run, |Δx| / duration (m/s), as upstream."""
@@ -266,7 +209,6 @@ def x_speed(record: Any) -> float:
     )
 
 
-@fitness_functions.register("distance_to_target")
 @fitness_function(maximise=False)
 def distance_to_target(record: Any, target: Any = None) -> float:
     """Planar distance from the core's final position to the target (m; minimise).
@@ -278,7 +220,6 @@ def distance_to_target(record: Any, target: Any = None) -> float:
     return float(_distance_to_target(record.core_pos[-1, :2], np.asarray(goal, float)[:2]))
 
 
-@fitness_functions.register("turning_in_place")
 @fitness_function(maximise=True)
 def turning_in_place(record: Any) -> float:
     """Total heading change of the core's path per metre of net displacement (upstream's)."""

@@ -29,6 +29,12 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from ariel.evaluation._pool import CallTimeoutError, LocalPool, WorkerLostError, call_with_timeout
+from ariel.evaluation._threads import (
+    EVAL_THREADS_VARIABLE,
+    THREAD_LIMIT_VARIABLES,
+    default_workers,
+    evaluation_threads,
+)
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -62,30 +68,10 @@ R = TypeVar("R")
 #: The executor kinds `make_executor` knows.
 EXECUTOR_KINDS: tuple[str, ...] = ("serial", "local", "dask", "gpu")
 
-#: Environment variables that size the thread pools of BLAS, OpenMP and numexpr.
-THREAD_LIMIT_VARIABLES: tuple[str, ...] = (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "BLIS_NUM_THREADS",
-    "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
-)
-
-#: Environment variable that tells `evaluation_threads` its share of the CPUs in a worker.
-EVAL_THREADS_VARIABLE = "ARIEL_EVAL_THREADS"
-
 #: Times a call is tried again after its worker died (``local``; a Dask ``LocalCluster``).
 DEFAULT_MAX_RETRIES = 2
 
 _DASK_MISSING = "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
-
-
-def default_workers() -> int:
-    """CPUs this process may use (its affinity mask where the OS has one, e.g. under SLURM)."""
-    if hasattr(os, "sched_getaffinity"):
-        return max(1, len(os.sched_getaffinity(0)))
-    return max(1, os.cpu_count() or 1)
 
 
 def _is_count(value: object) -> bool:
@@ -107,39 +93,6 @@ def worker_environment(threads: int = 1, *, workers: int | None = None) -> dict[
             raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
         env[EVAL_THREADS_VARIABLE] = str(max(1, default_workers() // workers))
     return env
-
-
-def _in_dask_worker() -> bool:
-    distributed = sys.modules.get("distributed")  # never imported just to ask
-    if distributed is None:
-        return False
-    try:
-        distributed.get_worker()
-    except ValueError:  # "No worker found": a client or plain process that imported Dask
-        return False
-    return True
-
-
-def evaluation_threads() -> int:
-    """Threads one call of `evaluate_batch` may use here: never more than the affinity mask.
-
-    In the main process: every CPU this process may use. In a worker of the ``local`` executor
-    or of a Dask ``LocalCluster`` from `make_executor`: its share of them (the
-    `EVAL_THREADS_VARIABLE` they were started with), so N workers do not each start one thread
-    per core. In a Dask worker without that variable (a remote cluster): 1, because the number
-    of workers sharing its machine is not known there; set the variable on those workers (e.g.
-    in dask-jobqueue's ``job_script_prologue``) to give them more.
-    """
-    cpus = default_workers()
-    value = os.environ.get(EVAL_THREADS_VARIABLE, "").strip()
-    if value:
-        try:
-            return min(max(1, int(value)), cpus)
-        except ValueError:
-            raise ValueError(
-                f"{EVAL_THREADS_VARIABLE} must be a whole number of threads, not {value!r}"
-            ) from None
-    return 1 if _in_dask_worker() else cpus
 
 
 # --------------------------------------------------------------------------------------------
@@ -208,6 +161,35 @@ class SerialExecutor(BatchExecutor, cf.Executor):
 
     def __repr__(self) -> str:
         return "SerialExecutor()"
+
+
+class WarpExecutor(SerialExecutor):
+    """The ``gpu`` executor: calls run here, in the driver, and batches run on a device.
+
+    `submit_batch` (what the scheduler sends each brain batch to) runs on this executor's
+    `WarpEvaluator`, with the same kind of results as `ariel.evaluation.evaluate_batch`; any
+    other call runs as in `SerialExecutor`. Its capacity is 1, so the scheduler sends a body's
+    whole batch in one call: one set of worlds.
+    """
+
+    def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
+        from ariel.evaluation._warp import WarpEvaluator  # imports no Warp until it is made
+
+        super().__init__()
+        self.evaluator = WarpEvaluator(device, max_worlds=max_worlds)
+
+    @property
+    def device(self) -> str:
+        return self.evaluator.device
+
+    kind = "gpu"
+
+    def submit_batch(self, tasks: list[Any], *, timeout: float | None = None) -> Any:
+        """The whole batch as one set of worlds on the device (no timeout: it runs here)."""
+        return self.submit(self.evaluator.evaluate_batch, tasks)
+
+    def __repr__(self) -> str:
+        return f"WarpExecutor(device={self.device!r})"
 
 
 # --------------------------------------------------------------------------------------------
@@ -553,8 +535,6 @@ def make_executor(
             raise ValueError(
                 f"the gpu executor runs in this process on one device; no workers (got {workers})"
             )
-        from ariel.evaluation._warp import WarpExecutor  # imports no Warp until it is made
-
         return WarpExecutor(**options)
     if kind == "local":
         return _make_local(workers, max_retries=max_retries, **options)

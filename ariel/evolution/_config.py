@@ -18,6 +18,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 
+from ariel.errors import ConfigError
+
 __all__ = [
     "BodyConfig",
     "BrainConfig",
@@ -31,10 +33,6 @@ __all__ = [
     "config_hash",
     "load_config",
 ]
-
-
-class ConfigError(ValueError):
-    """A bad experiment configuration: one line naming the key and what is allowed."""
 
 
 def _finite_seconds(value: float) -> float:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ariel.evolution._config import ConfigError
+from ariel.errors import ConfigError
 
 __all__ = [
     "GENOTYPE_FILE_SUFFIXES",

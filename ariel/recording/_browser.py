@@ -21,14 +21,12 @@ import subprocess
 import time
 from pathlib import Path
 
+from ariel.errors import BrowserError
+
 __all__ = ["BrowserError", "HeadlessChromium", "find_chromium"]
 
 CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome")
 CALL_TIMEOUT_S = 30.0
-
-
-class BrowserError(Exception):
-    """No browser, or the browser stopped answering: one line for the user."""
 
 
 def find_chromium() -> Path:

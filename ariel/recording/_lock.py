@@ -19,6 +19,8 @@ import time
 import warnings
 from pathlib import Path
 
+from ariel.errors import RunInUseError
+
 __all__ = [
     "LOCK_NAME",
     "RunInUseError",
@@ -38,10 +40,6 @@ try:
     import fcntl
 except ImportError:  # pragma: no cover - not POSIX
     fcntl = None  # type: ignore[assignment]
-
-
-class RunInUseError(RuntimeError):
-    """Another process is running (or resuming) this run folder."""
 
 
 def _holder_text(path: Path) -> str:

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.errors import UnknownEvaluationError
 from ariel.recording._load import Run, load_run
 from ariel.utils._gl import has_display
 
@@ -44,13 +45,6 @@ BEST = "best"
 
 # Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
 _DECISIVE = ("mujoco", "numpy", "torch", "ariel")
-
-
-class UnknownEvaluationError(KeyError):
-    """An evaluation id that is not in the run's finished generations."""
-
-    def __str__(self) -> str:  # KeyError would quote the message
-        return str(self.args[0])
 
 
 def _fitness_bits(value: float) -> bytes:

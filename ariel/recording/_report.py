@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.recording._camera import three_quarter_view
 from ariel.recording._load import Run, load_run
 from ariel.recording._report_archive import archive_figure
 
@@ -240,35 +241,6 @@ def _trajectory_figures(report: Report, frames: Any) -> None:
     _save(figure, report.folder / "joints.png", report)
 
 
-def _three_quarter_view(built: Any, size: float) -> dict[str, Any]:
-    """ "ortho-cam" overrides that frame the robot from the front-left, 30 degrees above."""
-    import mujoco
-
-    model = built.model
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    target = data.subtree_com[model.geom_bodyid[built.core_geom]].copy()
-    azimuth, elevation = math.radians(135.0), math.radians(-30.0)  # the tracking video's view
-    forward = np.array(
-        [
-            math.cos(elevation) * math.cos(azimuth),
-            math.cos(elevation) * math.sin(azimuth),
-            math.sin(elevation),
-        ]
-    )
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    frame = np.column_stack([right, up, -forward])  # a camera looks along its -z axis
-    quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, frame.ravel())
-    return {
-        "cam_pos": target - 3.0 * forward,
-        "cam_quat": quat,
-        "cam_fovy": max(0.4, 1.8 * size),  # orthographic: the visible height in metres
-    }
-
-
 def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
     import mujoco
 
@@ -283,7 +255,7 @@ def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
     size = max(float(best.get(k) or 0.0) for k in ("extent_x", "extent_y", "extent_z"))
     try:
         try:
-            view = _three_quarter_view(built, size or 1.0)
+            view = three_quarter_view(built, size or 1.0)
             image = single_frame_renderer(
                 model, mujoco.MjData(model), steps=0, width=width, height=height, **view
             )

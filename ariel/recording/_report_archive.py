@@ -30,8 +30,8 @@ def _thumbnail(run: Any, body_id: str) -> Any:
     import mujoco
 
     from ariel.evaluation._engine import build
+    from ariel.recording._camera import three_quarter_view
     from ariel.recording._replay import replay_task
-    from ariel.recording._report import _three_quarter_view
     from ariel.utils.renderers import single_frame_renderer
 
     body = run.bodies[run.bodies["body_id"] == body_id].iloc[-1]
@@ -41,7 +41,7 @@ def _thumbnail(run: Any, body_id: str) -> Any:
     size = max(float(body.get(k) or 0.0) for k in ("extent_x", "extent_y", "extent_z")) or 1.0
     data = mujoco.MjData(built.model)
     try:
-        view = _three_quarter_view(built, size)
+        view = three_quarter_view(built, size)
         return single_frame_renderer(built.model, data, steps=0, width=240, height=180, **view)
     except ValueError:  # no orthographic camera: the free camera
         return single_frame_renderer(built.model, data, steps=0, width=240, height=180)

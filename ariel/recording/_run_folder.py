@@ -24,6 +24,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from ariel.errors import NotARunError, RunStorageError
 from ariel.recording._files import (
     atomic_write_bytes,
     atomic_write_json,
@@ -56,18 +57,6 @@ def _is_temporary(path: Path) -> bool:
 def _is_leftover(path: Path) -> bool:
     """A killed writer's temporary, or the (free) lock file of a killed run."""
     return _is_temporary(path) or (path.name == LOCK_NAME and path.is_file())
-
-
-class NotARunError(ValueError):
-    """A folder that is not an ariel run folder (no readable run.json)."""
-
-
-class RunStorageError(RuntimeError):
-    """The run folder cannot be written: disk full, read-only, no permission, not a folder.
-
-    One line naming the file and the problem. The generations finished before it stay in
-    the folder, and ``ariel resume`` continues the run once the problem is fixed.
-    """
 
 
 # Problems of the storage itself, not of the run: these become a `RunStorageError`.

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+from ariel.errors import ViewError
 from ariel.recording._tables import recording_path
 from ariel.utils._gl import has_display
 
@@ -53,10 +54,6 @@ LOCALHOST = "127.0.0.1"
 READY_TIMEOUT_S = 60.0
 STOP_TIMEOUT_S = 5.0
 _EVAL_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
-
-
-class ViewError(Exception):
-    """Bad input or a missing file: one line for the user (exit code 2)."""
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 The genotype is the graph itself (``networkx.node_link_data(graph, edges="edges")``, as
 `graph_io` writes it), so it cannot vary: ``evolvable`` is False and `mutate`/`crossover`
-refuse. Registered as ``"graph"`` in `ariel.evaluation.builtin_plugins`.
+refuse. Registered as ``"graph"`` in ``ariel._builtin_names``.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import networkx as nx
 
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
-from ariel.plugins import cannot_vary
+from ariel.errors import cannot_vary
 
 if TYPE_CHECKING:
     import numpy as np

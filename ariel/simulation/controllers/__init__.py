@@ -1,5 +1,6 @@
-"""Controllers: ``Controller`` (MuJoCo callback wrapper), ``NaCPG`` (torch, tutorial API) and the
-numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the evaluation engine use.
+"""Controllers: ``Controller`` (MuJoCo callback wrapper), ``NaCPG`` (torch, tutorial API), the
+numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the evaluation engine use,
+and ``hinge_observation``, what closed-loop controllers see by default.
 
 Names load on first use, so importing ``cpg_kernel`` or ``controller`` never imports torch.
 """
@@ -16,6 +17,7 @@ if TYPE_CHECKING:
         blend_and_clip,
     )
     from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
+    from ariel.simulation.controllers.observations import hinge_observation
 
 __all__ = [
     "Controller",
@@ -23,6 +25,7 @@ __all__ = [
     "actuator_bounds",
     "blend_and_clip",
     "create_fully_connected_adjacency",
+    "hinge_observation",
 ]
 
 _MODULES = {
@@ -31,6 +34,7 @@ _MODULES = {
     "blend_and_clip": "controller",
     "NaCPG": "na_cpg",
     "create_fully_connected_adjacency": "na_cpg",
+    "hinge_observation": "observations",
 }
 
 

@@ -17,19 +17,9 @@ from typing import ClassVar
 import mujoco
 
 from ariel.body_phenotypes.robogen_lite.config import ModuleFaces, ModuleType
+from ariel.errors import FaceNotAvailableError
 
 __all__ = ["FaceNotAvailableError", "Module", "ModuleSites", "growth_axis_quat", "rgba"]
-
-
-class FaceNotAvailableError(KeyError, ValueError):
-    """A face was looked up on a module that has no site there.
-
-    It is a ``KeyError`` (dict semantics) and a ``ValueError`` (bad input), with a readable
-    one-line message (a plain ``KeyError`` would print the quoted repr of its argument).
-    """
-
-    def __str__(self) -> str:
-        return str(self.args[0]) if self.args else ""
 
 
 class ModuleSites(dict[ModuleFaces, mujoco.MjsSite]):

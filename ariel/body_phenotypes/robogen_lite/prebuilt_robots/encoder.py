@@ -2,7 +2,7 @@
 
 For brain-only experiments: the genotype is the body's name and cannot vary, so
 ``evolvable`` is False and `mutate`/`crossover` refuse. Registered as ``"prebuilt"`` in
-`ariel.evaluation.builtin_plugins`.
+``ariel._builtin_names``.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_GRAPHS, PREBUILT_ROBOTS
-from ariel.plugins import cannot_vary
+from ariel.errors import cannot_vary
 
 if TYPE_CHECKING:
     import networkx as nx

@@ -1,7 +1,7 @@
 """The ``nde`` body encoder: three float chromosomes -> NDE -> greedy decoder -> robot graph.
 
 Its variation operators (Gaussian mutation, uniform crossover) live here, with the encoding
-they vary. Registered as ``"nde"`` in `ariel.evaluation.builtin_plugins`. Imports numpy and
+they vary. Registered as ``"nde"`` in ``ariel._builtin_names``. Imports numpy and
 networkx only; torch is needed once per process, to initialise the NDE's weights.
 """
 

@@ -1,0 +1,518 @@
+"""Plugin checkers, in the spirit of Gymnasium's ``check_env``: does a plugin keep its contract?
+
+Each checker makes the plugin from its registry name, checks the protocol (attributes, methods,
+types), determinism for a seed, shapes, and plain-data round trips, then runs a short
+evaluation of the gecko (``BodySpec("prebuilt", "gecko")``, flat world, 0.5 simulated
+seconds). The first problem raises `PluginCheckError` with one line naming the plugin and what
+failed. Exposed as ``ariel.evaluation.check_*`` (and, as before, ``ariel.plugins.check_*``),
+both imported on first use: this module needs MuJoCo.
+
+Worlds and fitness functions are checked with the gecko driven by `NaCPGController` itself,
+scored by `xy_displacement` itself, not by whatever the registries now hold under "na_cpg" and
+"xy_displacement": a user may replace those names, and a check of one plugin must not fail
+for the faults of another.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import dataclasses
+import json
+import math
+import numbers
+from collections.abc import Callable, Iterator
+from typing import Any, NoReturn
+
+import mujoco
+import networkx as nx
+import numpy as np
+
+from ariel.errors import PluginCheckError
+from ariel.evaluation._engine import (
+    TrajectoryRecord,
+    _one_line,
+    _open_loop,
+    build,
+    evaluate_batch,
+    num_steps,
+)
+from ariel.evaluation._task import BodySpec, EvaluationResult, EvaluationTask, _plain
+from ariel.evaluation.builtin_plugins import NaCPGController, xy_displacement
+from ariel.plugins import REGISTRIES, body_encoders, controllers, fitness_functions, worlds
+from ariel.simulation.control_callback import control_callback_unset
+from ariel.simulation.controllers.observations import hinge_observation
+
+__all__ = ["check_all", "check_body_encoder", "check_controller", "check_fitness", "check_world"]
+
+#: The body every world, controller and fitness check runs (8 hinges, flat world).
+CHECK_BODY = BodySpec("prebuilt", "gecko")
+#: Simulated seconds of each check's evaluations: enough to move, short enough to be cheap.
+CHECK_DURATION = 0.5
+CHECK_SEED = 12345
+CHECK_CANDIDATES = 3
+
+
+class _Checker:
+    """Failure messages that all start with the plugin, e.g. ``controller 'sine': ...``."""
+
+    def __init__(self, label: str, name: str) -> None:
+        self.prefix = f"{label} {name!r}"
+
+    def fail(self, what: str) -> NoReturn:
+        raise PluginCheckError(f"{self.prefix}: {what}")
+
+    def expect(self, condition: object, what: str) -> None:
+        if not condition:
+            self.fail(what)
+
+    @contextlib.contextmanager
+    def step(self, what: str) -> Iterator[None]:
+        """Any exception inside becomes a one-line `PluginCheckError` saying which call raised."""
+        try:
+            yield
+        except PluginCheckError:
+            raise
+        except Exception as exc:
+            raise PluginCheckError(f"{self.prefix}: {what} raised {_one_line(exc)}") from exc
+
+
+def _make_call(options: dict[str, Any]) -> str:
+    return f"make(**{options})" if options else "make()"
+
+
+def _rng(seed: int = CHECK_SEED) -> np.random.Generator:
+    return np.random.default_rng(seed)
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal as plain data (arrays compared by value)."""
+    return bool(_plain(a) == _plain(b))
+
+
+def _plain_round_trip(check: _Checker, genotype: Any, what: str) -> Any:
+    """``genotype`` as the plain data stored in Parquet and sent to workers (via JSON)."""
+    with check.step(f"storing the {what} genotype as plain data (JSON)"):
+        plain = _plain(genotype)
+        back = json.loads(json.dumps(plain, allow_nan=False))
+    check.expect(back == plain, f"the {what} genotype does not survive a JSON round trip")
+    return back
+
+
+def _decoded(check: _Checker, encoder: Any, genotype: Any, what: str) -> nx.DiGraph:
+    from ariel.body_phenotypes.robogen_lite.constructor import validate_robot_graph
+
+    with check.step(f"decode({what})"):
+        graph = encoder.decode(genotype)
+    check.expect(
+        isinstance(graph, nx.DiGraph),
+        f"decode({what}) returned {type(graph).__name__}, not a networkx.DiGraph",
+    )
+    with check.step(f"validating the robot graph of decode({what})"):
+        validate_robot_graph(graph)
+    return graph
+
+
+def _expect_methods(check: _Checker, plugin: Any, names: tuple[str, ...]) -> None:
+    for method in names:
+        check.expect(callable(getattr(plugin, method, None)), f"has no method {method}()")
+
+
+def _expect_bool(check: _Checker, plugin: Any, attribute: str, hint: str = "") -> None:
+    value = getattr(plugin, attribute, None)
+    check.expect(
+        isinstance(value, bool), f"needs a bool attribute {attribute!r}, not {value!r}{hint}"
+    )
+
+
+def _expect_same_results(
+    check: _Checker, first: list[EvaluationResult], again: list[EvaluationResult]
+) -> None:
+    for a, b in zip(first, again):
+        check.expect(a.status == "ok", f"the gecko's evaluation ended {a.status!r}: {a.error}")
+        same = (
+            a.fitness == b.fitness
+            and np.array_equal(a.joint_target, b.joint_target)
+            and np.array_equal(a.core_pos, b.core_pos)
+        )
+        check.expect(same, "the same evaluation task gave different results when run again")
+
+
+def _gecko_params(count: int = CHECK_CANDIDATES) -> np.ndarray:
+    """Parameters of the reference brain for the gecko (world and fitness checks drive it)."""
+    model = build(EvaluationTask(body=CHECK_BODY)).model
+    return NaCPGController().random_parameters(model, _rng(), count)
+
+
+def _run_gecko(tasks: list[EvaluationTask], fitness_fn: Any) -> list[EvaluationResult]:
+    """Evaluate ``tasks`` (one body, one world) with the reference brain and ``fitness_fn``.
+
+    The engine's own rollout of a batch, given the objects instead of the tasks' registry
+    names, so a replaced "na_cpg" or "xy_displacement" cannot break a world's or a fitness
+    function's check.
+    """
+    return _open_loop(tasks, build(tasks[0]), NaCPGController(), fitness_fn, nthread=1)
+
+
+# --------------------------------------------------------------------------------------------
+# Body encoders
+# --------------------------------------------------------------------------------------------
+
+
+def check_body_encoder(name: str, **options: Any) -> None:
+    """Check body encoder ``name`` made with ``options``; raise `PluginCheckError` if broken.
+
+    Protocol (``name``, bool ``evolvable``, the four methods); ``random_genotype`` is
+    deterministic for a seed and plain data (JSON) whose decoding equals the original's; the
+    genotype decodes to a valid robot graph and builds, and has the ``genotype_shape`` the
+    encoder declares (if it declares one). Evolvable encoders: ``mutate`` returns
+    a new, different genotype, deterministically, and leaves its input unchanged; ``crossover``
+    leaves its parents unchanged and gives a child that decodes. Encoders with ``evolvable =
+    False``: ``mutate`` and ``crossover`` raise `NotImplementedError`.
+    """
+    check = _Checker("body encoder", name)
+    with check.step(_make_call(options)):
+        encoder = body_encoders.make(name, **options)
+    check.expect(isinstance(getattr(encoder, "name", None), str), "needs a str attribute 'name'")
+    _expect_bool(check, encoder, "evolvable")
+    _expect_methods(check, encoder, ("random_genotype", "mutate", "crossover", "decode"))
+
+    with check.step("random_genotype(rng)"):
+        genotype = encoder.random_genotype(_rng())
+        again = encoder.random_genotype(_rng())
+    plain = _plain_round_trip(check, genotype, "random")
+    check.expect(
+        _same(genotype, again), "random_genotype is not deterministic: one rng seed, two genotypes"
+    )
+    graph = _decoded(check, encoder, genotype, "a random genotype")
+    check.expect(
+        nx.utils.graphs_equal(graph, _decoded(check, encoder, plain, "its plain-data form")),
+        "a genotype and its plain-data (JSON) form decode to different graphs",
+    )
+    with check.step("building the body of a random genotype"):
+        build(EvaluationTask(body=BodySpec(name, plain, options)))
+    shape = getattr(encoder, "genotype_shape", None)
+    if shape is not None:  # what a fixed body.genotype is checked against
+        found = np.shape(plain)
+        check.expect(
+            found == tuple(shape),
+            f"genotype_shape is {tuple(shape)} but random_genotype gives shape {found}",
+        )
+
+    if encoder.evolvable:
+        _check_variation(check, encoder, genotype, plain)
+    else:
+        _check_refuses_variation(check, encoder, genotype)
+
+
+def _check_variation(check: _Checker, encoder: Any, genotype: Any, plain: Any) -> None:
+    before = copy.deepcopy(genotype)
+    with check.step("mutate(genotype, rng)"):
+        child = encoder.mutate(genotype, _rng())
+        again = encoder.mutate(genotype, _rng())
+        from_plain = encoder.mutate(plain, _rng())
+    check.expect(_same(genotype, before), "mutate changed its input genotype in place")
+    check.expect(not _same(child, genotype), "mutate returned a genotype equal to its input")
+    check.expect(_same(child, again), "mutate is not deterministic: one rng seed, two children")
+    check.expect(
+        _same(child, from_plain), "mutate gives another child for the plain-data (JSON) genotype"
+    )
+    _plain_round_trip(check, child, "mutated")
+    _decoded(check, encoder, child, "a mutated genotype")
+
+    with check.step("random_genotype(rng)"):
+        other = encoder.random_genotype(_rng(CHECK_SEED + 1))
+    other_before = copy.deepcopy(other)
+    with check.step("crossover(a, b, rng)"):
+        child = encoder.crossover(genotype, other, _rng())
+        again = encoder.crossover(genotype, other, _rng())
+    check.expect(
+        _same(genotype, before) and _same(other, other_before),
+        "crossover changed a parent genotype in place",
+    )
+    check.expect(_same(child, again), "crossover is not deterministic: one rng seed, two children")
+    _plain_round_trip(check, child, "crossover child's")
+    _decoded(check, encoder, child, "a crossover child")
+
+
+def _check_refuses_variation(check: _Checker, encoder: Any, genotype: Any) -> None:
+    calls: dict[str, Callable[[], Any]] = {
+        "mutate": lambda: encoder.mutate(genotype, _rng()),
+        "crossover": lambda: encoder.crossover(genotype, genotype, _rng()),
+    }
+    for operation, call in calls.items():
+        try:
+            call()
+        except NotImplementedError:
+            continue
+        except Exception as exc:
+            check.fail(
+                f"{operation} raised {_one_line(exc)}; with evolvable = False it must raise "
+                "NotImplementedError (see ariel.plugins.cannot_vary)"
+            )
+        check.fail(
+            f"{operation} returned a genotype although evolvable is False; it must raise "
+            "NotImplementedError (see ariel.plugins.cannot_vary)"
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# Worlds
+# --------------------------------------------------------------------------------------------
+
+
+def _model_bytes(model: mujoco.MjModel) -> bytes:
+    buffer = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return buffer.tobytes()
+
+
+def check_world(name: str, **options: Any) -> None:
+    """Check world ``name`` made with ``options``; raise `PluginCheckError` if broken.
+
+    Protocol (``spec`` is a ``mujoco.MjSpec``, ``spawn``); two worlds made with the same
+    options and the gecko spawned in each compile to identical models (no hidden randomness);
+    the gecko runs in it, stable, with a finite fitness.
+    """
+    from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
+
+    check = _Checker("world", name)
+    models = []
+    for _ in range(2):
+        with check.step(_make_call(options)):
+            world = worlds.make(name, **options)
+        check.expect(
+            isinstance(getattr(world, "spec", None), mujoco.MjSpec),
+            "needs an attribute 'spec' holding a mujoco.MjSpec",
+        )
+        _expect_methods(check, world, ("spawn",))
+        with check.step("spawning the gecko and compiling"):
+            world.spawn(PREBUILT_ROBOTS["gecko"]().spec, position=(0, 0, 0), rotation=(0, 0, 0))
+            with control_callback_unset():
+                models.append(_model_bytes(world.spec.compile()))
+    check.expect(
+        models[0] == models[1],
+        "two worlds made with the same options compile to different models (seed the world)",
+    )
+    tasks = [
+        EvaluationTask(
+            body=CHECK_BODY,
+            world=name,
+            world_options=options,
+            params=p,
+            duration=CHECK_DURATION,
+            seed=CHECK_SEED,
+        )
+        for p in _gecko_params()
+    ]
+    with check.step("evaluating the gecko"):
+        results = _run_gecko(tasks, xy_displacement)
+    for result in results:
+        check.expect(result.ok, f"the gecko's evaluation ended {result.status!r}: {result.error}")
+        check.expect(
+            math.isfinite(result.fitness) and np.all(np.isfinite(result.core_pos)),
+            "the gecko's evaluation gave a non-finite fitness or trajectory",
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# Controllers
+# --------------------------------------------------------------------------------------------
+
+
+def check_controller(name: str, **options: Any) -> None:
+    """Check controller ``name`` made with ``options`` on the gecko; raise `PluginCheckError`.
+
+    Protocol (bool ``open_loop``, the methods of its kind); ``num_parameters`` is a whole
+    number P; ``random_parameters(model, rng, n)`` is ``(n, P)``, finite and deterministic for
+    a seed. Open loop: ``targets`` is ``(B, T, nu)``, finite, deterministic for a seed, each row
+    independent of the others (batch = single), and ``iter_targets`` (if any) yields the same
+    in pieces. Closed loop: a policy maps an observation to ``(nu,)`` finite targets,
+    deterministically. Evaluations of the gecko run stable and repeat bit for bit.
+    """
+    check = _Checker("controller", name)
+    with check.step(_make_call(options)):
+        controller = controllers.make(name, **options)
+    _expect_bool(check, controller, "open_loop")
+    open_loop = controller.open_loop
+    kind_methods = ("targets",) if open_loop else ("make_policy",)
+    _expect_methods(check, controller, ("num_parameters", "random_parameters", *kind_methods))
+
+    model = build(EvaluationTask(body=CHECK_BODY)).model
+    with check.step("num_parameters(model)"):
+        size = controller.num_parameters(model)
+    check.expect(
+        isinstance(size, numbers.Integral) and not isinstance(size, bool) and size >= 0,
+        f"num_parameters(model) returned {size!r}, not a whole number >= 0",
+    )
+    n = CHECK_CANDIDATES
+    with check.step(f"random_parameters(model, rng, {n})"):
+        params = np.asarray(controller.random_parameters(model, _rng(), n), dtype=np.float64)
+        again = np.asarray(controller.random_parameters(model, _rng(), n), dtype=np.float64)
+    check.expect(
+        params.shape == (n, size),
+        f"random_parameters(model, rng, {n}) has shape {params.shape}; expected {(n, size)} "
+        "(n, num_parameters)",
+    )
+    check.expect(np.all(np.isfinite(params)), "random_parameters returned NaN or inf")
+    check.expect(
+        np.array_equal(params, again), "random_parameters is not deterministic for an rng seed"
+    )
+    if open_loop:
+        _check_targets(check, controller, params, model)
+    else:
+        _check_policy(check, controller, params, model)
+
+    tasks = [
+        EvaluationTask(
+            body=CHECK_BODY,
+            controller=name,
+            controller_options=options,
+            params=p,
+            duration=CHECK_DURATION,
+            seed=CHECK_SEED,
+        )
+        for p in params
+    ]
+    with check.step("evaluating the gecko"):
+        first, again_results = evaluate_batch(tasks, nthread=2), evaluate_batch(tasks, nthread=1)
+    _expect_same_results(check, first, again_results)
+
+
+def _check_targets(
+    check: _Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
+) -> None:
+    task = EvaluationTask(body=CHECK_BODY, duration=CHECK_DURATION)
+    times = np.arange(0, num_steps(task, model), task.control_period) * model.opt.timestep
+    expected = (params.shape[0], times.size, model.nu)
+    with check.step("targets(params, sample_times, model, seed=...)"):
+        targets = np.asarray(controller.targets(params, times, model, seed=CHECK_SEED))
+        again = np.asarray(controller.targets(params, times, model, seed=CHECK_SEED))
+        single = np.asarray(controller.targets(params[1:2], times, model, seed=CHECK_SEED))
+    check.expect(
+        targets.shape == expected,
+        f"targets() has shape {targets.shape}; expected {expected} (candidates, times, actuators)",
+    )
+    check.expect(np.all(np.isfinite(targets)), "targets() returned NaN or inf")
+    check.expect(
+        np.array_equal(targets, again), "targets() is not deterministic for one seed and params"
+    )
+    check.expect(
+        single.shape == (1, *expected[1:]) and np.array_equal(single, targets[1:2]),
+        "targets() of one candidate differ when other candidates share the batch",
+    )
+    if callable(getattr(controller, "iter_targets", None)):
+        sizes = [1, times.size - 1]
+        with check.step("iter_targets(..., chunks=[1, T - 1])"):
+            pieces = list(
+                controller.iter_targets(params, times, model, seed=CHECK_SEED, chunks=sizes)
+            )
+        joined = np.concatenate([np.asarray(p) for p in pieces], axis=1) if pieces else None
+        check.expect(
+            [np.shape(p)[1] for p in pieces] == sizes and np.array_equal(joined, targets),
+            "iter_targets() pieces differ from targets() (or have the wrong sizes)",
+        )
+
+
+def _check_policy(
+    check: _Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
+) -> None:
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    observe = getattr(controller, "observation", hinge_observation)
+    with check.step("make_policy(params, model) and policy(observation)"):
+        observation = np.asarray(observe(model, data), dtype=np.float64)
+        out = np.asarray(controller.make_policy(params[0], model)(observation.copy()))
+        again = np.asarray(controller.make_policy(params[0], model)(observation.copy()))
+    check.expect(
+        out.shape == (model.nu,), f"policy output has shape {out.shape}; expected ({model.nu},)"
+    )
+    check.expect(np.all(np.isfinite(out)), "policy returned NaN or inf")
+    check.expect(np.array_equal(out, again), "policy is not deterministic for one observation")
+
+
+# --------------------------------------------------------------------------------------------
+# Fitness functions
+# --------------------------------------------------------------------------------------------
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array = array.copy()
+    array.flags.writeable = False  # a fitness function must not edit the record it scores
+    return array
+
+
+def check_fitness(name: str, **options: Any) -> None:
+    """Check fitness function ``name`` (with fitness ``options``); raise `PluginCheckError`.
+
+    Protocol (callable, bool ``maximise``); scoring a short gecko run (a read-only record)
+    gives a finite float, the same value when scored again, and the value the engine reports.
+    """
+    check = _Checker("fitness function", name)
+    with check.step("get()"):
+        fitness = fitness_functions.get(name)
+    check.expect(callable(fitness), "is not callable as fn(record) -> float")
+    _expect_bool(
+        check, fitness, "maximise", " (mark it with @ariel.plugins.fitness_function(maximise=))"
+    )
+    # The run is scored by a built-in first, so this function is first called here, directly.
+    run = EvaluationTask(
+        body=CHECK_BODY, params=_gecko_params(1)[0], duration=CHECK_DURATION, seed=CHECK_SEED
+    )
+    (trajectory,) = _run_gecko([run], xy_displacement)
+    record = TrajectoryRecord(
+        time=_read_only(trajectory.time),
+        core_pos=_read_only(trajectory.core_pos),
+        joint_target=_read_only(trajectory.joint_target),
+        joint_angle=_read_only(trajectory.joint_angle),
+        target=build(run).target,
+    )
+    with check.step("fn(record)"):
+        value = fitness(record, **options)
+        again = fitness(record, **options)
+    check.expect(
+        isinstance(value, numbers.Real) and not isinstance(value, bool),
+        f"fn(record) returned {type(value).__name__}, not a float",
+    )
+    check.expect(math.isfinite(value), f"fn(record) returned {value} for a normal run")
+    check.expect(value == again, "fn(record) gave different values for the same record")
+    task = dataclasses.replace(run, fitness=name, fitness_options=options)
+    with check.step("evaluating the gecko"):
+        (result,) = _run_gecko([task], fitness)
+    check.expect(
+        float(value) == result.fitness,
+        f"fn(record) gave {value}, the evaluation {result.fitness}, for the same run",
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Everything registered
+# --------------------------------------------------------------------------------------------
+
+_CHECKERS: dict[str, Callable[[str], None]] = {
+    "body_encoder": check_body_encoder,
+    "world": check_world,
+    "controller": check_controller,
+    "fitness": check_fitness,
+}
+
+
+def check_all() -> list[tuple[str, str, str | None]]:
+    """Check every registered name of every kind, entry points included, with default options.
+
+    Returns ``(kind, name, error or None)`` per name, kinds in `REGISTRIES` order and names
+    sorted; nothing is raised for a broken plugin (an entry point that fails to load, or clashes
+    with another provider, is reported as its row's error).
+    """
+    report: list[tuple[str, str, str | None]] = []
+    for kind, registry in REGISTRIES.items():
+        for name in registry.names():
+            error: str | None = None
+            try:
+                _CHECKERS[kind](name)
+            except PluginCheckError as exc:
+                error = str(exc)
+            except Exception as exc:  # not expected (checkers wrap what they call): still a row
+                error = f"{registry.label} {name!r}: {_one_line(exc)}"
+            report.append((kind, name, error))
+    return report
