@@ -1,5 +1,5 @@
-"""Controllers: ``Controller`` (MuJoCo callback wrapper), ``NaCPG`` (torch, tutorial API) and the
-numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the evaluation engine use.
+"""Controllers: ``Controller`` (MuJoCo callback wrapper), ``NaCPG`` and ``SimpleCPG`` (torch,
+tutorial API) and the numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the evaluation engine use.
 
 Names load on first use, so importing ``cpg_kernel`` or ``controller`` never imports torch.
 """
@@ -16,10 +16,12 @@ if TYPE_CHECKING:
         blend_and_clip,
     )
     from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
+    from ariel.simulation.controllers.simple_cpg import SimpleCPG
 
 __all__ = [
     "Controller",
     "NaCPG",
+    "SimpleCPG",
     "actuator_bounds",
     "blend_and_clip",
     "create_fully_connected_adjacency",
@@ -31,6 +33,7 @@ _MODULES = {
     "blend_and_clip": "controller",
     "NaCPG": "na_cpg",
     "create_fully_connected_adjacency": "na_cpg",
+    "SimpleCPG": "simple_cpg",
 }
 
 
