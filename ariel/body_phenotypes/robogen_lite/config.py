@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from pydantic import BaseModel as ModuleInstance  # the real class is built on first use
 
 __all__ = [
     "ALLOWED_FACES",

@@ -1,5 +1,6 @@
 """Controllers: ``Controller`` (MuJoCo callback wrapper), ``NaCPG`` and ``SimpleCPG`` (torch,
-tutorial API) and the numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the evaluation engine use.
+tutorial API) and the numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the
+evaluation engine use.
 
 Names load on first use, so importing ``cpg_kernel`` or ``controller`` never imports torch.
 """
