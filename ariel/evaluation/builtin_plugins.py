@@ -18,9 +18,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.cppn_neat.encoder import CPPNEncoder
 from ariel.body_phenotypes.robogen_lite.graph_encoder import GraphEncoder
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.encoder import PrebuiltEncoder
 from ariel.ec.genotypes.nde.encoder import NDEEncoder
+from ariel.ec.genotypes.tree.encoder import TreeEncoder
 from ariel.plugins import body_encoders, controllers, fitness_function, fitness_functions, worlds
 from ariel.simulation.controllers import cpg_kernel
 from ariel.simulation.tasks.gait_learning import x_speed as _x_speed
@@ -29,11 +31,13 @@ from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _di
 from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning_in_place
 
 __all__ = [
+    "CPPNEncoder",
     "GraphEncoder",
     "MLPController",
     "NDEEncoder",
     "NaCPGController",
     "PrebuiltEncoder",
+    "TreeEncoder",
     "hinge_observation",
 ]
 
@@ -45,6 +49,8 @@ __all__ = [
 body_encoders.register("nde", NDEEncoder)
 body_encoders.register("prebuilt", PrebuiltEncoder)
 body_encoders.register("graph", GraphEncoder)
+body_encoders.register("tree", TreeEncoder)
+body_encoders.register("cppn", CPPNEncoder)
 
 
 # --------------------------------------------------------------------------------------------
