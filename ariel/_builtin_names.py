@@ -26,6 +26,8 @@ BUILTIN_PLUGINS: dict[str, dict[str, str]] = {
         "nde": "ariel.ec.genotypes.nde.encoder:NDEEncoder",
         "prebuilt": "ariel.body_phenotypes.robogen_lite.prebuilt_robots.encoder:PrebuiltEncoder",
         "graph": "ariel.body_phenotypes.robogen_lite.graph_encoder:GraphEncoder",
+        "tree": "ariel.ec.genotypes.tree.encoder:TreeEncoder",
+        "cppn": "ariel.body_phenotypes.robogen_lite.cppn_encoder:CPPNEncoder",
     },
     "world": {
         # The world classes are their own factories: ``SimpleFlatWorld(**options)``.
@@ -40,6 +42,11 @@ BUILTIN_PLUGINS: dict[str, dict[str, str]] = {
     "controller": {
         "na_cpg": f"{_ADAPTERS}:NaCPGController",
         "mlp": f"{_ADAPTERS}:MLPController",
+    },
+    "body_optimizer": {
+        # Above the registry's layer (ariel.evolution), hence named by string.
+        "ga": "ariel.evolution._ga:GeneticAlgorithm",
+        "map_elites": "ariel.evolution._map_elites:MapElites",
     },
     "fitness": {
         "xy_displacement": f"{_ADAPTERS}:xy_displacement",

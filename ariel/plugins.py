@@ -88,6 +88,7 @@ __all__ = [
     "World",
     "WorldFactory",
     "body_encoders",
+    "body_optimizers",
     "cannot_vary",
     "controllers",
     "fitness_function",
@@ -106,6 +107,7 @@ ENTRY_POINT_GROUPS: dict[str, str] = {
     "world": "ariel.worlds",
     "controller": "ariel.controllers",
     "fitness": "ariel.fitness",
+    "body_optimizer": "ariel.body_optimizers",
 }
 
 
@@ -678,12 +680,24 @@ fitness_functions: Registry[FitnessFunction] = Registry(
     check=_check_fitness,
 )
 
+#: Body optimizers (``body.optimizer``): classes made with ``encoder=``, ``seed=``,
+#: ``maximise=``, ``settings=`` and the config's ``body.optimizer_options``; their interface is
+#: `ariel.evolution.BodyOptimizer` (docs/evolution.md, "Body optimizers").
+body_optimizers: Registry[Callable[..., Any]] = Registry(
+    "body_optimizer",
+    group=ENTRY_POINT_GROUPS["body_optimizer"],
+    builtins=BUILTIN_PLUGINS["body_optimizer"],
+    label="body optimizer",
+    check=_check_callable,
+)
+
 #: The registries by kind (the keys of `ENTRY_POINT_GROUPS`).
 REGISTRIES: dict[str, Registry[Any]] = {
     "body_encoder": body_encoders,
     "world": worlds,
     "controller": controllers,
     "fitness": fitness_functions,
+    "body_optimizer": body_optimizers,
 }
 
 
@@ -705,12 +719,21 @@ def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | Non
 
 # The checkers' home is `ariel.evaluation` (they run the engine, a layer above this one); the
 # names here keep ``from ariel.plugins import check_all`` working, imported on first use.
-_CHECKS = ("check_all", "check_body_encoder", "check_controller", "check_fitness", "check_world")
+_CHECKS = {
+    "check_body_encoder": "ariel.evaluation._checks",
+    "check_controller": "ariel.evaluation._checks",
+    "check_fitness": "ariel.evaluation._checks",
+    "check_world": "ariel.evaluation._checks",
+    # Body optimizers are checked in ariel.evolution (a layer above the engine), and so is
+    # the whole set, which includes them.
+    "check_body_optimizer": "ariel.evolution._optimizer_checks",
+    "check_all": "ariel.evolution._optimizer_checks",
+}
 
 
 def __getattr__(name: str) -> Any:
     if name in _CHECKS:
-        value = getattr(importlib.import_module("ariel.evaluation._checks"), name)
+        value = getattr(importlib.import_module(_CHECKS[name]), name)
         globals()[name] = value  # cache: __getattr__ runs once per name
         return value
     raise AttributeError(f"module 'ariel.plugins' has no attribute {name!r}")

@@ -78,16 +78,13 @@ def _check_fitness_options(config: ExperimentConfig, fitness: Any) -> None:
 
 def _optimizer_factory(config: ExperimentConfig, encoder: Any, maximise: bool) -> Any:
     """``(**keywords) -> BodyOptimizer`` for ``body.optimizer``, made once here to check it."""
-    from ariel.evolution._ga import GeneticAlgorithm
-    from ariel.evolution._map_elites import MapElites
+    from ariel.plugins import body_optimizers
 
     body = config.body
-    known = {"ga": GeneticAlgorithm, "map_elites": MapElites}
-    if body.optimizer not in known:
-        raise ConfigError(
-            f"body.optimizer: unknown body optimizer {body.optimizer!r}; known: ga, map_elites"
-        )
-    cls = known[body.optimizer]
+    try:
+        cls = body_optimizers.get(body.optimizer)
+    except (KeyError, ValueError, ImportError) as exc:
+        raise ConfigError(f"body.optimizer: {exc}") from None
 
     def make(**keywords: Any) -> Any:
         return cls(**keywords, **body.optimizer_options)

@@ -26,7 +26,8 @@ load on a shared machine affects them alike; ``gc.collect()`` runs before every 
    currently computes one candidate at a time.
 5. build: genotype -> compiled model for a 20-module NDE body (``build(task)``), a fresh random
    genotype per sample so the build cache never hits; the one-time NDE weight creation is
-   excluded by a warm-up build.
+   excluded by a warm-up build. The same for 20-module ``tree`` and ``cppn`` bodies
+   (``build_tree_ms``, ``build_cppn_ms``).
 
 Prints a table, then as the last line one JSON object with ``tutorial_path_ratio``,
 ``fast_path_ratio``, ``batch_ratio``, ``build_ms`` and context (raw_ms, threads, versions, load).
@@ -62,7 +63,9 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
+from ariel.body_phenotypes.robogen_lite.cppn_encoder import CPPNEncoder  # noqa: E402
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko  # noqa: E402
+from ariel.ec.genotypes.tree.operators import random_tree  # noqa: E402
 from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate, evaluate_batch  # noqa: E402
 from ariel.evaluation._engine import control_sequence, num_steps  # noqa: E402
 from ariel.evaluation.builtin_plugins import NaCPGController  # noqa: E402
@@ -80,6 +83,8 @@ TARGETS = {  # name -> upper bound (ratios, except build in ms)
     "fast_path_ratio": 1.1,
     "batch_ratio": 1.15,
     "build_ms": 12.0,
+    "build_tree_ms": 12.0,
+    "build_cppn_ms": 12.0,
 }
 
 
@@ -277,19 +282,33 @@ def rollout_sampler(
     return sample, final_angles
 
 
-def bench_build(args: argparse.Namespace, rng: np.random.Generator) -> tuple[list[float], list]:
-    """``build`` of fresh 20-module NDE bodies: per-genotype seconds and module counts."""
+# Per body encoder: its options for 20-module bodies and a fresh random genotype.
+BUILD_BODIES: dict[str, tuple[dict, Callable[[np.random.Generator], object]]] = {
+    "nde": ({"number_of_modules": 20}, lambda rng: rng.random((3, 64))),
+    "tree": ({"max_modules": 20}, lambda rng: random_tree(20, rng=rng).to_dict()),
+    "cppn": (
+        {"max_modules": 20},
+        lambda rng: CPPNEncoder(max_modules=20).random_genotype(rng),
+    ),
+}
 
-    def task_for(genotype: np.ndarray) -> EvaluationTask:
-        body = BodySpec("nde", genotype, {"number_of_modules": 20})
+
+def bench_build(
+    args: argparse.Namespace, rng: np.random.Generator, encoder: str = "nde"
+) -> tuple[list[float], list]:
+    """``build`` of fresh 20-module bodies of ``encoder``: per-genotype seconds and modules."""
+    options, random_genotype = BUILD_BODIES[encoder]
+
+    def task_for(genotype: object) -> EvaluationTask:
+        body = BodySpec(encoder, genotype, options)
         return EvaluationTask(body=body, duration=args.duration)
 
-    build(task_for(rng.random((3, 64))))  # warm-up: NDE weights (torch) and imports, once
+    build(task_for(random_genotype(rng)))  # warm-up: NDE weights (torch) and imports, once
     limit_torch_threads()
     seconds: list[float] = []
     modules: list[int] = []
     for _ in range(args.genotypes):
-        task = task_for(rng.random((3, 64)))  # a new genotype: the build cache cannot hit
+        task = task_for(random_genotype(rng))  # a new genotype: the build cache cannot hit
         gc.collect()
         start = time.perf_counter()
         built = build(task)
@@ -388,6 +407,7 @@ def main(argv: list[str] | None = None) -> int:
     gait, reference, batched = samples["gait"], samples["reference"], samples["batch"]
     fast_result = fast_results[0]
     build_seconds, modules = bench_build(args, rng)
+    other_builds = {name: bench_build(args, rng, name) for name in ("tree", "cppn")}
     load_after = load_average()
 
     raw_ms = raw.best() * 1e3
@@ -446,6 +466,11 @@ def main(argv: list[str] | None = None) -> int:
         f"{len(build_seconds)} genotypes; modules per body: min {min(modules)}, median "
         f"{statistics.median(modules):g}, max {max(modules)}"
     )
+    for name, (secs, mods) in other_builds.items():
+        ms = statistics.median(secs) * 1e3
+        label = f"build, 20-module {name} body (median)"
+        print(f"{label:<44}{ms:>9.2f}{'':>8}  {verdict(f'build_{name}_ms', ms)}")
+        print(f"  min {min(secs) * 1e3:.2f} ms, max {max(secs) * 1e3:.2f} ms; modules {min(mods)}")
 
     # Same work on both sides? The tutorial and fast paths should walk the same gait, and the
     # batch reference should reproduce the engine's final joint angles.
@@ -473,6 +498,10 @@ def main(argv: list[str] | None = None) -> int:
         "raw_rollout_per_eval_ms": round(reference_ms, 3),
         "batch_vs_raw_step_ratio": round(batch_ms / raw_ms, 4),
         "build_min_ms": round(min(build_seconds) * 1e3, 3),
+        **{
+            f"build_{name}_ms": round(statistics.median(secs) * 1e3, 3)
+            for name, (secs, _mods) in other_builds.items()
+        },
         "build_modules_median": statistics.median(modules),
         "same_gait_max_diff": gait_diff,
         "duration_s": args.duration,

@@ -10,7 +10,14 @@ from pathlib import Path
 
 from _helpers import benchmark_summary, run_benchmark
 
-KEYS = ("tutorial_path_ratio", "fast_path_ratio", "batch_ratio", "build_ms")
+KEYS = (
+    "tutorial_path_ratio",
+    "fast_path_ratio",
+    "batch_ratio",
+    "build_ms",
+    "build_tree_ms",
+    "build_cppn_ms",
+)
 
 
 def test_benchmark_prints_json_summary_last(tmp_path: Path) -> None:

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 from enum import Enum
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from pydantic import BaseModel as ModuleInstance  # the real class is built on first use
 
 __all__ = [
     "ALLOWED_FACES",
@@ -12,6 +16,7 @@ __all__ = [
     "NUM_OF_ROTATIONS",
     "NUM_OF_TYPES_OF_MODULES",
     "ModuleFaces",
+    "ModuleInstance",
     "ModuleRotationsIdx",
     "ModuleRotationsTheta",
     "ModuleType",
@@ -80,3 +85,25 @@ ALLOWED_ROTATIONS: dict[ModuleType, list[ModuleRotationsIdx]] = {
     ModuleType.HINGE: list(ModuleRotationsIdx),
     ModuleType.NONE: [ModuleRotationsIdx.DEG_0],
 }
+
+
+def _module_instance_class() -> type:
+    """``ModuleInstance``: a pydantic model, built on first use (pydantic is slow to import)."""
+    from pydantic import BaseModel
+
+    class ModuleInstance(BaseModel):
+        """One module of a genotype: its type, rotation and children (``{face: child id}``)."""
+
+        type: ModuleType
+        rotation: ModuleRotationsIdx
+        links: dict[ModuleFaces, int]
+
+    ModuleInstance.__module__ = __name__
+    return ModuleInstance
+
+
+def __getattr__(name: str) -> Any:
+    if name == "ModuleInstance":
+        value = globals()["ModuleInstance"] = _module_instance_class()
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,6 +1,6 @@
-"""Controllers: ``Controller`` (MuJoCo callback wrapper), ``NaCPG`` (torch, tutorial API), the
-numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the evaluation engine use,
-and ``hinge_observation``, what closed-loop controllers see by default.
+"""Controllers: ``Controller`` (MuJoCo callback wrapper), ``NaCPG`` and ``SimpleCPG`` (torch,
+tutorial API), the numpy NA-CPG kernel (``cpg_kernel``) that both the tutorial path and the
+evaluation engine use, and ``hinge_observation``, what closed-loop controllers see by default.
 
 Names load on first use, so importing ``cpg_kernel`` or ``controller`` never imports torch.
 """
@@ -18,10 +18,12 @@ if TYPE_CHECKING:
     )
     from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
     from ariel.simulation.controllers.observations import hinge_observation
+    from ariel.simulation.controllers.simple_cpg import SimpleCPG
 
 __all__ = [
     "Controller",
     "NaCPG",
+    "SimpleCPG",
     "actuator_bounds",
     "blend_and_clip",
     "create_fully_connected_adjacency",
@@ -35,6 +37,7 @@ _MODULES = {
     "NaCPG": "na_cpg",
     "create_fully_connected_adjacency": "na_cpg",
     "hinge_observation": "observations",
+    "SimpleCPG": "simple_cpg",
 }
 
 

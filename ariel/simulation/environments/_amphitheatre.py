@@ -17,6 +17,7 @@ class AmphitheatreTerrainWorld(CompoundWorld):
     """Flat for r <= `inner_radius`, rising linearly to a plateau at `outer_radius` (r in unit
     heightmap coordinates from the centre), plus `height_of_noise` x Perlin noise. The slope
     height is floor_size[2] before MuJoCo's rescaling; the surface tops out at floor_size[2] / 2.
+    Upstream's ``ring_inner_radius`` / ``ring_outer_radius`` name the same two radii.
     """
 
     name = "amphitheatre-world"
@@ -40,7 +41,18 @@ class AmphitheatreTerrainWorld(CompoundWorld):
         timestep: float | None = None,
         mujoco_config: Any = None,
         load_precompiled: bool = True,
+        ring_inner_radius: float | None = None,
+        ring_outer_radius: float | None = None,
     ) -> None:
+        # Upstream's names for the two radii.
+        for alias, value, ours, default in (
+            ("ring_inner_radius", ring_inner_radius, inner_radius, 0.2),
+            ("ring_outer_radius", ring_outer_radius, outer_radius, 0.45),
+        ):
+            if value is not None and ours != default:
+                raise ValueError(f"give {alias} or {alias.removeprefix('ring_')}, not both")
+        inner_radius = inner_radius if ring_inner_radius is None else ring_inner_radius
+        outer_radius = outer_radius if ring_outer_radius is None else ring_outer_radius
         self.seed = seed
         self.inner_radius = inner_radius
         self.outer_radius = outer_radius

@@ -50,6 +50,9 @@ class OlympicArena(BaseWorld):
     * platform: box "finish_platform" of `platform_length`; the target (a see-through red ball
       that nothing collides with) stands at its centre, ``self.target_position``.
 
+    Upstream's ``section_length`` (half-length of the rugged and incline sections; sets both
+    lengths) and ``incline_axis`` (only "y") are accepted too.
+
     Walls `wall_height` high (above the floor beside them) run along both sides and both ends.
     Deterministic by default (seed 42); ``seed=None`` draws fresh hills.
     """
@@ -76,7 +79,22 @@ class OlympicArena(BaseWorld):
         timestep: float | None = None,
         mujoco_config: Any = None,
         load_precompiled: bool = True,
+        section_length: float | None = None,
+        incline_axis: str = "y",
     ) -> None:
+        # Upstream's keywords: `section_length` is the half-length of its rugged and incline
+        # sections (1.0 -> 2 m each, our defaults); its track also runs along +x, so only an
+        # incline about the y axis ("y", upstream's default) fits it.
+        if incline_axis != "y":
+            raise ValueError(
+                f"incline_axis must be 'y' (the track runs along +x, the incline rises toward "
+                f"the target); got {incline_axis!r}"
+            )
+        if section_length is not None:
+            if (rugged_length, incline_length) != (2.0, 2.0):
+                raise ValueError("give section_length or rugged_length/incline_length, not both")
+            full = 2.0 * as_positive_float(section_length, "section_length")
+            rugged_length = incline_length = full
         self.arena_width = as_positive_float(arena_width, "arena_width")
         self.flat_length = as_positive_float(flat_length, "flat_length")
         self.rugged_length = as_positive_float(rugged_length, "rugged_length")

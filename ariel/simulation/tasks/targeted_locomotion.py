@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ariel.simulation.tasks.gait_learning import xy_displacement
+from ariel.utils._keywords import accept_aliases
 
 __all__ = [
     "SURVIVAL_MIN_HEIGHT",
@@ -25,15 +26,28 @@ __all__ = [
 
 SURVIVAL_MIN_HEIGHT = 0.05
 """Core height (m) below which ``fitness_survival_and_locomotion`` counts the robot as fallen."""
+
+# Upstream's keyword names: ``initial_pos`` / ``final_pos`` / ``target_pos`` in the fitness
+# functions, and ``initial_position`` for the first argument of ``distance_to_target``.
+_POSITIONS = {
+    "initial_pos": "initial_position",
+    "final_pos": "final_position",
+    "target_pos": "target_position",
+}
 SURVIVAL_PENALTY = 10.0
 """Fitness of a fallen robot in ``fitness_survival_and_locomotion``."""
 
 
+@accept_aliases(
+    initial_position="final_position", final_pos="final_position", target_pos="target_position"
+)
 def distance_to_target(final_position: ArrayLike, target_position: ArrayLike) -> float:
-    """Planar distance from the final position to the target."""
+    """Planar distance from the final position to the target (upstream names the first
+    argument ``initial_position``; that keyword is accepted too)."""
     return xy_displacement(final_position, target_position)
 
 
+@accept_aliases(**_POSITIONS)
 def fitness_delta_distance(
     initial_position: ArrayLike, final_position: ArrayLike, target_position: ArrayLike
 ) -> float:
@@ -43,6 +57,7 @@ def fitness_delta_distance(
     )
 
 
+@accept_aliases(**_POSITIONS)
 def fitness_distance_and_efficiency(
     initial_position: ArrayLike,
     final_position: ArrayLike,
@@ -54,6 +69,7 @@ def fitness_distance_and_efficiency(
     return delta + 0.001 * float(total_control_effort)
 
 
+@accept_aliases(**_POSITIONS)
 def fitness_survival_and_locomotion(
     initial_position: ArrayLike,
     final_position: ArrayLike,
@@ -66,6 +82,7 @@ def fitness_survival_and_locomotion(
     return fitness_delta_distance(initial_position, final_position, target_position)
 
 
+@accept_aliases(**_POSITIONS)
 def fitness_direct_path(
     initial_position: ArrayLike,
     final_position: ArrayLike,

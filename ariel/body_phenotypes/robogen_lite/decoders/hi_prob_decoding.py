@@ -23,8 +23,14 @@ from ariel.body_phenotypes.robogen_lite.config import (
     ModuleRotationsIdx,
     ModuleType,
 )
+from ariel.body_phenotypes.robogen_lite.decoders._blueprint import (
+    draw_graph,
+    load_graph_from_json,
+    save_graph_as_json,
+)
 
-__all__ = ["HighProbabilityDecoder"]
+# The graph file helpers are importable from here too: course material imports them so.
+__all__ = ["HighProbabilityDecoder", "draw_graph", "load_graph_from_json", "save_graph_as_json"]
 
 # Lookup tables indexed by ModuleType value: which faces / rotations each type may use.
 _ALLOWED_FACE_TABLE = np.zeros((NUM_OF_TYPES_OF_MODULES, NUM_OF_FACES), dtype=bool)

@@ -10,6 +10,7 @@ import mujoco
 
 from ariel.body_phenotypes.robogen_lite.config import IDX_OF_CORE, ModuleFaces, ModuleType
 from ariel.body_phenotypes.robogen_lite.modules.module import Module, rgba
+from ariel.utils._keywords import accept_aliases
 
 __all__ = [
     "CORE_CAMERA_POS",
@@ -70,6 +71,7 @@ class CoreModule(Module):
             for face, (name, pos, quat) in CORE_SITES.items()
         ]
 
+    @accept_aliases(angle="degrees")
     def rotate(self, degrees: float) -> None:
         """The core cannot rotate: only 0 degrees is accepted (a no-op)."""
         if isinstance(degrees, bool) or not isinstance(degrees, numbers.Real):

@@ -18,6 +18,7 @@ import mujoco
 
 from ariel.body_phenotypes.robogen_lite.config import ModuleFaces, ModuleType
 from ariel.errors import FaceNotAvailableError
+from ariel.utils._keywords import accept_aliases
 
 __all__ = ["FaceNotAvailableError", "Module", "ModuleSites", "growth_axis_quat", "rgba"]
 
@@ -93,8 +94,11 @@ class Module(ABC):
     def _build(self, body: mujoco.MjsBody) -> Sequence[tuple[ModuleFaces, mujoco.MjsSite]]:
         """Add geoms, joints, actuators to ``self.spec``; return the attachment sites."""
 
+    @accept_aliases(angle="degrees")
     def rotate(self, degrees: float) -> None:
-        """Set the module's rotation about its own +y growth axis (absolute, in degrees)."""
+        """Set the module's rotation about its own +y growth axis (absolute, in degrees).
+
+        Upstream's keyword ``angle=`` is accepted too."""
         value = _check_degrees(degrees)
         self.body.quat = growth_axis_quat(value)
         self.rotation = value

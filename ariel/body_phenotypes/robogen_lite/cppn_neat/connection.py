@@ -1,0 +1,22 @@
+"""A connection gene of a CPPN-NEAT genome."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["Connection"]
+
+
+@dataclass
+class Connection:
+    """A weighted link ``in_id -> out_id``; ``innov_id`` is its innovation number (the key that
+    lines genes up in crossover)."""
+
+    in_id: int
+    out_id: int
+    weight: float
+    enabled: bool
+    innov_id: int
+
+    def copy(self) -> Connection:
+        return Connection(self.in_id, self.out_id, self.weight, self.enabled, self.innov_id)

@@ -1,0 +1,58 @@
+"""Shared base of the decoders (`Blueprint`) and the robot-graph file helpers, where upstream
+keeps them: `save_graph_as_json` / `load_graph_from_json` (from `graph_io`) and `draw_graph`.
+
+`draw_graph` imports matplotlib only when called, so importing a decoder stays light.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+
+from ariel.body_phenotypes.robogen_lite.graph_io import load_graph_from_json, save_graph_as_json
+
+__all__ = ["Blueprint", "draw_graph", "load_graph_from_json", "save_graph_as_json"]
+
+
+class Blueprint:
+    """Base of decoders that grow a graph of ``num_modules`` modules at most."""
+
+    def __init__(self, num_modules: int) -> None:
+        if isinstance(num_modules, bool) or int(num_modules) < 1:
+            raise ValueError(f"num_modules must be an int >= 1, not {num_modules!r}")
+        self.num_modules = int(num_modules)
+        self._graph: dict[int, Any] = {}
+        self.graph = nx.DiGraph()
+
+
+def draw_graph(
+    graph: nx.DiGraph,
+    title: str = "NetworkX Directed Graph",
+    save_file: str | Path | None = None,
+    *,
+    seed: int = 42,
+    dpi: int = 300,
+) -> None:
+    """Draw a robot graph (spectral layout refined by a seeded spring layout; edges labelled by
+    face). Saved to ``save_file`` when given, else shown (``plt.show()``)."""
+    import matplotlib.pyplot as plt
+
+    if graph.number_of_nodes() == 0:
+        raise ValueError("cannot draw an empty graph")
+    layout = nx.spectral_layout(graph) if graph.number_of_nodes() > 2 else None
+    pos = nx.spring_layout(graph, pos=layout, k=1.0, iterations=50, seed=seed)
+    labels = {n: f"{n}\n{a.get('type', '')}" for n, a in graph.nodes(data=True)}
+    edge_labels = {(u, v): str(a.get("face", "")) for u, v, a in graph.edges(data=True)}
+    fig, ax = plt.subplots(figsize=(8, 8))
+    try:
+        nx.draw(graph, pos, ax=ax, labels=labels, node_color="#fdca40", node_size=700, font_size=7)
+        nx.draw_networkx_edge_labels(graph, pos, edge_labels=edge_labels, ax=ax, font_size=6)
+        ax.set_title(title)
+        if save_file is None:
+            plt.show()
+        else:
+            fig.savefig(save_file, dpi=dpi, bbox_inches="tight")
+    finally:
+        plt.close(fig)

@@ -1,0 +1,141 @@
+"""`check_body_optimizer`: a body optimizer's contract, tested without physics; and `check_all`
+over every plugin kind (`ariel plugins --check`).
+
+The check drives the optimizer for three generations on made-up bodies (genotypes are short
+vectors from a checker encoder; a body's fitness and descriptors are functions of its
+genotype), so it takes milliseconds and tests only the optimizer: it must make a
+`BodyOptimizer`, ask for the number of genotypes asked for (plain data, parents taken from what
+it keeps), keep bodies it was told about, ask the same for the same seed, and give plain-data
+state from which a fresh optimizer asks exactly what it would have.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+from ariel.evaluation._checks import CHECK_SEED, _Checker, _make_call
+from ariel.evaluation._checks import check_all as _check_engine_plugins
+from ariel.evolution._state import Body
+
+__all__ = ["check_all", "check_body_optimizer"]
+
+_GENERATIONS = 3
+_SIZE = 4  # bodies asked for per generation
+
+
+class _VectorEncoder:
+    """Genotypes of four numbers; every operation draws only from the rng it is given."""
+
+    name = "check-vectors"
+    evolvable = True
+
+    def random_genotype(self, rng: np.random.Generator) -> list[float]:
+        return rng.uniform(-1.0, 1.0, 4).tolist()
+
+    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> list[float]:
+        return (np.asarray(genotype, dtype=float) + rng.normal(0.0, 0.2, 4)).tolist()
+
+    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> list[float]:
+        return np.where(rng.random(4) < 0.5, a, b).tolist()
+
+    def decode(self, genotype: Any) -> Any:
+        raise NotImplementedError("the optimizer check makes no bodies")
+
+
+def _body(number: int, proposal: Any, generation: int) -> Body:
+    """A made-up body: fitness and descriptors are functions of the genotype."""
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    g = np.asarray(proposal.genotype, dtype=float)
+    descriptors = {name: float(abs(g[i % 4])) % 1.0 for i, name in enumerate(DESCRIPTOR_NAMES)}
+    descriptors["num_limbs"] = float(int(abs(g[0]) * 4) % 8)
+    body = Body(number, proposal.genotype, list(proposal.parent_ids), generation)
+    body.descriptors, body.n_joints = descriptors, int(abs(g[1]) * 6) % 12
+    body.fitness = float(-np.sum(g**2))
+    return body
+
+
+def _make(check: _Checker, factory: Any, options: dict[str, Any]) -> Any:
+    from ariel.evolution._config import BodyConfig
+    from ariel.evolution._optimizer import BodyOptimizer
+
+    settings = BodyConfig(population=_SIZE, offspring=_SIZE, tournament=2)
+    with check.step(f"making it ({_make_call(options)})"):
+        optimizer = factory(
+            encoder=_VectorEncoder(), seed=CHECK_SEED, maximise=True, settings=settings, **options
+        )
+    check.expect(
+        isinstance(optimizer, BodyOptimizer),
+        "is no BodyOptimizer (needs population, ask, tell, state, restore)",
+    )
+    return optimizer
+
+
+def _generation(check: _Checker, optimizer: Any, generation: int, told: dict[str, Body]) -> list:
+    """One ask/tell round; returns the genotypes asked for (as JSON text)."""
+    kept = {b.body_id for b in optimizer.population}
+    with check.step(f"ask({_SIZE}) in generation {generation}"):
+        proposals = list(optimizer.ask(_SIZE))
+    check.expect(len(proposals) == _SIZE, f"ask({_SIZE}) gave {len(proposals)} genotypes")
+    asked = []
+    for proposal in proposals:
+        with check.step("storing an asked genotype as plain data (JSON)"):
+            asked.append(json.dumps(proposal.genotype, allow_nan=False))
+        unknown = set(proposal.parent_ids) - kept
+        check.expect(not unknown, f"a child's parents {sorted(unknown)} are not in its population")
+    bodies = [_body(len(told) + k, p, generation) for k, p in enumerate(proposals)]
+    told.update({b.body_id: b for b in bodies})
+    with check.step(f"tell(...) in generation {generation}"):
+        optimizer.tell(bodies)
+    population = optimizer.population
+    check.expect(population, f"keeps no body after generation {generation}")
+    check.expect(
+        {b.body_id for b in population} <= set(told),
+        "keeps bodies it was never told about",
+    )
+    return asked
+
+
+def check_body_optimizer(name: str, **options: Any) -> None:
+    """Check body optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
+    from ariel.plugins import body_optimizers
+
+    check = _Checker("body optimizer", name)
+    with check.step("loading it"):
+        factory = body_optimizers.get(name)
+    runs = []
+    for _ in range(2):  # the same seed twice: the same genotypes
+        optimizer, told = _make(check, factory, options), {}
+        runs.append([_generation(check, optimizer, g, told) for g in range(_GENERATIONS)])
+    check.expect(runs[0] == runs[1], "asks for different genotypes with the same seed")
+    with check.step("state()"):
+        state = json.loads(json.dumps(optimizer.state(), allow_nan=False))
+    restored = _make(check, factory, options)
+    with check.step("restore(state, population)"):
+        restored.restore(state, optimizer.population)
+    with check.step(f"ask({_SIZE}) after restore"):
+        again = [json.dumps(p.genotype) for p in restored.ask(_SIZE)]
+    expected = [json.dumps(p.genotype) for p in optimizer.ask(_SIZE)]
+    check.expect(again == expected, "asks for other genotypes after restore(state(), population)")
+
+
+def check_all() -> list[tuple[str, str, str | None]]:
+    """Every registered plugin of every kind checked (see `ariel.evaluation.check_all`), body
+    optimizers included: ``(kind, name, error or None)`` rows."""
+    from ariel.errors import PluginCheckError
+    from ariel.plugins import body_optimizers
+
+    report = _check_engine_plugins()
+    for name in body_optimizers.names():
+        error = None
+        try:
+            check_body_optimizer(name)
+        except PluginCheckError as exc:
+            error = str(exc)
+        except Exception as exc:  # a broken entry point: still a row
+            error = f"body optimizer {name!r}: {type(exc).__name__}: {exc}"
+        report.append(("body_optimizer", name, error))
+    return report

@@ -1,0 +1,1 @@
+"""Helpers for controllers (upstream's ``controllers.utils``)."""
