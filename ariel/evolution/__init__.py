@@ -21,6 +21,11 @@ _LAZY: dict[str, str] = {
     "WorldConfig": "ariel.evolution._config",
     "load_config": "ariel.evolution._config",
     "BrainRun": "ariel.evolution._brain",
+    "Body": "ariel.evolution._state",
+    "BodyOptimizer": "ariel.evolution._optimizer",
+    "Proposal": "ariel.evolution._optimizer",
+    "GeneticAlgorithm": "ariel.evolution._ga",
+    "MapElites": "ariel.evolution._map_elites",
     # The entry points live a layer up (`ariel.runs`: they tie a run folder to the driver);
     # these names stay here for the scripts that import them from ariel.evolution.
     "RunResult": "ariel.runs._experiment",

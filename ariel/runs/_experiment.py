@@ -241,6 +241,7 @@ def _run_info(config: ExperimentConfig, run_id: str) -> dict[str, Any]:
             "controller": config.brain.controller,
             "world": config.world.name,
             "fitness": config.task.fitness,
+            "body_optimizer": config.body.optimizer,
         }
     )
     return {
