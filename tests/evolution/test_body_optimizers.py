@@ -43,10 +43,8 @@ class RandomSearch:
         return list(self._population)
 
     def ask(self, n):
-        return [
-            Proposal(self.encoder.random_genotype(derive_rng(self.seed, "rs", self.generation, j)), [])
-            for j in range(n)
-        ]
+        draws = [derive_rng(self.seed, "rs", self.generation, j) for j in range(n)]
+        return [Proposal(self.encoder.random_genotype(rng), []) for rng in draws]
 
     def tell(self, bodies):
         sign = -1.0 if self.maximise else 1.0
@@ -116,7 +114,7 @@ def test_a_third_party_optimizer_runs_an_experiment(random_search: str, tmp_path
     run = load_run(tmp_path / "run")
     bodies = run.bodies
     assert set(bodies[bodies["is_new"]]["parent_ids"].map(len)) == {0}  # random search
-    for generation, group in bodies.groupby("generation"):
+    for _, group in bodies.groupby("generation"):
         kept = group[group["selected"]]
         assert len(kept) == 2
         assert kept["fitness"].min() >= group[~group["selected"]]["fitness"].max()
