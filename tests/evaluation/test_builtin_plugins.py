@@ -11,6 +11,7 @@ import pytest
 from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate
 from ariel.plugins import (
     body_encoders,
+    body_optimizers,
     check_all,
     check_body_encoder,
     check_controller,
@@ -67,6 +68,7 @@ def test_check_all_reports_every_registered_name() -> None:
             ("world", worlds),
             ("controller", controllers),
             ("fitness", fitness_functions),
+            ("body_optimizer", body_optimizers),
         )
         for name in registry.names()
     ]
