@@ -25,8 +25,9 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 def test_plugins_lists_every_kind_with_its_names(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["plugins"]) == 0
     lines = dict(line.split(": ", 1) for line in capsys.readouterr().out.strip().splitlines())
-    assert set(lines) == {"body_encoder", "world", "controller", "fitness"}
+    assert set(lines) == {"body_encoder", "world", "controller", "fitness", "body_optimizer"}
     assert "na_cpg" in lines["controller"] and "flat" in lines["world"]
+    assert "map_elites" in lines["body_optimizer"]
 
 
 def test_unknown_command_exits_with_usage(capsys: pytest.CaptureFixture[str]) -> None:
