@@ -79,7 +79,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     -> one line and exit 2; Ctrl-C -> how to resume."""
     from ariel.evolution import ConfigError
     from ariel.plugins import DuplicatePluginError, PluginLoadError
-    from ariel.recording import NotARunError, RunInUseError, RunStorageError
+    from ariel.recording import NotARunError, RunInUseError, RunStorageError, UnsafePathError
 
     try:
         result = start()  # type: ignore[operator]
@@ -87,6 +87,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
         ConfigError,
         FileExistsError,
         NotARunError,
+        UnsafePathError,
         DuplicatePluginError,
         PluginLoadError,
         RunInUseError,
@@ -283,11 +284,11 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         )
     _headless_unless_display()
     from ariel.recording import NotARunError
-    from ariel.recording._replay import UnknownEvaluationError, replay
+    from ariel.recording._replay import MissingPluginError, UnknownEvaluationError, replay
 
     try:
         replayed = replay(args.run_dir, args.eval_id)
-    except (NotARunError, UnknownEvaluationError) as exc:
+    except (NotARunError, UnknownEvaluationError, MissingPluginError) as exc:
         return _fail(str(exc))
     row = replayed.row
     print(
@@ -326,15 +327,41 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     _headless_unless_display()
-    from ariel.recording import NotARunError
+    from ariel.recording import NotARunError, UnsafePathError
     from ariel.recording._report import make_report, print_report
 
     try:
         report = make_report(args.run_dir, render=not args.no_render)
-    except NotARunError as exc:
+    except (NotARunError, UnsafePathError) as exc:
         return _fail(str(exc))
     print_report(report)
     return 0
+
+
+EXIT_DAMAGED = 1
+
+
+def _cmd_verify(args: argparse.Namespace) -> int:
+    from ariel.recording import NotARunError
+    from ariel.recording._manifest import verify_run
+
+    try:
+        result = verify_run(args.run_dir)
+    except NotARunError as exc:
+        return _fail(str(exc))
+    for problem in result.problems:
+        print(f"damaged: {problem}")
+    how = (
+        "size and SHA-256 of every table"
+        if result.checked
+        else "presence and readability of the tables only: a run made before manifests"
+    )
+    verdict = f"{len(result.problems)} damaged file(s)" if result.problems else "ok"
+    print(
+        f"{verdict}: {args.run_dir}: {result.generations} finished generation(s), "
+        f"{result.files} file(s), {result.bytes / 1e6:.1f} MB checked ({how})"
+    )
+    return EXIT_DAMAGED if result.problems else 0
 
 
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
@@ -399,6 +426,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-render", action="store_true", help="leave out the rendered image of the best body"
     )
     p.set_defaults(func=_cmd_report)
+
+    p = sub.add_parser(
+        "verify",
+        help="check a run folder against its manifest (exit 1 when a file is damaged)",
+        description="Check every finished generation's tables against the run's manifest "
+        "(size and SHA-256), like `git fsck`: prints each damaged file; exit 0 when the folder "
+        "is sound, 1 when damaged, 2 when it is not a run folder.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.set_defaults(func=_cmd_verify)
 
     p = sub.add_parser("plugins", help="list the registered plugins of every kind")
     p.add_argument(

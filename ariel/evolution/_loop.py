@@ -201,7 +201,7 @@ class _Experiment:
         self._frames: dict[tuple[int, int, int], Any] = {}
         self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
         self.rows_written = 0  # evaluations rows of the last generation written
-        self.failed_written: dict[str, int] = {}  # of those: "error" and "unstable" counts
+        self.failed_written: dict[str, int] = {}  # of those: counts of each failed status
         self.recorder = None  # Rerun recordings (record.rerun), `_recorder.RerunRecorder`
         self._recordings: list[dict[str, Any]] = []  # evaluations waiting for their recording
         if config.record.rerun:
@@ -496,6 +496,7 @@ class _Experiment:
 
     def write_generation(self, generation: int, bodies: list[tuple[Body, bool, bool]]) -> None:
         from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+        from ariel.recording._load import FAILED_STATUSES
         from ariel.recording._tables import evaluation_schema, trajectory_columns, write_table
 
         def columns(rows: list[dict[str, Any]], schema: Any) -> dict[str, list[Any]]:
@@ -504,7 +505,7 @@ class _Experiment:
         rows = [self._rows[key] for key in sorted(self._rows)]
         self.rows_written = len(rows)
         self.failed_written = {
-            status: sum(row["status"] == status for row in rows) for status in ("error", "unstable")
+            status: sum(row["status"] == status for row in rows) for status in FAILED_STATUSES
         }
         write_table(self.folder.path, "evaluations", generation, columns(rows, evaluation_schema()))
         if self.config.record.trajectories:
@@ -635,6 +636,7 @@ def _drive(
     from threadpoolctl import threadpool_limits
 
     from ariel.evaluation import make_executor
+    from ariel.recording._manifest import write_manifest
     from ariel.recording._run_folder import now
 
     config, folder = experiment.config, experiment.folder
@@ -676,6 +678,7 @@ def _drive(
             for generation in range(first, config.generations):
                 progress.start_generation(generation)
                 state = _one_generation(experiment, state, generation, executor, capacity, progress)
+                write_manifest(folder.path, generation)  # before the checkpoint: see _manifest
                 state.evaluations_done += experiment.rows_written
                 state.budget_done = progress.done
                 state.wall_seconds = wall_before + time.perf_counter() - start
@@ -811,6 +814,7 @@ def run_experiment(
     """
     from ariel.plugins import plugin_provenance
     from ariel.recording._lock import RunLock
+    from ariel.recording._manifest import MANIFEST_FORMAT
     from ariel.recording._run_folder import (
         RunFolder,
         git_commit,
@@ -855,10 +859,14 @@ def run_experiment(
         "created": now(),
         "generations_done": 0,
         "evaluations_done": 0,
+        # What readers need without the run's plugins (report, load_run, runs, view).
+        "maximise": plugins.maximise,
+        "brain_only": experiment.brain_only,
+        "manifests": MANIFEST_FORMAT,
     }
     # The lock is held for the whole run; create() checks the folder again under it.
     with storage_errors(path), RunLock(path, create=True):
-        RunFolder.create(path, info, overwrite=overwrite, locked=True)
+        RunFolder.create(path, info, overwrite=overwrite, locked=True).start_segment("run")
         return _drive(experiment, None, kind, workers, scheduler, progress)
 
 
@@ -925,6 +933,7 @@ def resume_experiment(
     run that another process is running (`RunInUseError`), before writing anything.
     """
     from ariel.recording._lock import RunLock
+    from ariel.recording._manifest import adopt_manifests
     from ariel.recording._run_folder import RunFolder, storage_errors
 
     folder = RunFolder(run_dir)
@@ -940,7 +949,9 @@ def resume_experiment(
     with storage_errors(folder.path), RunLock(folder.path):
         # Again under the lock: another resume may have run (or finished) the run meanwhile.
         info, config, state = _resumable(folder)
+        adopt_manifests(folder, state.generation + 1 if state is not None else 0)
         folder.discard_after(state.generation if state is not None else -1)
+        folder.start_segment("resume")
         experiment = _Experiment(config, plugins, folder, info["run_id"])
         return _drive(experiment, state, kind, workers, scheduler, progress)
 

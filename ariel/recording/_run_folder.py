@@ -36,9 +36,11 @@ from ariel.recording._tables import TABLES, generation_file, table_generations
 __all__ = [
     "CHECKPOINT_FORMAT",
     "RUN_FORMAT",
+    "DamagedRunError",
     "NotARunError",
     "RunFolder",
     "RunStorageError",
+    "damaged",
     "now",
     "software_versions",
     "storage_errors",
@@ -60,6 +62,19 @@ def _is_leftover(path: Path) -> bool:
 
 class NotARunError(ValueError):
     """A folder that is not an ariel run folder (no readable run.json)."""
+
+
+class DamagedRunError(NotARunError):
+    """A run folder whose records differ from what was written (a file missing, cut short,
+    changed): one line naming the file. ``ariel verify`` lists every such file."""
+
+
+def damaged(run_dir: str | Path, name: str, problem: str) -> DamagedRunError:
+    """The one line for a damaged file ``name`` (relative to ``run_dir``) of a run."""
+    return DamagedRunError(
+        f"run folder {str(run_dir)!r} is damaged: {name} {problem}; restore the folder from a "
+        f"copy (`ariel verify {shlex.quote(str(run_dir))}` lists every damaged file)"
+    )
 
 
 class RunStorageError(RuntimeError):
@@ -141,6 +156,17 @@ def software_versions() -> dict[str, str | None]:
         except importlib.metadata.PackageNotFoundError:
             versions[name] = None
     return versions
+
+
+def software_segment(kind: str, *, generation: Any = 0) -> dict[str, Any]:
+    """One entry of run.json's ``segments``: who ran the run from ``generation`` on."""
+    return {
+        "kind": kind,
+        "from_generation": generation,
+        "started": now(),
+        "versions": software_versions(),
+        "git_commit": git_commit(),
+    }
 
 
 def git_commit() -> str | None:
@@ -250,7 +276,19 @@ class RunFolder:
         return info
 
     def write_info(self, info: dict[str, Any]) -> None:
-        atomic_write_json(self.run_json, info)
+        atomic_write_json(self.run_json, info, root=self.path)
+
+    def start_segment(self, kind: str) -> dict[str, Any]:
+        """Record in run.json the software of this process, which now runs the run: ``kind``
+        "run" (the first segment) or "resume" (each resume adds one). Versions and commit are
+        read here, never carried over from run.json (which anyone may have edited)."""
+        info = self.read_info()
+        segments = info.get("segments")
+        segments = list(segments) if isinstance(segments, list) else []
+        segments.append(software_segment(kind, generation=info.get("generations_done", 0)))
+        info["segments"] = segments
+        self.write_info(info)
+        return info
 
     def update_info(self, **changes: Any) -> dict[str, Any]:
         info = self.read_info()
@@ -262,7 +300,7 @@ class RunFolder:
 
     def save_checkpoint(self, state: Any) -> None:
         payload = {"format": CHECKPOINT_FORMAT, "state": state}
-        atomic_write_bytes(self.checkpoint, pickle.dumps(payload, protocol=5))
+        atomic_write_bytes(self.checkpoint, pickle.dumps(payload, protocol=5), root=self.path)
 
     def load_checkpoint(self) -> Any | None:
         """The last saved state, or None when no generation finished yet."""
@@ -286,10 +324,22 @@ class RunFolder:
         return table_generations(self.path, table)
 
     def discard_after(self, generation: int) -> list[Path]:
-        """Delete table files and Rerun recordings of generations after ``generation``, and
-        temporaries (resume)."""
+        """Delete table files, manifests and Rerun recordings of generations after
+        ``generation``, and temporaries (resume)."""
+        from ariel.recording._manifest import MANIFEST_DIR
+
         removed = list(remove_temporaries(self.path))
+        manifests = self.path / MANIFEST_DIR
+        if manifests.is_dir() and not manifests.is_symlink():
+            for path in sorted(manifests.iterdir()):
+                found = re.fullmatch(r"gen-(\d{6})\.json", path.name)
+                if found and int(found.group(1)) > generation:
+                    with contextlib.suppress(FileNotFoundError):
+                        path.unlink()
+                    removed.append(path)
         for table in TABLES:
+            if (self.path / table).is_symlink():  # deleting through it would delete elsewhere
+                continue
             for gen in table_generations(self.path, table):
                 if gen > generation:
                     path = generation_file(self.path, table, gen)
@@ -297,10 +347,13 @@ class RunFolder:
                         path.unlink()
                     removed.append(path)
         recordings = self.path / "recordings"
-        if recordings.is_dir():
+        if recordings.is_dir() and not recordings.is_symlink():  # a link may lead elsewhere
             for folder in sorted(recordings.iterdir()):
                 found = re.fullmatch(r"gen-(\d{6})", folder.name)
-                if found and int(found.group(1)) > generation and folder.is_dir():
+                if found and int(found.group(1)) > generation and folder.is_symlink():
+                    folder.unlink()
+                    removed.append(folder)
+                elif found and int(found.group(1)) > generation and folder.is_dir():
                     shutil.rmtree(folder, ignore_errors=True)
                     removed.append(folder)
         return removed

@@ -84,14 +84,6 @@ def best_evaluations(evaluations: Any, k: int, *, maximise: bool) -> Any:
     return ok.sort_values("fitness", ascending=not maximise, kind="stable").head(k)
 
 
-def _maximise(evaluations: Any) -> bool:
-    if not len(evaluations):
-        return True
-    from ariel.plugins import fitness_functions
-
-    return bool(fitness_functions.get(str(evaluations["fitness_fn"].iloc[0])).maximise)
-
-
 def _no_recordings(run: Any) -> ViewError:
     rerun_on = bool(run.config.get("record", {}).get("rerun", False))
     why = (
@@ -158,7 +150,9 @@ def select_recordings(
         raise ViewError(f"no recordings of generation {generation} in {folder}")
 
     evaluations = run.evaluations
-    ranked = best_evaluations(evaluations, best or 1, maximise=_maximise(evaluations))
+    ranked = best_evaluations(
+        evaluations, best or 1, maximise=run.maximise if len(evaluations) else True
+    )
     paths = [recording_path(folder, g, e) for g, e in zip(ranked["generation"], ranked["eval_id"])]
     if best is not None:
         missing = [p for p in paths if not p.is_file()]
