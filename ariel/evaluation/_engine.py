@@ -14,7 +14,8 @@
 * Failures: the caller's mistakes (unknown plugin names, options a plugin rejects, a wrong
   number of parameters) raise at once. A genotype whose body cannot be built gives status
   ``error`` (`BodyBuildError` inside), physics instability (MuJoCo warnings such as bad
-  accelerations, NaN or inf state) status ``unstable``; both with the worst fitness.
+  accelerations, NaN or inf state) status ``unstable``, a fitness function that returns NaN or
+  an infinity status ``invalid`` (the value's text in ``error``); all with the worst fitness.
 """
 
 from __future__ import annotations
@@ -303,7 +304,7 @@ def _score(name: str, fitness_fn: Any, options: dict[str, Any], record: Trajecto
     except (TypeError, ValueError) as exc:  # e.g. a bad option value: the caller's mistake
         kind = TypeError if isinstance(exc, TypeError) else ValueError
         raise kind(f"fitness function {name!r} failed with options {options}: {exc}") from exc
-    return value if math.isfinite(value) else _worst(fitness_fn.maximise)
+    return value  # possibly NaN or infinite: the caller records it as ``invalid``
 
 
 def _one_line(exc: BaseException) -> str:
@@ -535,12 +536,20 @@ def _finish(
         joint_angle=qpos[:, built.joint_qpos],
         target=built.target,
     )
-    fitness = _score(task.fitness, fitness_fn, task.fitness_options, record) if stable else None
+    fitness, status = _worst(fitness_fn.maximise), "unstable"
+    error = "physics became unstable (MuJoCo warning or non-finite state)"
+    if stable:
+        value = _score(task.fitness, fitness_fn, task.fitness_options, record)
+        if math.isfinite(value):
+            fitness, status, error = value, "ok", ""
+        else:  # a number no ranking can use: kept out of the optimisers, its text recorded
+            status = "invalid"
+            error = f"fitness function {task.fitness!r} returned {value!r}, not a finite number"
     return EvaluationResult(
         eval_id=task.eval_id,
-        fitness=fitness if fitness is not None else _worst(fitness_fn.maximise),
-        status="ok" if stable else "unstable",
-        error="" if stable else "physics became unstable (MuJoCo warning or non-finite state)",
+        fitness=fitness,
+        status=status,
+        error=error,
         descriptors=dict(built.descriptors),
         sim_time=float(times[-1]),
         wall_time=wall,

@@ -310,6 +310,7 @@ class _Experiment:
     ) -> None:
         from ariel.evaluation import evaluate_batch
         from ariel.evaluation.executors import submit_with_timeout, worker_fault
+        from ariel.evolution._checks import plugin_failure
 
         in_flight: dict[cf.Future, tuple[_Job, Any]] = {}
         batches: dict[int, dict[str, Any]] = {}
@@ -359,13 +360,14 @@ class _Experiment:
                         results = future.result()
                     except Exception as exc:
                         reason = worker_fault(exc)  # its worker died too often, or a timeout
-                        if reason is None:
-                            raise
                         if len(part) > 1:  # one at a time: the bad one fails, the rest finish
                             batch["left"] += len(part) - 1
                             for i in part:
                                 send(job, batch["tasks"], [i])
                             continue
+                        if reason is None:  # the evaluation raised: a plugin failed
+                            task = batch["tasks"][part[0]]
+                            raise plugin_failure(self.folder.path, self.config, task, exc) from exc
                         results = [self.failed_result(batch["tasks"][part[0]], reason)]
                     for i, result in zip(part, results):
                         batch["results"][i] = result
@@ -812,6 +814,8 @@ def run_experiment(
     ``progress``: None shows progress (live on a terminal), False prints nothing.
     Everything is validated before anything is written.
     """
+    from ariel.evaluation.executors import default_workers
+    from ariel.evolution._checks import check_plugins, check_resources, refuse_in_spawned_child
     from ariel.plugins import plugin_provenance
     from ariel.recording._lock import RunLock
     from ariel.recording._manifest import MANIFEST_FORMAT
@@ -823,6 +827,7 @@ def run_experiment(
         storage_errors,
     )
 
+    refuse_in_spawned_child()
     config = load_config(config, overrides)
     kind = executor or config.executor.kind
     workers = workers if workers is not None else config.executor.workers
@@ -838,6 +843,14 @@ def run_experiment(
     experiment = _Experiment(config, plugins, RunFolder(path), run_id)
     if experiment.brain_only:
         _check_fixed_body(experiment)
+    check_plugins(config)
+    check_resources(
+        config,
+        plugins.encoder,
+        brain_only=experiment.brain_only,
+        capacity=1 if kind in ("serial", "gpu") else workers or default_workers(),
+        local_workers=kind in ("local", "serial") or (kind == "dask" and scheduler is None),
+    )
     provenance = plugin_provenance(
         {
             "body_encoder": config.body.encoder,
@@ -932,6 +945,7 @@ def resume_experiment(
     Refuses a folder that is not a run, a finished run, a run whose config was edited, and a
     run that another process is running (`RunInUseError`), before writing anything.
     """
+    from ariel.evolution._checks import check_plugins
     from ariel.recording._lock import RunLock
     from ariel.recording._manifest import adopt_manifests
     from ariel.recording._run_folder import RunFolder, storage_errors
@@ -946,6 +960,7 @@ def resume_experiment(
         scheduler = scheduler if scheduler is not None else last.get("scheduler")
     _check_executor(kind, workers, scheduler, config.executor.device)
     plugins = _resolve(config)
+    check_plugins(config)
     with storage_errors(folder.path), RunLock(folder.path):
         # Again under the lock: another resume may have run (or finished) the run meanwhile.
         info, config, state = _resumable(folder)
