@@ -8,11 +8,13 @@ one line on stderr and exit code 2, before anything is written.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import re
 import shlex
+import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -74,6 +76,38 @@ def _print_result(result: object) -> None:
     print(_how_to_look(Path(r.run_dir)))  # type: ignore[attr-defined]
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised where Ctrl-C would be: the run stops the same way."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """SIGTERM (a batch system, ``kill``) and SIGHUP (a closed terminal or SSH session) stop a
+    run as Ctrl-C does: status ``interrupted``, the lock released, resumable. Once: a second
+    signal meanwhile ends the process at once (the default), as a second Ctrl-C would."""
+    wanted = [s for s in (signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None]
+
+    def interrupt(signum: int, frame: object) -> None:
+        for number in wanted:
+            signal.signal(number, signal.SIG_DFL)
+        raise _Terminated(signum)
+
+    try:
+        previous = {number: signal.signal(number, interrupt) for number in wanted}
+    except ValueError:  # not the main thread: signals are not ours to take
+        yield
+        return
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
 def _run_guarded(start: object, path_hint: str | None) -> int:
     """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
     -> one line and exit 2; Ctrl-C -> how to resume."""
@@ -82,7 +116,8 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     from ariel.recording import NotARunError, RunInUseError, RunStorageError, UnsafePathError
 
     try:
-        result = start()  # type: ignore[operator]
+        with _signals_interrupt():
+            result = start()  # type: ignore[operator]
     except (
         ConfigError,
         FileExistsError,
@@ -94,10 +129,12 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
         RunStorageError,
     ) as exc:
         return _fail(str(exc))
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         hint = f"; continue it with: ariel resume {path_hint}" if path_hint else ""
-        print(f"\ninterrupted{hint}", file=sys.stderr)
-        return 130
+        signum = exc.signum if isinstance(exc, _Terminated) else signal.SIGINT
+        how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
+        print(f"\ninterrupted{how}{hint}", file=sys.stderr)
+        return 128 + int(signum)
     _print_result(result)
     return 0
 

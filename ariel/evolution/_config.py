@@ -278,8 +278,8 @@ def load_config(
         path = Path(source) if source is not None else default_config_path()
         if source is None and not path.is_file():  # an installed package without experiments/
             return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
-        if not path.is_file():
-            raise ConfigError(f"config file {str(path)!r} not found")
+        if not path.is_file():  # never opened: reading a FIFO would wait forever
+            raise ConfigError(f"config file {str(path)!r} {_not_a_file(path)}")
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except tomllib.TOMLDecodeError as exc:
@@ -288,6 +288,27 @@ def load_config(
             raise ConfigError(f"{path}: not a UTF-8 text file") from None
         data = _genotype_file_beside(data, path)
     return _validate(apply_overrides(data, overrides))
+
+
+def _not_a_file(path: Path) -> str:
+    """What ``path`` is instead of a TOML file, e.g. ``is a folder``."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return "not found"
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror})"
+    kinds = (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISCHR, "a character device (like /dev/null)"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISFIFO, "a named pipe (FIFO)"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    what = next((name for test, name in kinds if test(mode)), "not a regular file")
+    return f"is {what}, not a TOML file"
 
 
 def _genotype_file_beside(data: dict[str, Any], config_path: Path) -> dict[str, Any]:
