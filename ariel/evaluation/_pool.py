@@ -63,6 +63,9 @@ _STARTED, _DONE, _RETIRING, _BROKEN = b"S", b"D", b"R", b"B"
 _START_SECONDS = 120.0
 # Exit status of a worker whose driver died (no one reads it; for `ps` and tests).
 _ORPHANED_EXIT = 3
+#: Exit status of a worker that cannot start at all (EX_CONFIG), e.g. its re-import of the
+#: driver's script refused to go on: the pool fails at once, no call is retried.
+WORKER_CANNOT_START = 78
 
 
 class WorkerLostError(RuntimeError):
@@ -198,6 +201,7 @@ class _Worker:
     deadline: float | None = None
     retiring: bool = False
     killed: str = ""  # why the pool killed it ("timeout", "closed"): not the call's fault
+    spoke: bool = False  # it sent a message: it started
 
 
 def _settle(call: _Call, data: bytes) -> None:
@@ -397,6 +401,7 @@ class _Driver:
         try:
             while worker.conn.poll():
                 data = worker.conn.recv_bytes()
+                worker.spoke = True
                 tag = data[:1]
                 if tag == _STARTED:
                     call = worker.call
@@ -425,6 +430,12 @@ class _Driver:
             if worker in self.workers:
                 self.workers.remove(worker)
         worker.conn.close()
+        if not worker.spoke and worker.process.exitcode == WORKER_CANNOT_START:
+            self._fail_everything(
+                f"a worker process could not start (exit code {WORKER_CANNOT_START}; its "
+                "stderr says why)"
+            )
+            return
         call, worker.call = worker.call, None
         if call is None or worker.killed == "timeout":  # `_time_out` fails the future
             return

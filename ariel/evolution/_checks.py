@@ -14,7 +14,6 @@
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
 import shlex
 import sys
@@ -50,14 +49,33 @@ def refuse_in_spawned_child() -> None:
     """`ConfigError` when this process is a multiprocessing child (a pool worker): a script that
     calls ``run_experiment`` without ``if __name__ == "__main__":`` runs again in each worker
     the spawn and forkserver start methods start, which would start a run in each of them."""
-    if multiprocessing.parent_process() is None:
-        return
-    main = sys.modules.get("__main__")
-    script = getattr(main, "__file__", None) or "your script"
-    raise ConfigError(
-        f"run_experiment was called inside a worker process (it re-imported {script}); put "
-        'the script\'s top-level code under `if __name__ == "__main__":` (docs/evolution.md)'
+    # (multiprocessing.parent_process() is still None while a child re-imports the script.)
+    if not _importing_main_again():
+        return  # a child that calls run_experiment from a function it was given is fine
+    from ariel.evaluation._pool import WORKER_CANNOT_START
+
+    main = sys.modules.get("__mp_main__") or sys.modules.get("__main__")
+    script = getattr(main, "__file__", None) or "the script"
+    print(
+        f"ariel: error: a worker process re-imported {script}, whose top level calls "
+        'run_experiment: put that code under `if __name__ == "__main__":`',
+        file=sys.stderr,
+        flush=True,
     )
+    # The pool sees this exit code and stops (`LocalPool`). Not an exception: a traceback per
+    # worker would bury the line, and forkserver turns any exit of its child into code 1.
+    os._exit(WORKER_CANNOT_START)
+
+
+def _importing_main_again() -> bool:
+    """Whether a module-level frame of ``__mp_main__`` (the script, re-imported by spawn or
+    forkserver in a worker) is on the stack: the call comes from the script's top level."""
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_code.co_name == "<module>" and frame.f_globals.get("__name__") == "__mp_main__":
+            return True
+        frame = frame.f_back
+    return False
 
 
 # --------------------------------------------------------------------------------------------
@@ -224,8 +242,12 @@ def plugin_failure(
 ) -> PluginFailedError:
     """The `PluginFailedError` for ``exc``, raised evaluating ``task``; writes the full
     traceback (with the worker's, when it came from one) to ``RUN/error.log`` first."""
+    from concurrent.futures.process import BrokenProcessPool
+
     from ariel.recording._files import atomic_write_bytes
 
+    if isinstance(exc, BrokenProcessPool):  # the pool, not an evaluation, failed
+        return PluginFailedError(f"the executor's workers failed: {exc}")
     first = (f"{type(exc).__name__}: {exc}".splitlines() or [""])[0]
     text = "".join(traceback.format_exception(exc))
     log = Path(run_dir) / ERROR_LOG
