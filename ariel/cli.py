@@ -112,6 +112,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
     -> one line and exit 2; Ctrl-C -> how to resume."""
     from ariel.evolution import ConfigError
+    from ariel.evolution._checks import PluginFailedError
     from ariel.plugins import DuplicatePluginError, PluginLoadError
     from ariel.recording import NotARunError, RunInUseError, RunStorageError, UnsafePathError
 
@@ -127,6 +128,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
         PluginLoadError,
         RunInUseError,
         RunStorageError,
+        PluginFailedError,
     ) as exc:
         return _fail(str(exc))
     except KeyboardInterrupt as exc:

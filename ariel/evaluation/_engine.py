@@ -304,7 +304,16 @@ def _score(name: str, fitness_fn: Any, options: dict[str, Any], record: Trajecto
     except (TypeError, ValueError) as exc:  # e.g. a bad option value: the caller's mistake
         kind = TypeError if isinstance(exc, TypeError) else ValueError
         raise kind(f"fitness function {name!r} failed with options {options}: {exc}") from exc
+    except Exception as exc:
+        raise _blame(exc, f"fitness function {name!r}") from None
     return value  # possibly NaN or infinite: the caller records it as ``invalid``
+
+
+def _blame(exc: BaseException, plugin: str) -> BaseException:
+    """``exc`` (type unchanged) noting which plugin raised it: the note travels with it from a
+    worker (it is pickled with the exception) and names the plugin in the run's one line."""
+    exc.add_note(f"raised by {plugin}")
+    return exc
 
 
 def _one_line(exc: BaseException) -> str:
@@ -356,7 +365,10 @@ def open_loop_targets(
         rows_by_seed.setdefault(int(seed), []).append(row)
     out = np.empty((len(seeds), sample_times.size, model.nu))
     for seed, rows in rows_by_seed.items():
-        part = np.asarray(controller.targets(params[rows], sample_times, model, seed=seed))
+        try:
+            part = np.asarray(controller.targets(params[rows], sample_times, model, seed=seed))
+        except Exception as exc:
+            raise _blame(exc, label) from None
         if part.shape != (len(rows), sample_times.size, model.nu):
             raise ValueError(
                 f"{label}: targets() returned shape {part.shape}; expected "
@@ -595,7 +607,10 @@ def _closed_loop(
     with control_callback_unset():
         for i, k in enumerate(boundaries):
             if k % period == 0 and k < nstep:
-                out = np.asarray(policy(observe(model, data)), dtype=np.float64)
+                try:
+                    out = np.asarray(policy(observe(model, data)), dtype=np.float64)
+                except Exception as exc:
+                    raise _blame(exc, f"controller {task.controller!r}") from None
                 if out.shape != (model.nu,) or not np.all(np.isfinite(out)):
                     raise ValueError(
                         f"policy returned {out.shape} values (NaN/inf or wrong size); "

@@ -231,7 +231,9 @@ def _plugin_named(config: ExperimentConfig, text: str) -> str:
         f"world {config.world.name!r}",
         f"body encoder {config.body.encoder!r}",
     )
-    found = [label for label in labels if label in text]
+    # The engine notes "raised by <plugin>" on what a plugin raised; else a message naming one.
+    found = [label for label in labels if f"raised by {label}" in text]
+    found += [label for label in labels if label in text]
     if found:
         return found[0]
     return "a plugin of the run (" + ", ".join(labels) + ")"
