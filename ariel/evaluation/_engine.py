@@ -258,7 +258,8 @@ def control_sequence(
 ) -> np.ndarray:
     """Per-step controls ``(B, nstep, nu)``: each call's control holds for ``period`` steps."""
     held = held_controls(targets, smoothing, low, high)
-    return np.repeat(held, period, axis=1)[:, :nstep]
+    # min(): a period longer than the run (one call) must not allocate period columns.
+    return np.repeat(held, min(period, nstep), axis=1)[:, :nstep]
 
 
 def _kinematics_frames(
@@ -496,7 +497,8 @@ def _pipelined_single(
                 k0 = done_calls * period
                 done_calls += piece.shape[1]
                 k1 = min(done_calls * period, nstep)
-                controls[:, k0:k1] = np.repeat(held, period, axis=1)[:, : k1 - k0]
+                repeat = min(period, k1 - k0)  # one call when the period outlasts the rest
+                controls[:, k0:k1] = np.repeat(held, repeat, axis=1)[:, : k1 - k0]
                 out, _ = _rollout_pool(1).rollout(
                     model,
                     data,

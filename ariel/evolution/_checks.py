@@ -6,7 +6,7 @@
 * `check_plugins`: the ``ariel plugins --check`` checks of the configured plugins, with the
   config's options (cached per process: a campaign checks each plugin once).
 * `check_resources`: the memory one generation needs, estimated from a sample body of the
-  experiment, against what this machine has; a control period longer than the run.
+  experiment, against what this machine has.
 * `plugin_failure`: a plugin that raises during a run stops it with one line naming the plugin
   and the evaluation; the full traceback goes to ``RUN/error.log``.
 """
@@ -157,7 +157,7 @@ def check_resources(
     local_workers: bool,
 ) -> None:
     """`ConfigError` when one generation would need more memory than this machine has (the
-    estimate, from a sample body, is in the message), or the control period outlasts the run.
+    estimate, from a sample body, is in the message).
 
     Counted: the recorded frames of a generation's evaluations, which the driver keeps until
     the generation's tables are written (with ``record.trajectories``); the physics states of
@@ -171,11 +171,6 @@ def check_resources(
     c = config
     timestep = float(model.opt.timestep)
     steps = max(1, round(c.task.duration / timestep))  # as the engine's `num_steps`
-    if c.brain.control_period > steps:
-        raise ConfigError(
-            f"brain.control_period: {c.brain.control_period} physics steps of {timestep:g} s "
-            f"is longer than the whole run (task.duration {c.task.duration:g} s = {steps} steps)"
-        )
     frames = steps // record_steps(c, timestep) + 2
     nu, nbody = int(model.nu), int(model.nbody)
     state = 1 + model.nq + model.nv + model.na + 6 * nbody + model.nmocap * 7 + model.neq
