@@ -143,7 +143,7 @@ def test_a_plugin_failing_during_a_run_stops_it_in_one_line_resumable(
     assert exit_code(argv) == 2
     line = one_error_line(capsys)
     assert re.search(
-        r"fitness function 'test_fails_late' failed in evaluation b\d{6}-i000-c000", line
+        r"fitness function 'test_fails_late' failed in evaluation b\d{6}-i000-c\d{3}", line
     )
     assert "ZeroDivisionError: the plugin's own bug" in line and "error.log" in line
     assert "Traceback" in (out / "error.log").read_text()
