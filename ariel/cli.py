@@ -9,11 +9,13 @@ raises on purpose is an `ariel.errors.ArielError`, caught here as one class.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import re
 import shlex
+import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -80,17 +82,52 @@ def _print_result(result: object) -> None:
     print(_how_to_look(Path(r.run_dir)))  # type: ignore[attr-defined]
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised where Ctrl-C would be: the run stops the same way."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """SIGTERM (a batch system, ``kill``) and SIGHUP (a closed terminal or SSH session) stop a
+    run as Ctrl-C does: status ``interrupted``, the lock released, resumable. Once: a second
+    signal meanwhile ends the process at once (the default), as a second Ctrl-C would."""
+    wanted = [s for s in (signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None]
+
+    def interrupt(signum: int, frame: object) -> None:
+        for number in wanted:
+            signal.signal(number, signal.SIG_DFL)
+        raise _Terminated(signum)
+
+    try:
+        previous = {number: signal.signal(number, interrupt) for number in wanted}
+    except ValueError:  # not the main thread: signals are not ours to take
+        yield
+        return
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
 def _run_guarded(start: object, path_hint: str | None) -> int:
     """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
     -> one line and exit 2; Ctrl-C -> how to resume."""
     try:
-        result = start()  # type: ignore[operator]
+        with _signals_interrupt():
+            result = start()  # type: ignore[operator]
     except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
         return _fail_with(exc)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         hint = f"; continue it with: ariel resume {path_hint}" if path_hint else ""
-        print(f"\ninterrupted{hint}", file=sys.stderr)
-        return 130
+        signum = exc.signum if isinstance(exc, _Terminated) else signal.SIGINT
+        how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
+        print(f"\ninterrupted{how}{hint}", file=sys.stderr)
+        return 128 + int(signum)
     _print_result(result)
     return 0
 
@@ -320,6 +357,32 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+EXIT_DAMAGED = 1
+
+
+def _cmd_verify(args: argparse.Namespace) -> int:
+    from ariel.recording import NotARunError
+    from ariel.recording._manifest import verify_run
+
+    try:
+        result = verify_run(args.run_dir)
+    except NotARunError as exc:
+        return _fail(str(exc))
+    for problem in result.problems:
+        print(f"damaged: {problem}")
+    how = (
+        "size and SHA-256 of every table"
+        if result.checked
+        else "presence and readability of the tables only: a run made before manifests"
+    )
+    verdict = f"{len(result.problems)} damaged file(s)" if result.problems else "ok"
+    print(
+        f"{verdict}: {args.run_dir}: {result.generations} finished generation(s), "
+        f"{result.files} file(s), {result.bytes / 1e6:.1f} MB checked ({how})"
+    )
+    return EXIT_DAMAGED if result.problems else 0
+
+
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--executor",
@@ -382,6 +445,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-render", action="store_true", help="leave out the rendered image of the best body"
     )
     p.set_defaults(func=_cmd_report)
+
+    p = sub.add_parser(
+        "verify",
+        help="check a run folder against its manifest (exit 1 when a file is damaged)",
+        description="Check every finished generation's tables against the run's manifest "
+        "(size and SHA-256), like `git fsck`: prints each damaged file; exit 0 when the folder "
+        "is sound, 1 when damaged, 2 when it is not a run folder.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.set_defaults(func=_cmd_verify)
 
     p = sub.add_parser("plugins", help="list the registered plugins of every kind")
     p.add_argument(

@@ -20,15 +20,19 @@ __all__ = [
     "CallTimeoutError",
     "CannotVaryError",
     "ConfigError",
+    "DamagedRunError",
     "DuplicatePluginError",
     "FaceNotAvailableError",
+    "MissingPluginError",
     "NotARunError",
     "PluginCheckError",
+    "PluginFailedError",
     "PluginLoadError",
     "RunInUseError",
     "RunStorageError",
     "UnknownEvaluationError",
     "UnknownPluginError",
+    "UnsafePathError",
     "ViewError",
     "WarpUnavailableError",
     "WorkerLostError",
@@ -132,6 +136,23 @@ class CallTimeoutError(ArielError, TimeoutError):
 
 class NotARunError(ArielError, ValueError):
     """A folder that is not an ariel run folder (no readable run.json)."""
+
+
+class DamagedRunError(NotARunError):
+    """A run folder whose records differ from what was written (a file missing, cut short,
+    changed): one line naming the file. ``ariel verify`` lists every such file."""
+
+
+class UnsafePathError(ArielError, ValueError):
+    """A run folder holds a symbolic link where the workbench writes or reads: refused."""
+
+
+class MissingPluginError(ArielError, LookupError):
+    """Replay re-simulates with the run's plugins; one of them is not installed here."""
+
+
+class PluginFailedError(ArielError, RuntimeError):
+    """A plugin raised during a run: the run stopped (resumable), details in RUN/error.log."""
 
 
 class RunStorageError(ArielError, RuntimeError):

@@ -336,8 +336,13 @@ def test_replay_exits_1_when_the_stored_fitness_is_not_reproduced(
     index = table.schema.get_field_index("fitness")
     table = table.set_column(index, "fitness", pa.array(fitness, pa.float64()))
     pq.write_table(table, path)
+    from ariel.recording._manifest import write_manifest
+
+    write_manifest(copy, 0)  # a deliberate edit, not damage: its manifest follows it
     info = json.loads((copy / "run.json").read_text())
     info["versions"]["mujoco"] = "3.0.0"  # as if the run had been made with another MuJoCo
+    for segment in info["segments"]:
+        segment["versions"]["mujoco"] = "3.0.0"
     (copy / "run.json").write_text(json.dumps(info))
     assert main(["replay", str(copy), table.column("eval_id")[0].as_py()]) == 1
     printed = capsys.readouterr().out

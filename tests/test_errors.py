@@ -39,6 +39,10 @@ OLD_HOMES: dict[str, tuple[tuple[str, ...], tuple[type[BaseException], ...]]] = 
     "UnknownEvaluationError": (("ariel.recording._replay",), (KeyError,)),
     "ViewError": (("ariel.recording._view",), ()),
     "BrowserError": (("ariel.recording._browser",), ()),
+    "DamagedRunError": (("ariel.recording", "ariel.recording._run_folder"), (ValueError,)),
+    "UnsafePathError": (("ariel.recording", "ariel.recording._files"), (ValueError,)),
+    "MissingPluginError": (("ariel.recording._replay",), (LookupError,)),
+    "PluginFailedError": (("ariel.evolution._checks",), (RuntimeError,)),
 }
 
 ERROR_CLASSES = [name for name in errors.__all__ if name[0].isupper() and name != "ArielError"]

@@ -14,7 +14,8 @@
 * Failures: the caller's mistakes (unknown plugin names, options a plugin rejects, a wrong
   number of parameters) raise at once. A genotype whose body cannot be built gives status
   ``error`` (`BodyBuildError` inside), physics instability (MuJoCo warnings such as bad
-  accelerations, NaN or inf state) status ``unstable``; both with the worst fitness.
+  accelerations, NaN or inf state) status ``unstable``, a fitness function that returns NaN or
+  an infinity status ``invalid`` (the value's text in ``error``); all with the worst fitness.
 """
 
 from __future__ import annotations
@@ -249,7 +250,8 @@ def control_sequence(
 ) -> np.ndarray:
     """Per-step controls ``(B, nstep, nu)``: each call's control holds for ``period`` steps."""
     held = held_controls(targets, smoothing, low, high)
-    return np.repeat(held, period, axis=1)[:, :nstep]
+    # min(): a period longer than the run (one call) must not allocate period columns.
+    return np.repeat(held, min(period, nstep), axis=1)[:, :nstep]
 
 
 def _kinematics_frames(
@@ -295,7 +297,16 @@ def _score(name: str, fitness_fn: Any, options: dict[str, Any], record: Trajecto
     except (TypeError, ValueError) as exc:  # e.g. a bad option value: the caller's mistake
         kind = TypeError if isinstance(exc, TypeError) else ValueError
         raise kind(f"fitness function {name!r} failed with options {options}: {exc}") from exc
-    return value if math.isfinite(value) else _worst(fitness_fn.maximise)
+    except Exception as exc:
+        raise _blame(exc, f"fitness function {name!r}") from None
+    return value  # possibly NaN or infinite: the caller records it as ``invalid``
+
+
+def _blame(exc: BaseException, plugin: str) -> BaseException:
+    """``exc`` (type unchanged) noting which plugin raised it: the note travels with it from a
+    worker (it is pickled with the exception) and names the plugin in the run's one line."""
+    exc.add_note(f"raised by {plugin}")
+    return exc
 
 
 def _one_line(exc: BaseException) -> str:
@@ -347,7 +358,10 @@ def open_loop_targets(
         rows_by_seed.setdefault(int(seed), []).append(row)
     out = np.empty((len(seeds), sample_times.size, model.nu))
     for seed, rows in rows_by_seed.items():
-        part = np.asarray(controller.targets(params[rows], sample_times, model, seed=seed))
+        try:
+            part = np.asarray(controller.targets(params[rows], sample_times, model, seed=seed))
+        except Exception as exc:
+            raise _blame(exc, label) from None
         if part.shape != (len(rows), sample_times.size, model.nu):
             raise ValueError(
                 f"{label}: targets() returned shape {part.shape}; expected "
@@ -475,7 +489,8 @@ def _pipelined_single(
                 k0 = done_calls * period
                 done_calls += piece.shape[1]
                 k1 = min(done_calls * period, nstep)
-                controls[:, k0:k1] = np.repeat(held, period, axis=1)[:, : k1 - k0]
+                repeat = min(period, k1 - k0)  # one call when the period outlasts the rest
+                controls[:, k0:k1] = np.repeat(held, repeat, axis=1)[:, : k1 - k0]
                 out, _ = _rollout_pool(1).rollout(
                     model,
                     data,
@@ -527,12 +542,20 @@ def _finish(
         joint_angle=qpos[:, built.joint_qpos],
         target=built.target,
     )
-    fitness = _score(task.fitness, fitness_fn, task.fitness_options, record) if stable else None
+    fitness, status = _worst(fitness_fn.maximise), "unstable"
+    error = "physics became unstable (MuJoCo warning or non-finite state)"
+    if stable:
+        value = _score(task.fitness, fitness_fn, task.fitness_options, record)
+        if math.isfinite(value):
+            fitness, status, error = value, "ok", ""
+        else:  # a number no ranking can use: kept out of the optimisers, its text recorded
+            status = "invalid"
+            error = f"fitness function {task.fitness!r} returned {value!r}, not a finite number"
     return EvaluationResult(
         eval_id=task.eval_id,
-        fitness=fitness if fitness is not None else _worst(fitness_fn.maximise),
-        status="ok" if stable else "unstable",
-        error="" if stable else "physics became unstable (MuJoCo warning or non-finite state)",
+        fitness=fitness,
+        status=status,
+        error=error,
         descriptors=dict(built.descriptors),
         sim_time=float(times[-1]),
         wall_time=wall,
@@ -578,7 +601,10 @@ def _closed_loop(
     with control_callback_unset():
         for i, k in enumerate(boundaries):
             if k % period == 0 and k < nstep:
-                out = np.asarray(policy(observe(model, data)), dtype=np.float64)
+                try:
+                    out = np.asarray(policy(observe(model, data)), dtype=np.float64)
+                except Exception as exc:
+                    raise _blame(exc, f"controller {task.controller!r}") from None
                 if out.shape != (model.nu,) or not np.all(np.isfinite(out)):
                     raise ValueError(
                         f"policy returned {out.shape} values (NaN/inf or wrong size); "

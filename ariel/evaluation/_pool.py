@@ -14,6 +14,14 @@ call and since when, so that:
 
 Workers are started when work arrives and no worker is idle, up to ``max_workers``; each runs
 one call at a time. Arguments and results travel pickled over a pipe per worker.
+
+Workers die with the driver, however it ends (SIGKILL included): each holds the read end of a
+"lifeline" pipe whose only write end the driver process holds, and a thread in the worker
+waits on it; the kernel closes the write end when the driver dies, the wait returns, and the
+worker exits at once, in the middle of a call if need be. (A parent-death signal would not do:
+under forkserver the workers' parent is the fork server, not the driver.) Ctrl-C or SIGTERM in
+the driver (a `KeyboardInterrupt` leaving the ``with`` block) kills the workers too, rather
+than waiting for their calls.
 """
 
 from __future__ import annotations
@@ -55,6 +63,11 @@ _STARTED, _DONE, _RETIRING, _BROKEN = b"S", b"D", b"R", b"B"
 # Time a call's timeout does not count: a fresh worker starting and importing what the call
 # needs (unpickling it); a worker that takes longer than this as well is stopped too.
 _START_SECONDS = 120.0
+# Exit status of a worker whose driver died (no one reads it; for `ps` and tests).
+_ORPHANED_EXIT = 3
+#: Exit status of a worker that cannot start at all (EX_CONFIG), e.g. its re-import of the
+#: driver's script refused to go on: the pool fails at once, no call is retried.
+WORKER_CANNOT_START = 78
 
 
 # --------------------------------------------------------------------------------------------
@@ -73,11 +86,29 @@ class _RemoteTracebackError(Exception):
         return self.text
 
 
+def _watch_driver(lifeline: Connection) -> None:
+    """Return when the driver process is gone (its end of ``lifeline`` closed), then exit."""
+    with contextlib.suppress(EOFError, OSError):
+        lifeline.recv_bytes()
+    os._exit(_ORPHANED_EXIT)
+
+
+def _start_watchdog(lifeline: Connection | None, inherited: Connection | None) -> None:
+    if inherited is not None:  # fork: this copy of the driver's end would keep the pipe open
+        inherited.close()
+    if lifeline is not None:
+        threading.Thread(
+            target=_watch_driver, args=(lifeline,), name="ariel-driver-watchdog", daemon=True
+        ).start()
+
+
 def _worker_main(
     conn: Connection,
     initializer: Callable[..., object] | None,
     initargs: tuple[Any, ...],
     max_tasks: int | None,
+    lifeline: Connection | None = None,
+    inherited: Connection | None = None,
 ) -> None:
     """A worker's life: initializer, then calls one at a time until told to stop.
 
@@ -85,8 +116,9 @@ def _worker_main(
     imports done), then `_DONE` (or `_RETIRING`, when this worker exits after it) followed by
     the pickled ``(ok, value, traceback_text)``. An initializer that raises sends `_BROKEN` and
     its traceback, and the worker exits. The tag lets the driver hand this worker its next call
-    before it unpickles the result.
+    before it unpickles the result. ``lifeline``: see the module docstring.
     """
+    _start_watchdog(lifeline, inherited)
     if initializer is not None:
         try:
             initializer(*initargs)
@@ -163,6 +195,7 @@ class _Worker:
     deadline: float | None = None
     retiring: bool = False
     killed: str = ""  # why the pool killed it ("timeout", "closed"): not the call's fault
+    spoke: bool = False  # it sent a message: it started
 
 
 def _settle(call: _Call, data: bytes) -> None:
@@ -221,6 +254,7 @@ class _Driver:
         self.shutting_down = False
         self.broken: str | None = None
         self._wake_reader, self._wake_writer = multiprocessing.Pipe(duplex=False)
+        self._lifeline, self._lifeline_end = context.Pipe(duplex=False)
         self._woken = False
         self.thread = threading.Thread(target=self.run, name="ariel-local-pool", daemon=True)
 
@@ -329,9 +363,17 @@ class _Driver:
 
     def _start_worker(self) -> _Worker:
         mine, theirs = self.context.Pipe(duplex=True)
+        forked = self.context.get_start_method() == "fork"
         process = self.context.Process(
             target=_worker_main,
-            args=(theirs, self.initializer, self.initargs, self.max_tasks),
+            args=(
+                theirs,
+                self.initializer,
+                self.initargs,
+                self.max_tasks,
+                self._lifeline,
+                self._lifeline_end if forked else None,
+            ),
             name="ariel-local-worker",
         )
         # The thread limits must be in the environment the process starts with: BLAS reads them
@@ -353,6 +395,7 @@ class _Driver:
         try:
             while worker.conn.poll():
                 data = worker.conn.recv_bytes()
+                worker.spoke = True
                 tag = data[:1]
                 if tag == _STARTED:
                     call = worker.call
@@ -381,6 +424,12 @@ class _Driver:
             if worker in self.workers:
                 self.workers.remove(worker)
         worker.conn.close()
+        if not worker.spoke and worker.process.exitcode == WORKER_CANNOT_START:
+            self._fail_everything(
+                f"a worker process could not start (exit code {WORKER_CANNOT_START}; its "
+                "stderr says why)"
+            )
+            return
         call, worker.call = worker.call, None
         if call is None or worker.killed == "timeout":  # `_time_out` fails the future
             return
@@ -438,6 +487,8 @@ class _Driver:
                 worker.process.join()
             worker.conn.close()
         self._wake_reader.close()
+        self._lifeline.close()
+        self._lifeline_end.close()
 
 
 class LocalPool(cf.Executor):
@@ -539,6 +590,19 @@ class LocalPool(cf.Executor):
             self._driver.shutting_down = True
         if started:
             self._driver.stop(cancel=cancel_futures, kill=False, wait=wait)
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> bool | None:
+        if exc_type is not None and not issubclass(exc_type, Exception):
+            # Ctrl-C, SIGTERM (`KeyboardInterrupt`), SystemExit: stop now, do not wait for the
+            # running calls (minutes, up to their timeout).
+            self._finalizer.detach()
+            with self._driver.lock:
+                started = self._started
+                self._driver.shutting_down = True
+            if started:
+                self._driver.stop(cancel=True, kill=True, wait=True)
+            return None
+        return super().__exit__(exc_type, exc, tb)
 
     def __repr__(self) -> str:
         return f"LocalPool(max_workers={self._max_workers}, max_retries={self.max_retries})"

@@ -18,7 +18,8 @@ import numpy as np
 
 __all__ = ["BodySpec", "EvaluationResult", "EvaluationTask", "Status"]
 
-Status = Literal["ok", "unstable", "error"]
+#: ``invalid``: the fitness function returned NaN or an infinity (the value is in ``error``).
+Status = Literal["ok", "unstable", "error", "invalid"]
 
 
 def _plain(value: Any) -> Any:

@@ -57,6 +57,7 @@ __all__ = [
     "evaluation_threads",
     "make_executor",
     "map_ordered",
+    "planned_workers",
     "settings_options",
     "submit_with_timeout",
     "worker_environment",
@@ -466,6 +467,16 @@ def check_settings(settings: Any) -> None:
             raise ExecutorSettingsError(
                 f"executor.device: {exc}; or the CPU engine: --executor local"
             ) from None
+
+
+def planned_workers(settings: Any) -> tuple[int, bool]:
+    """Batches an ``[executor]`` section will run at once, and whether they run on this
+    machine (for a memory estimate before anything starts)."""
+    kind = settings.kind
+    if kind in ("serial", "gpu"):  # in this process, one batch at a time
+        return 1, True
+    on_this_machine = kind == "local" or settings.scheduler is None
+    return settings.workers or default_workers(), on_this_machine
 
 
 def settings_options(settings: Any) -> dict[str, Any]:

@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Strict, ValidationError
 
 from ariel.errors import ConfigError
 
@@ -41,12 +41,20 @@ def _finite_seconds(value: float) -> float:
     return value
 
 
+#: Strict scalar types: ``generations = true`` or ``generations = "3"`` (TOML or ``--set``) is
+#: a mistake to name, not a value to coerce; an integer is still a valid float.
+Int = Annotated[int, Strict()]
+Float = Annotated[float, Strict()]
+Bool = Annotated[bool, Strict()]
+Str = Annotated[str, Strict()]
+
 #: A duration in seconds: positive and finite.
-Seconds = Annotated[float, Field(gt=0.0), AfterValidator(_finite_seconds)]
+Seconds = Annotated[Float, Field(gt=0.0), AfterValidator(_finite_seconds)]
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+    # allow_inf_nan=False: every float of a config is finite (sigma0, spawn_position, ...).
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, allow_inf_nan=False)
 
 
 class BodyConfig(_Section):
@@ -61,41 +69,41 @@ class BodyConfig(_Section):
     TOML file is relative to that file). A run stores the genotype, not the path.
     """
 
-    encoder: str = "nde"
+    encoder: Str = "nde"
     options: dict[str, Any] = Field(default_factory=dict)
     optimizer: str = "ga"
     optimizer_options: dict[str, Any] = Field(default_factory=dict)
     genotype: Any = None
-    population: int = Field(8, ge=1)
-    offspring: int = Field(8, ge=1)
+    population: Int = Field(8, ge=1)
+    offspring: Int = Field(8, ge=1)
     survivors: Literal["plus", "generational"] = "plus"
-    tournament: int = Field(2, ge=1)
-    crossover_rate: float = Field(0.5, ge=0.0, le=1.0)
+    tournament: Int = Field(2, ge=1)
+    crossover_rate: Float = Field(0.5, ge=0.0, le=1.0)
 
 
 class BrainConfig(_Section):
     """CMA-ES over the controller's parameters, run for every new body."""
 
-    controller: str = "na_cpg"
+    controller: Str = "na_cpg"
     options: dict[str, Any] = Field(default_factory=dict)
-    popsize: int = Field(8, ge=2)
-    iterations: int = Field(6, ge=1)
-    sigma0: float = Field(1.0, gt=0.0)
-    inherit: bool = False
-    smoothing: float = Field(0.5, gt=0.0, le=1.0)
-    control_period: int = Field(50, ge=1)
+    popsize: Int = Field(8, ge=2)
+    iterations: Int = Field(6, ge=1)
+    sigma0: Float = Field(1.0, gt=0.0)
+    inherit: Bool = False
+    smoothing: Float = Field(0.5, gt=0.0, le=1.0)
+    control_period: Int = Field(50, ge=1)
 
 
 class WorldConfig(_Section):
-    name: str = "flat"
+    name: Str = "flat"
     options: dict[str, Any] = Field(default_factory=dict)
 
 
 class TaskConfig(_Section):
-    fitness: str = "xy_displacement"
+    fitness: Str = "xy_displacement"
     options: dict[str, Any] = Field(default_factory=dict)
     duration: Seconds = 10.0
-    spawn_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    spawn_position: tuple[Float, Float, Float] = (0.0, 0.0, 0.0)
 
 
 class RecordConfig(_Section):
@@ -106,10 +114,10 @@ class RecordConfig(_Section):
     ``elites`` (each new best of a body's brain run) or ``none``.
     """
 
-    rerun: bool = True
+    rerun: Bool = True
     bodies: Literal["all", "elites", "none"] = "all"
-    rate_hz: float = Field(10.0, gt=0.0)
-    trajectories: bool = True
+    rate_hz: Float = Field(10.0, gt=0.0)
+    trajectories: Bool = True
 
 
 class ExecutorConfig(_Section):
@@ -122,22 +130,22 @@ class ExecutorConfig(_Section):
     """
 
     kind: Literal["serial", "local", "dask", "gpu"] = "local"
-    workers: int | None = Field(None, ge=1)
-    scheduler: str | None = None
+    workers: Int | None = Field(None, ge=1)
+    scheduler: Str | None = None
     # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).
     # Unlike the other kinds, ``gpu`` does change results: float32 physics (docs/gpu.md).
     device: Literal["cuda", "cpu"] = "cuda"
     timeout: Seconds = 600.0
-    max_retries: int = Field(2, ge=0)
+    max_retries: Int = Field(2, ge=0)
 
 
 class ExperimentConfig(_Section):
     """One experiment. ``generations`` counts the random first generation too."""
 
-    name: str = Field("experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
-    description: str = ""
-    seed: int = Field(0, ge=0, lt=2**63)
-    generations: int = Field(10, ge=1)
+    name: Str = Field("experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    description: Str = ""
+    seed: Int = Field(0, ge=0, lt=2**63)
+    generations: Int = Field(10, ge=1)
     body: BodyConfig = Field(default_factory=BodyConfig)
     brain: BrainConfig = Field(default_factory=BrainConfig)
     world: WorldConfig = Field(default_factory=WorldConfig)
@@ -202,7 +210,14 @@ def _one_line(error: ValidationError) -> str:
             message = ("must be " if prefix == "Input should be " else "") + message[len(prefix) :]
     given = first.get("input")
     shown = "" if isinstance(given, dict) else f" (got {given!r})"
+    if first["type"] in _TYPE_ERRORS and not isinstance(given, dict | list):
+        # Strict types: say what the value was, e.g. a quoted "3" is a string in TOML.
+        shown = f" (got {given!r}, {_TOML_KIND.get(type(given), type(given).__name__)})"
     return f"{key}: {message}{shown}"
+
+
+_TYPE_ERRORS = {"int_type", "float_type", "bool_type", "string_type"}
+_TOML_KIND = {bool: "a boolean", str: "a string", float: "a float", int: "an integer"}
 
 
 def _validate(data: Mapping[str, Any]) -> ExperimentConfig:
@@ -275,8 +290,8 @@ def load_config(
         path = Path(source) if source is not None else default_config_path()
         if source is None and not path.is_file():  # an installed package without experiments/
             return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
-        if not path.is_file():
-            raise ConfigError(f"config file {str(path)!r} not found")
+        if not path.is_file():  # never opened: reading a FIFO would wait forever
+            raise ConfigError(f"config file {str(path)!r} {_not_a_file(path)}")
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except tomllib.TOMLDecodeError as exc:
@@ -285,6 +300,27 @@ def load_config(
             raise ConfigError(f"{path}: not a UTF-8 text file") from None
         data = _genotype_file_beside(data, path)
     return _validate(apply_overrides(data, overrides))
+
+
+def _not_a_file(path: Path) -> str:
+    """What ``path`` is instead of a TOML file, e.g. ``is a folder``."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return "not found"
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror})"
+    kinds = (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISCHR, "a character device (like /dev/null)"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISFIFO, "a named pipe (FIFO)"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    what = next((name for test, name in kinds if test(mode)), "not a regular file")
+    return f"is {what}, not a TOML file"
 
 
 def _genotype_file_beside(data: dict[str, Any], config_path: Path) -> dict[str, Any]:

@@ -60,6 +60,7 @@ class RunRecords(Protocol):
     def evaluated(self, body: Body, model: Any, tasks: Any, results: Any, **where: Any) -> None: ...
     def body_failed(self, body: Body, generation: int, worst: float) -> None: ...
     def flush(self) -> None: ...
+    def plugin_failed(self, task: Any, exc: BaseException) -> BaseException: ...
     def write_generation(self, generation: int, bodies: Any, archive: Any) -> dict[str, int]: ...
     def save_checkpoint(self, state: dict[str, Any]) -> None: ...
     def update_info(self, **changes: Any) -> None: ...
@@ -128,6 +129,9 @@ class BrainWork:
 
         worst = self.driver.plugins.worst
         return EvaluationResult(eval_id=task.eval_id, fitness=worst, status="error", error=reason)
+
+    def task_error(self, task: Any, exc: BaseException) -> BaseException:
+        return self.driver.records.plugin_failed(task, exc)
 
     def flush(self) -> None:
         self.driver.records.flush()
@@ -263,7 +267,7 @@ class RunDriver:
             evaluations_done=state.evaluations_done,
             best_fitness=best,
         )
-        extra = "".join(f", {counts[s]} {s}" for s in ("error", "unstable") if counts.get(s))
+        extra = "".join(f", {n} {s}" for s, n in counts.items() if s != "rows" and n)
         self.progress.end_generation(generation, best, mean, extra)
 
     @property

@@ -5,8 +5,9 @@ one batch of tasks at a time and gets that batch's results back, and all pieces 
 progress side by side, so every worker stays busy: a piece asks for its next batch as soon as
 its previous one returned. A batch is cut into chunks, about one per free worker, so a few
 big batches still fill a large pool. A chunk lost to its worker (it died too often, or timed
-out) is tried again one task at a time, so only the task that keeps failing fails: it gets an
-``error`` result with the worst fitness and the reason.
+out, or raised) is tried again one task at a time, so only the task that keeps failing fails:
+lost to its worker, it gets an ``error`` result with the worst fitness and the reason; raising
+(a plugin's fault), it stops the run with the error its work makes of it.
 
 A group is a generator: it yields a list of work, the scheduler runs that work to the end,
 and the generator goes on (writes the generation, makes the next one) and yields the next
@@ -40,6 +41,10 @@ class Work(Protocol):
 
     def failed_result(self, task: Any, reason: str) -> Any:
         """The result of a task lost to its worker (``error``, the worst fitness)."""
+        ...
+
+    def task_error(self, task: Any, exc: BaseException) -> BaseException:
+        """The error to stop the run with: ``task``'s evaluation raised ``exc`` (a plugin)."""
         ...
 
     def flush(self) -> None:
@@ -138,14 +143,14 @@ class Scheduler:
         try:
             results = future.result()
         except Exception as exc:
-            reason = worker_fault(exc)  # its worker died too often, or a timeout
-            if reason is None:
-                raise
             if len(part) > 1:  # one at a time: the bad one fails, the rest finish
                 batch.left += len(part) - 1
                 for i in part:
                     self._send(batch, np.array([i]))
                 return False
+            reason = worker_fault(exc)  # its worker died too often, or a timeout
+            if reason is None:  # the evaluation itself raised: a plugin failed
+                raise batch.work.task_error(batch.tasks[part[0]], exc) from exc
             results = [batch.work.failed_result(batch.tasks[part[0]], reason)]
         for i, result in zip(part, results):
             batch.results[i] = result

@@ -2,6 +2,12 @@
 
 A reader (or a resumed run) therefore sees either the previous file or the complete new one,
 never a half-written file, whenever the writing process is killed.
+
+Nothing is written through a symbolic link: a run folder comes from anywhere (copied, mailed,
+unpacked), and a link planted in it (``report -> ~``, ``.run.json.tmp -> ~/.bashrc``) must not
+make the workbench write outside it. The temporary is created fresh (``O_EXCL | O_NOFOLLOW``,
+after removing whatever had its name) and renamed over the final name, which replaces a link
+rather than following it; a folder on the way that is a link is refused (`UnsafePathError`).
 """
 
 from __future__ import annotations
@@ -9,22 +15,64 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import math
 import os
 import re
+import shlex
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from ariel.errors import DamagedRunError, UnsafePathError
+
 __all__ = [
+    "UnsafePathError",
     "atomic_write",
     "atomic_write_bytes",
     "atomic_write_json",
+    "damaged",
+    "json_text",
+    "refuse_symlinks",
     "remove_temporaries",
     "require_free_space",
+    "within",
     "written_path",
 ]
 
 TEMP_SUFFIX = ".tmp"
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+
+
+def within(path: str | os.PathLike[str], root: str | os.PathLike[str]) -> bool:
+    """``path``, with every link resolved, lies in ``root`` (also resolved), or is it."""
+    path, root = Path(os.path.realpath(path)), Path(os.path.realpath(root))
+    return path == root or root in path.parents
+
+
+def refuse_symlinks(path: str | os.PathLike[str], root: str | os.PathLike[str] | None) -> None:
+    """Raise `UnsafePathError` when a folder between ``root`` (itself may be a link: the user
+    named it) and ``path`` is a symbolic link; without ``root``, only ``path``'s own folder is
+    checked. Folders that do not exist yet are made as real folders by the writer."""
+    path = Path(path)
+    if root is None:
+        parents = [path.parent]
+    else:
+        root = Path(root)
+        try:
+            inner = path.parent.relative_to(root)
+        except ValueError:
+            parents = [path.parent]
+        else:
+            parents = [root.joinpath(*inner.parts[: i + 1]) for i in range(len(inner.parts))]
+    for folder in parents:
+        if folder.is_symlink():
+            raise UnsafePathError(
+                f"refusing to write {str(path)!r}: {str(folder)!r} is a symbolic link (to "
+                f"{os.readlink(folder)!r}); a run folder's files are written only inside it: "
+                "remove the link"
+            )
+
+
 _OS_ERROR = re.compile(r"\(os error (\d+)\)")
 
 
@@ -50,17 +98,36 @@ def _fsync_dir(folder: Path) -> None:
             os.close(fd)
 
 
-def atomic_write(path: Path, write: Callable[[Path], Any], *, fsync: bool = True) -> None:
+def _fresh(temporary: Path) -> None:
+    """Create ``temporary`` empty and new: whatever had its name (a killed writer's leftover, or
+    a planted link) is removed, not followed, so ``write`` writes into a file of ours."""
+    with contextlib.suppress(FileNotFoundError):
+        temporary.unlink()
+    fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o644)
+    os.close(fd)
+
+
+def atomic_write(
+    path: Path,
+    write: Callable[[Path], Any],
+    *,
+    fsync: bool = True,
+    root: str | os.PathLike[str] | None = None,
+) -> None:
     """Call ``write(temporary_path)``, fsync the result and rename it to ``path``.
 
     ``fsync=False`` skips both fsyncs (the rename still makes the file appear whole to any
     reader and to a killed writer's resume; durability across a power cut is then the
-    caller's business, e.g. one ``os.sync()`` for many files).
+    caller's business, e.g. one ``os.sync()`` for many files). ``root``: the run folder
+    ``path`` lies in; a folder between the two that is a symbolic link is refused
+    (`UnsafePathError`), as is ``path``'s own folder without ``root``.
     """
     path = Path(path)
+    refuse_symlinks(path, root)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = _temporary(path)
     try:
+        _fresh(temporary)
         write(temporary)
         if fsync:
             with open(temporary, "rb+") as file:
@@ -91,18 +158,51 @@ def require_free_space(folder: Path, needed: int) -> None:
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(folder))
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    atomic_write(path, lambda temporary: temporary.write_bytes(data))
+def atomic_write_bytes(
+    path: Path, data: bytes, *, root: str | os.PathLike[str] | None = None
+) -> None:
+    atomic_write(path, lambda temporary: temporary.write_bytes(data), root=root)
 
 
-def atomic_write_json(path: Path, data: Any) -> None:
-    text = json.dumps(data, indent=2, sort_keys=False, allow_nan=True) + "\n"
-    atomic_write_bytes(path, text.encode())
+def _json_safe(value: Any) -> Any:
+    """``value`` with every NaN and infinity as None: JSON has no such numbers (Python's
+    ``NaN`` / ``Infinity`` tokens are not JSON, and other readers refuse them)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {key: _json_safe(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(item) for item in value]
+    return value
+
+
+def json_text(data: Any) -> str:
+    """Strict JSON of ``data`` (non-finite floats as null), indented, ending in a newline."""
+    return json.dumps(_json_safe(data), indent=2, sort_keys=False, allow_nan=False) + "\n"
+
+
+def atomic_write_json(path: Path, data: Any, *, root: str | os.PathLike[str] | None = None) -> None:
+    atomic_write_bytes(path, json_text(data).encode(), root=root)
 
 
 def remove_temporaries(folder: Path) -> Iterator[Path]:
-    """Delete leftover temporary files under ``folder`` (a killed writer's); yields each."""
-    for temporary in Path(folder).rglob(f".*{TEMP_SUFFIX}"):
-        with contextlib.suppress(OSError):
-            temporary.unlink()
-            yield temporary
+    """Delete leftover temporary files under ``folder`` (a killed writer's); yields each.
+
+    Walks real folders only: a linked folder may lead out of the run folder."""
+    for parent, folders, files in os.walk(folder, followlinks=False):
+        folders[:] = [name for name in folders if not os.path.islink(os.path.join(parent, name))]
+        for name in files:
+            temporary = Path(parent, name)
+            if written_path(temporary) is None:
+                continue
+            with contextlib.suppress(OSError):
+                temporary.unlink()
+                yield temporary
+
+
+def damaged(run_dir: str | Path, name: str, problem: str) -> DamagedRunError:
+    """The one line for a damaged file ``name`` (relative to ``run_dir``) of a run."""
+    return DamagedRunError(
+        f"run folder {str(run_dir)!r} is damaged: {name} {problem}; restore the folder from a "
+        f"copy (`ariel verify {shlex.quote(str(run_dir))}` lists every damaged file)"
+    )

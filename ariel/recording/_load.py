@@ -13,6 +13,9 @@ import numpy as np
 from ariel.recording._run_folder import NotARunError, RunFolder
 from ariel.recording._tables import read_table
 
+#: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
+FAILED_STATUSES = ("error", "unstable", "invalid")
+
 __all__ = ["Run", "list_runs", "load_run"]
 
 
@@ -29,16 +32,57 @@ class Run:
     path: Path
     info: dict[str, Any]
     config: dict[str, Any] = field(init=False)
+    manifest: Any = field(default=None, repr=False)  # `_manifest.Manifest`: what is checked
 
     def __post_init__(self) -> None:
-        self.config = self.info.get("config", {})
+        config = self.info.get("config")
+        self.config = config if isinstance(config, dict) else {}
 
     @property
     def generations_done(self) -> int:
-        return int(self.info.get("generations_done", 0))
+        done = self.info.get("generations_done", 0)
+        return done if isinstance(done, int) and done >= 0 else 0
+
+    @cached_property
+    def maximise(self) -> bool:
+        """Whether higher fitness is better: run.json's ``maximise``. A run made before run.json
+        recorded it asks its fitness function (which must then be installed here)."""
+        recorded = self.info.get("maximise")
+        if isinstance(recorded, bool):
+            return recorded
+        from ariel.plugins import fitness_functions
+
+        name = str(self.config.get("task", {}).get("fitness", "xy_displacement"))
+        try:
+            return bool(fitness_functions.get(name).maximise)
+        except (KeyError, ValueError, ImportError):
+            raise NotARunError(
+                f"{self.path / 'run.json'}: no fitness direction recorded (a run made before "
+                f"run.json held 'maximise') and fitness function {name!r} is not installed "
+                "here; install the plugin that provides it"
+            ) from None
+
+    @cached_property
+    def brain_only(self) -> bool:
+        """One fixed body (run.json's ``brain_only``). A run made before run.json recorded it:
+        ``body.genotype`` set, an encoder that cannot vary its genotypes, or one body."""
+        recorded = self.info.get("brain_only")
+        if isinstance(recorded, bool):
+            return recorded
+        body = self.config.get("body", {})
+        if body.get("genotype") is not None:
+            return True
+        from ariel.plugins import body_encoders
+
+        try:
+            encoder = body_encoders.get(body.get("encoder", "nde"))
+            return not bool(getattr(encoder, "evolvable", True))
+        except (KeyError, ValueError, ImportError, AttributeError):
+            return self.bodies["body_id"].nunique() == 1  # not installed: judge the records
 
     def _table(self, name: str) -> Any:
-        return read_table(self.path, name, up_to=self.generations_done - 1).to_pandas()
+        up_to = self.generations_done - 1
+        return read_table(self.path, name, up_to=up_to, manifest=self.manifest).to_pandas()
 
     @cached_property
     def evaluations(self) -> Any:
@@ -69,11 +113,7 @@ class Run:
         import pandas as pd
 
         evaluations, bodies = self.evaluations, self.bodies
-        maximise = True
-        if len(evaluations):
-            from ariel.plugins import fitness_functions
-
-            maximise = bool(fitness_functions.get(evaluations["fitness_fn"].iloc[0]).maximise)
+        maximise = self.maximise if len(evaluations) else True
         rows = []
         for generation, group in bodies.groupby("generation", sort=True):
             alive = group[group["selected"]]["fitness"]
@@ -86,6 +126,7 @@ class Run:
                     "new_bodies": int(group["is_new"].sum()),
                     "errors": int((evals["status"] == "error").sum()),
                     "unstable": int((evals["status"] == "unstable").sum()),
+                    "invalid": int((evals["status"] == "invalid").sum()),
                     "best_fitness": (alive.max() if maximise else alive.min())
                     if len(alive)
                     else math.nan,
@@ -99,6 +140,7 @@ class Run:
             "new_bodies",
             "errors",
             "unstable",
+            "invalid",
             "best_fitness",
             "mean_fitness",
             "median_fitness",
@@ -116,9 +158,18 @@ class Run:
 
 
 def load_run(path: str | Path) -> Run:
-    """The records of the run in ``path`` (a folder made by `ariel run`)."""
+    """The records of the run in ``path`` (a folder made by `ariel run`).
+
+    Its finished generations' tables are checked against the run's manifest: a missing or
+    changed table raises `DamagedRunError` (a `NotARunError`), here for a missing file or one of
+    another size, when a table is first read for other bytes. Works without the run's plugins
+    installed (run.json records what readers need).
+    """
+    from ariel.recording._manifest import Manifest
+
     folder = RunFolder(path)
-    return Run(path=folder.path, info=folder.read_info())
+    info = folder.read_info()
+    return Run(path=folder.path, info=info, manifest=Manifest.load(folder.path, info))
 
 
 #: `list_runs` status of a run whose run.json says "running" but whose lock is free: its
@@ -142,22 +193,55 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
             continue
         try:
             info = RunFolder(child).read_info()
-        except NotARunError:
-            continue
-        config = info.get("config", {})
-        status = info.get("status")
-        if status == "running" and lock_is_free(child):
-            status = STOPPED
-        found.append(
-            {
-                "path": str(child),
-                "run_id": info.get("run_id", child.name),
-                "status": status,
-                "generations_done": info.get("generations_done", 0),
-                "generations": config.get("generations"),
-                "evaluations": info.get("evaluations_done", 0),
-                "best_fitness": info.get("best_fitness"),
-                "created": info.get("created"),
-            }
-        )
+            summary = _summary(child, info)
+        except (NotARunError, TypeError, ValueError, AttributeError):
+            if not (child / "run.json").exists():
+                continue  # not a run folder at all
+            summary = _unreadable(child)  # one bad run.json must not hide the others
+        if summary["status"] == "running" and lock_is_free(child):
+            summary["status"] = STOPPED
+        found.append(summary)
     return found
+
+
+#: `list_runs` status of a folder whose run.json cannot be read or makes no sense.
+UNREADABLE = "unreadable"
+
+
+def _unreadable(child: Path) -> dict[str, Any]:
+    return {
+        "path": str(child),
+        "run_id": child.name,
+        "status": UNREADABLE,
+        "generations_done": 0,
+        "generations": None,
+        "evaluations": 0,
+        "best_fitness": None,
+        "created": None,
+    }
+
+
+def _count(value: Any) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        raise TypeError(f"not a count: {value!r}")
+    return value
+
+
+def _summary(child: Path, info: dict[str, Any]) -> dict[str, Any]:
+    """One row of `list_runs`; `TypeError` / `ValueError` for a run.json that makes no sense."""
+    config, run_id = info.get("config", {}), info.get("run_id", child.name)
+    status = info.get("status", "?")
+    if not isinstance(config, dict) or not isinstance(run_id, str) or not isinstance(status, str):
+        raise TypeError("config, run_id or status is not what a run.json holds")
+    best = info.get("best_fitness")
+    generations = config.get("generations")
+    return {
+        "path": str(child),
+        "run_id": run_id,
+        "status": status,
+        "generations_done": _count(info.get("generations_done", 0)),
+        "generations": _count(generations) if generations is not None else None,
+        "evaluations": _count(info.get("evaluations_done", 0)),
+        "best_fitness": float(best) if isinstance(best, int | float) else None,
+        "created": info.get("created"),
+    }

@@ -7,6 +7,10 @@ takes it. The file holds the holder's pid and host name, only for the refusal me
 deleted when the run ends (a killed run leaves it, unlocked and harmless).
 
 On a file system without ``flock`` support the run goes on unlocked, with a warning.
+
+The lock file is never opened through a symbolic link (``O_NOFOLLOW``) and must be a plain file
+with one name: a ``.lock`` planted in a copied run folder as a link (or a hard link) to another
+file would otherwise have that file truncated. Such a ``.lock`` is refused (`UnsafePathError`).
 """
 
 from __future__ import annotations
@@ -15,11 +19,13 @@ import contextlib
 import errno
 import os
 import socket
+import stat
 import time
 import warnings
 from pathlib import Path
 
 from ariel.errors import RunInUseError
+from ariel.recording._files import UnsafePathError
 
 __all__ = [
     "LOCK_NAME",
@@ -35,6 +41,7 @@ LOCK_NAME = ".lock"
 # retrying a few times keeps it from making a starting run refuse.
 _TRIES = 4
 _PAUSE_S = 0.05
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
 try:
     import fcntl
@@ -63,10 +70,10 @@ def _probe(run_dir: str | Path) -> tuple[str, str | None]:
     if fcntl is None:
         return "unknown", None
     try:
-        fd = os.open(path, os.O_RDONLY)
+        fd = os.open(path, os.O_RDONLY | _NOFOLLOW | os.O_NONBLOCK)
     except FileNotFoundError:
         return "free", None
-    except OSError:
+    except OSError:  # a link (ELOOP) or unreadable: nothing known
         return "unknown", None
     try:
         fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
@@ -112,7 +119,7 @@ class RunLock:
             self.run_dir.mkdir(parents=True, exist_ok=True)
             self._made_folder = True
         for _ in range(100):
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = self._open()
             self._lock(fd)
             # The last holder deletes the file on release: a lock taken on a file that was
             # deleted meanwhile guards nothing, so take the one now at the path instead.
@@ -129,6 +136,30 @@ class RunLock:
             self._fd = fd
             return self
         raise in_use_error(self.run_dir, "another process")  # pragma: no cover - never settles
+
+    def _open(self) -> int:
+        """The lock file, created if missing, never through a link; `UnsafePathError` when it
+        is a link, not a plain file, or a file with other names too (a hard link)."""
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | _NOFOLLOW | os.O_NONBLOCK, 0o644)
+        except OSError as exc:
+            if not self.path.is_symlink():
+                raise
+            self._cleanup_folder()
+            raise self._unsafe(f"a symbolic link (to {os.readlink(self.path)!r})") from exc
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:
+            os.close(fd)
+            self._cleanup_folder()
+            what = "not a plain file" if not stat.S_ISREG(info.st_mode) else "a hard link"
+            raise self._unsafe(what)
+        return fd
+
+    def _unsafe(self, what: str) -> UnsafePathError:
+        return UnsafePathError(
+            f"refusing to use the lock file {str(self.path)!r}: it is {what}, which writing "
+            "would change a file outside the run folder; remove it and try again"
+        )
 
     def _lock(self, fd: int) -> None:
         """Take the lock on ``fd``; raises (``fd`` closed) when the run is in use."""

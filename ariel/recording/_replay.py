@@ -34,17 +34,49 @@ from typing import Any
 
 import numpy as np
 
-from ariel.errors import UnknownEvaluationError
+from ariel.errors import MissingPluginError, UnknownEvaluationError
 from ariel.recording._load import Run, load_run
 from ariel.utils._gl import has_display
 
-__all__ = ["ReplayResult", "UnknownEvaluationError", "replay"]
+__all__ = ["MissingPluginError", "ReplayResult", "UnknownEvaluationError", "replay"]
 
 #: `replay(run, BEST)` replays the run's best evaluation.
 BEST = "best"
 
 # Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
 _DECISIVE = ("mujoco", "numpy", "torch", "ariel")
+
+
+#: The plugins a replay needs: run.json's ``plugins`` kind -> config key.
+_PLUGIN_KEYS = {
+    "body_encoder": ("body", "encoder"),
+    "controller": ("brain", "controller"),
+    "world": ("world", "name"),
+    "fitness": ("task", "fitness"),
+}
+
+
+def _require_plugins(run: Run) -> None:
+    """`MissingPluginError`, one line, for the first of the run's plugins not installed here
+    (reading a run needs none of them; re-simulating it needs all)."""
+    from ariel.plugins import REGISTRIES
+
+    for kind, (section, key) in _PLUGIN_KEYS.items():
+        name = run.config.get(section, {}).get(key)
+        if not isinstance(name, str):
+            continue
+        registry = REGISTRIES[kind]
+        try:
+            registry.get(name)
+        except (KeyError, ValueError, ImportError):
+            served = (run.info.get("plugins") or {}).get(kind) or {}
+            source = served.get("distribution") if isinstance(served, dict) else None
+            hint = f"install {source}" if source else "install the package that provides it"
+            raise MissingPluginError(
+                f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
+                f"({section}.{key}) is not installed here; {hint} (report, load_run and view "
+                "need no plugins)"
+            ) from None
 
 
 def _fitness_bits(value: float) -> bytes:
@@ -292,10 +324,7 @@ def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
     if eval_id == BEST:
         ok = evals[evals["fitness"].map(math.isfinite)]
         if len(ok):
-            from ariel.plugins import fitness_functions
-
-            maximise = bool(fitness_functions.get(ok["fitness_fn"].iloc[0]).maximise)
-            index = ok["fitness"].idxmax() if maximise else ok["fitness"].idxmin()
+            index = ok["fitness"].idxmax() if run.maximise else ok["fitness"].idxmin()
             return evals.loc[index].to_dict()
     else:
         found = evals[evals["eval_id"] == eval_id]
@@ -314,10 +343,23 @@ def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
     )
 
 
-def _version_differences(run: Run) -> dict[str, tuple[Any, Any]]:
+def _recorded_software(run: Run, generation: int) -> tuple[dict[str, Any], Any]:
+    """Versions and commit of the software that ran ``generation``: the last of run.json's
+    ``segments`` (one per run or resume) that started at or before it; else the run's own."""
+    versions, commit = run.info.get("versions") or {}, run.info.get("git_commit")
+    segments = run.info.get("segments")
+    for segment in segments if isinstance(segments, list) else []:
+        start = segment.get("from_generation") if isinstance(segment, dict) else None
+        if isinstance(start, int) and start <= generation:
+            versions = segment.get("versions") or {}
+            commit = segment.get("git_commit")
+    return (versions if isinstance(versions, dict) else {}), commit
+
+
+def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[Any, Any]]:
     from ariel.recording._run_folder import git_commit, software_versions
 
-    recorded = run.info.get("versions") or {}
+    recorded, commit_then = _recorded_software(run, generation)
     now = software_versions()
     differences = {
         name: (recorded.get(name), now.get(name))
@@ -325,8 +367,8 @@ def _version_differences(run: Run) -> dict[str, tuple[Any, Any]]:
         if name in recorded and recorded.get(name) != now.get(name)
     }
     commit = git_commit()
-    if run.info.get("git_commit") and commit and run.info["git_commit"] != commit:
-        differences["git_commit"] = (run.info["git_commit"], commit)
+    if commit_then and commit and commit_then != commit:
+        differences["git_commit"] = (commit_then, commit)
     return differences
 
 
@@ -353,15 +395,22 @@ def replay_task(run: Run, row: dict[str, Any]) -> Any:
 def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
     """Re-simulate evaluation ``eval_id`` (or ``"best"``) of the run in ``run_dir``.
 
-    Raises `UnknownEvaluationError` for an id not in the run's finished generations, and
-    `ariel.recording.NotARunError` for a folder that is not a run.
+    Raises `UnknownEvaluationError` for an id not in the run's finished generations,
+    `MissingPluginError` when a plugin of the run is not installed here, and
+    `ariel.recording.NotARunError` for a folder that is not a run (`DamagedRunError`: one whose
+    tables were changed).
     """
     run = load_run(run_dir)
     row = _find_row(run, eval_id)
+    _require_plugins(run)
     task = replay_task(run, row)
     result = _evaluate_as_stored(task, row.get("backend"))
     return ReplayResult(
-        run=run, row=row, task=task, result=result, version_differences=_version_differences(run)
+        run=run,
+        row=row,
+        task=task,
+        result=result,
+        version_differences=_version_differences(run, int(row["generation"])),
     )
 
 

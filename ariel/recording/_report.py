@@ -36,6 +36,7 @@ TABLE_COLUMNS = {
     "median_fitness": "median",
     "errors": "errors",
     "unstable": "unstable",
+    "invalid": "invalid",
 }
 _DPI = 110
 
@@ -63,13 +64,6 @@ class Report:
         return self.run.path / "report"
 
 
-def _maximise(run: Run) -> bool:
-    from ariel.plugins import fitness_functions
-
-    name = run.config.get("task", {}).get("fitness", "xy_displacement")
-    return bool(fitness_functions.get(name).maximise)
-
-
 def _best_row(run: Run, maximise: bool) -> dict[str, Any] | None:
     evals = run.evaluations
     ok = evals[evals["fitness"].map(math.isfinite)]
@@ -81,31 +75,19 @@ def _best_row(run: Run, maximise: bool) -> dict[str, Any] | None:
 
 def _frames(run: Run, row: dict[str, Any]) -> Any:
     """The trajectories rows of one evaluation (read from its generation's file only)."""
-    import pyarrow.parquet as pq
-
-    from ariel.recording._tables import generation_file, trajectory_schema
+    from ariel.recording._tables import generation_file, read_file
 
     path = generation_file(run.path, "trajectories", int(row["generation"]))
     if not path.is_file():
         return None
-    table = pq.read_table(
-        path, schema=trajectory_schema(), filters=[("eval_id", "==", row["eval_id"])]
+    table = read_file(
+        run.path,
+        path,
+        "trajectories",
+        manifest=run.manifest,
+        filters=[("eval_id", "==", row["eval_id"])],
     )
     return table.to_pandas().sort_values("t")
-
-
-def _brain_only(run: Run) -> bool:
-    """One fixed body: ``body.genotype`` set, or an encoder that cannot vary its genotypes
-    (e.g. ``prebuilt``)."""
-    from ariel.plugins import body_encoders
-
-    if run.config.get("body", {}).get("genotype") is not None:
-        return True
-    name = run.config.get("body", {}).get("encoder", "nde")
-    try:
-        return not bool(getattr(body_encoders.get(name), "evolvable", True))
-    except (KeyError, ValueError, ImportError):  # not installed here: judge from the records
-        return run.bodies["body_id"].nunique() == 1
 
 
 def _figure(width: float, height: float) -> Any:
@@ -115,7 +97,14 @@ def _figure(width: float, height: float) -> Any:
 
 
 def _save(figure: Any, path: Path, report: Report) -> None:
-    figure.savefig(path, dpi=_DPI)
+    from ariel.recording._files import atomic_write
+
+    # Never through a link planted in a copied run folder (``report/fitness.png -> ~/x``).
+    atomic_write(
+        path,
+        lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"),
+        root=report.run.path,
+    )
     report.written.append(path)
 
 
@@ -140,7 +129,7 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
         x = finite["generation"].to_numpy() + rng.uniform(-0.15, 0.15, len(finite))
         axes.scatter(x, finite["fitness"], s=6, color="0.7", label="evaluations", zorder=1)
     gens = table["generation"].to_numpy()
-    if _brain_only(run):  # one body: its best brain so far is best, mean and median at once
+    if run.brain_only:  # one body: its best brain so far is best, mean and median at once
         lines = [("best_fitness", "best so far (the fixed body)", "-o")]
         title = "fitness of the fixed body's best brain"
     else:
@@ -167,7 +156,7 @@ def _morphology_figure(report: Report) -> None:
     run = report.run
     bodies = run.bodies
     population = bodies[bodies["selected"] & (bodies["status"] == "ok")]
-    if _brain_only(run):
+    if run.brain_only:
         report.notes.append("morphology.png: left out (brain-only run: one fixed body)")
         return
     names = [n for n in DESCRIPTOR_NAMES if n in population and population[n].notna().any()]
@@ -297,11 +286,14 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     """
     run = load_run(run_dir)
     table = run.generations[list(TABLE_COLUMNS)]
-    maximise = _maximise(run) if len(run.evaluations) else True
+    maximise = run.maximise if len(run.evaluations) else True
     report = Report(run=run, table=table, best=_best_row(run, maximise))
     if not len(table):
         report.notes.append("no finished generation yet: no figures")
         return report
+    from ariel.recording._files import refuse_symlinks
+
+    refuse_symlinks(report.folder / "fitness.png", run.path)
     report.folder.mkdir(parents=True, exist_ok=True)
     _fitness_figure(report, maximise)
     _morphology_figure(report)

@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ariel.recording._load import FAILED_STATUSES
+from ariel.recording._manifest import write_manifest
 from ariel.recording._tables import (
     archive_schema,
     body_schema,
@@ -214,7 +216,7 @@ class RunWriter:
         """
         rows = [self._rows[key] for key in sorted(self._rows)]
         counts = {"rows": len(rows)}
-        counts.update({s: sum(row["status"] == s for row in rows) for s in ("error", "unstable")})
+        counts.update({s: sum(row["status"] == s for row in rows) for s in FAILED_STATUSES})
         write_table(self.path, "evaluations", generation, _columns(rows, evaluation_schema()))
         if self.config.record.trajectories:
             frames = [self._frames[key] for key in sorted(self._frames)]
@@ -232,9 +234,16 @@ class RunWriter:
             write_table(self.path, "archive", generation, _columns(rows, archive_schema()))
         if self.recorder is not None:
             self.recorder.generation(generation, body_rows, archive)
+        write_manifest(self.path, generation)  # the tables' sizes and hashes; before the checkpoint
         self._rows.clear()
         self._frames.clear()
         return counts
+
+    def plugin_failed(self, task: Any, exc: BaseException) -> BaseException:
+        """The one-line error that stops the run (the traceback goes to RUN/error.log)."""
+        from ariel.recording._failures import plugin_failure
+
+        return plugin_failure(self.path, self.config, task, exc)
 
     def save_checkpoint(self, state: Any) -> None:
         self.folder.save_checkpoint(state)

@@ -24,22 +24,25 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from ariel.errors import NotARunError, RunStorageError
+from ariel.errors import DamagedRunError, NotARunError, RunStorageError
 from ariel.recording._files import (
     atomic_write_bytes,
     atomic_write_json,
+    damaged,
     remove_temporaries,
     written_path,
 )
 from ariel.recording._lock import LOCK_NAME, in_use_error, lock_holder
-from ariel.recording._tables import TABLES, generation_file, table_generations
+from ariel.recording._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
 
 __all__ = [
     "CHECKPOINT_FORMAT",
     "RUN_FORMAT",
+    "DamagedRunError",
     "NotARunError",
     "RunFolder",
     "RunStorageError",
+    "damaged",
     "now",
     "software_versions",
     "storage_errors",
@@ -130,6 +133,17 @@ def software_versions() -> dict[str, str | None]:
         except importlib.metadata.PackageNotFoundError:
             versions[name] = None
     return versions
+
+
+def software_segment(kind: str, *, generation: Any = 0) -> dict[str, Any]:
+    """One entry of run.json's ``segments``: who ran the run from ``generation`` on."""
+    return {
+        "kind": kind,
+        "from_generation": generation,
+        "started": now(),
+        "versions": software_versions(),
+        "git_commit": git_commit(),
+    }
 
 
 def git_commit() -> str | None:
@@ -239,7 +253,19 @@ class RunFolder:
         return info
 
     def write_info(self, info: dict[str, Any]) -> None:
-        atomic_write_json(self.run_json, info)
+        atomic_write_json(self.run_json, info, root=self.path)
+
+    def start_segment(self, kind: str) -> dict[str, Any]:
+        """Record in run.json the software of this process, which now runs the run: ``kind``
+        "run" (the first segment) or "resume" (each resume adds one). Versions and commit are
+        read here, never carried over from run.json (which anyone may have edited)."""
+        info = self.read_info()
+        segments = info.get("segments")
+        segments = list(segments) if isinstance(segments, list) else []
+        segments.append(software_segment(kind, generation=info.get("generations_done", 0)))
+        info["segments"] = segments
+        self.write_info(info)
+        return info
 
     def update_info(self, **changes: Any) -> dict[str, Any]:
         info = self.read_info()
@@ -253,7 +279,7 @@ class RunFolder:
         """Replace the checkpoint with ``state`` (JSON-able plain data, no NaN)."""
         payload = {"format": CHECKPOINT_FORMAT, "state": state}
         text = json.dumps(payload, allow_nan=False, separators=(",", ":"))
-        atomic_write_bytes(self.checkpoint, text.encode())
+        atomic_write_bytes(self.checkpoint, text.encode(), root=self.path)
 
     def load_checkpoint(self) -> dict[str, Any] | None:
         """The last saved state (plain data), or None when no generation finished yet."""
@@ -283,10 +309,21 @@ class RunFolder:
         return table_generations(self.path, table)
 
     def discard_after(self, generation: int) -> list[Path]:
-        """Delete table files and Rerun recordings of generations after ``generation``, and
-        temporaries (resume)."""
+        """Delete table files, manifests and Rerun recordings of generations after
+        ``generation``, and temporaries (resume)."""
+
         removed = list(remove_temporaries(self.path))
+        manifests = self.path / MANIFEST_DIR
+        if manifests.is_dir() and not manifests.is_symlink():
+            for path in sorted(manifests.iterdir()):
+                found = re.fullmatch(r"gen-(\d{6})\.json", path.name)
+                if found and int(found.group(1)) > generation:
+                    with contextlib.suppress(FileNotFoundError):
+                        path.unlink()
+                    removed.append(path)
         for table in TABLES:
+            if (self.path / table).is_symlink():  # deleting through it would delete elsewhere
+                continue
             for gen in table_generations(self.path, table):
                 if gen > generation:
                     path = generation_file(self.path, table, gen)
@@ -294,10 +331,13 @@ class RunFolder:
                         path.unlink()
                     removed.append(path)
         recordings = self.path / "recordings"
-        if recordings.is_dir():
+        if recordings.is_dir() and not recordings.is_symlink():  # a link may lead elsewhere
             for folder in sorted(recordings.iterdir()):
                 found = re.fullmatch(r"gen-(\d{6})", folder.name)
-                if found and int(found.group(1)) > generation and folder.is_dir():
+                if found and int(found.group(1)) > generation and folder.is_symlink():
+                    folder.unlink()
+                    removed.append(folder)
+                elif found and int(found.group(1)) > generation and folder.is_dir():
                     shutil.rmtree(folder, ignore_errors=True)
                     removed.append(folder)
         return removed

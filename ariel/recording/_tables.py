@@ -26,6 +26,7 @@ __all__ = [
     "body_schema",
     "evaluation_schema",
     "generation_file",
+    "read_file",
     "read_table",
     "recording_path",
     "table_generations",
@@ -36,6 +37,8 @@ __all__ = [
 
 #: Table name -> folder in the run folder.
 TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories", "archive")
+#: Where each finished generation's manifest (its tables' sizes and SHA-256) lives.
+MANIFEST_DIR = "manifests"
 _GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
 
 
@@ -197,7 +200,7 @@ def write_table(
     schema = _SCHEMAS[table]()
     arrow = pa.Table.from_pydict({f.name: columns[f.name] for f in schema}, schema=schema)
     path = generation_file(run_dir, table, generation)
-    atomic_write(path, lambda tmp: pq.write_table(arrow, tmp, compression="zstd"))
+    atomic_write(path, lambda tmp: pq.write_table(arrow, tmp, compression="zstd"), root=run_dir)
     return path
 
 
@@ -210,18 +213,60 @@ def table_generations(run_dir: Path, table: str) -> list[int]:
     return sorted(int(m.group(1)) for m in found if m)
 
 
-def read_table(run_dir: Path, table: str, up_to: int | None = None) -> pa.Table:
-    """All generations of ``table`` (those <= ``up_to`` when given) as one Arrow table."""
+def read_table(
+    run_dir: Path, table: str, up_to: int | None = None, manifest: Any = None
+) -> pa.Table:
+    """All generations of ``table`` (those <= ``up_to`` when given) as one Arrow table.
+
+    ``manifest`` (`ariel.recording._manifest.Manifest`): read the files it lists, each checked
+    against it (a missing or changed file raises `DamagedRunError`); without it, the files
+    found. A file that cannot be decoded raises `DamagedRunError` too, one line naming it.
+    """
     schema = _SCHEMAS[table]()
-    gens = [g for g in table_generations(run_dir, table) if up_to is None or g <= up_to]
-    parts = [_read_file(generation_file(run_dir, table, g), table, schema) for g in gens]
+    if manifest is not None:
+        paths = [path for _, path in manifest.table_files(table, up_to)]
+    else:
+        gens = [g for g in table_generations(run_dir, table) if up_to is None or g <= up_to]
+        paths = [generation_file(run_dir, table, g) for g in gens]
+    parts = [read_file(run_dir, path, table, manifest=manifest) for path in paths]
     return pa.concat_tables(parts) if parts else schema.empty_table()
 
 
-def _read_file(path: Path, table: str, schema: pa.Schema) -> pa.Table:
-    """One file in today's schema; columns it predates get the value they meant then."""
-    part = pq.read_table(path, schema=schema)
-    stored = set(pq.read_schema(path).names)
+def _unreadable(run_dir: Path, path: Path, problem: str) -> Exception:
+    from ariel.recording._files import damaged
+
+    name = path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else str(path)
+    return damaged(run_dir, name, problem)
+
+
+def read_file(
+    run_dir: Path, path: Path, table: str, *, manifest: Any = None, filters: Any = None
+) -> pa.Table:
+    """One file of ``table`` in today's schema (columns it predates get the value they meant
+    then), checked against ``manifest`` when given. A link out of the run folder is refused:
+    the folder's records are its own files, and a reader must not be pointed elsewhere."""
+    from ariel.recording._files import within
+
+    run_dir, path = Path(run_dir), Path(path)
+    if path.is_symlink() and not within(path, run_dir):
+        raise _unreadable(run_dir, path, "is a symbolic link out of the run folder")
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise _unreadable(run_dir, path, "is missing") from None
+    except OSError as exc:
+        raise _unreadable(run_dir, path, f"is unreadable ({exc.strerror})") from None
+    if manifest is not None:
+        manifest.check_bytes(path, data)
+    schema = _SCHEMAS[table]()
+    try:
+        buffer = pa.BufferReader(data)
+        stored = set(pq.read_schema(buffer).names)
+        part = pq.read_table(pa.BufferReader(data), schema=schema, filters=filters)
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        first = (str(exc).splitlines() or [""])[0]
+        problem = f"is not a readable Parquet table ({type(exc).__name__}: {first})"
+        raise _unreadable(run_dir, path, problem) from None
     for name, value in _ADDED_COLUMNS.get(table, {}).items():
         if name not in stored:
             index = part.schema.get_field_index(name)

@@ -54,6 +54,9 @@ LOCALHOST = "127.0.0.1"
 READY_TIMEOUT_S = 60.0
 STOP_TIMEOUT_S = 5.0
 _EVAL_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
+# A recording's file name is the id plus ".rrd": longer ones cannot exist (NAME_MAX 255), and
+# asking the file system about them fails with ENAMETOOLONG.
+_MAX_EVAL_ID = 200
 
 
 @dataclass(frozen=True)
@@ -79,14 +82,6 @@ def best_evaluations(evaluations: Any, k: int, *, maximise: bool) -> Any:
     finite = evaluations["fitness"].map(lambda f: math.isfinite(f))
     ok = evaluations[(evaluations["status"] == "ok") & finite]
     return ok.sort_values("fitness", ascending=not maximise, kind="stable").head(k)
-
-
-def _maximise(evaluations: Any) -> bool:
-    if not len(evaluations):
-        return True
-    from ariel.plugins import fitness_functions
-
-    return bool(fitness_functions.get(str(evaluations["fitness_fn"].iloc[0])).maximise)
 
 
 def _no_recordings(run: Any) -> ViewError:
@@ -129,8 +124,11 @@ def select_recordings(
         return Selection(folder, tuple(paths), blueprint_or_none, description)
 
     if eval_id is not None:
-        if not _EVAL_ID.fullmatch(eval_id):
-            raise ViewError(f"not an evaluation id: {eval_id!r} (ids look like b000012-i003-c005)")
+        if len(eval_id) > _MAX_EVAL_ID or not _EVAL_ID.fullmatch(eval_id):
+            shown = (
+                eval_id if len(eval_id) <= 60 else f"{eval_id[:40]}...({len(eval_id)} characters)"
+            )
+            raise ViewError(f"not an evaluation id: {shown!r} (ids look like b000012-i003-c005)")
         found = sorted((folder / RECORDINGS).glob(f"gen-*/{eval_id}.rrd"))
         if found:
             return chosen(found[:1], f"evaluation {eval_id}")
@@ -155,7 +153,9 @@ def select_recordings(
         raise ViewError(f"no recordings of generation {generation} in {folder}")
 
     evaluations = run.evaluations
-    ranked = best_evaluations(evaluations, best or 1, maximise=_maximise(evaluations))
+    ranked = best_evaluations(
+        evaluations, best or 1, maximise=run.maximise if len(evaluations) else True
+    )
     paths = [recording_path(folder, g, e) for g, e in zip(ranked["generation"], ranked["eval_id"])]
     if best is not None:
         missing = [p for p in paths if not p.is_file()]

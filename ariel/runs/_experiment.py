@@ -231,8 +231,11 @@ def _new_run_id(config: ExperimentConfig) -> str:
     return f"{config.name}-{stamp}-s{config.seed}"
 
 
-def _run_info(config: ExperimentConfig, run_id: str) -> dict[str, Any]:
+def _run_info(
+    config: ExperimentConfig, run_id: str, *, maximise: bool, brain_only: bool
+) -> dict[str, Any]:
     from ariel.plugins import plugin_provenance
+    from ariel.recording._manifest import MANIFEST_FORMAT
     from ariel.recording._run_folder import git_commit, now, software_versions
 
     provenance = plugin_provenance(
@@ -257,6 +260,10 @@ def _run_info(config: ExperimentConfig, run_id: str) -> dict[str, Any]:
         "created": now(),
         "generations_done": 0,
         "evaluations_done": 0,
+        # What readers need without the run's plugins (report, load_run, runs, view).
+        "maximise": maximise,
+        "brain_only": brain_only,
+        "manifests": MANIFEST_FORMAT,
     }
 
 
@@ -279,10 +286,13 @@ def run_experiment(
     ``progress``: None shows progress (live on a terminal), False prints nothing.
     Everything is validated before anything is written.
     """
+    from ariel.evaluation.executors import planned_workers
+    from ariel.evolution._checks import check_plugins, check_resources, refuse_in_spawned_child
     from ariel.evolution._driver import is_brain_only
     from ariel.recording._lock import RunLock
     from ariel.recording._run_folder import RunFolder, storage_errors
 
+    refuse_in_spawned_child()  # a script without a __main__ guard, re-run by a pool worker
     config = load_config(config, overrides)
     settings = _executor_settings(config, kind=executor, workers=workers, scheduler=scheduler)
     plugins = resolve_plugins(config)
@@ -292,12 +302,23 @@ def run_experiment(
     if out is not None:
         run_id = path.name or run_id
     RunFolder.check_new(path, overwrite=overwrite)
-    if is_brain_only(config, plugins.encoder):
+    brain_only = is_brain_only(config, plugins.encoder)
+    if brain_only:
         _check_fixed_body(config, plugins)
-    info = _run_info(config, run_id)
+    check_plugins(config)
+    capacity, local_workers = planned_workers(settings)
+    check_resources(
+        config,
+        plugins.encoder,
+        brain_only=brain_only,
+        capacity=capacity,
+        local_workers=local_workers,
+    )
+    info = _run_info(config, run_id, maximise=plugins.maximise, brain_only=brain_only)
     # The lock is held for the whole run; create() checks the folder again under it.
     with storage_errors(path), RunLock(path, create=True):
         folder = RunFolder.create(path, info, overwrite=overwrite, locked=True)
+        folder.start_segment("run")
         return _drive(config, plugins, folder, run_id, None, settings, progress)
 
 
@@ -314,7 +335,9 @@ def resume_experiment(
     Refuses a folder that is not a run, a finished run, a run whose config was edited, and a
     run that another process is running (`RunInUseError`), before writing anything.
     """
+    from ariel.evolution._checks import check_plugins
     from ariel.recording._lock import RunLock
+    from ariel.recording._manifest import adopt_manifests
     from ariel.recording._run_folder import RunFolder, storage_errors
 
     folder = RunFolder(run_dir)
@@ -327,10 +350,13 @@ def resume_experiment(
         scheduler = scheduler if scheduler is not None else last.get("scheduler")
     settings = _executor_settings(config, kind=kind, workers=workers, scheduler=scheduler)
     plugins = resolve_plugins(config)
+    check_plugins(config)
     with storage_errors(folder.path), RunLock(folder.path):
         # Again under the lock: another resume may have run (or finished) the run meanwhile.
         info, config, state = _resumable(folder)
+        adopt_manifests(folder, state.generation + 1 if state is not None else 0)
         folder.discard_after(state.generation if state is not None else -1)
+        folder.start_segment("resume")
         return _drive(config, plugins, folder, info["run_id"], state, settings, progress)
 
 

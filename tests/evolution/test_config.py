@@ -52,7 +52,9 @@ def test_default_config_is_the_flat_coevolution() -> None:
         ({"executor": {"device": "tpu"}}, r"^executor.device: must be 'cuda' or 'cpu'"),
         ({"body": {"survivors": "best"}}, r"^body.survivors: must be 'plus' or 'generational'"),
         ({"executor": {"timeout": 0}}, r"^executor.timeout: must be greater than 0"),
-        ({"executor": {"timeout": "inf"}}, r"^executor.timeout: must be a finite number"),
+        # Strict types: a string is no number, even one a float() would read.
+        ({"executor": {"timeout": "inf"}}, r"^executor.timeout: must be a valid number .*string"),
+        ({"executor": {"timeout": float("inf")}}, r"^executor.timeout: must be a finite number"),
         ({"executor": {"max_retries": -1}}, r"^executor.max_retries: must be greater than or"),
     ],
 )

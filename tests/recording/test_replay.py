@@ -273,6 +273,9 @@ def test_an_error_row_has_no_body_to_show(coevolution, tmp_path: Path) -> None:
         index = table.schema.get_field_index(name)
         table = table.set_column(index, name, pa.array(values, table.schema.field(name).type))
     pq.write_table(table, path)
+    from ariel.recording._manifest import write_manifest
+
+    write_manifest(copy, 0)  # a deliberate edit, not damage: its manifest follows it
     replayed = replay(copy, table.column("eval_id")[0].as_py())
     assert replayed.status == "error" and replayed.identical
     with pytest.raises(ValueError, match="no body to show"):

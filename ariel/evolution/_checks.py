@@ -1,0 +1,227 @@
+"""Checks a run passes before anything is written, and the one line for a plugin that fails.
+
+* `refuse_in_spawned_child`: ``run_experiment`` called from the top level of a script that a
+  process pool's worker imports again (spawn / forkserver start methods re-run ``__main__``
+  without ``if __name__ == "__main__":``) would start a run in every worker.
+* `check_plugins`: the ``ariel plugins --check`` checks of the configured plugins, with the
+  config's options (cached per process: a campaign checks each plugin once).
+* `check_resources`: the memory one generation needs, estimated from a sample body of the
+  experiment, against what this machine has.
+* `plugin_failure`: a plugin that raises during a run stops it with one line naming the plugin
+  and the evaluation; the full traceback goes to ``RUN/error.log``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from typing import Any
+
+from ariel.errors import PluginFailedError
+from ariel.evolution._config import ConfigError, ExperimentConfig
+
+__all__ = [
+    "PluginFailedError",
+    "check_plugins",
+    "check_resources",
+    "machine_memory",
+    "refuse_in_spawned_child",
+]
+
+ERROR_LOG = "error.log"
+_CHECKED: set[str] = set()  # plugins (kind, name, options) that passed in this process
+
+
+# --------------------------------------------------------------------------------------------
+# A run started by a worker that re-imported the script
+# --------------------------------------------------------------------------------------------
+
+
+def refuse_in_spawned_child() -> None:
+    """`ConfigError` when this process is a multiprocessing child (a pool worker): a script that
+    calls ``run_experiment`` without ``if __name__ == "__main__":`` runs again in each worker
+    the spawn and forkserver start methods start, which would start a run in each of them."""
+    # (multiprocessing.parent_process() is still None while a child re-imports the script.)
+    if not _importing_main_again():
+        return  # a child that calls run_experiment from a function it was given is fine
+    from ariel.evaluation._pool import WORKER_CANNOT_START
+
+    main = sys.modules.get("__mp_main__") or sys.modules.get("__main__")
+    script = getattr(main, "__file__", None) or "the script"
+    print(
+        f"ariel: error: a worker process re-imported {script}, whose top level calls "
+        'run_experiment: put that code under `if __name__ == "__main__":`',
+        file=sys.stderr,
+        flush=True,
+    )
+    # The pool sees this exit code and stops (`LocalPool`). Not an exception: a traceback per
+    # worker would bury the line, and forkserver turns any exit of its child into code 1.
+    os._exit(WORKER_CANNOT_START)
+
+
+def _importing_main_again() -> bool:
+    """Whether a module-level frame of ``__mp_main__`` (the script, re-imported by spawn or
+    forkserver in a worker) is on the stack: the call comes from the script's top level."""
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_code.co_name == "<module>" and frame.f_globals.get("__name__") == "__mp_main__":
+            return True
+        frame = frame.f_back
+    return False
+
+
+# --------------------------------------------------------------------------------------------
+# The configured plugins, checked with their options
+# --------------------------------------------------------------------------------------------
+
+
+def check_plugins(config: ExperimentConfig) -> None:
+    """Run the plugin checkers (`ariel.plugins.check_*`) on the plugins ``config`` names, with
+    its options; the first failure is a `ConfigError` naming the plugin and the problem."""
+    from ariel.plugins import (
+        PluginCheckError,
+        check_body_encoder,
+        check_controller,
+        check_fitness,
+        check_world,
+    )
+
+    checks = (
+        ("body.options", check_body_encoder, config.body.encoder, config.body.options),
+        ("world.options", check_world, config.world.name, config.world.options),
+        ("brain.options", check_controller, config.brain.controller, config.brain.options),
+        ("task.options", check_fitness, config.task.fitness, config.task.options),
+    )
+    for key, check, name, options in checks:
+        token = json.dumps([check.__name__, name, options], sort_keys=True, default=repr)
+        if token in _CHECKED:
+            continue
+        try:
+            check(name, **options)
+        except PluginCheckError as exc:
+            raise ConfigError(f"{key}: the plugin check failed: {exc}") from None
+        _CHECKED.add(token)
+
+
+# --------------------------------------------------------------------------------------------
+# Memory
+# --------------------------------------------------------------------------------------------
+
+_GIB = 2.0**30
+
+
+def machine_memory() -> int | None:
+    """Bytes of memory this machine can give a run now (MemAvailable; else all of it)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as file:
+            for line in file:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _sample_model(config: ExperimentConfig, encoder: Any) -> Any | None:
+    """A compiled body of this experiment (its first generation-0 body, or the fixed one)."""
+    from ariel.evaluation import BodyBuildError, build
+    from ariel.evolution._seeds import derive_rng
+    from ariel.evolution._tasks import body_spec, evaluation_task
+
+    genotype = config.body.genotype
+    if genotype is None:
+        genotype = encoder.random_genotype(derive_rng(config.seed, "body-init", 0))
+    try:
+        return build(evaluation_task(config, body_spec(config, genotype))).model
+    except BodyBuildError:
+        return None
+
+
+def check_resources(
+    config: ExperimentConfig,
+    encoder: Any,
+    *,
+    brain_only: bool,
+    capacity: int,
+    local_workers: bool,
+) -> None:
+    """`ConfigError` when one generation would need more memory than this machine has (the
+    estimate, from a sample body, is in the message).
+
+    Counted: the recorded frames of a generation's evaluations, which the driver keeps until
+    the generation's tables are written (with ``record.trajectories``); the physics states of
+    the evaluations running at once (``local_workers``: on this machine); the compiled bodies.
+    """
+    from ariel.evolution._tasks import record_steps
+
+    model = _sample_model(config, encoder)
+    if model is None:  # no body to measure: the run records it as an error body
+        return
+    c = config
+    timestep = float(model.opt.timestep)
+    steps = max(1, round(c.task.duration / timestep))  # as the engine's `num_steps`
+    frames = steps // record_steps(c, timestep) + 2
+    nu, nbody = int(model.nu), int(model.nbody)
+    state = 1 + model.nq + model.nv + model.na + 6 * nbody + model.nmocap * 7 + model.neq
+    bodies = 1 if brain_only else max(c.body.population, c.body.offspring)
+    popsize, iterations = c.brain.popsize, c.brain.iterations
+    evaluations = bodies * popsize * iterations  # one generation's
+    per_frame = 8 * (4 + 2 * nu + (7 * nbody if c.record.rerun else 0))
+    kept = evaluations * frames * 8 * (4 + 2 * nu) if c.record.trajectories else 0
+    at_once = min(bodies * popsize, max(1, capacity) * popsize)
+    running = at_once * (steps * 8 * (state + nu) + frames * per_frame) if local_workers else 0
+    models = (c.body.population + c.body.offspring) * (int(model.nbuffer) + 2**16)
+    needed = 2 * kept + running + models  # 2x: the frames are copied into the table once
+    available = machine_memory()
+    if available is None or needed <= available:
+        return
+    parts = [
+        f"{evaluations} evaluations a generation x {frames} recorded frames"
+        if kept
+        else f"{at_once} evaluations at once x {steps} physics steps",
+        f"{nu} joints, {nbody} bodies in a sample body",
+    ]
+    raise ConfigError(
+        f"{_largest_key(c)}: one generation would need about {needed / _GIB:.1f} GiB of memory "
+        f"({'; '.join(parts)}); this machine has {available / _GIB:.1f} GiB available: "
+        "shorten task.duration, lower record.rate_hz or the population sizes, or set "
+        "record.trajectories = false"
+    )
+
+
+def _largest_key(config: ExperimentConfig) -> str:
+    """The setting that most likely made the estimate too big (named in the message)."""
+    defaults = ExperimentConfig()
+    ratios = {
+        "task.duration": config.task.duration / defaults.task.duration,
+        "record.rate_hz": config.record.rate_hz / defaults.record.rate_hz,
+        "brain.popsize": config.brain.popsize / defaults.brain.popsize,
+        "brain.iterations": config.brain.iterations / defaults.brain.iterations,
+        "body.population": config.body.population / defaults.body.population,
+        "body.offspring": config.body.offspring / defaults.body.offspring,
+    }
+    return max(ratios, key=lambda key: (ratios[key], -list(ratios).index(key)))
+
+
+# --------------------------------------------------------------------------------------------
+# A plugin that fails during a run
+# --------------------------------------------------------------------------------------------
+
+
+def _plugin_named(config: ExperimentConfig, text: str) -> str:
+    labels = (
+        f"fitness function {config.task.fitness!r}",
+        f"controller {config.brain.controller!r}",
+        f"world {config.world.name!r}",
+        f"body encoder {config.body.encoder!r}",
+    )
+    # The engine notes "raised by <plugin>" on what a plugin raised; else a message naming one.
+    found = [label for label in labels if f"raised by {label}" in text]
+    found += [label for label in labels if label in text]
+    if found:
+        return found[0]
+    return "a plugin of the run (" + ", ".join(labels) + ")"

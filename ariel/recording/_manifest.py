@@ -1,0 +1,293 @@
+"""The manifest of a run folder: per finished generation, its table files with size and SHA-256.
+
+``manifests/gen-NNNNNN.json`` is written after the generation's tables and before the
+checkpoint that makes the generation count as finished, so every finished generation has one.
+Readers (`load_run`, `ariel report`, `ariel replay`, `ariel resume`) check it: a table that is
+missing, has another size, or other bytes (a single flipped bit included) makes the run
+`DamagedRunError`, one line naming the file. `verify_run` (``ariel verify``) checks every file.
+
+The manifest covers the Parquet tables, the canonical record. Rerun recordings are not in it:
+they are views, not fsynced one by one, and may be empty after a power cut (docs/records.md).
+
+A run folder made before manifests existed has no ``"manifests"`` key in ``run.json``: its
+readers check that every finished generation's evaluations and bodies tables are there and
+readable, nothing more; ``ariel resume`` of such a run writes the manifests of the generations it
+keeps (after that check), so from then on it is checked like any other.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ariel.recording._files import atomic_write_json, within
+from ariel.recording._run_folder import DamagedRunError, RunFolder, damaged
+from ariel.recording._tables import MANIFEST_DIR, TABLES, generation_file
+
+__all__ = [
+    "MANIFEST_DIR",
+    "MANIFEST_FORMAT",
+    "Manifest",
+    "VerifyResult",
+    "adopt_manifests",
+    "manifest_file",
+    "verify_run",
+    "write_manifest",
+]
+
+MANIFEST_FORMAT = 1
+#: Tables every finished generation has (trajectories only with ``record.trajectories``).
+_REQUIRED = ("evaluations", "bodies")
+_CHUNK = 1 << 20
+
+
+def manifest_file(run_dir: str | Path, generation: int) -> Path:
+    return Path(run_dir) / MANIFEST_DIR / f"gen-{int(generation):06d}.json"
+
+
+def _relative(run_dir: Path, path: Path) -> str:
+    return path.relative_to(run_dir).as_posix()
+
+
+def _sha256_file(path: Path) -> tuple[int, str]:
+    digest, size = hashlib.sha256(), 0
+    with open(path, "rb") as file:
+        while chunk := file.read(_CHUNK):
+            digest.update(chunk)
+            size += len(chunk)
+    return size, digest.hexdigest()
+
+
+def write_manifest(run_dir: str | Path, generation: int) -> Path:
+    """List ``generation``'s table files (size, SHA-256) in its manifest; returns its path."""
+    run_dir = Path(run_dir)
+    files: dict[str, dict[str, Any]] = {}
+    for table in TABLES:
+        path = generation_file(run_dir, table, generation)
+        if path.is_file() and not path.is_symlink():
+            size, digest = _sha256_file(path)
+            files[_relative(run_dir, path)] = {"bytes": size, "sha256": digest}
+    path = manifest_file(run_dir, generation)
+    atomic_write_json(
+        path,
+        {"format": MANIFEST_FORMAT, "generation": int(generation), "files": files},
+        root=run_dir,
+    )
+    return path
+
+
+def _read_manifest(run_dir: Path, generation: int) -> dict[str, dict[str, Any]]:
+    """The ``files`` of one generation's manifest; `DamagedRunError` when missing or bad."""
+    path = manifest_file(run_dir, generation)
+    name = _relative(run_dir, path)
+    if path.is_symlink():
+        raise damaged(run_dir, name, "is a symbolic link")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise damaged(run_dir, name, f"is missing (generation {generation} is finished)") from None
+    except (OSError, ValueError) as exc:
+        raise damaged(run_dir, name, f"is unreadable ({type(exc).__name__})") from None
+    files = data.get("files") if isinstance(data, dict) else None
+    ok = (
+        isinstance(files, dict)
+        and data.get("format") == MANIFEST_FORMAT
+        and data.get("generation") == generation
+        and all(
+            isinstance(v, dict)
+            and isinstance(v.get("bytes"), int)
+            and isinstance(v.get("sha256"), str)
+            for v in files.values()
+        )
+    )
+    if not ok:
+        raise damaged(run_dir, name, "is not a manifest of this generation")
+    for listed in files:
+        expected = {_relative(run_dir, generation_file(run_dir, t, generation)) for t in TABLES}
+        if listed not in expected:
+            raise damaged(run_dir, name, f"lists a file it may not list ({listed!r})")
+    for table in _REQUIRED:
+        listed = _relative(run_dir, generation_file(run_dir, table, generation))
+        if listed not in files:
+            raise damaged(run_dir, name, f"does not list {listed}")
+    return files
+
+
+@dataclass
+class Manifest:
+    """What a run's finished generations hold: table file -> (bytes, SHA-256).
+
+    ``checked`` is False for a run made before manifests existed: then only the presence of the
+    required tables is known (``files`` maps them to None).
+    """
+
+    run_dir: Path
+    generations: int
+    checked: bool
+    files: dict[str, tuple[int, str] | None] = field(default_factory=dict)
+
+    @classmethod
+    def load(cls, run_dir: str | Path, info: dict[str, Any]) -> Manifest:
+        """The manifest of the run's finished generations (``info``: its run.json), checking
+        that each listed file is there with its size; `DamagedRunError` else."""
+        run_dir = Path(run_dir)
+        done = info.get("generations_done", 0)
+        done = done if isinstance(done, int) and done >= 0 else 0
+        manifest = cls(run_dir, done, checked=bool(info.get("manifests")))
+        for generation in range(done):
+            if manifest.checked:
+                for name, entry in _read_manifest(run_dir, generation).items():
+                    manifest.files[name] = (entry["bytes"], entry["sha256"])
+            else:
+                for table in _REQUIRED:
+                    path = generation_file(run_dir, table, generation)
+                    manifest.files[_relative(run_dir, path)] = None
+        for name, entry in manifest.files.items():
+            manifest.check_present(name, entry)
+        return manifest
+
+    def check_present(self, name: str, entry: tuple[int, str] | None) -> None:
+        path = self.run_dir / name
+        if path.is_symlink() and not within(path, self.run_dir):
+            raise damaged(self.run_dir, name, "is a symbolic link out of the run folder")
+        try:
+            size = path.stat().st_size
+        except FileNotFoundError:
+            raise damaged(self.run_dir, name, "is missing") from None
+        except OSError as exc:
+            raise damaged(self.run_dir, name, f"is unreadable ({exc.strerror})") from None
+        if entry is not None and size != entry[0]:
+            raise damaged(self.run_dir, name, f"has {size} bytes, not {entry[0]}")
+
+    def table_files(self, table: str, up_to: int | None = None) -> list[tuple[int, Path]]:
+        """``(generation, path)`` of ``table``'s files of the finished generations."""
+        last = self.generations - 1 if up_to is None else min(up_to, self.generations - 1)
+        found = []
+        for generation in range(last + 1):
+            path = generation_file(self.run_dir, table, generation)
+            if _relative(self.run_dir, path) in self.files or (not self.checked and path.is_file()):
+                found.append((generation, path))
+        return found
+
+    def check_bytes(self, path: Path, data: bytes) -> None:
+        """``data``, read from ``path``, is what the manifest lists; `DamagedRunError` else."""
+        name = _relative(self.run_dir, path)
+        entry = self.files.get(name)
+        if entry is None:
+            return
+        if len(data) != entry[0]:
+            raise damaged(self.run_dir, name, f"has {len(data)} bytes, not {entry[0]}")
+        if hashlib.sha256(data).hexdigest() != entry[1]:
+            raise damaged(self.run_dir, name, "has other bytes than when it was written (SHA-256)")
+
+
+# --------------------------------------------------------------------------------------------
+# ariel verify, and resume
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class VerifyResult:
+    """What `verify_run` checked and found: ``problems`` empty means the folder is sound."""
+
+    run_dir: Path
+    generations: int
+    files: int = 0
+    bytes: int = 0
+    checked: bool = True  # False: a run made before manifests (presence and readability only)
+    problems: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+def _check_readable(path: Path) -> str | None:
+    import pyarrow.parquet as pq
+
+    try:
+        pq.read_table(path)
+    except Exception as exc:  # any decoding failure is damage; one line says which
+        first = (str(exc).splitlines() or [""])[0]
+        return f"is not a readable Parquet table ({type(exc).__name__}: {first})"
+    return None
+
+
+def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyResult:
+    """Check every file the manifests list (size and SHA-256), or for a run made before
+    manifests, that the required tables are there and readable. ``generations``: check only
+    the first ones (default: the finished ones, run.json's ``generations_done``).
+
+    Raises `NotARunError` for a folder that is not a run at all.
+    """
+    run_dir = Path(run_dir)
+    info = RunFolder(run_dir).read_info()
+    done = info.get("generations_done", 0)
+    if not isinstance(done, int) or done < 0:
+        done = 0
+    if generations is not None:  # resume: the checkpoint's count (run.json may lag by one)
+        done = generations
+    result = VerifyResult(run_dir, done, checked=bool(info.get("manifests")))
+    for generation in range(done):
+        if result.checked:
+            try:
+                listed = _read_manifest(run_dir, generation)
+            except DamagedRunError as exc:
+                result.problems.append(_problem(exc))
+                continue
+            entries = {name: (e["bytes"], e["sha256"]) for name, e in listed.items()}
+        else:
+            entries = {
+                _relative(run_dir, generation_file(run_dir, t, generation)): None for t in _REQUIRED
+            }
+        for name, entry in entries.items():
+            problem = _check_file(run_dir, name, entry, result)
+            if problem is not None:
+                result.problems.append(f"{name} {problem}")
+    return result
+
+
+def _problem(exc: DamagedRunError) -> str:
+    """``NAME PROBLEM`` of `damaged`'s line."""
+    return str(exc).split(" is damaged: ", 1)[-1].rsplit("; restore", 1)[0]
+
+
+def _check_file(
+    run_dir: Path, name: str, entry: tuple[int, str] | None, result: VerifyResult
+) -> str | None:
+    path = run_dir / name
+    if path.is_symlink():
+        return "is a symbolic link" + ("" if within(path, run_dir) else " out of the run folder")
+    if not path.is_file():
+        return "is missing" if not os.path.lexists(path) else "is not a file"
+    result.files += 1
+    if entry is None:
+        result.bytes += path.stat().st_size
+        return _check_readable(path)
+    try:
+        size, digest = _sha256_file(path)
+    except OSError as exc:
+        return f"is unreadable ({exc.strerror})"
+    result.bytes += size
+    if size != entry[0]:
+        return f"has {size} bytes, not {entry[0]}"
+    if digest != entry[1]:
+        return "has other bytes than when it was written (SHA-256)"
+    return None
+
+
+def adopt_manifests(folder: RunFolder, generations: int) -> None:
+    """Before a run continues: refuse it when damaged (`DamagedRunError`, the first problem);
+    a run made before manifests gets them for its ``generations`` finished generations."""
+    result = verify_run(folder.path, generations)
+    if result.problems:
+        raise damaged(folder.path, *result.problems[0].split(" ", 1))
+    if result.checked:
+        return
+    for generation in range(generations):
+        write_manifest(folder.path, generation)
+    folder.update_info(manifests=MANIFEST_FORMAT)

@@ -1,0 +1,87 @@
+"""Every Python block of README.md and docs/*.md runs as written, saved as a script.
+
+Each block runs as its own script (``python block.py``, so a process pool's workers re-import
+it as they would a user's), in a folder prepared with what the examples name: a tiny finished
+run at ``data/runs/<run-id>`` (and the other run paths the docs use), a tiny
+``experiments/coevolve_flat.toml``, and a recording at the path the records doc reads.
+
+A block preceded by ``<!-- no-run: REASON -->`` is not run (a fragment, or it needs a GPU, a
+Dask scheduler or SLURM); the convention is documented in docs/records.md ("Trust").
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from _helpers import REPO, ariel_run, repo_env, tiny_run_toml
+
+_BLOCK = re.compile(r"(?:<!-- no-run: (?P<reason>[^>]*) -->\n)?```python\n(?P<code>.*?)```", re.S)
+DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+# Run folders the examples name: each a copy of the tiny run.
+RUN_PATHS = (
+    "data/runs/<run-id>",
+    "data/runs/<id>",
+    "data/runs/coevolve_flat-20261123-101500-s1",
+    "RUN",
+)
+
+
+def _blocks() -> list[tuple[str, str, str | None]]:
+    found = []
+    for doc in DOCS:
+        text = doc.read_text(encoding="utf-8")
+        for match in _BLOCK.finditer(text):
+            line = text[: match.start("code")].count("\n") + 1
+            found.append((f"{doc.name}:{line}", match.group("code"), match.group("reason")))
+    return found
+
+
+BLOCKS = _blocks()
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("docs")
+    (root / "experiments").mkdir()
+    config = root / "experiments" / "coevolve_flat.toml"
+    config.write_text(tiny_run_toml("coevolve_flat", 1, record="rerun = true"))
+    ariel_run(config, root / "made")
+    for name in RUN_PATHS:
+        shutil.copytree(root / "made", root / name)
+    recording = next((root / "made" / "recordings").glob("gen-*/*.rrd"))
+    target = root / "recordings" / "gen-000003" / "b000012-i003-c005.rrd"
+    target.parent.mkdir(parents=True)
+    shutil.copy(recording, target)
+    return root
+
+
+def test_every_block_is_found_and_most_run() -> None:
+    assert len(BLOCKS) >= 20
+    runnable = [name for name, _, reason in BLOCKS if reason is None]
+    assert len(runnable) >= 10, runnable
+
+
+@pytest.mark.parametrize(
+    ("code", "reason"), [(c, r) for _, c, r in BLOCKS], ids=[n for n, _, _ in BLOCKS]
+)
+def test_a_docs_block_runs_as_a_script(
+    workspace: Path, tmp_path: Path, code: str, reason: str | None
+) -> None:
+    if reason is not None:
+        pytest.skip(f"marked no-run: {reason}")
+    script = tmp_path / "example.py"
+    script.write_text(code)
+    result = subprocess.run(
+        [sys.executable, str(script)],
+        cwd=workspace,
+        env=repo_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
