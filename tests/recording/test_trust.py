@@ -39,6 +39,48 @@ def _copy(run: Path, tmp_path: Path, name: str = "copy", *, status: str | None =
     return copy
 
 
+# --- 1: loading a run folder runs no code from it ---------------------------------------------
+
+
+class _Planted:
+    """Unpickling this runs ``os.system``: what a crafted checkpoint would do."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):  # type: ignore[no-untyped-def]
+        return (os.system, (f"touch {self.marker}",))
+
+
+def test_a_crafted_pickle_checkpoint_runs_nothing(
+    finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import pickle
+
+    copy = _copy(finished, tmp_path, status="interrupted")
+    (copy / "checkpoints" / "state.json").unlink()
+    marker = tmp_path / "code-ran"
+    (copy / "checkpoints" / "state.pkl").write_bytes(pickle.dumps(_Planted(marker)))
+    before = snapshot(copy)
+    assert exit_code(["resume", str(copy), "--quiet"]) == 2
+    assert "pickle checkpoint of an older ariel, not loaded" in one_error_line(capsys)
+    assert not marker.exists()
+    assert snapshot(copy) == before
+    load_run(copy).evaluations  # the tables still load
+    assert not marker.exists()
+
+
+def test_a_crafted_json_checkpoint_is_one_line(
+    finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    copy = _copy(finished, tmp_path, status="interrupted")
+    state = json.loads((copy / "checkpoints" / "state.json").read_text())
+    state["state"]["population"] = [{"number": "os.system('x')", "surprise": 1}]
+    (copy / "checkpoints" / "state.json").write_text(json.dumps(state))
+    assert exit_code(["resume", str(copy), "--quiet"]) == 2
+    assert "unreadable checkpoint (not a loop state" in one_error_line(capsys)
+
+
 # --- 2: nothing written through a symbolic link ----------------------------------------------
 
 
