@@ -19,7 +19,9 @@ import them by name and rebuild plugins from registry names (see ``docs/executor
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import functools
+import logging
 import multiprocessing
 import os
 import signal
@@ -346,6 +348,24 @@ class DaskExecutor(BatchExecutor, cf.Executor):
         return f"DaskExecutor(scheduler={address!r}, closed={self._closed})"
 
 
+@contextlib.contextmanager
+def _workers_ignore_sigint() -> Iterator[None]:
+    """Processes started inside ignore Ctrl-C: it reaches the whole process group, and the
+    driver, which catches it, closes the cluster; Dask's workers would each print a traceback.
+
+    A process started with SIGINT ignored keeps it ignored (Python installs its KeyboardInterrupt
+    handler only over the default one), and so do the processes it starts.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal dispositions can only be changed from the main thread
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _make_dask(
     workers: int | None,
     scheduler: Any,
@@ -371,6 +391,9 @@ def _make_dask(
             # interface only: nothing is reachable from other machines unless asked for.
             "host": "127.0.0.1",
             "dashboard_address": None,
+            # Workers' own warnings (e.g. about the tasks a Ctrl-C cancelled) stay quiet; errors
+            # still show.
+            "silence_logs": logging.ERROR,
             # The nanny sets these before the worker process starts; the caller's env wins.
             "env": {**env, **(cluster_options.pop("env", None) or {})},
         }
@@ -391,7 +414,8 @@ def _make_dask(
                 **(cluster_options.get("scheduler_kwargs") or {}),
             }
         settings.update(cluster_options)
-        cluster = LocalCluster(**settings)
+        with _workers_ignore_sigint():
+            cluster = LocalCluster(**settings)
         try:
             client = Client(cluster)
         except BaseException:

@@ -1,0 +1,70 @@
+"""Ctrl-C on a run on a Dask LocalCluster: one line and exit 130, no worker tracebacks (issue 16,
+item 12). Ctrl-C reaches the whole process group: the cluster's processes ignore it and the
+driver closes them."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from _helpers import repo_env
+
+pytest.importorskip("distributed")
+
+CONFIG = """
+name = "dask_interrupt"
+seed = 1
+generations = 20
+[body]
+options = { number_of_modules = 8 }
+population = 4
+offspring = 4
+[brain]
+popsize = 4
+iterations = 3
+[task]
+duration = 2.0
+[record]
+rerun = false
+[executor]
+kind = "dask"
+workers = 2
+"""
+
+
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
+def test_ctrl_c_on_a_dask_run_prints_no_worker_tracebacks(tmp_path: Path) -> None:
+    config = tmp_path / "dask.toml"
+    config.write_text(CONFIG)
+    run_dir, log = tmp_path / "run", tmp_path / "output.txt"
+    with log.open("wb") as out:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "ariel.cli", "run", str(config), "--out", str(run_dir)],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,  # its own process group, as a terminal's job
+            env=repo_env(),
+        )
+        try:
+            deadline = time.monotonic() + 240
+            while time.monotonic() < deadline and process.poll() is None:
+                info = run_dir / "run.json"
+                if info.is_file() and json.loads(info.read_text()).get("generations_done", 0):
+                    break  # the workers are busy with generation 1
+                time.sleep(0.2)
+            assert process.poll() is None, log.read_text()
+            os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
+            assert process.wait(timeout=120) == 130
+        finally:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGKILL)
+    output = log.read_text()
+    assert "interrupted; continue it with: ariel resume" in output
+    assert "Traceback" not in output and "KeyboardInterrupt" not in output, output[-3000:]
+    assert json.loads((run_dir / "run.json").read_text())["status"] == "interrupted"
