@@ -66,7 +66,7 @@ def test_a_crafted_pickle_checkpoint_runs_nothing(
     assert "pickle checkpoint of an older ariel, not loaded" in one_error_line(capsys)
     assert not marker.exists()
     assert snapshot(copy) == before
-    load_run(copy).evaluations  # the tables still load
+    assert len(load_run(copy).evaluations) > 0  # the tables still load
     assert not marker.exists()
 
 
