@@ -139,8 +139,7 @@ def run_campaign(
         "file": Path(file).name,
         "seeds": spec.seeds,
         "conditions": [
-            {"name": c.name, "set": c.set, "description": c.description}
-            for c in spec.conditions
+            {"name": c.name, "set": c.set, "description": c.description} for c in spec.conditions
         ],
         "runs": [
             {
@@ -328,4 +327,3 @@ def campaign_status(campaign_dir: str | Path) -> list[dict[str, Any]]:
     from ariel.recording._campaign import load_campaign
 
     return load_campaign(campaign_dir).status()
-
