@@ -122,7 +122,10 @@ class Campaign:
 
         frames = []
         for (condition, seed), run in self.runs.items():
-            frame = getattr(run, table)
+            frame = getattr(run, table).copy()
+            # The evaluations' own ``seed`` (each evaluation's, derived from the run's) would
+            # clash with the run's: it is kept as ``eval_seed``.
+            frame = frame.rename(columns={"seed": "eval_seed"})
             frame.insert(0, "seed", seed)
             frame.insert(0, "condition", condition)
             frames.append(frame)
@@ -132,7 +135,8 @@ class Campaign:
 
     @cached_property
     def evaluations(self) -> Any:
-        """Every run's evaluations table, with ``condition`` and ``seed`` columns."""
+        """Every run's evaluations table, with ``condition`` and ``seed`` (the run's) columns;
+        each evaluation's own seed is its ``eval_seed`` column here."""
         return self._joined("evaluations")
 
     @cached_property
