@@ -53,8 +53,10 @@ def campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
         code = main(
-            ["campaign", "run", str(TINY), "--out", str(out), "--executor", "local"]
-            + ["--workers", "2", "--quiet"]
+            [
+                *("campaign", "run", str(TINY), "--out", str(out)),
+                *("--executor", "local", "--workers", "2", "--quiet"),
+            ]
         )
     assert code == 0
     assert "finished: campaign tiny: 4 of 4 runs finished" in printed.getvalue()
@@ -72,9 +74,8 @@ def test_every_run_is_a_normal_run_folder_in_a_hive_layout(campaign: Path) -> No
         assert run.config["brain"]["inherit"] == (condition == "inherit")
         assert not (run.path / ".lock").exists()  # every lock released
     # pyarrow reads all runs' evaluations as one dataset, condition and seed from the paths.
-    import pyarrow.dataset as ds
-
     import pyarrow as pa
+    import pyarrow.dataset as ds
 
     files = sorted(str(p) for p in campaign.glob("runs/*/*/evaluations/*.parquet"))
     # The table's own ``seed`` (each evaluation's) has the partition's name: int64 for both.
