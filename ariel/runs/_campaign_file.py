@@ -165,10 +165,13 @@ def _conditions(model: _CampaignModel) -> list[Condition]:
     return conditions
 
 
-def _apply(data: dict[str, Any], changes: Mapping[str, Any], where: str) -> dict[str, Any]:
+def _apply(
+    data: dict[str, Any], changes: Mapping[str, Any], where: str, *, condition: bool = True
+) -> dict[str, Any]:
+    """``data`` with ``changes`` set; the executor (one for all runs) only campaign-wide."""
     result = json.loads(json.dumps(data))
     for key, value in changes.items():
-        if key == "seed" or key.startswith("executor"):
+        if key == "seed" or (condition and key.startswith("executor")):
             raise ConfigError(
                 f"{where}: '{key}' cannot be set per condition (seeds come from seeds / "
                 "seed_count; the executor is the campaign's: set it in the base or on the "
@@ -199,7 +202,7 @@ def campaign_spec(
     except ValidationError as exc:
         raise ConfigError(_one_line(exc)) from None
     seeds = _seeds(model)
-    base = _apply(_base_data(model.base, beside), model.set, "set")
+    base = _apply(_base_data(model.base, beside), model.set, "set", condition=False)
     base = apply_overrides(base, overrides)
     conditions = _conditions(model)
     configs: dict[tuple[str, int], ExperimentConfig] = {}
