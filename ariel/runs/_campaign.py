@@ -116,7 +116,7 @@ def run_campaign(
     """
     from ariel.recording._campaign import run_path, write_campaign_info
     from ariel.recording._lock import RunLock
-    from ariel.recording._run_folder import RunFolder, now, storage_errors
+    from ariel.recording._run_folder import RunFolder, storage_errors
     from ariel.runs._campaign_file import load_campaign_file
 
     spec = load_campaign_file(file, tuple(overrides))
@@ -132,11 +132,29 @@ def run_campaign(
         folder = RunFolder(path / run_path(condition, seed))
         runs.append(_Run(condition, seed, folder, run_id, config, plugins))
     _check_new_folder(path)
-    info = {
+    info = _campaign_info(spec, runs, settings, campaign_id, Path(file).name)
+    with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
+        write_campaign_info(path, info)
+        for run in runs:
+            locks.enter_context(RunLock(run.folder.path, create=True))
+            RunFolder.create(
+                run.folder.path, run_info(run.config, run.run_id), overwrite=False, locked=True
+            )
+        return _drive_campaign(path, runs, settings, progress, skipped=0)
+
+
+def _campaign_info(
+    spec: Any, runs: list[_Run], settings: Any, campaign_id: str, file_name: str
+) -> dict[str, Any]:
+    """campaign.json of a new campaign: what resume and the readers need, no absolute path."""
+    from ariel.recording._campaign import run_path
+    from ariel.recording._run_folder import now
+
+    return {
         "campaign_id": campaign_id,
         "name": spec.name,
         "description": spec.description,
-        "file": Path(file).name,
+        "file": file_name,
         "seeds": spec.seeds,
         "conditions": [
             {"name": c.name, "set": c.set, "description": c.description} for c in spec.conditions
@@ -159,14 +177,6 @@ def run_campaign(
         "status": "created",
         "created": now(),
     }
-    with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
-        write_campaign_info(path, info)
-        for run in runs:
-            locks.enter_context(RunLock(run.folder.path, create=True))
-            RunFolder.create(
-                run.folder.path, run_info(run.config, run.run_id), overwrite=False, locked=True
-            )
-        return _drive_campaign(path, runs, settings, progress, skipped=0)
 
 
 def resume_campaign(

@@ -162,6 +162,60 @@ def campaign_sampler(
     return sample
 
 
+def report(
+    args: argparse.Namespace,
+    info: dict[str, list[float]],
+    campaign_seconds: list[float],
+    raw_seconds: list[float],
+) -> dict[str, Any]:
+    """Print the table; return the JSON summary (without the load averages)."""
+    per_run = args.generations * args.iterations * args.popsize
+    evaluations = per_run * len(CONDITIONS) * len(SEEDS)
+    threads = default_workers()
+    workers = args.workers or threads
+    ratios = [r / c for c, r in zip(campaign_seconds, raw_seconds)]  # rates: inverse times
+    ratio = statistics.median(ratios)
+    campaign_rate = evaluations / statistics.median(campaign_seconds)
+    raw_rate = evaluations / statistics.median(raw_seconds)
+    busy = statistics.median(info["busy"])
+    print()
+    print(f"{'figure':<48}{'evals/s':>9}{'ratio':>8}  target")
+    print("-" * 78)
+    print(f"{'raw mujoco.rollout (reference)':<48}{raw_rate:>9.2f}{1:>8.2f}")
+    verdict = "ok" if ratio >= TARGET else "MISSED"
+    figures = f"{campaign_rate:>9.2f}{ratio:>8.3f}"
+    print(f"{'campaign, run_campaign':<48}{figures}  >= {TARGET} {verdict}")
+    print(f"workers busy {busy:.0%} of the campaign's wall time x {workers} workers")
+    print(
+        "per round: "
+        + "; ".join(
+            f"campaign {c:.2f} s, raw {r:.2f} s, ratio {q:.3f}"
+            for c, r, q in zip(campaign_seconds, raw_seconds, ratios)
+        )
+    )
+    return {
+        "campaign_vs_raw_ratio": round(ratio, 4),
+        "busy_share": round(busy, 4),
+        "campaign_evals_per_s": round(campaign_rate, 3),
+        "raw_evals_per_s": round(raw_rate, 3),
+        "evaluations": evaluations,
+        "runs": len(CONDITIONS) * len(SEEDS),
+        "threads": threads,
+        "workers": workers,
+        "ratios": [round(r, 4) for r in ratios],
+        "campaign_s": [round(s, 3) for s in campaign_seconds],
+        "raw_s": [round(s, 3) for s in raw_seconds],
+        "pool_start_s": round(statistics.median(info["pool_start"]), 3),
+        "generations": args.generations,
+        "iterations": args.iterations,
+        "popsize": args.popsize,
+        "duration_s": args.duration,
+        "repeats": args.repeats,
+        "cpus": os.cpu_count(),
+        "mujoco": mujoco.__version__,
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     per_run = args.generations * args.iterations * args.popsize
@@ -203,49 +257,8 @@ def main(argv: list[str] | None = None) -> int:
                 seconds.append(sample())
     load_after = load_average()
 
-    ratios = [r / c for c, r in zip(campaign_seconds, raw_seconds)]  # rates: inverse times
-    ratio = statistics.median(ratios)
-    campaign_rate = evaluations / statistics.median(campaign_seconds)
-    raw_rate = evaluations / statistics.median(raw_seconds)
-    busy = statistics.median(info["busy"])
-    print()
-    print(f"{'figure':<48}{'evals/s':>9}{'ratio':>8}  target")
-    print("-" * 78)
-    print(f"{'raw mujoco.rollout (reference)':<48}{raw_rate:>9.2f}{1:>8.2f}")
-    verdict = "ok" if ratio >= TARGET else "MISSED"
-    figures = f"{campaign_rate:>9.2f}{ratio:>8.3f}"
-    print(f"{'campaign, run_campaign':<48}{figures}  >= {TARGET} {verdict}")
-    print(f"workers busy {busy:.0%} of the campaign's wall time x {workers} workers")
-    print(
-        "per round: "
-        + "; ".join(
-            f"campaign {c:.2f} s, raw {r:.2f} s, ratio {q:.3f}"
-            for c, r, q in zip(campaign_seconds, raw_seconds, ratios)
-        )
-    )
-    summary = {
-        "campaign_vs_raw_ratio": round(ratio, 4),
-        "busy_share": round(busy, 4),
-        "campaign_evals_per_s": round(campaign_rate, 3),
-        "raw_evals_per_s": round(raw_rate, 3),
-        "evaluations": evaluations,
-        "runs": len(CONDITIONS) * len(SEEDS),
-        "threads": threads,
-        "workers": workers,
-        "ratios": [round(r, 4) for r in ratios],
-        "campaign_s": [round(s, 3) for s in campaign_seconds],
-        "raw_s": [round(s, 3) for s in raw_seconds],
-        "pool_start_s": round(statistics.median(info["pool_start"]), 3),
-        "generations": args.generations,
-        "iterations": args.iterations,
-        "popsize": args.popsize,
-        "duration_s": args.duration,
-        "repeats": args.repeats,
-        "cpus": os.cpu_count(),
-        "mujoco": mujoco.__version__,
-        "loadavg_before": load_before,
-        "loadavg_after": load_after,
-    }
+    summary = report(args, info, campaign_seconds, raw_seconds)
+    summary.update(loadavg_before=load_before, loadavg_after=load_after)
     print(json.dumps(summary))
     return 0
 
