@@ -17,7 +17,7 @@ from ariel.recording._curves import best_so_far
 from ariel.recording._files import atomic_write, require_free_space
 from ariel.recording._rerun import APPLICATION_ID, _rr, _static, _write_chunks
 
-__all__ = ["CAMPAIGN_BLUEPRINT", "write_campaign_recording"]
+__all__ = ["CAMPAIGN_BLUEPRINT", "write_campaign_blueprint", "write_campaign_recording"]
 
 CAMPAIGN_BLUEPRINT = "campaign.rbl"
 # Distinct colours per condition (matplotlib's tab10), one shade for all seeds of a condition.
@@ -56,22 +56,39 @@ def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
         chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=best[keep])))
     path = Path(campaign.path) / CAMPAIGN_RRD
     _write_chunks(path, str(campaign.info.get("campaign_id", "campaign")), chunks, fsync=True)
-    _write_blueprint(Path(campaign.path) / CAMPAIGN_BLUEPRINT, campaign.conditions)
+    write_campaign_blueprint(Path(campaign.path) / CAMPAIGN_BLUEPRINT, campaign.path)
     return path
 
 
-def _write_blueprint(path: Path, conditions: list[str]) -> None:
+def write_campaign_blueprint(
+    path: Path, campaign_dir: str | os.PathLike[str], *, panels: bool = True
+) -> Path:
+    """The campaign's layout: every run's curve in one view, then one view per condition
+    (``panels=False``: the side panels collapsed, for pictures)."""
+    from ariel.recording._campaign import read_campaign_info
+
+    conditions = [c["name"] for c in read_campaign_info(campaign_dir).get("conditions", [])]
     rrb = _rr().blueprint
     views = [
         rrb.TimeSeriesView(name=f"best so far: {name}", origin=f"/condition/{name}")
         for name in conditions
     ]
+    side = (
+        []
+        if panels
+        else [
+            rrb.BlueprintPanel(state="collapsed"),
+            rrb.SelectionPanel(state="collapsed"),
+            rrb.TimePanel(state="collapsed"),
+        ]
+    )
     layout = rrb.Blueprint(
         rrb.Vertical(
             rrb.TimeSeriesView(name="best so far: every run", origin="/condition"),
             rrb.Grid(*views),
             row_shares=[1, 1],
         ),
+        *side,
         collapse_panels=False,
     )
 
@@ -86,3 +103,4 @@ def _write_blueprint(path: Path, conditions: list[str]) -> None:
                 staging.unlink()
 
     atomic_write(path, write)
+    return path

@@ -451,8 +451,16 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
     grpc = _any_free_port({web_port})
     taken: list[str] = []
     scratch = tempfile.mkdtemp(prefix="ariel-screenshot-")  # the browser profile, the layout
-    # The run's layout with the side panels collapsed: the picture shows the views.
-    layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
+    # The run's (or campaign's) layout with the side panels collapsed: the picture shows the
+    # views.
+    if (selection.run_dir / "campaign.json").is_file():
+        from ariel.recording._campaign_rerun import write_campaign_blueprint
+
+        layout = write_campaign_blueprint(
+            Path(scratch) / "views.rbl", selection.run_dir, panels=False
+        )
+    else:
+        layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
     selection = dataclasses.replace(selection, blueprint=layout)
 
     def capture(proc: subprocess.Popen[bytes]) -> None:
