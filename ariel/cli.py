@@ -508,6 +508,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_view)
 
+    from ariel._cli_campaign import add_campaign_commands
+
+    add_campaign_commands(sub, _add_executor_options)
+
     p = sub.add_parser("quickstart", help="run the quick-start tutorial flow as a script")
     p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the script")
     p.set_defaults(func=_cmd_quickstart)

@@ -30,8 +30,10 @@ __all__ = [
     "TaskConfig",
     "WorldConfig",
     "apply_overrides",
+    "check_key",
     "config_hash",
     "load_config",
+    "set_value",
 ]
 
 
@@ -251,30 +253,41 @@ def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[s
         key = key.strip()
         if not sep or not key:
             raise ConfigError(f"--set {item!r}: expected key=value, e.g. brain.popsize=16")
-        parts = key.split(".")
-        model: type[BaseModel] | None = ExperimentConfig
-        for depth, part in enumerate(parts):
-            if model is None:  # inside a free `options` table
-                break
-            if part not in model.model_fields:
-                allowed = ", ".join(sorted(model.model_fields))
-                where = ".".join(parts[:depth]) or "the top level"
-                raise ConfigError(f"--set {key}: no such key; keys under {where}: {allowed}")
-            if depth < len(parts) - 1:
-                annotation = model.model_fields[part].annotation
-                if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-                    model = annotation
-                elif part == "options":
-                    model = None
-                else:
-                    raise ConfigError(f"--set {key}: '{part}' is a value, not a table")
-        node = result
-        for part in parts[:-1]:
-            node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ConfigError(f"--set {key}: '{part}' is a value, not a table")
-        node[parts[-1]] = _parse_value(text.strip())
+        set_value(result, key, _parse_value(text.strip()), f"--set {key}")
     return result
+
+
+def check_key(key: str, label: str) -> None:
+    """Raise `ConfigError` (``label: ...``) unless dotted ``key`` names a config value."""
+    parts = key.split(".")
+    model: type[BaseModel] | None = ExperimentConfig
+    for depth, part in enumerate(parts):
+        if model is None:  # inside a free `options` table
+            break
+        if part not in model.model_fields:
+            allowed = ", ".join(sorted(model.model_fields))
+            where = ".".join(parts[:depth]) or "the top level"
+            raise ConfigError(f"{label}: no such key; keys under {where}: {allowed}")
+        if depth < len(parts) - 1:
+            annotation = model.model_fields[part].annotation
+            if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+                model = annotation
+            elif part == "options":
+                model = None
+            else:
+                raise ConfigError(f"{label}: '{part}' is a value, not a table")
+
+
+def set_value(data: dict[str, Any], key: str, value: Any, label: str) -> None:
+    """Set dotted ``key`` of raw config ``data`` (in place) to ``value``; errors name ``label``."""
+    check_key(key, label)
+    parts = key.split(".")
+    node = data
+    for part in parts[:-1]:
+        node = node.setdefault(part, {})
+        if not isinstance(node, dict):
+            raise ConfigError(f"{label}: '{part}' is a value, not a table")
+    node[parts[-1]] = value
 
 
 def load_config(

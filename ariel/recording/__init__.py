@@ -1,4 +1,5 @@
 """Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay`,
+campaigns (`load_campaign`, `compare`, `write_campaign_recording`),
 `make_report`, and the Rerun writers (`write_evaluation_recording`, `write_run_recording`,
 `write_blueprint`).
 
@@ -12,6 +13,11 @@ from typing import Any
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
+    "Campaign": "ariel.recording._campaign",
+    "load_campaign": "ariel.recording._campaign",
+    "Comparison": "ariel.recording._compare",
+    "compare": "ariel.recording._compare",
+    "write_campaign_recording": "ariel.recording._campaign_rerun",
     "Run": "ariel.recording._load",
     "load_run": "ariel.recording._load",
     "list_runs": "ariel.recording._load",

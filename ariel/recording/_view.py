@@ -109,6 +109,8 @@ def select_recordings(
 
     if sum(x is not None for x in (best, generation, eval_id)) > 1:
         raise ViewError("choose one of --best, --generation and EVAL_ID")
+    if (Path(run_dir) / "campaign.json").is_file():
+        return _campaign_selection(Path(run_dir), best, generation, eval_id)
     try:
         run = load_run(run_dir)
     except NotARunError as exc:
@@ -177,6 +179,29 @@ def select_recordings(
     if not picked:
         raise _no_recordings(run)
     return chosen(picked, " and ".join(parts))
+
+
+def _campaign_selection(
+    folder: Path, best: int | None, generation: int | None, eval_id: str | None
+) -> Selection:
+    """A campaign folder: campaign.rrd (every run's best-so-far curve) with campaign.rbl."""
+    from ariel.recording._campaign_rerun import CAMPAIGN_BLUEPRINT, write_campaign_recording
+
+    if (best, generation, eval_id) != (None, None, None):
+        raise ViewError(
+            f"{folder} is a campaign: --best, --generation and EVAL_ID apply to one of its runs "
+            f"(ariel view {folder}/runs/condition=NAME/seed=N ...)"
+        )
+    recording = folder / "campaign.rrd"
+    if not recording.is_file():  # a campaign killed before it wrote one
+        write_campaign_recording(folder)
+    blueprint = folder / CAMPAIGN_BLUEPRINT
+    return Selection(
+        folder,
+        (recording,),
+        blueprint if blueprint.is_file() else None,
+        "campaign.rrd (every run's best fitness so far)",
+    )
 
 
 # --- the rerun binary and its child process --------------------------------------------------
@@ -423,8 +448,16 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
     grpc = _any_free_port({web_port})
     taken: list[str] = []
     scratch = tempfile.mkdtemp(prefix="ariel-screenshot-")  # the browser profile, the layout
-    # The run's layout with the side panels collapsed: the picture shows the views.
-    layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
+    # The run's (or campaign's) layout with the side panels collapsed: the picture shows the
+    # views.
+    if (selection.run_dir / "campaign.json").is_file():
+        from ariel.recording._campaign_rerun import write_campaign_blueprint
+
+        layout = write_campaign_blueprint(
+            Path(scratch) / "views.rbl", selection.run_dir, panels=False
+        )
+    else:
+        layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
     selection = dataclasses.replace(selection, blueprint=layout)
 
     def capture(proc: subprocess.Popen[bytes]) -> None:

@@ -1,5 +1,6 @@
 """Runs end to end: an experiment config -> its plugins -> a run folder -> the evolution driver
-on an executor (`run_experiment`, `resume_experiment`).
+on an executor (`run_experiment`, `resume_experiment`); campaigns, conditions x seeds on one
+executor (`run_campaign`, `resume_campaign`, `campaign_status`).
 
 The layer above `ariel.recording` (the run folder, its writer) and `ariel.evolution` (the
 driver, the optimizers, the scheduler), which know nothing of each other's insides.
@@ -13,6 +14,10 @@ from typing import Any
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
+    "CampaignResult": "ariel.runs._campaign",
+    "campaign_status": "ariel.runs._campaign",
+    "resume_campaign": "ariel.runs._campaign",
+    "run_campaign": "ariel.runs._campaign",
     "RunResult": "ariel.runs._experiment",
     "resume_experiment": "ariel.runs._experiment",
     "run_experiment": "ariel.runs._experiment",

@@ -186,3 +186,49 @@ def test_without_run_dir_the_newest_run_under_data_runs_is_read(tiny_run: Path, 
     notebook.cells = [next(c for c in notebook.cells if c.cell_type == "code")]
     _execute(notebook, cwd=checkout / "analysis", home=tmp_path / "jupyter", run_dir=None)
     assert _text(notebook).startswith("run newer (finished)")
+
+
+# --- compare_conditions.ipynb: a campaign's conditions from pandas ------------------------------
+
+
+@pytest.fixture(scope="module")
+def tiny_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from ariel.runs import run_campaign
+
+    out = tmp_path_factory.mktemp("campaign") / "tiny"
+    tiny = Path(__file__).resolve().parents[1] / "data" / "campaign_tiny.toml"
+    assert run_campaign(tiny, out=out).status == "finished"
+    return out
+
+
+def test_compare_conditions_is_stored_without_outputs() -> None:
+    notebook = nbformat.read(ANALYSIS / "compare_conditions.ipynb", as_version=4)
+    nbformat.validate(notebook)
+    code = [c for c in notebook.cells if c.cell_type == "code"]
+    assert all(c.outputs == [] and c.execution_count is None for c in code)
+    assert "CAMPAIGN_DIR = None" in code[0].source and "ARIEL_CAMPAIGN_DIR" in code[0].source
+
+
+def test_compare_conditions_shows_the_comparison_of_compare_from_pandas(
+    tiny_campaign: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from ariel.recording import compare, load_campaign
+
+    notebook = nbformat.read(ANALYSIS / "compare_conditions.ipynb", as_version=4)
+    monkeypatch.setenv("ARIEL_CAMPAIGN_DIR", str(tiny_campaign))
+    _execute(notebook, cwd=ANALYSIS, home=tmp_path / "jupyter", run_dir=None)
+    text = _text(notebook)
+    assert "conditions fresh, inherit; seeds [1, 2]" in text
+    assert _figures(notebook) == 3  # best so far, final best, morphology
+    # The notebook's final bests and A12 are those of `ariel compare`.
+    comparison = compare([tiny_campaign], out=tmp_path / "compare")
+    for run in comparison.runs.to_dict("records"):
+        assert f"{run['final_best']:.4f}" in text
+    (table,) = [
+        o
+        for o in _cell_with(notebook, "mannwhitneyu(x, y").outputs
+        if o.output_type == "execute_result"
+    ]
+    a12 = comparison.stats.loc[0, "a12"]
+    assert re.search(rf"\bfresh\s+inherit\b.*\b{a12:g}\b", table["data"]["text/plain"])
+    assert load_campaign(tiny_campaign).maximise

@@ -135,3 +135,23 @@ def test_soak_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     result = run_benchmark("soak.py", "--out", str(tmp_path), cwd=tmp_path)
     assert result.returncode == 2
     assert "exists already" in result.stderr
+
+
+CAMPAIGN_KEYS = ("campaign_vs_raw_ratio", "busy_share", "campaign_evals_per_s", "raw_evals_per_s")
+
+
+def test_campaign_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
+    result = run_benchmark("campaign.py", "--quick", cwd=tmp_path)
+    summary, table = benchmark_summary(result, CAMPAIGN_KEYS)
+    # --quick: 2 conditions x 3 seeds of 1 generation x 1 iteration x popsize 4.
+    assert summary["evaluations"] == 24 and summary["runs"] == 6 and summary["repeats"] == 1
+    assert 0 < summary["busy_share"] <= 1.0
+    for label in ("raw mujoco.rollout", "campaign, run_campaign", "workers busy"):
+        assert label in table
+    assert list(tmp_path.iterdir()) == []  # the campaigns went into a temporary folder
+
+
+def test_campaign_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
+    result = run_benchmark("campaign.py", "--popsize", "1", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "--popsize must be an integer >= 2" in result.stderr

@@ -1,0 +1,201 @@
+"""``ariel campaign run | resume | status`` and ``ariel compare``: parsing and one-line errors.
+
+Like `ariel.cli`, every command imports what it needs only when it runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shlex
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+__all__ = ["add_campaign_commands"]
+
+EXIT_USAGE = 2
+
+
+def _fail(message: str) -> int:
+    print(f"ariel: error: {message}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str) -> int:
+    """``start()``; bad input, a folder in use or that cannot be written -> one line, exit 2;
+    Ctrl-C -> how to resume."""
+    from ariel.evolution import ConfigError
+    from ariel.plugins import DuplicatePluginError, PluginLoadError
+    from ariel.recording import NotARunError, RunInUseError, RunStorageError
+
+    try:
+        result = start()
+    except (
+        ConfigError,
+        FileExistsError,
+        NotARunError,
+        DuplicatePluginError,
+        PluginLoadError,
+        RunInUseError,
+        RunStorageError,
+        ValueError,
+    ) as exc:
+        return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted; continue it with: ariel campaign resume {hint}", file=sys.stderr)
+        return 130
+    show(result)
+    return 0
+
+
+def _show_campaign(result: Any) -> None:
+    quoted = shlex.quote(str(result.path))
+    finished = sum(r.status == "finished" for r in result.runs)
+    skipped = f" ({result.skipped} finished before, skipped)" if result.skipped else ""
+    print(
+        f"{result.status}: campaign {result.campaign_id}: {finished} of {len(result.runs)} runs "
+        f"finished{skipped} in {result.wall_seconds:.1f} s; workers busy "
+        f"{result.busy_share:.0%} of the time ({result.workers} workers)"
+    )
+    print(f"campaign folder: {result.path}")
+    print(
+        "look at the results:\n"
+        f"  ariel campaign status {quoted}   # condition x seed: status, generations, best\n"
+        f"  ariel compare {quoted}           # statistics and figures in {quoted}/compare\n"
+        f"  ariel view {quoted}              # every run's best-so-far curve (Rerun)\n"
+        f'  python -c "from ariel.recording import load_campaign; '
+        f"print(load_campaign('{result.path}').generations)\""
+    )
+
+
+def _cmd_campaign_run(args: argparse.Namespace) -> int:
+    from ariel.runs import run_campaign
+
+    def start() -> Any:
+        return run_campaign(
+            args.file,
+            out=args.out,
+            executor=args.executor,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+            overrides=args.set,
+        )
+
+    return _guarded(start, _show_campaign, args.out or "data/campaigns/<id>")
+
+
+def _cmd_campaign_resume(args: argparse.Namespace) -> int:
+    from ariel.runs import resume_campaign
+
+    def start() -> Any:
+        return resume_campaign(
+            args.campaign_dir,
+            executor=args.executor,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+        )
+
+    return _guarded(start, _show_campaign, args.campaign_dir)
+
+
+def _cmd_campaign_status(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from ariel.recording import NotARunError
+    from ariel.runs import campaign_status
+
+    try:
+        rows = campaign_status(args.campaign_dir)
+    except NotARunError as exc:
+        return _fail(str(exc))
+    table = Table(title=f"campaign {args.campaign_dir}")
+    for name, justify in (
+        ("condition", "left"),
+        ("seed", "right"),
+        ("status", "left"),
+        ("generations", "right"),
+        ("evaluations", "right"),
+        ("best", "right"),
+    ):
+        table.add_column(name, justify=justify)  # type: ignore[arg-type]
+    for row in rows:
+        best = row["best_fitness"]
+        table.add_row(
+            row["condition"],
+            str(row["seed"]),
+            str(row["status"]),
+            f"{row['generations_done']}/{row['generations']}",
+            str(row["evaluations"]),
+            f"{best:.6g}" if math.isfinite(best) else "-",
+        )
+    Console(width=max(100, Console().width)).print(table)
+    return 0
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from ariel.recording import NotARunError
+    from ariel.recording._compare import CompareError, compare
+    from ariel.recording._compare_html import STATS_COLUMNS, format_stats
+
+    try:
+        comparison = compare(args.paths, out=args.out)
+    except (CompareError, NotARunError) as exc:
+        return _fail(str(exc))
+    from rich.console import Console
+    from rich.table import Table
+
+    direction = "higher" if comparison.maximise else "lower"
+    table = Table(title=f"{comparison.title}: {comparison.fitness_fn}, {direction} is better")
+    for heading in STATS_COLUMNS.values():
+        table.add_column(heading)
+    for row in format_stats(comparison.stats):
+        table.add_row(*row)
+    Console(width=max(140, Console().width)).print(table)
+    counts = comparison.runs.groupby("condition", sort=False).size()
+    print("runs: " + ", ".join(f"{name} {n}" for name, n in counts.items()))
+    print(f"wrote {comparison.out}/ (open {comparison.html})")
+    return 0
+
+
+def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None]) -> None:
+    """Add ``campaign`` (with run, resume, status) and ``compare`` to the sub-parsers."""
+    campaign = sub.add_parser(
+        "campaign", help="conditions x seeds as one command: run, resume, status"
+    )
+    actions = campaign.add_subparsers(dest="action", metavar="ACTION", required=True)
+    p = actions.add_parser("run", help="run every condition x seed of a campaign file")
+    p.add_argument("file", metavar="FILE", help="campaign TOML file")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a value of the base experiment, e.g. --set generations=4 (repeatable)",
+    )
+    p.add_argument("--out", metavar="DIR", help="campaign folder (default: data/campaigns/<id>)")
+    add_executor_options(p)
+    p.set_defaults(func=_cmd_campaign_run)
+
+    p = actions.add_parser("resume", help="continue the unfinished runs of a campaign")
+    p.add_argument("campaign_dir", metavar="DIR")
+    add_executor_options(p)
+    p.set_defaults(func=_cmd_campaign_resume)
+
+    p = actions.add_parser("status", help="condition x seed: status, generations, best")
+    p.add_argument("campaign_dir", metavar="DIR")
+    p.set_defaults(func=_cmd_campaign_status)
+
+    p = sub.add_parser(
+        "compare",
+        help="compare a campaign's conditions (or run folders) with statistics and figures",
+    )
+    p.add_argument(
+        "paths", nargs="+", type=Path, metavar="DIR", help="a campaign folder, or run folders"
+    )
+    p.add_argument("--out", metavar="DIR", help="output folder (default: CAMPAIGN_DIR/compare)")
+    p.set_defaults(func=_cmd_compare)

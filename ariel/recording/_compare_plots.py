@@ -1,0 +1,106 @@
+"""The figures of `ariel compare`: best so far against evaluations (median and 95 % bootstrap
+band per condition), final best per condition (box plot with every seed's point), and the
+bodies' morphology descriptors over evaluations per condition. Matplotlib (Agg), PNG files.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["MORPHOLOGY", "best_so_far_figure", "final_best_figure", "morphology_figure"]
+
+#: Descriptors drawn over evaluations (those a reader of a co-evolution paper looks for).
+MORPHOLOGY = ("num_modules", "num_limbs", "joints_ratio", "symmetry")
+_DPI = 110
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _colours(names: Sequence[str]) -> dict[str, Any]:
+    cycle = _pyplot().rcParams["axes.prop_cycle"].by_key()["color"]
+    return {name: cycle[i % len(cycle)] for i, name in enumerate(names)}
+
+
+def _save(figure: Any, path: Path) -> Path:
+    figure.tight_layout()
+    figure.savefig(path, dpi=_DPI)
+    _pyplot().close(figure)
+    return path
+
+
+def best_so_far_figure(
+    curves: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+    path: Path,
+    *,
+    ylabel: str,
+) -> Path:
+    """``curves``: condition -> (evaluations grid, median, band low, band high)."""
+    plt = _pyplot()
+    figure, axes = plt.subplots(figsize=(7.5, 4.5))
+    colours = _colours(list(curves))
+    for name, (grid, median, low, high) in curves.items():
+        axes.plot(grid, median, color=colours[name], label=name, linewidth=1.8)
+        axes.fill_between(grid, low, high, color=colours[name], alpha=0.2, linewidth=0)
+    axes.set_xlabel("evaluations")
+    axes.set_ylabel(ylabel)
+    axes.set_title("best so far: median of the seeds, 95 % bootstrap band")
+    axes.grid(alpha=0.3)
+    axes.legend(loc="best", fontsize="small")
+    return _save(figure, path)
+
+
+def final_best_figure(finals: Mapping[str, np.ndarray], path: Path, *, ylabel: str) -> Path:
+    """``finals``: condition -> every seed's final best fitness."""
+    plt = _pyplot()
+    names = list(finals)
+    figure, axes = plt.subplots(figsize=(max(4.5, 1.4 * len(names) + 2), 4.5))
+    colours = _colours(names)
+    data = [np.asarray(finals[n], float) for n in names]
+    axes.boxplot(data, showfliers=False, widths=0.5)
+    jitter = np.random.default_rng(0)  # fixed: the same runs draw the same figure
+    for position, (name, values) in enumerate(zip(names, data), start=1):
+        x = position + jitter.uniform(-0.12, 0.12, size=len(values))
+        axes.scatter(x, values, color=colours[name], zorder=3, s=22, edgecolor="black")
+    axes.set_xticks(range(1, len(names) + 1), names, rotation=20 if len(names) > 3 else 0)
+    axes.set_ylabel(ylabel)
+    axes.set_title("final best per run (one point per seed)")
+    axes.grid(alpha=0.3, axis="y")
+    return _save(figure, path)
+
+
+def morphology_figure(
+    series: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]],
+    path: Path,
+) -> Path:
+    """``series``: descriptor -> condition -> (evaluations, median, 25th, 75th percentile) of
+    the runs' mean descriptor per bin of evaluations."""
+    plt = _pyplot()
+    names = list(series)
+    columns = min(2, len(names))
+    rows = int(np.ceil(len(names) / columns))
+    figure, grid = plt.subplots(rows, columns, figsize=(5.2 * columns, 3.2 * rows), squeeze=False)
+    conditions = list(next(iter(series.values()), {}))
+    colours = _colours(conditions)
+    for axes, descriptor in zip(grid.flat, names):
+        for condition, (x, median, low, high) in series[descriptor].items():
+            axes.plot(x, median, color=colours[condition], label=condition)
+            axes.fill_between(x, low, high, color=colours[condition], alpha=0.15, linewidth=0)
+        axes.set_title(descriptor.replace("_", " "))
+        axes.set_xlabel("evaluations")
+        axes.grid(alpha=0.3)
+    for axes in list(grid.flat)[len(names) :]:
+        axes.set_visible(False)
+    grid.flat[0].legend(fontsize="small")
+    figure.suptitle("morphology of the evaluated bodies: median of the seeds (band: 25-75 %)")
+    return _save(figure, path)

@@ -1,0 +1,343 @@
+"""`run_campaign`, `resume_campaign`, `campaign_status`: conditions x seeds on ONE executor.
+
+Every run is a normal run folder (its own lock, run.json, checkpoints) at
+``runs/condition=<name>/seed=<n>/`` of the campaign folder, driven by its own `RunDriver`;
+the drivers' generations are the groups of one `Scheduler`, so evaluations of all runs
+interleave on the same pool or Dask cluster and every worker stays busy. A run's records
+depend only on its config and seed, never on what ran beside it: each run's tables equal a
+lone run's, bit for bit. Everything is checked before anything is written.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ariel.evolution._config import ExperimentConfig
+from ariel.evolution._driver import Plugins, RunDriver
+from ariel.evolution._progress import Progress
+from ariel.evolution._state import LoopState
+from ariel.runs._experiment import (
+    RunResult,
+    end_run,
+    new_progress,
+    reopen,
+    resumable,
+    run_info,
+    run_result,
+    start_driver,
+)
+from ariel.runs._prepare import executor_settings, prepare_run, resolve_plugins
+
+__all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign"]
+
+
+@dataclass
+class CampaignResult:
+    """What `run_campaign` and `resume_campaign` return. ``runs``: the runs driven by this
+    call (finished ones skipped on resume are not among them); ``busy_share``: the workers'
+    time spent in evaluations / (wall time x workers), over this call."""
+
+    path: Path
+    campaign_id: str
+    status: str
+    runs: list[RunResult]
+    skipped: int
+    wall_seconds: float
+    busy_share: float
+    workers: int
+
+    def load(self) -> Any:
+        """The campaign's records (`ariel.recording.load_campaign`)."""
+        from ariel.recording._campaign import load_campaign
+
+        return load_campaign(self.path)
+
+
+class _RunProgress(Progress):
+    """One line per generation, prefixed by the run's condition and seed (never live: one
+    rich display per run would fight over the terminal)."""
+
+    def __init__(self, *, label: str, **options: Any) -> None:
+        super().__init__(**options)
+        self.label = label
+        self.live = False
+
+    def _line(self, generation: int, extra: str) -> str:
+        return f"{self.label}: {super()._line(generation, extra)}"
+
+
+@dataclass
+class _Run:
+    condition: str
+    seed: int
+    folder: Any  # RunFolder
+    run_id: str
+    config: ExperimentConfig
+    plugins: Plugins
+    state: LoopState | None = None
+    driver: RunDriver | None = None
+    status: str = "failed"
+    first_generation: int = 0
+
+
+def _new_campaign_id(name: str) -> str:
+    import datetime as _dt
+
+    return f"{name}-{_dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
+
+
+def _check_new_folder(path: Path) -> None:
+    if path.exists() and (not path.is_dir() or any(path.iterdir())):
+        raise FileExistsError(
+            f"campaign folder {str(path)!r} already exists; choose another --out, or continue "
+            f"it with: ariel campaign resume {path}"
+        )
+
+
+def run_campaign(
+    file: str | Path,
+    *,
+    out: str | Path | None = None,
+    executor: str | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = False,
+    overrides: Sequence[str] = (),
+) -> CampaignResult:
+    """Run every condition x seed of the campaign ``file`` into a new campaign folder.
+
+    ``out``: the folder (default ``data/campaigns/<name>-<time>``); it must not exist (or be
+    empty). ``overrides``: ``key=value`` applied to the base experiment. ``progress``: one
+    line per run and generation. Everything is validated before anything is written.
+    """
+    from ariel.recording._campaign import run_path, write_campaign_info
+    from ariel.recording._lock import RunLock
+    from ariel.recording._run_folder import RunFolder, storage_errors
+    from ariel.runs._campaign_file import load_campaign_file
+
+    spec = load_campaign_file(file, tuple(overrides))
+    first = next(iter(spec.configs.values()))
+    settings = executor_settings(first, kind=executor, workers=workers, scheduler=scheduler)
+    campaign_id = _new_campaign_id(spec.name)
+    path = Path(out) if out is not None else Path("data") / "campaigns" / campaign_id
+    campaign_id = path.name or campaign_id
+    runs = []
+    for (condition, seed), config in spec.configs.items():
+        config, plugins = prepare_run(config)
+        run_id = f"{campaign_id}-{condition}-s{seed}"
+        folder = RunFolder(path / run_path(condition, seed))
+        runs.append(_Run(condition, seed, folder, run_id, config, plugins))
+    _check_new_folder(path)
+    info = _campaign_info(spec, runs, settings, campaign_id, Path(file).name)
+    with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
+        write_campaign_info(path, info)
+        for run in runs:
+            locks.enter_context(RunLock(run.folder.path, create=True))
+            RunFolder.create(
+                run.folder.path,
+                run_info(run.config, run.run_id, run.plugins),
+                overwrite=False,
+                locked=True,
+            ).start_segment("run")
+        return _drive_campaign(path, runs, settings, progress, skipped=0)
+
+
+def _campaign_info(
+    spec: Any, runs: list[_Run], settings: Any, campaign_id: str, file_name: str
+) -> dict[str, Any]:
+    """campaign.json of a new campaign: what resume and the readers need, no absolute path."""
+    from ariel.recording._campaign import run_path
+    from ariel.recording._run_folder import now
+
+    return {
+        "campaign_id": campaign_id,
+        "name": spec.name,
+        "description": spec.description,
+        "file": file_name,
+        "seeds": spec.seeds,
+        "conditions": [
+            {"name": c.name, "set": c.set, "description": c.description} for c in spec.conditions
+        ],
+        "runs": [
+            {
+                "condition": r.condition,
+                "seed": r.seed,
+                "path": run_path(r.condition, r.seed),
+                "run_id": r.run_id,
+                "config": r.config.to_plain(),
+            }
+            for r in runs
+        ],
+        "executor": {
+            "kind": settings.kind,
+            "workers": settings.workers,
+            "scheduler": settings.scheduler,
+        },
+        "status": "created",
+        "created": now(),
+    }
+
+
+def resume_campaign(
+    campaign_dir: str | Path,
+    *,
+    executor: str | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = False,
+) -> CampaignResult:
+    """Continue every unfinished run of a campaign (finished runs are skipped) on one
+    executor; refuses a finished campaign and a campaign in use (`RunInUseError`)."""
+    from ariel.recording._campaign import read_campaign_info
+    from ariel.recording._lock import RunLock
+    from ariel.recording._run_folder import storage_errors
+
+    path = Path(campaign_dir)
+    info = read_campaign_info(path)
+    last = info.get("executor") or {}
+    kind = executor or last.get("kind")
+    if executor is None or executor == last.get("kind"):
+        workers = workers if workers is not None else last.get("workers")
+        scheduler = scheduler if scheduler is not None else last.get("scheduler")
+    first = ExperimentConfig.from_plain(info["runs"][0]["config"])
+    settings = executor_settings(first, kind=kind, workers=workers, scheduler=scheduler)
+    with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:
+        info = read_campaign_info(path)  # again under the lock
+        runs, skipped = _unfinished_runs(path, info, locks)
+        if not runs:
+            raise ValueError(f"campaign {str(path)!r} is already finished; nothing to resume")
+        return _drive_campaign(path, runs, settings, progress, skipped=skipped)
+
+
+def _unfinished_runs(
+    path: Path, info: dict[str, Any], locks: contextlib.ExitStack
+) -> tuple[list[_Run], int]:
+    """The campaign's runs left to do, each locked (by ``locks``) and made ready to go on."""
+    from ariel.recording._lock import RunLock
+    from ariel.recording._run_folder import RunFolder
+
+    runs, skipped = [], 0
+    for entry in info["runs"]:
+        folder = RunFolder(path / entry["path"])
+        condition, seed = entry["condition"], int(entry["seed"])
+        if not folder.run_json.is_file():  # killed while the campaign was being made
+            config, plugins = prepare_run(ExperimentConfig.from_plain(entry["config"]))
+            locks.enter_context(RunLock(folder.path, create=True))
+            RunFolder.create(
+                folder.path, run_info(config, entry["run_id"], plugins), overwrite=True, locked=True
+            ).start_segment("run")
+            runs.append(_Run(condition, seed, folder, entry["run_id"], config, plugins))
+            continue
+        if folder.read_info().get("status") == "finished":
+            skipped += 1
+            continue
+        locks.enter_context(RunLock(folder.path))
+        run_json, config, state = resumable(folder)
+        plugins = resolve_plugins(config)
+        reopen(folder, state)
+        run = _Run(condition, seed, folder, run_json["run_id"], config, plugins, state)
+        runs.append(run)
+    return runs, skipped
+
+
+def _group(run: _Run) -> Iterator[list[Any]]:
+    """The run's generations for the scheduler; marked finished the moment its last ends."""
+    assert run.driver is not None
+    yield from run.driver.generations()
+    run.status = "finished"
+    end_run(run.folder, run.driver, "finished")
+
+
+def _drive_campaign(
+    path: Path, runs: list[_Run], settings: Any, show_progress: bool, *, skipped: int
+) -> CampaignResult:
+    """Drive ``runs`` (locked, ready) side by side on one executor; campaign.json and every
+    run.json say how it ended, however it ends."""
+    from threadpoolctl import threadpool_limits
+
+    from ariel.evaluation import make_executor
+    from ariel.evolution._scheduler import Scheduler
+    from ariel.recording._campaign import read_campaign_info, write_campaign_info
+    from ariel.recording._run_folder import now
+
+    for run in runs:
+        label = f"{run.condition} seed {run.seed}"
+        shown = new_progress(
+            run.config, run.plugins, run.state, show_progress, _RunProgress, label=label
+        )
+        run.driver = start_driver(
+            run.config, run.plugins, run.folder, run.run_id, run.state, settings, shown
+        )
+        run.first_generation = run.driver.first_generation
+    info = read_campaign_info(path)
+    info.pop("format")
+    write_campaign_info(path, {**info, "status": "running"})
+    if show_progress:
+        print(f"campaign {info['campaign_id']}: {path} ({len(runs)} runs to go)", flush=True)
+    status, started, capacity = "failed", time.perf_counter(), 1
+    try:
+        # BLAS in this process (pycma's eigendecompositions) stays on one thread.
+        with threadpool_limits(limits=1), make_executor(settings) as executor:
+            capacity = int(executor.capacity)
+            scheduler = Scheduler(executor, timeout=settings.timeout)
+            scheduler.run([_group(run) for run in runs])
+        status = "finished"
+    except KeyboardInterrupt:
+        status = "interrupted"
+        raise
+    finally:
+        wall = time.perf_counter() - started
+        for run in runs:
+            if run.status != "finished" and run.driver is not None:
+                end_run(run.folder, run.driver, status)
+        with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
+            write_campaign_info(path, {**info, "status": status, "ended": now()})
+            _write_recording(path, quiet=status != "finished")
+    results = [run_result(run.driver, run.folder, run.run_id, run.status) for run in runs]
+    return CampaignResult(
+        path=path,
+        campaign_id=str(info["campaign_id"]),
+        status=status,
+        runs=results,  # type: ignore[arg-type]
+        skipped=skipped,
+        wall_seconds=wall,
+        busy_share=_busy_share(runs, wall, capacity),
+        workers=capacity,
+    )
+
+
+def _write_recording(path: Path, *, quiet: bool) -> None:
+    """campaign.rrd; after an interruption, a failure to write it is not the error to tell."""
+    from ariel.recording._campaign_rerun import write_campaign_recording
+
+    try:
+        write_campaign_recording(path)
+    except Exception:
+        if not quiet:
+            raise
+
+
+def _busy_share(runs: list[_Run], wall: float, workers: int) -> float:
+    """The workers' time in evaluations (the evaluations' ``wall_seconds``: each a share of
+    its batch's time on its worker) over ``wall`` x ``workers``, for this call's generations."""
+    from ariel.recording._load import load_run
+
+    busy = 0.0
+    for run in runs:
+        evaluations = load_run(run.folder.path).evaluations
+        done_now = evaluations[evaluations["generation"] >= run.first_generation]
+        busy += float(done_now["wall_seconds"].sum())
+    return busy / (wall * workers) if wall > 0 and workers > 0 else 0.0
+
+
+def campaign_status(campaign_dir: str | Path) -> list[dict[str, Any]]:
+    """One row per run: condition, seed, path, status, generations done / total, evaluations,
+    best fitness (`ariel.recording.Campaign.status`)."""
+    from ariel.recording._campaign import load_campaign
+
+    return load_campaign(campaign_dir).status()

@@ -1,0 +1,231 @@
+"""Campaign files: a base experiment, seeds, and conditions (named override sets and/or a
+grid), validated into one experiment config per condition and seed.
+
+```toml
+name = "inheritance"
+base = "../coevolve_flat.toml"      # a path relative to this file, or an inline [base] table
+seeds = [1, 2, 3, 4, 5]             # or: seed_count = 5 (seeds 1..5)
+set = { generations = 6 }           # overrides for every condition
+
+[[condition]]
+name = "inherit"
+set = { "brain.inherit" = true }
+
+[grid]                               # the cross product, named from its values
+"brain.popsize" = [8, 16]
+```
+
+Conditions and a grid together give every condition crossed with every grid point. Every
+problem is a `ConfigError`: one line naming the key, what was given and what is allowed.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from ariel.evolution._config import (
+    ConfigError,
+    ExperimentConfig,
+    check_key,
+    load_config,
+    set_value,
+)
+
+__all__ = ["CampaignSpec", "Condition", "load_campaign_file"]
+
+_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
+
+
+class _ConditionEntry(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = Field(min_length=1, pattern=_NAME.pattern)
+    description: str = ""
+    set: dict[str, Any] = Field(default_factory=dict)
+
+
+class _CampaignModel(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = Field("campaign", min_length=1, pattern=_NAME.pattern)
+    description: str = ""
+    base: str | dict[str, Any]
+    seeds: list[int] | None = None
+    seed_count: int | None = Field(None, ge=1)
+    set: dict[str, Any] = Field(default_factory=dict)
+    condition: list[_ConditionEntry] = Field(default_factory=list)
+    grid: dict[str, list[Any]] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _one_seed_source(self) -> _CampaignModel:
+        if (self.seeds is None) == (self.seed_count is None):
+            raise ValueError("give either seeds = [..] or seed_count = N")
+        return self
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One condition: its name and the overrides (dotted key -> value) it applies."""
+
+    name: str
+    set: dict[str, Any]
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    """A validated campaign: ``configs[(condition, seed)]`` is each run's experiment config."""
+
+    name: str
+    description: str
+    base: dict[str, Any]  # the base experiment's raw data, campaign-wide ``set`` applied
+    seeds: list[int]
+    conditions: list[Condition]
+    configs: dict[tuple[str, int], ExperimentConfig]
+
+
+def _one_line(error: ValidationError) -> str:
+    first = error.errors()[0]
+    key = ".".join(str(p) for p in first["loc"]) or "(top level)"
+    if first["type"] == "extra_forbidden":
+        fields = _ConditionEntry if first["loc"][0] == "condition" else _CampaignModel
+        return f"unknown key '{key}'; allowed: {', '.join(sorted(fields.model_fields))}"
+    message = first["msg"].removeprefix("Value error, ")
+    given = first.get("input")
+    shown = "" if isinstance(given, dict | list) else f" (got {given!r})"
+    return f"{key}: {message}{shown}"
+
+
+def _base_data(base: str | dict[str, Any], beside: Path | None) -> dict[str, Any]:
+    """The base experiment's raw data (a TOML file relative to the campaign file, or inline)."""
+    if isinstance(base, dict):
+        load_config(base)  # checked alone first: its errors name the base
+        return json.loads(json.dumps(base))
+    path = Path(base)
+    if not path.is_absolute() and beside is not None:
+        path = beside / path
+    if not path.is_file():
+        raise ConfigError(f"base: experiment file {str(path)!r} not found")
+    config = load_config(path)
+    # The validated config as data (a genotype file named in it is read relative to it).
+    return config.to_plain()
+
+
+def _value_name(value: Any) -> str:
+    text = json.dumps(value) if not isinstance(value, str) else value
+    text = {"true": "on", "false": "off"}.get(text, text)
+    return re.sub(r"[^A-Za-z0-9_.-]+", "-", text).strip("-") or "x"
+
+
+def _grid_conditions(grid: Mapping[str, list[Any]]) -> list[Condition]:
+    """The grid's cross product, each point named ``<last key part>-<value>`` joined by ``_``."""
+    if not grid:
+        return []
+    keys = list(grid)
+    short = [k.rsplit(".", 1)[-1] for k in keys]
+    labels = short if len(set(short)) == len(short) else [k.replace(".", "-") for k in keys]
+    for key, values in grid.items():
+        check_key(key, f"grid: '{key}'")
+        if not values:
+            raise ConfigError(f"grid: '{key}' has no values; give a list of at least one")
+    points = []
+    for combination in itertools.product(*(grid[k] for k in keys)):
+        name = "_".join(f"{label}-{_value_name(v)}" for label, v in zip(labels, combination))
+        points.append(Condition(name, dict(zip(keys, combination))))
+    return points
+
+
+def _conditions(model: _CampaignModel) -> list[Condition]:
+    named = [Condition(c.name, dict(c.set), c.description) for c in model.condition]
+    points = _grid_conditions(model.grid)
+    if named and points:
+        conditions = [
+            Condition(f"{c.name}_{p.name}", {**c.set, **p.set}, c.description)
+            for c in named
+            for p in points
+        ]
+    else:
+        conditions = named or points or [Condition("base", {})]
+    seen: set[str] = set()
+    for condition in conditions:
+        if condition.name in seen:
+            raise ConfigError(
+                f"condition: duplicate name '{condition.name}'; every condition needs its own"
+            )
+        seen.add(condition.name)
+    return conditions
+
+
+def _apply(
+    data: dict[str, Any], changes: Mapping[str, Any], where: str, *, condition: bool = True
+) -> dict[str, Any]:
+    """``data`` with ``changes`` set; the executor (one for all runs) only campaign-wide."""
+    result = json.loads(json.dumps(data))
+    for key, value in changes.items():
+        if key == "seed" or (condition and key.startswith("executor")):
+            raise ConfigError(
+                f"{where}: '{key}' cannot be set per condition (seeds come from seeds / "
+                "seed_count; the executor is the campaign's: set it in the base or on the "
+                "command line)"
+            )
+        set_value(result, key, value, f"{where}: '{key}'")
+    return result
+
+
+def _seeds(model: _CampaignModel) -> list[int]:
+    seeds = model.seeds if model.seeds is not None else list(range(1, model.seed_count + 1))
+    if not seeds:
+        raise ConfigError("seeds: the list is empty; give at least one seed (or seed_count = N)")
+    if len(set(seeds)) != len(seeds):
+        raise ConfigError(f"seeds: duplicate seeds in {seeds}; give each seed once")
+    return seeds
+
+
+def campaign_spec(
+    data: Mapping[str, Any], *, beside: Path | None = None, overrides: tuple[str, ...] = ()
+) -> CampaignSpec:
+    """Validate a campaign's raw data (``beside``: the folder of its file, for ``base``);
+    ``overrides``: ``key=value`` strings applied to the base (``--set``)."""
+    from ariel.evolution._config import apply_overrides
+
+    try:
+        model = _CampaignModel.model_validate(dict(data))
+    except ValidationError as exc:
+        raise ConfigError(_one_line(exc)) from None
+    seeds = _seeds(model)
+    base = _apply(_base_data(model.base, beside), model.set, "set", condition=False)
+    base = apply_overrides(base, overrides)
+    conditions = _conditions(model)
+    configs: dict[tuple[str, int], ExperimentConfig] = {}
+    for condition in conditions:
+        where = f"condition '{condition.name}'"
+        raw = _apply(base, condition.set, where)
+        for seed in seeds:
+            try:
+                configs[(condition.name, seed)] = load_config({**raw, "seed": seed})
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: {exc}") from None
+    return CampaignSpec(model.name, model.description, base, seeds, conditions, configs)
+
+
+def load_campaign_file(path: str | Path, overrides: tuple[str, ...] = ()) -> CampaignSpec:
+    """Read and validate a campaign TOML file (see the module docstring)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"campaign file {str(path)!r} not found")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: malformed TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a UTF-8 text file") from None
+    return campaign_spec(data, beside=path.parent, overrides=overrides)

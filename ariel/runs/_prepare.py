@@ -1,0 +1,143 @@
+"""Before a run starts: its plugins made from the config and checked with their options, a
+genotype file read, a fixed body built, the executor settings checked; every problem a
+`ConfigError` naming the key, before anything is written.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ariel.evolution._config import ConfigError, ExperimentConfig
+from ariel.evolution._driver import Plugins, fixed_genotype
+from ariel.evolution._genotype import check_genotype, describe, is_genotype_file
+
+__all__ = ["executor_settings", "prepare_run", "resolve_plugins"]
+
+
+# --------------------------------------------------------------------------------------------
+# Plugins resolved once, with config errors naming the key
+# --------------------------------------------------------------------------------------------
+
+
+def _make(key: str, registry: Any, name: str, options: dict[str, Any]) -> Any:
+    try:
+        registry.get(name)
+    except (KeyError, ValueError, ImportError) as exc:
+        raise ConfigError(f"{key}: {exc}") from None
+    try:
+        return registry.make(name, **options)
+    except (TypeError, ValueError) as exc:
+        options_key = key.rsplit(".", 1)[0] + ".options"
+        raise ConfigError(f"{options_key}: {registry.label} '{name}': {exc}") from None
+
+
+def _check_fitness_options(config: ExperimentConfig, fitness: Any) -> None:
+    import inspect
+
+    try:
+        signature = inspect.signature(fitness)
+    except (TypeError, ValueError):  # a callable without a readable signature: not checked
+        return
+    try:
+        signature.bind(None, **config.task.options)
+    except TypeError as exc:
+        raise ConfigError(
+            f"task.options: fitness function '{config.task.fitness}': {exc}"
+        ) from None
+
+
+def _optimizer_factory(config: ExperimentConfig, encoder: Any, maximise: bool) -> Any:
+    """``(**keywords) -> BodyOptimizer`` for ``body.optimizer``, made once here to check it."""
+    from ariel.plugins import body_optimizers
+
+    body = config.body
+    try:
+        cls = body_optimizers.get(body.optimizer)
+    except (KeyError, ValueError, ImportError) as exc:
+        raise ConfigError(f"body.optimizer: {exc}") from None
+
+    def make(**keywords: Any) -> Any:
+        return cls(**keywords, **body.optimizer_options)
+
+    try:
+        make(encoder=encoder, seed=config.seed, maximise=maximise, settings=body)
+    except (TypeError, ValueError) as exc:
+        first = (str(exc).splitlines() or [""])[0]
+        raise ConfigError(f"body.optimizer_options: {body.optimizer!r}: {first}") from None
+    return make
+
+
+def resolve_plugins(config: ExperimentConfig) -> Plugins:
+    """Make every plugin the config names; a bad name or option is a `ConfigError`."""
+    from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
+
+    encoder = _make("body.encoder", body_encoders, config.body.encoder, config.body.options)
+    controller = _make(
+        "brain.controller", controllers, config.brain.controller, config.brain.options
+    )
+    _make("world.name", worlds, config.world.name, config.world.options)
+    try:
+        fitness = fitness_functions.get(config.task.fitness)
+    except (KeyError, ValueError, ImportError) as exc:
+        raise ConfigError(f"task.fitness: {exc}") from None
+    _check_fitness_options(config, fitness)
+    if config.body.genotype is not None and not is_genotype_file(config.body.genotype):
+        check_genotype(config.body.genotype, encoder)  # a file is checked as it is read
+    if config.body.survivors == "generational" and config.body.offspring < config.body.population:
+        raise ConfigError(
+            f"body.offspring: generational survival needs offspring >= population "
+            f"({config.body.population}), got {config.body.offspring}"
+        )
+    maximise = bool(fitness.maximise)
+    optimizer = _optimizer_factory(config, encoder, maximise)
+    return Plugins(encoder, controller, fitness, optimizer)
+
+
+def _read_genotype_file(config: ExperimentConfig, encoder: Any) -> ExperimentConfig:
+    """The config holding the genotype itself when ``body.genotype`` names a file (checked)."""
+    from ariel.evolution._genotype import read_genotype_file
+
+    if not is_genotype_file(config.body.genotype):
+        return config
+    path = config.body.genotype
+    genotype = read_genotype_file(path)
+    check_genotype(genotype, encoder, f"body.genotype: file {path!r}")
+    body = config.body.model_copy(update={"genotype": genotype})
+    return config.model_copy(update={"body": body})
+
+
+def _check_fixed_body(config: ExperimentConfig, plugins: Plugins) -> None:
+    """A brain-only run's body must build: a bad ``body.genotype`` is a config error."""
+    from ariel.evolution._bodies import BodyFactory
+
+    factory = BodyFactory(config, plugins.encoder, plugins.controller, plugins.maximise)
+    body = factory.new_body(0, fixed_genotype(config, plugins.encoder), [], 0)
+    if body.status == "error":
+        shown = describe(config.body.genotype)
+        raise ConfigError(f"body.genotype: {shown} gives no body: {body.error}")
+
+
+def executor_settings(config: ExperimentConfig, **given: Any) -> Any:
+    """The config's ``[executor]`` with the caller's overrides, checked: `ConfigError`."""
+    from ariel.evaluation.executors import ExecutorSettingsError, check_settings
+
+    changes = {key: value for key, value in given.items() if value is not None}
+    settings = config.executor.model_copy(update=changes)
+    try:
+        check_settings(settings)
+    except ExecutorSettingsError as exc:
+        raise ConfigError(str(exc)) from None
+    return settings
+
+
+def prepare_run(config: ExperimentConfig) -> tuple[ExperimentConfig, Plugins]:
+    """The config (a genotype file read into it) and its plugins, all checked: `ConfigError`."""
+    from ariel.evolution._checks import check_plugins
+    from ariel.evolution._driver import is_brain_only
+
+    plugins = resolve_plugins(config)
+    config = _read_genotype_file(config, plugins.encoder)
+    if is_brain_only(config, plugins.encoder):
+        _check_fixed_body(config, plugins)
+    check_plugins(config)  # the plugins --check checks, for these plugins with these options
+    return config, plugins

@@ -1,0 +1,237 @@
+"""Campaigns: conditions x seeds on one executor, each run's records those of a lone run.
+
+The tiny campaign (tests/data/campaign_tiny.toml): brain inheritance off / on, seeds 1 and 2,
+2 generations of 2 + 2 bodies, brains of popsize 2 for 0.3 s.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+from pathlib import Path
+
+import pytest
+from _helpers import REPO, exit_code, one_error_line, plain
+
+from ariel.cli import main
+from ariel.evolution._progress import Progress
+from ariel.recording import load_campaign, load_run
+from ariel.runs import resume_campaign, run_campaign
+
+TINY = REPO / "tests" / "data" / "campaign_tiny.toml"
+RUNS = [("fresh", 1), ("fresh", 2), ("inherit", 1), ("inherit", 2)]
+_ORDER = {"evaluations": ["eval_id"], "bodies": ["body_id"], "trajectories": ["eval_id", "t"]}
+_UNMEASURED = {"wall_seconds", "run_id"}  # a measured time; the run's id names its folder
+
+
+def digests(run_dir: Path) -> dict[str, str]:
+    """``"<table>/gen-N"`` -> SHA-256 of the table's rows, bit-exact, in id order (like
+    tests/evolution/test_golden_records.py, without ``run_id`` and ``wall_seconds``)."""
+    import pyarrow.parquet as pq
+
+    found = {}
+    for table, order in _ORDER.items():
+        for path in sorted((run_dir / table).glob("gen-*.parquet")):
+            frame = pq.read_table(path).to_pandas().sort_values(order, kind="stable")
+            columns = [c for c in frame.columns if c not in _UNMEASURED]
+            rows = [[plain(v) for v in row] for row in frame[columns].itertuples(False)]
+            text = json.dumps([columns, rows], default=str)
+            found[f"{table}/{path.stem}"] = hashlib.sha256(text.encode()).hexdigest()
+    return found
+
+
+def campaign_digests(folder: Path) -> dict[tuple[str, int], dict[str, str]]:
+    return {key: digests(folder / f"runs/condition={key[0]}/seed={key[1]}") for key in RUNS}
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny campaign on 2 local worker processes (evaluations of all runs interleave)."""
+    out = tmp_path_factory.mktemp("campaign") / "tiny"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        code = main(
+            [
+                *("campaign", "run", str(TINY), "--out", str(out)),
+                *("--executor", "local", "--workers", "2", "--quiet"),
+            ]
+        )
+    assert code == 0
+    assert "finished: campaign tiny: 4 of 4 runs finished" in printed.getvalue()
+    return out
+
+
+def test_every_run_is_a_normal_run_folder_in_a_hive_layout(campaign: Path) -> None:
+    info = json.loads((campaign / "campaign.json").read_text())
+    assert info["status"] == "finished" and info["seeds"] == [1, 2]
+    assert [c["name"] for c in info["conditions"]] == ["fresh", "inherit"]
+    for condition, seed in RUNS:
+        run = load_run(campaign / f"runs/condition={condition}/seed={seed}")
+        assert run.info["status"] == "finished" and run.generations_done == 2
+        assert run.config["seed"] == seed
+        assert run.config["brain"]["inherit"] == (condition == "inherit")
+        assert not (run.path / ".lock").exists()  # every lock released
+    # pyarrow reads all runs' evaluations as one dataset, condition and seed from the paths.
+    import pyarrow as pa
+    import pyarrow.dataset as ds
+
+    files = sorted(str(p) for p in campaign.glob("runs/*/*/evaluations/*.parquet"))
+    # The table's own ``seed`` (each evaluation's) has the partition's name: int64 for both.
+    hive = ds.partitioning(
+        pa.schema([("condition", pa.string()), ("seed", pa.int64())]), flavor="hive"
+    )
+    dataset = ds.dataset(
+        files, format="parquet", partitioning=hive, partition_base_dir=str(campaign / "runs")
+    )
+    table = dataset.to_table(columns=["condition", "eval_id"])
+    assert table.num_rows == len(load_campaign(campaign).evaluations)
+    assert set(table["condition"].to_pylist()) == {"fresh", "inherit"}
+
+
+def test_each_run_s_records_equal_a_lone_run_of_its_config_bit_for_bit(
+    campaign: Path, tmp_path: Path
+) -> None:
+    from ariel.evolution import run_experiment
+
+    entries = json.loads((campaign / "campaign.json").read_text())["runs"]
+    for entry in entries:
+        key = (entry["condition"], entry["seed"])
+        lone = run_experiment(entry["config"], out=tmp_path / f"{key[0]}-{key[1]}")
+        alone, within = digests(lone.run_dir), digests(campaign / entry["path"])
+        assert len(within) == 6 and alone == within, key  # 3 tables x 2 generations
+    # Inheritance changes the records (the two conditions are not the same run twice).
+    found = campaign_digests(campaign)
+    assert (
+        found[("fresh", 1)]["evaluations/gen-000001"]
+        != found[("inherit", 1)]["evaluations/gen-000001"]
+    )
+
+
+def test_load_campaign_joins_the_tables_with_condition_and_seed(campaign: Path) -> None:
+    loaded = load_campaign(campaign)
+    assert loaded.conditions == ["fresh", "inherit"] and loaded.seeds == [1, 2]
+    assert loaded.maximise is True
+    for table in ("evaluations", "bodies", "generations"):
+        frame = getattr(loaded, table)
+        assert list(frame.columns[:2]) == ["condition", "seed"]
+        for (condition, seed), run in loaded.runs.items():
+            part = frame[(frame["condition"] == condition) & (frame["seed"] == seed)]
+            assert len(part) == len(getattr(run, table)) > 0
+    evaluations = loaded.evaluations  # each evaluation's own seed kept as eval_seed
+    own = loaded.runs[("inherit", 2)].evaluations["seed"].tolist()
+    assert (
+        evaluations[evaluations["condition"] == "inherit"]["eval_seed"].tolist()[-len(own) :] == own
+    )
+    rows = loaded.status()
+    assert [(r["condition"], r["seed"], r["status"]) for r in rows] == [
+        (c, s, "finished") for c, s in RUNS
+    ]
+
+
+def test_status_prints_a_table_of_condition_seed_status_generations_best(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["campaign", "status", str(campaign)]) == 0
+    out = capsys.readouterr().out
+    best = load_run(campaign / "runs/condition=inherit/seed=2").info["best_fitness"]
+    assert f"{best:.6g}" in out and out.count("finished") == 4 and "2/2" in out
+
+
+def test_campaign_rrd_holds_every_run_s_best_so_far_and_view_opens_it(campaign: Path) -> None:
+    rr = pytest.importorskip("rerun")
+    from ariel.recording._curves import best_so_far
+    from ariel.recording._view import select_recordings
+
+    store = rr.chunk.RrdReader(campaign / "campaign.rrd").stream().collect()
+    series = {}
+    for chunk in store.stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if not chunk.is_static and "Scalars:scalars" in batch.schema.names:
+            series[chunk.entity_path] = [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+    assert sorted(series) == sorted(f"/condition/{c}/seed/{s}" for c, s in RUNS)
+    run = load_run(campaign / "runs/condition=fresh/seed=2")
+    _, best = best_so_far(run.evaluations, maximise=True)
+    assert series["/condition/fresh/seed/2"] == best.tolist()
+    selection = select_recordings(campaign)
+    assert selection.recordings == (campaign / "campaign.rrd",)
+    assert selection.blueprint == campaign / "campaign.rbl"
+
+
+def test_existing_commands_work_on_a_campaign_s_run_folders(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run_dir = campaign / "runs/condition=inherit/seed=1"
+    assert main(["runs", str(campaign / "runs/condition=inherit")]) == 0
+    assert "tiny-inherit-s1" in capsys.readouterr().out
+    assert main(["report", str(run_dir), "--no-render"]) == 0
+    assert (run_dir / "report" / "fitness.png").is_file()
+    assert main(["replay", str(run_dir), "best"]) == 0
+    assert "identical: yes, bit for bit" in capsys.readouterr().out
+    assert exit_code(["resume", str(run_dir), "--quiet"]) == 2
+    assert "already finished" in one_error_line(capsys)
+
+
+def test_compare_a_campaign_writes_figures_tables_and_one_page(
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "compare"
+    assert main(["compare", str(campaign), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "fresh" in printed and "inherit" in printed and "runs: fresh 2, inherit 2" in printed
+    for name in ("best_so_far.png", "final_best.png", "morphology.png", "stats.csv", "stats.md"):
+        assert (out / name).is_file(), name
+    html = (out / "compare.html").read_text()
+    assert html.count('src="data:image/png;base64,') == 3 and "fresh" in html
+    # Plain run folders: grouped by how their configs differ (brain.inherit).
+    runs = [str(campaign / f"runs/condition={c}/seed={s}") for c, s in RUNS]
+    assert main(["compare", *runs, "--out", str(tmp_path / "plain")]) == 0
+    assert "brain.inherit=false 2, brain.inherit=true 2" in capsys.readouterr().out
+
+
+def _interrupt_at(monkeypatch: pytest.MonkeyPatch, call: int) -> None:
+    """Ctrl-C in the ``call``-th generation end of the campaign (after its checkpoint)."""
+    original, calls = Progress.end_generation, []
+
+    def end_generation(self, generation, *args, **kwargs):
+        original(self, generation, *args, **kwargs)
+        calls.append(generation)
+        if len(calls) == call:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(Progress, "end_generation", end_generation)
+
+
+def test_an_interrupted_campaign_resumes_to_the_records_of_an_uninterrupted_one(
+    campaign: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out = tmp_path / "tiny"  # the same folder name: the same run ids
+    # Serial: every run's generation 0 ends first (calls 1-4), then generation 1; the 7th
+    # call comes after two runs finished and before the others did.
+    _interrupt_at(monkeypatch, 7)
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(TINY, out=out)
+    monkeypatch.undo()
+    statuses = {(r["condition"], r["seed"]): r["status"] for r in load_campaign(out).status()}
+    assert sorted(statuses.values()) == ["finished", "finished", "interrupted", "interrupted"]
+    assert json.loads((out / "campaign.json").read_text())["status"] == "interrupted"
+    resumed = resume_campaign(out)
+    assert resumed.status == "finished" and resumed.skipped == 2 and len(resumed.runs) == 2
+    assert campaign_digests(out) == campaign_digests(campaign)
+    with pytest.raises(ValueError, match="already finished"):
+        resume_campaign(out)
+
+
+def test_a_campaign_runs_on_a_dask_cluster_through_its_address(
+    campaign: Path, tmp_path: Path
+) -> None:
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        result = run_campaign(
+            TINY, out=tmp_path / "tiny", executor="dask", scheduler=cluster.scheduler_address
+        )
+    assert result.status == "finished" and result.workers == 2
+    assert campaign_digests(tmp_path / "tiny") == campaign_digests(campaign)

@@ -1,0 +1,129 @@
+"""Campaign files: conditions, grids and seeds become one config per run; bad input is one line
+on stderr, exit code 2, and nothing written."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from _helpers import REPO, exit_code, one_error_line
+
+from ariel.evolution import ConfigError
+from ariel.runs._campaign_file import campaign_spec, load_campaign_file
+
+BASE = {
+    "name": "t",
+    "generations": 1,
+    "body": {"population": 2, "offspring": 2},
+    "brain": {"popsize": 2, "iterations": 1},
+    "executor": {"kind": "serial"},
+}
+
+
+def test_a_grid_crossed_with_named_conditions_names_every_point_from_its_values() -> None:
+    spec = campaign_spec(
+        {
+            "base": BASE,
+            "seed_count": 2,
+            "set": {"task.duration": 0.5},
+            "condition": [{"name": "a", "set": {"brain.inherit": True}}, {"name": "b"}],
+            "grid": {"brain.popsize": [4, 6], "world.name": ["flat", "rugged"]},
+        }
+    )
+    names = [c.name for c in spec.conditions]
+    assert names[:2] == ["a_popsize-4_name-flat", "a_popsize-4_name-rugged"] and len(names) == 8
+    assert spec.seeds == [1, 2] and len(spec.configs) == 16
+    config = spec.configs[("a_popsize-6_name-rugged", 2)]
+    assert (config.brain.popsize, config.world.name, config.brain.inherit) == (6, "rugged", True)
+    assert config.seed == 2 and config.task.duration == 0.5  # campaign-wide `set` applied
+    assert spec.configs[("b_popsize-4_name-flat", 1)].brain.inherit is False
+
+
+def test_the_shipped_campaigns_are_valid() -> None:
+    for name, conditions in (
+        ("inheritance", ["fresh", "inherit"]),
+        ("ga_vs_map_elites", ["ga", "map_elites"]),
+    ):
+        spec = load_campaign_file(REPO / "experiments" / "campaigns" / f"{name}.toml")
+        assert [c.name for c in spec.conditions] == conditions and len(spec.seeds) == 5
+
+
+_GOOD = 'base = {{ name = "t", executor = {{ kind = "serial" }} }}\nseeds = [1]\n{rest}'
+CASES = {
+    "unknown key in a condition's set": (
+        '[[condition]]\nname = "x"\nset = { "brain.inheret" = true }\n',
+        "condition 'x': 'brain.inheret': no such key; keys under brain:",
+    ),
+    "bad value in a condition": (
+        '[[condition]]\nname = "x"\nset = { "brain.popsize" = 0 }\n',
+        "condition 'x': brain.popsize: must be greater than or equal to 2",
+    ),
+    "unknown key of a condition": (
+        '[[condition]]\nname = "x"\nsett = {}\n',
+        "unknown key 'condition.0.sett'; allowed: description, name, set",
+    ),
+    "duplicate condition names": (
+        '[[condition]]\nname = "x"\n[[condition]]\nname = "x"\n',
+        "condition: duplicate name 'x'",
+    ),
+    "a grid key that does not exist": (
+        '[grid]\n"brain.popsiz" = [2, 4]\n',
+        "grid: 'brain.popsiz': no such key; keys under brain:",
+    ),
+    "the executor per condition": (
+        '[[condition]]\nname = "x"\nset = { "executor.workers" = 2 }\n',
+        "'executor.workers' cannot be set per condition",
+    ),
+    "unknown plugin in a condition": (
+        '[[condition]]\nname = "x"\nset = { "world.name" = "nope" }\n',
+        "world.name: unknown world 'nope'",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_bad_campaign_files_are_one_line_exit_2_and_write_nothing(
+    case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rest, expected = CASES[case]
+    file = tmp_path / "campaign.toml"
+    file.write_text(_GOOD.format(rest=rest))
+    out = tmp_path / "out"
+    assert exit_code(["campaign", "run", str(file), "--out", str(out), "--quiet"]) == 2
+    line = one_error_line(capsys, quiet=True)
+    assert expected in line, line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('base = { name = "t" }\nseeds = []\n', "seeds: the list is empty"),
+        ('base = { name = "t" }\n', "give either seeds = [..] or seed_count = N"),
+        ('base = { name = "t" }\nseeds = [1, 1]\n', "seeds: duplicate seeds"),
+        ('base = "missing.toml"\nseeds = [1]\n', "base: experiment file"),
+        ('base = { name = "t", brain = { popsize = 1 } }\nseeds = [1]\n', "brain.popsize"),
+    ],
+)
+def test_bad_seeds_and_bases_are_config_errors(text: str, expected: str, tmp_path: Path) -> None:
+    file = tmp_path / "c.toml"
+    file.write_text(text)
+    with pytest.raises(ConfigError, match=expected.replace("[", r"\[").replace(".", r"\.")):
+        load_campaign_file(file)
+
+
+def test_an_existing_campaign_folder_is_refused_and_left_as_it_was(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    file = tmp_path / "campaign.toml"
+    file.write_text(_GOOD.format(rest=""))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    assert exit_code(["campaign", "run", str(file), "--out", str(out)]) == 2
+    assert "already exists" in one_error_line(capsys)
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+    assert exit_code(["campaign", "status", str(tmp_path)]) == 2
+    assert "not an ariel campaign folder" in one_error_line(capsys)
+    assert exit_code(["campaign", "resume", str(tmp_path)]) == 2
+    assert "not an ariel campaign folder" in one_error_line(capsys)
