@@ -44,7 +44,10 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str) -
     ) as exc:
         return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
     except KeyboardInterrupt:
-        print(f"\ninterrupted; continue it with: ariel campaign resume {hint}", file=sys.stderr)
+        from ariel._cli_commands import ariel_command
+
+        resume = f"{ariel_command()} campaign resume {hint}"
+        print(f"\ninterrupted; continue it with: {resume}", file=sys.stderr)
         return 130
     show(result)
     return 0
@@ -60,13 +63,19 @@ def _show_campaign(result: Any) -> None:
         f"{result.busy_share:.0%} of the time ({result.workers} workers)"
     )
     print(f"campaign folder: {result.path}")
+    from ariel._cli_commands import ariel_command, load_run_command
+
+    ariel = ariel_command()
+    # the last generation's best fitness, condition x seed
+    shown = (
+        'r.generations.groupby(["condition", "seed"])["best_fitness"].last().unstack().to_string()'
+    )
     print(
         "look at the results:\n"
-        f"  ariel campaign status {quoted}   # condition x seed: status, generations, best\n"
-        f"  ariel compare {quoted}           # statistics and figures in {quoted}/compare\n"
-        f"  ariel view {quoted}              # every run's best-so-far curve (Rerun)\n"
-        f'  python -c "from ariel.recording import load_campaign; '
-        f"print(load_campaign('{result.path}').generations)\""
+        f"  {ariel} campaign status {quoted}   # condition x seed: status, generations, best\n"
+        f"  {ariel} compare {quoted}           # statistics and figures in {quoted}/compare\n"
+        f"  {ariel} view {quoted}              # every run's best-so-far curve (Rerun)\n"
+        f"  {load_run_command(result.path, loader='load_campaign', what=shown)}"
     )
 
 

@@ -23,6 +23,8 @@ from ariel import __version__
 from ariel.errors import ArielError, ConfigError
 
 EXIT_USAGE = 2
+#: Where `ariel run` puts run folders and `ariel runs` looks by default.
+DEFAULT_RUNS = "data/runs"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -51,23 +53,38 @@ def _positive_int(text: str) -> int:
     return value
 
 
+#: What the printed ``python -c`` line shows of a run: a few columns, none hidden behind ``...``.
+GENERATIONS_SHOWN = (
+    'r.generations[["generation", "evaluations", "best_fitness", "mean_fitness", '
+    '"median_fitness"]].to_string(index=False)'
+)
+
+
 def _how_to_look(path: Path) -> str:
+    """The commands to look at a finished run, each working when pasted into a new shell here
+    (the environment's ``ariel`` and python named by path: `ariel._cli_commands`)."""
+    from ariel._cli_commands import ariel_command, load_run_command
+
+    ariel = ariel_command()
     quoted = shlex.quote(str(path))
     recorded = (path / "run.rrd").is_file() or (path / "recordings").is_dir()
-    view = (
-        f"  ariel view {quoted}              # Rerun viewer (--web on a headless node)\n"
-        if recorded  # record.rerun = false: nothing to view
-        else ""
-    )
-    return (
-        "look at the results:\n"
-        f"  ariel report {quoted}            # summary table and figures in {quoted}/report\n"
-        f"{view}"
-        f"  ariel replay {quoted} best       # re-simulate the best evaluation\n"
-        f"  ariel runs {shlex.quote(str(path.parent))}\n"
-        f'  python -c "from ariel.recording import load_run; '
-        f"r = load_run('{path}'); print(r.generations)\"\n"
-        f"  (tables: {quoted}/evaluations, bodies, trajectories; one Parquet file per generation)"
+    commands = [
+        (f"{ariel} report {quoted}", f"summary table and figures in {quoted}/report"),
+        # record.rerun = false: nothing to view
+        *([(f"{ariel} view {quoted}", "Rerun viewer (--web on a headless node)")] * recorded),
+        (f"{ariel} replay {quoted} best", "re-simulate the best evaluation"),
+        (f"{ariel} runs {shlex.quote(str(path.parent))}", "every run there: status, best"),
+    ]
+    width = max(len(command) for command, _ in commands)
+    lines = [f"  {command:<{width}}  # {comment}" for command, comment in commands]
+    return "\n".join(
+        [
+            "look at the results:",
+            *lines,
+            f"  {load_run_command(path, what=GENERATIONS_SHOWN)}",
+            f"  (tables: {quoted}/evaluations, bodies, trajectories; one Parquet file per "
+            "generation)",
+        ]
     )
 
 
@@ -123,7 +140,10 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
         return _fail_with(exc)
     except KeyboardInterrupt as exc:
-        hint = f"; continue it with: ariel resume {path_hint}" if path_hint else ""
+        from ariel._cli_commands import ariel_command
+
+        resume = f"{ariel_command()} resume {path_hint}"
+        hint = f"; continue it with: {resume}" if path_hint else ""
         signum = exc.signum if isinstance(exc, _Terminated) else signal.SIGINT
         how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
         print(f"\ninterrupted{how}{hint}", file=sys.stderr)
@@ -173,9 +193,13 @@ def _cmd_resume(args: argparse.Namespace) -> int:
 def _cmd_runs(args: argparse.Namespace) -> int:
     from ariel.recording import list_runs
 
-    runs = list_runs(args.folder)
+    folder = Path(args.folder if args.folder is not None else DEFAULT_RUNS)
+    if args.folder is not None and not folder.is_dir():  # a typo must not read as "no runs"
+        problem = "is not a folder" if folder.exists() else "does not exist"
+        return _fail(f"{str(folder)!r} {problem}")
+    runs = list_runs(folder)
     if not runs:
-        print(f"no runs under {args.folder}")
+        print(f"no runs under {folder}")
         return 0
     width = max(len(r["run_id"]) for r in runs)
     status_width = max(11, *(len(str(r["status"])) for r in runs))
@@ -288,9 +312,13 @@ def _cmd_quickstart(args: argparse.Namespace) -> int:
     script = Path(__file__).resolve().parents[1] / "experiments" / "quickstart.py"
     if not script.exists():
         return _fail(f"{script} not found (run from a source checkout)")
-    sys.argv = [str(script), *args.rest]
-    runpy.run_path(str(script), run_name="__main__")
-    return 0
+    script_globals = runpy.run_path(str(script), run_name="ariel_quickstart")  # defines main()
+    saved = sys.argv
+    sys.argv = ["ariel quickstart", *args.rest]  # the script's usage line names this command
+    try:
+        return int(script_globals["main"](list(args.rest)) or 0)
+    finally:
+        sys.argv = saved
 
 
 def _headless_unless_display() -> None:
@@ -423,7 +451,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_resume)
 
     p = sub.add_parser("runs", help="list the runs in a folder: status, generations, best")
-    p.add_argument("folder", nargs="?", default="data/runs", metavar="DIR")
+    p.add_argument(
+        "folder",
+        nargs="?",
+        metavar="DIR",
+        help=f"a folder of run folders (default: {DEFAULT_RUNS})",
+    )
     p.set_defaults(func=_cmd_runs)
 
     p = sub.add_parser(
@@ -512,15 +545,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_campaign_commands(sub, _add_executor_options)
 
-    p = sub.add_parser("quickstart", help="run the quick-start tutorial flow as a script")
-    p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the script")
-    p.set_defaults(func=_cmd_quickstart)
+    # Every option (--seed, --duration, --out, ..., --help) is the script's: main() hands them on.
+    p = sub.add_parser(
+        "quickstart",
+        help="run the quick-start tutorial flow (experiments/quickstart.py; its options: "
+        "ariel quickstart --help)",
+        add_help=False,
+    )
+    p.set_defaults(func=_cmd_quickstart, rest=[])
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if getattr(args, "func", None) is _cmd_quickstart:
+        args.rest = unknown  # the quick-start script's own options, in their order
+    elif unknown:
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
