@@ -11,12 +11,19 @@ GL_ENV := $(if $(filter Linux,$(shell uname -s)),MUJOCO_GL=$${MUJOCO_GL:-egl},)
 
 .PHONY: run test setup lint format clean gl
 
+# pip's output (hundreds of lines) goes to a log named in one line; a failed step prints the
+# end of the log and stops.
+SETUP_LOG := $(VENV)/setup.log
+LOGGED = >>$(SETUP_LOG) 2>&1 || { tail -n 40 $(SETUP_LOG); echo "setup failed: see $(SETUP_LOG)"; exit 1; }
+
 $(VENV)/.stamp-setup: pyproject.toml Makefile
-	$(PYTHON) -m venv $(VENV)
-	$(PIP) install --upgrade pip >/dev/null
-	$(PIP) install "$(TORCH_SPEC)"
-	$(PIP) install -e ".[dev,distributed,analysis,gpu]"
-	touch $@
+	@echo "setting up $(VENV): ariel and its dependencies (pip's log: $(SETUP_LOG))"
+	@$(PYTHON) -m venv $(VENV)
+	@: >$(SETUP_LOG)
+	@$(PIP) install --upgrade pip $(LOGGED)
+	@$(PIP) install "$(TORCH_SPEC)" $(LOGGED)
+	@$(PIP) install -e ".[dev,distributed,analysis,gpu]" $(LOGGED)
+	@touch $@
 
 setup: $(VENV)/.stamp-setup
 

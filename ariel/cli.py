@@ -431,7 +431,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"ariel {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
-    p = sub.add_parser("run", help="run an experiment (default: experiments/coevolve_flat.toml)")
+    p = sub.add_parser(
+        "run",
+        help="run an experiment (default: experiments/coevolve_flat.toml)",
+        description="Run an experiment: a TOML file (default: experiments/coevolve_flat.toml) "
+        "with --set overrides. Every configuration key, its default and meaning: "
+        "docs/evolution.md, 'Configuration keys'; `ariel config show [FILE] [--set ...]` prints "
+        "the resolved experiment, every key with its value.",
+    )
     p.add_argument("config", nargs="?", help="experiment TOML file")
     p.add_argument(
         "--set",
@@ -544,6 +551,10 @@ def build_parser() -> argparse.ArgumentParser:
     from ariel._cli_campaign import add_campaign_commands
 
     add_campaign_commands(sub, _add_executor_options)
+
+    from ariel._cli_config import add_config_commands
+
+    add_config_commands(sub)
 
     # Every option (--seed, --duration, --out, ..., --help) is the script's: main() hands them on.
     p = sub.add_parser(

@@ -1,0 +1,107 @@
+"""``ariel config show``: the resolved experiment (every key, defaults included) as TOML.
+
+The output is a valid experiment file: ``ariel config show > mine.toml`` then ``ariel run
+mine.toml`` runs the same experiment. TOML has no null, so a key that is not set (``none`` in
+docs/evolution.md) is a comment.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import shlex
+from collections.abc import Mapping
+from typing import Any
+
+__all__ = ["add_config_commands", "to_toml"]
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def _key(name: str) -> str:
+    return name if _BARE_KEY.fullmatch(name) else json.dumps(name)
+
+
+def _value(value: Any) -> str:
+    """One TOML value: strings, numbers, booleans, arrays and inline tables."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)  # a JSON string is a TOML basic string
+    if isinstance(value, Mapping):
+        items = [f"{_key(str(k))} = {_value(v)}" for k, v in value.items() if v is not None]
+        return "{ " + ", ".join(items) + " }" if items else "{}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_value(v) for v in value) + "]"
+    raise TypeError(f"no TOML form for {type(value).__name__}: {value!r}")
+
+
+def to_toml(config: Mapping[str, Any]) -> str:
+    """``config`` as TOML: plain keys first, then one ``[table]`` per nested mapping whose values
+    are inline (options tables as inline tables). ``None`` values become comments."""
+    lines: list[str] = []
+    tables: list[tuple[str, Mapping[str, Any]]] = []
+
+    def write(entries: Mapping[str, Any]) -> None:
+        for name, value in entries.items():
+            if value is None:
+                lines.append(f"# {_key(str(name))}: not set")
+            else:
+                lines.append(f"{_key(str(name))} = {_value(value)}")
+
+    top = {k: v for k, v in config.items() if not isinstance(v, Mapping)}
+    tables = [(k, v) for k, v in config.items() if isinstance(v, Mapping)]
+    write(top)
+    for name, table in tables:
+        lines += ["", f"[{_key(str(name))}]"]
+        write(table)
+    return "\n".join(lines) + "\n"
+
+
+def _cmd_config_show(args: argparse.Namespace) -> int:
+    from ariel.evolution import load_config
+
+    config = load_config(args.file, args.set)  # a bad file, key or value: ConfigError, one line
+    source = args.file or "the default experiment (experiments/coevolve_flat.toml)"
+    overrides = "".join(f" --set {shlex.quote(item)}" for item in args.set)
+    print(f"# {source}{overrides}, resolved: every key, defaults included")
+    print("# the keys: docs/evolution.md, 'Configuration keys'")
+    print(to_toml(config.to_plain()), end="")
+    return 0
+
+
+def add_config_commands(sub: Any) -> None:
+    """Add ``config show`` to the sub-parsers."""
+    config = sub.add_parser("config", help="the resolved experiment: ariel config show [FILE]")
+    actions = config.add_subparsers(dest="action", metavar="ACTION", required=True)
+    p = actions.add_parser(
+        "show",
+        help="print the resolved experiment as TOML (every key, defaults included)",
+        description="Print the experiment that `ariel run [FILE] [--set ...]` would run, every "
+        "key with its value (defaults included), as TOML that `ariel run` reads back. The keys "
+        "are documented in docs/evolution.md, 'Configuration keys'.",
+    )
+    p.add_argument(
+        "file",
+        nargs="?",
+        metavar="FILE",
+        help="experiment TOML file (default: the default experiment)",
+    )
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a config value, as with ariel run (repeatable)",
+    )
+    p.set_defaults(func=_cmd_config_show)
