@@ -71,7 +71,7 @@ def test_run_prints_the_folder_the_best_fitness_and_how_to_look(finished_run) ->
     assert f"{len(run.evaluations)} evaluations" in summary
     assert f"run folder: {out}" in printed.splitlines()
     assert f"ariel runs {out.parent}" in printed
-    assert f"load_run('{out}')" in printed
+    assert f'load_run("{out}")' in printed
     assert f"ariel view {out} " in printed  # it has recordings (record.rerun is on)
 
 
@@ -90,8 +90,7 @@ def test_runs_lists_a_finished_run(finished_run, capsys: pytest.CaptureFixture[s
     assert lines[0].split()[:2] == ["run", "status"]
     row = next(line.split() for line in lines[1:] if line.split()[0] == out.name)
     assert row[1:3] == ["finished", "2/2"]
-    assert main(["runs", str(out.parent / "nothing-here")]) == 0
-    assert "no runs under" in capsys.readouterr().out
+    assert main(["runs", str(out.parent / "nothing-here")]) == 2  # tests/test_first_hour.py
 
 
 BAD_RUN_INPUT = {
@@ -205,7 +204,10 @@ def interrupted_run(
     with monkeypatch.context() as patch:
         patch.setattr(Progress, "end_generation", interrupt)
         assert main(["run", str(tiny_toml), "--out", str(out), "--quiet"]) == 130
-    assert f"continue it with: ariel resume {out}" in capsys.readouterr().err
+    # the environment's ariel, e.g. .venv/bin/ariel: tests/test_first_hour.py
+    assert re.search(
+        rf"continue it with: \S*ariel resume {re.escape(str(out))}$", capsys.readouterr().err, re.M
+    )
     return out
 
 

@@ -1,0 +1,249 @@
+"""A researcher's first hour (issue 17): every command the CLI prints works when pasted into a
+fresh shell, ``ariel quickstart`` takes the script's options, ``ariel runs`` on a missing
+folder, ``ariel config show``, and a quiet ``make`` setup."""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+from _helpers import REPO, ariel_run, exit_code, one_error_line, repo_env, tiny_run_toml
+
+from ariel.cli import main
+
+
+def _fresh_shell_env() -> dict[str, str]:
+    """A new shell's environment: no virtual environment on PATH, not activated."""
+    env = repo_env()
+    env.pop("VIRTUAL_ENV", None)
+    env["PATH"] = "/usr/bin:/bin"
+    env.setdefault("MUJOCO_GL", "egl")
+    env.setdefault("MPLBACKEND", "Agg")
+    return env
+
+
+@pytest.fixture(scope="module")
+def printed_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """A tiny finished run made by ``ariel run`` with a folder like the repository root as the
+    current folder (data/runs/<id> relative), and what it printed."""
+    root = tmp_path_factory.mktemp("root")
+    (root / "tiny.toml").write_text(tiny_run_toml("firsthour", 3, record=None))
+    cwd = Path.cwd()
+    os.chdir(root)
+    try:
+        printed = ariel_run(Path("tiny.toml"), Path("data/runs/firsthour"))
+    finally:
+        os.chdir(cwd)
+    return root, printed
+
+
+def _printed_commands(printed: str) -> list[str]:
+    after = printed.split("look at the results:\n", 1)[1]
+    commands = []
+    for line in after.splitlines():
+        line = line.strip()
+        if not line or line.startswith("("):
+            continue
+        commands.append(re.sub(r"\s+# .*$", "", line))  # the comment after the command
+    return commands
+
+
+def test_every_printed_command_works_in_a_fresh_shell(printed_run) -> None:
+    root, printed = printed_run
+    commands = _printed_commands(printed)
+    verbs = [shlex.split(c)[1] if "-c" not in shlex.split(c) else "python" for c in commands]
+    assert verbs == ["report", "view", "replay", "runs", "python"], commands
+    for command in commands:
+        if shlex.split(command)[1] == "view":  # opens a window: check the command exists
+            command = f"{shlex.split(command)[0]} view --help"
+        if shlex.split(command)[1] == "report":
+            command += " --no-render"  # the rendered image is the report's business, not ours
+        done = subprocess.run(
+            ["/bin/sh", "-c", command],
+            cwd=root,
+            env=_fresh_shell_env(),
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, f"{command}\n{done.stderr[-2000:]}"
+        if "load_run" in command:  # the generations, with best_fitness shown, not behind "..."
+            header = done.stdout.splitlines()[0].split()
+            assert "best_fitness" in header and "..." not in done.stdout
+            assert len(done.stdout.splitlines()) == 1 + 2  # a header, two generations
+
+
+def test_printed_commands_name_the_environments_ariel(printed_run) -> None:
+    _, printed = printed_run
+    commands = _printed_commands(printed)
+    program = shlex.split(commands[0])[0]
+    assert program == "ariel" or Path(program).name == "ariel" or "-m ariel.cli" in commands[0]
+    assert shlex.split(commands[-1])[0] in {sys.executable, os.path.relpath(sys.executable)}
+
+
+def test_ariel_command_is_the_venv_script_relative_to_the_current_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from ariel import _cli_commands
+
+    scripts = tmp_path / ".venv" / "bin"
+    scripts.mkdir(parents=True)
+    (scripts / "ariel").write_text("#!/bin/sh\n")
+    (scripts / "python").write_text("")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "prefix", str(tmp_path / ".venv"))
+    monkeypatch.setattr(sys, "executable", str(scripts / "python"))
+    monkeypatch.setenv("PATH", "/usr/bin:/bin")
+    monkeypatch.delenv("VIRTUAL_ENV", raising=False)
+    assert _cli_commands.ariel_command() == ".venv/bin/ariel"
+    assert _cli_commands.python_command() == ".venv/bin/python"
+    # elsewhere: absolute paths
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    assert _cli_commands.ariel_command() == str(scripts / "ariel")
+    # activated in this shell (on PATH here, not in a new shell): still the path
+    monkeypatch.setenv("PATH", f"{scripts}:/usr/bin:/bin")
+    monkeypatch.setenv("VIRTUAL_ENV", str(tmp_path / ".venv"))
+    (scripts / "ariel").chmod(0o755)
+    assert _cli_commands.ariel_command() == str(scripts / "ariel")
+    # on PATH for good (not activated): plain ariel
+    monkeypatch.delenv("VIRTUAL_ENV")
+    assert _cli_commands.ariel_command() == "ariel"
+    # no environment script and no ariel on PATH: python -m ariel.cli
+    monkeypatch.setattr(sys, "prefix", sys.base_prefix)
+    monkeypatch.setenv("PATH", "/nonexistent")
+    assert _cli_commands.ariel_command() == f"{scripts / 'python'} -m ariel.cli"
+
+
+def test_load_run_command_quotes_an_odd_path() -> None:
+    from ariel._cli_commands import load_run_command
+
+    line = load_run_command("data/runs/it's $HOME", what="r")
+    words = shlex.split(line)
+    assert words[1] == "-c"
+    assert words[2] == (
+        'from ariel.recording import load_run; r = load_run("data/runs/it\'s $HOME"); print(r)'
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# ariel quickstart, ariel runs
+# --------------------------------------------------------------------------------------------
+
+
+def test_quickstart_takes_the_scripts_options(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = ["quickstart", "--seed", "1", "--duration", "0.5", "--no-video", "--out", "q"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "simulated 0.50 s (8 actuators, CPG seed 1)" in out
+    assert (tmp_path / "q" / "quickstart_trajectory_seed1.png").is_file()
+
+
+def test_quickstart_help_is_the_scripts(capsys: pytest.CaptureFixture[str]) -> None:
+    assert exit_code(["quickstart", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: ariel quickstart") and "--duration" in out
+
+
+def test_other_commands_still_refuse_unknown_options(capsys: pytest.CaptureFixture[str]) -> None:
+    assert exit_code(["runs", "--seed"]) == 2
+    assert "unrecognized arguments: --seed" in one_error_line(capsys, subcommand=True)
+
+
+def test_runs_on_a_folder_that_does_not_exist(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["runs", str(tmp_path / "nope")]) == 2
+    assert "does not exist" in one_error_line(capsys, quiet=True)
+    (tmp_path / "file").write_text("")
+    assert main(["runs", str(tmp_path / "file")]) == 2
+    assert "is not a folder" in one_error_line(capsys, quiet=True)
+    assert main(["runs", str(tmp_path)]) == 0  # a folder without runs: said so, exit 0
+    assert "no runs under" in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------------------------
+# ariel config show
+# --------------------------------------------------------------------------------------------
+
+
+def test_config_show_prints_every_key_as_toml(capsys: pytest.CaptureFixture[str]) -> None:
+    from ariel.evolution import load_config
+
+    assert main(["config", "show", "--set", "brain.popsize=12", "--set", "seed=7"]) == 0
+    text = capsys.readouterr().out
+    data = tomllib.loads(text)
+    expected = load_config(None, ["brain.popsize=12", "seed=7"]).to_plain()
+    assert data["brain"]["popsize"] == 12 and data["seed"] == 7
+    # every key with a value is there; the unset ones (None) are comments
+    for table, values in expected.items():
+        if not isinstance(values, dict):
+            assert data[table] == values
+            continue
+        for key, value in values.items():
+            if value is None:
+                assert f"# {key}: not set" in text
+            else:
+                assert data[table][key] == value, (table, key)
+    assert load_config(data).to_plain() == expected  # it reads back as the same experiment
+
+
+def test_config_show_of_a_file_and_a_bad_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = REPO / "experiments" / "gecko_gait.toml"
+    assert main(["config", "show", str(config)]) == 0
+    data = tomllib.loads(capsys.readouterr().out)
+    assert data["body"]["genotype"] == tomllib.loads(config.read_text())["body"]["genotype"]
+    assert main(["config", "show", str(tmp_path / "nope.toml")]) == 2
+    assert "not found" in one_error_line(capsys, quiet=True)
+    assert main(["config", "show", "--set", "brain.nope=1"]) == 2
+    assert "brain.nope" in one_error_line(capsys, quiet=True)
+
+
+def test_to_toml_writes_inline_tables_lists_and_odd_keys() -> None:
+    from ariel._cli_config import to_toml
+
+    config = {
+        "name": 'a "quoted" name',
+        "x": 1.5,
+        "t": {"options": {"a b": [1, 2.0, "s"], "nested": {"k": True}}, "none": None},
+    }
+    data = tomllib.loads(to_toml(config))
+    assert data == {
+        "name": 'a "quoted" name',
+        "x": 1.5,
+        "t": {"options": {"a b": [1, 2.0, "s"], "nested": {"k": True}}},
+    }
+
+
+def test_run_help_says_where_the_keys_are_documented(capsys: pytest.CaptureFixture[str]) -> None:
+    assert exit_code(["run", "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "docs/evolution.md, 'Configuration keys'" in out and "ariel config show" in out
+
+
+# --------------------------------------------------------------------------------------------
+# make setup: quiet, and pyproject.toml without setuptools' deprecation warning
+# --------------------------------------------------------------------------------------------
+
+
+def test_make_setup_logs_pip_instead_of_printing_it() -> None:
+    makefile = (REPO / "Makefile").read_text()
+    recipe = makefile.split("$(VENV)/.stamp-setup:", 1)[1].split("\n\n", 1)[0]
+    installs = [line for line in recipe.splitlines() if "$(PIP) install" in line]
+    assert len(installs) == 3 and all("$(LOGGED)" in line for line in installs)
+
+
+def test_license_is_an_spdx_string() -> None:
+    project = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
+    assert project["license"] == "MIT"  # a TOML table is deprecated by setuptools >= 77
