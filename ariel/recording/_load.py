@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ariel.recording._run_folder import NotARunError, RunFolder
-from ariel.recording._tables import read_table
+from ariel.recording._tables import read_table, to_pandas
 
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
 FAILED_STATUSES = ("error", "unstable", "invalid")
@@ -82,7 +82,7 @@ class Run:
 
     def _table(self, name: str) -> Any:
         up_to = self.generations_done - 1
-        return read_table(self.path, name, up_to=up_to, manifest=self.manifest).to_pandas()
+        return to_pandas(read_table(self.path, name, up_to=up_to, manifest=self.manifest))
 
     @cached_property
     def evaluations(self) -> Any:
