@@ -81,3 +81,77 @@ def test_a_file_with_float_counts_from_before_reads_as_integers(tmp_path: Path) 
     table = read_table(tmp_path, "bodies")
     assert table.schema == body_schema()
     assert table.column("num_modules").to_pylist() == [8, None]
+
+
+# -- joint signals -----------------------------------------------------------------------------
+
+
+class _Frames:
+    def __init__(self, steps: int, joints: int) -> None:
+        self.time = np.arange(steps) * 0.1
+        self.core_pos = np.zeros((steps, 3))
+        self.joint_target = np.arange(steps * joints, dtype=float).reshape(steps, joints)
+        self.joint_angle = -self.joint_target
+
+
+def test_joint_lists_are_fixed_size_where_every_row_has_as_many_joints(tmp_path: Path) -> None:
+    from ariel.recording._tables import trajectory_columns
+
+    write_table(tmp_path, "trajectories", 0, trajectory_columns(0, [("a", _Frames(3, 2))] * 2))
+    write_table(tmp_path, "trajectories", 1, trajectory_columns(1, [("b", _Frames(2, 2))]))
+    both = read_table(tmp_path, "trajectories")
+    assert both.schema.field("joint_angle").type == pa.list_(pa.float64(), 2)
+    mixed = [("c", _Frames(2, 3)), ("d", _Frames(2, 1))]
+    write_table(tmp_path, "trajectories", 2, trajectory_columns(2, mixed))
+    stored = pq.read_schema(generation_file(tmp_path, "trajectories", 2))
+    assert stored.field("joint_target").type == pa.list_(pa.float64())
+    every = read_table(tmp_path, "trajectories")  # files of other sizes: variable lists
+    assert every.schema.field("joint_target").type == pa.list_(pa.float64())
+    assert every.column("joint_target").to_pylist()[-1] == [1.0]
+    assert every.column("joint_target").to_pylist()[:2] == [[0.0, 1.0], [2.0, 3.0]]
+
+
+def test_joint_signals_are_a_time_by_joint_frame(run_dir: Path) -> None:
+    run = load_run(run_dir)
+    row = run.evaluations[run.evaluations["status"] == "ok"].iloc[-1]
+    signals = run.joint_signals(row["eval_id"])
+    joints = list(row["joint_names"])
+    assert list(signals.columns.names) == ["signal", "joint"]
+    assert list(signals["target"].columns) == joints == list(signals["angle"].columns)
+    frames = run.trajectories[run.trajectories["eval_id"] == row["eval_id"]].sort_values("t")
+    np.testing.assert_array_equal(signals.index.to_numpy(), frames["t"].to_numpy())
+    np.testing.assert_array_equal(signals["target"].to_numpy(), np.stack(frames["joint_target"]))
+    np.testing.assert_array_equal(signals["angle"].to_numpy(), np.stack(frames["joint_angle"]))
+    assert signals.index.name == "t"
+
+
+def test_joint_signals_of_an_unknown_evaluation_is_one_line(run_dir: Path) -> None:
+    from ariel.errors import UnknownEvaluationError
+
+    with pytest.raises(UnknownEvaluationError, match="no evaluation 'b999999-i000-c000'"):
+        load_run(run_dir).joint_signals("b999999-i000-c000")
+
+
+# -- generations and repr ----------------------------------------------------------------------
+
+
+def test_generations_hold_the_populations_mean_morphology(run_dir: Path) -> None:
+    run = load_run(run_dir)
+    generations, bodies = run.generations, run.bodies
+    for name in DESCRIPTOR_NAMES:
+        assert f"mean_{name}" in generations.columns
+    for _, row in generations.iterrows():
+        population = bodies[(bodies["generation"] == row["generation"]) & bodies["selected"]]
+        population = population[np.isfinite(population["fitness"])]
+        assert row["mean_num_modules"] == pytest.approx(population["num_modules"].mean())
+        assert row["mean_symmetry"] == pytest.approx(population["symmetry"].mean())
+
+
+def test_a_run_prints_as_a_short_summary(run_dir: Path) -> None:
+    run = load_run(run_dir)
+    text = repr(run)
+    info = run.info
+    assert "\n" not in text and len(text) < 160
+    assert text.startswith(f"<Run {info['run_id']}: finished, 2/2 generations, ")
+    assert f"{info['evaluations_done']:,} evaluations" in text
+    assert f"best fitness {info['best_fitness']:.6g}>" in text
