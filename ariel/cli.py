@@ -329,6 +329,17 @@ def _headless_unless_display() -> None:
         ensure_headless_gl()
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    from ariel.recording._export import export
+
+    out = export(args.run_dir, args.eval_id, args.out)
+    print(
+        f"wrote {out}: body.xml (python -m mujoco.viewer --mjcf {out / 'body.xml'}), "
+        f"genotype.json, controller.json, replay.py (python {out / 'replay.py'})"
+    )
+    return 0
+
+
 def _cmd_replay(args: argparse.Namespace) -> int:
     from ariel.utils._gl import has_display
 
@@ -476,6 +487,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--video", metavar="FILE", help="write an MP4 (camera tracking the robot)")
     p.add_argument("--viewer", action="store_true", help="play it in the MuJoCo viewer")
     p.set_defaults(func=_cmd_replay)
+
+    p = sub.add_parser(
+        "export",
+        help="write one evaluation as MJCF, genotype and controller JSON, and a replay script",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("eval_id", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'")
+    p.add_argument("out", metavar="DIR", help="a new or empty folder")
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser(
         "report", help="per-generation table and figures of a run (PNGs in RUN_DIR/report/)"

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ariel.recording._run_folder import NotARunError, RunFolder
-from ariel.recording._tables import read_table
+from ariel.recording._tables import read_table, to_pandas
 
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
 FAILED_STATUSES = ("error", "unstable", "invalid")
@@ -37,6 +37,22 @@ class Run:
     def __post_init__(self) -> None:
         config = self.info.get("config")
         self.config = config if isinstance(config, dict) else {}
+
+    def __repr__(self) -> str:
+        """One line: ``<Run ID: STATUS, DONE/GENERATIONS generations, N evaluations, best
+        fitness F>``, from run.json (no table is read)."""
+        run_id = self.info.get("run_id")
+        run_id = run_id if isinstance(run_id, str) else self.path.name
+        total = self.config.get("generations")
+        done = f"{self.generations_done}/{total}" if isinstance(total, int) else "?"
+        evaluations = self.info.get("evaluations_done")
+        count = f"{evaluations:,}" if isinstance(evaluations, int) else "?"
+        best = self.info.get("best_fitness")
+        fitness = f"{best:.6g}" if isinstance(best, int | float) else "none"
+        return (
+            f"<Run {run_id}: {self.info.get('status', '?')}, {done} generations, "
+            f"{count} evaluations, best fitness {fitness}>"
+        )
 
     @property
     def generations_done(self) -> int:
@@ -82,7 +98,7 @@ class Run:
 
     def _table(self, name: str) -> Any:
         up_to = self.generations_done - 1
-        return read_table(self.path, name, up_to=up_to, manifest=self.manifest).to_pandas()
+        return to_pandas(read_table(self.path, name, up_to=up_to, manifest=self.manifest))
 
     @cached_property
     def evaluations(self) -> Any:
@@ -99,6 +115,49 @@ class Run:
         """One row per recorded frame: ``eval_id``, ``t``, core position, joint lists."""
         return self._table("trajectories")
 
+    def joint_signals(self, eval_id: str) -> Any:
+        """Evaluation ``eval_id``'s joint signals: a DataFrame indexed by ``t`` (seconds), one
+        column per signal and joint, ``("target", joint)`` and ``("angle", joint)`` (radians),
+        joints named as in its ``joint_names``. Reads that evaluation's rows only.
+
+        Raises `UnknownEvaluationError` for an id not in the run's finished generations.
+        """
+        import pandas as pd
+
+        from ariel.errors import UnknownEvaluationError
+        from ariel.recording._tables import generation_file, read_file
+
+        evals = self.evaluations
+        found = evals[evals["eval_id"] == eval_id]
+        if not len(found):
+            raise UnknownEvaluationError(
+                f"no evaluation {eval_id!r} in the finished generations of run {str(self.path)!r}"
+            )
+        row = found.iloc[0]
+        joints = [str(name) for name in row["joint_names"]]
+        columns = pd.MultiIndex.from_product(
+            [["target", "angle"], joints], names=["signal", "joint"]
+        )
+        path = generation_file(self.path, "trajectories", int(row["generation"]))
+        if not path.is_file():  # record.trajectories = false
+            return pd.DataFrame(columns=columns, index=pd.Index([], name="t"), dtype=float)
+        frames = read_file(
+            self.path,
+            path,
+            "trajectories",
+            manifest=self.manifest,
+            filters=[("eval_id", "==", eval_id)],
+        ).sort_by("t")
+        width = len(joints)
+
+        def signal(name: str) -> np.ndarray:
+            values = frames.column(name).combine_chunks().flatten().to_numpy()
+            return np.asarray(values, dtype=np.float64).reshape(frames.num_rows, width)
+
+        data = np.hstack([signal("joint_target"), signal("joint_angle")])
+        index = pd.Index(frames.column("t").to_numpy(), name="t")
+        return pd.DataFrame(data, index=index, columns=columns)
+
     @cached_property
     def archive(self) -> Any:
         """MAP-Elites runs: one row per filled cell of the archive after each generation
@@ -109,16 +168,29 @@ class Run:
     def generations(self) -> Any:
         """Per generation: evaluations, failures, and best / mean / median fitness of the
         population after selection (a MAP-Elites run: its elites), and for MAP-Elites runs
-        ``coverage`` (filled cells / cells) and ``qd_score`` (the elites' summed objective)."""
+        ``coverage`` (filled cells / cells) and ``qd_score`` (the elites' summed objective).
+
+        Then the population's mean morphology: ``mean_<descriptor>`` for each morphology
+        descriptor (``mean_num_modules``, ...): its mean over the bodies the fitness columns
+        describe (NaN where none has descriptors)."""
         import pandas as pd
+
+        from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
         evaluations, bodies = self.evaluations, self.bodies
         maximise = self.maximise if len(evaluations) else True
         rows = []
         for generation, group in bodies.groupby("generation", sort=True):
-            alive = group[group["selected"]]["fitness"]
-            alive = alive[alive.map(math.isfinite)]
+            population = group[group["selected"]]
+            population = population[population["fitness"].map(math.isfinite)]
+            alive = population["fitness"]
             evals = evaluations[evaluations["generation"] == generation]
+            morphology = {
+                f"mean_{name}": float(population[name].astype("Float64").mean())
+                if population[name].notna().any()
+                else math.nan
+                for name in DESCRIPTOR_NAMES
+            }
             rows.append(
                 {
                     "generation": int(generation),
@@ -132,6 +204,7 @@ class Run:
                     else math.nan,
                     "mean_fitness": alive.mean() if len(alive) else math.nan,
                     "median_fitness": alive.median() if len(alive) else math.nan,
+                    **morphology,
                 }
             )
         columns = [
@@ -145,7 +218,9 @@ class Run:
             "mean_fitness",
             "median_fitness",
         ]
-        frame = pd.DataFrame(rows, columns=columns)  # the columns even before a generation ends
+        morphology_columns = [f"mean_{name}" for name in DESCRIPTOR_NAMES]
+        # the columns even before a generation ends
+        frame = pd.DataFrame(rows, columns=columns + morphology_columns)
         archive = self.archive
         if len(archive):
             grouped = archive.groupby("generation")
@@ -154,6 +229,7 @@ class Run:
                 {"coverage": grouped.size() / cells, "qd_score": grouped["objective"].sum()}
             )
             frame = frame.join(quality, on="generation")
+            frame = frame[[*columns, "coverage", "qd_score", *morphology_columns]]
         return frame
 
 

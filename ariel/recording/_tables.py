@@ -21,6 +21,7 @@ import pyarrow.parquet as pq
 from ariel.recording._files import atomic_write
 
 __all__ = [
+    "COUNT_DESCRIPTORS",
     "TABLES",
     "archive_schema",
     "body_schema",
@@ -30,6 +31,7 @@ __all__ = [
     "read_table",
     "recording_path",
     "table_generations",
+    "to_pandas",
     "trajectory_columns",
     "trajectory_schema",
     "write_table",
@@ -42,10 +44,26 @@ MANIFEST_DIR = "manifests"
 _GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
 
 
+#: Morphology descriptors that count something: integers in the tables (null for a body that
+#: could not be built; pandas reads such a column as the nullable ``Int32``). Files written
+#: before they were integers (float64 columns) are cast on read.
+COUNT_DESCRIPTORS: tuple[str, ...] = (
+    "num_modules",
+    "num_hinges",
+    "num_bricks",
+    "num_limbs",
+    "num_core_children",
+    "depth",
+)
+
+
 def _descriptor_fields() -> list[pa.Field]:
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
-    return [pa.field(name, pa.float64()) for name in DESCRIPTOR_NAMES]
+    return [
+        pa.field(name, pa.int32() if name in COUNT_DESCRIPTORS else pa.float64())
+        for name in DESCRIPTOR_NAMES
+    ]
 
 
 @cache
@@ -160,6 +178,9 @@ def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> di
 
     def lists(name: str) -> Any:
         blocks = [np.asarray(getattr(result, name), dtype=np.float64) for _, result in frames]
+        sizes = {block.shape[1] for block in blocks}
+        if len(sizes) == 1 and 0 not in sizes:  # every row as wide: a fixed-size list column
+            return pa.FixedSizeListArray.from_arrays(numbers(blocks), sizes.pop())
         widths = np.repeat([block.shape[1] for block in blocks], counts).astype(np.int64)
         offsets = pa.array(np.concatenate([[0], np.cumsum(widths)]).astype(np.int32))
         return pa.ListArray.from_arrays(offsets, numbers(blocks))
@@ -197,11 +218,41 @@ def write_table(
     run_dir: Path, table: str, generation: int, columns: Mapping[str, Sequence[Any]]
 ) -> Path:
     """Write one generation's rows (as columns) of ``table``, atomically; returns the path."""
-    schema = _SCHEMAS[table]()
+    schema = pa.schema([_written_field(f, columns[f.name]) for f in _SCHEMAS[table]()])
     arrow = pa.Table.from_pydict({f.name: columns[f.name] for f in schema}, schema=schema)
     path = generation_file(run_dir, table, generation)
     atomic_write(path, lambda tmp: pq.write_table(arrow, tmp, compression="zstd"), root=run_dir)
     return path
+
+
+def _written_field(field: pa.Field, column: Any) -> pa.Field:
+    """``field``, or a fixed-size list of its values where ``column`` is one (every row of the
+    file as long: the joint signals of one body's evaluations)."""
+    if isinstance(column, pa.FixedSizeListArray) and pa.types.is_list(field.type):
+        return pa.field(field.name, pa.list_(field.type.value_type, column.type.list_size))
+    return field
+
+
+def _read_field(field: pa.Field, stored: pa.Field | None) -> pa.Field:
+    """How a file's column is read: as in today's schema, but a fixed-size list stays one."""
+    if (
+        stored is not None
+        and pa.types.is_fixed_size_list(stored.type)
+        and pa.types.is_list(field.type)
+        and stored.type.value_type == field.type.value_type
+    ):
+        return pa.field(field.name, stored.type)
+    return field
+
+
+def to_pandas(table: pa.Table) -> Any:
+    """``table`` as a pandas DataFrame; a count column with nulls (a body that could not be
+    built) as the nullable ``Int32`` rather than floats."""
+    frame = table.to_pandas()
+    for name in COUNT_DESCRIPTORS:
+        if name in frame.columns and table.column(name).null_count:
+            frame[name] = frame[name].astype("Int32")
+    return frame
 
 
 def table_generations(run_dir: Path, table: str) -> list[int]:
@@ -229,6 +280,8 @@ def read_table(
         gens = [g for g in table_generations(run_dir, table) if up_to is None or g <= up_to]
         paths = [generation_file(run_dir, table, g) for g in gens]
     parts = [read_file(run_dir, path, table, manifest=manifest) for path in paths]
+    if any(part.schema != parts[0].schema for part in parts):
+        parts = [part.cast(schema) for part in parts]  # fixed-size lists of other sizes: lists
     return pa.concat_tables(parts) if parts else schema.empty_table()
 
 
@@ -258,10 +311,14 @@ def read_file(
         raise _unreadable(run_dir, path, f"is unreadable ({exc.strerror})") from None
     if manifest is not None:
         manifest.check_bytes(path, data)
-    schema = _SCHEMAS[table]()
     try:
-        buffer = pa.BufferReader(data)
-        stored = set(pq.read_schema(buffer).names)
+        stored_schema = pq.read_schema(pa.BufferReader(data))
+        stored = set(stored_schema.names)
+        fields = [
+            _read_field(f, stored_schema.field(f.name) if f.name in stored else None)
+            for f in _SCHEMAS[table]()
+        ]
+        schema = pa.schema(fields)
         part = pq.read_table(pa.BufferReader(data), schema=schema, filters=filters)
     except (pa.ArrowException, OSError, ValueError) as exc:
         first = (str(exc).splitlines() or [""])[0]
