@@ -3,8 +3,9 @@
 `golden_records.json` holds, per config below, the SHA-256 of every table of every generation
 (rows in id order, every cell in a bit-exact form; the ``wall_seconds`` column, a measured time,
 left out). It was written by the loop before it was split into body optimizers, a scheduler
-and row builders (``python tests/evolution/test_golden_records.py`` writes it again); the
-rebuilt loop must give the same records.
+and row builders, and the rebuilt loop gave the same records. Written again only when records
+change on purpose (``python tests/evolution/test_golden_records.py``), and said so in the commit:
+since then once, for the integer count columns (the same values, cast).
 """
 
 from __future__ import annotations
