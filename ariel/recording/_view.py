@@ -133,7 +133,7 @@ def select_recordings(
             raise ViewError(f"not an evaluation id: {shown!r} (ids look like b000012-i003-c005)")
         found = sorted((folder / RECORDINGS).glob(f"gen-*/{eval_id}.rrd"))
         if found:
-            return chosen(*_with_body_poses(folder, eval_id, found[0]))
+            return chosen(*_with_body_poses(run, eval_id, found[0]))
         known = run.evaluations["eval_id"] == eval_id
         if known.any():
             generation_of = int(run.evaluations.loc[known, "generation"].iloc[0])
@@ -181,17 +181,18 @@ def select_recordings(
     return chosen(picked, " and ".join(parts))
 
 
-def _with_body_poses(folder: Path, eval_id: str, recorded: Path) -> tuple[list[Path], str]:
-    """The evaluation's recording when it holds the bodies' poses, else its 3D replay made on
-    demand by exact re-simulation (`on_demand_recording`; cached in the run folder). Without
-    the run's plugins, the recording as it is, with a note."""
+def _with_body_poses(run: Any, eval_id: str, recorded: Path) -> tuple[list[Path], str]:
+    """The evaluation's recording when it holds the bodies' poses (or was not written by the
+    loop), else its 3D replay made on demand by exact re-simulation (`on_demand_recording`;
+    cached in the run folder). Without the run's plugins, the recording as it is, with a
+    note."""
     from ariel.errors import MissingPluginError
     from ariel.recording._replay import has_body_poses, on_demand_recording
 
-    if has_body_poses(recorded):
+    if not run.config.get("record", {}).get("rerun") or has_body_poses(recorded):
         return [recorded], f"evaluation {eval_id}"
     try:
-        made = on_demand_recording(folder, eval_id)
+        made = on_demand_recording(run.path, eval_id)
     except (MissingPluginError, ValueError) as exc:
         print(f"ariel: no 3D replay of {eval_id}: {exc}", file=sys.stderr)
         return [recorded], f"evaluation {eval_id} (no 3D replay)"
