@@ -112,12 +112,16 @@ class RecordConfig(_Section):
     """What a run records besides its evaluations and bodies tables (docs/records.md).
 
     ``rerun``: a Rerun ``.rrd`` per evaluation plus ``run.rrd`` and ``blueprint.rbl``.
-    ``bodies``: which recordings hold the bodies' poses over time (a 3D replay): ``all``,
-    ``elites`` (each new best of a body's brain run) or ``none``.
+    ``bodies``: which recordings hold the bodies' poses over time (a 3D replay): ``elites``
+    (the default: each new best of a body's brain run; any other evaluation's 3D replay is
+    made on demand by `ariel view`, re-simulating it exactly), ``all`` or ``none``. It never
+    changes a result (``all`` and ``elites`` build the same tasks), and a run's config (with
+    this key) is stored resolved in run.json, so the default's change from ``all`` to
+    ``elites`` leaves the config hash of every earlier run, and its resume, as it was.
     """
 
     rerun: Bool = True
-    bodies: Literal["all", "elites", "none"] = "all"
+    bodies: Literal["all", "elites", "none"] = "elites"
     rate_hz: Float = Field(10.0, gt=0.0)
     trajectories: Bool = True
 

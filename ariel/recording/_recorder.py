@@ -6,8 +6,10 @@ and ``blueprint.rbl`` in the run folder.
   ``record.bodies`` decides which hold the bodies' poses over time (a 3D replay): ``all``;
   ``elites``, the evaluations that were their body's best so far when their batch returned
   (each improvement of its brain run, hence always its final best; in a brain-only run, each
-  new best of the one brain run); ``none``. The others show the robot in its start pose,
-  with its path, joint series and graph. A body that cannot be built has no recording.
+  new best of the one brain run); ``none``. The others hold the core's path, the joint
+  series, the graph and the properties, not the world or the robot's boxes: `ariel view RUN
+  EVAL_ID` makes their 3D replay on demand, re-simulating them exactly
+  (``recordings/replays/<eval_id>.rrd``). A body that cannot be built has no recording.
 * ``run.rrd``: per generation the best, mean and median fitness of the population after
   selection (as ``Run.generations`` computes them), two diversity measures of that population
   (``diversity``: the mean pairwise Euclidean distance between the bodies' morphology
@@ -174,6 +176,7 @@ class RerunRecorder:
             properties=properties,
             graph_json=body.graph or None,
             transforms=transforms,
+            scene=transforms,  # the others' 3D replay is made on demand (`ariel view`)
         )
 
     def generation(

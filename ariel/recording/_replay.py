@@ -38,10 +38,21 @@ from ariel.errors import MissingPluginError, UnknownEvaluationError
 from ariel.recording._load import Run, load_run
 from ariel.utils._gl import has_display
 
-__all__ = ["MissingPluginError", "ReplayResult", "UnknownEvaluationError", "replay"]
+__all__ = [
+    "MissingPluginError",
+    "ReplayResult",
+    "UnknownEvaluationError",
+    "has_body_poses",
+    "on_demand_recording",
+    "replay",
+]
 
 #: `replay(run, BEST)` replays the run's best evaluation.
 BEST = "best"
+
+#: Where `on_demand_recording` keeps the 3D replays it makes, inside the generation's folder
+#: of recordings (so a resume that discards the generation discards them too).
+REPLAYS = "replays"
 
 # Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
 _DECISIVE = ("mujoco", "numpy", "torch", "ariel")
@@ -372,14 +383,24 @@ def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[Any, 
     return differences
 
 
-def replay_task(run: Run, row: dict[str, Any]) -> Any:
-    """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``."""
-    from ariel.evaluation import BodyBuildError, build
+def replay_task(run: Run, row: dict[str, Any], *, graph: str | None = None) -> Any:
+    """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``.
+
+    ``graph``: the body's decoded robot graph (the bodies table's ``graph``), the form the
+    loop's tasks carry (`shipped_body`) for an encoder that decodes to a graph: used as it is
+    instead of decoding the genotype again (the NDE's decoding imports torch, ~2 s).
+    """
+    from ariel.evaluation import BodyBuildError, BodySpec, build
     from ariel.evolution import ExperimentConfig
     from ariel.evolution._tasks import body_spec, evaluation_task, record_steps, shipped_body
+    from ariel.plugins import body_encoders
 
     config = ExperimentConfig.from_plain(run.config)
-    spec = shipped_body(config, body_spec(config, json.loads(row["body_genotype"])))
+    encoder = config.body.encoder
+    if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
+        spec = BodySpec("graph", json.loads(graph))
+    else:
+        spec = shipped_body(config, body_spec(config, json.loads(row["body_genotype"])))
     fields: dict[str, Any] = {
         "seed": int(row["seed"]),
         "eval_id": str(row["eval_id"]),
@@ -428,3 +449,93 @@ def _evaluate_as_stored(task: Any, backend: Any) -> Any:
             return evaluate(task)
         return evaluator.evaluate_batch([task])[0]
     return evaluate(task)
+
+
+def has_body_poses(path: str | Path) -> bool:
+    """Whether the ``.rrd`` at ``path`` holds the robot's body poses over time (a 3D replay)."""
+    from rerun.chunk import RrdReader
+
+    store = RrdReader(Path(path)).stream().collect()
+    return any(
+        chunk.entity_path == "/world/robot" and not chunk.is_static
+        for chunk in store.stream().to_chunks()
+    )
+
+
+def replay_recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
+    """``recordings/gen-NNNNNN/replays/<eval_id>.rrd``: an on-demand 3D replay's cache file."""
+    from ariel.recording._tables import recording_path
+
+    return recording_path(run_dir, generation, eval_id).parent / REPLAYS / f"{eval_id}.rrd"
+
+
+def on_demand_recording(run_dir: str | Path, eval_id: str) -> Path:
+    """The 3D replay of evaluation ``eval_id`` as the loop records an elite (``record.bodies =
+    "all"``): its recording with the bodies' poses at the run's ``record.rate_hz``, made by
+    re-simulating it exactly (`replay`), written atomically to `replay_recording_path` and
+    reused from there. The poses equal, bit for bit, those an ``all`` run records (recording
+    them never changes the physics). Raises as `replay` does.
+    """
+    from ariel.recording._files import refuse_symlinks
+    from ariel.recording._rerun import write_evaluation_recording
+
+    run = load_run(run_dir)
+    row = _find_row(run, eval_id)
+    path = replay_recording_path(run.path, int(row["generation"]), str(row["eval_id"]))
+    if path.is_file():
+        return path
+    _require_plugins(run)
+    replayed = ReplayResult(run=run, row=row, task=None, result=None)
+    replayed._need_body("a 3D replay")
+    graph = replayed.graph_json()
+    # Poses are computed from the recorded frames after the physics: the same physics.
+    task = replace(replay_task(run, row, graph=graph), record_bodies=True)
+    replayed.task = task
+    result = _evaluate_as_stored(task, row.get("backend"))
+    replayed.result = result
+    refuse_symlinks(path, run.path)
+    return write_evaluation_recording(
+        path,
+        model=replayed.model,
+        body_names=result.body_names,
+        result=result,
+        properties=_recorder_properties(run, row, task, result),
+        graph_json=graph,
+        transforms=True,
+    )
+
+
+def _recorder_properties(run: Run, row: dict[str, Any], task: Any, result: Any) -> dict[str, Any]:
+    """The properties the loop's recorder gives an evaluation's recording, from its row, and
+    the replayed fitness (``replayed_fitness``, ``identical``)."""
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    config = run.config
+    stored = float(row["fitness"])
+    parents = row.get("parent_ids")
+    return {
+        "eval_id": str(row["eval_id"]),
+        "run_id": str(row.get("run_id", "")),
+        "generation": int(row["generation"]),
+        "body_id": str(row["body_id"]),
+        "iteration": int(row["iteration"]),
+        "candidate": int(row["candidate"]),
+        "parent_ids": [str(p) for p in ([] if parents is None else parents)],
+        "fitness": stored,
+        "status": str(row["status"]),
+        "error": row.get("error"),
+        "seed": int(row["seed"]),
+        "body_encoder": str(row["body_encoder"]),
+        "body_genotype_sha1": task.body.key,
+        "controller": str(row["controller"]),
+        "n_params": len(task.params),
+        "world": str(row["world"]),
+        "fitness_fn": str(row["fitness_fn"]),
+        "morphology": json.dumps(
+            {name: float(row[name]) for name in DESCRIPTOR_NAMES if name in row}
+        ),
+        "replayed": True,
+        "replayed_fitness": float(result.fitness),
+        "identical": _same_bits(float(result.fitness), stored),
+        "record_bodies": str(config.get("record", {}).get("bodies", "")),
+    }

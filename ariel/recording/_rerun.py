@@ -520,6 +520,7 @@ def write_evaluation_recording(
     properties: Mapping[str, Any],
     graph_json: str | Mapping[str, Any] | None = None,
     transforms: bool = True,
+    scene: bool = True,
     fsync: bool = False,
 ) -> Path:
     """Write one evaluation's ``.rrd`` (entities: see the module docstring); returns its path.
@@ -533,6 +534,9 @@ def write_evaluation_recording(
     ``transforms``: the bodies' poses over ``sim_time`` (a 3D replay), when ``result`` has
     them (``body_pos``/``body_quat``, from ``EvaluationTask(record_bodies=True)``); else the
     robot is drawn in its start pose.
+    ``scene=False`` (with ``transforms=False``): leave out the world and the robot's boxes, a
+    recording of the core's path, the joints, the graph and the properties only (what the loop
+    writes for an evaluation whose 3D replay is made on demand; ~40 % of the bytes).
     ``fsync``: also fsync the file (a killed writer never leaves a partial file either way;
     fsync costs ~2 ms a file and only matters for a power cut).
     Safe to call from a loop and from threads: no global state but small caches of what the
@@ -543,10 +547,11 @@ def write_evaluation_recording(
     rr = _rr()
     path = Path(path)
     eval_id = str(properties.get("eval_id") or getattr(result, "eval_id", "") or path.stem)
-    scene = _scene(model, body_names)
-    chunks = [*_property_chunks(properties, eval_id), *scene.world]
+    drawn = scene or transforms
+    shared = _scene(model, body_names)
+    chunks = [*_property_chunks(properties, eval_id), *(shared.world if drawn else [])]
     core = np.asarray(result.core_pos, dtype=np.float32).reshape(-1, 3)
-    for terrain in scene.heightfields:
+    for terrain in shared.heightfields if drawn else []:
         chunks.append(_static(terrain.path, _terrain(terrain, core[:, :2])))
 
     times = np.asarray(result.time, dtype=np.float64)
@@ -560,17 +565,17 @@ def write_evaluation_recording(
         and len(body_pos) == len(times) > 0
         and np.shape(body_pos)[1] == len(body_names)
     )
-    boxes = len(scene.geom_body)
+    boxes = len(shared.geom_body)
     if moving and boxes:
         centers, quats = _box_poses(
-            body_pos, body_quat, scene.geom_body, scene.geom_pos, scene.geom_quat
+            body_pos, body_quat, shared.geom_body, shared.geom_pos, shared.geom_quat
         )
         poses = rr.Boxes3D.columns(
             centers=centers.reshape(-1, 3), quaternions=quats.reshape(-1, 4)
         ).partition([boxes] * len(times))
-        chunks += [scene.robot_sizes, Chunk.from_columns("/world/robot", sim_time, poses)]
-    elif boxes:
-        chunks.append(scene.robot_still)
+        chunks += [shared.robot_sizes, Chunk.from_columns("/world/robot", sim_time, poses)]
+    elif boxes and drawn:
+        chunks.append(shared.robot_still)
     if len(core):
         strip = rr.LineStrips3D([core], colors=[module_colours()["CORE"]], radii=[0.005])
         chunks.append(_static("/world/trajectory", strip))
@@ -580,13 +585,13 @@ def write_evaluation_recording(
     joints = targets.shape[1] if targets.ndim == 2 and len(times) else 0
     if joints:
         names = tuple(getattr(result, "joint_names", None) or ())[:joints]
-        if names not in scene.joint_names:
+        if names not in shared.joint_names:
             labels = [_short(n) for n in names] + [f"joint{j}" for j in range(len(names), joints)]
-            scene.joint_names[names] = [
+            shared.joint_names[names] = [
                 _static(f"/joints/{leaf}", rr.SeriesLines(names=labels))
                 for leaf in ("target", "angle")
             ]
-        chunks += scene.joint_names[names]
+        chunks += shared.joint_names[names]
         for leaf, values in (("target", targets), ("angle", angles)):
             scalars = rr.Scalars.columns(scalars=values.ravel()).partition([joints] * len(times))
             chunks.append(Chunk.from_columns(f"/joints/{leaf}", sim_time, scalars))

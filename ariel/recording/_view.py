@@ -133,7 +133,7 @@ def select_recordings(
             raise ViewError(f"not an evaluation id: {shown!r} (ids look like b000012-i003-c005)")
         found = sorted((folder / RECORDINGS).glob(f"gen-*/{eval_id}.rrd"))
         if found:
-            return chosen(found[:1], f"evaluation {eval_id}")
+            return chosen(*_with_body_poses(run, eval_id, found[0]))
         known = run.evaluations["eval_id"] == eval_id
         if known.any():
             generation_of = int(run.evaluations.loc[known, "generation"].iloc[0])
@@ -179,6 +179,24 @@ def select_recordings(
     if not picked:
         raise _no_recordings(run)
     return chosen(picked, " and ".join(parts))
+
+
+def _with_body_poses(run: Any, eval_id: str, recorded: Path) -> tuple[list[Path], str]:
+    """The evaluation's recording when it holds the bodies' poses (or was not written by the
+    loop), else its 3D replay made on demand by exact re-simulation (`on_demand_recording`;
+    cached in the run folder). Without the run's plugins, the recording as it is, with a
+    note."""
+    from ariel.errors import MissingPluginError
+    from ariel.recording._replay import has_body_poses, on_demand_recording
+
+    if not run.config.get("record", {}).get("rerun") or has_body_poses(recorded):
+        return [recorded], f"evaluation {eval_id}"
+    try:
+        made = on_demand_recording(run.path, eval_id)
+    except (MissingPluginError, ValueError) as exc:
+        print(f"ariel: no 3D replay of {eval_id}: {exc}", file=sys.stderr)
+        return [recorded], f"evaluation {eval_id} (no 3D replay)"
+    return [made], f"evaluation {eval_id} (3D replay re-simulated on demand)"
 
 
 def _campaign_selection(

@@ -197,10 +197,11 @@ def test_elites_replay_only_each_new_best_and_none_replays_nothing(tmp_path: Pat
                 expected.add(top["eval_id"])
     assert replayed == expected
     assert set(run.bodies["best_eval_id"]) <= replayed
-    assert len(files) > len(replayed)  # the others: start pose, path, joints, graph
+    assert len(files) > len(replayed)  # the others: path, joints, graph; 3D made on demand
     for eval_id in set(files) - replayed:
-        static = chunks(files[eval_id])[("/world/robot", True)]
-        assert "Boxes3D:centers" in static.schema.names
+        held = {entity for entity, _ in chunks(files[eval_id])}
+        assert {"/world/trajectory", "/joints/target", "/joints/angle", "/graph"} <= held
+        assert "/world/robot" not in held and "/world" not in held
 
     off = run_experiment(small(rerun=False), out=tmp_path / "off")
     assert not (off.run_dir / "recordings").exists()
@@ -210,7 +211,7 @@ def test_elites_replay_only_each_new_best_and_none_replays_nothing(tmp_path: Pat
 def test_record_bodies_must_be_all_elites_or_none() -> None:
     with pytest.raises(ConfigError, match=r"record\.bodies"):
         load_config(small(bodies="best"))
-    assert load_config({}).record.rerun is True and load_config({}).record.bodies == "all"
+    assert load_config({}).record.rerun is True and load_config({}).record.bodies == "elites"
 
 
 def test_a_killed_writers_temporary_rrd_does_not_block_resume(
@@ -314,3 +315,31 @@ def test_discard_after_drops_the_recordings_of_unfinished_generations(tmp_path: 
         "recordings/notes",
     ]
     assert {p.name for p in removed} >= {"gen-000001", "gen-000002"}
+
+
+def test_a_non_elite_s_3d_replay_on_demand_equals_the_all_recording(tmp_path: Path) -> None:
+    """`ariel view RUN EVAL_ID` of an evaluation recorded without poses re-simulates it: the
+    poses equal, bit for bit, those of the same evaluation in a run recording them all."""
+    from ariel.recording._replay import has_body_poses, on_demand_recording
+    from ariel.recording._view import select_recordings
+
+    everything = run_experiment(small(), out=tmp_path / "all").run_dir
+    elites = run_experiment(small(bodies="elites"), out=tmp_path / "elites").run_dir
+    files = recordings(elites)
+    others = sorted(e for e, path in files.items() if not has_body_poses(path))
+    assert others
+    for eval_id in others[:2]:
+        assert files[eval_id].stat().st_size < 0.75 * recordings(everything)[eval_id].stat().st_size
+        chosen = select_recordings(elites, eval_id=eval_id)
+        (made,) = chosen.recordings
+        assert made == files[eval_id].parent / "replays" / f"{eval_id}.rrd"
+        assert "on demand" in chosen.description and has_body_poses(made)
+        assert on_demand_recording(elites, eval_id) == made  # cached
+        mine, theirs = chunks(made), chunks(recordings(everything)[eval_id])
+        for key in [("/world/robot", False), ("/world/robot", True), ("/joints/angle", False)]:
+            for name in theirs[key].schema.names:
+                if "RowId" not in name:
+                    assert mine[key].column(name).equals(theirs[key].column(name)), (key, name)
+        (entry,) = rr.chunk.RrdReader(made).recordings()
+        assert entry.recording_id == eval_id
+    assert not list(elites.rglob("*.tmp"))
