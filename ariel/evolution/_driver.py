@@ -183,13 +183,21 @@ class RunDriver:
 
     def generations(self) -> Iterator[list[BrainWork]]:
         for generation in range(self.first_generation, self.config.generations):
-            self.progress.start_generation(generation)
+            self.progress.start_generation(generation, self._generation_budget())
             jobs = (
                 self._brain_only_jobs(generation) if self.brain_only else self._jobs_of(generation)
             )
             self._jobs = jobs
             yield [BrainWork(self, job, generation) for job in jobs]
             self._end(generation)
+
+    def _generation_budget(self) -> int:
+        """Evaluations the next generation makes (as `budget` counts them)."""
+        per_body = self.config.brain.popsize * self.config.brain.iterations
+        if self.optimizer is None:
+            return per_body
+        parents = self.optimizer.population
+        return (self.config.body.offspring if parents else self.config.body.population) * per_body
 
     # -- a generation's brain jobs -------------------------------------------------------------
 

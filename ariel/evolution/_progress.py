@@ -1,4 +1,9 @@
-"""Progress of a run: a live rich display on a terminal, one line per generation otherwise."""
+"""Progress of a run: a live rich display on a terminal, one line per generation otherwise.
+
+On a terminal two bars update as batches finish: this generation's evaluations done / total
+with evaluations/s and its ETA, and the whole run's. Elsewhere (a pipe, a log file) one line is
+printed per finished generation.
+"""
 
 from __future__ import annotations
 
@@ -12,6 +17,19 @@ __all__ = ["Progress"]
 
 def _fmt(value: float) -> str:
     return "-" if value is None or math.isnan(value) else f"{value:.4g}"
+
+
+def _eta(left: int, rate: float) -> str:
+    if left <= 0:
+        return "0s"
+    if rate <= 0:
+        return "-"
+    seconds = round(left / rate)
+    minutes, seconds = divmod(seconds, 60)
+    hours, minutes = divmod(minutes, 60)
+    if hours:
+        return f"{hours}h{minutes:02d}m"
+    return f"{minutes}m{seconds:02d}s" if minutes else f"{seconds}s"
 
 
 class Progress:
@@ -38,38 +56,34 @@ class Progress:
         self._start = time.perf_counter()
         self._start_done = done
         self._generation = 0
+        self._generation_total: int | None = None
+        self._generation_start = self._start
+        self._generation_start_done = done
         self._best = math.nan
         self._mean = math.nan
         self._rich: Any = None
-        self._task: Any = None
+        self._run_task: Any = None
+        self._generation_task: Any = None
 
     def __enter__(self) -> Progress:
         if self.live:
             from rich.console import Console
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                TextColumn,
-                TimeElapsedColumn,
-                TimeRemainingColumn,
-            )
+            from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
             from rich.progress import Progress as RichProgress
 
             self._rich = RichProgress(
-                TextColumn("gen {task.fields[generation]}"),
+                TextColumn("{task.description:>10}"),
                 BarColumn(),
                 MofNCompleteColumn(),
-                TextColumn("best {task.fields[best]}  mean {task.fields[mean]}"),
-                TextColumn("{task.fields[rate]} eval/s"),
-                TimeElapsedColumn(),
-                TextColumn("ETA"),
-                TimeRemainingColumn(),
+                TextColumn("{task.fields[rate]:>7} eval/s  ETA {task.fields[eta]:>7}"),
+                TextColumn("{task.fields[info]}"),
                 console=Console(file=self.stream),
                 transient=False,
             )
             self._rich.__enter__()
-            self._task = self._rich.add_task(
-                "run", total=self.total, completed=self.done, **self._fields()
+            self._generation_task = self._rich.add_task("gen -", total=None, **self._gen_fields())
+            self._run_task = self._rich.add_task(
+                "run", total=self.total, completed=self.done, **self._run_fields()
             )
         return self
 
@@ -78,34 +92,71 @@ class Progress:
             self._rich.__exit__(*exc)
             self._rich = None
 
+    # -- rates -----------------------------------------------------------------------------
+
     def rate(self) -> float:
+        """Evaluations per second since this process started the run (or resumed it)."""
         elapsed = time.perf_counter() - self._start
         return (self.done - self._start_done) / elapsed if elapsed > 0 else 0.0
 
-    def _fields(self) -> dict[str, str]:
+    @property
+    def generation_done(self) -> int:
+        """Evaluations done (or skipped, for failed bodies) in the current generation."""
+        return self.done - self._generation_start_done
+
+    def generation_rate(self) -> float:
+        elapsed = time.perf_counter() - self._generation_start
+        return self.generation_done / elapsed if elapsed > 0 else 0.0
+
+    def _gen_fields(self) -> dict[str, str]:
+        rate = self.generation_rate()
+        total = self._generation_total
         return {
-            "generation": str(self._generation),
-            "best": _fmt(self._best),
-            "mean": _fmt(self._mean),
-            "rate": f"{self.rate():.1f}",
+            "rate": f"{rate:.1f}",
+            "eta": _eta(total - self.generation_done, rate) if total is not None else "-",
+            "info": "",
         }
 
-    def start_generation(self, generation: int) -> None:
+    def _run_fields(self) -> dict[str, str]:
+        rate = self.rate()
+        return {
+            "rate": f"{rate:.1f}",
+            "eta": _eta(self.total - self.done, rate),
+            "info": f"best {_fmt(self._best)}  mean {_fmt(self._mean)}",
+        }
+
+    def _refresh(self) -> None:
+        if self._rich is None:
+            return
+        self._rich.update(
+            self._generation_task,
+            description=f"gen {self._generation}",
+            total=self._generation_total,
+            completed=self.generation_done,
+            **self._gen_fields(),
+        )
+        self._rich.update(self._run_task, completed=self.done, **self._run_fields())
+
+    # -- what the driver calls --------------------------------------------------------------
+
+    def start_generation(self, generation: int, evaluations: int | None = None) -> None:
+        """A generation starts; ``evaluations``: how many it will make (its bar's total)."""
         self._generation = generation
-        if self._rich is not None:
-            self._rich.update(self._task, **self._fields())
+        self._generation_total = evaluations
+        self._generation_start = time.perf_counter()
+        self._generation_start_done = self.done
+        self._refresh()
 
     def advance(self, evaluations: int, best: float | None = None) -> None:
         self.done += evaluations
         if best is not None and not math.isnan(best):
             self._best = best
-        if self._rich is not None:
-            self._rich.update(self._task, completed=self.done, **self._fields())
+        self._refresh()
 
     def end_generation(self, generation: int, best: float, mean: float, extra: str = "") -> None:
         self._best, self._mean = best, mean
         if self._rich is not None:
-            self._rich.update(self._task, completed=self.done, **self._fields())
+            self._refresh()
             self._rich.console.print(self._line(generation, extra))
         elif self.enabled:
             print(self._line(generation, extra), file=self.stream, flush=True)

@@ -62,6 +62,7 @@ __all__ = [
     "write_blueprint",
     "write_evaluation_recording",
     "write_run_recording",
+    "write_view_recording",
 ]
 
 APPLICATION_ID = "ariel"
@@ -655,6 +656,8 @@ def write_run_recording(
             values = np.asarray(generations_df[column], dtype=np.float64)
             chunks.append(_static(entity, rr.SeriesLines(names=[column.replace("_", " ")])))
             chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=values)))
+    if len(generation):
+        chunks += run_summary_chunks(generations_df)
     if bests:
         gens = [rr.TimeColumn("generation", sequence=[gen for gen, _ in bests])]
         texts = [
@@ -673,27 +676,88 @@ def write_run_recording(
     return _write_chunks(path, name, chunks, fsync=fsync)
 
 
+#: Per-generation series drawn beside an evaluation (bar charts: they show on any timeline),
+#: their entities and colours.
+SUMMARY_SERIES: dict[str, tuple[str, tuple[int, int, int, int]]] = {
+    "best_fitness": ("/run/fitness/best", (214, 39, 40, 255)),
+    "mean_fitness": ("/run/fitness/mean", (31, 119, 180, 140)),
+    "diversity": ("/run/diversity/descriptor_distance", (44, 160, 44, 255)),
+    "distinct_morphologies": ("/run/diversity/distinct_morphologies", (148, 103, 189, 140)),
+}
+
+
+def run_summary_chunks(generations_df: Any) -> list[Any]:
+    """The run's fitness and diversity per generation as static bar charts under ``/run``.
+
+    A time series view plots only the active timeline, so the run's curves (on
+    ``generation``) cannot sit beside an evaluation's joints (on ``sim_time``); static bar
+    charts over the generation numbers do, whatever the timeline.
+    """
+    rr = _rr()
+    columns = set(getattr(generations_df, "columns", generations_df))
+    generation = np.asarray(generations_df["generation"], dtype=np.float64)
+    chunks = []
+    for column, (entity, colour) in SUMMARY_SERIES.items():
+        if column not in columns or not len(generation):
+            continue
+        values = np.asarray(generations_df[column], dtype=np.float64)
+        chart = rr.BarChart(values, abscissa=generation, color=colour)
+        chunks.append(_static(entity, chart))
+    return chunks
+
+
+def write_view_recording(
+    path: str | os.PathLike[str],
+    evaluation: str | os.PathLike[str],
+    generations_df: Any,
+) -> Path:
+    """One recording to open first: the evaluation recording ``evaluation`` (its robot,
+    joints and graph on ``sim_time``) with the run's fitness and diversity per generation
+    beside (`run_summary_chunks`), under the evaluation's recording id; returns its path."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(evaluation)
+    (store,) = reader.recordings()[:1] or [None]
+    recording_id = store.recording_id if store is not None else Path(evaluation).stem
+    chunks = [*reader.stream().to_chunks(), *run_summary_chunks(generations_df)]
+    return _write_chunks(Path(path), recording_id, chunks, fsync=False)
+
+
 # --------------------------------------------------------------------------------------------
 # Blueprint
 # --------------------------------------------------------------------------------------------
 
 
 def blueprint(*, panels: bool = True) -> Any:
-    """The default layout: the 3D replay and the morphology above, joints and fitness below.
+    """The default layout: the 3D replay and the morphology above, joints and the run's
+    fitness and diversity below; the time panel on ``sim_time`` (the evaluation's clock).
 
-    The 3D camera looks at the start, from 1.5 m away. ``panels=False`` collapses the side
-    panels (the blueprint tree, the selection) for pictures of the views alone.
+    The morphology view shows an evaluation's ``/graph`` and run.rrd's best body of each
+    generation (``/best/graph``); fitness and diversity open on the bar charts per generation
+    (`run_summary_chunks`, drawn whatever the timeline), with run.rrd's curves (on the
+    ``generation`` timeline) in a second tab. The 3D camera looks at the start, from 1.5 m
+    away. ``panels=False`` collapses the side panels (the blueprint tree, the selection, the
+    time panel) for pictures of the views alone.
     """
     rrb = _rr().blueprint
+    time_panel = rrb.TimePanel(timeline="sim_time", **({} if panels else {"state": "collapsed"}))
     side = (
-        []
+        [time_panel]
         if panels
         else [
             rrb.BlueprintPanel(state="collapsed"),
             rrb.SelectionPanel(state="collapsed"),
-            rrb.TimePanel(state="collapsed"),
+            time_panel,
         ]
     )
+
+    def per_generation(what: str) -> Any:
+        return rrb.Tabs(
+            rrb.BarChartView(name=f"{what} per generation", origin=f"/run/{what}"),
+            rrb.TimeSeriesView(name=f"{what} (generation timeline)", origin=f"/{what}"),
+            active_tab=0,
+        )
+
     return rrb.Blueprint(
         rrb.Vertical(
             rrb.Horizontal(
@@ -707,17 +771,16 @@ def blueprint(*, panels: bool = True) -> Any:
                         eye_up=(0.0, 0.0, 1.0),
                     ),
                 ),
-                rrb.Vertical(
-                    rrb.GraphView(name="morphology", origin="/graph"),
-                    rrb.GraphView(name="best body", origin="/best/graph"),
+                rrb.GraphView(
+                    name="morphology", origin="/", contents=["/graph/**", "/best/graph/**"]
                 ),
                 column_shares=[3, 1],
             ),
             rrb.Horizontal(
-                rrb.TimeSeriesView(name="joint targets", origin="/joints/target"),
-                rrb.TimeSeriesView(name="joint angles", origin="/joints/angle"),
-                rrb.TimeSeriesView(name="fitness", origin="/fitness"),
-                rrb.TimeSeriesView(name="diversity", origin="/diversity"),
+                rrb.TimeSeriesView(name="joint targets (rad)", origin="/joints/target"),
+                rrb.TimeSeriesView(name="joint angles (rad)", origin="/joints/angle"),
+                per_generation("fitness"),
+                per_generation("diversity"),
             ),
             row_shares=[3, 2],
         ),

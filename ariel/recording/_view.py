@@ -23,7 +23,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -67,6 +67,9 @@ class Selection:
     recordings: tuple[Path, ...]
     blueprint: Path | None
     description: str
+    #: The best evaluation's recording, opened first with the run's fitness and diversity
+    #: beside it (`write_view_recording`), so the viewer starts on its robot and joints.
+    overview: Path | None = None
 
 
 def _rrd_files(folder: Path) -> list[Path]:
@@ -170,15 +173,58 @@ def select_recordings(
             raise ViewError(f"no finished evaluation in {folder} to rank")
         return chosen(paths, f"the {len(paths)} best evaluations")
 
-    # Default: the run-level recording and the best evaluation's, whichever exist.
-    picked = [run_rrd] if run_rrd.is_file() else []
-    parts = [RUN_RECORDING] if picked else []
-    if paths and paths[0].is_file():
-        picked.append(paths[0])
-        parts.append(f"the best evaluation {paths[0].stem}")
+    # Default: the best evaluation's recording (opened first: the viewer starts on its robot)
+    # and the run-level recording, whichever exist.
+    picked, parts = [], []
+    overview = paths[0] if paths and paths[0].is_file() else None
+    if overview is not None:
+        picked.append(overview)
+        parts.append(f"the best evaluation {overview.stem}")
+    if run_rrd.is_file():
+        picked.append(run_rrd)
+        parts.append(RUN_RECORDING)
     if not picked:
         raise _no_recordings(run)
-    return chosen(picked, " and ".join(parts))
+    return dataclasses.replace(chosen(picked, " and ".join(parts)), overview=overview)
+
+
+def _run_series(run: Any) -> Any:
+    """Per generation: fitness and diversity of the population, as run.rrd has them."""
+    import pandas as pd
+
+    from ariel.recording._recorder import generation_summary
+
+    bodies = run.bodies
+    rows = [
+        generation_summary(int(g), group.to_dict("records"), run.maximise)[0]
+        for g, group in (bodies.groupby("generation") if len(bodies) else [])
+    ]
+    return pd.DataFrame(rows) if rows else pd.DataFrame({"generation": []})
+
+
+@contextlib.contextmanager
+def _with_overview(selection: Selection) -> Iterator[Selection]:
+    """``selection`` with its best evaluation's recording replaced, for as long as the
+    viewer runs, by one that also holds the run's fitness and diversity per generation (a
+    scratch file; the run folder is never written to)."""
+    if selection.overview is None:
+        yield selection
+        return
+    import tempfile
+
+    from ariel.recording._load import load_run
+    from ariel.recording._rerun import write_view_recording
+
+    scratch = Path(tempfile.mkdtemp(prefix="ariel-view-"))
+    try:
+        generations = _run_series(load_run(selection.run_dir))
+        combined = write_view_recording(
+            scratch / selection.overview.name, selection.overview, generations
+        )
+        recordings = tuple(combined if p == selection.overview else p for p in selection.recordings)
+        yield dataclasses.replace(selection, recordings=recordings)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
 
 
 def _with_body_poses(run: Any, eval_id: str, recorded: Path) -> tuple[list[Path], str]:
@@ -536,7 +582,7 @@ def view(
     grpc_port: int | None = None,
     screenshot: str | Path | None = None,
     size: tuple[int, int] = (1600, 900),
-    settle_s: float = 5.0,
+    settle_s: float = 10.0,
 ) -> int:
     """Open the chosen recordings (see `select_recordings`) with the run's blueprint.
 
@@ -547,14 +593,16 @@ def view(
     Returns the exit code; bad input raises `ViewError`.
     """
     selection = select_recordings(run_dir, best=best, generation=generation, eval_id=eval_id)
-    if screenshot is not None:
-        return _screenshot(selection, Path(screenshot), size, settle_s)
-    if web:
-        return _serve_web(selection, port, grpc_port)
+    if screenshot is not None or web:
+        with _with_overview(selection) as shown:
+            if screenshot is not None:
+                return _screenshot(shown, Path(screenshot), size, settle_s)
+            return _serve_web(shown, port, grpc_port)
     if not has_display():
         raise ViewError(
             "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); "
             "serve it to a browser instead: ariel view RUN_DIR --web"
         )
     print(f"Rerun viewer: {selection.description} of {selection.run_dir}", flush=True)
-    return _run_child(native_command(selection), when_started=None)
+    with _with_overview(selection) as shown:
+        return _run_child(native_command(shown), when_started=None)

@@ -170,22 +170,29 @@ def test_gait_of_best_plots_the_core_path_and_joint_signals_of_the_best(
 
 
 def test_without_run_dir_the_newest_run_under_data_runs_is_read(tiny_run: Path, tmp_path) -> None:
-    """The first cell, run from a checkout whose data/runs holds two runs."""
+    """The first cell, run from a checkout whose data/runs holds two runs and, newest, one
+    interrupted before its first generation ended (no tables): that one is passed over."""
     checkout = tmp_path / "checkout"
     (checkout / "analysis").mkdir(parents=True)
     (checkout / "pyproject.toml").write_text("")
-    for name, created in (
-        ("older", "2026-01-02T00:00:00+00:00"),
-        ("newer", "2026-03-04T00:00:00+00:00"),
+    for name, created, done in (
+        ("older", "2026-01-02T00:00:00+00:00", None),
+        ("newer", "2026-03-04T00:00:00+00:00", None),
+        ("interrupted", "2026-05-06T00:00:00+00:00", 0),
     ):
         folder = checkout / "data" / "runs" / name
         shutil.copytree(tiny_run, folder)
         info = json.loads((folder / "run.json").read_text())
-        (folder / "run.json").write_text(json.dumps({**info, "created": created, "run_id": name}))
-    notebook = nbformat.read(ANALYSIS / "gait_of_best.ipynb", as_version=4)
-    notebook.cells = [next(c for c in notebook.cells if c.cell_type == "code")]
-    _execute(notebook, cwd=checkout / "analysis", home=tmp_path / "jupyter", run_dir=None)
-    assert _text(notebook).startswith("run newer (finished)")
+        info = {**info, "created": created, "run_id": name}
+        if done is not None:
+            info = {**info, "generations_done": done, "status": "interrupted"}
+        (folder / "run.json").write_text(json.dumps(info))
+    for name in ("fitness_and_diversity", "gait_of_best"):
+        notebook = nbformat.read(ANALYSIS / f"{name}.ipynb", as_version=4)
+        notebook.cells = [next(c for c in notebook.cells if c.cell_type == "code")]
+        home = tmp_path / f"jupyter-{name}"
+        _execute(notebook, cwd=checkout / "analysis", home=home, run_dir=None)
+        assert _text(notebook).startswith("run newer (finished)")
 
 
 # --- compare_conditions.ipynb: a campaign's conditions from pandas ------------------------------

@@ -168,15 +168,24 @@ def test_run_rrd_holds_fitness_diversity_and_best_bodies_and_the_blueprint_reads
     (blueprint,) = rr.chunk.RrdReader(result.run_dir / "blueprint.rbl").blueprints()
     assert blueprint.application_id == "ariel"
     layout = rr.chunk.RrdReader(result.run_dir / "blueprint.rbl").stream(store=blueprint)
-    views = {}
+    views, timelines = {}, []
     for chunk in layout.to_chunks():
         batch = chunk.to_record_batch()
         if "ViewBlueprint:display_name" in batch.schema.names:
             (name,) = column(batch, "ViewBlueprint:display_name")[0]
             (kind,) = column(batch, "ViewBlueprint:class_identifier")[0]
             views[name] = kind
+        if "TimePanelBlueprint:timeline" in batch.schema.names:
+            timelines += [t[0] for t in column(batch, "TimePanelBlueprint:timeline")]
     assert views["robot"] == "3D" and views["morphology"] == "Graph"
-    assert views["joint angles"] == views["fitness"] == "TimeSeries"
+    assert views["joint angles (rad)"] == views["fitness (generation timeline)"] == "TimeSeries"
+    # The run's fitness and diversity show beside an evaluation, whatever the timeline...
+    assert views["fitness per generation"] == views["diversity per generation"] == "BarChart"
+    # ...and the viewer opens on the evaluation's clock, not on `generation`.
+    assert timelines == ["sim_time"]
+    summary = {key for key in found if key[0].startswith("/run/")}
+    assert summary >= {("/run/fitness/best", True), ("/run/diversity/descriptor_distance", True)}
+    assert all(static for _, static in summary)
 
 
 def test_elites_replay_only_each_new_best_and_none_replays_nothing(tmp_path: Path) -> None:

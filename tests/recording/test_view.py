@@ -142,10 +142,12 @@ def test_best_follows_the_fitness_direction_and_skips_failures() -> None:
     assert list(best_evaluations(table, 10, maximise=True)["eval_id"]) == ["a", "d", "c"]
 
 
-def test_default_is_run_rrd_and_the_best_evaluation(recorded_run: Path) -> None:
+def test_default_is_the_best_evaluation_then_run_rrd(recorded_run: Path) -> None:
     chosen = select_recordings(recorded_run)
     best = select_recordings(recorded_run, best=1).recordings[0]
-    assert chosen.recordings == (recorded_run / "run.rrd", best)
+    # The best evaluation first: the viewer opens on its robot, joints and graph.
+    assert chosen.recordings == (best, recorded_run / "run.rrd")
+    assert chosen.overview == best
     assert best.stem in chosen.description
 
 
@@ -169,7 +171,7 @@ def test_the_loop_s_own_recordings_are_found(tmp_path: Path) -> None:
     generation = evaluations.loc[result.best_eval_id, "generation"]
     best = recording_path(result.run_dir, generation, result.best_eval_id)
     assert result.best_eval_id.startswith(result.best_body_id)
-    assert chosen.recordings == (result.run_dir / "run.rrd", best)
+    assert chosen.recordings == (best, result.run_dir / "run.rrd")
     assert chosen.blueprint == result.run_dir / "blueprint.rbl"
     assert all(p.is_file() for p in select_recordings(result.run_dir, best=5).recordings)
 
@@ -373,13 +375,17 @@ def test_web_serves_on_localhost_only_and_leaves_nothing_behind(recorded_run, si
         # The recordings and the blueprint are what the server was given.
         cmdline = served.rerun.cmdline()
         assert "--serve-web" in cmdline and "--web-viewer" not in cmdline  # never a browser
-        assert cmdline[-3:] == [
-            *map(str, select_recordings(recorded_run).recordings),
-            str(recorded_run / "blueprint.rbl"),
-        ]
+        best, run_rrd = select_recordings(recorded_run).recordings
+        assert cmdline[-2:] == [str(run_rrd), str(recorded_run / "blueprint.rbl")]
+        # The best evaluation comes first, as a scratch copy with the run's fitness beside it.
+        combined = Path(cmdline[-3])
+        assert combined.name == best.name and combined.parent.name.startswith("ariel-view-")
+        assert combined.is_file()
     finally:
         assert served.stop(signum) == code
     assert _gone(served.rerun.pid)
+    if signum != 9:  # SIGKILL leaves the scratch copy in the temporary folder
+        assert _eventually(lambda: not combined.parent.exists())
     assert _eventually(lambda: _ports_closed(ports))
 
 
@@ -494,3 +500,30 @@ def test_screenshot_bad_input_is_one_line_exit_2(recorded_run: Path, tmp_path: P
     env = {**os.environ, "ARIEL_CHROMIUM": str(tmp_path / "no-browser")}
     _one_line_exit_2(_ariel_run("view", run, "--screenshot", shot, env=env), "ARIEL_CHROMIUM")
     assert not (tmp_path / "a.png").exists()
+
+
+def test_the_view_recording_is_the_best_evaluation_with_the_run_beside(tmp_path: Path) -> None:
+    """`ariel view RUN` opens one recording holding the best evaluation's robot, joints and
+    graph (on sim_time) and the run's fitness and diversity per generation (static charts)."""
+    from ariel.recording._view import _with_overview
+
+    result = run_experiment({**TINY, "record": {"rerun": True}}, out=tmp_path / "run")
+    chosen = select_recordings(result.run_dir)
+    with _with_overview(chosen) as shown:
+        combined = shown.recordings[0]
+        assert combined != chosen.overview and shown.recordings[1:] == chosen.recordings[1:]
+        reader = rr.chunk.RrdReader(combined)
+        (store,) = reader.recordings()
+        assert store.recording_id == result.best_eval_id
+        found = {c.entity_path: c for c in reader.stream().to_chunks() if c.entity_path != "/"}
+        assert "sim_time" in found["/joints/angle"].timeline_names
+        assert "/graph" in found and "/world/robot" in found
+        best = found["/run/fitness/best"]
+        assert best.is_static
+        (tensor,) = best.to_record_batch().column("BarChart:values").to_pylist()[0]
+        values = tensor["buffer"]
+        generations = load_run(result.run_dir).generations
+        assert len(values) == len(generations) == TINY["generations"]
+        assert values[-1] == pytest.approx(generations["best_fitness"].iloc[-1])
+        assert found["/run/diversity/distinct_morphologies"].is_static
+    assert not combined.exists()  # a scratch file, gone when the viewer ends

@@ -1,0 +1,86 @@
+"""The run's progress: a live bar per generation on a terminal, one line per generation else."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+from ariel.evolution import run_experiment
+from ariel.evolution._progress import Progress
+
+TINY = {
+    "name": "progress",
+    "seed": 3,
+    "generations": 2,
+    "body": {"options": {"number_of_modules": 6}, "population": 3, "offspring": 2},
+    "brain": {"popsize": 3, "iterations": 2},
+    "task": {"duration": 0.5},
+    "record": {"rerun": False},
+    "executor": {"kind": "serial"},
+}
+
+
+def test_the_live_display_counts_each_generation_and_the_run() -> None:
+    stream = io.StringIO()
+    with Progress(total=30, live=True, stream=stream) as progress:
+        progress.start_generation(0, 18)
+        progress.advance(6, best=1.5)
+        rich = progress._rich
+        generation = rich.tasks[0]
+        assert (generation.description, generation.total, generation.completed) == ("gen 0", 18, 6)
+        assert generation.fields["eta"] != "-"
+        assert rich.tasks[1].total == 30 and rich.tasks[1].completed == 6
+        assert "best 1.5" in rich.tasks[1].fields["info"]
+        progress.advance(12)
+        progress.end_generation(0, 2.0, 1.0)
+        progress.start_generation(1, 12)
+        assert progress.generation_done == 0
+        progress.advance(3)
+        assert rich.tasks[0].completed == 3 and rich.tasks[0].total == 12
+        assert rich.tasks[1].completed == 21
+    shown = stream.getvalue()
+    assert "gen 0: evaluations 18/30, best 2, mean 1" in shown
+    assert "eval/s" in shown and "ETA" in shown
+
+
+def test_without_a_terminal_one_line_per_generation() -> None:
+    stream = io.StringIO()
+    with Progress(total=10, stream=stream) as progress:  # StringIO is no terminal
+        assert not progress.live
+        progress.start_generation(0, 10)
+        progress.advance(4)
+        assert stream.getvalue() == ""  # nothing inside a generation
+        progress.advance(6)
+        progress.end_generation(0, 1.0, 0.5, ", 1 unstable")
+    (line,) = stream.getvalue().splitlines()
+    assert line.startswith("gen 0: evaluations 10/10, best 1, mean 0.5")
+    assert line.endswith(", 1 unstable")
+
+
+def test_the_driver_announces_each_generations_evaluations(tmp_path, monkeypatch) -> None:
+    seen: list[tuple[int, int | None, int]] = []
+    original_start, original_end = Progress.start_generation, Progress.end_generation
+
+    def start(self: Progress, generation: int, evaluations: int | None = None) -> None:
+        original_start(self, generation, evaluations)
+        seen.append((generation, evaluations, 0))
+
+    def end(self: Progress, generation: int, *args: object, **kwargs: object) -> None:
+        number, evaluations, _ = seen[-1]
+        seen[-1] = (number, evaluations, self.generation_done)
+        original_end(self, generation, *args, **kwargs)
+
+    monkeypatch.setattr(Progress, "start_generation", start)
+    monkeypatch.setattr(Progress, "end_generation", end)
+    run_experiment(TINY, out=tmp_path / "run", progress=False)
+    # 3 bodies then 2 offspring, each a brain run of 3 x 2: the bar fills exactly.
+    assert seen == [(0, 18, 18), (1, 12, 12)]
+
+
+@pytest.mark.parametrize("seconds", [0, 5, 75, 4000])
+def test_eta_reads_as_time(seconds: int) -> None:
+    from ariel.evolution._progress import _eta
+
+    text = _eta(seconds, 1.0)
+    assert text == {0: "0s", 5: "5s", 75: "1m15s", 4000: "1h06m"}[seconds]
