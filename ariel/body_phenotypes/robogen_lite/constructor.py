@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numbers
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any, TypeVar
@@ -53,32 +54,38 @@ __all__ = [
 
 _E = TypeVar("_E", bound=Enum)
 
+# The members each parser names in its error (built once: the parsers run per node and edge).
+_REAL_TYPES = tuple(t for t in ModuleType if t is not ModuleType.NONE)
+_ROTATIONS = tuple(ModuleRotationsIdx)
+_FACES = tuple(ModuleFaces)
 
-def _parse_enum(value: object, enum: type[_E], what: str, allowed: list[_E], where: str) -> _E:
+
+def _parse_enum(value: object, enum: type[_E], what: str, allowed: Sequence[_E], where: str) -> _E:
     if isinstance(value, enum):
         return value
-    if isinstance(value, str) and value.strip().upper() in enum.__members__:
-        return enum[value.strip().upper()]
+    if isinstance(value, str):
+        member = enum.__members__.get(value.strip().upper())
+        if member is not None:
+            return member
     names = ", ".join(member.name for member in allowed)
     raise ValueError(f"{where} has unknown {what} {value!r}; allowed: {names}")
 
 
 def parse_module_type(value: object, where: str = "value") -> ModuleType:
     """A ``ModuleType`` from a member or its name ("HINGE", case-insensitive)."""
-    real = [t for t in ModuleType if t is not ModuleType.NONE]
-    return _parse_enum(value, ModuleType, "module type", real, where)
+    return _parse_enum(value, ModuleType, "module type", _REAL_TYPES, where)
 
 
 def parse_rotation(value: object, where: str = "value") -> ModuleRotationsIdx:
     """A ``ModuleRotationsIdx`` from a rotation member (Idx or Theta) or its name ("DEG_45")."""
     if isinstance(value, ModuleRotationsTheta):
         return ModuleRotationsIdx[value.name]
-    return _parse_enum(value, ModuleRotationsIdx, "rotation", list(ModuleRotationsIdx), where)
+    return _parse_enum(value, ModuleRotationsIdx, "rotation", _ROTATIONS, where)
 
 
 def parse_face(value: object, where: str = "value") -> ModuleFaces:
     """A ``ModuleFaces`` from a member or its name ("LEFT", case-insensitive)."""
-    return _parse_enum(value, ModuleFaces, "face", list(ModuleFaces), where)
+    return _parse_enum(value, ModuleFaces, "face", _FACES, where)
 
 
 def attachment_prefix(parent: int, child: int, face: ModuleFaces) -> str:
@@ -101,6 +108,27 @@ class RobotTree:
     order: list[int]
 
 
+def _is_tree_from_core(graph: nx.DiGraph) -> bool:
+    """Whether ``graph`` is a tree rooted at the core: a quick test, no error messages.
+
+    The core has no parent, every other node at most one, and all are reachable from the core.
+    Then there is no cycle either: a cycle's nodes have their one parent on the cycle, so no
+    path from the core (not on it, as it has no parent) could enter it.
+    """
+    pred = graph.pred
+    if pred[IDX_OF_CORE] or any(len(parents) > 1 for parents in pred.values()):
+        return False
+    succ = graph.succ
+    seen = {IDX_OF_CORE}
+    stack = [IDX_OF_CORE]
+    while stack:
+        for child in succ[stack.pop()]:
+            if child not in seen:
+                seen.add(child)
+                stack.append(child)
+    return len(seen) == len(pred)
+
+
 def _check_structure(graph: Any) -> None:
     if not isinstance(graph, nx.DiGraph) or graph.is_multigraph():
         raise TypeError(
@@ -115,6 +143,8 @@ def _check_structure(graph: Any) -> None:
             f"robot graph has no node {IDX_OF_CORE}: it must be a tree rooted at node "
             f"{IDX_OF_CORE} (the core)"
         )
+    if _is_tree_from_core(graph):
+        return  # the checks below would all pass; they run to name what is wrong
     try:
         cycle = nx.find_cycle(graph)
     except nx.NetworkXNoCycle:

@@ -5,6 +5,7 @@ Works on the graph alone (no MuJoCo compile), so it is cheap enough for every ev
 
 from __future__ import annotations
 
+import functools
 import math
 
 import networkx as nx
@@ -91,9 +92,23 @@ def _quat_to_matrix(quat: tuple[float, ...] | list[float]) -> np.ndarray:
     )
 
 
+@functools.cache
 def _growth_rotation(degrees: float) -> np.ndarray:
     half = math.radians(degrees) / 2.0
     return _quat_to_matrix((math.cos(half), 0.0, math.sin(half), 0.0))
+
+
+# The per-type constants of `_extent`, as arrays made once (the same numbers it computed per
+# module before, so the extents stay bit-identical): site (position, rotation) per face, and
+# the box corners in the module's root frame.
+_SITE_FRAMES: dict[ModuleType, dict[ModuleFaces, tuple[np.ndarray, np.ndarray]]] = {
+    kind: {face: (np.asarray(pos), _quat_to_matrix(quat)) for face, (pos, quat) in sites.items()}
+    for kind, sites in _SITES.items()
+}
+_BOX_CORNERS: dict[ModuleType, list[np.ndarray]] = {
+    kind: [np.asarray(centre) + _CORNERS * np.asarray(half) for centre, half in boxes]
+    for kind, boxes in _BOXES.items()
+}
 
 
 def _extent(tree: RobotTree) -> tuple[float, float, float]:
@@ -104,13 +119,12 @@ def _extent(tree: RobotTree) -> tuple[float, float, float]:
         if node != IDX_OF_CORE:
             parent, face = tree.parent[node]
             rot_p, pos_p = frames[parent]
-            site_pos, site_quat = _SITES[tree.types[parent]][face]
+            site_pos, site_rot = _SITE_FRAMES[tree.types[parent]][face]
             theta = ModuleRotationsTheta[tree.rotations[node].name].value
-            rot = rot_p @ _quat_to_matrix(site_quat) @ _growth_rotation(theta)
-            frames[node] = (rot, pos_p + rot_p @ np.asarray(site_pos))
+            rot = rot_p @ site_rot @ _growth_rotation(theta)
+            frames[node] = (rot, pos_p + rot_p @ site_pos)
         rot, pos = frames[node]
-        for centre, half in _BOXES[tree.types[node]]:
-            local = np.asarray(centre) + _CORNERS * np.asarray(half)
+        for local in _BOX_CORNERS[tree.types[node]]:
             points.append(pos + local @ rot.T)
     cloud = np.concatenate(points)
     size = cloud.max(axis=0) - cloud.min(axis=0)

@@ -260,6 +260,20 @@ def _geom_points(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.nd
     return centre + (aabb[:3] + _LATTICE * aabb[3:]) @ rot.T
 
 
+def _robot_points(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> np.ndarray:
+    """`_geom_points` of all ``geoms``, stacked ``(N, 3)``; boxes (all of a robogen body's
+    geoms) in one batched product, which computes the same numbers as one box at a time."""
+    is_box = model.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_BOX
+    boxes = geoms[is_box]
+    points = [_geom_points(model, data, int(g)) for g in geoms[~is_box]]
+    if len(boxes):
+        rot = data.geom_xmat[boxes].reshape(-1, 3, 3)
+        local = _LATTICE * model.geom_size[boxes][:, None, :]
+        box_points = data.geom_xpos[boxes][:, None, :] + local @ rot.transpose(0, 2, 1)
+        points.append(box_points.reshape(-1, 3))
+    return np.vstack(points) if points else np.empty((0, 3))
+
+
 def _collision_clearance(
     model: mujoco.MjModel,
     data: mujoco.MjData,
@@ -592,8 +606,28 @@ class BaseWorld:
         return self.spec
 
     def _compile_at_rest(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
-        with control_callback_unset():
-            model = self.spec.compile()
+        """The world as it is now, compiled for positions and contacts (no rendering).
+
+        Builtin textures (the skybox, checker floors) cost most of a world's compile and play
+        no part in positions or contacts, so they are compiled at their smallest size here
+        and their sizes put back afterwards: ``self.spec`` ends as it began.
+        """
+        textures = [
+            (texture, texture.width, texture.height)
+            for texture in self.spec.textures
+            if texture.builtin != mujoco.mjtBuiltin.mjBUILTIN_NONE
+        ]
+        try:
+            for texture, _width, _height in textures:
+                texture.width = 1
+                # A cube or skybox texture holds its 6 faces stacked: height 6 * width.
+                texture.height = 1 if texture.type == mujoco.mjtTexture.mjTEXTURE_2D else 6
+            with control_callback_unset():
+                model = self.spec.compile()
+        finally:
+            for texture, width, height in textures:
+                texture.width = width
+                texture.height = height
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)  # positions only; never calls mjcb_control
         return model, data
@@ -609,8 +643,7 @@ class BaseWorld:
         model, data = self._compile_at_rest()
         body_id = model.body(body_name).id
         geoms = self._robot_geoms(model, body_name)
-        points = [_geom_points(model, data, int(g)) for g in geoms]
-        points = np.vstack(points) if points else np.empty((0, 3))
+        points = _robot_points(model, data, geoms)
         if len(points) == 0:  # no geoms: keep the body's origin off the ground
             x, y, z = data.xpos[body_id]
             return float(z - self.ground_height(x, y))
