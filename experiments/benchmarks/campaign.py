@@ -51,15 +51,13 @@ import statistics  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
-from collections.abc import Callable, Iterator  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
-from unittest import mock  # noqa: E402
 
 import mujoco  # noqa: E402
-from coevolution import raw_sampler, started_pool  # noqa: E402
+from coevolution import prestarted_executor, raw_sampler, started_pool  # noqa: E402
 
-import ariel.evaluation  # noqa: E402
 from ariel.evaluation.executors import default_workers  # noqa: E402
 from ariel.evolution import load_config  # noqa: E402
 from ariel.runs import run_campaign  # noqa: E402
@@ -108,29 +106,6 @@ def campaign_file(args: argparse.Namespace, folder: Path) -> Path:
     path = folder / "campaign.toml"
     path.write_text("\n".join(lines) + "\n")
     return path
-
-
-@contextlib.contextmanager
-def prestarted_executor(executor: Any, workers: int | None) -> Iterator[None]:
-    """While open, the campaign's one ``make_executor`` call (with its ``[executor]``
-    settings: local, ``workers``) returns ``executor``; any other call is an error."""
-    calls: list[Any] = []
-
-    def factory(settings: Any = "local", **options: Any) -> Any:
-        calls.append(settings)
-        kind = getattr(settings, "kind", settings)
-        asked = getattr(settings, "workers", options.get("workers"))
-        if kind != "local" or asked != workers or len(calls) > 1:
-            raise RuntimeError(
-                f"benchmark: the campaign asked for executor {settings!r} (call {len(calls)}); "
-                f"the prestarted pool is local with workers={workers}"
-            )
-        return executor
-
-    with mock.patch.object(ariel.evaluation, "make_executor", factory):
-        yield
-    if len(calls) != 1:
-        raise RuntimeError("benchmark: the campaign did not use the prestarted pool")
 
 
 def campaign_sampler(
