@@ -296,20 +296,3 @@ def summary(population: Sequence[Body], maximise: bool) -> tuple[float, float]:
     if values.size == 0:
         return math.nan, math.nan
     return float(values.max() if maximise else values.min()), float(values.mean())
-
-
-def drive(driver: RunDriver, executor_settings: Any) -> None:
-    """Run ``driver``'s generations on the executor ``executor_settings`` describes."""
-    from threadpoolctl import threadpool_limits
-
-    from ariel.evaluation import make_executor
-    from ariel.evolution._scheduler import Scheduler
-
-    # BLAS in this process (pycma's eigendecompositions) stays on one thread.
-    with (
-        threadpool_limits(limits=1),
-        make_executor(executor_settings) as executor,
-        driver.progress,
-    ):
-        scheduler = Scheduler(executor, timeout=driver.config.executor.timeout)
-        scheduler.run([driver.generations()])

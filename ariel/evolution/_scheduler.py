@@ -25,7 +25,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-__all__ = ["Scheduler", "Work"]
+__all__ = ["Scheduler", "Work", "run_groups"]
 
 
 class Work(Protocol):
@@ -156,3 +156,16 @@ class Scheduler:
             batch.results[i] = result
         batch.left -= 1
         return batch.left == 0
+
+
+def run_groups(groups: Sequence[Iterator[list[Work]]], executor_settings: Any) -> int:
+    """Run ``groups`` to their ends on the executor ``executor_settings`` (a config's
+    ``[executor]``) describes; returns its capacity (workers) as the run ended."""
+    from threadpoolctl import threadpool_limits
+
+    from ariel.evaluation import make_executor
+
+    # BLAS in this process (pycma's eigendecompositions) stays on one thread.
+    with threadpool_limits(limits=1), make_executor(executor_settings) as executor:
+        Scheduler(executor, timeout=executor_settings.timeout).run(groups)
+        return int(executor.capacity)

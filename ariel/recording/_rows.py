@@ -230,8 +230,8 @@ class RunWriter:
         body_rows.sort(key=lambda row: row["body_id"])
         write_table(self.path, "bodies", generation, _columns(body_rows, body_schema()))
         if archive is not None:
-            rows = [{"generation": generation, **row} for row in archive]
-            write_table(self.path, "archive", generation, _columns(rows, archive_schema()))
+            cells = [{"generation": generation, **row} for row in archive]
+            write_table(self.path, "archive", generation, _columns(cells, archive_schema()))
         if self.recorder is not None:
             self.recorder.generation(generation, body_rows, archive)
         write_manifest(self.path, generation)  # the tables' sizes and hashes; before the checkpoint

@@ -258,10 +258,7 @@ def _drive_campaign(
 ) -> CampaignResult:
     """Drive ``runs`` (locked, ready) side by side on one executor; campaign.json and every
     run.json say how it ended, however it ends."""
-    from threadpoolctl import threadpool_limits
-
-    from ariel.evaluation import make_executor
-    from ariel.evolution._scheduler import Scheduler
+    from ariel.evolution._scheduler import run_groups
     from ariel.recording._campaign import read_campaign_info, write_campaign_info
     from ariel.recording._run_folder import now
 
@@ -281,11 +278,7 @@ def _drive_campaign(
         print(f"campaign {info['campaign_id']}: {path} ({len(runs)} runs to go)", flush=True)
     status, started, capacity = "failed", time.perf_counter(), 1
     try:
-        # BLAS in this process (pycma's eigendecompositions) stays on one thread.
-        with threadpool_limits(limits=1), make_executor(settings) as executor:
-            capacity = int(executor.capacity)
-            scheduler = Scheduler(executor, timeout=settings.timeout)
-            scheduler.run([_group(run) for run in runs])
+        capacity = run_groups([_group(run) for run in runs], settings)
         status = "finished"
     except KeyboardInterrupt:
         status = "interrupted"

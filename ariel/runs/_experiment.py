@@ -15,8 +15,9 @@ from pathlib import Path
 from typing import Any
 
 from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash, load_config
-from ariel.evolution._driver import Plugins, RunDriver, budget, drive
+from ariel.evolution._driver import Plugins, RunDriver, budget
 from ariel.evolution._progress import Progress
+from ariel.evolution._scheduler import run_groups
 from ariel.evolution._state import LoopState, state_from_plain
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
     _read_genotype_file,
@@ -153,7 +154,8 @@ def _drive(
         print(f"run {run_id}: {folder.path} ({progress.total} evaluations)", flush=True)
     status = "failed"
     try:
-        drive(driver, settings)
+        with progress:
+            run_groups([driver.generations()], settings)
         status = "finished"
     except KeyboardInterrupt:
         status = "interrupted"

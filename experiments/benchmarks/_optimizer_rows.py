@@ -29,8 +29,11 @@ from mujoco import rollout
 
 from ariel.evaluation import build
 from ariel.evaluation._engine import control_sequence, num_steps
-from ariel.evolution import ExperimentConfig, load_config, run_experiment
+from ariel.evolution import ExperimentConfig, load_config
 from ariel.evolution._tasks import body_spec, evaluation_task
+from ariel.recording import load_run
+
+__all__ = ["optimizer_rows"]
 
 EXPERIMENTS = Path(__file__).resolve().parents[1]
 CONFIGS = {"ga": EXPERIMENTS / "coevolve_flat.toml", "map_elites": EXPERIMENTS / "qd_flat.toml"}
@@ -107,8 +110,6 @@ def optimizer_rows(
         for round_ in range(args.repeats):
             out = folder / f"{optimizer}-{round_}"
             seconds = timed_loop(config, out)
-            from ariel.recording import load_run
-
             evaluations = load_run(out).evaluations
             evaluations = evaluations[evaluations["status"] != "error"]
             reference = raw_seconds(config, evaluations, threads, args.seed + round_)
@@ -122,6 +123,3 @@ def optimizer_rows(
             "evaluations": len(evaluations),
         }
     return rows
-
-
-__all__ = ["optimizer_rows", "run_experiment"]
