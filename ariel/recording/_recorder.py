@@ -36,7 +36,11 @@ from typing import Any
 import numpy as np
 
 from ariel.evolution._brain import fitness_rank
-from ariel.recording._tables import recording_path
+from ariel.recording._tables import (
+    GENERATION_BLUEPRINT,
+    generation_recording_path,
+    recording_path,
+)
 
 __all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
 
@@ -118,6 +122,7 @@ class RerunRecorder:
         self._rows: dict[int, dict[str, Any]] = {}
         self._best: dict[int, dict[str, Any]] = {}
         self._archives: dict[int, np.ndarray] = {}  # MAP-Elites: fitness per cell
+        self._traces: dict[int, list[Any]] = {}  # per generation: its evaluations' traces
         self._blueprint = False
 
     @property
@@ -136,8 +141,11 @@ class RerunRecorder:
         iteration: int,
         candidate: int,
         new_best: bool,
-    ) -> Path:
-        """Write one evaluation's recording; ``new_best``: it improved its body's best."""
+    ) -> Path | None:
+        """Keep the evaluation for its generation's recording, and write its own recording (a
+        3D replay) when ``record.bodies`` asks for it; ``new_best``: it improved its body's
+        best. Returns the path of its own recording, if one was written."""
+        from ariel.recording._generation_rrd import trace_of
         from ariel.recording._rerun import write_evaluation_recording
 
         if not self._blueprint:
@@ -167,16 +175,18 @@ class RerunRecorder:
                 {name: float(value) for name, value in body.descriptors.items()}
             ),
         }
-        transforms = self.bodies == "all" or (self.bodies == "elites" and new_best)
+        graph = body.graph or None
+        self._traces.setdefault(generation, []).append(trace_of(properties, result, graph))
+        if not (self.bodies == "all" or (self.bodies == "elites" and new_best)):
+            return None  # in the generation's recording only
         return write_evaluation_recording(
             recording_path(self.run_dir, generation, task.eval_id),
             model=model,
             body_names=result.body_names,
             result=result,
             properties=properties,
-            graph_json=body.graph or None,
-            transforms=transforms,
-            scene=transforms,  # the others' 3D replay is made on demand (`ariel view`)
+            graph_json=graph,
+            transforms=True,
         )
 
     def generation(
@@ -185,12 +195,20 @@ class RerunRecorder:
         body_rows: Sequence[Mapping[str, Any]],
         archive: Sequence[Mapping[str, Any]] | None = None,
     ) -> Path:
-        """After a generation's tables: add its summary (and its MAP-Elites archive) and
-        rewrite ``run.rrd``."""
+        """After a generation's tables: write its evaluations' recording
+        (``recordings/gen-NNNNNN/evaluations.rrd``), add its summary (and its MAP-Elites
+        archive) and rewrite ``run.rrd``."""
+        from ariel.recording._generation_rrd import write_generation_recording
         from ariel.recording._rerun import write_run_recording
 
         if not self._blueprint:
             self.write_blueprint()
+        write_generation_recording(
+            generation_recording_path(self.run_dir, generation),
+            self._traces.pop(generation, []),
+            run_id=self.run_id,
+            generation=generation,
+        )
         self._load_earlier(generation)
         row, best = generation_summary(generation, body_rows, self.maximise)
         self._rows[generation] = row
@@ -242,8 +260,12 @@ class RerunRecorder:
                 self._best[g] = best
 
     def write_blueprint(self) -> Path:
+        """Write the layouts: ``blueprint.rbl`` (evaluations, run.rrd) and ``generation.rbl``
+        (the generations' ``evaluations.rrd``)."""
+        from ariel.recording._generation_rrd import write_generation_blueprint
         from ariel.recording._rerun import write_blueprint
 
         path = write_blueprint(self.run_dir / "blueprint.rbl")
+        write_generation_blueprint(self.run_dir / GENERATION_BLUEPRINT)
         self._blueprint = True
         return path

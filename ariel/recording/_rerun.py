@@ -494,13 +494,20 @@ def _static(path: str, *archetypes: Any) -> Any:
     return Chunk.from_columns(path, [], _one_row(*archetypes))
 
 
-def _write_chunks(path: Path, recording_id: str, chunks: Sequence[Any], *, fsync: bool) -> Path:
-    """Write ``chunks`` as one recording (application ``ariel``) whole to ``path``."""
+def _write_chunks(
+    path: Path,
+    recording_id: str,
+    chunks: Sequence[Any],
+    *,
+    fsync: bool,
+    application_id: str = APPLICATION_ID,
+) -> Path:
+    """Write ``chunks`` as one recording whole to ``path``."""
     from rerun.chunk import LazyChunkStream
 
     def write(temporary: Path) -> None:
         LazyChunkStream.from_iter(chunks).write_rrd(
-            temporary, application_id=APPLICATION_ID, recording_id=recording_id
+            temporary, application_id=application_id, recording_id=recording_id
         )
 
     atomic_write(path, write, fsync=fsync)
@@ -795,6 +802,11 @@ def write_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Pat
 
     Open it with the recordings: ``rerun blueprint.rbl run.rrd recordings/gen-000000/*.rrd``.
     """
+    return save_blueprint(path, blueprint(panels=panels), APPLICATION_ID)
+
+
+def save_blueprint(path: str | os.PathLike[str], layout: Any, application_id: str) -> Path:
+    """Write the blueprint ``layout`` for ``application_id`` whole to ``path``."""
     path = Path(path)
 
     def write(temporary: Path) -> None:
@@ -803,7 +815,7 @@ def write_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Pat
         # Rerun writes blueprints to paths ending in .rbl only: build beside, then move.
         staging = temporary.with_name(temporary.name + ".rbl")
         try:
-            blueprint(panels=panels).save(APPLICATION_ID, str(staging))
+            layout.save(application_id, str(staging))
             os.replace(staging, temporary)
         finally:
             if staging.exists():

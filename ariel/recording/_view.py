@@ -30,7 +30,11 @@ from typing import Any
 from urllib.parse import quote
 
 from ariel.errors import ViewError
-from ariel.recording._tables import recording_path
+from ariel.recording._tables import (
+    GENERATION_BLUEPRINT,
+    generation_recording_path,
+    recording_path,
+)
 from ariel.utils._gl import has_display
 
 __all__ = [
@@ -70,6 +74,15 @@ class Selection:
     #: The best evaluation's recording, opened first with the run's fitness and diversity
     #: beside it (`write_view_recording`), so the viewer starts on its robot and joints.
     overview: Path | None = None
+    #: Layouts of other application ids among the recordings (a generation's
+    #: ``evaluations.rrd`` has its own, ``generation.rbl``).
+    more_layouts: tuple[Path, ...] = ()
+
+    @property
+    def files(self) -> list[Path]:
+        """Every file to hand the viewer: recordings, then layouts."""
+        layouts = [self.blueprint] if self.blueprint else []
+        return [*self.recordings, *layouts, *self.more_layouts]
 
 
 def _rrd_files(folder: Path) -> list[Path]:
@@ -140,8 +153,7 @@ def select_recordings(
         known = run.evaluations["eval_id"] == eval_id
         if known.any():
             generation_of = int(run.evaluations.loc[known, "generation"].iloc[0])
-            expected = recording_path(folder, generation_of, eval_id).relative_to(folder)
-            raise ViewError(f"evaluation {eval_id} has no recording ({expected} is missing)")
+            return _replayed_or_generation(run, eval_id, generation_of, blueprint_or_none)
         raise ViewError(
             f"no evaluation {eval_id} in {folder} (ids look like b000012-i003-c005; "
             "`ariel view RUN --best 5` opens the best ones)"
@@ -150,7 +162,11 @@ def select_recordings(
     if generation is not None:
         found = _rrd_files(folder / RECORDINGS / f"gen-{generation:06d}")
         if found:
-            return chosen(found, f"generation {generation}")
+            layout = folder / GENERATION_BLUEPRINT
+            return dataclasses.replace(
+                chosen(found, f"generation {generation}"),
+                more_layouts=(layout,) if layout.is_file() else (),
+            )
         done = run.generations_done
         if not 0 <= generation < max(done, 1) or done == 0:
             span = f"generations 0..{done - 1}" if done else "no finished generation"
@@ -163,12 +179,7 @@ def select_recordings(
     )
     paths = [recording_path(folder, g, e) for g, e in zip(ranked["generation"], ranked["eval_id"])]
     if best is not None:
-        missing = [p for p in paths if not p.is_file()]
-        if missing:
-            raise ViewError(
-                f"{len(missing)} of the {len(paths)} best evaluations have no recording "
-                f"(first: {missing[0].relative_to(folder)})"
-            )
+        paths = [_own_or_replayed(run, path) for path in paths]
         if not paths:
             raise ViewError(f"no finished evaluation in {folder} to rank")
         return chosen(paths, f"the {len(paths)} best evaluations")
@@ -225,6 +236,54 @@ def _with_overview(selection: Selection) -> Iterator[Selection]:
         yield dataclasses.replace(selection, recordings=recordings)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _own_or_replayed(run: Any, path: Path) -> Path:
+    """An evaluation's own recording, else its 3D replay made on demand (an evaluation that
+    was not an elite is recorded in its generation's ``evaluations.rrd`` only)."""
+    from ariel.errors import MissingPluginError
+    from ariel.recording._replay import on_demand_recording
+
+    if path.is_file():
+        return path
+    try:
+        return on_demand_recording(run.path, path.stem)
+    except (MissingPluginError, ValueError) as exc:
+        where = path.relative_to(run.path)
+        raise ViewError(f"{where} is not recorded and cannot be replayed: {exc}") from None
+
+
+def _replayed_or_generation(
+    run: Any, eval_id: str, generation: int, blueprint: Path | None
+) -> Selection:
+    """An evaluation without its own recording: its 3D replay made on demand, else (without
+    the run's plugins) its generation's recording of every evaluation, with a note."""
+    from ariel.errors import MissingPluginError
+    from ariel.recording._replay import on_demand_recording
+
+    shared = generation_recording_path(run.path, generation)
+    try:
+        made = on_demand_recording(run.path, eval_id)
+    except (MissingPluginError, ValueError) as exc:
+        if not shared.is_file():
+            raise ViewError(
+                f"evaluation {eval_id} has no recording and no 3D replay: {exc}"
+            ) from None
+        print(
+            f"ariel: no 3D replay of {eval_id}: {exc}; showing its generation's recording",
+            file=sys.stderr,
+        )
+        layout = run.path / GENERATION_BLUEPRINT
+        return Selection(
+            run.path,
+            (shared,),
+            None,
+            f"generation {generation}'s evaluations ({eval_id} among them, no 3D replay)",
+            more_layouts=(layout,) if layout.is_file() else (),
+        )
+    return Selection(
+        run.path, (made,), blueprint, f"evaluation {eval_id} (3D replay re-simulated on demand)"
+    )
 
 
 def _with_body_poses(run: Any, eval_id: str, recorded: Path) -> tuple[list[Path], str]:
@@ -437,7 +496,7 @@ def _memory_limit(paths: Sequence[Path]) -> str:
 
 
 def web_command(selection: Selection, web_port: int, grpc_port: int) -> list[str]:
-    files = [*selection.recordings, *([selection.blueprint] if selection.blueprint else [])]
+    files = selection.files
     return [
         str(rerun_binary()),
         "--serve-web",  # serve, never open a browser
@@ -454,8 +513,7 @@ def web_command(selection: Selection, web_port: int, grpc_port: int) -> list[str
 
 
 def native_command(selection: Selection) -> list[str]:
-    files = [*selection.recordings, *([selection.blueprint] if selection.blueprint else [])]
-    return [str(rerun_binary()), *map(str, files)]
+    return [str(rerun_binary()), *map(str, selection.files)]
 
 
 def _wait_until_serving(proc: subprocess.Popen[bytes], web_port: int, grpc: int) -> bool:

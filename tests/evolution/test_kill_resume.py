@@ -254,7 +254,8 @@ def _assert_recordings_like(run_dir: Path, reference: Path) -> None:
     assert names(run_dir) == names(reference)
     for path in run_dir.rglob("*.rrd"):
         (entry,) = rr.chunk.RrdReader(path).recordings()
-        assert entry.application_id == "ariel", path
+        shared = path.name == "evaluations.rrd"  # a generation's evaluations
+        assert entry.application_id == ("ariel-generation" if shared else "ariel"), path
 
 
 def _run_info(run_dir: Path) -> dict[str, Any]:

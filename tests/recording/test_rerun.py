@@ -1,5 +1,6 @@
-"""Rerun recordings of a run: one readable .rrd per evaluation (3D replay, joints, graph,
-properties), run.rrd, blueprint.rbl; record.bodies; crash safety and resume."""
+"""Rerun recordings of a run: a readable .rrd per recorded evaluation (3D replay, joints,
+graph, properties), a generation's evaluations.rrd, run.rrd, blueprint.rbl; record.bodies;
+crash safety and resume."""
 
 from __future__ import annotations
 
@@ -53,7 +54,19 @@ def column(batch: Any, name: str) -> list[Any]:
 
 
 def recordings(run_dir: Path) -> dict[str, Path]:
-    return {p.stem: p for p in sorted((run_dir / "recordings").glob("gen-*/*.rrd"))}
+    """Eval id -> its own recording (a generation's evaluations.rrd left out)."""
+    found = sorted((run_dir / "recordings").glob("gen-*/*.rrd"))
+    return {p.stem: p for p in found if p.name != "evaluations.rrd"}
+
+
+def generation_recordings(run_dir: Path) -> list[Path]:
+    return sorted((run_dir / "recordings").glob("gen-*/evaluations.rrd"))
+
+
+def steps(path: Path) -> list[str]:
+    """The eval ids of a generation recording's steps, in order (from their text cards)."""
+    cards = column(chunks(path)[("/evaluation", False)], "TextDocument:text")
+    return [card[0].splitlines()[0].removeprefix("## ") for card in cards]
 
 
 @pytest.fixture(scope="module")
@@ -134,6 +147,45 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
         assert "floor" in column(world, "Boxes3D:labels")[0]
 
 
+def test_a_generation_recording_holds_every_evaluation_s_path_joints_graph_and_fitness(
+    recorded,
+) -> None:
+    result, run = recorded
+    shared = generation_recordings(result.run_dir)
+    assert len(shared) == SMALL["generations"]
+    traj = run.trajectories
+    for path in shared:
+        (entry,) = rr.chunk.RrdReader(path).recordings()
+        assert entry.application_id == "ariel-generation"
+        generation = int(path.parent.name.removeprefix("gen-"))
+        mine = run.evaluations[
+            (run.evaluations["generation"] == generation) & (run.evaluations["status"] == "ok")
+        ].sort_values("eval_id")
+        assert steps(path) == list(mine["eval_id"])
+        found = chunks(path)
+        assert column(found[("/fitness", False)], "Scalars:scalars") == [
+            [f] for f in mine["fitness"]
+        ]
+        assert column(found[("/fitness", False)], "evaluation") == list(range(len(mine)))
+        strips = column(found[("/world/trajectory", False)], "LineStrips3D:strips")
+        targets = column(found[("/joints/target", False)], "LineStrips2D:strips")
+        angles = column(found[("/joints/angle", False)], "LineStrips2D:strips")
+        labels = column(found[("/joints/angle", False)], "LineStrips2D:labels")
+        nodes = column(found[("/graph", False)], "GraphNodes:node_ids")
+        for k, (_, row) in enumerate(mine.iterrows()):
+            frames = traj[traj["eval_id"] == row["eval_id"]]
+            core = frames[["core_x", "core_y", "core_z"]].to_numpy(np.float32)
+            assert np.array_equal(np.array(strips[k][0]), core)
+            assert len(targets[k]) == len(angles[k]) == len(labels[k]) == row["n_joints"]
+            for j in range(row["n_joints"]):
+                seconds, values = np.array(angles[k][j]).T
+                assert np.array_equal(seconds, frames["t"].to_numpy(np.float32))
+                expected = np.stack(frames["joint_angle"].to_numpy())[:, j].astype(np.float32)
+                assert np.array_equal(values, expected)
+            assert labels[k] == [n.removeprefix("robot1_") for n in row["joint_names"]]
+            assert len(nodes[k]) == row["num_modules"]
+
+
 def test_run_rrd_holds_fitness_diversity_and_best_bodies_and_the_blueprint_reads_back(
     recorded,
 ) -> None:
@@ -206,11 +258,16 @@ def test_elites_replay_only_each_new_best_and_none_replays_nothing(tmp_path: Pat
                 expected.add(top["eval_id"])
     assert replayed == expected
     assert set(run.bodies["best_eval_id"]) <= replayed
-    assert len(files) > len(replayed)  # the others: path, joints, graph; 3D made on demand
-    for eval_id in set(files) - replayed:
-        held = {entity for entity, _ in chunks(files[eval_id])}
-        assert {"/world/trajectory", "/joints/target", "/joints/angle", "/graph"} <= held
-        assert "/world/robot" not in held and "/world" not in held
+    assert set(files) == replayed  # the others: in evaluations.rrd; 3D made on demand
+    assert len(run.evaluations) > len(replayed)
+    for shared in generation_recordings(result.run_dir):
+        generation = int(shared.parent.name.removeprefix("gen-"))
+        mine = run.evaluations[run.evaluations["generation"] == generation]
+        assert steps(shared) == sorted(mine["eval_id"])  # every evaluation, elites too
+
+    none = run_experiment(small(bodies="none"), out=tmp_path / "none")
+    assert not recordings(none.run_dir)
+    assert len(generation_recordings(none.run_dir)) == SMALL["generations"]
 
     off = run_experiment(small(rerun=False), out=tmp_path / "off")
     assert not (off.run_dir / "recordings").exists()
@@ -230,13 +287,11 @@ def test_a_killed_writers_temporary_rrd_does_not_block_resume(
 
     out = tmp_path / "killed"
     original = rerun_files.atomic_write
-    calls = {"n": 0}
 
     def killed_midway(path: Path, write: Any, **options: Any) -> None:
-        # The 15th recording (in generation 1): left half written under its temporary
-        # name, as SIGKILL would leave it, and the run stops there.
-        calls["n"] += 1
-        if calls["n"] < 15 or Path(path).suffix != ".rrd":
+        # Generation 1's first recording: left half written under its temporary name, as
+        # SIGKILL would leave it, and the run stops there.
+        if Path(path).parent.name != "gen-000001" or Path(path).suffix != ".rrd":
             return original(path, write, **options)
         temporary = Path(path).with_name(f".{Path(path).name}.tmp")
         temporary.parent.mkdir(parents=True, exist_ok=True)
@@ -334,14 +389,16 @@ def test_a_non_elite_s_3d_replay_on_demand_equals_the_all_recording(tmp_path: Pa
 
     everything = run_experiment(small(), out=tmp_path / "all").run_dir
     elites = run_experiment(small(bodies="elites"), out=tmp_path / "elites").run_dir
-    files = recordings(elites)
-    others = sorted(e for e, path in files.items() if not has_body_poses(path))
-    assert others
-    for eval_id in others[:2]:
-        assert files[eval_id].stat().st_size < 0.75 * recordings(everything)[eval_id].stat().st_size
+    run = load_run(elites)
+    own = recordings(elites)
+    others = run.evaluations[~run.evaluations["eval_id"].isin(list(own))]
+    assert len(others) and all(has_body_poses(path) for path in own.values())
+    for _, row in others.head(2).iterrows():
+        eval_id = row["eval_id"]
         chosen = select_recordings(elites, eval_id=eval_id)
         (made,) = chosen.recordings
-        assert made == files[eval_id].parent / "replays" / f"{eval_id}.rrd"
+        folder = elites / "recordings" / f"gen-{row['generation']:06d}"
+        assert made == folder / "replays" / f"{eval_id}.rrd"
         assert "on demand" in chosen.description and has_body_poses(made)
         assert on_demand_recording(elites, eval_id) == made  # cached
         mine, theirs = chunks(made), chunks(recordings(everything)[eval_id])

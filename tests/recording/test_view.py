@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import os
 import queue
 import re
@@ -190,14 +191,27 @@ def test_bad_choices_are_view_errors(recorded_run: Path, options: dict, message:
         select_recordings(recorded_run, **options)
 
 
-def test_an_evaluation_whose_recording_is_missing(recorded_run: Path, tmp_path: Path) -> None:
+def test_an_evaluation_without_its_own_recording_is_replayed_on_demand(
+    recorded_run: Path, tmp_path: Path
+) -> None:
+    """As a non-elite evaluation of the loop (recorded in its generation's evaluations.rrd
+    only): its 3D replay is re-simulated, and without its plugins that is one line."""
+    from ariel.recording._replay import has_body_poses
+
     run = tmp_path / "run"
     shutil.copytree(recorded_run, run)
     victim = select_recordings(run, best=2).recordings[1]
     victim.unlink()
-    with pytest.raises(ViewError, match=r"1 of the 2 best evaluations have no recording"):
+    made = select_recordings(run, best=2).recordings[1]
+    assert made == victim.parent / "replays" / victim.name and has_body_poses(made)
+    assert select_recordings(run, eval_id=victim.stem).recordings == (made,)
+    made.unlink()
+    info = json.loads((run / "run.json").read_text())
+    info["config"]["brain"]["controller"] = "no_such_controller"
+    (run / "run.json").write_text(json.dumps(info))
+    with pytest.raises(ViewError, match=r"is not recorded and cannot be replayed"):
         select_recordings(run, best=2)
-    with pytest.raises(ViewError, match=rf"evaluation {victim.stem} has no recording"):
+    with pytest.raises(ViewError, match=rf"evaluation {victim.stem} has no recording and no 3D"):
         select_recordings(run, eval_id=victim.stem)
 
 
