@@ -96,7 +96,10 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--iterations", type=int, default=None, help="brain.iterations")
     parser.add_argument("--duration", type=float, default=None, help="simulated seconds")
     parser.add_argument(
-        "--bodies", choices=("all", "elites", "none"), default="all", help="record.bodies"
+        "--bodies",
+        choices=("all", "elites", "none"),
+        default=None,
+        help="record.bodies (default: the config's, elites)",
     )
     parser.add_argument(
         "--executor",
@@ -111,7 +114,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
 
 def run_overrides(args: argparse.Namespace) -> list[str]:
     """Config overrides (``key=value``) for the options of `add_run_options` and ``--seed``."""
-    overrides = [f'record.bodies="{args.bodies}"']
+    overrides = [f'record.bodies="{args.bodies}"'] if args.bodies else []
     for key, value in (
         ("seed", args.seed),
         ("generations", args.generations),
