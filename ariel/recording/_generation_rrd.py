@@ -179,7 +179,8 @@ def write_generation_recording(
             rr.LineStrips3D.from_fields(colors=[module_colours()["CORE"]], radii=[0.005]),
         ),
         _static("/fitness", rr.SeriesLines(names=["fitness"])),
-        _static("/evaluation", rr.TextDocument("", media_type=rr.MediaType.MARKDOWN)),
+        # Only the media type is static: a static text would hide every step's card.
+        _static("/evaluation", rr.TextDocument.from_fields(media_type=rr.MediaType.MARKDOWN)),
     ]
     if traces:
         index = [rr.TimeColumn("evaluation", sequence=np.arange(len(traces)))]
