@@ -536,7 +536,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--best", type=_positive_int, metavar="K", help="the K best evaluations of the run"
     )
     which.add_argument(
-        "--generation", type=_generation, metavar="G", help="every recording of generation G"
+        "--generation",
+        type=_generation,
+        metavar="G",
+        help="generation G: its evaluations.rrd and its elites' 3D replays",
     )
     p.add_argument(
         "--web",

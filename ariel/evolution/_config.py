@@ -111,8 +111,10 @@ class TaskConfig(_Section):
 class RecordConfig(_Section):
     """What a run records besides its evaluations and bodies tables (docs/records.md).
 
-    ``rerun``: a Rerun ``.rrd`` per evaluation plus ``run.rrd`` and ``blueprint.rbl``.
-    ``bodies``: which recordings hold the bodies' poses over time (a 3D replay): ``elites``
+    ``rerun``: Rerun recordings: every generation's evaluations in one ``evaluations.rrd``,
+    own recordings (below), ``run.rrd`` and the layouts.
+    ``bodies``: which evaluations also get their own recording with the bodies' poses over
+    time (a 3D replay): ``elites``
     (the default: each new best of a body's brain run; any other evaluation's 3D replay is
     made on demand by `ariel view`, re-simulating it exactly), ``all`` or ``none``. It never
     changes a result (``all`` and ``elites`` build the same tasks), and a run's config (with

@@ -1,21 +1,25 @@
-"""What the loop records in Rerun (``record.rerun``): a ``.rrd`` per evaluation, ``run.rrd``
-and ``blueprint.rbl`` in the run folder.
+"""What the loop records in Rerun (``record.rerun``): each generation's evaluations in one
+recording, elites' 3D replays, ``run.rrd`` and the layouts, in the run folder.
 
-* ``recordings/gen-NNNNNN/<eval_id>.rrd``: written by the driver as each batch of evaluations
-  returns (so writing overlaps the workers' physics), after CMA-ES was told the batch's fitness.
-  ``record.bodies`` decides which hold the bodies' poses over time (a 3D replay): ``all``;
-  ``elites``, the evaluations that were their body's best so far when their batch returned
-  (each improvement of its brain run, hence always its final best; in a brain-only run, each
-  new best of the one brain run); ``none``. The others hold the core's path, the joint
-  series, the graph and the properties, not the world or the robot's boxes: `ariel view RUN
-  EVAL_ID` makes their 3D replay on demand, re-simulating them exactly
-  (``recordings/replays/<eval_id>.rrd``). A body that cannot be built has no recording.
+* ``recordings/gen-NNNNNN/evaluations.rrd``: every evaluation of the generation, one step
+  each of an ``evaluation`` timeline (`write_generation_recording`): its card, fitness, core
+  path, joints and graph. The driver keeps them as batches return and writes the file after
+  the generation's tables.
+* ``recordings/gen-NNNNNN/<eval_id>.rrd``: an evaluation's own recording with the bodies'
+  poses over time (a 3D replay, `write_evaluation_recording`), written by the driver as its
+  batch returns (so writing overlaps the workers' physics), after CMA-ES was told the
+  batch's fitness. ``record.bodies`` decides which get one: ``all``; ``elites``, the
+  evaluations that were their body's best so far when their batch returned (each improvement
+  of its brain run, hence always its final best; in a brain-only run, each new best of the
+  one brain run); ``none``. `ariel view RUN EVAL_ID` makes any other's 3D replay on demand,
+  re-simulating it exactly (``recordings/gen-NNNNNN/replays/<eval_id>.rrd``). A body that
+  cannot be built has no recording.
 * ``run.rrd``: per generation the best, mean and median fitness of the population after
   selection (as ``Run.generations`` computes them), two diversity measures of that population
   (``diversity``: the mean pairwise Euclidean distance between the bodies' morphology
   descriptor vectors, the 12 descriptors as stored; ``distinct_morphologies``: the number of
   distinct robot graphs) and the best body's graph; rewritten whole after every generation.
-* ``blueprint.rbl``: the viewer layout, written once.
+* ``blueprint.rbl`` and ``generation.rbl``: the viewer layouts, written once.
 
 Files are written whole under a temporary name and renamed, so a killed run leaves no
 unreadable recording; recordings are not fsynced one by one (that costs ~2 ms each; Parquet,
