@@ -53,10 +53,14 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     ariel_run(config, root / "made")
     for name in RUN_PATHS:
         shutil.copytree(root / "made", root / name)
-    recording = next((root / "made" / "recordings").glob("gen-*/*.rrd"))
-    target = root / "recordings" / "gen-000003" / "b000012-i003-c005.rrd"
-    target.parent.mkdir(parents=True)
-    shutil.copy(recording, target)
+    made = root / "made" / "recordings"
+    for name, found in (
+        ("b000012-i003-c005.rrd", next(p for p in made.glob("gen-*/b*.rrd"))),
+        ("evaluations.rrd", next(made.glob("gen-*/evaluations.rrd"))),
+    ):
+        target = root / "recordings" / "gen-000003" / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(found, target)
     return root
 
 
