@@ -1,11 +1,14 @@
 """`ariel report`: a per-generation table and PNG figures of a run, from its run folder alone.
 
-Figures go to ``RUN_DIR/report/``: ``fitness.png`` (best / mean / median of the population per
-generation, every evaluation as a dot), ``morphology.png`` (the population's morphology
-descriptors per generation; co-evolution only), ``trajectory.png`` and ``joints.png`` (the best
-evaluation's core path and every joint's target and angle, from the trajectories table) and
+Figures go to ``RUN_DIR/report/``: ``fitness.png`` (best / mean / median of the population
+after selection per generation, every evaluation as a dot; a brain-only run: the best so far
+and the mean of each generation's CMA-ES candidates), ``morphology.png`` (the morphology
+descriptors of the population after selection, `Run.population`, per generation; co-evolution
+only), ``trajectory.png`` and ``joints.png`` (the best evaluation's core path and every joint's
+target and angle, from the trajectories table; joints named by `joint_labels`) and
 ``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing);
-``archive.png`` for a MAP-Elites run (`_report_archive`).
+``archive.png`` for a MAP-Elites run (`_report_archive`). Axes carry their units and counts
+whole-number ticks (`_axes`); titles wrap to fit.
 Only finished generations are reported, so a running or killed run reports what it has.
 
 matplotlib is imported here only, and drawn through the Agg canvas without pyplot, so making a
