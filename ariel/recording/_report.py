@@ -396,8 +396,8 @@ def print_report(report: Report, console: Any = None) -> None:
     console.print(table)
     if run.brain_only:
         console.print(
-            "best, mean, median: the fixed body's fitness, its best brain so far (one body: "
-            "all three agree); fitness.png draws the mean of each generation's CMA-ES candidates"
+            "best = mean = median: the fixed body's best so far (brain-only); fitness.png "
+            "also draws the mean of each generation's CMA-ES candidates"
         )
     else:
         console.print("best, mean, median: fitness of the population after selection")
