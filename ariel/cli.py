@@ -330,12 +330,15 @@ def _headless_unless_display() -> None:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
+    from ariel._cli_commands import python_command
     from ariel.recording._export import export
 
     out = export(args.run_dir, args.eval_id, args.out)
+    python = python_command()
+    body, replay = (shlex.quote(str(out / name)) for name in ("body.xml", "replay.py"))
     print(
-        f"wrote {out}: body.xml (python -m mujoco.viewer --mjcf {out / 'body.xml'}), "
-        f"genotype.json, controller.json, replay.py (python {out / 'replay.py'})"
+        f"wrote {out}: body.xml ({python} -m mujoco.viewer --mjcf {body}), "
+        f"genotype.json, controller.json, replay.py ({python} {replay})"
     )
     return 0
 

@@ -227,20 +227,25 @@ class ClosedLoopController(ControllerPlugin, Protocol):
 
 @runtime_checkable
 class FitnessFunction(Protocol):
-    """Scores one evaluation's trajectory record; ``maximise`` says which way is better."""
+    """Scores one evaluation's trajectory record; ``maximise`` says which way is better. An
+    optional ``unit`` (a string such as ``"m"``) labels the fitness axes of `ariel report`."""
 
     maximise: bool
 
     def __call__(self, trajectory: Any) -> float: ...
 
 
-def fitness_function(*, maximise: bool) -> Callable[[F], F]:
-    """Decorator that marks a plain function as a fitness function (sets ``maximise``)."""
+def fitness_function(*, maximise: bool, unit: str | None = None) -> Callable[[F], F]:
+    """Decorator that marks a plain function as a fitness function (sets ``maximise``, and
+    ``unit``: the fitness's unit, e.g. ``"m"``, None where it has none)."""
     if not isinstance(maximise, bool):
         raise TypeError(f"maximise must be True or False, not {maximise!r}")
+    if unit is not None and not isinstance(unit, str):
+        raise TypeError(f"unit must be a string or None, not {unit!r}")
 
     def mark(fn: F) -> F:
         fn.maximise = maximise  # type: ignore[attr-defined]
+        fn.unit = unit  # type: ignore[attr-defined]
         return fn
 
     return mark

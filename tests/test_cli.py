@@ -176,10 +176,14 @@ def test_an_existing_output_folder_is_left_alone(
     mine.mkdir()
     (mine / "notes.txt").write_text("keep me")
     run_dir, _ = finished_run
+    said = {
+        mine: "already exists; choose another --out (it is not an ariel run folder",
+        run_dir: "already exists; pass --overwrite to replace it, or choose another --out",
+    }
     for folder in (mine, run_dir):
         before = snapshot(folder)
         assert main(["run", str(tiny_toml), "--out", str(folder), "--quiet"]) == 2
-        assert "already exists; pass --overwrite" in one_error_line(capsys, subcommand=True)
+        assert said[folder] in one_error_line(capsys, subcommand=True)
         assert snapshot(folder) == before
     # --overwrite replaces runs only, never another folder.
     assert main(["run", str(tiny_toml), "--out", str(mine), "--overwrite", "--quiet"]) == 2

@@ -4,9 +4,11 @@ folder, ``ariel config show``, and a quiet ``make`` setup."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -77,6 +79,60 @@ def test_every_printed_command_works_in_a_fresh_shell(printed_run) -> None:
             header = done.stdout.splitlines()[0].split()
             assert "best_fitness" in header and "..." not in done.stdout
             assert len(done.stdout.splitlines()) == 1 + 2  # a header, two generations
+
+
+def _pasted(command: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """``command`` pasted into a fresh shell in ``cwd``."""
+    return subprocess.run(
+        ["/bin/sh", "-c", command],
+        cwd=cwd,
+        env=_fresh_shell_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def test_hints_in_error_messages_work_when_pasted(
+    printed_run, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The commands in the recording code's one-line errors (`ariel.utils._commands`)."""
+    root, _ = printed_run
+    monkeypatch.chdir(root)
+    run_dir = "data/runs/firsthour"
+    # an unknown evaluation: the line that lists the ids
+    assert main(["replay", run_dir, "b999999-i000-c000"]) == 2
+    listing = one_error_line(capsys).split("list them with ", 1)[1]
+    done = _pasted(listing, root)
+    assert done.returncode == 0, f"{listing}\n{done.stderr[-2000:]}"
+    assert "b000000-i000-c000" in done.stdout and "..." not in done.stdout
+    # an unfinished run in the way of a new one: the line that continues it
+    info = json.loads((root / run_dir / "run.json").read_text())
+    unfinished = root / "data" / "runs" / "unfinished"
+    shutil.copytree(root / run_dir, unfinished)
+    (unfinished / "run.json").write_text(json.dumps({**info, "status": "interrupted"}))
+    assert main(["run", "tiny.toml", "--out", "data/runs/unfinished", "--quiet"]) == 2
+    resume = one_error_line(capsys, subcommand=True).split("continue it with: ", 1)[1]
+    assert shlex.split(resume)[-2:] == ["resume", "data/runs/unfinished"]
+    done = _pasted(f"{resume.rsplit(' ', 1)[0]} --help", root)  # it would run: the command only
+    assert done.returncode == 0 and "usage:" in done.stdout, done.stderr[-2000:]
+    # a finished run there: no resume offered
+    assert main(["run", "tiny.toml", "--out", run_dir, "--quiet"]) == 2
+    assert "resume" not in one_error_line(capsys, subcommand=True)
+    # a damaged run: the line that lists every damaged file
+    damaged = root / "data" / "runs" / "damaged"
+    shutil.copytree(root / run_dir, damaged)
+    table = next((damaged / "evaluations").glob("*.parquet"))
+    table.write_bytes(table.read_bytes()[:-10])
+    assert main(["report", "data/runs/damaged", "--no-render"]) == 2
+    verify = one_error_line(capsys).split("copy (", 1)[1].split(" lists every damaged file")[0]
+    done = _pasted(verify, root)
+    assert done.returncode == 1 and "damaged: " in done.stdout, done.stdout + done.stderr
+    # `ariel export`: the line that runs the exported replay script
+    assert main(["export", run_dir, "best", "data/exported it"]) == 0
+    replay = capsys.readouterr().out.rsplit("replay.py (", 1)[1].strip().removesuffix(")")
+    done = _pasted(replay, root)
+    assert done.returncode == 0, f"{replay}\n{done.stderr[-2000:]}"
 
 
 def test_printed_commands_name_the_environments_ariel(printed_run) -> None:

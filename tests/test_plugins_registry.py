@@ -444,3 +444,16 @@ def test_protocols_accept_a_conforming_controller() -> None:
     assert isinstance(controller, plugins.OpenLoopController)
     assert not isinstance(controller, plugins.ClosedLoopController)
     assert not isinstance(Beta(), plugins.ControllerPlugin)
+
+
+def test_a_fitness_function_may_say_its_unit() -> None:
+    assert fitness_functions.get("xy_displacement").unit == "m"
+    assert fitness_functions.get("x_speed").unit == "m/s"
+
+    @fitness_function(maximise=False)
+    def no_unit(record: Any) -> float:
+        return 0.0
+
+    assert no_unit.unit is None and no_unit.maximise is False
+    with pytest.raises(TypeError, match="unit must be a string"):
+        fitness_function(maximise=True, unit=1)  # type: ignore[arg-type]

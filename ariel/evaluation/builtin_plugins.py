@@ -195,13 +195,13 @@ class MLPController:
 # --------------------------------------------------------------------------------------------
 
 
-@fitness_function(maximise=True)
+@fitness_function(maximise=True, unit="m")
 def xy_displacement(record: Any) -> float:
     """Planar distance between the core's first and last recorded position (m)."""
     return float(_xy_displacement(record.core_pos[0, :2], record.core_pos[-1, :2]))
 
 
-@fitness_function(maximise=True)
+@fitness_function(maximise=True, unit="m/s")
 def x_speed(record: Any) -> float:
     """Mean speed along x over the run, |Δx| / duration (m/s), as upstream."""
     return float(
@@ -209,7 +209,7 @@ def x_speed(record: Any) -> float:
     )
 
 
-@fitness_function(maximise=False)
+@fitness_function(maximise=False, unit="m")
 def distance_to_target(record: Any, target: Any = None) -> float:
     """Planar distance from the core's final position to the target (m; minimise).
 

@@ -1,7 +1,7 @@
 """Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay`,
-campaigns (`load_campaign`, `compare`, `write_campaign_recording`),
-`make_report`, and the Rerun writers (`write_evaluation_recording`, `write_run_recording`,
-`write_blueprint`).
+campaigns (`load_campaign`, `compare`, `write_campaign_recording`), `make_report`,
+`joint_labels` (joint names for people), and the Rerun writers (`write_evaluation_recording`,
+`write_run_recording`, `write_blueprint`).
 
 Cheap to import: names are loaded from their modules on first access.
 """
@@ -21,6 +21,8 @@ _LAZY: dict[str, str] = {
     "Run": "ariel.recording._load",
     "load_run": "ariel.recording._load",
     "list_runs": "ariel.recording._load",
+    "population_after_selection": "ariel.recording._load",
+    "joint_labels": "ariel.recording._joint_names",
     "NotARunError": "ariel.recording._run_folder",
     "DamagedRunError": "ariel.recording._run_folder",
     "UnsafePathError": "ariel.recording._files",

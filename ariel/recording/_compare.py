@@ -214,6 +214,7 @@ def compare_runs(
     import pandas as pd
 
     from ariel.recording import _compare_plots as plots
+    from ariel.recording._axes import fitness_label
     from ariel.recording._compare_html import write_html, write_markdown
 
     grouped = _by_condition(curves)
@@ -221,8 +222,7 @@ def compare_runs(
         raise CompareError("no run with a finished generation to compare")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    direction = "higher" if maximise else "lower"
-    ylabel = f"best fitness ({fitness_fn}, {direction} is better)"
+    ylabel = fitness_label(fitness_fn, maximise, what="best fitness")
     best, finals = _best_curves(grouped, maximise)
     stats = pd.DataFrame(pairwise_table(finals, maximise=maximise))
     runs = pd.DataFrame(

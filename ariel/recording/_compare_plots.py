@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from ariel.recording._axes import DESCRIPTORS, integer_ticks
+
 __all__ = ["MORPHOLOGY", "best_so_far_figure", "final_best_figure", "morphology_figure"]
 
 #: Descriptors drawn over evaluations (those a reader of a co-evolution paper looks for).
@@ -53,6 +55,7 @@ def best_so_far_figure(
         axes.plot(grid, median, color=colours[name], label=name, linewidth=1.8)
         axes.fill_between(grid, low, high, color=colours[name], alpha=0.2, linewidth=0)
     axes.set_xlabel("evaluations")
+    integer_ticks(axes.xaxis)
     axes.set_ylabel(ylabel)
     axes.set_title("best so far: median of the seeds, 95 % bootstrap band")
     axes.grid(alpha=0.3)
@@ -96,8 +99,10 @@ def morphology_figure(
         for condition, (x, median, low, high) in series[descriptor].items():
             axes.plot(x, median, color=colours[condition], label=condition)
             axes.fill_between(x, low, high, color=colours[condition], alpha=0.15, linewidth=0)
-        axes.set_title(descriptor.replace("_", " "))
+        axes.set_title(descriptor)
         axes.set_xlabel("evaluations")
+        axes.set_ylabel(DESCRIPTORS.get(descriptor, ("", False))[0])
+        integer_ticks(axes.xaxis)
         axes.grid(alpha=0.3)
     for axes in list(grid.flat)[len(names) :]:
         axes.set_visible(False)

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import shlex
 import traceback
 from pathlib import Path
 from typing import Any
@@ -11,6 +10,7 @@ from typing import Any
 from ariel.errors import PluginFailedError
 from ariel.evolution._checks import ERROR_LOG, _plugin_named
 from ariel.evolution._config import ExperimentConfig
+from ariel.utils._commands import ariel_line
 
 __all__ = ["plugin_failure"]
 
@@ -34,9 +34,8 @@ def plugin_failure(
         atomic_write_bytes(log, f"evaluation {task.eval_id}\n{text}".encode(), root=run_dir)
     except (OSError, ValueError):  # the folder cannot take it: the line alone must do
         where = ""
-    resume = shlex.quote(str(run_dir))
     return PluginFailedError(
         f"{_plugin_named(config, text)} failed in evaluation {task.eval_id}: {first}{where}; "
         f"the run stopped, its finished generations are kept: fix the plugin, then "
-        f"ariel resume {resume}"
+        f"{ariel_line('resume', run_dir)}"
     )

@@ -18,12 +18,12 @@ import json
 import math
 import os
 import re
-import shlex
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 from ariel.errors import DamagedRunError, UnsafePathError
+from ariel.utils._commands import ariel_line
 
 __all__ = [
     "UnsafePathError",
@@ -204,5 +204,5 @@ def damaged(run_dir: str | Path, name: str, problem: str) -> DamagedRunError:
     """The one line for a damaged file ``name`` (relative to ``run_dir``) of a run."""
     return DamagedRunError(
         f"run folder {str(run_dir)!r} is damaged: {name} {problem}; restore the folder from a "
-        f"copy (`ariel verify {shlex.quote(str(run_dir))}` lists every damaged file)"
+        f"copy ({ariel_line('verify', run_dir)} lists every damaged file)"
     )

@@ -67,19 +67,20 @@ class EvaluationTrace:
     core: np.ndarray  # (T, 3) float32
     targets: np.ndarray  # (T, J)
     angles: np.ndarray  # (T, J)
-    joint_names: tuple[str, ...]
+    joint_names: tuple[str, ...]  # for people (`joint_labels`)
     graph_json: str | None
 
 
 def trace_of(properties: Mapping[str, Any], result: Any, graph_json: str | None) -> EvaluationTrace:
     """An evaluation's trace from its recording properties (see `RerunRecorder.evaluation`)
     and its `EvaluationResult`."""
-    from ariel.recording._rerun import _short
+    from ariel.recording._joint_names import joint_labels
 
     targets = np.asarray(result.joint_target, dtype=np.float32)
     joints = targets.shape[1] if targets.ndim == 2 else 0
     names = tuple(getattr(result, "joint_names", None) or ())[:joints]
-    names += tuple(f"joint{j}" for j in range(len(names), joints))
+    labels = joint_labels(names, graph_json or None)
+    labels += [f"joint{j}" for j in range(len(names), joints)]
     return EvaluationTrace(
         eval_id=str(properties["eval_id"]),
         card=dict(properties),
@@ -88,7 +89,7 @@ def trace_of(properties: Mapping[str, Any], result: Any, graph_json: str | None)
         core=np.asarray(result.core_pos, dtype=np.float32).reshape(-1, 3),
         targets=targets.reshape(len(result.time), joints),
         angles=np.asarray(result.joint_angle, dtype=np.float32).reshape(len(result.time), joints),
-        joint_names=tuple(_short(n) for n in names),
+        joint_names=tuple(labels),
         graph_json=graph_json or None,
     )
 

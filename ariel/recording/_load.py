@@ -16,7 +16,7 @@ from ariel.recording._tables import read_table, to_pandas
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
 FAILED_STATUSES = ("error", "unstable", "invalid")
 
-__all__ = ["Run", "list_runs", "load_run"]
+__all__ = ["Run", "list_runs", "load_run", "population_after_selection"]
 
 
 @dataclass
@@ -165,6 +165,13 @@ class Run:
         return self._table("archive")
 
     @cached_property
+    def population(self) -> Any:
+        """The bodies table's rows of the population after selection: per generation, the
+        bodies kept for the next one (``selected``) with a finite fitness; the bodies whose
+        fitness and morphology `generations` sums up (`population_after_selection`)."""
+        return population_after_selection(self.bodies)
+
+    @cached_property
     def generations(self) -> Any:
         """Per generation: evaluations, failures, and best / mean / median fitness of the
         population after selection (a MAP-Elites run: its elites), and for MAP-Elites runs
@@ -181,8 +188,7 @@ class Run:
         maximise = self.maximise if len(evaluations) else True
         rows = []
         for generation, group in bodies.groupby("generation", sort=True):
-            population = group[group["selected"]]
-            population = population[population["fitness"].map(math.isfinite)]
+            population = population_after_selection(group)
             alive = population["fitness"]
             evals = evaluations[evaluations["generation"] == generation]
             morphology = {
@@ -231,6 +237,14 @@ class Run:
             frame = frame.join(quality, on="generation")
             frame = frame[[*columns, "coverage", "qd_score", *morphology_columns]]
         return frame
+
+
+def population_after_selection(bodies: Any) -> Any:
+    """The rows of a bodies table (``Run.bodies``) that form the population after selection:
+    ``selected`` (kept for the next generation; a MAP-Elites run: its elites) with a finite
+    fitness (a body that could not be built or never scored is left out)."""
+    kept = bodies[bodies["selected"]]
+    return kept[kept["fitness"].map(math.isfinite)]
 
 
 def load_run(path: str | Path) -> Run:

@@ -341,16 +341,18 @@ def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
         found = evals[evals["eval_id"] == eval_id]
         if len(found):
             return found.iloc[0].to_dict()
+    from ariel.utils._commands import load_run_command
+
     quoted = str(run.path)
     where = (
         f"no finished generation in run {quoted!r} yet"
         if not len(evals)
         else f"no evaluation {eval_id!r} in the finished generations of run {quoted!r}"
     )
+    listing = 'r.evaluations[["generation", "eval_id", "fitness"]].to_string(index=False)'
     raise UnknownEvaluationError(
         f"{where}; ids look like b000012-i003-c005 ('best' for the best one); list them with "
-        f'python -c "from ariel.recording import load_run; '
-        f"print(load_run('{quoted}').evaluations[['generation', 'eval_id', 'fitness']])\""
+        f"{load_run_command(run.path, what=listing)}"
     )
 
 

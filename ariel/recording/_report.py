@@ -1,11 +1,14 @@
 """`ariel report`: a per-generation table and PNG figures of a run, from its run folder alone.
 
-Figures go to ``RUN_DIR/report/``: ``fitness.png`` (best / mean / median of the population per
-generation, every evaluation as a dot), ``morphology.png`` (the population's morphology
-descriptors per generation; co-evolution only), ``trajectory.png`` and ``joints.png`` (the best
-evaluation's core path and every joint's target and angle, from the trajectories table) and
+Figures go to ``RUN_DIR/report/``: ``fitness.png`` (best / mean / median of the population
+after selection per generation, every evaluation as a dot; a brain-only run: the best so far
+and the mean of each generation's CMA-ES candidates), ``morphology.png`` (the morphology
+descriptors of the population after selection, `Run.population`, per generation; co-evolution
+only), ``trajectory.png`` and ``joints.png`` (the best evaluation's core path and every joint's
+target and angle, from the trajectories table; joints named by `joint_labels`) and
 ``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing);
-``archive.png`` for a MAP-Elites run (`_report_archive`).
+``archive.png`` for a MAP-Elites run (`_report_archive`). Axes carry their units and counts
+whole-number ticks (`_axes`); titles wrap to fit.
 Only finished generations are reported, so a running or killed run reports what it has.
 
 matplotlib is imported here only, and drawn through the Agg canvas without pyplot, so making a
@@ -21,8 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from ariel.recording._axes import DESCRIPTORS, fitness_label, fitted, integer_ticks
 from ariel.recording._camera import three_quarter_view
-from ariel.recording._load import Run, load_run
+from ariel.recording._load import Run, load_run, population_after_selection
 from ariel.recording._report_archive import archive_figure
 
 __all__ = ["Report", "make_report", "print_report"]
@@ -39,6 +43,8 @@ TABLE_COLUMNS = {
     "invalid": "invalid",
 }
 _DPI = 110
+#: The population `morphology.png` shows (the notebooks' morphology figure says the same).
+MORPHOLOGY_TITLE = "morphology of the population after selection, per generation"
 
 
 @dataclass
@@ -51,6 +57,7 @@ class Report:
         best: the best evaluation's row (a dict), or None before any finite fitness.
         written: the PNG files written, in order.
         notes: one line per figure left out, and why.
+        figures: file name (``fitness.png``) -> its matplotlib `Figure`, to show or restyle.
     """
 
     run: Run
@@ -58,6 +65,7 @@ class Report:
     best: dict[str, Any] | None
     written: list[Path] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    figures: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
     def folder(self) -> Path:
@@ -106,6 +114,7 @@ def _save(figure: Any, path: Path, report: Report) -> None:
         root=report.run.path,
     )
     report.written.append(path)
+    report.figures[path.name] = figure
 
 
 def _run_title(run: Run) -> str:
@@ -117,9 +126,20 @@ def _run_title(run: Run) -> str:
 # --------------------------------------------------------------------------------------------
 
 
+def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) -> None:
+    """A title (of axes ``on``, or ``suptitle`` of figure ``on``) wrapped to fit the width it
+    has (`fitted`), so it is never clipped at the figure's edge."""
+    if suptitle:
+        on.suptitle(fitted(text, on.get_figwidth(), fontsize), fontsize=fontsize)
+        return
+    spec = on.get_subplotspec()  # the axes' share of the figure's width
+    share = len(spec.colspan) / spec.get_gridspec().ncols
+    on.set_title(fitted(text, on.figure.get_figwidth() * share, fontsize), fontsize=fontsize)
+
+
 def _fitness_figure(report: Report, maximise: bool) -> None:
     run, table = report.run, report.table
-    fitness_fn = run.config.get("task", {}).get("fitness", "fitness")
+    fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
     figure = _figure(8, 4.8)
     axes = figure.add_subplot()
     evals = run.evaluations
@@ -129,22 +149,31 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
         x = finite["generation"].to_numpy() + rng.uniform(-0.15, 0.15, len(finite))
         axes.scatter(x, finite["fitness"], s=6, color="0.7", label="evaluations", zorder=1)
     gens = table["generation"].to_numpy()
-    if run.brain_only:  # one body: its best brain so far is best, mean and median at once
-        lines = [("best_fitness", "best so far (the fixed body)", "-o")]
-        title = "fitness of the fixed body's best brain"
+    if run.brain_only:
+        # One body: the population's best, mean and median are all its best brain so far. The
+        # search is in the CMA-ES candidates: their mean per generation.
+        candidates = finite.groupby("generation")["fitness"].mean().reindex(gens)
+        lines = [
+            (candidates.to_numpy(dtype=float), "mean of the generation's CMA-ES candidates", "-s"),
+            (table["best_fitness"].to_numpy(dtype=float), "best so far", "-oC2"),
+        ]
+        title = "fitness of the fixed body's brains (CMA-ES)"
     else:
         lines = [
-            ("mean_fitness", "mean", "-s"),
-            ("median_fitness", "median", "--^"),
-            ("best_fitness", "best", "-o"),  # drawn last: on top where the lines meet
+            (table["mean_fitness"].to_numpy(dtype=float), "mean", "-s"),
+            (table["median_fitness"].to_numpy(dtype=float), "median", "--^"),
+            # drawn last: on top where the lines meet
+            (table["best_fitness"].to_numpy(dtype=float), "best", "-oC2"),
         ]
         title = "fitness of the population after selection"
-    for column, label, style in lines:
-        axes.plot(gens, table[column].to_numpy(dtype=float), style, label=label, zorder=2)
+        if len(run.archive):
+            title += " (the archive's elites)"
+    for values, label, style in lines:
+        axes.plot(gens, values, style, label=label, zorder=2)
     axes.set_xlabel("generation")
-    axes.set_ylabel(f"fitness ({fitness_fn}, {'higher' if maximise else 'lower'} is better)")
-    axes.set_title(f"{_run_title(run)}: {title}")
-    axes.set_xticks(gens)
+    integer_ticks(axes.xaxis)
+    axes.set_ylabel(fitness_label(fitness_fn, maximise))
+    _title(axes, f"{_run_title(run)}: {title}")
     axes.grid(alpha=0.3)
     axes.legend(loc="best")
     _save(figure, report.folder / "fitness.png", report)
@@ -154,11 +183,10 @@ def _morphology_figure(report: Report) -> None:
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     run = report.run
-    bodies = run.bodies
-    population = bodies[bodies["selected"] & (bodies["status"] == "ok")]
     if run.brain_only:
         report.notes.append("morphology.png: left out (brain-only run: one fixed body)")
         return
+    population = population_after_selection(run.bodies)
     names = [n for n in DESCRIPTOR_NAMES if n in population and population[n].notna().any()]
     if not len(population) or not names:
         report.notes.append("morphology.png: left out (no body with morphology descriptors)")
@@ -167,25 +195,32 @@ def _morphology_figure(report: Report) -> None:
     cols = 4
     rows = math.ceil(len(names) / cols)
     figure = _figure(4 * cols, 2.9 * rows)
-    figure.suptitle(
-        f"{_run_title(run)}: morphology of the population after selection, per generation"
-    )
+    _title(figure, f"{_run_title(run)}: {MORPHOLOGY_TITLE}", suptitle=True)
     rng = np.random.default_rng(0)
     for i, name in enumerate(names):
         axes = figure.add_subplot(rows, cols, i + 1)
         values = [
-            population.loc[population["generation"] == g, name].dropna().to_numpy() for g in gens
+            population.loc[population["generation"] == g, name].dropna().to_numpy(dtype=float)
+            for g in gens
         ]
-        axes.boxplot(values, positions=gens, widths=0.6, showfliers=False)
+        axes.boxplot(values, positions=gens, widths=0.6, showfliers=False, manage_ticks=False)
         for g, v in zip(gens, values):
             axes.scatter(g + rng.uniform(-0.12, 0.12, v.size), v, s=8, alpha=0.6, color="C0")
+        unit, whole = DESCRIPTORS.get(name, ("", False))
         axes.set_title(name)
         axes.set_xlabel("generation")
+        axes.set_ylabel(unit)
+        axes.set_xlim(min(gens) - 0.6, max(gens) + 0.6)
+        integer_ticks(axes.xaxis)
+        if whole:
+            integer_ticks(axes.yaxis)
         axes.grid(alpha=0.3)
     _save(figure, report.folder / "morphology.png", report)
 
 
 def _trajectory_figures(report: Report, frames: Any) -> None:
+    from ariel.recording._joint_names import joint_labels
+
     run, best = report.run, report.best
     assert best is not None
     label = f"{best['eval_id']} (fitness {best['fitness']:.6g})"
@@ -202,7 +237,7 @@ def _trajectory_figures(report: Report, frames: Any) -> None:
     axes.set_aspect("equal", adjustable="datalim")
     axes.set_xlabel("core x (m)")
     axes.set_ylabel("core y (m)")
-    axes.set_title(f"{_run_title(run)}\nbest evaluation {label}: core path")
+    _title(axes, f"{_run_title(run)}: core path\nbest evaluation {label}")
     axes.grid(alpha=0.3)
     axes.legend(loc="best")
     _save(figure, report.folder / "trajectory.png", report)
@@ -211,23 +246,33 @@ def _trajectory_figures(report: Report, frames: Any) -> None:
     if not names:
         report.notes.append("joints.png: left out (the best body has no joints)")
         return
+    labels = joint_labels(names, _graph_of(run, str(best["body_id"])))
     target = np.array(frames["joint_target"].tolist(), dtype=float)
     angle = np.array(frames["joint_angle"].tolist(), dtype=float)
     cols = min(3, len(names))
     rows = math.ceil(len(names) / cols)
-    figure = _figure(4.2 * cols, 2.4 * rows + 0.6)
-    figure.suptitle(f"{_run_title(run)}: best evaluation {label}: joints")
-    for j, name in enumerate(names):
+    figure = _figure(4.2 * cols, 2.4 * rows + 0.8)
+    _title(figure, f"{_run_title(run)}: best evaluation {label}: joints", suptitle=True)
+    for j, name in enumerate(labels):
         axes = figure.add_subplot(rows, cols, j + 1)
         axes.plot(t, target[:, j], "--", lw=1.2, label="target")
         axes.plot(t, angle[:, j], lw=1.2, label="angle")
-        axes.set_title(name, fontsize=9)
+        _title(axes, name, fontsize=9)
         axes.set_xlabel("time (s)")
-        axes.set_ylabel("rad")
+        axes.set_ylabel("angle (rad)")
         axes.grid(alpha=0.3)
         if j == 0:
             axes.legend(loc="best", fontsize=8)
     _save(figure, report.folder / "joints.png", report)
+
+
+def _graph_of(run: Run, body_id: str) -> Any:
+    """The robot graph (node-link JSON) of ``body_id`` from the bodies table, or None."""
+    bodies = run.bodies
+    if "graph" not in bodies:
+        return None
+    graphs = bodies.loc[bodies["body_id"] == body_id, "graph"]
+    return graphs.iloc[0] if len(graphs) and graphs.iloc[0] else None
 
 
 def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
@@ -265,7 +310,8 @@ def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
         if modules is not None and math.isfinite(modules)
         else f"{int(best.get('n_joints') or 0)} joints"
     )
-    axes.set_title(
+    _title(
+        axes,
         f"{_run_title(report.run)}: best body {best['body_id']} ({shape}), "
         f"evaluation {best['eval_id']}",
         fontsize=10,
@@ -348,7 +394,13 @@ def print_report(report: Report, console: Any = None) -> None:
                 cells.append(str(int(value)))
         table.add_row(*cells)
     console.print(table)
-    console.print("best, mean, median: fitness of the population after selection")
+    if run.brain_only:
+        console.print(
+            "best = mean = median: the fixed body's best so far (brain-only); fitness.png "
+            "also draws the mean of each generation's CMA-ES candidates"
+        )
+    else:
+        console.print("best, mean, median: fitness of the population after selection")
     if report.best is not None:
         best = report.best
         console.print(

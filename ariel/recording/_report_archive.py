@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from ariel.recording._axes import DESCRIPTORS, descriptor_label, fitness_label, integer_ticks
+
 __all__ = ["archive_figure"]
 
 THUMBNAILS = 6  # the best cells whose bodies are drawn
@@ -86,9 +88,14 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
     across = ranges[1] if len(ranges) > 1 else (0.0, 1.0)
     extent = (across[0], across[1], ranges[0][0], ranges[0][1])
     shown = axes.imshow(grid, origin="lower", aspect="auto", cmap="viridis", extent=extent)
-    figure.colorbar(shown, ax=axes, label=run.config.get("task", {}).get("fitness", "fitness"))
-    axes.set_ylabel(measures[0].replace("_", " "))
-    axes.set_xlabel(measures[1].replace("_", " ") if len(measures) > 1 else "")
+    fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
+    figure.colorbar(shown, ax=axes, label=fitness_label(fitness_fn, what="elite's fitness"))
+    across_name = measures[1] if len(measures) > 1 else ""
+    axes.set_ylabel(descriptor_label(measures[0]))
+    axes.set_xlabel(descriptor_label(across_name) if across_name else "")
+    for axis, measure in ((axes.yaxis, measures[0]), (axes.xaxis, across_name)):
+        if DESCRIPTORS.get(measure, ("", False))[1]:  # a count: whole-number ticks
+            integer_ticks(axis)
     coverage = len(archive) / int(np.prod(archive["grid"].iloc[0]))
     axes.set_title(f"archive after generation {last}: {len(archive)} cells ({coverage:.0%})")
     for k, (body_id, fitness, image) in enumerate(images):

@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from ariel.recording._files import atomic_write, require_free_space
+from ariel.recording._joint_names import joint_labels
 
 __all__ = [
     "APPLICATION_ID",
@@ -594,7 +595,9 @@ def write_evaluation_recording(
     if joints:
         names = tuple(getattr(result, "joint_names", None) or ())[:joints]
         if names not in shared.joint_names:
-            labels = [_short(n) for n in names] + [f"joint{j}" for j in range(len(names), joints)]
+            labels = joint_labels(names, graph_json) + [
+                f"joint{j}" for j in range(len(names), joints)
+            ]
             shared.joint_names[names] = [
                 _static(f"/joints/{leaf}", rr.SeriesLines(names=labels))
                 for leaf in ("target", "angle")

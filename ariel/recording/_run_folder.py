@@ -17,7 +17,6 @@ import json
 import os
 import platform
 import re
-import shlex
 import shutil
 import subprocess
 from collections.abc import Iterator
@@ -34,6 +33,7 @@ from ariel.recording._files import (
 )
 from ariel.recording._lock import LOCK_NAME, in_use_error, lock_holder
 from ariel.recording._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
+from ariel.utils._commands import ariel_line
 
 __all__ = [
     "CHECKPOINT_FORMAT",
@@ -100,8 +100,7 @@ def _storage_message(exc: OSError, run_dir: Path) -> str | None:
     done = int(info.get("generations_done", 0))
     return (
         f"{problem}; the run stopped, its {done} finished generation(s) are kept: "
-        f"make room (or fix the folder), then continue with: ariel resume "
-        f"{shlex.quote(str(run_dir))}"
+        f"make room (or fix the folder), then continue with: {ariel_line('resume', run_dir)}"
     )
 
 
@@ -171,6 +170,18 @@ def git_commit() -> str | None:
     return out.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
 
 
+def _instead(path: Path) -> str:
+    """What to do about an existing folder at ``path``: replace or continue a run, or choose
+    another folder (the command to paste where there is one)."""
+    try:
+        status = RunFolder(path).read_info().get("status")
+    except NotARunError:
+        return "choose another --out (it is not an ariel run folder: --overwrite leaves it alone)"
+    if status == "finished":
+        return "pass --overwrite to replace it, or choose another --out"
+    return f"pass --overwrite to replace it, or continue it with: {ariel_line('resume', path)}"
+
+
 class RunFolder:
     """Reads and writes one run folder."""
 
@@ -208,10 +219,7 @@ class RunFolder:
         if not path.is_dir() or all(_is_leftover(p) for p in path.iterdir()):
             return
         if not overwrite:
-            raise FileExistsError(
-                f"output folder {str(path)!r} already exists; pass --overwrite to replace it, "
-                "or `ariel resume` to continue it"
-            )
+            raise FileExistsError(f"output folder {str(path)!r} already exists; {_instead(path)}")
         if not (path / "run.json").is_file():
             raise FileExistsError(
                 f"refusing to overwrite {str(path)!r}: it is not an ariel run folder (no run.json)"

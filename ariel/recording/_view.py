@@ -35,6 +35,7 @@ from ariel.recording._tables import (
     generation_recording_path,
     recording_path,
 )
+from ariel.utils._commands import ariel_line
 from ariel.utils._gl import has_display
 
 __all__ = [
@@ -156,7 +157,7 @@ def select_recordings(
             return _replayed_or_generation(run, eval_id, generation_of, blueprint_or_none)
         raise ViewError(
             f"no evaluation {eval_id} in {folder} (ids look like b000012-i003-c005; "
-            "`ariel view RUN --best 5` opens the best ones)"
+            f"{ariel_line('view', run_dir, '--best', 5)} opens the 5 best)"
         )
 
     if generation is not None:
@@ -304,6 +305,16 @@ def _with_body_poses(run: Any, eval_id: str, recorded: Path) -> tuple[list[Path]
     return [made], f"evaluation {eval_id} (3D replay re-simulated on demand)"
 
 
+def _view_line(
+    run_dir: str | Path, best: int | None, generation: int | None, eval_id: str | None, *more: str
+) -> str:
+    """The ``ariel view`` command line (pasteable) of these options."""
+    words: list[object] = [run_dir, *([eval_id] if eval_id is not None else [])]
+    words += ["--best", best] if best is not None else []
+    words += ["--generation", generation] if generation is not None else []
+    return ariel_line("view", *words, *more)
+
+
 def _campaign_selection(
     folder: Path, best: int | None, generation: int | None, eval_id: str | None
 ) -> Selection:
@@ -311,9 +322,11 @@ def _campaign_selection(
     from ariel.recording._campaign_rerun import CAMPAIGN_BLUEPRINT, write_campaign_recording
 
     if (best, generation, eval_id) != (None, None, None):
+        runs = sorted(folder.glob("runs/condition=*/seed=*"))
+        one = runs[0] if runs else folder / "runs" / "condition=NAME" / "seed=N"
         raise ViewError(
-            f"{folder} is a campaign: --best, --generation and EVAL_ID apply to one of its runs "
-            f"(ariel view {folder}/runs/condition=NAME/seed=N ...)"
+            f"{folder} is a campaign: --best, --generation and EVAL_ID apply to one of its runs, "
+            f"e.g. {_view_line(one, best, generation, eval_id)}"
         )
     recording = folder / "campaign.rrd"
     if not recording.is_file():  # a campaign killed before it wrote one
@@ -657,9 +670,10 @@ def view(
                 return _screenshot(shown, Path(screenshot), size, settle_s)
             return _serve_web(shown, port, grpc_port)
     if not has_display():
+        web_line = _view_line(run_dir, best, generation, eval_id, "--web")
         raise ViewError(
             "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); "
-            "serve it to a browser instead: ariel view RUN_DIR --web"
+            f"serve it to a browser instead: {web_line}"
         )
     print(f"Rerun viewer: {selection.description} of {selection.run_dir}", flush=True)
     with _with_overview(selection) as shown:

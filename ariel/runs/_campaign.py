@@ -32,6 +32,7 @@ from ariel.runs._experiment import (
     start_driver,
 )
 from ariel.runs._prepare import executor_settings, prepare_run, resolve_plugins
+from ariel.utils._commands import ariel_line
 
 __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign"]
 
@@ -95,7 +96,7 @@ def _check_new_folder(path: Path) -> None:
     if path.exists() and (not path.is_dir() or any(path.iterdir())):
         raise FileExistsError(
             f"campaign folder {str(path)!r} already exists; choose another --out, or continue "
-            f"it with: ariel campaign resume {path}"
+            f"it with: {ariel_line('campaign', 'resume', path)}"
         )
 
 

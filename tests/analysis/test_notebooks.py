@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from ariel.evolution import run_experiment
-from ariel.recording import load_run
+from ariel.recording import joint_labels, load_run
 
 EXTRA = "the analysis extra (pip install -e '.[analysis]')"
 nbformat = pytest.importorskip("nbformat", reason=EXTRA)
@@ -141,6 +141,25 @@ def test_fitness_and_diversity_draws_curves_descriptors_and_the_lineage_of_the_b
     assert f"ancestors: {len(ancestors)}\n" in _text(notebook)
 
 
+def test_the_morphology_is_that_of_the_population_the_report_draws(
+    executed: dict, tiny_run: Path
+) -> None:
+    """The notebook's morphology figure and ``ariel report``'s morphology.png: the same bodies
+    (the population after selection, `Run.population`) under the same title."""
+    from ariel.recording._report import MORPHOLOGY_TITLE
+
+    cell = _cell_with(executed["fitness_and_diversity"], "ax.boxplot(")
+    assert "\npopulation = run.population\n" in cell.source
+    assert f'fig.suptitle("{MORPHOLOGY_TITLE}")' in cell.source
+    run = load_run(tiny_run)
+    sizes = run.population.groupby("generation").size()
+    assert (sizes < run.bodies.groupby("generation").size()).any()  # not every body of it
+    shown = "".join(o.get("data", {}).get("text/plain", "") for o in cell.outputs)
+    assert "distinct graphs" in shown
+    for generation, size in sizes.items():
+        assert re.search(rf"^{generation}\s+{size}\s", shown, re.MULTILINE), shown
+
+
 def test_duckdb_reads_the_parquet_tables_in_place(executed: dict, tiny_run: Path) -> None:
     cell = _cell_with(executed["fitness_and_diversity"], "duckdb.sql(")
     (table,) = [o for o in cell.outputs if "text/plain" in o.get("data", {})]
@@ -167,6 +186,10 @@ def test_gait_of_best_plots_the_core_path_and_joint_signals_of_the_best(
     html = tracking[0]["data"]["text/html"]
     for name in best["joint_names"]:
         assert name in html
+    run = load_run(tiny_run)
+    graph = run.bodies.loc[run.bodies["body_id"] == best["body_id"], "graph"].iloc[0]
+    for label in joint_labels(best["joint_names"], graph):  # "right branch, hinge 1"
+        assert f"<td>{label}</td>" in html
 
 
 def test_without_run_dir_the_newest_run_under_data_runs_is_read(tiny_run: Path, tmp_path) -> None:

@@ -21,6 +21,7 @@ from _helpers import ariel_run, exit_code, one_error_line, repo_env, tiny_run_to
 from ariel.cli import main
 from ariel.plugins import fitness_function, fitness_functions
 from ariel.recording import load_run
+from ariel.utils._commands import ariel_line
 
 
 @pytest.fixture
@@ -146,6 +147,7 @@ def test_a_plugin_failing_during_a_run_stops_it_in_one_line_resumable(
         r"fitness function 'test_fails_late' failed in evaluation b\d{6}-i000-c\d{3}", line
     )
     assert "ZeroDivisionError: the plugin's own bug" in line and "error.log" in line
+    assert line.endswith(f"fix the plugin, then {ariel_line('resume', out)}"), line  # pasteable
     assert "Traceback" in (out / "error.log").read_text()
     assert json.loads((out / "run.json").read_text())["status"] == "failed"
     broken["on"] = False  # the plugin fixed

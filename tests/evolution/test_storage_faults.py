@@ -24,6 +24,7 @@ from _helpers import ariel_run, one_error_line, snapshot, tiny_run_toml
 
 from ariel.cli import main
 from ariel.recording import list_runs, load_run
+from ariel.utils._commands import ariel_line
 
 TOML = tiny_run_toml(
     "diskfull", 5, generations=3, iterations=2, brain="inherit = true", record='bodies = "elites"'
@@ -148,7 +149,8 @@ def test_a_full_disk_stops_the_run_with_one_line_and_resume_finishes_it(
     line = one_error_line(capsys)
     assert f"cannot write '{out}/{named}" in line and "No space left on device" in line, line
     assert "its 2 finished generation(s) are kept" in line, line
-    assert line.endswith(f"continue with: ariel resume {out}"), line
+    # the environment's ariel, pasteable (`ariel.utils._commands.ariel_line`)
+    assert line.endswith(f"continue with: {ariel_line('resume', out)}"), line
     _assert_finished_part_intact(out, reference, generations=2)
     # Even run.json could not say "failed": `ariel runs` sees that nothing runs it.
     assert [r["status"] for r in list_runs(tmp_path)] == ["stopped (killed?)"]

@@ -111,10 +111,32 @@ def test_identical_conditions_show_no_difference(tmp_path: Path) -> None:
     assert same["a12"] == 0.5 and same["p_value"] == 1.0 and same["difference"] == 0.0
 
 
-def test_the_page_embeds_every_figure_and_the_tables_are_written(tmp_path: Path) -> None:
+def test_the_page_embeds_every_figure_and_the_tables_are_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from ariel.recording import _compare_plots
+
+    drawn = {}
+    save = _compare_plots._save
+
+    def keep(figure, path):
+        drawn[path.stem] = figure
+        return save(figure, path)
+
+    monkeypatch.setattr(_compare_plots, "_save", keep)
     runs = [synthetic_run(c, s, 1.0 + s) for c in ("a", "b") for s in range(3)]
-    result = compare_runs(runs, tmp_path / "compare", maximise=True, title="page")
+    result = compare_runs(
+        runs, tmp_path / "compare", maximise=True, title="page", fitness_fn="xy_displacement"
+    )
     assert sorted(result.figures) == ["best_so_far", "final_best", "morphology"]
+    # axes with units, evaluations counted in whole numbers
+    (curves,) = drawn["best_so_far"].axes
+    assert curves.get_ylabel() == "best fitness: xy_displacement (m), higher is better"
+    assert all(float(t).is_integer() for t in curves.get_xticks())
+    shapes = {a.get_title(): a for a in drawn["morphology"].axes if a.get_visible()}
+    assert shapes["num_modules"].get_ylabel() == "modules"
+    assert shapes["symmetry"].get_ylabel() == "score, 0 to 1"
+    assert all(float(t).is_integer() for t in shapes["num_modules"].get_xticks())
     html = result.html.read_text()
     images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
     assert len(images) == 3

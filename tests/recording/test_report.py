@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from PIL import Image
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run, make_report
+from ariel.recording._joint_names import joint_labels
 from ariel.recording._report import TABLE_COLUMNS, print_report
 
 CONFIG = {
@@ -91,6 +93,89 @@ def test_the_table_lists_every_generation(run_dir: Path, report) -> None:
         assert f"wrote {path}" in text
 
 
+def _visible_axes(figure) -> list:
+    """The figure's plotting axes: not colour bars, not the axes of a rendered image."""
+    return [a for a in figure.axes if a.axison and not hasattr(a, "_colorbar")]
+
+
+def _integer_ticks(axis) -> bool:
+    from matplotlib.ticker import MaxNLocator
+
+    ticks = axis.get_majorticklocs()
+    locator = axis.get_major_locator()
+    return (
+        isinstance(locator, MaxNLocator)
+        and locator._integer
+        and all(float(t).is_integer() for t in ticks)
+    )
+
+
+def test_every_axis_says_its_unit_and_counts_tick_whole_numbers(report) -> None:
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    figures = report.figures
+    assert sorted(figures) == sorted(FIGURES)
+    for name, figure in figures.items():
+        for axes in _visible_axes(figure):
+            assert axes.get_xlabel() and axes.get_ylabel(), (name, axes.get_title())
+    (fitness,) = _visible_axes(figures["fitness.png"])
+    assert fitness.get_xlabel() == "generation" and _integer_ticks(fitness.xaxis)
+    assert fitness.get_ylabel() == "fitness: xy_displacement (m), higher is better"
+    morphology = {a.get_title(): a for a in _visible_axes(figures["morphology.png"])}
+    assert set(morphology) == set(DESCRIPTOR_NAMES)
+    for descriptor, axes in morphology.items():
+        assert _integer_ticks(axes.xaxis), descriptor  # generations
+        counts = descriptor.startswith("num_") or descriptor == "depth"
+        assert _integer_ticks(axes.yaxis) == counts, descriptor
+    assert morphology["num_modules"].get_ylabel() == "modules"
+    assert morphology["extent_x"].get_ylabel() == "m"
+    assert "population after selection" in figures["morphology.png"].get_suptitle()
+    (path,) = _visible_axes(figures["trajectory.png"])
+    assert (path.get_xlabel(), path.get_ylabel()) == ("core x (m)", "core y (m)")
+    for axes in _visible_axes(figures["joints.png"]):
+        assert (axes.get_xlabel(), axes.get_ylabel()) == ("time (s)", "angle (rad)")
+
+
+def test_joints_are_named_by_branch_and_hinge(run_dir: Path, report) -> None:
+    run = load_run(run_dir)
+    titles = [a.get_title() for a in _visible_axes(report.figures["joints.png"])]
+    graph = run.bodies.loc[run.bodies["body_id"] == report.best["body_id"], "graph"].iloc[0]
+    assert titles == joint_labels(report.best["joint_names"], graph)
+    assert all(re.fullmatch(r"(front|back|right|left) branch, hinge \d+", t) for t in titles)
+
+
+def test_no_title_is_clipped_even_for_a_long_run_id(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    import ariel.utils.renderers
+
+    def grey(model, data, *, width, height, **view):  # best_body.png without OpenGL
+        return np.full((height, width, 3), 128, dtype=np.uint8)
+
+    monkeypatch.setattr(ariel.utils.renderers, "single_frame_renderer", grey)
+    copy = tmp_path / "long"
+    shutil.copytree(run_dir, copy)
+    info = json.loads((copy / "run.json").read_text())
+    info["run_id"] = "coevolve_flat_with_a_longer_name-20250101-120000-s42"  # a default run id
+    (copy / "run.json").write_text(json.dumps(info))
+    report = make_report(copy)
+    assert sorted(report.figures) == sorted([*FIGURES, "best_body.png"])
+    for name, figure in report.figures.items():
+        canvas = FigureCanvasAgg(figure)  # as savefig draws it
+        canvas.draw()
+        renderer = canvas.get_renderer()
+        titles = [figure._suptitle] + [a.title for a in figure.axes]
+        for title in titles:
+            if title is None or not title.get_text():
+                continue
+            box = title.get_window_extent(renderer)
+            assert box.x0 >= 0 and box.x1 <= figure.bbox.width, (name, title.get_text())
+            assert box.y1 <= figure.bbox.height, (name, title.get_text())
+        assert info["run_id"] in " ".join(t.get_text() for t in titles if t is not None)
+
+
 def test_a_brain_only_run_reports_without_morphology(tmp_path: Path) -> None:
     config = {
         **CONFIG,
@@ -103,8 +188,20 @@ def test_a_brain_only_run_reports_without_morphology(tmp_path: Path) -> None:
     assert [p.name for p in report.written] == ["fitness.png", "trajectory.png", "joints.png"]
     assert any(n.startswith("morphology.png: left out (brain-only") for n in report.notes)
     assert report.table["generation"].tolist() == [0, 1]
-    # the gecko has 8 joints: one panel each in a 3-column grid
+    # the gecko has 8 joints: one panel each in a 3-column grid, named without prefix and suffix
     _check_png(out / "report" / "joints.png", min_size=(1000, 700))
+    titles = [a.get_title() for a in _visible_axes(report.figures["joints.png"])]
+    assert titles[:3] == ["neck", "spine", "fl leg"]
+    # fitness: the best so far against the mean of each generation's CMA-ES candidates
+    (axes,) = _visible_axes(report.figures["fitness.png"])
+    lines = {line.get_label(): line.get_ydata() for line in axes.get_lines()}
+    assert set(lines) == {"best so far", "mean of the generation's CMA-ES candidates"}
+    evals = load_run(out).evaluations
+    means = evals.groupby("generation")["fitness"].mean().to_numpy()
+    assert np.allclose(lines["mean of the generation's CMA-ES candidates"], means)
+    assert np.allclose(lines["best so far"], report.table["best_fitness"])
+    assert (lines["best so far"] > means).all()  # a best above the candidates' mean
+    assert "CMA-ES candidates" in _table_text(report)
 
 
 def test_a_killed_run_reports_its_finished_generations_only(run_dir: Path, tmp_path: Path) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ rr = pytest.importorskip("rerun")
 
 from ariel.evolution import ConfigError, load_config, resume_experiment, run_experiment  # noqa: E402
 from ariel.recording import load_run  # noqa: E402
+from ariel.recording._joint_names import joint_labels  # noqa: E402
 
 SMALL = {
     "name": "rrd",
@@ -121,7 +123,9 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
         # Joints: target and angle of every joint, named, equal to the trajectories table.
         for leaf, table_column in (("target", "joint_target"), ("angle", "joint_angle")):
             names = column(found[(f"/joints/{leaf}", True)], "SeriesLines:names")[0]
-            assert names == [n.removeprefix("robot1_") for n in row["joint_names"]]
+            graph = run.bodies.loc[run.bodies["body_id"] == row["body_id"], "graph"].iloc[0]
+            assert names == joint_labels(row["joint_names"], graph)  # "left branch, hinge 2"
+            assert all(re.fullmatch(r"(front|back|right|left) branch, hinge \d+", n) for n in names)
             series = np.array(column(found[(f"/joints/{leaf}", False)], "Scalars:scalars"))
             assert series.shape == (FRAMES, row["n_joints"])
             assert np.array_equal(series, np.stack(mine[table_column].to_numpy()))
@@ -182,7 +186,8 @@ def test_a_generation_recording_holds_every_evaluation_s_path_joints_graph_and_f
                 assert np.array_equal(seconds, frames["t"].to_numpy(np.float32))
                 expected = np.stack(frames["joint_angle"].to_numpy())[:, j].astype(np.float32)
                 assert np.array_equal(values, expected)
-            assert labels[k] == [n.removeprefix("robot1_") for n in row["joint_names"]]
+            graph = run.bodies.loc[run.bodies["body_id"] == row["body_id"], "graph"].iloc[0]
+            assert labels[k] == joint_labels(row["joint_names"], graph)
             assert len(nodes[k]) == row["num_modules"]
 
 

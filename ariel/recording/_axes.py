@@ -1,0 +1,84 @@
+"""Axis labels with units, whole-number ticks and titles that fit, for the figures of `ariel
+report` and `ariel compare`.
+
+Units: the morphology descriptors' (`DESCRIPTORS`: a count of modules, metres, a ratio) and
+the fitness function's own (``@fitness_function(unit="m")``; none where the function does not
+say or is not installed here). Counts (generations, evaluations, modules) get integer ticks.
+"""
+
+from __future__ import annotations
+
+import textwrap
+from typing import Any
+
+__all__ = [
+    "DESCRIPTORS",
+    "descriptor_label",
+    "fitness_label",
+    "fitness_unit",
+    "fitted",
+    "integer_ticks",
+]
+
+#: Morphology descriptor (and ``n_joints``) -> (its unit or what it counts, whether its values
+#: are whole numbers).
+DESCRIPTORS: dict[str, tuple[str, bool]] = {
+    "num_modules": ("modules", True),
+    "num_hinges": ("hinges", True),
+    "num_bricks": ("bricks", True),
+    "num_limbs": ("leaf modules", True),
+    "num_core_children": ("faces of the core used", True),
+    "depth": ("edges, core to deepest leaf", True),
+    "branching": ("children per parent module", False),
+    "joints_ratio": ("hinges / modules", False),
+    "symmetry": ("score, 0 to 1", False),
+    "extent_x": ("m", False),
+    "extent_y": ("m", False),
+    "extent_z": ("m", False),
+    "n_joints": ("actuated joints", True),  # not a descriptor, a MAP-Elites measure
+}
+
+
+def descriptor_label(name: str) -> str:
+    """``num_limbs (leaf modules)``, ``extent_x (m)``; the name alone for an unknown one."""
+    unit = DESCRIPTORS.get(name, ("", False))[0]
+    return f"{name} ({unit})" if unit else name
+
+
+def integer_ticks(axis: Any) -> None:
+    """Ticks at whole numbers only on ``axis`` (an x or y `matplotlib.axis.Axis`): for counts."""
+    from matplotlib.ticker import MaxNLocator, ScalarFormatter
+
+    # min_n_ticks=1: one whole-number tick rather than fractions on a narrow range (all 9s)
+    axis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+    axis.set_major_formatter(ScalarFormatter())
+
+
+def fitness_unit(name: str) -> str | None:
+    """The unit of fitness function ``name`` (its ``unit``), None where unknown."""
+    from ariel.plugins import fitness_functions
+
+    try:
+        unit = getattr(fitness_functions.get(name), "unit", None)
+    except Exception:  # not installed here, or broken: a label goes without its unit
+        return None
+    return unit if isinstance(unit, str) and unit else None
+
+
+def fitness_label(name: str, maximise: bool | None = None, *, what: str = "fitness") -> str:
+    """``fitness: xy_displacement (m), higher is better``: an axis label."""
+    unit = fitness_unit(name)
+    text = (what if name in ("", what) else f"{what}: {name}") + (f" ({unit})" if unit else "")
+    if maximise is not None:
+        text += f", {'higher' if maximise else 'lower'} is better"
+    return text
+
+
+def fitted(text: str, width_inches: float, fontsize: float) -> str:
+    """``text`` wrapped (at its spaces) into lines that fit ``width_inches`` at ``fontsize``
+    points: a title that is never clipped at the figure's edge. Line breaks in ``text`` stay."""
+    # An average character of DejaVu Sans is ~0.6 of the font size wide; 0.62 leaves a margin.
+    per_line = max(12, int(width_inches * 72 / (fontsize * 0.62)))
+    return "\n".join(
+        textwrap.fill(line, per_line, break_on_hyphens=False) or line for line in text.split("\n")
+    )

@@ -1,0 +1,94 @@
+"""The commands ariel prints for the user to paste: ``.venv/bin/ariel view ...``.
+
+A command printed at the end of a run, in an error message or in a hint must work when pasted
+into a fresh shell in the same folder, where the virtual environment is not activated: so it
+names the interpreter and the ``ariel`` script of the environment that runs now (relative to
+the current folder when they lie below it, ``.venv/bin/ariel``), ``ariel`` only when that is
+what the shell would find anyway.
+
+Here, in `ariel.utils`, so that every layer can print such a command: the CLI's run summary
+(`ariel._cli_commands`), the run folder's and the recordings' error messages and hints.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shlex
+import shutil
+import sys
+from pathlib import Path
+
+__all__ = ["ariel_command", "ariel_line", "load_run_command", "python_command"]
+
+
+def ariel_line(*words: object) -> str:
+    """An ``ariel`` command line to paste: `ariel_command` and ``words``, each quoted for a
+    POSIX shell where it needs it (``ariel_line("resume", "data/runs/it's")``)."""
+    return " ".join([ariel_command(), *(shlex.quote(str(word)) for word in words)])
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the current folder when it lies below it (``.venv/bin/ariel``),
+    else absolute; quoted for a POSIX shell."""
+    try:
+        relative = path.relative_to(Path.cwd())
+    except ValueError:
+        return shlex.quote(str(path))
+    text = str(relative)
+    return shlex.quote(text if os.sep in text else f".{os.sep}{text}")
+
+
+def _environment_bin() -> Path | None:
+    """The scripts folder of the virtual environment this interpreter runs in, if any."""
+    if sys.prefix == sys.base_prefix:
+        return None
+    folder = Path(sys.prefix) / ("Scripts" if os.name == "nt" else "bin")
+    return folder if folder.is_dir() else None
+
+
+def _same_file(a: str | None, b: Path) -> bool:
+    try:
+        return a is not None and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def ariel_command() -> str:
+    """How to call ``ariel`` from a fresh shell here: ``ariel`` when the shell finds this
+    environment's script without help, else the script's path (``.venv/bin/ariel``), else
+    ``PYTHON -m ariel.cli``."""
+    folder = _environment_bin()
+    script = folder / "ariel" if folder is not None else None
+    found = shutil.which("ariel")
+    if script is not None and script.is_file():
+        on_path = _same_file(found, script) and not _activated()
+        return "ariel" if on_path else _shown(script)
+    if found is not None:
+        return "ariel"
+    return f"{python_command()} -m ariel.cli"
+
+
+def _activated() -> bool:
+    """Whether this shell activated the environment (``VIRTUAL_ENV``, from ``activate``): then
+    ``ariel`` is on its PATH, but not on a new shell's."""
+    active = os.environ.get("VIRTUAL_ENV")
+    try:
+        return active is not None and os.path.samefile(active, sys.prefix)
+    except OSError:
+        return False
+
+
+def python_command() -> str:
+    """This interpreter, as a fresh shell here reaches it (``.venv/bin/python``)."""
+    executable = sys.executable
+    if not executable:
+        return "python3"
+    return _shown(Path(executable).absolute())
+
+
+def load_run_command(path: Path | str, *, loader: str = "load_run", what: str = "") -> str:
+    """A ``python -c`` line that loads ``path`` and prints ``what`` (an expression of ``r``)."""
+    literal = json.dumps(str(path))  # a Python string literal, with double quotes
+    code = f"from ariel.recording import {loader}; r = {loader}({literal}); print({what or 'r'})"
+    return f"{python_command()} -c {shlex.quote(code)}"
