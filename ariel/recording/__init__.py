@@ -1,6 +1,7 @@
 """Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay`,
 campaigns (`load_campaign`, `compare`, `write_campaign_recording`), `make_report`,
-`joint_labels` (joint names for people), and the Rerun writers (`write_evaluation_recording`,
+`joint_labels` (joint names for people), `load_exported` (an `ariel export` folder's robot),
+and the Rerun writers (`write_evaluation_recording`, `write_generation_recording`,
 `write_run_recording`, `write_blueprint`).
 
 Cheap to import: names are loaded from their modules on first access.
@@ -39,6 +40,9 @@ _LAZY: dict[str, str] = {
     "write_evaluation_recording": "ariel.recording._rerun",
     "write_run_recording": "ariel.recording._rerun",
     "write_blueprint": "ariel.recording._rerun",
+    "write_generation_recording": "ariel.recording._generation_rrd",
+    "load_exported": "ariel.recording._exported",
+    "ExportedRobot": "ariel.recording._exported",
 }
 
 __all__ = sorted(_LAZY)

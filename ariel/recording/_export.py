@@ -2,11 +2,11 @@
 
 The folder it writes holds the body in its world as MJCF (``body.xml``, MuJoCo's own viewer
 opens it: ``python -m mujoco.viewer --mjcf body.xml``), the genotype (``genotype.json``), the
-controller and its exact parameters (``controller.json``), and ``replay.py``: a short script
-that rebuilds the body from the genotype with the tutorial API (the registries, the
-constructor, ``world.spawn``), drives it with the controller (`Controller`, ``mjcb_control``,
-`simple_runner`) and prints where the core ends up: where the run recorded it, as the
-tutorial path equals the engine's. (MJCF rounds numbers to 6 digits, so a simulation of
+controller and its exact parameters (``controller.json``), and ``replay.py``: a 10-line
+script of the tutorial API that rebuilds the robot (`load_exported`: the registries, the
+constructor, ``world.spawn``, `Controller`), drives it (``mjcb_control``, `simple_runner`)
+and prints where the core ends up: where the run recorded it, as the tutorial path equals
+the engine's. (MJCF rounds numbers to 6 digits, so a simulation of
 ``body.xml`` drifts from the recorded path; it is for looking at.)
 """
 
@@ -24,52 +24,20 @@ __all__ = ["ExportError", "export"]
 FILES = ("body.xml", "genotype.json", "controller.json", "replay.py")
 
 _SCRIPT = '''\
-"""Replay evaluation {eval_id} of run {run_id} with ARIEL's tutorial API: python replay.py
+"""Replay evaluation {eval_id} of run {run_id} with ARIEL's tutorial API: python replay.py"""
 
-Rebuilds the body from genotype.json (body.xml, for MuJoCo's viewer, rounds its numbers) and
-drives it with controller.json; prints where the core ends up.
-"""
-
-import json
 from pathlib import Path
 
 import mujoco
-import numpy as np
 
-from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
-from ariel.plugins import body_encoders, controllers, worlds
-from ariel.simulation.controllers.controller import Controller
-from ariel.simulation.controllers.observations import hinge_observation
+from ariel.recording import load_exported
 from ariel.utils.runners import simple_runner
 
-here = Path(__file__).resolve().parent
-body = json.loads((here / "genotype.json").read_text())
-brain = json.loads((here / "controller.json").read_text())
-encoder = body_encoders.make(body["body_encoder"], **body["options"])
-if hasattr(encoder, "build"):  # a prebuilt robot
-    core = encoder.build(body["genotype"])
-else:
-    core = construct_mjspec_from_graph(encoder.decode(body["genotype"]))
-world = worlds.make(brain["world"], **brain["world_options"])
-world.spawn(core.spec, position=brain["spawn_position"], rotation=brain["spawn_rotation"])
-model = world.spec.compile()
-data = mujoco.MjData(model)
-
-plugin = controllers.make(brain["controller"], **brain["options"])
-params, period, dt = np.array(brain["params"]), brain["control_period"], model.opt.timestep
-if plugin.open_loop:  # a function of time: its target at every controller call, computed first
-    calls = np.arange(0, round(brain["duration"] / dt), period) * dt
-    targets = plugin.targets(params[None], calls, model, seed=brain["seed"])[0]
-    policy = lambda m, d: targets[round(d.time / (dt * period))]  # noqa: E731
-else:  # closed loop: a policy of the robot's observation
-    act = plugin.make_policy(params, model)
-    observe = getattr(plugin, "observation", hinge_observation)
-    policy = lambda m, d: act(observe(m, d))  # noqa: E731
-controller = Controller(policy, time_steps_per_ctrl_step=period, alpha=brain["smoothing"])
-mujoco.set_mjcb_control(controller.set_control)
-simple_runner(model, data, duration=brain["duration"])
-mujoco.mj_kinematics(model, data)  # positions of the final state (a step computes them first)
-print("core at", data.geom("{core}").xpos.tolist())
+robot = load_exported(Path(__file__).resolve().parent)  # genotype.json, controller.json
+mujoco.set_mjcb_control(robot.controller.set_control)
+simple_runner(robot.model, robot.data, duration=robot.duration)
+mujoco.mj_kinematics(robot.model, robot.data)  # the final state's positions
+print("core at", robot.data.geom("{core}").xpos.tolist())
 '''
 
 
