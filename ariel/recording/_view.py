@@ -32,6 +32,7 @@ from urllib.parse import quote
 from ariel.errors import ViewError
 from ariel.recording._tables import (
     GENERATION_BLUEPRINT,
+    GENERATION_RECORDING,
     generation_recording_path,
     recording_path,
 )
@@ -162,6 +163,8 @@ def select_recordings(
 
     if generation is not None:
         found = _rrd_files(folder / RECORDINGS / f"gen-{generation:06d}")
+        # Its evaluations.rrd first in the viewer's list of recordings, then the elites' replays.
+        found.sort(key=lambda path: path.name != GENERATION_RECORDING)
         if found:
             layout = folder / GENERATION_BLUEPRINT
             return dataclasses.replace(
