@@ -2,33 +2,37 @@
 
 The same experiment runs twice per round, into temporary folders deleted afterwards: with
 ``record.rerun = false`` and with ``record.rerun = true`` (``record.bodies`` from
-``--bodies``, default ``all``: every evaluation a 3D replay). Default: the default experiment
-(``experiments/coevolve_flat.toml``: 10 generations, 8 + 8 bodies, 8 x 6 brain evaluations of 8
-simulated seconds = 3,840 evaluations, about 3 minutes a run on 2 CPUs) on its ``local``
+``--bodies``, default the config's ``elites``: every generation's evaluations in one
+``evaluations.rrd``, a 3D replay of each body's new bests). Default: the default experiment
+(``experiments/coevolve_flat.toml``: 10 generations, 8 + 8 bodies, 8 x 6 brain evaluations of
+8 simulated seconds = 3,840 evaluations, about 3-4 minutes a run on 2 CPUs) on its ``local``
 executor; ``--generations``, ``--population``, ``--offspring``, ``--popsize``,
 ``--iterations`` and ``--duration`` scale it down. ``--quick`` is a smoke run (one tiny
 generation).
 
 What is timed: the whole ``run_experiment`` call, ``time.perf_counter`` around it (config,
 folder, pool start-up and shutdown, every evaluation, Parquet tables, checkpoints, and with
-recording on every ``.rrd``, ``run.rrd`` and ``blueprint.rbl``). Both runs of a round have the
-same seed, so they evaluate exactly the same bodies and brains (checked: identical fitness
+recording on every ``.rrd``, ``run.rrd`` and the layouts). Both runs of a round have the same
+seed, so they evaluate exactly the same bodies and brains (checked: identical fitness
 columns): the difference is the recording. Rounds alternate which run goes first;
 ``gc.collect()`` runs before each. A tiny untimed run of each kind first pays the process's
 one-time imports (rerun's about 0.5 s among them), as a long run pays them once. The overhead
-ratio is the median over rounds of (time with recording) / (time without); target <= 1.15.
+ratio is the median over rounds of (time with recording) / (time without); target <= 1.10.
 
-Bytes (from the recording run's folder): ``.rrd`` bytes per evaluation (the recordings under
-``recordings/``; ``run.rrd`` and ``blueprint.rbl`` reported apart), Parquet bytes per
-evaluation (all tables), and the whole folder. Also reported: the driver's wall time per
-recording written (``write_evaluation_recording``, measured inside the run) and, for a
-scaled-down run, the folder size projected to the default run's 3,840 evaluations.
+Bytes (from the recording run's folder): ``evaluations.rrd`` bytes per evaluation (target
+<= 10 kB; every evaluation is in it, and a non-elite is nowhere else), the elites' own
+recordings (count, bytes each), all ``.rrd`` and all Parquet bytes per evaluation, and the
+whole folder, projected to the default run's 3,840 evaluations for a scaled-down run (target
+<= 60 MB). The recorder's own cost, in thread CPU time of the driver (`RerunRecorder`
+patched in place): non-elite evaluations kept and written per CPU second (target >= 1,000:
+a GPU run is not held back by its records) and CPU ms per elite recording.
 
 Prints a table, then as the last line one JSON object with ``recording_overhead_ratio``,
-``rrd_bytes_per_eval``, ``parquet_bytes_per_eval`` and context.
+``shared_rrd_bytes_per_eval``, ``recorder_evals_per_cpu_s``,
+``projected_default_folder_bytes`` and context.
 
     python experiments/benchmarks/recording.py [--generations 10] [--population 8]
-        [--offspring 8] [--popsize 8] [--iterations 6] [--duration 8] [--bodies all]
+        [--offspring 8] [--popsize 8] [--iterations 6] [--duration 8] [--bodies elites]
         [--workers N] [--repeats 1] [--seed 1] [--quick]
 """
 
