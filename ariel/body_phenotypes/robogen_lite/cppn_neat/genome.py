@@ -315,6 +315,10 @@ class Genome:
             steps = [self._groups([n for n in ids if self.nodes[n].typ != "input"], col)]
             sweeps = len(ids) + 1
 
+        # Each group's weight columns and biases, gathered once here rather than per call (the
+        # same arrays, so the same products and sums on every call).
+        layers = [[(c, weights[:, c], bias[c], act) for c, act in groups] for groups in steps]
+
         def evaluate(batch: np.ndarray) -> np.ndarray:
             x = np.asarray(batch, dtype=np.float64)
             if x.ndim != 2 or x.shape[1] != len(in_cols):
@@ -322,10 +326,10 @@ class Genome:
             values = np.zeros((x.shape[0], len(ids)))
             values[:, in_cols] = x
             for _ in range(sweeps):
-                for groups in steps:
+                for groups in layers:
                     previous = values.copy() if sweeps > 1 else values
-                    for cols, act in groups:
-                        values[:, cols] = act(previous @ weights[:, cols] + bias[cols])
+                    for cols, w, b, act in groups:
+                        values[:, cols] = act(previous @ w + b)
             return values[:, out_cols]
 
         return evaluate

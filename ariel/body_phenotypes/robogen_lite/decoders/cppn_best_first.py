@@ -7,12 +7,15 @@ placed module is a candidate; the CPPN, given ``(parent position, child position
 (outputs 5-7). The best-scoring candidate is placed, until ``max_modules`` modules (core
 included) are placed or no candidate is left. Ties go to the earlier module, then the earlier
 face (FRONT, BACK, RIGHT, LEFT, TOP, BOTTOM). Each candidate is scored once (its inputs never
-change), in one batch per placed module. Fixed from upstream (docs/decisions.md): a face that
-is not allowed or occupied no longer stops the scan of the module's later faces, and the child's
-own faces do not restrict where it may attach.
+change), in batches: each covers the unscored lattice points near a newly placed module. Fixed
+from upstream (docs/decisions.md): a face that is not allowed or occupied no longer stops the
+scan of the module's later faces, and the child's own faces do not restrict where it may attach.
 """
 
 from __future__ import annotations
+
+import heapq
+import itertools
 
 import networkx as nx
 import numpy as np
@@ -46,12 +49,46 @@ FACE_DELTAS: dict[ModuleFaces, tuple[int, int, int]] = {
     ModuleFaces.LEFT: (0, 0, -1),
 }
 _CHILD_TYPES = (ModuleType.BRICK, ModuleType.HINGE)
-_CHILD_TYPE_VALUES = np.array([t.value for t in _CHILD_TYPES])
+# Output columns of the child types, BRICK then HINGE: consecutive, so a view (no gather).
+_CHILD_TYPE_COLUMNS = slice(1 + ModuleType.BRICK.value, 1 + ModuleType.HINGE.value + 1)
+if ModuleType.HINGE.value != ModuleType.BRICK.value + 1:  # pragma: no cover - config guard
+    raise ImportError("cppn_best_first expects HINGE's value right after BRICK's")
 _ROTS = list(ModuleRotationsIdx)
 _FACES = list(ModuleFaces)
 _DELTAS = [FACE_DELTAS[f] for f in _FACES]
-_FACE_STEPS = [(i, f, FACE_DELTAS[f]) for i, f in enumerate(_FACES)]
 _LOOKAHEAD = 2  # lattice steps scored ahead of a new module (one CPPN batch per ~3 modules)
+
+
+def _ball(radius: int) -> list[tuple[int, int, int]]:
+    """Lattice offsets within ``radius`` face steps of the origin, sorted."""
+    ring, points = {(0, 0, 0)}, {(0, 0, 0)}
+    for _ in range(radius):
+        ring = {(p[0] + d[0], p[1] + d[1], p[2] + d[2]) for p in ring for d in _DELTAS}
+        ring -= points
+        points |= ring
+    return sorted(points)
+
+
+# The CPPN batch of a prefetch is built from constants: shifting a sorted set of points keeps
+# its order, so the rows of the points still to score are rows of this table (offset, offset +
+# face step, per offset and face) plus the module's position, and exactly the rows (same
+# values, same order) that listing and sorting the shifted points would give. Same batches,
+# so the same CPPN outputs bit for bit (a matrix product's last bits may depend on its shape).
+_BALL = _ball(_LOOKAHEAD)
+_BALL_ROWS = np.array(
+    [(*o, o[0] + d[0], o[1] + d[1], o[2] + d[2]) for o in _BALL for d in _DELTAS],
+    dtype=np.float64,
+).reshape(len(_BALL), len(_DELTAS), 2 * 3)
+# Per module type, its allowed faces as (index, name, step), in the scan order of candidates;
+# names are looked up once here (an Enum's ``.name`` and hash are slow Python calls).
+_ALLOWED_STEPS = {
+    t: [(i, f.name, FACE_DELTAS[f]) for i, f in enumerate(_FACES) if f in ALLOWED_FACES[t]]
+    for t in (ModuleType.CORE, *_CHILD_TYPES)
+}
+_CORE_STEPS = _ALLOWED_STEPS[ModuleType.CORE]
+_CHILD_STEPS = [_ALLOWED_STEPS[t] for t in _CHILD_TYPES]  # by the type's output index
+_CHILD_NAMES = [t.name for t in _CHILD_TYPES]
+_ROT_NAMES = [r.name for r in _ROTS]
 
 
 def softmax(raw_scores: np.ndarray) -> np.ndarray:
@@ -89,59 +126,61 @@ class MorphologyDecoderBestFirst:
                 f"{CPPN_OUTPUTS} outputs; this one has {n_in} and {n_out}"
             )
         evaluate = genome.compile()
-        graph = nx.DiGraph()
-        graph.add_node(
-            IDX_OF_CORE, type=ModuleType.CORE.name, rotation=ModuleRotationsIdx.DEG_0.name
-        )
+        nodes = [(IDX_OF_CORE, {"type": ModuleType.CORE.name, "rotation": _ROT_NAMES[0]})]
+        edges: list[tuple[int, int, dict[str, str]]] = []
         occupied = {(0, 0, 0): IDX_OF_CORE}
-        # Candidates in (module, face) order: score, parent, face, child position, type, rotation.
-        candidates: list[tuple[float, int, ModuleFaces, tuple, ModuleType, ModuleRotationsIdx]] = []
+        # Candidates as a heap of (-score, arrival, parent, face, child position, type,
+        # rotation): its top is the best score, ties to the earliest arrival, i.e. the earlier
+        # module, then face. A candidate whose position got occupied is dropped when popped.
+        candidates: list[tuple] = []
+        arrivals = itertools.count()
 
         # CPPN outputs per (position, face): its inputs depend on nothing else, so they are
         # computed once, ahead, for every lattice point within _LOOKAHEAD steps of a newly
         # placed module: one batch then serves that module's children and grandchildren too.
-        scored: dict[tuple[int, int, int], list[tuple]] = {}  # position -> per face index
+        # position -> (the batch's scores, types, rotations, the point's first row in them);
+        # the rows are read only for the faces that become candidates.
+        scored: dict[tuple[int, int, int], tuple[list, list, list, int]] = {}
 
         def prefetch(pos: tuple[int, int, int]) -> None:
-            ring, points = {pos}, {pos}
-            for _ in range(_LOOKAHEAD):
-                ring = {(p[0] + d[0], p[1] + d[1], p[2] + d[2]) for p in ring for d in _DELTAS}
-                ring -= points
-                points |= ring
-            new = sorted(points.difference(scored))
-            parents = np.repeat(np.array(new, dtype=np.float64), len(_DELTAS), axis=0)
-            children = parents + np.tile(np.array(_DELTAS, dtype=np.float64), (len(new), 1))
-            out = evaluate(np.concatenate([parents, children], axis=1))[:, :CPPN_OUTPUTS]
-            out = np.nan_to_num(out, nan=-np.inf)  # a NaN never wins
-            scores = out[:, 0].tolist()
-            kinds = np.argmax(out[:, 1 + _CHILD_TYPE_VALUES], axis=1).tolist()
-            rotations = np.argmax(out[:, 1 + NUM_OF_TYPES_OF_MODULES :], axis=1).tolist()
-            for i, point in enumerate(new):
-                rows = range(i * len(_DELTAS), (i + 1) * len(_DELTAS))
-                scored[point] = [
-                    (scores[k], _CHILD_TYPES[kinds[k]], _ROTS[rotations[k]]) for k in rows
-                ]
+            points = [(pos[0] + o[0], pos[1] + o[1], pos[2] + o[2]) for o in _BALL]
+            fresh = [i for i, point in enumerate(points) if point not in scored]
+            rows = _BALL_ROWS.take(fresh, axis=0).reshape(-1, 2 * 3)
+            rows += pos + pos
+            out = evaluate(rows)[:, :CPPN_OUTPUTS]
+            if not np.isfinite(out).all():
+                out = np.nan_to_num(out, nan=-np.inf)  # a NaN never wins
+            batch = (
+                out[:, 0].tolist(),
+                out[:, _CHILD_TYPE_COLUMNS].argmax(axis=1).tolist(),
+                out[:, 1 + NUM_OF_TYPES_OF_MODULES :].argmax(axis=1).tolist(),
+            )
+            for i, k in enumerate(fresh):
+                scored[points[k]] = (*batch, i * len(_DELTAS))
 
-        def score_faces(module: int, module_type: ModuleType, pos: tuple[int, int, int]) -> None:
+        def score_faces(module: int, steps: list, pos: tuple[int, int, int]) -> None:
             if pos not in scored:
                 prefetch(pos)
-            for index, face, (dx, dy, dz) in _FACE_STEPS:
+            scores, kinds, rotations, first = scored[pos]
+            for index, face, (dx, dy, dz) in steps:
                 child = (pos[0] + dx, pos[1] + dy, pos[2] + dz)
-                if face not in ALLOWED_FACES[module_type] or child in occupied:
-                    continue
-                score, kind, rotation = scored[pos][index]
-                candidates.append((score, module, face, child, kind, rotation))
+                if child not in occupied:
+                    row = first + index
+                    candidate = (-scores[row], next(arrivals), module, face, child)
+                    heapq.heappush(candidates, (*candidate, kinds[row], rotations[row]))
 
-        score_faces(IDX_OF_CORE, ModuleType.CORE, (0, 0, 0))
-        while len(graph) < self.max_modules:
-            candidates = [c for c in candidates if c[3] not in occupied]
-            if not candidates:
-                break
-            best = max(range(len(candidates)), key=lambda i: candidates[i][0])  # first on ties
-            _score, parent, face, pos, kind, rotation = candidates.pop(best)
-            child = len(graph)
-            graph.add_node(child, type=kind.name, rotation=rotation.name)
-            graph.add_edge(parent, child, face=face.name)
+        score_faces(IDX_OF_CORE, _CORE_STEPS, (0, 0, 0))
+        while len(nodes) < self.max_modules and candidates:
+            *_, parent, face, pos, kind, rotation = heapq.heappop(candidates)
+            if pos in occupied:
+                continue
+            child = len(nodes)
+            nodes.append((child, {"type": _CHILD_NAMES[kind], "rotation": _ROT_NAMES[rotation]}))
+            edges.append((parent, child, {"face": face}))
             occupied[pos] = child
-            score_faces(child, kind, pos)
+            score_faces(child, _CHILD_STEPS[kind], pos)
+        # The same graph as adding each node, then its edge, in turn (same orders, same data).
+        graph = nx.DiGraph()
+        graph.add_nodes_from(nodes)
+        graph.add_edges_from(edges)
         return graph
