@@ -262,3 +262,24 @@ def test_compare_conditions_shows_the_comparison_of_compare_from_pandas(
     a12 = comparison.stats.loc[0, "a12"]
     assert re.search(rf"\bfresh\s+inherit\b.*\b{a12:g}\b", table["data"]["text/plain"])
     assert load_campaign(tiny_campaign).maximise
+
+
+def test_a_brain_only_run_s_best_body_shows_its_best_fitness(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> None:
+    """The one body of a brain-only run improves every generation: the lineage cell prints
+    its fitness after the last generation, the run's best, not generation 0's."""
+    out = tmp_path_factory.mktemp("analysis") / "gecko"
+    gecko = {
+        **TINY,
+        "name": "gecko",
+        "body": {"encoder": "prebuilt", "genotype": "gecko"},
+        "task": {"duration": 0.6},
+    }
+    run_experiment(gecko, out=out, progress=False)
+    bodies = load_run(out).bodies
+    assert bodies["fitness"].nunique() > 1  # it did improve
+    notebook = nbformat.read(ANALYSIS / "fitness_and_diversity.ipynb", as_version=4)
+    _execute(notebook, cwd=ANALYSIS, home=tmp_path_factory.mktemp("gecko-nb"), run_dir=out)
+    shown = re.search(r"^best body: (\S+) \(fitness (\S+),", _text(notebook), re.MULTILINE)
+    assert shown.group(2) == f"{bodies['fitness'].max():.6g}"
