@@ -126,6 +126,7 @@ def _joint_columns(traces: Sequence[EvaluationTrace], leaf: str) -> list[Any]:
 
 def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
     """``/graph`` over the evaluations: each row one morphology (empty when not known)."""
+    from ariel.recording._joint_names import module_labels
     from ariel.recording._rerun import _OTHER_COLOUR, _graph_parts, module_colours
 
     rr = _rr()
@@ -136,7 +137,7 @@ def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
             _graph_parts(trace.graph_json) if trace.graph_json else ([], [], [])
         )
         ids += node_ids
-        labels += [f"{t.lower()} {i}" for i, t in zip(node_ids, types)]
+        labels += module_labels(node_ids, types, trace.graph_json)
         colours += [palette.get(t, _OTHER_COLOUR) for t in types]
         edges += links
         node_counts.append(len(node_ids))

@@ -15,13 +15,13 @@ names a hinge by
 ``robot1_0-10-2-servo`` (hinge 10 on the core's RIGHT face) is "right branch, hinge 1". The
 core carries one module per face and each branch numbers its own hinges, so the labels of one
 body are unique. Without the body's graph (or for a name the graph does not hold) the branch
-is unknown: "hinge module 10" (module 10, "hinge 10" in the Rerun graph view). Other names (a
+is unknown: "hinge module 10" (module 10 of the graph). Other names (a
 prebuilt body's hand-named joints, ``robot1_fl_legservo``) lose the prefix and the ``servo``
 suffix: "fl leg". Should two labels still be equal, those two keep their names without the
 prefix.
 
-Used by ``ariel report`` (joints.png), the Rerun recordings' joint series and the analysis
-notebooks.
+Used by ``ariel report`` (joints.png), the Rerun recordings' joint series and graphs
+(`module_labels`: a hinge node carries its joint's label) and the analysis notebooks.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["joint_labels"]
+__all__ = ["joint_labels", "module_labels"]
 
 #: ``{prefix}{parent}-{child}-{face}-servo``, the constructor's hinge joint names.
 _ROBOGEN = re.compile(r"(?:^|_)(\d+)-(\d+)-(\d+)-servo$")
@@ -115,3 +115,17 @@ def joint_labels(names: Sequence[str], graph: Any = None) -> list[str]:
         label if seen[label] == 1 else _without_prefix(name) for label, name in zip(labels, names)
     ]
     return labels if len(set(labels)) == len(labels) else names
+
+
+def module_labels(node_ids: Sequence[str], types: Sequence[str], graph: Any) -> list[str]:
+    """Labels of a body's modules for its graph drawings: a hinge as its joint's label
+    ("right branch, hinge 1", so the graph and the joint legends agree), any other module by
+    type and id ("brick 6", "core 0"). ``node_ids`` and ``types`` (CORE, BRICK, HINGE) as
+    the graph lists them; ``graph``: the same graph (node-link JSON or its dict)."""
+    tree = _tree(graph) if len(node_ids) else None
+    by_hinge = (
+        {str(hinge): label for (_, hinge, _), label in _hinge_places(tree).items()}
+        if tree is not None
+        else {}
+    )
+    return [by_hinge.get(str(i)) or f"{t.lower()} {i}" for i, t in zip(node_ids, types)]

@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 
 from ariel.recording._files import atomic_write, require_free_space
-from ariel.recording._joint_names import joint_labels
+from ariel.recording._joint_names import joint_labels, module_labels
 
 __all__ = [
     "APPLICATION_ID",
@@ -415,7 +415,7 @@ def _graph_archetypes(graph_json: str | Mapping[str, Any]) -> list[Any]:
     return [
         rr.GraphNodes(
             ids,
-            labels=[f"{t.lower()} {i}" for i, t in zip(ids, types)],
+            labels=module_labels(ids, types, graph_json),
             colors=[palette.get(t, _OTHER_COLOUR) for t in types],
             show_labels=True,
         ),

@@ -123,8 +123,8 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
         # Joints: target and angle of every joint, named, equal to the trajectories table.
         for leaf, table_column in (("target", "joint_target"), ("angle", "joint_angle")):
             names = column(found[(f"/joints/{leaf}", True)], "SeriesLines:names")[0]
-            graph = run.bodies.loc[run.bodies["body_id"] == row["body_id"], "graph"].iloc[0]
-            assert names == joint_labels(row["joint_names"], graph)  # "left branch, hinge 2"
+            body_graph = run.bodies.loc[run.bodies["body_id"] == row["body_id"], "graph"].iloc[0]
+            assert names == joint_labels(row["joint_names"], body_graph)  # "left branch, hinge 2"
             assert all(re.fullmatch(r"(front|back|right|left) branch, hinge \d+", n) for n in names)
             series = np.array(column(found[(f"/joints/{leaf}", False)], "Scalars:scalars"))
             assert series.shape == (FRAMES, row["n_joints"])
@@ -134,11 +134,12 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
         nodes = column(graph, "GraphNodes:node_ids")[0]
         assert len(nodes) == row["num_modules"]
         assert len(column(graph, "GraphEdges:edges")[0]) == row["num_modules"] - 1
-        assert sorted(label.split()[0] for label in column(graph, "GraphNodes:labels")[0])[0] in (
-            "brick",
-            "core",
-            "hinge",
-        )
+        # Labels: a hinge as its joint's legend says, the others by type and id.
+        labels = column(graph, "GraphNodes:labels")[0]
+        legend = joint_labels(row["joint_names"], body_graph)
+        assert sorted(label for label in labels if "branch" in label) == sorted(legend)
+        others = [label for label in labels if "branch" not in label]
+        assert "core 0" in others and all(re.fullmatch(r"(core|brick) \d+", o) for o in others)
         # Properties: the evaluation's ids and fitness; the world (floor) is drawn.
         props = found[("/__properties/ariel", True)]
         assert column(props, "eval_id")[0] == [row["eval_id"]]
@@ -176,6 +177,7 @@ def test_a_generation_recording_holds_every_evaluation_s_path_joints_graph_and_f
         angles = column(found[("/joints/angle", False)], "LineStrips2D:strips")
         labels = column(found[("/joints/angle", False)], "LineStrips2D:labels")
         nodes = column(found[("/graph", False)], "GraphNodes:node_ids")
+        node_labels = column(found[("/graph", False)], "GraphNodes:labels")
         for k, (_, row) in enumerate(mine.iterrows()):
             frames = traj[traj["eval_id"] == row["eval_id"]]
             core = frames[["core_x", "core_y", "core_z"]].to_numpy(np.float32)
@@ -188,6 +190,8 @@ def test_a_generation_recording_holds_every_evaluation_s_path_joints_graph_and_f
                 assert np.array_equal(values, expected)
             graph = run.bodies.loc[run.bodies["body_id"] == row["body_id"], "graph"].iloc[0]
             assert labels[k] == joint_labels(row["joint_names"], graph)
+            hinges = sorted(label for label in node_labels[k] if "branch" in label)
+            assert hinges == sorted(labels[k])  # the graph's hinges read as the legend
             assert len(nodes[k]) == row["num_modules"]
 
 
