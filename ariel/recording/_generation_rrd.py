@@ -27,6 +27,7 @@ import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -74,13 +75,10 @@ class EvaluationTrace:
 def trace_of(properties: Mapping[str, Any], result: Any, graph_json: str | None) -> EvaluationTrace:
     """An evaluation's trace from its recording properties (see `RerunRecorder.evaluation`)
     and its `EvaluationResult`."""
-    from ariel.recording._joint_names import joint_labels
-
     targets = np.asarray(result.joint_target, dtype=np.float32)
     joints = targets.shape[1] if targets.ndim == 2 else 0
     names = tuple(getattr(result, "joint_names", None) or ())[:joints]
-    labels = joint_labels(names, graph_json or None)
-    labels += [f"joint{j}" for j in range(len(names), joints)]
+    labels = _joint_labels(names, graph_json or None, joints)
     return EvaluationTrace(
         eval_id=str(properties["eval_id"]),
         card=dict(properties),
@@ -89,7 +87,7 @@ def trace_of(properties: Mapping[str, Any], result: Any, graph_json: str | None)
         core=np.asarray(result.core_pos, dtype=np.float32).reshape(-1, 3),
         targets=targets.reshape(len(result.time), joints),
         angles=np.asarray(result.joint_angle, dtype=np.float32).reshape(len(result.time), joints),
-        joint_names=tuple(labels),
+        joint_names=labels,
         graph_json=graph_json or None,
     )
 
@@ -112,6 +110,8 @@ def _card(trace: EvaluationTrace) -> str:
 
 def _joint_columns(traces: Sequence[EvaluationTrace], leaf: str) -> list[Any]:
     """``/joints/<leaf>`` over the evaluations: each row one strip (t, rad) per joint."""
+    from ariel.recording._rerun import _rr
+
     rr = _rr()
     strips, labels, colours, lengths = [], [], [], []
     for trace in traces:
@@ -124,21 +124,41 @@ def _joint_columns(traces: Sequence[EvaluationTrace], leaf: str) -> list[Any]:
     return rr.LineStrips2D.columns(strips=strips, labels=labels, colors=colours).partition(lengths)
 
 
-def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
-    """``/graph`` over the evaluations: each row one morphology (empty when not known)."""
+@lru_cache(maxsize=64)
+def _joint_labels(names: tuple[str, ...], graph_json: str | None, joints: int) -> tuple[str, ...]:
+    """`joint_labels` of a body's joints (cached: a body's evaluations share its graph, and
+    reading the graph is most of the cost)."""
+    from ariel.recording._joint_names import joint_labels
+
+    labels = joint_labels(names, graph_json)
+    return (*labels, *(f"joint{j}" for j in range(len(names), joints)))
+
+
+@lru_cache(maxsize=64)
+def _drawing(graph_json: str | None) -> tuple[list[str], list[str], list[Any], list[Any]]:
+    """A morphology's node ids, labels, colours and edges (cached as `_joint_labels`)."""
     from ariel.recording._joint_names import module_labels
     from ariel.recording._rerun import _OTHER_COLOUR, _graph_parts, module_colours
 
-    rr = _rr()
+    if not graph_json:
+        return [], [], [], []
+    ids, types, edges = _graph_parts(graph_json)
     palette = module_colours()
+    colours = [palette.get(t, _OTHER_COLOUR) for t in types]
+    return ids, module_labels(ids, types, graph_json), colours, edges
+
+
+def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
+    """``/graph`` over the evaluations: each row one morphology (empty when not known)."""
+    from ariel.recording._rerun import _rr
+
+    rr = _rr()
     ids, labels, colours, edges, node_counts, edge_counts = [], [], [], [], [], []
     for trace in traces:
-        node_ids, types, links = (
-            _graph_parts(trace.graph_json) if trace.graph_json else ([], [], [])
-        )
+        node_ids, node_labels, node_colours, links = _drawing(trace.graph_json)
         ids += node_ids
-        labels += module_labels(node_ids, types, trace.graph_json)
-        colours += [palette.get(t, _OTHER_COLOUR) for t in types]
+        labels += node_labels
+        colours += node_colours
         edges += links
         node_counts.append(len(node_ids))
         edge_counts.append(len(links))
@@ -147,12 +167,6 @@ def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
         *nodes.partition(node_counts),
         *rr.GraphEdges.columns(edges=edges).partition(edge_counts),
     ]
-
-
-def _rr() -> Any:
-    import rerun
-
-    return rerun
 
 
 def write_generation_recording(
@@ -167,7 +181,13 @@ def write_generation_recording(
     under a temporary name and renamed; recording id ``<run_id>/gen-NNNNNN``."""
     from rerun.chunk import Chunk
 
-    from ariel.recording._rerun import _property_chunks, _static, _write_chunks, module_colours
+    from ariel.recording._rerun import (
+        _property_chunks,
+        _rr,
+        _static,
+        _write_chunks,
+        module_colours,
+    )
 
     rr = _rr()
     traces = sorted(traces, key=lambda trace: trace.eval_id)
@@ -206,6 +226,8 @@ def write_generation_recording(
 def generation_blueprint() -> Any:
     """The layout of a generation recording: the evaluation's card, path and morphology above,
     its joints and the generation's fitness below; the time panel on ``evaluation``."""
+    from ariel.recording._rerun import _rr
+
     rrb = _rr().blueprint
     return rrb.Blueprint(
         rrb.Vertical(

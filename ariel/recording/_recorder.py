@@ -190,7 +190,6 @@ class RerunRecorder:
             result=result,
             properties=properties,
             graph_json=graph,
-            transforms=True,
         )
 
     def generation(

@@ -529,7 +529,6 @@ def write_evaluation_recording(
     properties: Mapping[str, Any],
     graph_json: str | Mapping[str, Any] | None = None,
     transforms: bool = True,
-    scene: bool = True,
     fsync: bool = False,
 ) -> Path:
     """Write one evaluation's ``.rrd`` (entities: see the module docstring); returns its path.
@@ -543,9 +542,6 @@ def write_evaluation_recording(
     ``transforms``: the bodies' poses over ``sim_time`` (a 3D replay), when ``result`` has
     them (``body_pos``/``body_quat``, from ``EvaluationTask(record_bodies=True)``); else the
     robot is drawn in its start pose.
-    ``scene=False`` (with ``transforms=False``): leave out the world and the robot's boxes, a
-    recording of the core's path, the joints, the graph and the properties only (what the loop
-    writes for an evaluation whose 3D replay is made on demand; ~40 % of the bytes).
     ``fsync``: also fsync the file (a killed writer never leaves a partial file either way;
     fsync costs ~2 ms a file and only matters for a power cut).
     Safe to call from a loop and from threads: no global state but small caches of what the
@@ -556,11 +552,10 @@ def write_evaluation_recording(
     rr = _rr()
     path = Path(path)
     eval_id = str(properties.get("eval_id") or getattr(result, "eval_id", "") or path.stem)
-    drawn = scene or transforms
     shared = _scene(model, body_names)
-    chunks = [*_property_chunks(properties, eval_id), *(shared.world if drawn else [])]
+    chunks = [*_property_chunks(properties, eval_id), *shared.world]
     core = np.asarray(result.core_pos, dtype=np.float32).reshape(-1, 3)
-    for terrain in shared.heightfields if drawn else []:
+    for terrain in shared.heightfields:
         chunks.append(_static(terrain.path, _terrain(terrain, core[:, :2])))
 
     times = np.asarray(result.time, dtype=np.float64)
@@ -583,7 +578,7 @@ def write_evaluation_recording(
             centers=centers.reshape(-1, 3), quaternions=quats.reshape(-1, 4)
         ).partition([boxes] * len(times))
         chunks += [shared.robot_sizes, Chunk.from_columns("/world/robot", sim_time, poses)]
-    elif boxes and drawn:
+    elif boxes:
         chunks.append(shared.robot_still)
     if len(core):
         strip = rr.LineStrips3D([core], colors=[module_colours()["CORE"]], radii=[0.005])
