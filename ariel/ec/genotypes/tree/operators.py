@@ -287,18 +287,30 @@ def mutate_replace_node(genome: TreeGenome, *, rng: RngLike = None) -> None:
     _prune_invalid_edges(genome)
 
 
+def _cut_random_subtree(
+    genome: TreeGenome, gen: np.random.Generator
+) -> tuple[int, dict[str, Any] | None] | None:
+    """Remove a random non-core subtree; its root and the edge it hung from (None: nothing
+    but the core to cut)."""
+    candidates = _non_core(genome)
+    if not candidates:
+        return None
+    node = _pick(gen, candidates)
+    edge = _parent_edge(genome, node)
+    remove_subtree(genome, node)
+    return node, edge
+
+
 def mutate_subtree_replacement(
     genome: TreeGenome, max_modules: int = 10, *, rng: RngLike = None
 ) -> None:
     """Subtree mutation: a random non-core subtree is replaced by a new random subtree of
     1 to ``min(3, max_modules)`` modules, grown from the same face."""
     gen = _rng(rng)
-    candidates = _non_core(genome)
-    if not candidates:
+    cut = _cut_random_subtree(genome, gen)
+    if cut is None:
         return
-    node = _pick(gen, candidates)
-    edge = _parent_edge(genome, node)
-    remove_subtree(genome, node)
+    _, edge = cut
     size = int(gen.integers(1, max(1, min(3, int(max_modules))) + 1))
     if edge is not None:
         _grow(genome, edge["parent"], edge["face"], size, gen)
@@ -307,12 +319,10 @@ def mutate_subtree_replacement(
 def mutate_shrink(genome: TreeGenome, *, rng: RngLike = None) -> None:
     """Shrink mutation: a random non-core subtree is replaced by one new random leaf module."""
     gen = _rng(rng)
-    candidates = _non_core(genome)
-    if not candidates:
+    cut = _cut_random_subtree(genome, gen)
+    if cut is None:
         return
-    node = _pick(gen, candidates)
-    edge = _parent_edge(genome, node)
-    remove_subtree(genome, node)
+    node, edge = cut
     if edge is not None:
         add_node(genome, edge["parent"], edge["face"], node, **_module_args(_random_module(gen)))
 
