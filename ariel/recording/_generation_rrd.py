@@ -61,15 +61,21 @@ _PALETTE = (
 class EvaluationTrace:
     """What the generation recording keeps of one evaluation (small: no body poses)."""
 
-    eval_id: str
-    card: dict[str, Any]  # shown as text: body_id, fitness, status, ...
-    fitness: float
+    card: dict[str, Any]  # the recording properties, shown as text: eval_id, fitness, ...
     time: np.ndarray  # (T,) seconds
     core: np.ndarray  # (T, 3) float32
     targets: np.ndarray  # (T, J)
     angles: np.ndarray  # (T, J)
     joint_names: tuple[str, ...]  # for people (`joint_labels`)
     graph_json: str | None
+
+    @property
+    def eval_id(self) -> str:
+        return str(self.card["eval_id"])
+
+    @property
+    def fitness(self) -> float:
+        return float(self.card["fitness"])
 
 
 def trace_of(properties: Mapping[str, Any], result: Any, graph_json: str | None) -> EvaluationTrace:
@@ -80,9 +86,7 @@ def trace_of(properties: Mapping[str, Any], result: Any, graph_json: str | None)
     names = tuple(getattr(result, "joint_names", None) or ())[:joints]
     labels = _joint_labels(names, graph_json or None, joints)
     return EvaluationTrace(
-        eval_id=str(properties["eval_id"]),
         card=dict(properties),
-        fitness=float(properties["fitness"]),
         time=np.asarray(result.time, dtype=np.float32),
         core=np.asarray(result.core_pos, dtype=np.float32).reshape(-1, 3),
         targets=targets.reshape(len(result.time), joints),
