@@ -29,9 +29,11 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str) -
     from ariel.evolution import ConfigError
     from ariel.plugins import DuplicatePluginError, PluginLoadError
     from ariel.recording import NotARunError, RunInUseError, RunStorageError
+    from ariel.utils.interrupts import exit_status, stop_on_signals
 
     try:
-        result = start()
+        with stop_on_signals():
+            result = start()
     except (
         ConfigError,
         FileExistsError,
@@ -43,12 +45,13 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str) -
         ValueError,
     ) as exc:
         return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         from ariel._cli_commands import ariel_command
 
         resume = f"{ariel_command()} campaign resume {hint}"
-        print(f"\ninterrupted; continue it with: {resume}", file=sys.stderr)
-        return 130
+        code, how = exit_status(exc)
+        print(f"\ninterrupted{how}; continue it with: {resume}", file=sys.stderr)
+        return code
     show(result)
     return 0
 

@@ -9,13 +9,11 @@ raises on purpose is an `ariel.errors.ArielError`, caught here as one class.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
 import re
 import shlex
-import signal
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -99,43 +97,13 @@ def _print_result(result: object) -> None:
     print(_how_to_look(Path(r.run_dir)))  # type: ignore[attr-defined]
 
 
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM or SIGHUP, raised where Ctrl-C would be: the run stops the same way."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signum)
-        self.signum = signum
-
-
-@contextlib.contextmanager
-def _signals_interrupt() -> Iterator[None]:
-    """SIGTERM (a batch system, ``kill``) and SIGHUP (a closed terminal or SSH session) stop a
-    run as Ctrl-C does: status ``interrupted``, the lock released, resumable. Once: a second
-    signal meanwhile ends the process at once (the default), as a second Ctrl-C would."""
-    wanted = [s for s in (signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None]
-
-    def interrupt(signum: int, frame: object) -> None:
-        for number in wanted:
-            signal.signal(number, signal.SIG_DFL)
-        raise _Terminated(signum)
-
-    try:
-        previous = {number: signal.signal(number, interrupt) for number in wanted}
-    except ValueError:  # not the main thread: signals are not ours to take
-        yield
-        return
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
-
-
 def _run_guarded(start: object, path_hint: str | None) -> int:
     """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
     -> one line and exit 2; Ctrl-C -> how to resume."""
+    from ariel.utils.interrupts import exit_status, stop_on_signals
+
     try:
-        with _signals_interrupt():
+        with stop_on_signals():
             result = start()  # type: ignore[operator]
     except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
         return _fail_with(exc)
@@ -144,10 +112,9 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
 
         resume = f"{ariel_command()} resume {path_hint}"
         hint = f"; continue it with: {resume}" if path_hint else ""
-        signum = exc.signum if isinstance(exc, _Terminated) else signal.SIGINT
-        how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
+        code, how = exit_status(exc)
         print(f"\ninterrupted{how}{hint}", file=sys.stderr)
-        return 128 + int(signum)
+        return code
     _print_result(result)
     return 0
 

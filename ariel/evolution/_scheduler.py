@@ -72,12 +72,16 @@ class Scheduler:
 
     def run(self, groups: Sequence[Iterator[list[Work]]]) -> None:
         """Run every group to its end (see the module docstring)."""
+        from ariel.utils.interrupts import raise_pending
+
         groups = list(groups)
         try:
             for index in range(len(groups)):
                 self._advance(groups, index)
             while self._in_flight:
+                raise_pending()  # a Ctrl-C whose KeyboardInterrupt got lost: ariel.utils.interrupts
                 done, _ = cf.wait(list(self._in_flight), return_when=cf.FIRST_COMPLETED)
+                raise_pending()
                 for future in done:
                     batch, part = self._in_flight.pop(future)
                     if self._collect(batch, part, future):

@@ -61,7 +61,8 @@ def test_ctrl_c_on_a_dask_run_prints_no_worker_tracebacks(tmp_path: Path) -> Non
                 time.sleep(0.2)
             assert process.poll() is None, log.read_text()
             os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
-            assert process.wait(timeout=120) == 130
+            code = process.wait(timeout=120)
+            assert code == 130, (code, log.read_text()[-3000:])
         finally:
             if process.poll() is None:
                 os.killpg(process.pid, signal.SIGKILL)

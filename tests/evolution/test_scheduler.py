@@ -4,7 +4,10 @@ results back in task order whatever order they arrive in, lost chunks retried on
 from __future__ import annotations
 
 import concurrent.futures as cf
+import gc
+import os
 import random
+import signal
 import threading
 import time
 from typing import Any
@@ -13,6 +16,7 @@ import pytest
 
 from ariel.evaluation.executors import WorkerLostError
 from ariel.evolution._scheduler import Scheduler
+from ariel.utils.interrupts import Interrupted, raise_pending, stop_on_signals
 
 
 class FakeExecutor:
@@ -131,3 +135,38 @@ def test_an_error_of_the_work_itself_stops_the_run() -> None:
 
     with pytest.raises(RuntimeError, match="broken bookkeeping"):
         Scheduler(FakeExecutor(2), timeout=None).run([group("a", [[Broken("a", 0, 2, 2)]], [])])
+
+
+def _lose_a_ctrl_c() -> bool:
+    """Ctrl-C while a garbage-collection callback runs (Dask registers one): Python prints
+    "Exception ignored" and goes on. True when it went on, as it does."""
+
+    def callback(phase: str, info: dict[str, Any]) -> None:
+        if phase == "start":
+            os.kill(os.getpid(), signal.SIGINT)
+            sum(range(1000))  # Python code: the handler runs here, its exception is ignored
+
+    gc.callbacks.append(callback)
+    try:
+        gc.collect()
+    finally:
+        gc.callbacks.remove(callback)
+    return True
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")  # the lost one
+def test_a_ctrl_c_whose_keyboard_interrupt_got_lost_still_stops_the_run() -> None:
+    class Interrupting(Counting):
+        def batch_done(self, results: list[Any]) -> None:
+            super().batch_done(results)
+            if len(self.received) == 1:
+                self.went_on = _lose_a_ctrl_c()
+
+    work = Interrupting("a", 0, 5, 2)
+    with stop_on_signals(), pytest.raises(Interrupted) as stopped:
+        Scheduler(FakeExecutor(1), timeout=None).run([group("a", [[work]], [])])
+    assert work.went_on  # the KeyboardInterrupt itself never reached the scheduler
+    assert stopped.value.signum == signal.SIGINT
+    assert len(work.received) == 1 and work.left == 3  # stopped at the next result
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+    raise_pending()  # leaving the block forgot the signal: nothing to raise now

@@ -10,6 +10,9 @@ import contextlib
 import hashlib
 import io
 import json
+import os
+import re
+import signal
 from pathlib import Path
 
 import pytest
@@ -221,6 +224,26 @@ def test_an_interrupted_campaign_resumes_to_the_records_of_an_uninterrupted_one(
     assert campaign_digests(out) == campaign_digests(campaign)
     with pytest.raises(ValueError, match="already finished"):
         resume_campaign(out)
+
+
+def test_sigterm_stops_a_campaign_command_like_ctrl_c(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    original = Progress.end_generation
+
+    def end_generation(self, generation, *args, **kwargs):
+        original(self, generation, *args, **kwargs)
+        os.kill(os.getpid(), signal.SIGTERM)  # a batch system ending the job
+
+    monkeypatch.setattr(Progress, "end_generation", end_generation)
+    out = tmp_path / "tiny"
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["campaign", "run", str(TINY), "--out", str(out), "--quiet"]) == 128 + 15
+    assert signal.getsignal(signal.SIGTERM) is before  # the command's handler is gone again
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    resume = rf"\S*ariel campaign resume {re.escape(str(out))}"
+    assert re.fullmatch(rf"interrupted \(SIGTERM\); continue it with: {resume}", line), line
+    assert json.loads((out / "campaign.json").read_text())["status"] == "interrupted"
 
 
 def test_a_campaign_runs_on_a_dask_cluster_through_its_address(

@@ -1,0 +1,83 @@
+"""Stopping a run on Ctrl-C, SIGTERM or SIGHUP without losing the signal.
+
+Python turns Ctrl-C into a `KeyboardInterrupt` at whatever line the main thread is running.
+When that line belongs to a garbage-collection or weakref callback (Dask registers one), Python
+prints "Exception ignored" and carries on: the run would go on to its end as if the key had
+never been pressed. So `stop_on_signals` also notes the signal, and the scheduler calls
+`raise_pending` between results, which raises it again while it is still noted. Whoever
+catches the interrupt (the ``ariel`` command) leaves the ``with`` block, which clears it.
+
+SIGTERM (a batch system, ``kill``) and SIGHUP (a closed terminal or SSH session) stop a run as
+Ctrl-C does: status ``interrupted``, the lock released, resumable. Once: a second signal
+meanwhile ends the process at once, as Python's own handling of a second Ctrl-C would.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+
+__all__ = ["Interrupted", "exit_status", "raise_pending", "stop_on_signals"]
+
+_pending: int | None = None  # the signal number taken and not yet acted on
+
+
+class Interrupted(KeyboardInterrupt):
+    """The signal ``signum`` stopped the run: raised where Ctrl-C would be."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def exit_status(exc: KeyboardInterrupt) -> tuple[int, str]:
+    """The exit code for a run ``exc`` stopped (128 + the signal's number: 130 for Ctrl-C) and
+    what to add to the word "interrupted" ("" for Ctrl-C, " (SIGTERM)")."""
+    signum = int(exc.signum) if isinstance(exc, Interrupted) else int(signal.SIGINT)
+    how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
+    return 128 + signum, how
+
+
+def raise_pending() -> None:
+    """Raise `Interrupted` if a signal was taken and its first raise got lost (or not yet
+    acted on): call where stopping is safe, e.g. between results."""
+    if _pending is not None:
+        raise Interrupted(_pending)
+
+
+def _signals() -> list[signal.Signals]:
+    wanted = [signal.SIGTERM, getattr(signal, "SIGHUP", None)]
+    # Ctrl-C only where Python's own handler has it: a Jupyter kernel or an embedding
+    # application that installed its own keeps it.
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        wanted.insert(0, signal.SIGINT)
+    return [s for s in wanted if s is not None]
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """Within: SIGINT, SIGTERM and SIGHUP raise `Interrupted` and stay noted until the block
+    is left (see the module docstring). Outside the main thread, nothing changes."""
+    global _pending
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal dispositions can only be changed from the main thread
+        return
+    wanted = _signals()
+
+    def interrupt(signum: int, frame: object) -> None:
+        global _pending
+        _pending = signum
+        for number in wanted:  # a second signal: what it would do without us
+            default = signal.default_int_handler if number == signal.SIGINT else signal.SIG_DFL
+            signal.signal(number, default)
+        raise Interrupted(signum)
+
+    previous = {number: signal.signal(number, interrupt) for number in wanted}
+    try:
+        yield
+    finally:
+        _pending = None
+        for number, handler in previous.items():
+            signal.signal(number, handler)
