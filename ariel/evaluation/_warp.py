@@ -130,7 +130,8 @@ def check_device(device: str) -> str:
         raise WarpUnavailableError(
             "the gpu executor found no CUDA device (no NVIDIA GPU or driver visible to Warp); "
             "to run MuJoCo Warp on the CPU instead (slow; for tests), set "
-            'executor.device = "cpu" (ariel run ... --set executor.device=cpu)'
+            'executor.device = "cpu" in the config or add --set executor.device=cpu to the '
+            "command"
         )
     return device
 

@@ -102,6 +102,7 @@ def test_without_cuda_the_gpu_executor_is_one_line_and_exit_2(tmp_path) -> None:
     assert len(done.stderr.splitlines()) == 1, done.stderr
     assert "executor.device" in done.stderr and "no CUDA device" in done.stderr
     assert "executor.device=cpu" in done.stderr and "--executor local" in done.stderr
+    assert "..." not in done.stderr  # nothing to fill in: every part can be used as it is
     assert not out.exists()
 
 
