@@ -227,9 +227,10 @@ def write_generation_recording(
     )
 
 
-def generation_blueprint() -> Any:
+def generation_blueprint(*, panels: bool = True) -> Any:
     """The layout of a generation recording: the evaluation's card, path and morphology above,
-    its joints and the generation's fitness below; the time panel on ``evaluation``."""
+    its joints and the generation's fitness below; the time panel on ``evaluation``.
+    ``panels=False``: the side panels collapsed (a screenshot shows the views)."""
     from ariel.recording._rerun import _rr
 
     rrb = _rr().blueprint
@@ -249,12 +250,12 @@ def generation_blueprint() -> Any:
             row_shares=[3, 2],
         ),
         rrb.TimePanel(timeline="evaluation"),
-        collapse_panels=False,
+        collapse_panels=not panels,
     )
 
 
-def write_generation_blueprint(path: str | os.PathLike[str]) -> Path:
+def write_generation_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Path:
     """Write `generation_blueprint` (application id ``ariel-generation``) to ``path``."""
     from ariel.recording._rerun import save_blueprint
 
-    return save_blueprint(path, generation_blueprint(), GENERATION_APPLICATION_ID)
+    return save_blueprint(path, generation_blueprint(panels=panels), GENERATION_APPLICATION_ID)

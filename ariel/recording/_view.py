@@ -32,7 +32,6 @@ from urllib.parse import quote
 from ariel.errors import ViewError
 from ariel.recording._tables import (
     GENERATION_BLUEPRINT,
-    GENERATION_RECORDING,
     generation_recording_path,
     recording_path,
 )
@@ -162,15 +161,12 @@ def select_recordings(
         )
 
     if generation is not None:
+        shared = generation_recording_path(folder, generation)
+        if shared.is_file():
+            return _generation_selection(run, generation, f"generation {generation}'s evaluations")
         found = _rrd_files(folder / RECORDINGS / f"gen-{generation:06d}")
-        # Its evaluations.rrd first in the viewer's list of recordings, then the elites' replays.
-        found.sort(key=lambda path: path.name != GENERATION_RECORDING)
-        if found:
-            layout = folder / GENERATION_BLUEPRINT
-            return dataclasses.replace(
-                chosen(found, f"generation {generation}"),
-                more_layouts=(layout,) if layout.is_file() else (),
-            )
+        if found:  # a run recorded before generation recordings: its evaluations' own files
+            return chosen(found, f"generation {generation}")
         done = run.generations_done
         if not 0 <= generation < max(done, 1) or done == 0:
             span = f"generations 0..{done - 1}" if done else "no finished generation"
@@ -277,16 +273,25 @@ def _replayed_or_generation(
             f"ariel: no 3D replay of {eval_id}: {exc}; showing its generation's recording",
             file=sys.stderr,
         )
-        layout = run.path / GENERATION_BLUEPRINT
-        return Selection(
-            run.path,
-            (shared,),
-            None,
-            f"generation {generation}'s evaluations ({eval_id} among them, no 3D replay)",
-            more_layouts=(layout,) if layout.is_file() else (),
+        return _generation_selection(
+            run, generation, f"generation {generation}'s evaluations ({eval_id} among them)"
         )
     return Selection(
         run.path, (made,), blueprint, f"evaluation {eval_id} (3D replay re-simulated on demand)"
+    )
+
+
+def _generation_selection(run: Any, generation: int, description: str) -> Selection:
+    """The generation's recording of every evaluation, alone, with its layout. Alone: given
+    the elites' 3D replays as well, the viewer opens on one of those instead. (They open
+    one at a time: ``ariel view RUN EVAL_ID``.)"""
+    layout = run.path / GENERATION_BLUEPRINT
+    return Selection(
+        run.path,
+        (generation_recording_path(run.path, generation),),
+        None,
+        description,
+        more_layouts=(layout,) if layout.is_file() else (),
     )
 
 
@@ -597,6 +602,11 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
     else:
         layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
     selection = dataclasses.replace(selection, blueprint=layout)
+    if selection.more_layouts:  # a generation's recording: its own layout, panels collapsed
+        from ariel.recording._generation_rrd import write_generation_blueprint
+
+        shared = write_generation_blueprint(Path(scratch) / "generation.rbl", panels=False)
+        selection = dataclasses.replace(selection, more_layouts=(shared,))
 
     def capture(proc: subprocess.Popen[bytes]) -> None:
         try:

@@ -175,6 +175,12 @@ def test_the_loop_s_own_recordings_are_found(tmp_path: Path) -> None:
     assert chosen.recordings == (best, result.run_dir / "run.rrd")
     assert chosen.blueprint == result.run_dir / "blueprint.rbl"
     assert all(p.is_file() for p in select_recordings(result.run_dir, best=5).recordings)
+    # A generation: its recording of every evaluation alone (with the elites' replays beside
+    # it the viewer would open on one of those), with that recording's own layout.
+    generation_0 = select_recordings(result.run_dir, generation=0)
+    assert generation_0.recordings == (result.run_dir / "recordings/gen-000000/evaluations.rrd",)
+    assert generation_0.more_layouts == (result.run_dir / "generation.rbl",)
+    assert generation_0.files == [*generation_0.recordings, *generation_0.more_layouts]
 
 
 @pytest.mark.parametrize(
