@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 from ariel.evolution._brain import BrainRun
+from ariel.utils._json import replace_non_finite
 
 __all__ = [
     "Body",
@@ -69,13 +70,7 @@ class LoopState:
 
 def to_json_safe(value: Any) -> Any:
     """``value`` with every non-finite float as ``{"$float": text}`` (JSON has no NaN)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return {"$float": repr(value)}
-    if isinstance(value, dict):
-        return {key: to_json_safe(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [to_json_safe(item) for item in value]
-    return value
+    return replace_non_finite(value, lambda x: {"$float": repr(x)})
 
 
 def from_json_safe(value: Any) -> Any:

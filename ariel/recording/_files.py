@@ -15,7 +15,6 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
-import math
 import os
 import re
 from collections.abc import Callable, Iterator
@@ -24,6 +23,7 @@ from typing import Any
 
 from ariel.errors import DamagedRunError, UnsafePathError
 from ariel.utils._commands import ariel_line
+from ariel.utils._json import replace_non_finite
 
 __all__ = [
     "UnsafePathError",
@@ -164,21 +164,11 @@ def atomic_write_bytes(
     atomic_write(path, lambda temporary: temporary.write_bytes(data), root=root)
 
 
-def _json_safe(value: Any) -> Any:
-    """``value`` with every NaN and infinity as None: JSON has no such numbers (Python's
-    ``NaN`` / ``Infinity`` tokens are not JSON, and other readers refuse them)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {key: _json_safe(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(item) for item in value]
-    return value
-
-
 def json_text(data: Any) -> str:
-    """Strict JSON of ``data`` (non-finite floats as null), indented, ending in a newline."""
-    return json.dumps(_json_safe(data), indent=2, sort_keys=False, allow_nan=False) + "\n"
+    """Strict JSON of ``data`` (non-finite floats as null: Python's ``NaN`` / ``Infinity``
+    tokens are not JSON, and other readers refuse them), indented, ending in a newline."""
+    plain = replace_non_finite(data, lambda x: None)
+    return json.dumps(plain, indent=2, sort_keys=False, allow_nan=False) + "\n"
 
 
 def atomic_write_json(path: Path, data: Any, *, root: str | os.PathLike[str] | None = None) -> None:
