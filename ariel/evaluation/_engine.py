@@ -54,6 +54,7 @@ __all__ = [
     "evaluate_batch",
     "frame_steps",
     "open_loop_targets",
+    "worst_fitness",
 ]
 
 SPAWN_PREFIX = "robot1_"
@@ -275,7 +276,8 @@ def _kinematics_frames(
     return core, pos, quat
 
 
-def _worst(maximise: bool) -> float:
+def worst_fitness(maximise: bool) -> float:
+    """The fitness of an evaluation that failed: worse than any a body can reach."""
     return -math.inf if maximise else math.inf
 
 
@@ -317,7 +319,7 @@ def _one_line(exc: BaseException) -> str:
 def _error_result(task: EvaluationTask, fitness_fn: Any, exc: BaseException) -> EvaluationResult:
     return EvaluationResult(
         eval_id=task.eval_id,
-        fitness=_worst(fitness_fn.maximise),
+        fitness=worst_fitness(fitness_fn.maximise),
         status="error",
         error=_one_line(exc),
     )
@@ -542,7 +544,7 @@ def _finish(
         joint_angle=qpos[:, built.joint_qpos],
         target=built.target,
     )
-    fitness, status = _worst(fitness_fn.maximise), "unstable"
+    fitness, status = worst_fitness(fitness_fn.maximise), "unstable"
     error = "physics became unstable (MuJoCo warning or non-finite state)"
     if stable:
         value = _score(task.fitness, fitness_fn, task.fitness_options, record)

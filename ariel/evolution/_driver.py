@@ -49,7 +49,9 @@ class Plugins:
     @property
     def worst(self) -> float:
         """The fitness of an evaluation that failed (as the engine gives it)."""
-        return -math.inf if self.maximise else math.inf
+        from ariel.evaluation._engine import worst_fitness
+
+        return worst_fitness(self.maximise)
 
 
 class RunRecords(Protocol):
