@@ -509,7 +509,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--generation",
         type=_generation,
         metavar="G",
-        help="generation G: its evaluations.rrd and its elites' 3D replays",
+        help="every evaluation of generation G (its evaluations.rrd)",
     )
     p.add_argument(
         "--web",

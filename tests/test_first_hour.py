@@ -66,14 +66,7 @@ def test_every_printed_command_works_in_a_fresh_shell(printed_run) -> None:
             command = f"{shlex.split(command)[0]} view --help"
         if shlex.split(command)[1] == "report":
             command += " --no-render"  # the rendered image is the report's business, not ours
-        done = subprocess.run(
-            ["/bin/sh", "-c", command],
-            cwd=root,
-            env=_fresh_shell_env(),
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
+        done = _pasted(command, root)
         assert done.returncode == 0, f"{command}\n{done.stderr[-2000:]}"
         if "load_run" in command:  # the generations, with best_fitness shown, not behind "..."
             header = done.stdout.splitlines()[0].split()

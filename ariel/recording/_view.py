@@ -591,22 +591,23 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
     grpc = _any_free_port({web_port})
     taken: list[str] = []
     scratch = tempfile.mkdtemp(prefix="ariel-screenshot-")  # the browser profile, the layout
-    # The run's (or campaign's) layout with the side panels collapsed: the picture shows the
-    # views.
-    if (selection.run_dir / "campaign.json").is_file():
+    # The layout of what is shown (a generation's recording, a campaign, a run) with the side
+    # panels collapsed: the picture shows the views.
+    if selection.more_layouts:
+        from ariel.recording._generation_rrd import write_generation_blueprint
+
+        shared = write_generation_blueprint(Path(scratch) / "generation.rbl", panels=False)
+        selection = dataclasses.replace(selection, more_layouts=(shared,))
+    elif (selection.run_dir / "campaign.json").is_file():
         from ariel.recording._campaign_rerun import write_campaign_blueprint
 
         layout = write_campaign_blueprint(
             Path(scratch) / "views.rbl", selection.run_dir, panels=False
         )
+        selection = dataclasses.replace(selection, blueprint=layout)
     else:
         layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
-    selection = dataclasses.replace(selection, blueprint=layout)
-    if selection.more_layouts:  # a generation's recording: its own layout, panels collapsed
-        from ariel.recording._generation_rrd import write_generation_blueprint
-
-        shared = write_generation_blueprint(Path(scratch) / "generation.rbl", panels=False)
-        selection = dataclasses.replace(selection, more_layouts=(shared,))
+        selection = dataclasses.replace(selection, blueprint=layout)
 
     def capture(proc: subprocess.Popen[bytes]) -> None:
         try:
