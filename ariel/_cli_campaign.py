@@ -149,29 +149,56 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_compare(args: argparse.Namespace) -> int:
-    from ariel.recording import NotARunError
-    from ariel.recording._compare import CompareError, compare
-    from ariel.recording._compare_html import STATS_COLUMNS, format_stats
-
-    try:
-        comparison = compare(args.paths, out=args.out)
-    except (CompareError, NotARunError) as exc:
-        return _fail(str(exc))
+def _print_frame(frame: Any, title: str) -> None:
+    """A table of text (a `Comparison` table) with rich, as wide as it needs."""
     from rich.console import Console
     from rich.table import Table
 
+    table = Table(title=title)
+    for heading in frame.columns:
+        table.add_column(str(heading))
+    for row in frame.itertuples(index=False):
+        table.add_row(*(str(cell) for cell in row))
+    Console(width=max(160, Console().width)).print(table)
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from ariel.recording import NotARunError
+    from ariel.recording._compare import CompareError, compare
+
+    try:
+        comparison = compare(args.paths, out=args.out, at_evaluations=args.at_evaluations)
+    except (CompareError, NotARunError) as exc:
+        return _fail(str(exc))
     direction = "higher" if comparison.maximise else "lower"
-    table = Table(title=f"{comparison.title}: {comparison.fitness_fn}, {direction} is better")
-    for heading in STATS_COLUMNS.values():
-        table.add_column(heading)
-    for row in format_stats(comparison.stats):
-        table.add_row(*row)
-    Console(width=max(140, Console().width)).print(table)
+    about = f"{comparison.title}: {comparison.fitness_fn}, {direction} is better"
+    print(
+        f"compared at {comparison.budget:,} evaluations per run; tests: "
+        f"{comparison.tests.describe()}"
+    )
+    _print_frame(comparison.summary_table(), f"{about}: per condition")
+    _print_frame(comparison.table(), f"{about}: pairs of conditions")
+    if len(comparison.omnibus):
+        _print_frame(comparison.omnibus_table(), f"{about}: all conditions")
+    for note in comparison.notes:
+        print(f"warning: {note}")
     counts = comparison.runs.groupby("condition", sort=False).size()
     print("runs: " + ", ".join(f"{name} {n}" for name, n in counts.items()))
-    print(f"wrote {comparison.out}/ (open {comparison.html})")
+    print(
+        f"wrote {comparison.out}/ (open {comparison.html}; what was compared: {comparison.readme})"
+    )
     return 0
+
+
+def _evaluations(text: str) -> int:
+    """``--at-evaluations``: a whole number >= 1 (argparse's one-line error otherwise)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, not {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, not {value}")
+    return value
 
 
 def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None]) -> None:
@@ -210,4 +237,11 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
         "paths", nargs="+", type=Path, metavar="DIR", help="a campaign folder, or run folders"
     )
     p.add_argument("--out", metavar="DIR", help="output folder (default: CAMPAIGN_DIR/compare)")
+    p.add_argument(
+        "--at-evaluations",
+        type=_evaluations,
+        metavar="N",
+        help="compare every run after its first N evaluations (default: as many as the "
+        "shortest run made)",
+    )
     p.set_defaults(func=_cmd_compare)

@@ -2,7 +2,8 @@
 
 ```
 <campaign>/
-  campaign.json                     conditions, seeds, each run's path and config, status
+  campaign.json                     conditions, seeds and seeding, each run's path and config,
+                                    status
   campaign.rrd                      best-so-far fitness of every run (Rerun)
   runs/condition=<name>/seed=<n>/   a run folder, like any other
   compare/                          what `ariel compare` writes
@@ -110,7 +111,18 @@ class Campaign:
 
     @property
     def seeds(self) -> list[int]:
+        """The seeds as the campaign file gave them (a condition's own: `seeds_of`)."""
         return list(self.info.get("seeds", []))
+
+    @property
+    def seeding(self) -> str:
+        """``"shared"`` (every condition runs the same seeds: common random numbers) or
+        ``"independent"``; a campaign.json from before the key was recorded shared them."""
+        return str(self.info.get("seeding", "shared"))
+
+    def seeds_of(self, condition: str) -> list[int]:
+        """The seeds of ``condition``'s runs, as campaign.json lists them."""
+        return [int(r["seed"]) for r in self.info.get("runs", []) if r["condition"] == condition]
 
     @cached_property
     def maximise(self) -> bool:

@@ -1,55 +1,100 @@
 """`ariel compare`: conditions of a campaign (or plain run folders grouped by how their configs
 differ) compared with statistics; writes ``compare/`` and returns a `Comparison`.
 
+Every run is compared at one budget of evaluations (the smallest any run made, or
+``at_evaluations``), on two measures: its best fitness after that many evaluations (``final
+best``) and the mean of its best-so-far fitness over evaluations 1..N (``AUC``, the area under
+the best-so-far curve / N, in the fitness's unit: an anytime measure). The tests follow the
+design (`_compare_stats`); runs measured differently are refused (`_compare_design`).
+
 ``compare/`` holds ``best_so_far.png``, ``final_best.png``, ``morphology.png`` (co-evolution
-runs), ``stats.csv`` / ``stats.md`` (one row per pair of conditions, see `_compare_stats`),
-``runs.csv`` (each run's final best) and ``compare.html``, one self-contained page with the
-figures embedded. The fitness direction comes from the runs' records.
+runs), ``stats.csv`` (one row per measure and pair of conditions), ``summary.csv`` (one row per
+condition), ``omnibus.csv`` (more than two conditions), ``runs.csv`` (each run's values),
+``stats.md`` (the tables), ``README.md`` (what was compared, the warnings, the tables) and
+``compare.html``, one self-contained page with the figures embedded. The fitness direction
+comes from the runs' records.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ariel.recording._campaign import fitness_maximise, is_campaign, load_campaign
-from ariel.recording._compare_stats import median_band, pairwise_table
+from ariel.recording._compare_design import (
+    MEASURES,
+    QD_COLUMNS,
+    CompareError,
+    Source,
+    check_comparable,
+    common_budget,
+    condition_settings,
+    describe,
+    first_evaluations,
+    shared_settings,
+)
+from ariel.recording._compare_stats import (
+    Design,
+    Sample,
+    location,
+    median_band,
+    omnibus_test,
+    pairing_notes,
+    pairwise_table,
+    small_n_warning,
+)
 from ariel.recording._curves import best_so_far, on_grid
 from ariel.recording._load import Run, load_run
 
-__all__ = ["CompareError", "Comparison", "RunCurve", "compare", "compare_runs"]
+__all__ = [
+    "MEASURES",
+    "QD_COLUMNS",
+    "CompareError",
+    "Comparison",
+    "RunCurve",
+    "compare",
+    "compare_runs",
+]
 
 GRID_POINTS = 200
 MORPHOLOGY_BINS = 20
 
 
-class CompareError(ValueError):
-    """Runs that cannot be compared (none, different fitness functions, ...): one line."""
-
-
 @dataclass
 class RunCurve:
     """One run's part of a comparison: its condition, seed, and evaluations table (``fitness``,
-    ``status``, ``generation``, ``eval_id``, descriptor columns)."""
+    ``status``, ``generation``, ``eval_id``, descriptor columns); ``info``: its run.json (for
+    software and commit); ``generations``: its per-generation QD columns (``generation`` and
+    any of `QD_COLUMNS`), or None."""
 
     condition: str
     seed: int
     evaluations: Any
     path: str = ""
+    info: dict[str, Any] = field(default_factory=dict)
+    generations: Any = None
 
 
 @dataclass
 class Comparison:
-    """What `compare` found and wrote (``stats`` and ``runs``: pandas DataFrames)."""
+    """What `compare` found (and wrote, unless ``write=False``).
 
-    out: Path
+    ``stats``: one row per measure and pair of conditions (`_compare_stats.pairwise_table`);
+    ``summary``: one row per condition (runs, median / mean / sd of each measure, QD medians);
+    ``omnibus``: one row per measure for more than two conditions; ``runs``: one row per run.
+    ``budget``: the evaluations every run was compared at; ``tests``: which tests and why;
+    ``notes``: warnings the reader must see (small n, unequal budgets, missing pairs);
+    ``about``: what was compared, (label, text) lines; ``settings``: the config values every
+    run shares. `table`, `summary_table` and `omnibus_table` give the tables as printed.
+    """
+
+    out: Path | None
     title: str
     maximise: bool
     fitness_fn: str
@@ -58,6 +103,32 @@ class Comparison:
     stats: Any
     figures: dict[str, Path] = field(default_factory=dict)
     html: Path | None = None
+    summary: Any = None
+    omnibus: Any = None
+    budget: int = 0
+    tests: Design = field(default_factory=lambda: Design(False))
+    notes: list[str] = field(default_factory=list)
+    about: list[tuple[str, str]] = field(default_factory=list)
+    settings: dict[str, str] = field(default_factory=dict)
+    readme: Path | None = None
+
+    def table(self) -> Any:
+        """The pairwise statistics as `ariel compare` prints them (a DataFrame of text)."""
+        from ariel.recording._compare_html import stats_frame
+
+        return stats_frame(self)
+
+    def summary_table(self) -> Any:
+        """Per condition (columns): runs, median and mean ± sd of each measure, QD medians."""
+        from ariel.recording._compare_html import summary_frame
+
+        return summary_frame(self)
+
+    def omnibus_table(self) -> Any:
+        """The omnibus test per measure (more than two conditions; else no rows)."""
+        from ariel.recording._compare_html import omnibus_frame
+
+        return omnibus_frame(self)
 
 
 # --------------------------------------------------------------------------------------------
@@ -65,41 +136,47 @@ class Comparison:
 # --------------------------------------------------------------------------------------------
 
 
-def _campaign_runs(path: Path) -> tuple[str, list[tuple[RunCurve, Run]]]:
+def _qd_generations(run: Run) -> Any:
+    """The run's per-generation QD columns (MAP-Elites runs), or None."""
+    if not len(run.archive):
+        return None
+    generations = run.generations
+    columns = [c for c in QD_COLUMNS if c in generations.columns]
+    return generations[["generation", *columns]] if columns else None
+
+
+def _curve(condition: str, seed: int, run: Run) -> RunCurve:
+    return RunCurve(condition, seed, run.evaluations, str(run.path), run.info, _qd_generations(run))
+
+
+def _overrides(changes: dict[str, Any]) -> str:
+    import json
+
+    return ", ".join(f"{k} = {json.dumps(v)}" for k, v in changes.items())
+
+
+def _campaign_runs(path: Path) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
+    """(title, source, whether the conditions share seeds, the runs) of a campaign folder."""
     campaign = load_campaign(path)
-    found = [
-        (RunCurve(condition, seed, run.evaluations, str(run.path)), run)
-        for (condition, seed), run in campaign.runs.items()
-    ]
-    return str(campaign.info.get("campaign_id", path.name)), found
+    info = campaign.info
+    seeding = campaign.seeding
+    found = [(_curve(c, seed, run), run) for (c, seed), run in campaign.runs.items()]
+    base = info.get("base")
+    source = Source(
+        what=f"campaign {info.get('campaign_id', path.name)} ({path}), "
+        f"{len(found)} runs, seeding = {seeding!r}",
+        overrides={c["name"]: _overrides(c.get("set", {})) for c in info.get("conditions", [])},
+        base=f"{base} (from the campaign file {info.get('file', '?')})"
+        if base
+        else f"the base of the campaign file {info.get('file', '?')}",
+    )
+    return str(info.get("campaign_id", path.name)), source, seeding == "shared", found
 
 
-def _flat(config: dict[str, Any], prefix: str = "") -> dict[str, str]:
-    flat: dict[str, str] = {}
-    for key, value in config.items():
-        if isinstance(value, dict) and not key.endswith("options"):
-            flat.update(_flat(value, f"{prefix}{key}."))
-        else:
-            flat[f"{prefix}{key}"] = json.dumps(value, sort_keys=True)
-    return flat
-
-
-_NOT_A_CONDITION = ("seed", "name", "description")
-
-
-def _folder_runs(paths: Sequence[Path]) -> tuple[str, list[tuple[RunCurve, Run]]]:
+def _folder_runs(paths: Sequence[Path]) -> tuple[str, Source, list[tuple[RunCurve, Run]]]:
     """Plain run folders, each condition named by the config values that tell it apart."""
     runs = [load_run(p) for p in paths]
-    flats = []
-    for run in runs:
-        flat = _flat(run.config)
-        flats.append(
-            {
-                k: v
-                for k, v in flat.items()
-                if k not in _NOT_A_CONDITION and not k.startswith("executor.")
-            }
-        )
+    flats = [condition_settings(run.config) for run in runs]
     keys = sorted({k for f in flats for k in f})
     differing = [k for k in keys if len({f.get(k) for f in flats}) > 1]
     found = []
@@ -108,21 +185,20 @@ def _folder_runs(paths: Sequence[Path]) -> tuple[str, list[tuple[RunCurve, Run]]
             run.config.get("name", "runs")
         )
         seed = int(run.info.get("seed", run.config.get("seed", 0)))
-        found.append((RunCurve(name, seed, run.evaluations, str(run.path)), run))
-    return f"{len(runs)} runs", found
+        found.append((_curve(name, seed, run), run))
+    source = Source(
+        what=f"{len(runs)} run folders: {', '.join(str(p) for p in paths)}",
+        base="none: plain run folders, each condition named by the config values that differ",
+    )
+    return f"{len(runs)} runs", source, found
 
 
 def _direction(runs: Sequence[Run]) -> tuple[bool, str]:
-    names = {str(r.config.get("task", {}).get("fitness", "?")) for r in runs}
-    if len(names) > 1:
-        raise CompareError(
-            f"the runs use different fitness functions ({', '.join(sorted(names))}); "
-            "compare runs of one fitness function"
-        )
+    """(whether the fitness is maximised, its name), of runs `check_comparable` let through."""
     directions = {fitness_maximise(r.info) for r in runs}
     if len(directions) > 1:
         raise CompareError("the runs disagree on the fitness direction (maximise in run.json)")
-    return directions.pop(), names.pop()
+    return directions.pop(), str(runs[0].config.get("task", {}).get("fitness", "?"))
 
 
 # --------------------------------------------------------------------------------------------
@@ -137,26 +213,100 @@ def _by_condition(curves: Sequence[RunCurve]) -> dict[str, list[RunCurve]]:
     return grouped
 
 
-def _best_curves(grouped: dict[str, list[RunCurve]], maximise: bool) -> tuple[dict, dict]:
-    """Per condition: (grid, median, low, high) of best so far, and each run's final best."""
-    curves, finals = {}, {}
+def _best_curves(grouped: dict[str, list[RunCurve]], maximise: bool, budget: int) -> dict:
+    """Per condition: (grid, median, low, high) of best so far over evaluations 1..budget."""
+    grid = np.unique(np.linspace(1, max(budget, 1), GRID_POINTS).round().astype(np.int64))
+    curves = {}
     for name, runs in grouped.items():
-        steps = [best_so_far(r.evaluations, maximise) for r in runs]
-        longest = max((len(x) for x, _ in steps), default=0)
-        grid = np.unique(np.linspace(1, max(longest, 1), GRID_POINTS).round().astype(np.int64))
-        values = np.array([_held(on_grid(x, best, grid)) for x, best in steps])
+        values = np.array([on_grid(*best_so_far(r.evaluations, maximise), grid) for r in runs])
         curves[name] = (grid, *median_band(values))
-        finals[name] = np.array([best[-1] for _, best in steps if len(best)], dtype=np.float64)
-        finals[name] = finals[name][np.isfinite(finals[name])]
-    return curves, finals
+    return curves
 
 
-def _held(values: np.ndarray) -> np.ndarray:
-    """A run's last value held to the end of the grid (its condition's longest run)."""
-    finite = np.flatnonzero(np.isfinite(values))
-    if len(finite):
-        values[finite[-1] + 1 :] = values[finite[-1]]
-    return values
+def _measures(curve: RunCurve, maximise: bool, budget: int) -> dict[str, float]:
+    """A run's best so far after ``budget`` evaluations and the mean of its best so far over
+    evaluations 1..budget (from its first finished evaluation on); NaN without one."""
+    _, best = best_so_far(curve.evaluations, maximise)
+    best = best[:budget]
+    final = float(best[-1]) if len(best) == budget else math.nan
+    finite = best[np.isfinite(best)]
+    return {"final_best": final, "auc": float(finite.mean()) if len(finite) else math.nan}
+
+
+def _qd_at_budget(curve: RunCurve, budget: int) -> dict[str, float]:
+    """The run's QD columns at its last generation wholly within its first ``budget``
+    evaluations (empty without QD columns or such a generation)."""
+    if curve.generations is None or not len(curve.generations):
+        return {}
+    counts = curve.evaluations["generation"].value_counts()
+    within = first_evaluations(curve.evaluations, budget)["generation"].value_counts()
+    whole = [g for g, n in within.items() if counts.get(g) == n]
+    rows = curve.generations[curve.generations["generation"].isin(whole)]
+    if not len(rows):
+        return {}
+    last = rows.sort_values("generation").iloc[-1]
+    return {c: float(last[c]) for c in QD_COLUMNS if c in rows.columns}
+
+
+def _run_rows(
+    curves: Sequence[RunCurve], truncated: Sequence[RunCurve], maximise: bool, budget: int
+) -> list[dict[str, Any]]:
+    return [
+        {
+            "condition": whole.condition,
+            "seed": whole.seed,
+            "evaluations": len(whole.evaluations),
+            "compared_at": budget,
+            **_measures(cut, maximise, budget),
+            **_qd_at_budget(whole, budget),
+            "path": whole.path,
+        }
+        for whole, cut in zip(curves, truncated)
+    ]
+
+
+def _samples(runs: Any, column: str) -> dict[str, Sample]:
+    return {
+        name: Sample.of(group[column].to_numpy(dtype=np.float64), group["seed"].tolist())
+        for name, group in runs.groupby("condition", sort=False)
+    }
+
+
+def _summary(runs: Any) -> Any:
+    """One row per condition: runs, then median / mean / sd of each measure, QD medians."""
+    import pandas as pd
+
+    rows = []
+    for name, group in runs.groupby("condition", sort=False):
+        row: dict[str, Any] = {"condition": name, "runs": len(group)}
+        for column in MEASURES.values():
+            for key, value in location(group[column].to_numpy(dtype=np.float64)).items():
+                row[f"{column}_{key}"] = value
+        for column in QD_COLUMNS:
+            if column in group:
+                row[f"{column}_median"] = float(group[column].median())
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _statistics(
+    runs: Any, maximise: bool, choice: Design
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[str]]:
+    """(pairwise rows of every measure, omnibus rows, notes on small n and missing pairs)."""
+    rows, omnibus = [], []
+    for measure, column in MEASURES.items():
+        samples = _samples(runs, column)
+        rows += pairwise_table(samples, maximise=maximise, paired=choice.paired, measure=measure)
+        found = omnibus_test(samples, paired=choice.paired, measure=measure)
+        if found is not None:
+            omnibus.append(found)
+    first = [r for r in rows if r["measure"] == "final best"]
+    sizes = runs.groupby("condition", sort=False).size().to_dict()
+    notes = [
+        small_n_warning(first, sizes, choice, omnibus[0] if omnibus else None),
+        *pairing_notes(first),
+    ]
+    return rows, omnibus, [n for n in notes if n]
 
 
 def _morphology(grouped: dict[str, list[RunCurve]]) -> dict[str, dict[str, tuple]]:
@@ -201,84 +351,143 @@ def _bin_means(evaluations: Any, descriptor: str, edges: np.ndarray) -> np.ndarr
 # --------------------------------------------------------------------------------------------
 
 
-def compare_runs(
-    curves: Sequence[RunCurve],
-    out: str | Path,
-    *,
-    maximise: bool,
-    fitness_fn: str = "fitness",
-    title: str = "comparison",
-) -> Comparison:
-    """Compare ``curves`` (runs with their conditions) and write ``out`` (see the module
-    docstring); the core of `compare`, usable on any evaluations tables."""
+def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path) -> None:
+    """The figures, tables and pages of ``comparison`` into ``out``."""
     import pandas as pd
 
     from ariel.recording import _compare_plots as plots
     from ariel.recording._axes import fitness_label
-    from ariel.recording._compare_html import write_html, write_markdown
+    from ariel.recording._compare_html import write_html, write_markdown, write_readme
 
-    grouped = _by_condition(curves)
-    if not grouped:
-        raise CompareError("no run with a finished generation to compare")
-    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    ylabel = fitness_label(fitness_fn, maximise, what="best fitness")
-    best, finals = _best_curves(grouped, maximise)
-    stats = pd.DataFrame(pairwise_table(finals, maximise=maximise))
-    runs = pd.DataFrame(
-        [
-            {
-                "condition": c.condition,
-                "seed": c.seed,
-                "evaluations": len(c.evaluations),
-                "final_best": best_so_far(c.evaluations, maximise)[1][-1]
-                if len(c.evaluations)
-                else math.nan,
-                "path": c.path,
-            }
-            for c in curves
-        ]
-    )
-    figures = {
+    ylabel = fitness_label(comparison.fitness_fn, comparison.maximise, what="best fitness")
+    finals = {name: s.values for name, s in _samples(comparison.runs, "final_best").items()}
+    best = _best_curves(grouped, comparison.maximise, comparison.budget)
+    comparison.figures = {
         "best_so_far": plots.best_so_far_figure(best, out / "best_so_far.png", ylabel=ylabel),
         "final_best": plots.final_best_figure(finals, out / "final_best.png", ylabel=ylabel),
     }
     morphology = _morphology(grouped)
     if morphology:
-        figures["morphology"] = plots.morphology_figure(morphology, out / "morphology.png")
-    stats.to_csv(out / "stats.csv", index=False)
-    runs.to_csv(out / "runs.csv", index=False)
-    comparison = Comparison(
-        out, title, maximise, fitness_fn, list(grouped), runs, stats, figures, None
-    )
+        comparison.figures["morphology"] = plots.morphology_figure(
+            morphology, out / "morphology.png"
+        )
+    comparison.stats.to_csv(out / "stats.csv", index=False)
+    comparison.summary.to_csv(out / "summary.csv", index=False)
+    if len(comparison.omnibus):
+        pd.DataFrame(comparison.omnibus).to_csv(out / "omnibus.csv", index=False)
+    comparison.runs.to_csv(out / "runs.csv", index=False)
     write_markdown(comparison, out / "stats.md")
+    comparison.readme = write_readme(comparison, out / "README.md")
     comparison.html = write_html(comparison, out / "compare.html")
+
+
+def compare_runs(
+    curves: Sequence[RunCurve],
+    out: str | Path | None,
+    *,
+    maximise: bool,
+    fitness_fn: str = "fitness",
+    title: str = "comparison",
+    paired: bool = False,
+    reason: str = "",
+    at_evaluations: int | None = None,
+    source: Source | None = None,
+    write: bool = True,
+) -> Comparison:
+    """Compare ``curves`` (runs with their conditions) and write ``out`` (see the module
+    docstring; nothing is written where ``write`` is false); the core of `compare`, usable
+    on any evaluations tables. ``paired``: the conditions share seeds (paired tests; why:
+    ``reason``); ``at_evaluations``: the budget (default: the smallest run's)."""
+    import pandas as pd
+
+    if not curves:
+        raise CompareError("no run with a finished generation to compare")
+    totals = {f"{c.condition} seed {c.seed}": len(c.evaluations) for c in curves}
+    budget, budget_note = common_budget(totals, at_evaluations)
+    truncated = [replace(c, evaluations=first_evaluations(c.evaluations, budget)) for c in curves]
+    runs = pd.DataFrame(_run_rows(curves, truncated, maximise, budget))
+    choice = Design(paired, reason or ("the conditions share seeds" if paired else ""))
+    rows, omnibus, notes = _statistics(runs, maximise, choice)
+    grouped = _by_condition(truncated)
+    comparison = Comparison(
+        out=Path(out) if out is not None else None,
+        title=title,
+        maximise=maximise,
+        fitness_fn=fitness_fn,
+        conditions=list(grouped),
+        runs=runs,
+        stats=pd.DataFrame(rows),
+        summary=_summary(runs),
+        omnibus=pd.DataFrame(omnibus),
+        budget=budget,
+        tests=choice,
+        notes=[n for n in (budget_note, *notes) if n],
+        about=describe(
+            source or Source(),
+            seeds={name: [c.seed for c in group] for name, group in grouped.items()},
+            totals={
+                name: [len(c.evaluations) for c in curves if c.condition == name]
+                for name in grouped
+            },
+            budget=budget,
+            tests=choice.describe(),
+            paired=paired,
+            infos=[c.info for c in curves],
+        ),
+        settings=shared_settings([c.info.get("config", {}) for c in curves]),
+    )
+    if write and comparison.out is not None:
+        _write(comparison, grouped, comparison.out)
     return comparison
 
 
-def compare(paths: Sequence[str | Path], *, out: str | Path | None = None) -> Comparison:
+_REASONS = {
+    "shared": "the conditions share seeds (seeding = 'shared': common random numbers, "
+    "generation 0 is the same in every condition), so their runs are paired by seed",
+    "independent": "each condition has its own seeds (seeding = 'independent'): "
+    "independent samples",
+    "folders": "plain run folders have no campaign design: independent samples",
+}
+
+
+def compare(
+    paths: Sequence[str | Path],
+    *,
+    out: str | Path | None = None,
+    at_evaluations: int | None = None,
+    write: bool = True,
+) -> Comparison:
     """Compare a campaign's conditions (one campaign folder) or plain run folders (grouped by
     their config difference). ``out``: default ``CAMPAIGN_DIR/compare``, or ``compare`` in
-    the run folders' common parent."""
+    the run folders' common parent; ``at_evaluations``: compare every run after its first N
+    evaluations (default: as many as the shortest run made); ``write=False``: compute only
+    (a notebook's table), write nothing."""
     import os
 
     paths = [Path(p) for p in paths]
     if not paths:
         raise CompareError("give a campaign folder or run folders to compare")
     if len(paths) == 1 and is_campaign(paths[0]):
-        title, found = _campaign_runs(paths[0])
+        title, source, paired, found = _campaign_runs(paths[0])
+        reason = _REASONS["shared" if paired else "independent"]
         default = paths[0] / "compare"
+        labels = [f"condition {c.condition} seed {c.seed}" for c, _ in found]
     else:
         campaigns = [p for p in paths if is_campaign(p)]
         if campaigns:
             raise CompareError(
                 f"{str(campaigns[0])!r} is a campaign: compare one campaign alone, or run folders"
             )
-        title, found = _folder_runs(paths)
+        title, source, found = _folder_runs(paths)
+        paired, reason = False, _REASONS["folders"]
         default = Path(os.path.commonpath([p.resolve() for p in paths])) / "compare"
-    found = [(c, r) for c, r in found if r.generations_done > 0]
-    if not found:
+        labels = [c.path for c, _ in found]
+    done = [i for i, (_, run) in enumerate(found) if run.generations_done > 0]
+    if not done:
         raise CompareError("no run with a finished generation to compare")
+    found = [found[i] for i in done]
+    check_comparable([(labels[i], found[j][1].config) for j, i in enumerate(done)])
     maximise, fitness_fn = _direction([r for _, r in found])
     return compare_runs(
         [c for c, _ in found],
@@ -286,4 +495,9 @@ def compare(paths: Sequence[str | Path], *, out: str | Path | None = None) -> Co
         maximise=maximise,
         fitness_fn=fitness_fn,
         title=title,
+        paired=paired,
+        reason=reason,
+        at_evaluations=at_evaluations,
+        source=source,
+        write=write,
     )

@@ -1,6 +1,7 @@
 """The figures of `ariel compare`: best so far against evaluations (median and 95 % bootstrap
-band per condition), final best per condition (box plot with every seed's point), and the
-bodies' morphology descriptors over evaluations per condition. Matplotlib (Agg), PNG files.
+band per condition, each band in the legend; the y axis spans the data, not from 0), final
+best per condition (box plot with every seed's point), and the bodies' morphology descriptors
+over evaluations per condition. Matplotlib (Agg), PNG files.
 """
 
 from __future__ import annotations
@@ -13,11 +14,18 @@ import numpy as np
 
 from ariel.recording._axes import DESCRIPTORS, integer_ticks
 
-__all__ = ["MORPHOLOGY", "best_so_far_figure", "final_best_figure", "morphology_figure"]
+__all__ = [
+    "MORPHOLOGY",
+    "best_so_far_figure",
+    "data_limits",
+    "final_best_figure",
+    "morphology_figure",
+]
 
 #: Descriptors drawn over evaluations (those a reader of a co-evolution paper looks for).
 MORPHOLOGY = ("num_modules", "num_limbs", "joints_ratio", "symmetry")
 _DPI = 110
+_BAND_ALPHA = 0.2
 
 
 def _pyplot() -> Any:
@@ -48,19 +56,39 @@ def best_so_far_figure(
     ylabel: str,
 ) -> Path:
     """``curves``: condition -> (evaluations grid, median, band low, band high)."""
+    from matplotlib.patches import Patch
+
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
     colours = _colours(list(curves))
+    handles = []
     for name, (grid, median, low, high) in curves.items():
-        axes.plot(grid, median, color=colours[name], label=name, linewidth=1.8)
-        axes.fill_between(grid, low, high, color=colours[name], alpha=0.2, linewidth=0)
+        (line,) = axes.plot(grid, median, color=colours[name], label=name, linewidth=1.8)
+        axes.fill_between(grid, low, high, color=colours[name], alpha=_BAND_ALPHA, linewidth=0)
+        band = Patch(facecolor=colours[name], alpha=_BAND_ALPHA, label=f"{name}: 95 % CI")
+        handles += [line, band]
+    limits = data_limits([v for _, *lines in curves.values() for v in lines])
+    if limits is not None:
+        axes.set_ylim(*limits)
     axes.set_xlabel("evaluations")
     integer_ticks(axes.xaxis)
     axes.set_ylabel(ylabel)
     axes.set_title("best so far: median of the seeds, 95 % bootstrap band")
     axes.grid(alpha=0.3)
-    axes.legend(loc="best", fontsize="small")
+    axes.legend(handles=handles, loc="best", fontsize="small")
     return _save(figure, path)
+
+
+def data_limits(series: Sequence[np.ndarray], margin: float = 0.05) -> tuple[float, float] | None:
+    """The y range of the finite values of ``series``, widened by ``margin`` of it on each
+    side (an axis that starts where the data starts, not at 0); None without a value."""
+    values = np.concatenate([np.asarray(s, dtype=np.float64).ravel() for s in series] or [[]])
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return None
+    low, high = float(values.min()), float(values.max())
+    pad = margin * (high - low) or margin * max(abs(high), 1e-9)
+    return low - pad, high + pad
 
 
 def final_best_figure(finals: Mapping[str, np.ndarray], path: Path, *, ylabel: str) -> Path:

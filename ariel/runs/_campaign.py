@@ -160,9 +160,17 @@ def _campaign_info(
         "name": spec.name,
         "description": spec.description,
         "file": file_name,
+        "base": spec.base_name,
         "seeds": spec.seeds,
+        "seeding": spec.seeding,
         "conditions": [
-            {"name": c.name, "set": c.set, "description": c.description} for c in spec.conditions
+            {
+                "name": c.name,
+                "set": c.set,
+                "description": c.description,
+                "seeds": spec.seeds_of(c.name),
+            }
+            for c in spec.conditions
         ],
         "runs": [
             {

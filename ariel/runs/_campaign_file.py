@@ -5,6 +5,7 @@ grid), validated into one experiment config per condition and seed.
 name = "inheritance"
 base = "../coevolve_flat.toml"      # a path relative to this file, or an inline [base] table
 seeds = [1, 2, 3, 4, 5]             # or: seed_count = 5 (seeds 1..5)
+seeding = "shared"                  # or "independent" (below)
 set = { generations = 6 }           # overrides for every condition
 
 [[condition]]
@@ -17,6 +18,12 @@ set = { "brain.inherit" = true }
 
 Conditions and a grid together give every condition crossed with every grid point. Every
 problem is a `ConfigError`: one line naming the key, what was given and what is allowed.
+
+``seeding``: ``"shared"`` (the default): every condition runs the seeds as given (common random
+numbers: generation 0 is the same in every condition, and `ariel compare` pairs the runs by
+seed); ``"independent"``: condition i (0, 1, ... in the order of the campaign's conditions)
+runs each seed + i x (max(seeds) - min(seeds) + 1), so no two conditions share a seed
+(`condition_seeds`) and `ariel compare` treats the conditions as independent samples.
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ariel.evolution._config import (
     ConfigError,
@@ -40,9 +47,11 @@ from ariel.evolution._config import (
     set_value,
 )
 
-__all__ = ["CampaignSpec", "Condition", "load_campaign_file"]
+__all__ = ["SEEDING", "CampaignSpec", "Condition", "condition_seeds", "load_campaign_file"]
 
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
+#: The values of a campaign's ``seeding`` (the first is the default).
+SEEDING = ("shared", "independent")
 
 
 class _ConditionEntry(BaseModel):
@@ -61,9 +70,18 @@ class _CampaignModel(BaseModel):
     base: str | dict[str, Any]
     seeds: list[int] | None = None
     seed_count: int | None = Field(None, ge=1)
+    seeding: str = SEEDING[0]
     set: dict[str, Any] = Field(default_factory=dict)
     condition: list[_ConditionEntry] = Field(default_factory=list)
     grid: dict[str, list[Any]] = Field(default_factory=dict)
+
+    @field_validator("seeding", mode="before")
+    @classmethod
+    def _known_seeding(cls, value: Any) -> Any:
+        if value not in SEEDING:
+            allowed = " or ".join(f'"{v}"' for v in SEEDING)
+            raise ValueError(f"must be {allowed}")
+        return value
 
     @model_validator(mode="after")
     def _one_seed_source(self) -> _CampaignModel:
@@ -83,14 +101,21 @@ class Condition:
 
 @dataclass(frozen=True)
 class CampaignSpec:
-    """A validated campaign: ``configs[(condition, seed)]`` is each run's experiment config."""
+    """A validated campaign: ``configs[(condition, seed)]`` is each run's experiment config
+    (``seed``: the condition's own, see `condition_seeds`)."""
 
     name: str
     description: str
     base: dict[str, Any]  # the base experiment's raw data, campaign-wide ``set`` applied
-    seeds: list[int]
+    seeds: list[int]  # as the file gives them
     conditions: list[Condition]
     configs: dict[tuple[str, int], ExperimentConfig]
+    seeding: str = SEEDING[0]
+    base_name: str = "inline"  # the base experiment file as the campaign names it, or inline
+
+    def seeds_of(self, condition: str) -> list[int]:
+        """The seeds ``condition`` runs."""
+        return [seed for name, seed in self.configs if name == condition]
 
 
 def _one_line(error: ValidationError) -> str:
@@ -190,6 +215,15 @@ def _seeds(model: _CampaignModel) -> list[int]:
     return seeds
 
 
+def condition_seeds(seeds: list[int], index: int, seeding: str) -> list[int]:
+    """The seeds of the ``index``-th condition (from 0): ``seeds`` where they are shared, else
+    each shifted by ``index`` x (max - min + 1), past every other condition's."""
+    if seeding == "shared":
+        return list(seeds)
+    span = max(seeds) - min(seeds) + 1
+    return [seed + index * span for seed in seeds]
+
+
 def campaign_spec(
     data: Mapping[str, Any], *, beside: Path | None = None, overrides: tuple[str, ...] = ()
 ) -> CampaignSpec:
@@ -206,15 +240,25 @@ def campaign_spec(
     base = apply_overrides(base, overrides)
     conditions = _conditions(model)
     configs: dict[tuple[str, int], ExperimentConfig] = {}
-    for condition in conditions:
+    for index, condition in enumerate(conditions):
         where = f"condition '{condition.name}'"
         raw = _apply(base, condition.set, where)
-        for seed in seeds:
+        for seed in condition_seeds(seeds, index, model.seeding):
             try:
                 configs[(condition.name, seed)] = load_config({**raw, "seed": seed})
             except ConfigError as exc:
                 raise ConfigError(f"{where}: {exc}") from None
-    return CampaignSpec(model.name, model.description, base, seeds, conditions, configs)
+    base_name = model.base if isinstance(model.base, str) else "inline"
+    return CampaignSpec(
+        model.name,
+        model.description,
+        base,
+        seeds,
+        conditions,
+        configs,
+        seeding=model.seeding,
+        base_name=base_name,
+    )
 
 
 def load_campaign_file(path: str | Path, overrides: tuple[str, ...] = ()) -> CampaignSpec:

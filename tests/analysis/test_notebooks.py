@@ -256,11 +256,15 @@ def test_compare_conditions_shows_the_comparison_of_compare_from_pandas(
         assert f"{run['final_best']:.4f}" in text
     (table,) = [
         o
-        for o in _cell_with(notebook, "mannwhitneyu(x, y").outputs
+        for o in _cell_with(notebook, "comparison.table()").outputs
         if o.output_type == "execute_result"
     ]
+    # The table the command prints (one function makes both): every cell, A12 with its n.
+    shown = table["data"]["text/plain"]
+    for row in comparison.table().itertuples(index=False):
+        assert all(str(cell) in shown for cell in row), (row, shown)
     a12 = comparison.stats.loc[0, "a12"]
-    assert re.search(rf"\bfresh\s+inherit\b.*\b{a12:g}\b", table["data"]["text/plain"])
+    assert f"{a12:.2f} (n=2 vs 2)" in shown and "warning: fewer than 5 runs" in text
     assert load_campaign(tiny_campaign).maximise
 
 

@@ -4,16 +4,22 @@ fitness's direction; identical conditions show none; the page embeds its figures
 from __future__ import annotations
 
 import base64
+import json
 import math
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from _helpers import exit_code, one_error_line
 
+from ariel.cli import main
+from ariel.recording import load_run
 from ariel.recording._compare import RunCurve, compare_runs
-from ariel.recording._compare_stats import a12, holm, pairwise_table
+from ariel.recording._compare_design import CompareError, check_comparable
+from ariel.recording._compare_stats import NOT_DETECTABLE, a12, holm, pairwise_table
 from ariel.recording._curves import best_so_far
 
 
@@ -83,8 +89,12 @@ def test_a_known_difference_is_found_in_the_fitness_direction(
         for s in range(10)
     ]
     result = compare_runs(high + low, tmp_path, maximise=maximise, title="synthetic")
-    (row,) = result.stats.to_dict("records")
+    final, auc = result.stats.to_dict("records")  # the final best, then the AUC
+    assert (final["measure"], auc["measure"]) == ("final best", "AUC")
+    assert auc["a12"] == final["a12"] and auc["p_holm"] < 1e-3  # the anytime measure agrees
+    row = final
     assert (row["a"], row["b"], row["n_a"], row["n_b"]) == ("high", "low", 10, 10)
+    assert row["test"] == "Mann-Whitney U" and row["n_pairs"] is None  # no design: unpaired
     assert row["p_holm"] < 1e-3  # 10 vs 10, fully separated: p = 1.8e-4
     if maximise:  # every "high" run beats every "low" run
         assert row["a12"] == 1.0 and row["better"] == "high"
@@ -104,9 +114,13 @@ def test_identical_conditions_show_no_difference(tmp_path: Path) -> None:
         for s in range(8)
     ]
     result = compare_runs(runs, tmp_path, maximise=True)
-    assert len(result.stats) == 3  # a-b, a-c, b-c
+    assert len(result.stats) == 6  # a-b, a-c, b-c: final best and AUC
     assert (result.stats["p_holm"] > 0.05).all() and (result.stats["better"] == "-").all()
     assert ((result.stats["a12"] - 0.5).abs() < 0.3).all()
+    assert (result.stats["effect"] != NOT_DETECTABLE).all()  # 8 vs 8 could detect one
+    # k = 3: the omnibus test of independent samples, for each measure
+    assert result.omnibus["test"].tolist() == ["Kruskal-Wallis", "Kruskal-Wallis"]
+    assert (result.omnibus["p_value"] > 0.05).all()
     same = pairwise_table({"x": finals[0], "y": finals[0].copy()}, maximise=True)[0]
     assert same["a12"] == 0.5 and same["p_value"] == 1.0 and same["difference"] == 0.0
 
@@ -124,7 +138,7 @@ def test_the_page_embeds_every_figure_and_the_tables_are_written(
         return save(figure, path)
 
     monkeypatch.setattr(_compare_plots, "_save", keep)
-    runs = [synthetic_run(c, s, 1.0 + s) for c in ("a", "b") for s in range(3)]
+    runs = [synthetic_run(c, s, 10.0 + s) for c in ("a", "b") for s in range(3)]
     result = compare_runs(
         runs, tmp_path / "compare", maximise=True, title="page", fitness_fn="xy_displacement"
     )
@@ -133,6 +147,12 @@ def test_the_page_embeds_every_figure_and_the_tables_are_written(
     (curves,) = drawn["best_so_far"].axes
     assert curves.get_ylabel() == "best fitness: xy_displacement (m), higher is better"
     assert all(float(t).is_integer() for t in curves.get_xticks())
+    # the y axis starts where the data starts (medians from about 2.4, bands lower), not at 0
+    lowest = min(np.nanmin(line.get_ydata()) for line in curves.get_lines())
+    assert 0.5 * lowest < curves.get_ylim()[0] < lowest
+    # ... and each condition's band has its own legend entry
+    legend = [t.get_text() for t in curves.get_legend().get_texts()]
+    assert legend == ["a", "a: 95 % CI", "b", "b: 95 % CI"]
     shapes = {a.get_title(): a for a in drawn["morphology"].axes if a.get_visible()}
     assert shapes["num_modules"].get_ylabel() == "modules"
     assert shapes["symmetry"].get_ylabel() == "score, 0 to 1"
@@ -145,7 +165,262 @@ def test_the_page_embeds_every_figure_and_the_tables_are_written(
     assert 'src="http' not in html and "href=" not in html  # nothing outside the page
     csv = pd.read_csv(tmp_path / "compare" / "stats.csv")
     assert csv.loc[0, "a"] == "a" and csv.loc[0, "n_a"] == 3
+    assert csv["measure"].tolist() == ["final best", "AUC"]
     markdown = (tmp_path / "compare" / "stats.md").read_text()
-    assert "| A | B |" in markdown and "| a | b | 3 | 3 |" in markdown
+    assert "| measure | A | B | median A (mean ± sd) |" in markdown
+    assert "| final best | a | b | 11 (11 ± 1) | 11 (11 ± 1) |" in markdown
+    assert "| 0.50 (n=3 vs 3) | — (n too small) | - |" in markdown  # no label from 3 vs 3
     runs_csv = pd.read_csv(tmp_path / "compare" / "runs.csv")
-    assert runs_csv["final_best"].tolist() == [1.0, 2.0, 3.0, 1.0, 2.0, 3.0]
+    assert runs_csv["final_best"].tolist() == [10.0, 11.0, 12.0, 10.0, 11.0, 12.0]
+    # what was compared, said on the page and in the README
+    readme = (tmp_path / "compare" / "README.md").read_text()
+    labels = [label for label, _ in result.about]
+    assert labels == [
+        "compared",
+        "conditions",
+        "budget",
+        "seeds",
+        "tests",
+        "software",
+        "git commit",
+    ]
+    for label, text in result.about:
+        assert f"- **{label}**: {text}" in readme
+        assert f"<th>{label}</th><td>{text}</td>" in html
+    assert "compared at 40 evaluations per run" in dict(result.about)["budget"]
+    assert "Mann-Whitney U" in dict(result.about)["tests"]
+    assert result.notes[0].startswith("fewer than 5 runs per condition (fewest: 3)")
+    assert result.notes[0] in readme and "Warnings" in html
+
+
+# --- one budget for all ------------------------------------------------------------------------
+
+
+def test_unequal_budgets_are_compared_at_the_smallest_common_one(tmp_path: Path) -> None:
+    """3 generations of 8 evaluations against 2: every run at 16 evaluations, its best so far
+    after its first 16 (the final best) and the mean of its best so far over 1..16 (AUC)."""
+    runs = [synthetic_run("long", s, 2.0 + s, evaluations=24) for s in range(3)]
+    runs += [synthetic_run("short", 10 + s, 1.0 + s, evaluations=16) for s in range(3)]
+    result = compare_runs(runs, tmp_path, maximise=True, write=False)
+    assert result.budget == 16 and not any(tmp_path.iterdir())  # write=False: no file
+    assert result.notes[0] == (
+        "the runs made 16 to 24 evaluations: compared at 16 evaluations per run (the smallest "
+        "common budget; choose another with --at-evaluations N)"
+    )
+    for run, row in zip(runs, result.runs.to_dict("records")):
+        _, best = best_so_far(run.evaluations, maximise=True)
+        assert row["final_best"] == best[15] and row["compared_at"] == 16
+        assert row["auc"] == pytest.approx(np.nanmean(best[:16]))
+        assert row["evaluations"] == len(run.evaluations)
+    long = result.runs[result.runs["condition"] == "long"]
+    assert (long["final_best"] < 2.0 + np.arange(3)).all()  # not their best of all 24
+
+    chosen = compare_runs(runs, tmp_path, maximise=True, at_evaluations=10, write=False)
+    assert chosen.budget == 10 and "compared at 10 evaluations per run" in chosen.notes[0]
+    for run, row in zip(runs, chosen.runs.to_dict("records")):
+        assert row["final_best"] == best_so_far(run.evaluations, maximise=True)[1][9]
+    with pytest.raises(CompareError, match="--at-evaluations 17 exceeds the 16 evaluations"):
+        compare_runs(runs, tmp_path, maximise=True, at_evaluations=17, write=False)
+
+
+def test_shared_seeds_are_paired_with_wilcoxon_and_friedman(tmp_path: Path) -> None:
+    runs = [
+        synthetic_run(name, s, 1.0 + s + 0.01 * i)  # the same seeds: the same curves + a shift
+        for i, name in enumerate(("a", "b", "c"))
+        for s in range(6)
+    ]
+    result = compare_runs(runs, tmp_path, maximise=True, paired=True, write=False)
+    assert set(result.stats["test"]) == {"Wilcoxon signed-rank"}
+    assert (result.stats["n_pairs"] == 6).all()
+    assert result.omnibus["test"].tolist() == ["Friedman", "Friedman"]
+    assert result.omnibus.loc[0, "n"] == 6
+    seeds = dict(result.about)["seeds"]
+    assert seeds.startswith("shared, common random numbers") and "0-5 in every condition" in seeds
+    table = result.table()
+    assert "A better (pairs)" in table.columns and table.loc[0, "A better (pairs)"] == "0 of 6"
+    assert table.loc[0, "test"] == "Wilcoxon signed-rank, 6 pairs"
+    assert list(result.omnibus_table()["test"]) == ["Friedman", "Friedman"]
+
+
+def test_qd_columns_are_shown_per_condition_where_the_runs_have_them(tmp_path: Path) -> None:
+    runs = [synthetic_run(c, s, 1.0 + s) for c in ("ga", "me") for s in range(2)]
+    plain = compare_runs(runs, tmp_path, maximise=True, write=False)
+    assert not any("qd_score" in label for label in plain.summary_table()[""])
+    for run in runs:  # 5 generations of 8; the archive fills up
+        if run.condition == "me":
+            run.generations = pd.DataFrame(
+                {"generation": range(5), "qd_score": [1.0, 2, 3, 4, 5], "coverage": 0.1}
+            )
+    result = compare_runs(runs, tmp_path, maximise=True, at_evaluations=20, write=False)
+    summary = result.summary_table().set_index("")
+    # at 20 evaluations, generation 1 (evaluations 9-16) is the last one wholly within them
+    assert (
+        summary.loc["qd_score: median", "me"] == "2"
+        and summary.loc["coverage: median", "me"] == "0.1"
+    )
+    assert summary.loc["qd_score: median", "ga"] == "-"
+
+
+# --- only runs measured the same way ------------------------------------------------------------
+
+CONFIG = {
+    "task": {"fitness": "xy_displacement", "options": {}, "duration": 8.0, "settle": 1.0},
+    "world": {"name": "flat", "options": {}},
+}
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [
+        ("task.fitness", "forward_speed"),
+        ("task.options", {"axis": "x"}),
+        ("task.duration", 15.0),
+        ("task.settle", 0.0),
+        ("world.name", "rugged"),
+        ("world.options", {"height": 0.1}),
+    ],
+)
+def test_runs_measured_differently_are_refused_in_one_line(key: str, value: object) -> None:
+    section, name = key.split(".")
+    other = {**CONFIG, section: {**CONFIG[section], name: value}}
+    with pytest.raises(CompareError) as refused:
+        check_comparable([("run a", CONFIG), ("run a2", CONFIG), ("run b", other)])
+    message = str(refused.value)
+    assert "\n" not in message and message.startswith(f"the runs differ in {key}: ")
+    assert "in run a, " in message and message.endswith(
+        "only runs measured the same way (fitness, duration, settle, world) can be compared"
+    )
+
+
+def test_a_run_from_before_settle_counts_as_settle_0() -> None:
+    old = {**CONFIG, "task": {k: v for k, v in CONFIG["task"].items() if k != "settle"}}
+    settled_0 = {**CONFIG, "task": {**CONFIG["task"], "settle": 0.0}}
+    check_comparable([("old", old), ("new", settled_0)])  # no error
+    with pytest.raises(CompareError, match=r"task\.settle: 1\.0 in new, 0\.0 in old"):
+        check_comparable([("new", CONFIG), ("old", old)])
+
+
+# --- real runs through the command ----------------------------------------------------------------
+
+TINY = {
+    "name": "tiny",
+    "seed": 1,
+    "generations": 3,
+    "body": {"options": {"number_of_modules": 10}, "population": 2, "offspring": 2},
+    "brain": {"popsize": 2, "iterations": 1},
+    "task": {"duration": 0.3},
+    "record": {"rerun": False},
+    "executor": {"kind": "serial"},
+}
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A tiny run of 3 generations, and a copy of it cut to 2 (its run.json says so)."""
+    from ariel.evolution import run_experiment
+
+    folder = tmp_path_factory.mktemp("compare")
+    long, short = folder / "long", folder / "short"
+    run_experiment(TINY, out=long, progress=False)
+    shutil.copytree(long, short)
+    edit_run_json(short, generations_done=2, generations=2)
+    return long, short
+
+
+def edit_run_json(run_dir: Path, *, generations_done: int | None = None, **config: object) -> None:
+    """Change run.json: ``generations_done``, and config keys (``task__duration=...``)."""
+    path = run_dir / "run.json"
+    info = json.loads(path.read_text())
+    if generations_done is not None:
+        info["generations_done"] = generations_done
+    for key, value in config.items():
+        *sections, name = key.split("__")
+        target = info["config"]
+        for section in sections:
+            target = target[section]
+        target[name] = value
+    path.write_text(json.dumps(info))
+
+
+def test_the_command_compares_runs_of_3_and_2_generations_at_the_smaller_budget(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    long, short = two_runs
+    out = tmp_path / "out"
+    assert main(["compare", str(long), str(short), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    evaluations = load_run(long).evaluations
+    budget = int((evaluations["generation"] < 2).sum())
+    assert (
+        f"warning: the runs made {budget} to {len(evaluations)} evaluations: compared at "
+        in printed
+    )
+    assert f"compared at {budget} evaluations per run" in printed
+    assert (
+        "warning: fewer than 5 runs per condition (fewest: 1): Mann-Whitney U cannot give p below 1"
+        in printed
+    )
+    runs = pd.read_csv(out / "runs.csv")
+    expected = best_so_far(evaluations, maximise=True)[1][budget - 1]
+    assert runs["final_best"].tolist() == pytest.approx([expected, expected])
+    readme = (out / "README.md").read_text()
+    info = json.loads((long / "run.json").read_text())
+    assert f"- **git commit**: {info['git_commit']}" in readme
+    assert f"mujoco {info['versions']['mujoco']}" in readme
+    assert "- `task.duration` = `0.3`" in readme  # the settings every run shares
+
+    assert main(["compare", str(long), str(short), "--out", str(out), "--at-evaluations", "3"]) == 0
+    runs = pd.read_csv(out / "runs.csv")
+    assert runs["final_best"].tolist() == pytest.approx(
+        [best_so_far(evaluations, maximise=True)[1][2]] * 2
+    )
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"), [("1000", "exceeds the"), ("0", "whole number >= 1")]
+)
+def test_a_bad_at_evaluations_is_one_line_exit_2(
+    two_runs: tuple[Path, Path],
+    value: str,
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    long, short = two_runs
+    argv = [
+        "compare",
+        str(long),
+        str(short),
+        "--out",
+        str(tmp_path / "o"),
+        "--at-evaluations",
+        value,
+    ]
+    assert exit_code(argv) == 2
+    assert expected in one_error_line(capsys, subcommand=True, quiet=True)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [
+        ("task__duration", 0.5),
+        ("task__settle", 2.5),
+        ("world__name", "rugged"),
+        ("task__fitness", "x"),
+    ],
+)
+def test_the_command_refuses_runs_measured_differently(
+    two_runs: tuple[Path, Path],
+    key: str,
+    value: object,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    long, _ = two_runs
+    other = tmp_path / "other"
+    shutil.copytree(long, other)
+    edit_run_json(other, **{key: value})
+    assert exit_code(["compare", str(long), str(other), "--out", str(tmp_path / "o")]) == 2
+    line = one_error_line(capsys, quiet=True)
+    assert f"the runs differ in {key.replace('__', '.')}: " in line and str(other) in line

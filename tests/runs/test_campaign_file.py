@@ -74,6 +74,10 @@ CASES = {
         '[[condition]]\nname = "x"\nset = { "executor.workers" = 2 }\n',
         "'executor.workers' cannot be set per condition",
     ),
+    "an unknown seeding": (
+        'seeding = "paired"\n',
+        """seeding: must be "shared" or "independent" (got 'paired')""",
+    ),
     "unknown plugin in a condition": (
         '[[condition]]\nname = "x"\nset = { "world.name" = "nope" }\n',
         "world.name: unknown world 'nope'",
@@ -127,3 +131,54 @@ def test_an_existing_campaign_folder_is_refused_and_left_as_it_was(
     assert "not an ariel campaign folder" in one_error_line(capsys)
     assert exit_code(["campaign", "resume", str(tmp_path)]) == 2
     assert "not an ariel campaign folder" in one_error_line(capsys)
+
+
+def _two_conditions(**top: object) -> dict:
+    return {
+        "base": BASE,
+        **top,
+        "condition": [{"name": "a"}, {"name": "b", "set": {"brain.inherit": True}}],
+    }
+
+
+def test_conditions_share_their_seeds_by_default() -> None:
+    spec = campaign_spec(_two_conditions(seed_count=3))
+    assert spec.seeding == "shared"
+    assert spec.seeds_of("a") == spec.seeds_of("b") == [1, 2, 3]
+    assert sorted(spec.configs) == [(c, s) for c in ("a", "b") for s in (1, 2, 3)]
+
+
+@pytest.mark.parametrize(
+    ("seeds", "second"), [([1, 2, 3], [4, 5, 6]), ([1, 100], [101, 200]), ([5, 3], [8, 6])]
+)
+def test_independent_seeding_gives_every_condition_its_own_seeds(
+    seeds: list[int], second: list[int]
+) -> None:
+    """Condition i runs each seed + i x (max - min + 1): deterministic, and no two conditions
+    share a seed."""
+    spec = campaign_spec(_two_conditions(seeds=seeds, seeding="independent"))
+    assert spec.seeding == "independent" and spec.seeds == seeds
+    assert spec.seeds_of("a") == seeds and spec.seeds_of("b") == second
+    assert not set(spec.seeds_of("a")) & set(spec.seeds_of("b"))
+    for condition, seed in spec.configs:
+        assert spec.configs[(condition, seed)].seed == seed
+    assert campaign_spec(_two_conditions(seeds=seeds, seeding="independent")).configs.keys() == (
+        spec.configs.keys()
+    )
+
+
+def test_campaign_json_records_the_seeding_and_old_ones_read_as_shared(tmp_path: Path) -> None:
+    from types import SimpleNamespace
+
+    from ariel.recording._campaign import Campaign
+    from ariel.runs._campaign import _campaign_info
+
+    spec = campaign_spec(_two_conditions(seed_count=2, seeding="independent"))
+    settings = SimpleNamespace(kind="serial", workers=1, scheduler=None)
+    info = _campaign_info(spec, [], settings, "c-1", "c.toml")
+    assert info["seeding"] == "independent" and info["seeds"] == [1, 2]
+    assert info["base"] == "inline"
+    assert [c["seeds"] for c in info["conditions"]] == [[1, 2], [3, 4]]
+    assert Campaign(tmp_path, info).seeding == "independent"
+    del info["seeding"]  # a campaign.json from before the key: its conditions shared seeds
+    assert Campaign(tmp_path, info).seeding == "shared"
