@@ -47,9 +47,11 @@ BUILTIN_PLUGINS: dict[str, dict[str, str]] = {
         # Above the registry's layer (ariel.evolution), hence named by string.
         "ga": "ariel.evolution._ga:GeneticAlgorithm",
         "map_elites": "ariel.evolution._map_elites:MapElites",
+        "random": "ariel.evolution._random_search:RandomSearch",
     },
     "fitness": {
         "xy_displacement": f"{_ADAPTERS}:xy_displacement",
+        "sustained_displacement": f"{_ADAPTERS}:sustained_displacement",
         "x_speed": f"{_ADAPTERS}:x_speed",
         "distance_to_target": f"{_ADAPTERS}:distance_to_target",
         "turning_in_place": f"{_ADAPTERS}:turning_in_place",

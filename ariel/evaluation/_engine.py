@@ -43,6 +43,7 @@ from ariel.evaluation._heap import steady_heap
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
 from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.controller import actuator_bounds, blend_and_clip
+from ariel.simulation.settle import settle_model
 
 __all__ = [
     "BodyBuildError",
@@ -110,6 +111,7 @@ def _build_key(task: EvaluationTask) -> str:
             task.world_options,
             task.spawn_position,
             task.spawn_rotation,
+            task.settle,
         ],
         sort_keys=True,
     )
@@ -150,7 +152,8 @@ def _robot_module(encoder: Any, genotype: Any) -> tuple[Any, dict[str, float]]:
 
 
 def build(task: EvaluationTask) -> BuiltBody:
-    """Compile ``task``'s body in its world (cached per process by body, world and spawn).
+    """Compile ``task``'s body in its world (cached per process by body, world, spawn and
+    settle); with ``task.settle`` the model's reset pose is the settled one (`settle_model`).
 
     Raises `BodyBuildError` when the genotype cannot become a body; unknown plugin names and
     options the encoder or world rejects raise their own errors (the caller's mistakes).
@@ -174,6 +177,7 @@ def build(task: EvaluationTask) -> BuiltBody:
         core_geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, SPAWN_PREFIX + "core")
         if core_geom < 0:
             raise ValueError(f"the robot has no core geom named {SPAWN_PREFIX + 'core'!r}")
+        settle_model(model, task.settle)
     except Exception as exc:
         raise BodyBuildError(
             f"body encoder {task.body.encoder!r}: this genotype cannot be built: {_one_line(exc)}"

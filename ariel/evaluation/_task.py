@@ -70,7 +70,10 @@ class EvaluationTask:
         controller: registered controller name, e.g. ``"na_cpg"``.
         world: registered world name, e.g. ``"flat"``.
         fitness: registered fitness name, e.g. ``"xy_displacement"``.
-        duration: simulated seconds.
+        duration: simulated seconds (measured, after ``settle``).
+        settle: seconds the robot is first held at zero controls to come to rest; the
+            evaluation (frames, fitness, ``time`` 0) starts from the pose it reaches, with zero
+            velocity (`ariel.simulation.settle`). 0: from the spawn pose, as the tutorials.
         control_period: physics steps between controller calls (the tutorial's 50).
         smoothing: each controller call sets ``ctrl = ctrl * (1 - smoothing) + target *
             smoothing`` (then clipped to the actuator ranges): the tutorial `Controller`'s
@@ -92,6 +95,7 @@ class EvaluationTask:
     world_options: dict[str, Any] = field(default_factory=dict)
     fitness_options: dict[str, Any] = field(default_factory=dict)
     duration: float = 15.0
+    settle: float = 0.0
     control_period: int = 50
     smoothing: float = 0.5
     record_every: int = 50
@@ -110,6 +114,14 @@ class EvaluationTask:
             raise ValueError(f"duration must be a finite number of seconds, not {self.duration!r}")
         if self.duration <= 0:
             raise ValueError(f"duration must be > 0 seconds, not {self.duration}")
+        if not (
+            isinstance(self.settle, numbers.Real)
+            and not isinstance(self.settle, bool)
+            and math.isfinite(self.settle)
+            and self.settle >= 0
+        ):
+            raise ValueError(f"settle must be a finite number of seconds >= 0, not {self.settle!r}")
+        object.__setattr__(self, "settle", float(self.settle))
         if int(self.control_period) != self.control_period or self.control_period < 1:
             raise ValueError(
                 f"control_period must be a whole number of physics steps >= 1, "

@@ -21,6 +21,7 @@ import numpy as np
 from ariel.plugins import fitness_function
 from ariel.simulation.controllers import cpg_kernel
 from ariel.simulation.controllers.observations import hinge_observation
+from ariel.simulation.tasks.gait_learning import sustained_displacement as _sustained
 from ariel.simulation.tasks.gait_learning import x_speed as _x_speed
 from ariel.simulation.tasks.gait_learning import xy_displacement as _xy_displacement
 from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _distance_to_target
@@ -31,6 +32,7 @@ __all__ = [
     "NaCPGController",
     "distance_to_target",
     "hinge_observation",  # re-exported from its home beside the controllers
+    "sustained_displacement",
     "turning_in_place",
     "x_speed",
     "xy_displacement",
@@ -61,7 +63,11 @@ class NaCPGController:
         dt: float = 0.01,
         coupling: str = "full",
         hard_bounds: tuple[float, float] = (-math.pi / 2, math.pi / 2),
+        initial_amplitude: float = 1.0,
     ) -> None:
+        if not (math.isfinite(initial_amplitude) and initial_amplitude > 0):
+            raise ValueError(f"initial_amplitude must be > 0, not {initial_amplitude!r}")
+        self.initial_amplitude = float(initial_amplitude)
         if coupling not in ("full", "none"):
             raise ValueError(f"coupling must be 'full' or 'none', not {coupling!r}")
         self.alpha = float(alpha)
@@ -75,7 +81,11 @@ class NaCPGController:
     def random_parameters(
         self, model: mujoco.MjModel, rng: np.random.Generator, n: int
     ) -> np.ndarray:
-        return cpg_kernel.random_parameters(model.nu, rng, size=n)
+        params = cpg_kernel.random_parameters(model.nu, rng, size=n)
+        # The same draws, amplitudes scaled from upstream's U(-2π, 2π) to the option's range.
+        amplitudes = slice(2 * model.nu, 3 * model.nu)
+        params[:, amplitudes] *= self.initial_amplitude / (2 * math.pi)
+        return params
 
     def initial_state(self, model: mujoco.MjModel, seed: int) -> cpg_kernel.CPGState:
         """The oscillators' initial state for an evaluation seed (``(nu, 2)`` arrays)."""
@@ -199,6 +209,16 @@ class MLPController:
 def xy_displacement(record: Any) -> float:
     """Planar distance between the core's first and last recorded position (m)."""
     return float(_xy_displacement(record.core_pos[0, :2], record.core_pos[-1, :2]))
+
+
+@fitness_function(maximise=True, unit="m")
+def sustained_displacement(record: Any, window: float = 1.0) -> float:
+    """Planar displacement at the path's median pace over ``window``-second pieces (m).
+
+    The locomotion measure of the default experiment (docs/methodology.md): a steady gait
+    scores its displacement; a single fall or lunge in one window does not count.
+    """
+    return _sustained(record.time, record.core_pos, float(window))
 
 
 @fitness_function(maximise=True, unit="m/s")

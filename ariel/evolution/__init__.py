@@ -26,6 +26,7 @@ _LAZY: dict[str, str] = {
     "Proposal": "ariel.evolution._optimizer",
     "GeneticAlgorithm": "ariel.evolution._ga",
     "MapElites": "ariel.evolution._map_elites",
+    "RandomSearch": "ariel.evolution._random_search",
     # The entry points live a layer up (`ariel.runs`: they tie a run folder to the driver);
     # these names stay here for the scripts that import them from ariel.evolution.
     "RunResult": "ariel.runs._experiment",

@@ -102,9 +102,15 @@ class WorldConfig(_Section):
 
 
 class TaskConfig(_Section):
+    """What an evaluation measures: ``fitness`` (a registered fitness function, with its
+    ``options``) over ``duration`` seconds, after the robot was held ``settle`` seconds at
+    zero controls to come to rest (docs/methodology.md); a run made before ``settle`` existed
+    reads as ``settle = 0``."""
+
     fitness: Str = "xy_displacement"
     options: dict[str, Any] = Field(default_factory=dict)
     duration: Seconds = 10.0
+    settle: Float = Field(1.0, ge=0.0)
     spawn_position: tuple[Float, Float, Float] = (0.0, 0.0, 0.0)
 
 
@@ -167,12 +173,21 @@ class ExperimentConfig(_Section):
 
     @classmethod
     def from_plain(cls, data: Mapping[str, Any]) -> ExperimentConfig:
-        return _validate(data)
+        """The config a run stored: keys added since read as they behaved before."""
+        plain = json.loads(json.dumps(dict(data)))
+        for (section, key), neutral in _LATER_KEYS.items():
+            if isinstance(plain.get(section), dict):
+                plain[section].setdefault(key, neutral)
+        return _validate(plain)
 
 
 # Keys added after runs were made, with the value that behaves as before they existed: left out
 # of the hash at that value, so the hash of an older run's config does not change.
-_LATER_KEYS = {("body", "optimizer"): "ga", ("body", "optimizer_options"): {}}
+_LATER_KEYS = {
+    ("body", "optimizer"): "ga",
+    ("body", "optimizer_options"): {},
+    ("task", "settle"): 0.0,
+}
 
 
 def config_hash(config: ExperimentConfig) -> str:

@@ -30,7 +30,7 @@ from ariel.evolution._progress import Progress
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body, LoopState, state_to_plain
 
-__all__ = ["Plugins", "RunDriver", "RunRecords", "budget", "fixed_genotype"]
+__all__ = ["Plugins", "RunDriver", "RunRecords", "budget", "distinct_bodies", "fixed_genotype"]
 
 
 @dataclass
@@ -272,13 +272,24 @@ class RunDriver:
         state.wall_seconds = self.wall_seconds
         self.records.save_checkpoint(state_to_plain(state))
         best, mean = summary(state.population, self.plugins.maximise)
+        stats = getattr(self.optimizer, "stats", None) if archive else None
+        # What readers need to compute the QD-score as the run did (`load_run`, `report`).
+        offset = getattr(self.optimizer, "qd_offset", None) if archive else None
         self.records.update_info(
             generations_done=generation + 1,
             evaluations_done=state.evaluations_done,
             best_fitness=best,
+            **({} if offset is None else {"qd_offset": float(offset)}),
         )
         extra = "".join(f", {n} {s}" for s, n in counts.items() if s != "rows" and n)
-        self.progress.end_generation(generation, best, mean, extra)
+        self.progress.end_generation(
+            generation,
+            best,
+            mean,
+            extra,
+            morphs=None if self.optimizer is None else distinct_bodies(state.population),
+            archive=stats() if stats else None,
+        )
 
     @property
     def wall_seconds(self) -> float:
@@ -290,6 +301,16 @@ class RunDriver:
             self.state.population,
             key=lambda b: (fitness_rank(b.fitness, self.plugins.maximise), b.number),
         )
+
+
+def distinct_bodies(population: Sequence[Body]) -> tuple[int, int]:
+    """(distinct robot graphs, bodies) among the bodies of ``population`` with a finite
+    fitness (the population after selection, as `ariel.recording.Run.generations` counts it).
+    Graphs are compared by structure (`graph_key`); a body without a graph counts as its own."""
+    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
+
+    alive = [b for b in population if math.isfinite(b.fitness)]
+    return len({graph_key(b.graph) if b.graph else b.body_id for b in alive}), len(alive)
 
 
 def summary(population: Sequence[Body], maximise: bool) -> tuple[float, float]:

@@ -9,9 +9,22 @@ probability ``body.crossover_rate``) and mutation. Every new body learns its bra
 CMA-ES as in the GA, and its fitness is its best brain's.
 
 Options (``body.optimizer_options``): ``measures`` (default ``["num_limbs", "joints_ratio"]``),
-``bins`` (cells per measure, default 8 each) and ``ranges`` (``[low, high]`` per measure; a
-value outside is put in the edge cell; defaults for the descriptors below). Bodies that failed
-(no finite fitness) never enter the archive.
+``bins`` (cells per measure, default 8 each), ``ranges`` (``[low, high]`` per measure; a
+value outside is put in the edge cell; defaults for the descriptors below) and ``qd_offset``
+(see below). Bodies that failed (no finite fitness) never enter the archive.
+
+QD metrics (`archive_quality`), as pyribs' archive statistics: ``coverage`` (filled cells /
+cells), ``qd_score`` (the sum over elites of how much better than ``qd_offset`` each is,
+pyribs' ``qd_score_offset``) and ``norm_qd_score`` (``qd_score`` / cells). ``qd_offset`` is a
+fitness (in the fitness's unit) that counts as nothing: 0 by default for a maximised fitness
+(pyribs' default, right for a fitness never below 0 such as a displacement or a speed; give a
+lower one for a fitness that can be negative), and it must be given for a minimised one,
+which has no natural worst value (for a distance to a target: e.g. the distance at the
+start). An elite worse than the offset counts 0, as an empty cell does, so ``qd_score`` is
+never negative and never falls: a new elite fills a cell (adds >= 0) or replaces a worse one
+(whose share is no larger). With every elite at least as good as the offset it
+is exactly pyribs' number (the QD-score: Pugh et al. 2016, *Quality diversity: a new frontier
+for evolutionary computation*; the offset: Tjanaka et al. 2023, *pyribs*).
 
 Determinism: bodies enter the archive one at a time in body order, so a tie keeps the older
 body; child j of generation g draws its parents and variation from its own stream
@@ -32,7 +45,14 @@ from ariel.evolution._optimizer import Proposal
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body
 
-__all__ = ["DEFAULT_RANGES", "MapElites", "body_measures"]
+__all__ = [
+    "DEFAULT_RANGES",
+    "MapElites",
+    "archive_quality",
+    "body_measures",
+    "elite_gain",
+    "resolve_qd_offset",
+]
 
 #: Ranges of the measures most worth mapping (others must be given).
 DEFAULT_RANGES: dict[str, tuple[float, float]] = {
@@ -53,6 +73,45 @@ def body_measures(body: Body, measures: Sequence[str]) -> list[float]:
     """``body``'s value of each measure (a descriptor, or ``n_joints``)."""
     values = {**body.descriptors, "n_joints": body.n_joints}
     return [float(values.get(name, math.nan)) for name in measures]
+
+
+def resolve_qd_offset(qd_offset: Any, maximise: bool) -> float:
+    """The ``qd_offset`` option checked: a finite number; 0 for a maximised fitness when not
+    given. A minimised fitness has no natural worst value, so it must be given."""
+    if qd_offset is None:
+        if maximise:
+            return 0.0
+        raise ValueError(
+            "qd_offset must be given for a minimised fitness: a fitness no elite is worse "
+            "than, which counts as nothing in the QD-score (e.g. the distance to the target "
+            "at the start)"
+        )
+    if isinstance(qd_offset, bool) or not isinstance(qd_offset, int | float):
+        raise ValueError(f"qd_offset must be a number, got {qd_offset!r}")
+    if not math.isfinite(qd_offset):
+        raise ValueError(f"qd_offset must be finite, got {qd_offset!r}")
+    return float(qd_offset)
+
+
+def elite_gain(fitness: float, qd_offset: float, maximise: bool) -> float:
+    """An elite's share of the QD-score: how much better than ``qd_offset`` it is, never < 0
+    (pyribs' objective - qd_score_offset, the objective being fitness or -fitness)."""
+    gain = fitness - qd_offset if maximise else qd_offset - fitness
+    return max(0.0, float(gain))
+
+
+def archive_quality(
+    fitness: Sequence[float], cells: int, qd_offset: float, maximise: bool
+) -> dict[str, float]:
+    """The QD metrics of an archive whose elites have ``fitness``, of ``cells`` cells:
+    ``coverage``, ``qd_score`` and ``norm_qd_score`` (see the module docstring). What the run
+    prints and what `ariel.recording.load_run` computes from the ``archive`` table."""
+    score = math.fsum(elite_gain(f, qd_offset, maximise) for f in fitness)
+    return {
+        "coverage": len(fitness) / cells,
+        "qd_score": score,
+        "norm_qd_score": score / cells,
+    }
 
 
 def _check_options(
@@ -100,13 +159,19 @@ class MapElites:
         measures: Sequence[str] = ("num_limbs", "joints_ratio"),
         bins: Sequence[int] | None = None,
         ranges: Sequence[Sequence[float]] | None = None,
+        qd_offset: float | None = None,
     ) -> None:
         from ribs.archives import GridArchive
 
         self.measures, self.bins, self.ranges = _check_options(list(measures), bins, ranges)
+        self.qd_offset = resolve_qd_offset(qd_offset, maximise)
         self.encoder, self.seed, self.maximise, self.settings = encoder, seed, maximise, settings
         self.archive = GridArchive(
-            solution_dim=1, dims=self.bins, ranges=self.ranges, dtype=np.float64
+            solution_dim=1,
+            dims=self.bins,
+            ranges=self.ranges,
+            qd_score_offset=self.qd_offset if maximise else -self.qd_offset,  # objective units
+            dtype=np.float64,
         )
         self.generation = 0  # the generation the next `ask` breeds
         self._bodies: dict[int, Body] = {}  # the elites, by body number
@@ -174,9 +239,12 @@ class MapElites:
         ]
 
     def stats(self) -> dict[str, float]:
-        """Coverage (filled cells / cells) and QD-score (sum of the elites' objectives)."""
-        stats = self.archive.stats
-        return {"coverage": float(stats.coverage), "qd_score": float(stats.qd_score or 0.0)}
+        """``coverage``, ``qd_score``, ``norm_qd_score`` (`archive_quality`), ``cells`` and
+        ``filled``."""
+        fitness = [body.fitness for _, body in self.cells()]
+        cells = int(np.prod(self.bins))
+        quality = archive_quality(fitness, cells, self.qd_offset, self.maximise)
+        return {**quality, "cells": cells, "filled": len(fitness)}
 
     def state(self) -> dict[str, Any]:
         return {"generation": self.generation}

@@ -2,7 +2,10 @@
 
 On a terminal two bars update as batches finish: this generation's evaluations done / total
 with evaluations/s and its ETA, and the whole run's. Elsewhere (a pipe, a log file) one line is
-printed per finished generation.
+printed per finished generation. The generation's line also says, in a co-evolution run, how
+many distinct bodies the population after selection holds (``morphs 5/8``: distinct robot
+graphs / bodies), and in a MAP-Elites run the archive's coverage, QD-score and normalised
+QD-score (``ariel.evolution._map_elites``), the numbers ``load_run(...).generations`` has.
 """
 
 from __future__ import annotations
@@ -10,6 +13,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Mapping
 from typing import Any, TextIO
 
 __all__ = ["Progress"]
@@ -61,6 +65,7 @@ class Progress:
         self._generation_start_done = done
         self._best = math.nan
         self._mean = math.nan
+        self._population = ""  # morphs and archive of the last generation's line
         self._rich: Any = None
         self._run_task: Any = None
         self._generation_task: Any = None
@@ -122,7 +127,8 @@ class Progress:
         return {
             "rate": f"{rate:.1f}",
             "eta": _eta(self.total - self.done, rate),
-            "info": f"best {_fmt(self._best)}  mean {_fmt(self._mean)}",
+            "info": f"best {_fmt(self._best)}  mean {_fmt(self._mean)}"
+            + self._population.replace(", ", "  "),
         }
 
     def _refresh(self) -> None:
@@ -153,8 +159,21 @@ class Progress:
             self._best = best
         self._refresh()
 
-    def end_generation(self, generation: int, best: float, mean: float, extra: str = "") -> None:
+    def end_generation(
+        self,
+        generation: int,
+        best: float,
+        mean: float,
+        extra: str = "",
+        *,
+        morphs: tuple[int, int] | None = None,
+        archive: Mapping[str, float] | None = None,
+    ) -> None:
+        """The generation's line. ``morphs``: (distinct bodies, bodies) of the population after
+        selection; ``archive``: a MAP-Elites archive's ``coverage``, ``qd_score``,
+        ``norm_qd_score`` (and ``filled`` / ``cells``); ``extra``: appended as it is."""
         self._best, self._mean = best, mean
+        self._population = population_text(morphs, archive)
         if self._rich is not None:
             self._refresh()
             self._rich.console.print(self._line(generation, extra))
@@ -167,5 +186,24 @@ class Progress:
         eta = f"{left / rate:.0f}s" if rate > 0 else "-"
         return (
             f"gen {generation}: evaluations {self.done}/{self.total}, best {_fmt(self._best)}, "
-            f"mean {_fmt(self._mean)}, {rate:.1f} eval/s, ETA {eta}{extra}"
+            f"mean {_fmt(self._mean)}{self._population}, {rate:.1f} eval/s, ETA {eta}{extra}"
         )
+
+
+def population_text(morphs: tuple[int, int] | None, archive: Mapping[str, float] | None) -> str:
+    """``, morphs 5/8, coverage 22% (14/64), qd_score 3.41, norm_qd_score 0.0533`` (the parts
+    given)."""
+    text = ""
+    if morphs is not None:
+        text += f", morphs {morphs[0]}/{morphs[1]}"
+    if archive is not None:
+        counted = {"filled", "cells"} <= archive.keys()
+        cells = f" ({archive['filled']:.0f}/{archive['cells']:.0f})" if counted else ""
+        coverage = float(archive.get("coverage", math.nan))
+        share = f"{coverage:.0%}" if math.isfinite(coverage) else "-"
+        text += (
+            f", coverage {share}{cells}, "
+            f"qd_score {_fmt(archive.get('qd_score', math.nan))}, "
+            f"norm_qd_score {_fmt(archive.get('norm_qd_score', math.nan))}"
+        )
+    return text

@@ -90,6 +90,7 @@ def evaluation_task(config: ExperimentConfig, body: Any, params: Any = (), **fie
         "fitness": c.task.fitness,
         "fitness_options": c.task.options,
         "duration": c.task.duration,
+        "settle": c.task.settle,
         "control_period": c.brain.control_period,
         "smoothing": c.brain.smoothing,
         "record_bodies": record_bodies(config),

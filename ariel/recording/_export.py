@@ -83,6 +83,7 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
         "params": [float(v) for v in task.params],
         "seed": int(task.seed),
         "duration": float(task.duration),
+        "settle": float(task.settle),
         "control_period": int(task.control_period),
         "smoothing": float(task.smoothing),
         "world": task.world,

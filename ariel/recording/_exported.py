@@ -37,6 +37,7 @@ def load_exported(folder: str | Path) -> ExportedRobot:
     from ariel.plugins import body_encoders, controllers, worlds
     from ariel.simulation.controllers.controller import Controller
     from ariel.simulation.controllers.observations import hinge_observation
+    from ariel.simulation.settle import settle_model
 
     folder = Path(folder)
     body = json.loads((folder / "genotype.json").read_text(encoding="utf-8"))
@@ -48,7 +49,8 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         core = construct_mjspec_from_graph(encoder.decode(body["genotype"]))
     world = worlds.make(brain["world"], **brain["world_options"])
     world.spawn(core.spec, position=brain["spawn_position"], rotation=brain["spawn_rotation"])
-    model = world.spec.compile()
+    # Held at rest first, as the run's evaluation was (an export without the key did not).
+    model = settle_model(world.spec.compile(), float(brain.get("settle", 0.0)))
 
     plugin = controllers.make(brain["controller"], **brain["options"])
     params, period, dt = np.array(brain["params"]), brain["control_period"], model.opt.timestep

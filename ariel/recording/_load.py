@@ -16,7 +16,14 @@ from ariel.recording._tables import read_table, to_pandas
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
 FAILED_STATUSES = ("error", "unstable", "invalid")
 
-__all__ = ["Run", "list_runs", "load_run", "population_after_selection"]
+__all__ = [
+    "QD_COLUMNS",
+    "Run",
+    "archive_quality_table",
+    "list_runs",
+    "load_run",
+    "population_after_selection",
+]
 
 
 @dataclass
@@ -172,10 +179,28 @@ class Run:
         return population_after_selection(self.bodies)
 
     @cached_property
+    def qd_offset(self) -> float | None:
+        """MAP-Elites runs: the fitness that counts as nothing in the QD-score (run.json's
+        ``qd_offset``, the ``map_elites`` option ``qd_offset``). A run made before run.json
+        recorded it: 0 for a maximised fitness (its QD-score then was the same sum), None for
+        a minimised one (no offset known: its QD-scores are NaN)."""
+        recorded = self.info.get("qd_offset")
+        if isinstance(recorded, int | float) and not isinstance(recorded, bool):
+            return float(recorded)
+        return 0.0 if self.maximise else None
+
+    @cached_property
     def generations(self) -> Any:
         """Per generation: evaluations, failures, and best / mean / median fitness of the
-        population after selection (a MAP-Elites run: its elites), and for MAP-Elites runs
-        ``coverage`` (filled cells / cells) and ``qd_score`` (the elites' summed objective).
+        population after selection (a MAP-Elites run: its elites), and ``distinct_bodies``:
+        how many distinct robot graphs that population holds (by structure,
+        `ariel.body_phenotypes.robogen_lite.graph_io.graph_key`; a body without a graph counts
+        as its own; NaN for a table without graphs).
+
+        MAP-Elites runs also get the archive's QD metrics, as the run printed them
+        (`ariel.evolution._map_elites.archive_quality`): ``coverage`` (filled cells / cells),
+        ``qd_score`` (the sum over elites of how much better than `qd_offset` each is, never
+        below 0) and ``norm_qd_score`` (``qd_score`` / cells).
 
         Then the population's mean morphology: ``mean_<descriptor>`` for each morphology
         descriptor (``mean_num_modules``, ...): its mean over the bodies the fitness columns
@@ -210,6 +235,7 @@ class Run:
                     else math.nan,
                     "mean_fitness": alive.mean() if len(alive) else math.nan,
                     "median_fitness": alive.median() if len(alive) else math.nan,
+                    "distinct_bodies": _distinct_bodies(population),
                     **morphology,
                 }
             )
@@ -223,20 +249,59 @@ class Run:
             "best_fitness",
             "mean_fitness",
             "median_fitness",
+            "distinct_bodies",
         ]
         morphology_columns = [f"mean_{name}" for name in DESCRIPTOR_NAMES]
         # the columns even before a generation ends
         frame = pd.DataFrame(rows, columns=columns + morphology_columns)
         archive = self.archive
         if len(archive):
-            grouped = archive.groupby("generation")
-            cells = grouped["grid"].first().map(lambda grid: int(np.prod(grid)))
-            quality = pd.DataFrame(
-                {"coverage": grouped.size() / cells, "qd_score": grouped["objective"].sum()}
-            )
+            quality = archive_quality_table(archive, self.qd_offset, maximise)
             frame = frame.join(quality, on="generation")
-            frame = frame[[*columns, "coverage", "qd_score", *morphology_columns]]
+            frame = frame[[*columns, *QD_COLUMNS, *morphology_columns]]
         return frame
+
+
+#: The QD metrics `Run.generations` has for a MAP-Elites run.
+QD_COLUMNS = ("coverage", "qd_score", "norm_qd_score")
+
+
+def archive_quality_table(archive: Any, qd_offset: float | None, maximise: bool) -> Any:
+    """Per generation of an ``archive`` table (`Run.archive`): the `QD_COLUMNS`, as
+    `ariel.evolution._map_elites.archive_quality` computes them in the run (QD-scores NaN
+    when ``qd_offset`` is None: an old run of a minimised fitness)."""
+    import pandas as pd
+
+    from ariel.evolution._map_elites import archive_quality
+
+    rows = {}
+    for generation, group in archive.groupby("generation", sort=True):
+        cells = int(np.prod(group["grid"].iloc[0]))
+        fitness = group["fitness"].astype(float).tolist()
+        if qd_offset is None:
+            rows[generation] = {
+                "coverage": len(fitness) / cells,
+                "qd_score": math.nan,
+                "norm_qd_score": math.nan,
+            }
+        else:
+            rows[generation] = archive_quality(fitness, cells, qd_offset, maximise)
+    frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(QD_COLUMNS))
+    frame.index.name = "generation"
+    return frame
+
+
+def _distinct_bodies(population: Any) -> int | float:
+    """Distinct robot graphs among ``population``'s rows (see `Run.generations`)."""
+    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
+
+    if "graph" not in population.columns:
+        return math.nan
+    keys = {
+        graph_key(graph) if isinstance(graph, str) and graph else body_id
+        for graph, body_id in zip(population["graph"], population["body_id"])
+    }
+    return len(keys)
 
 
 def population_after_selection(bodies: Any) -> Any:

@@ -18,7 +18,8 @@ recording, elites' 3D replays, ``run.rrd`` and the layouts, in the run folder.
   selection (as ``Run.generations`` computes them), two diversity measures of that population
   (``diversity``: the mean pairwise Euclidean distance between the bodies' morphology
   descriptor vectors, the 12 descriptors as stored; ``distinct_morphologies``: the number of
-  distinct robot graphs) and the best body's graph; rewritten whole after every generation.
+  distinct robot graphs, compared by structure, ``graph_io.graph_key``) and the best body's
+  graph; rewritten whole after every generation.
 * ``blueprint.rbl`` and ``generation.rbl``: the viewer layouts, written once.
 
 Files are written whole under a temporary name and renamed, so a killed run leaves no
@@ -60,6 +61,7 @@ def generation_summary(
     ``fitness``, ``graph``; None when no body has a finite fitness).
     """
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 
     population = [row for row in body_rows if row.get("selected")]
     fitness = np.array([float(row["fitness"]) for row in population], dtype=np.float64)
@@ -82,7 +84,9 @@ def generation_summary(
         "mean_fitness": float(finite.mean()) if finite.size else math.nan,
         "median_fitness": float(np.median(finite)) if finite.size else math.nan,
         "diversity": diversity,
-        "distinct_morphologies": float(len({r.get("graph") or r["body_id"] for r in built})),
+        "distinct_morphologies": float(
+            len({graph_key(r["graph"]) if r.get("graph") else r["body_id"] for r in built})
+        ),
     }
     ranked = sorted(
         population, key=lambda r: (fitness_rank(float(r["fitness"]), maximise), r["body_id"])

@@ -26,7 +26,7 @@ import numpy as np
 
 from ariel.recording._axes import DESCRIPTORS, fitness_label, fitted, integer_ticks
 from ariel.recording._camera import three_quarter_view
-from ariel.recording._load import Run, load_run, population_after_selection
+from ariel.recording._load import QD_COLUMNS, Run, load_run, population_after_selection
 from ariel.recording._report_archive import archive_figure
 
 __all__ = ["Report", "make_report", "print_report"]
@@ -53,7 +53,8 @@ class Report:
 
     Attributes:
         run: the loaded run.
-        table: one row per finished generation (``TABLE_COLUMNS``).
+        table: one row per finished generation (``TABLE_COLUMNS``; a MAP-Elites run also
+            ``coverage``, ``qd_score``, ``norm_qd_score``, printed as a second table).
         best: the best evaluation's row (a dict), or None before any finite fitness.
         written: the PNG files written, in order.
         notes: one line per figure left out, and why.
@@ -331,7 +332,9 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     Raises `ariel.recording.NotARunError` for a folder that is not a run.
     """
     run = load_run(run_dir)
-    table = run.generations[list(TABLE_COLUMNS)]
+    generations = run.generations
+    quality = [c for c in QD_COLUMNS if c in generations.columns]  # a MAP-Elites run
+    table = generations[[*TABLE_COLUMNS, *quality]]
     maximise = run.maximise if len(run.evaluations) else True
     report = Report(run=run, table=table, best=_best_row(run, maximise))
     if not len(table):
@@ -362,6 +365,44 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     return report
 
 
+def _table(table_class: Any, box: Any, title: str) -> Any:
+    return table_class(
+        title=title,
+        box=box.SIMPLE_HEAD,
+        show_edge=False,
+        pad_edge=False,
+        padding=(0, 1, 0, 0),  # fits 80 columns
+    )
+
+
+def _print_archive_table(report: Report, console: Any, table_class: Any, box: Any) -> None:
+    """Per generation: the archive's coverage, QD-score and normalised QD-score."""
+    offset = report.run.qd_offset
+    table = _table(table_class, box, "MAP-Elites archive after each generation")
+    for column in ("generation", *QD_COLUMNS):
+        table.add_column(column, justify="right", no_wrap=True, min_width=10)
+    for row in report.table[["generation", *QD_COLUMNS]].itertuples(index=False):
+        generation, coverage, score, norm = row
+        table.add_row(
+            str(int(generation)),
+            f"{coverage:.1%}",
+            *(f"{v:.6g}" if math.isfinite(v) else "-" for v in (score, norm)),
+        )
+    console.print(table)
+    if offset is None:
+        console.print(
+            "qd_score: none (a run of a minimised fitness made before run.json recorded its "
+            "qd_offset)",
+            highlight=False,
+        )
+    else:
+        console.print(
+            f"qd_score: the elites' fitness beyond qd_offset {offset:g} (each at least 0), "
+            "summed; norm_qd_score: qd_score / cells",
+            highlight=False,
+        )
+
+
 def print_report(report: Report, console: Any = None) -> None:
     """The per-generation table, the best evaluation, the files written and the notes."""
     from rich import box
@@ -375,17 +416,11 @@ def print_report(report: Report, console: Any = None) -> None:
     run = report.run
     status = run.info.get("status", "?")
     done, total = run.generations_done, run.config.get("generations", "?")
-    table = Table(
-        title=f"{_run_title(run)}: {status}, {done}/{total} generations",
-        box=box.SIMPLE_HEAD,
-        show_edge=False,
-        pad_edge=False,
-        padding=(0, 1, 0, 0),  # fits 80 columns
-    )
+    table = _table(Table, box, f"{_run_title(run)}: {status}, {done}/{total} generations")
     for heading in TABLE_COLUMNS.values():
         wide = 10 if heading in ("best", "mean", "median") else len(heading)  # -0.0123456
         table.add_column(heading, justify="right", no_wrap=True, min_width=wide)
-    for row in report.table.itertuples(index=False):
+    for row in report.table[list(TABLE_COLUMNS)].itertuples(index=False):
         cells = []
         for column, value in zip(TABLE_COLUMNS, row):
             if column.endswith("_fitness"):
@@ -401,6 +436,8 @@ def print_report(report: Report, console: Any = None) -> None:
         )
     else:
         console.print("best, mean, median: fitness of the population after selection")
+    if QD_COLUMNS[0] in report.table.columns:  # a MAP-Elites run: its archive, a second table
+        _print_archive_table(report, console, Table, box)
     if report.best is not None:
         best = report.best
         console.print(

@@ -86,6 +86,8 @@ def evaluation_schema() -> pa.Schema:
             ("controller_params", pa.list_(pa.float64())),
             ("world", pa.string()),
             ("fitness_fn", pa.string()),
+            # Seconds the robot was held at rest before the measured window (task.settle).
+            ("settle_seconds", pa.float64()),
             ("fitness", pa.float64()),
             ("status", pa.string()),
             ("error", pa.string()),
@@ -103,7 +105,9 @@ def evaluation_schema() -> pa.Schema:
 
 
 #: Columns added after runs were recorded, and what an older file's rows read as.
-_ADDED_COLUMNS: dict[str, dict[str, Any]] = {"evaluations": {"backend": "mujoco"}}
+_ADDED_COLUMNS: dict[str, dict[str, Any]] = {
+    "evaluations": {"backend": "mujoco", "settle_seconds": 0.0}
+}
 
 
 @cache

@@ -95,22 +95,25 @@ def test_batch_equals_single_evaluations_bit_for_bit() -> None:
         assert_same_result(evaluate(t), r)
 
 
-def test_fast_path_matches_the_tutorial_path_bit_for_bit() -> None:
-    """Controller + mjcb_control + simple_runner drive the gecko exactly as the engine does."""
+@pytest.mark.parametrize("settle", [0.0, 0.4])
+def test_fast_path_matches_the_tutorial_path_bit_for_bit(settle: float) -> None:
+    """Controller + mjcb_control + simple_runner drive the gecko exactly as the engine does,
+    also after a settle (`settle_model` on the tutorial's own compiled model)."""
     from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
     from ariel.simulation.controllers.controller import Controller
     from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
     from ariel.simulation.environments import SimpleFlatWorld
+    from ariel.simulation.settle import settle_model
     from ariel.utils.runners import simple_runner
     from ariel.utils.tracker import Tracker
 
     params, seed = gecko_params(1, seed=9)[0], 4
-    fast = evaluate(task(params, seed=seed, record_every=50, duration=3.0))
+    fast = evaluate(task(params, seed=seed, record_every=50, duration=3.0, settle=settle))
 
     mujoco.set_mjcb_control(None)
     world = SimpleFlatWorld()
     world.spawn(gecko().spec, position=[0, 0, 0])
-    model = world.spec.compile()
+    model = settle_model(world.spec.compile(), settle)
     data = mujoco.MjData(model)
     tracker = Tracker(mujoco.mjtObj.mjOBJ_GEOM, "core", ["xpos"])
     tracker.setup(world.spec, data)

@@ -25,6 +25,9 @@ def test_the_builtins_are_named_by_module_and_class() -> None:
     assert body_optimizers.provenance("map_elites")["object"] == (
         "ariel.evolution._map_elites:MapElites"
     )
+    assert body_optimizers.provenance("random")["object"] == (
+        "ariel.evolution._random_search:RandomSearch"
+    )
 
 
 # A third-party optimizer: random search, the best `population` bodies kept.

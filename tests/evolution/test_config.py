@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
 from pathlib import Path
 
 import pytest
@@ -118,3 +120,21 @@ def test_config_hash_ignores_the_executor_but_not_what_decides_results() -> None
     assert config_hash(base) == config_hash(load_config({}, ["executor.kind=serial"]))
     assert config_hash(base) != config_hash(load_config({}, ["seed=99"]))
     assert ExperimentConfig.from_plain(base.to_plain()) == base
+
+
+def test_a_stored_config_from_before_settle_reads_as_settle_zero_with_its_old_hash() -> None:
+    old = load_config({}, ["task.settle=0.0"]).to_plain()
+    del old["task"]["settle"]  # as run.json held it before the key existed
+    config = ExperimentConfig.from_plain(old)
+    assert config.task.settle == 0.0
+    assert load_config({}).task.settle == 1.0  # a new experiment settles by default
+    # The key at its neutral value is left out of the hash: an old run's hash is unchanged,
+    # i.e. the hash of what the old run stored (without the executor and the keys added at
+    # their neutral values, as before).
+    stored = {k: v for k, v in old.items() if k != "executor"}
+    stored["body"] = {
+        k: v for k, v in stored["body"].items() if k not in ("optimizer", "optimizer_options")
+    }
+    text = json.dumps(stored, sort_keys=True, separators=(",", ":"))
+    assert config_hash(config) == hashlib.sha256(text.encode()).hexdigest()
+    assert config_hash(config) != config_hash(load_config({}))

@@ -7,14 +7,17 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_golden_records import table_digests
 
-from ariel.evolution import ConfigError
+from ariel.evolution import BodyConfig, ConfigError, MapElites
 from ariel.evolution._progress import Progress
+from ariel.evolution._state import Body
 from ariel.recording import load_run
+from ariel.recording._load import Run, archive_quality_table
 from ariel.runs import resume_experiment, run_experiment
 
 MEASURES = ["num_limbs", "joints_ratio"]
@@ -90,10 +93,12 @@ def test_coverage_and_qd_score_per_generation(qd_run) -> None:
     _, run = qd_run
     generations = run.generations
     cells = int(np.prod(BINS))
+    assert run.info["qd_offset"] == 0.0  # the default for a maximised fitness, recorded
     for row in generations.itertuples():
         archive = run.archive[run.archive["generation"] == row.generation]
         assert row.coverage == pytest.approx(len(archive) / cells)
-        assert row.qd_score == pytest.approx(archive["fitness"].sum())
+        assert row.qd_score == pytest.approx(archive["fitness"].sum())  # displacements >= 0
+        assert row.norm_qd_score == pytest.approx(row.qd_score / cells)
     # an elite is only ever replaced by a better one: the QD-score never falls
     assert np.all(np.diff(generations["qd_score"]) >= 0)
 
@@ -189,3 +194,99 @@ def test_a_ga_run_has_no_archive(tmp_path: Path) -> None:
     assert not (out / "archive").exists()
     assert "coverage" not in load_run(out).generations.columns
     assert out / "report" / "archive.png" not in make_report(out, render=False).written
+
+
+# -- QD metrics, archive level (no physics) ----------------------------------------------------
+
+
+def _archive_body(number: int, rng: np.random.Generator, fitness: float) -> Body:
+    body = Body(number, [float(number)], [], 0)
+    body.descriptors = {"num_limbs": float(rng.integers(0, 8)), "joints_ratio": rng.random()}
+    body.fitness = fitness
+    return body
+
+
+def _map_elites(maximise: bool, **options) -> MapElites:
+    settings = BodyConfig(population=4, offspring=4)
+    return MapElites(
+        encoder=None,
+        seed=0,
+        maximise=maximise,
+        settings=settings,
+        bins=BINS,
+        ranges=RANGES,
+        **options,
+    )
+
+
+@pytest.mark.parametrize(
+    ("maximise", "options", "fitness_range", "failed"),
+    [
+        (True, {}, (-0.3, 1.0), -math.inf),  # some elites below the default offset 0
+        (False, {"qd_offset": 2.0}, (0.0, 5.0), math.inf),  # some worse than the offset
+    ],
+)
+def test_the_qd_score_is_never_negative_and_never_falls(
+    maximise: bool, options: dict, fitness_range: tuple, failed: float
+) -> None:
+    rng = np.random.default_rng(7)
+    archive = _map_elites(maximise, **options)
+    cells = int(np.prod(BINS))
+    scores, number = [], 0
+    for _ in range(12):
+        bodies = []
+        for _ in range(5):
+            bodies.append(_archive_body(number, rng, float(rng.uniform(*fitness_range))))
+            number += 1
+        bodies.append(_archive_body(number, rng, failed))  # a failed evaluation
+        bodies.append(_archive_body(number + 1, rng, math.nan))
+        number += 2
+        archive.tell(bodies)
+        stats = archive.stats()
+        scores.append(stats["qd_score"])
+        assert stats["qd_score"] >= 0
+        assert stats["norm_qd_score"] == pytest.approx(stats["qd_score"] / cells)
+        assert stats["coverage"] == len(archive.population) / cells
+        assert all(math.isfinite(body.fitness) for body in archive.population)
+    assert np.all(np.diff(scores) >= 0) and scores[-1] > scores[0]
+    # and the same number from the archive table, as load_run computes it
+    rows = pd.DataFrame([{"generation": 11, **row} for row in archive.archive_rows()])
+    quality = archive_quality_table(rows, archive.qd_offset, maximise).loc[11]
+    assert quality["qd_score"] == pytest.approx(scores[-1])
+    assert quality["norm_qd_score"] == pytest.approx(scores[-1] / cells)
+    assert quality["coverage"] == stats["coverage"]
+
+
+def test_with_every_elite_beyond_the_offset_the_qd_score_is_pyribs() -> None:
+    rng = np.random.default_rng(3)
+    archive = _map_elites(False, qd_offset=5.0)  # minimised: fitness 0..3 all better than 5
+    archive.tell([_archive_body(n, rng, float(rng.uniform(0.0, 3.0))) for n in range(30)])
+    stats, pyribs = archive.stats(), archive.archive.stats
+    assert stats["qd_score"] == pytest.approx(float(pyribs.qd_score))
+    assert stats["norm_qd_score"] == pytest.approx(float(pyribs.norm_qd_score))
+    assert stats["coverage"] == pytest.approx(float(pyribs.coverage))
+    expected = sum(5.0 - body.fitness for body in archive.population)
+    assert stats["qd_score"] == pytest.approx(expected)
+
+
+def test_a_minimised_fitness_needs_a_qd_offset(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="qd_offset must be given for a minimised fitness"):
+        _map_elites(False)
+    config = {**QD, "task": {**QD["task"], "fitness": "distance_to_target"}}
+    with pytest.raises(ConfigError, match="'map_elites': qd_offset must be given"):
+        run_experiment(config, out=tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+def test_an_old_run_without_a_recorded_offset_still_reads(tmp_path: Path) -> None:
+    rows = pd.DataFrame(
+        [{"generation": 0, "cell": 0, "fitness": 0.5, "grid": [2, 2]}]  # before qd_offset
+    )
+    maximised = Run(tmp_path, {"maximise": True})
+    assert maximised.qd_offset == 0.0  # what its QD-score summed then
+    assert archive_quality_table(rows, 0.0, True).loc[0, "qd_score"] == 0.5
+    minimised = Run(tmp_path, {"maximise": False})
+    assert minimised.qd_offset is None
+    quality = archive_quality_table(rows, None, False).loc[0]
+    assert quality["coverage"] == 0.25 and math.isnan(quality["qd_score"])
+    assert Run(tmp_path, {"maximise": False, "qd_offset": 3}).qd_offset == 3.0

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import io
+import re
 
 import pytest
 
 from ariel.evolution import run_experiment
 from ariel.evolution._progress import Progress
+from ariel.recording import load_run
 
 TINY = {
     "name": "progress",
@@ -84,3 +86,62 @@ def test_eta_reads_as_time(seconds: int) -> None:
 
     text = _eta(seconds, 1.0)
     assert text == {0: "0s", 5: "5s", 75: "1m15s", 4000: "1h06m"}[seconds]
+
+
+def test_the_line_says_distinct_bodies_and_the_archives_quality() -> None:
+    stream = io.StringIO()
+    archive = {
+        "coverage": 14 / 64,
+        "qd_score": 3.41,
+        "norm_qd_score": 3.41 / 64,
+        "filled": 14,
+        "cells": 64,
+    }
+    with Progress(total=10, stream=stream) as progress:
+        progress.advance(5)
+        progress.end_generation(0, 1.0, 0.5, morphs=(5, 8), archive=archive)
+        progress.advance(5)
+        progress.end_generation(1, 1.0, 0.5, ", 1 unstable")  # brain-only: neither
+    first, second = stream.getvalue().splitlines()
+    assert first.startswith(
+        "gen 0: evaluations 5/10, best 1, mean 0.5, morphs 5/8, coverage 22% (14/64), "
+        "qd_score 3.41, norm_qd_score 0.05328, "
+    )
+    assert second.startswith("gen 1: evaluations 10/10, best 1, mean 0.5, ")
+    assert "morphs" not in second and "qd_score" not in second
+
+
+def _value(line: str, name: str) -> str:
+    return re.search(rf"{name} ([^,]+)", line).group(1)
+
+
+@pytest.mark.parametrize("optimizer", ["ga", "map_elites"])
+def test_a_coevolution_run_prints_what_its_records_hold(optimizer: str, tmp_path, capsys) -> None:
+    config = {**TINY, "body": {**TINY["body"], "optimizer": optimizer}}
+    run_experiment(config, out=tmp_path / "run", progress=None)  # no terminal: plain lines
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("gen ")]
+    run = load_run(tmp_path / "run")
+    generations = run.generations
+    assert len(lines) == len(generations) == 2
+    for line, row in zip(lines, generations.itertuples()):
+        alive = int((run.population["generation"] == row.generation).sum())
+        assert _value(line, "morphs") == f"{row.distinct_bodies}/{alive}"
+        assert 1 <= row.distinct_bodies <= alive
+        if optimizer == "map_elites":
+            assert _value(line, "coverage").startswith(f"{row.coverage:.0%} (")
+            assert _value(line, "qd_score") == f"{row.qd_score:.4g}"
+            assert _value(line, "norm_qd_score") == f"{row.norm_qd_score:.4g}"
+        else:
+            assert "coverage" not in line and "qd_score" not in line
+
+
+def test_a_brain_only_run_prints_no_morphologies(tmp_path, capsys) -> None:
+    config = {
+        **TINY,
+        "body": {"encoder": "prebuilt", "genotype": "gecko"},
+        "brain": {"popsize": 2, "iterations": 1},
+        "task": {"duration": 0.2},
+    }
+    run_experiment(config, out=tmp_path / "run", progress=None)
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("gen ")]
+    assert len(lines) == 2 and not any("morphs" in line for line in lines)

@@ -1,5 +1,6 @@
-"""The evaluations table's ``backend`` column: written by the loop, and an older run folder
-without it still loads, its rows reading as the CPU engine's."""
+"""The evaluations table's later columns (``backend``, ``settle_seconds``): written by the loop,
+and an older run folder without them still loads, its rows reading as they were made (the CPU
+engine, no settle)."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ def _rows(schema: pa.Schema, backend: str | None) -> dict[str, list]:
 
 
 def test_a_file_from_before_the_backend_column_reads_as_the_cpu_engine(tmp_path) -> None:
-    old = pa.schema([f for f in evaluation_schema() if f.name != "backend"])
+    old = pa.schema([f for f in evaluation_schema() if f.name not in ("backend", "settle_seconds")])
     path = generation_file(tmp_path, "evaluations", 0)
     path.parent.mkdir(parents=True)
     pq.write_table(pa.Table.from_pydict(_rows(old, None), schema=old), path)
@@ -27,6 +28,7 @@ def test_a_file_from_before_the_backend_column_reads_as_the_cpu_engine(tmp_path)
     assert table.schema == evaluation_schema()
     assert table.column("backend").to_pylist() == ["mujoco"] * 2 + ["mujoco-warp:cuda"] * 2
     assert table.column("fitness").to_pylist() == [1.0, 2.0, 1.0, 2.0]
+    assert table.column("settle_seconds").to_pylist() == [0.0, 0.0, None, None]
 
 
 def test_nulls_in_a_file_with_the_column_stay_null(tmp_path) -> None:

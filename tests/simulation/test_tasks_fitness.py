@@ -84,3 +84,32 @@ def test_task_table() -> None:
     assert tasks.TASK_FUNCTIONS["Gate Learning"] == [xy_displacement, x_speed, y_speed]
     assert tasks.TASK_FUNCTIONS["Targeted Locomotion"] == [distance_to_target]
     assert tasks.TASK_FUNCTIONS["Turning In Place"] == [turning_in_place]
+
+
+def test_sustained_displacement_counts_a_steady_gait_and_not_one_fall() -> None:
+    from ariel.simulation.tasks.gait_learning import sustained_displacement
+
+    t = np.linspace(0.0, 8.0, 81)
+    steady = np.stack([0.05 * t, 0.0 * t], axis=1)  # 5 cm/s for 8 s
+    assert sustained_displacement(t, steady) == pytest.approx(0.4)
+    assert sustained_displacement(t, steady) == pytest.approx(
+        xy_displacement(steady[0], steady[-1])
+    )
+    # Standing still, then one 0.3 m tip-over between t = 6 and 7 s: one window of eight.
+    fall = np.stack([np.clip(t - 6.0, 0.0, 1.0) * 0.3, 0.0 * t], axis=1)
+    assert xy_displacement(fall[0], fall[-1]) == pytest.approx(0.3)
+    assert sustained_displacement(t, fall) == 0.0
+    # The same gait with a late fall on top: the gait counts, the fall does not.
+    both = steady + fall
+    assert sustained_displacement(t, both) == pytest.approx(0.4)
+    # Backwards-creeping after a big lunge forward: typical window goes backwards -> 0.
+    creep = np.stack([np.where(t < 1.0, t * 1.0, 1.0 - 0.01 * (t - 1.0)), 0.0 * t], axis=1)
+    assert sustained_displacement(t, creep) == 0.0
+    # Direction does not matter (a diagonal gait), z is ignored, a short span is its displacement.
+    diagonal = np.stack([0.03 * t, -0.04 * t, np.sin(t)], axis=1)
+    assert sustained_displacement(t, diagonal) == pytest.approx(0.4)
+    assert sustained_displacement(t[:5], steady[:5]) == pytest.approx(0.02)
+    with pytest.raises(ValueError, match="xy must be"):
+        sustained_displacement(t, steady[:10])
+    with pytest.raises(ValueError, match="window must be > 0"):
+        sustained_displacement(t, steady, window=0.0)

@@ -6,16 +6,24 @@ and load back into graphs that ``construct_mjspec_from_graph`` accepts directly.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import numbers
 from collections.abc import Iterable, Mapping
 from enum import Enum
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import networkx as nx
 
-__all__ = ["graph_to_plain", "load_graph_from_json", "robot_graph", "save_graph_as_json"]
+__all__ = [
+    "graph_key",
+    "graph_to_plain",
+    "load_graph_from_json",
+    "robot_graph",
+    "save_graph_as_json",
+]
 
 
 def _plain(value: Any) -> Any:
@@ -81,3 +89,49 @@ def load_graph_from_json(load_file: str | Path) -> nx.DiGraph:
     data = {**data, "directed": True, "multigraph": False}
     data.setdefault(edges_key, [])
     return nx.node_link_graph(data, directed=True, multigraph=False, edges=edges_key)
+
+
+def graph_key(graph: nx.DiGraph | str) -> str:
+    """A key of the robot graph's structure: equal for two graphs exactly when they are the
+    same body (module types and rotations, attachment faces), whatever their node numbers.
+
+    ``graph`` is a robot graph or its node-link JSON (the bodies table's ``graph`` column).
+    A robot graph is a tree grown from the core, so the key hashes its canonical form: each
+    node's attributes, then its children's (face, subtree) pairs in sorted order (AHU 1974).
+    A graph that is no forest (not a robot graph) gets networkx's Weisfeiler-Lehman hash.
+    """
+    if isinstance(graph, str):
+        return _key_of_json(graph)
+    return _key(graph_to_plain(graph))
+
+
+@lru_cache(maxsize=4096)
+def _key_of_json(text: str) -> str:
+    data = json.loads(text)
+    edges_key = "links" if "edges" not in data and "links" in data else "edges"
+    data = {**data, "directed": True, "multigraph": False}
+    data.setdefault(edges_key, [])
+    return _key(nx.node_link_graph(data, directed=True, multigraph=False, edges=edges_key))
+
+
+def _label(attrs: Mapping[str, Any]) -> str:
+    return json.dumps(attrs, sort_keys=True, default=str)
+
+
+def _key(graph: nx.DiGraph) -> str:
+    if not nx.is_forest(graph):
+        labelled = nx.DiGraph()
+        labelled.add_nodes_from((n, {"label": _label(a)}) for n, a in graph.nodes(data=True))
+        labelled.add_edges_from((u, v, {"label": _label(a)}) for u, v, a in graph.edges(data=True))
+        return "wl-" + nx.weisfeiler_lehman_graph_hash(
+            labelled, node_attr="label", edge_attr="label", iterations=max(1, len(graph))
+        )
+    canonical: dict[Any, str] = {}
+    for node in reversed(list(nx.topological_sort(graph))):  # children before their parents
+        children = sorted(
+            f"{_label(graph.edges[node, child])}>{canonical[child]}"
+            for child in graph.successors(node)
+        )
+        canonical[node] = f"{_label(graph.nodes[node])}({','.join(children)})"
+    roots = sorted(canonical[n] for n in graph.nodes if graph.in_degree(n) == 0)
+    return hashlib.sha256("|".join(roots).encode()).hexdigest()[:16]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["x_speed", "xy_displacement", "y_speed"]
+__all__ = ["sustained_displacement", "x_speed", "xy_displacement", "y_speed"]
 
 
 def _planar(point: ArrayLike, name: str) -> np.ndarray:
@@ -33,3 +33,34 @@ def y_speed(xy1: ArrayLike, xy2: ArrayLike, dt: float) -> float:
     if dt <= 0:
         return 0.0
     return float(abs(_planar(xy2, "xy2")[1] - _planar(xy1, "xy1")[1]) / dt)
+
+
+def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0) -> float:
+    """Planar displacement at the path's typical pace: robust to one late fall or lunge.
+
+    The path ``xy`` ``(T, 2+)`` sampled at ascending ``times`` is cut into consecutive windows
+    of ``window`` seconds (positions at the window edges interpolated between samples); each
+    window's progress is its displacement along the net direction (first to last position).
+    The result is the median window's progress times the number of windows that fit the
+    whole span: a steady gait scores its `xy_displacement`; a body that tips over once scores
+    what it does in its other windows. Never negative (a typical window going nowhere or
+    backwards scores 0); a span shorter than one window scores its `xy_displacement`.
+    """
+    t = np.asarray(times, dtype=np.float64).reshape(-1)
+    path = np.asarray(xy, dtype=np.float64)
+    if path.ndim != 2 or path.shape[0] != t.size or path.shape[1] < 2:
+        raise ValueError(f"xy must be (T, 2+) with T = len(times); got {path.shape}, T={t.size}")
+    if not window > 0:
+        raise ValueError(f"window must be > 0 seconds, not {window!r}")
+    span = float(t[-1] - t[0]) if t.size else 0.0
+    count = int(np.floor(span / window + 1e-9))
+    if count < 1:
+        return xy_displacement(path[0], path[-1]) if t.size else 0.0
+    net = path[-1, :2] - path[0, :2]
+    length = float(np.linalg.norm(net))
+    if length < 1e-12:
+        return 0.0
+    edges = t[0] + window * np.arange(count + 1)
+    at_edges = np.stack([np.interp(edges, t, path[:, 0]), np.interp(edges, t, path[:, 1])], 1)
+    progress = np.diff(at_edges, axis=0) @ (net / length)
+    return float(max(0.0, np.median(progress)) * span / window)

@@ -1,0 +1,69 @@
+"""Random search over bodies (``body.optimizer = "random"``): the baseline.
+
+Every generation is brand-new random genotypes from the encoder's own sampler
+(``random_genotype``), the one generation 0 of every optimizer draws from: ``body.population``
+in generation 0, ``body.offspring`` in each later one. Nothing is bred, so no body has
+parents (and ``brain.inherit`` has nothing to inherit): each body learns its brain with CMA-ES
+from scratch. The best ``body.population`` bodies seen so far are kept, so the run's best so
+far, its population after selection and its report mean what they mean for the GA. With the
+same budget it is the "random search over bodies and brains" that an evolutionary method must
+beat (Bergstra & Bengio 2012 make the case for random search as the baseline).
+
+Random genotype i of the run (counting every generation's bodies in order) draws from stream
+(``body-init``, i), as generation 0 of the GA and MAP-Elites does: generation 0 is the same
+bodies under every optimizer (common random numbers across the conditions of a campaign), and
+no two generations draw the same genotypes. ``ask`` changes nothing; ``tell`` moves the count
+on, so the state is two counters and a resumed run asks what an uninterrupted one would.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from ariel.evolution._optimizer import Proposal, ranked
+from ariel.evolution._seeds import derive_rng
+from ariel.evolution._state import Body
+
+__all__ = ["RandomSearch"]
+
+
+class RandomSearch:
+    """New random genotypes every generation; the best ``body.population`` bodies kept."""
+
+    def __init__(
+        self, *, encoder: Any, seed: int, maximise: bool, settings: Any, **options: Any
+    ) -> None:
+        if options:
+            raise TypeError(f"random takes no body.optimizer_options, got {sorted(options)}")
+        self.encoder = encoder
+        self.seed = seed
+        self.maximise = maximise
+        self.settings = settings
+        self.generation = 0  # the generation the next `ask` draws
+        self.drawn = 0  # random genotypes told so far: the next one is number `drawn`
+        self._population: list[Body] = []
+
+    @property
+    def population(self) -> list[Body]:
+        return list(self._population)
+
+    def ask(self, n: int) -> list[Proposal]:
+        return [
+            Proposal(self.encoder.random_genotype(derive_rng(self.seed, "body-init", i)), [])
+            for i in range(self.drawn, self.drawn + n)
+        ]
+
+    def tell(self, bodies: Sequence[Body]) -> None:
+        pool = self._population + list(bodies)
+        self._population = ranked(pool, self.maximise)[: self.settings.population]
+        self.drawn += len(bodies)
+        self.generation += 1
+
+    def state(self) -> dict[str, Any]:
+        return {"generation": self.generation, "drawn": self.drawn}
+
+    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+        self.generation = int(state["generation"])
+        self.drawn = int(state["drawn"])
+        self._population = list(population)
