@@ -71,7 +71,21 @@ def test_trajectories_match_the_cpu_engine_after_one_second(evaluator) -> None:
         assert b.descriptors == a.descriptors and b.sim_time == a.sim_time
 
 
-@pytest.mark.parametrize("name", ["xy_displacement", "x_speed", "turning_in_place"])
+def test_a_settled_batch_starts_from_the_cpu_engines_settled_pose(evaluator) -> None:
+    # The settled pose is the model's reset pose (qpos0), which put_model carries to the device.
+    tasks = gecko_tasks(3, settle=0.5, record_bodies=False)
+    cpu = evaluate_batch(tasks)
+    warp = evaluator.evaluate_batch(tasks)
+    spawned = evaluate_batch(gecko_tasks(1, record_bodies=False))[0]
+    for a, b in zip(cpu, warp):
+        np.testing.assert_allclose(b.core_pos[0], a.core_pos[0], atol=1e-6)
+        assert abs(a.core_pos[0, 2] - spawned.core_pos[0, 2]) > 0.005  # it did settle
+        assert np.abs(a.core_pos - b.core_pos).max() < 1e-3
+
+
+@pytest.mark.parametrize(
+    "name", ["xy_displacement", "sustained_displacement", "x_speed", "turning_in_place"]
+)
 def test_fitness_is_the_registered_function_on_the_recorded_frames(evaluator, name) -> None:
     from ariel.plugins import fitness_functions
 
