@@ -150,26 +150,31 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
 
 
 def _print_frame(frame: Any, title: str) -> None:
-    """A table of text (a `Comparison` table) with rich, as wide as it needs."""
+    """A table of text (a `Comparison` table) with rich, as wide as it needs. Names from the
+    folders are shown as text: one line, no control sequence, no rich markup."""
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
-    table = Table(title=title)
+    from ariel.recording._escape import terminal_text
+
+    table = Table(title=Text(terminal_text(title)))
     for heading in frame.columns:
-        table.add_column(str(heading))
+        table.add_column(Text(terminal_text(heading)))
     for row in frame.itertuples(index=False):
-        table.add_row(*(str(cell) for cell in row))
+        table.add_row(*(Text(terminal_text(cell)) for cell in row))
     Console(width=max(160, Console().width)).print(table)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from ariel.recording import NotARunError
-    from ariel.recording._compare import CompareError, compare
+    from ariel.recording._compare import CompareError, compare, shown_path
+    from ariel.recording._escape import terminal_text as shown
 
     try:
         comparison = compare(args.paths, out=args.out, at_evaluations=args.at_evaluations)
     except (CompareError, NotARunError) as exc:
-        return _fail(str(exc))
+        return _fail(shown(exc))
     direction = "higher" if comparison.maximise else "lower"
     about = f"{comparison.title}: {comparison.fitness_fn}, {direction} is better"
     print(
@@ -181,11 +186,14 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if len(comparison.omnibus):
         _print_frame(comparison.omnibus_table(), f"{about}: all conditions")
     for note in comparison.notes:
-        print(f"warning: {note}")
+        print(f"warning: {shown(note)}")
     counts = comparison.runs.groupby("condition", sort=False).size()
-    print("runs: " + ", ".join(f"{name} {n}" for name, n in counts.items()))
+    print("runs: " + ", ".join(f"{shown(name)} {n}" for name, n in counts.items()))
+    out = shown(shown_path(comparison.out))
+    replaced = ", replacing the comparison that was there" if comparison.replaced else ""
     print(
-        f"wrote {comparison.out}/ (open {comparison.html}; what was compared: {comparison.readme})"
+        f"wrote {out}/{replaced} (open {shown(shown_path(comparison.html))}; what was "
+        f"compared: {shown(shown_path(comparison.readme))})"
     )
     return 0
 
@@ -236,7 +244,12 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
     p.add_argument(
         "paths", nargs="+", type=Path, metavar="DIR", help="a campaign folder, or run folders"
     )
-    p.add_argument("--out", metavar="DIR", help="output folder (default: CAMPAIGN_DIR/compare)")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="output folder (default: CAMPAIGN_DIR/compare for a campaign, a new "
+        "./compare-<date>-<time> for run folders; an earlier comparison there is replaced)",
+    )
     p.add_argument(
         "--at-evaluations",
         type=_evaluations,

@@ -16,6 +16,7 @@ dataset with ``condition`` and ``seed`` columns; `load_campaign` does it with pa
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -58,7 +59,10 @@ def is_campaign(path: str | Path) -> bool:
 
 
 def read_campaign_info(path: str | Path) -> dict[str, Any]:
-    """``campaign.json`` of the campaign in ``path``; `NotACampaignError` if there is none."""
+    """``campaign.json`` of the campaign in ``path``; `NotACampaignError` if there is none, or
+    if it is not what a campaign writes: a run elsewhere than at its own
+    ``runs/condition=<name>/seed=<n>`` (or through a symbolic link), a seed that is not an
+    integer, a condition name that is not one (one line naming the entry)."""
     import json
 
     file = Path(path) / CAMPAIGN_JSON
@@ -72,7 +76,105 @@ def read_campaign_info(path: str | Path) -> dict[str, Any]:
         raise NotACampaignError(f"{file}: unreadable {CAMPAIGN_JSON} ({exc})") from None
     if not isinstance(info, dict) or info.get("format") != CAMPAIGN_FORMAT:
         raise NotACampaignError(f"{file}: not a {CAMPAIGN_JSON} of format {CAMPAIGN_FORMAT}")
+    _check_conditions(file, info)
+    _check_runs(Path(path), file, info)
     return info
+
+
+# A condition's name, as the campaign file allows it: one path component, never "." or "..".
+_CONDITION = re.compile(r"[A-Za-z0-9_.-]+")
+
+
+def _shown(value: Any, limit: int = 60) -> str:
+    """A value read from campaign.json, safe to print: escaped (no control characters), short."""
+    text = ascii(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
+
+
+def _is_seed(value: Any) -> bool:
+    """A seed as the experiment's ``seed`` allows it: an integer (not a bool, a float or a
+    string), 0 <= seed < 2**63."""
+    return type(value) is int and 0 <= value < 2**63
+
+
+def _is_condition(value: Any) -> bool:
+    return isinstance(value, str) and _CONDITION.fullmatch(value) is not None
+
+
+def _check_conditions(file: Path, info: dict[str, Any]) -> None:
+    """The names and seeds campaign.json gives its conditions, and its seeds: `NotACampaignError`
+    unless they are names and seeds a campaign file can give."""
+    seeds = info.get("seeds", [])
+    if not isinstance(seeds, list) or not all(_is_seed(s) for s in seeds):
+        raise NotACampaignError(f"{file}: seeds {_shown(seeds)} is not a list of seeds (0, 1, ...)")
+    conditions = info.get("conditions", [])
+    if not isinstance(conditions, list):
+        raise NotACampaignError(f"{file}: conditions is not a list")
+    for index, condition in enumerate(conditions):
+        where = f"{file}: conditions[{index}]"
+        if not isinstance(condition, dict) or not _is_condition(condition.get("name")):
+            name = condition.get("name") if isinstance(condition, dict) else condition
+            raise NotACampaignError(
+                f"{where}: {_shown(name)} is not a condition name (letters, digits, _ . -)"
+            )
+        own = condition.get("seeds", [])
+        if not isinstance(own, list) or not all(_is_seed(s) for s in own):
+            raise NotACampaignError(
+                f"{where}: seeds {_shown(own)} is not a list of seeds (0, 1, ...)"
+            )
+
+
+def _check_runs(path: Path, file: Path, info: dict[str, Any]) -> None:
+    """campaign.json's runs: `NotACampaignError`, naming the entry, unless each is a condition
+    and a seed at exactly ``runs/condition=<name>/seed=<n>``, once, with no symbolic link and
+    nothing but folders on the way (a folder not made yet is made as a real one). A campaign
+    folder is data: its runs never lie outside it, nor at a path it chose."""
+    runs = info.get("runs")
+    if not isinstance(runs, list) or not runs:
+        raise NotACampaignError(f"{file}: lists no runs (its 'runs' is {_shown(runs)})")
+    seen: set[tuple[str, int]] = set()
+    for index, entry in enumerate(runs):
+        where = f"{file}: runs[{index}]"
+        if not isinstance(entry, dict):
+            raise NotACampaignError(f"{where}: {_shown(entry)} is not a run (an object)")
+        condition, seed = entry.get("condition"), entry.get("seed")
+        if not _is_condition(condition):
+            raise NotACampaignError(
+                f"{where}: condition {_shown(condition)} is not a condition name "
+                "(letters, digits, _ . -)"
+            )
+        if not _is_seed(seed):
+            raise NotACampaignError(
+                f"{where}: seed {_shown(seed)} is not a seed (an integer, 0 <= seed < 2**63)"
+            )
+        where = f"{where} (condition {condition}, seed {seed})"
+        expected = run_path(condition, seed)
+        if entry.get("path") != expected:
+            raise NotACampaignError(
+                f"{where}: refusing path {_shown(entry.get('path'))}: a campaign's run lies at "
+                f"{expected!r} inside the campaign folder, nowhere else"
+            )
+        if (condition, seed) in seen:
+            raise NotACampaignError(f"{where}: listed twice")
+        seen.add((condition, seed))
+        _check_folders(path, expected, where)
+
+
+def _check_folders(path: Path, relative: str, where: str) -> None:
+    """``runs/``, ``condition=<name>/`` and ``seed=<n>/`` under ``path``: each a real folder
+    (not a symbolic link, not a file) or not there yet."""
+    folder = path
+    for part in relative.split("/"):
+        folder = folder / part
+        if folder.is_symlink():
+            raise NotACampaignError(
+                f"{where}: refusing {str(folder)!r}: a symbolic link (a campaign's runs lie "
+                "inside its folder, never through a link); remove the link"
+            )
+        if not folder.exists():
+            return
+        if not folder.is_dir():
+            raise NotACampaignError(f"{where}: {str(folder)!r} is not a folder")
 
 
 def write_campaign_info(path: str | Path, info: dict[str, Any]) -> None:

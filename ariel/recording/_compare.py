@@ -13,11 +13,22 @@ condition), ``omnibus.csv`` (more than two conditions), ``runs.csv`` (each run's
 ``stats.md`` (the tables), ``README.md`` (what was compared, the warnings, the tables) and
 ``compare.html``, one self-contained page with the figures embedded. The fitness direction
 comes from the runs' records.
+
+Where it writes: ``out``, or by default ``CAMPAIGN_DIR/compare`` for a campaign and a new
+folder ``compare-<date>-<time>`` in the current directory for plain run folders (never a
+folder the user did not name beside the runs). An output folder that is a symbolic link is
+refused (`UnsafePathError`); one holding files a comparison did not write is refused
+(`CompareError`); an earlier comparison there is replaced (`Comparison.replaced` says so).
+Every file is written whole under a temporary name and renamed (`_files.atomic_write`), so a
+file in it that is a link is replaced, never followed. Names from the folders are escaped for
+each medium (`_escape`): CSV text cells that a spreadsheet would read as a formula start
+with ``'``.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -50,6 +61,8 @@ from ariel.recording._compare_stats import (
     small_n_warning,
 )
 from ariel.recording._curves import best_so_far, on_grid
+from ariel.recording._escape import csv_safe
+from ariel.recording._files import UnsafePathError, written_path
 from ariel.recording._load import Run, load_run
 
 __all__ = [
@@ -64,6 +77,19 @@ __all__ = [
 
 GRID_POINTS = 200
 MORPHOLOGY_BINS = 20
+#: Every file a comparison may write into its folder.
+FILES = (
+    "best_so_far.png",
+    "final_best.png",
+    "morphology.png",
+    "stats.csv",
+    "summary.csv",
+    "omnibus.csv",
+    "runs.csv",
+    "stats.md",
+    "README.md",
+    "compare.html",
+)
 
 
 @dataclass
@@ -91,7 +117,8 @@ class Comparison:
     ``budget``: the evaluations every run was compared at; ``tests``: which tests and why;
     ``notes``: warnings the reader must see (small n, unequal budgets, missing pairs);
     ``about``: what was compared, (label, text) lines; ``settings``: the config values every
-    run shares. `table`, `summary_table` and `omnibus_table` give the tables as printed.
+    run shares; ``replaced``: ``out`` held an earlier comparison, which this one replaced.
+    `table`, `summary_table` and `omnibus_table` give the tables as printed.
     """
 
     out: Path | None
@@ -111,6 +138,7 @@ class Comparison:
     about: list[tuple[str, str]] = field(default_factory=list)
     settings: dict[str, str] = field(default_factory=dict)
     readme: Path | None = None
+    replaced: bool = False  # ``out`` held an earlier comparison, now replaced
 
     def table(self) -> Any:
         """The pairwise statistics as `ariel compare` prints them (a DataFrame of text)."""
@@ -351,15 +379,52 @@ def _bin_means(evaluations: Any, descriptor: str, edges: np.ndarray) -> np.ndarr
 # --------------------------------------------------------------------------------------------
 
 
+def _is_ours(path: Path) -> bool:
+    """A file a comparison writes (or the temporary of one a killed comparison left)."""
+    name = written_path(path)
+    return path.name in FILES or (name is not None and name.name in FILES)
+
+
+def prepare_folder(out: Path) -> bool:
+    """Check that ``out`` can take a comparison; True where it holds an earlier one (to be
+    replaced). A link is refused (`UnsafePathError`: nothing is written through it), and so
+    are a file and a folder holding anything a comparison did not write (`CompareError`)."""
+    if out.is_symlink():
+        raise UnsafePathError(
+            f"refusing to write the comparison into {str(out)!r}: it is a symbolic link (to "
+            f"{os.readlink(out)!r}); remove the link or name another folder with --out DIR"
+        )
+    if not out.exists():
+        return False
+    if not out.is_dir():
+        raise CompareError(f"{str(out)!r} is a file, not a folder: name a folder with --out DIR")
+    entries = sorted(out.iterdir())
+    foreign = [p.name for p in entries if not _is_ours(p) or (p.is_dir() and not p.is_symlink())]
+    if foreign:
+        raise CompareError(
+            f"{str(out)!r} holds files a comparison does not write ({foreign[0]!r}"
+            f"{f' and {len(foreign) - 1} more' if len(foreign) > 1 else ''}): name a new folder "
+            "with --out DIR"
+        )
+    return bool(entries)
+
+
 def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path) -> None:
-    """The figures, tables and pages of ``comparison`` into ``out``."""
+    """The figures, tables and pages of ``comparison`` into ``out`` (`prepare_folder`); an
+    earlier comparison's files that this one does not write are removed."""
     import pandas as pd
 
     from ariel.recording import _compare_plots as plots
     from ariel.recording._axes import fitness_label
     from ariel.recording._compare_html import write_html, write_markdown, write_readme
+    from ariel.recording._files import atomic_write
 
+    comparison.replaced = prepare_folder(out)
     out.mkdir(parents=True, exist_ok=True)
+
+    def csv(frame: Any, name: str) -> None:
+        atomic_write(out / name, lambda temporary: csv_safe(frame).to_csv(temporary, index=False))
+
     ylabel = fitness_label(comparison.fitness_fn, comparison.maximise, what="best fitness")
     finals = {name: s.values for name, s in _samples(comparison.runs, "final_best").items()}
     best = _best_curves(grouped, comparison.maximise, comparison.budget)
@@ -372,14 +437,25 @@ def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path
         comparison.figures["morphology"] = plots.morphology_figure(
             morphology, out / "morphology.png"
         )
-    comparison.stats.to_csv(out / "stats.csv", index=False)
-    comparison.summary.to_csv(out / "summary.csv", index=False)
+    csv(comparison.stats, "stats.csv")
+    csv(comparison.summary, "summary.csv")
     if len(comparison.omnibus):
-        pd.DataFrame(comparison.omnibus).to_csv(out / "omnibus.csv", index=False)
-    comparison.runs.to_csv(out / "runs.csv", index=False)
+        csv(pd.DataFrame(comparison.omnibus), "omnibus.csv")
+    csv(comparison.runs, "runs.csv")
     write_markdown(comparison, out / "stats.md")
     comparison.readme = write_readme(comparison, out / "README.md")
     comparison.html = write_html(comparison, out / "compare.html")
+    written = {p.name for p in comparison.figures.values()} | {
+        "stats.csv",
+        "summary.csv",
+        "runs.csv",
+        "stats.md",
+        "README.md",
+        "compare.html",
+        *(["omnibus.csv"] if len(comparison.omnibus) else []),
+    }
+    for name in set(FILES) - written:  # an earlier comparison's, not this one's
+        (out / name).unlink(missing_ok=True)  # a link is removed, not followed
 
 
 def compare_runs(
@@ -459,15 +535,16 @@ def compare(
     write: bool = True,
 ) -> Comparison:
     """Compare a campaign's conditions (one campaign folder) or plain run folders (grouped by
-    their config difference). ``out``: default ``CAMPAIGN_DIR/compare``, or ``compare`` in
-    the run folders' common parent; ``at_evaluations``: compare every run after its first N
+    their config difference). ``out``: default ``CAMPAIGN_DIR/compare`` (an earlier comparison
+    there is replaced), or for run folders a new folder ``compare-<date>-<time>`` in the
+    current directory (`new_folder`); ``at_evaluations``: compare every run after its first N
     evaluations (default: as many as the shortest run made); ``write=False``: compute only
     (a notebook's table), write nothing."""
-    import os
-
     paths = [Path(p) for p in paths]
     if not paths:
         raise CompareError("give a campaign folder or run folders to compare")
+    if write and out is not None:
+        prepare_folder(Path(out))  # refused before the runs are read (again when written)
     if len(paths) == 1 and is_campaign(paths[0]):
         title, source, paired, found = _campaign_runs(paths[0])
         reason = _REASONS["shared" if paired else "independent"]
@@ -481,7 +558,7 @@ def compare(
             )
         title, source, found = _folder_runs(paths)
         paired, reason = False, _REASONS["folders"]
-        default = Path(os.path.commonpath([p.resolve() for p in paths])) / "compare"
+        default = None  # a new folder here, named when it is written (below)
         labels = [c.path for c, _ in found]
     done = [i for i, (_, run) in enumerate(found) if run.generations_done > 0]
     if not done:
@@ -489,9 +566,11 @@ def compare(
     found = [found[i] for i in done]
     check_comparable([(labels[i], found[j][1].config) for j, i in enumerate(done)])
     maximise, fitness_fn = _direction([r for _, r in found])
+    if out is None and write:
+        out = default if default is not None else new_folder(Path("."), "compare")
     return compare_runs(
         [c for c, _ in found],
-        out if out is not None else default,
+        out,
         maximise=maximise,
         fitness_fn=fitness_fn,
         title=title,
@@ -501,3 +580,26 @@ def compare(
         source=source,
         write=write,
     )
+
+
+def new_folder(parent: Path, prefix: str) -> Path:
+    """``parent/<prefix>-<date>-<time>`` (``-2``, ``-3``, ... added where that exists): the
+    name of a folder that is not there yet. ``parent`` ``.`` gives a relative path."""
+    import datetime
+
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    name = f"{prefix}-{stamp}"
+    path, n = parent / name, 1
+    while os.path.lexists(path):
+        n += 1
+        path = parent / f"{name}-{n}"
+    return Path(os.path.normpath(path))
+
+
+def shown_path(path: str | Path) -> str:
+    """``path`` relative to the current directory where it lies in it, else as it is."""
+    try:
+        relative = Path(os.path.abspath(path)).relative_to(Path.cwd())
+    except ValueError:
+        return str(path)
+    return str(relative) if str(relative) != "." else "."

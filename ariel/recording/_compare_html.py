@@ -1,17 +1,27 @@
 """The written forms of a comparison: its tables as text (the same for the command, the
 notebook, Markdown and HTML), ``stats.md``, ``README.md`` (what was compared, the warnings,
 the tables) and one self-contained HTML page (figures embedded as base64 PNG data, no file
-beside it needed) to mail to a colleague."""
+beside it needed) to mail to a colleague.
+
+Names from the folders (campaign id, conditions, paths, config values) are escaped for each
+medium (`_escape`), and every file is written whole and never through a link
+(`_files.atomic_write`)."""
 
 from __future__ import annotations
 
 import base64
-import html
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from ariel.recording._compare_stats import ALPHA
+from ariel.recording._escape import (
+    html_text,
+    markdown_cell,
+    markdown_code,
+    markdown_text,
+)
 
 __all__ = [
     "STATS_COLUMNS",
@@ -159,17 +169,20 @@ def omnibus_frame(comparison: Any) -> Any:
     return pd.DataFrame(rows, columns=list(OMNIBUS_COLUMNS))
 
 
-def _note(comparison: Any) -> str:
+def _note(comparison: Any, escape: Callable[[object], str] = str) -> str:
+    """What the tables mean; ``escape``: the medium's escape of the fitness function's name
+    (from the runs' configs; the rest is ours)."""
     direction = "higher" if comparison.maximise else "lower"
+    n = f"{comparison.budget:,}"
     return (
-        f"Fitness: {comparison.fitness_fn} ({direction} is better). Every run is compared at "
-        f"{comparison.budget:,} evaluations: final best = its best fitness after them; AUC = "
-        f"the mean of its best fitness so far over evaluations 1..{comparison.budget:,} (the "
-        f"area under the best-so-far curve / N, in the fitness's unit; {direction} is better "
-        "too). A12 = P(a run of A beats a run of B), ties half; 0.5 = no effect; n: runs per "
-        f"condition. Tests: {comparison.tests.describe()}. better: the better condition where "
-        f"p (Holm) < {ALPHA:g}. An effect is labelled (small, medium, large) only where the "
-        f"test could reach p (Holm) < {ALPHA:g} with these n. CIs: 95 % percentile bootstrap"
+        f"Fitness: {escape(comparison.fitness_fn)} ({direction} is better). Every run is "
+        f"compared at {n} evaluations: final best = its best fitness after them; AUC = the mean "
+        f"of its best fitness so far over evaluations 1..{n} (the area under the best-so-far "
+        f"curve / N, in the fitness's unit; {direction} is better too). A12 = P(a run of A "
+        "beats a run of B), ties half; 0.5 = no effect; n: runs per condition. Tests: "
+        f"{comparison.tests.describe()}. better: the better condition where p (Holm) < "
+        f"{ALPHA:g}. An effect is labelled (small, medium, large) only where the test could "
+        f"reach p (Holm) < {ALPHA:g} with these n. CIs: 95 % percentile bootstrap"
         + (", resampling seeds." if comparison.tests.paired else ".")
     )
 
@@ -179,10 +192,20 @@ def _note(comparison: Any) -> str:
 # --------------------------------------------------------------------------------------------
 
 
+def _write_text(path: Path, text: str) -> Path:
+    from ariel.recording._files import atomic_write
+
+    # Whole, and never through a link (``compare/stats.md -> ~/.bashrc`` is replaced).
+    atomic_write(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
+    return path
+
+
 def _markdown_table(frame: Any) -> list[str]:
-    head = [str(c) for c in frame.columns]
+    head = [markdown_cell(c) for c in frame.columns]
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in frame.itertuples(False)]
+    lines += [
+        "| " + " | ".join(markdown_cell(c) for c in row) + " |" for row in frame.itertuples(False)
+    ]
     return [*lines, ""]
 
 
@@ -196,9 +219,14 @@ def _markdown_tables(comparison: Any) -> list[str]:
 
 def write_markdown(comparison: Any, path: Path) -> Path:
     """``stats.md``: the note and the tables."""
-    lines = [f"# {comparison.title}", "", _note(comparison), "", *_markdown_tables(comparison)]
-    path.write_text("\n".join(lines), encoding="utf-8")
-    return path
+    lines = [
+        f"# {markdown_text(comparison.title)}",
+        "",
+        _note(comparison, markdown_text),
+        "",
+        *_markdown_tables(comparison),
+    ]
+    return _write_text(path, "\n".join(lines))
 
 
 _SECTIONS = {
@@ -210,20 +238,23 @@ _SECTIONS = {
 
 def write_readme(comparison: Any, path: Path) -> Path:
     """``README.md``: what was compared, the warnings, the tables and the figures."""
-    lines = [f"# {comparison.title}: comparison", "", "## What was compared", ""]
-    lines += [f"- **{label}**: {text}" for label, text in comparison.about]
+    lines = [f"# {markdown_text(comparison.title)}: comparison", "", "## What was compared", ""]
+    lines += [f"- **{label}**: {markdown_text(text)}" for label, text in comparison.about]
     if comparison.notes:
-        lines += ["", "## Warnings", "", *[f"- {note}" for note in comparison.notes]]
-    lines += ["", _note(comparison), "", *_markdown_tables(comparison)]
+        notes = [f"- {markdown_text(note)}" for note in comparison.notes]
+        lines += ["", "## Warnings", "", *notes]
+    lines += ["", _note(comparison, markdown_text), "", *_markdown_tables(comparison)]
     for name, figure in comparison.figures.items():
         lines += [f"## {_SECTIONS.get(name, name)}", "", f"![{name}]({figure.name})", ""]
     if comparison.settings:
         lines += ["## Settings every run shares", ""]
-        lines += [f"- `{key}` = `{value}`" for key, value in comparison.settings.items()]
+        lines += [
+            f"- {markdown_code(key)} = {markdown_code(value)}"
+            for key, value in comparison.settings.items()
+        ]
         lines.append("")
     lines += ["Each run's values: `runs.csv`; the tables as numbers: `stats.csv`, `summary.csv`."]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return _write_text(path, "\n".join(lines) + "\n")
 
 
 # --------------------------------------------------------------------------------------------
@@ -232,9 +263,9 @@ def write_readme(comparison: Any, path: Path) -> Path:
 
 
 def _table(head: list[str], rows: list[list[str]]) -> str:
-    cells = "".join(f"<th>{html.escape(h)}</th>" for h in head)
+    cells = "".join(f"<th>{html_text(h)}</th>" for h in head)
     body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in rows
+        "<tr>" + "".join(f"<td>{html_text(c)}</td>" for c in row) + "</tr>" for row in rows
     )
     return f"<table><thead><tr>{cells}</tr></thead><tbody>{body}</tbody></table>"
 
@@ -247,7 +278,7 @@ def _frame_table(frame: Any) -> str:
 
 def _image(path: Path, alt: str) -> str:
     data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
+    return f'<img alt="{html_text(alt)}" src="data:image/png;base64,{data}">'
 
 
 _STYLE = """
@@ -267,7 +298,7 @@ def _about(comparison: Any) -> list[str]:
         "<h2>What was compared</h2>",
         '<table class="about"><tbody>'
         + "".join(
-            f"<tr><th>{html.escape(label)}</th><td>{html.escape(text)}</td></tr>"
+            f"<tr><th>{html_text(label)}</th><td>{html_text(text)}</td></tr>"
             for label, text in comparison.about
         )
         + "</tbody></table>",
@@ -280,7 +311,7 @@ def _about(comparison: Any) -> list[str]:
             "</details>",
         ]
     if comparison.notes:
-        items = "".join(f"<li>{html.escape(note)}</li>" for note in comparison.notes)
+        items = "".join(f"<li>{html_text(note)}</li>" for note in comparison.notes)
         parts += ["<h2>Warnings</h2>", f'<ul class="warnings">{items}</ul>']
     return parts
 
@@ -291,11 +322,11 @@ def write_html(comparison: Any, path: Path) -> Path:
     parts = [
         "<!doctype html>",
         '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{html.escape(comparison.title)}: comparison</title>",
+        f"<title>{html_text(comparison.title)}: comparison</title>",
         f"<style>{_STYLE}</style></head><body>",
-        f"<h1>{html.escape(comparison.title)}</h1>",
+        f"<h1>{html_text(comparison.title)}</h1>",
         *_about(comparison),
-        f'<p class="note">{html.escape(_note(comparison))}</p>',
+        f'<p class="note">{html_text(_note(comparison))}</p>',
         "<h2>Per condition</h2>",
         _frame_table(comparison.summary_table()),
         "<h2>Pairs of conditions</h2>",
@@ -304,7 +335,7 @@ def write_html(comparison: Any, path: Path) -> Path:
     if len(comparison.omnibus):
         parts += ["<h2>All conditions</h2>", _frame_table(comparison.omnibus_table())]
     for name, figure in comparison.figures.items():
-        parts += [f"<h2>{html.escape(_SECTIONS.get(name, name))}</h2>", _image(figure, name)]
+        parts += [f"<h2>{html_text(_SECTIONS.get(name, name))}</h2>", _image(figure, name)]
     runs = [
         [
             r["condition"],
@@ -320,5 +351,4 @@ def write_html(comparison: Any, path: Path) -> Path:
         _table(["condition", "seed", "evaluations", "final best", "AUC"], runs),
         "</body></html>",
     ]
-    path.write_text("\n".join(parts) + "\n", encoding="utf-8")
-    return path
+    return _write_text(path, "\n".join(parts) + "\n")

@@ -1,7 +1,9 @@
 """The figures of `ariel compare`: best so far against evaluations (median and 95 % bootstrap
 band per condition, each band in the legend; the y axis spans the data, not from 0), final
 best per condition (box plot with every seed's point), and the bodies' morphology descriptors
-over evaluations per condition. Matplotlib (Agg), PNG files.
+over evaluations per condition. Matplotlib (Agg), PNG files, each written whole and never
+through a link (`_files.atomic_write`); condition names are drawn as text (`figure_label`:
+one line, no mathtext).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ariel.recording._axes import DESCRIPTORS, integer_ticks
+from ariel.recording._escape import figure_label
 
 __all__ = [
     "MORPHOLOGY",
@@ -43,9 +46,13 @@ def _colours(names: Sequence[str]) -> dict[str, Any]:
 
 
 def _save(figure: Any, path: Path) -> Path:
+    from ariel.recording._files import atomic_write
+
     figure.tight_layout()
-    figure.savefig(path, dpi=_DPI)
-    _pyplot().close(figure)
+    try:  # never through a link planted in the output folder (``compare/final_best.png -> ~/x``)
+        atomic_write(path, lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"))
+    finally:
+        _pyplot().close(figure)
     return path
 
 
@@ -63,9 +70,10 @@ def best_so_far_figure(
     colours = _colours(list(curves))
     handles = []
     for name, (grid, median, low, high) in curves.items():
-        (line,) = axes.plot(grid, median, color=colours[name], label=name, linewidth=1.8)
+        label = figure_label(name)
+        (line,) = axes.plot(grid, median, color=colours[name], label=label, linewidth=1.8)
         axes.fill_between(grid, low, high, color=colours[name], alpha=_BAND_ALPHA, linewidth=0)
-        band = Patch(facecolor=colours[name], alpha=_BAND_ALPHA, label=f"{name}: 95 % CI")
+        band = Patch(facecolor=colours[name], alpha=_BAND_ALPHA, label=f"{label}: 95 % CI")
         handles += [line, band]
     limits = data_limits([v for _, *lines in curves.values() for v in lines])
     if limits is not None:
@@ -103,7 +111,8 @@ def final_best_figure(finals: Mapping[str, np.ndarray], path: Path, *, ylabel: s
     for position, (name, values) in enumerate(zip(names, data), start=1):
         x = position + jitter.uniform(-0.12, 0.12, size=len(values))
         axes.scatter(x, values, color=colours[name], zorder=3, s=22, edgecolor="black")
-    axes.set_xticks(range(1, len(names) + 1), names, rotation=20 if len(names) > 3 else 0)
+    labels = [figure_label(n) for n in names]
+    axes.set_xticks(range(1, len(names) + 1), labels, rotation=20 if len(names) > 3 else 0)
     axes.set_ylabel(ylabel)
     axes.set_title("final best per run (one point per seed)")
     axes.grid(alpha=0.3, axis="y")
@@ -125,7 +134,7 @@ def morphology_figure(
     colours = _colours(conditions)
     for axes, descriptor in zip(grid.flat, names):
         for condition, (x, median, low, high) in series[descriptor].items():
-            axes.plot(x, median, color=colours[condition], label=condition)
+            axes.plot(x, median, color=colours[condition], label=figure_label(condition))
             axes.fill_between(x, low, high, color=colours[condition], alpha=0.15, linewidth=0)
         axes.set_title(descriptor)
         axes.set_xlabel("evaluations")

@@ -2,12 +2,18 @@
 
 The folder it writes holds the body in its world as MJCF (``body.xml``, MuJoCo's own viewer
 opens it: ``python -m mujoco.viewer --mjcf body.xml``), the genotype (``genotype.json``), the
-controller and its exact parameters (``controller.json``), and ``replay.py``: a 10-line
+controller and its exact parameters (``controller.json``), and ``replay.py``: a short
 script of the tutorial API that rebuilds the robot (`load_exported`: the registries, the
 constructor, ``world.spawn``, `Controller`), drives it (``mjcb_control``, `simple_runner`)
-and prints where the core ends up: where the run recorded it, as the tutorial path equals
-the engine's. (MJCF rounds numbers to 6 digits, so a simulation of
-``body.xml`` drifts from the recorded path; it is for looking at.)
+and prints where the core ends up, beside where the run recorded it (the same: the tutorial
+path equals the engine's) and the recorded fitness. (MJCF rounds numbers to 6 digits, so a
+simulation of ``body.xml`` drifts from the recorded path; it is for looking at.)
+
+A run folder is data, and so is what is exported from it: ``replay.py`` is the same text for
+every export (it reads the ids and values from ``controller.json`` when it runs), and the run
+id and evaluation id are checked against their shapes (`_ids`) before anything is written, so
+a crafted id is refused in one line instead of becoming code. Every file is written whole and
+never through a link (`_files.atomic_write`).
 """
 
 from __future__ import annotations
@@ -23,8 +29,14 @@ __all__ = ["ExportError", "export"]
 #: The files `export` writes into its folder.
 FILES = ("body.xml", "genotype.json", "controller.json", "replay.py")
 
+#: ``replay.py``: no data of the run in it (the ids and the recorded values are read from
+#: controller.json when it runs); ``{core}`` is the core geom's name, a constant of ours.
 _SCRIPT = '''\
-"""Replay evaluation {eval_id} of run {run_id} with ARIEL's tutorial API: python replay.py"""
+"""Replay the evaluation exported to this folder with ARIEL's tutorial API: python replay.py
+
+Which evaluation of which run, and what it recorded: controller.json. The replayed fitness:
+ariel replay RUN_DIR EVAL_ID re-simulates it with the run's fitness function.
+"""
 
 from pathlib import Path
 
@@ -38,6 +50,9 @@ mujoco.set_mjcb_control(robot.controller.set_control)
 simple_runner(robot.model, robot.data, duration=robot.duration)
 mujoco.mj_kinematics(robot.model, robot.data)  # the final state's positions
 print("core at", robot.data.geom("{core}").xpos.tolist())
+print("recorded core at", robot.recorded_core)  # the run's record of the same path
+print("recorded fitness", robot.fitness, "(" + robot.fitness_fn + ")")
+print("evaluation", robot.eval_id, "of run", robot.run_id)
 '''
 
 
@@ -54,14 +69,20 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     `MissingPluginError` when a plugin the body or world needs is not installed here.
     """
     from ariel.evaluation._engine import SPAWN_PREFIX
+    from ariel.recording._files import atomic_write
+    from ariel.recording._ids import check_eval_id, check_run_id
     from ariel.recording._load import load_run
     from ariel.recording._replay import _find_row, _require_plugins, replay_task
 
     out = Path(out)
+    if out.is_symlink():
+        raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ExportError(f"{out}: exists and is not an empty folder; name a new one")
     run = load_run(run_dir)
+    run_id = check_run_id(run.info.get("run_id"), run.path)
     row = _find_row(run, eval_id)
+    check_eval_id(row["eval_id"], run.path)
     if row["status"] == "error":
         raise ExportError(
             f"evaluation {row['eval_id']!r} has no body to export: its genotype cannot be "
@@ -76,7 +97,7 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
         "genotype": json.loads(row["body_genotype"]),
     }
     brain = {
-        "run_id": run.info.get("run_id"),
+        "run_id": run_id,
         "eval_id": str(row["eval_id"]),
         "controller": task.controller,
         "options": task.controller_options,
@@ -92,10 +113,9 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
         "spawn_rotation": list(task.spawn_rotation),
         "fitness_fn": task.fitness,
         "fitness": float(row["fitness"]),
+        "core_end": _recorded_core(run, row),
     }
-    script = _SCRIPT.format(
-        eval_id=row["eval_id"], run_id=run.info.get("run_id"), core=SPAWN_PREFIX + "core"
-    )
+    script = _SCRIPT.format(core=SPAWN_PREFIX + "core")  # the same for every export
     texts = {
         "body.xml": xml,
         "genotype.json": json.dumps(genotype, indent=1) + "\n",
@@ -104,8 +124,30 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     }
     out.mkdir(parents=True, exist_ok=True)
     for name, text in texts.items():
-        (out / name).write_text(text, encoding="utf-8")
+        data = text.encode("utf-8")
+        atomic_write(out / name, lambda temporary, data=data: temporary.write_bytes(data), root=out)
     return out
+
+
+def _recorded_core(run: Any, row: dict[str, Any]) -> list[float] | None:
+    """Where the run recorded the core at the evaluation's end (its last trajectory frame);
+    None where the run kept no trajectories."""
+    from ariel.recording._tables import generation_file, read_file
+
+    path = generation_file(run.path, "trajectories", int(row["generation"]))
+    if not path.is_file():
+        return None
+    frames = read_file(
+        run.path,
+        path,
+        "trajectories",
+        manifest=run.manifest,
+        filters=[("eval_id", "==", row["eval_id"])],
+    ).to_pandas()
+    if not len(frames):
+        return None
+    last = frames.sort_values("t").iloc[-1]
+    return [float(last["core_x"]), float(last["core_y"]), float(last["core_z"])]
 
 
 def _world_spec(task: Any) -> Any:

@@ -3,12 +3,14 @@
 `load_exported` rebuilds the body from ``genotype.json`` with the tutorial API (the
 registries, the constructor, ``world.spawn``) and the controller from ``controller.json``
 (`Controller`), as the run evaluated them: simulated with `simple_runner`, the core ends
-where the run recorded it. The folder is data: only its two JSON files are read.
+where the run recorded it. The folder is data: only its two JSON files are read, and its
+run id and evaluation id must have their shapes (`_ids`: one line otherwise).
 """
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,12 +23,19 @@ __all__ = ["ExportedRobot", "load_exported"]
 @dataclass
 class ExportedRobot:
     """A compiled model and its data, the controller to hand ``mujoco.set_mjcb_control``
-    (``controller.set_control``), and the evaluation's simulated seconds."""
+    (``controller.set_control``), and the evaluation's simulated seconds; what the run
+    recorded of it: its ids, its fitness (and the fitness function's name) and where the core
+    ended (``[x, y, z]``, None where the run kept no trajectories)."""
 
     model: Any
     data: Any
     controller: Any
     duration: float
+    eval_id: str = ""
+    run_id: str = ""
+    fitness: float = math.nan
+    fitness_fn: str = ""
+    recorded_core: list[float] | None = None
 
 
 def load_exported(folder: str | Path) -> ExportedRobot:
@@ -35,6 +44,8 @@ def load_exported(folder: str | Path) -> ExportedRobot:
 
     from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
     from ariel.plugins import body_encoders, controllers, worlds
+    from ariel.recording._escape import one_line
+    from ariel.recording._ids import check_eval_id, check_run_id
     from ariel.simulation.controllers.controller import Controller
     from ariel.simulation.controllers.observations import hinge_observation
     from ariel.simulation.settle import settle_model
@@ -42,6 +53,8 @@ def load_exported(folder: str | Path) -> ExportedRobot:
     folder = Path(folder)
     body = json.loads((folder / "genotype.json").read_text(encoding="utf-8"))
     brain = json.loads((folder / "controller.json").read_text(encoding="utf-8"))
+    eval_id = check_eval_id(brain.get("eval_id"), folder)
+    run_id = check_run_id(brain.get("run_id"), folder)
     encoder = body_encoders.make(body["body_encoder"], **body["options"])
     if hasattr(encoder, "build"):  # a prebuilt robot
         core = encoder.build(body["genotype"])
@@ -68,4 +81,15 @@ def load_exported(folder: str | Path) -> ExportedRobot:
             return act(observe(m, d))
 
     controller = Controller(policy, time_steps_per_ctrl_step=period, alpha=brain["smoothing"])
-    return ExportedRobot(model, mujoco.MjData(model), controller, float(brain["duration"]))
+    core = brain.get("core_end")
+    return ExportedRobot(
+        model,
+        mujoco.MjData(model),
+        controller,
+        float(brain["duration"]),
+        eval_id=eval_id,
+        run_id=run_id,
+        fitness=float(brain.get("fitness", math.nan)),
+        fitness_fn=one_line(brain.get("fitness_fn", "")),
+        recorded_core=[float(v) for v in core] if isinstance(core, list) else None,
+    )

@@ -327,8 +327,14 @@ def _campaign_selection(
     folder: Path, best: int | None, generation: int | None, eval_id: str | None
 ) -> Selection:
     """A campaign folder: campaign.rrd (every run's best-so-far curve) with campaign.rbl."""
+    from ariel.recording._campaign import read_campaign_info
     from ariel.recording._campaign_rerun import CAMPAIGN_BLUEPRINT, write_campaign_recording
+    from ariel.recording._run_folder import NotARunError
 
+    try:  # a damaged or crafted campaign.json (a run path out of the folder) is one line
+        read_campaign_info(folder)
+    except NotARunError as exc:
+        raise ViewError(str(exc)) from None
     if (best, generation, eval_id) != (None, None, None):
         runs = sorted(folder.glob("runs/condition=*/seed=*"))
         one = runs[0] if runs else folder / "runs" / "condition=NAME" / "seed=N"

@@ -31,7 +31,7 @@ from ariel.runs._experiment import (
     run_result,
     start_driver,
 )
-from ariel.runs._prepare import executor_settings, prepare_run, resolve_plugins
+from ariel.runs._prepare import executor_settings, prepare_run, resolve_plugins, resume_settings
 from ariel.utils._commands import ariel_line
 
 __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign"]
@@ -201,20 +201,26 @@ def resume_campaign(
     progress: bool = False,
 ) -> CampaignResult:
     """Continue every unfinished run of a campaign (finished runs are skipped) on one
-    executor; refuses a finished campaign and a campaign in use (`RunInUseError`)."""
+    executor; refuses a finished campaign and a campaign in use (`RunInUseError`).
+
+    The executor: ``executor`` / ``workers`` / ``scheduler``, else the kind the campaign ran
+    on, never a Dask scheduler address from campaign.json (see `resume_experiment`)."""
     from ariel.recording._campaign import read_campaign_info
     from ariel.recording._lock import RunLock
     from ariel.recording._run_folder import storage_errors
 
     path = Path(campaign_dir)
     info = read_campaign_info(path)
-    last = info.get("executor") or {}
-    kind = executor or last.get("kind")
-    if executor is None or executor == last.get("kind"):
-        workers = workers if workers is not None else last.get("workers")
-        scheduler = scheduler if scheduler is not None else last.get("scheduler")
     first = ExperimentConfig.from_plain(info["runs"][0]["config"])
-    settings = executor_settings(first, kind=kind, workers=workers, scheduler=scheduler)
+    # As a run's resume: the kind it ran on, never a Dask scheduler address from the folder.
+    settings = resume_settings(
+        first,
+        info.get("executor"),
+        kind=executor,
+        workers=workers,
+        scheduler=scheduler,
+        command=("campaign", "resume", campaign_dir),
+    )
     with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
         runs, skipped = _unfinished_runs(path, info, locks)

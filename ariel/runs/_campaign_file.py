@@ -40,8 +40,11 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ariel.evolution._config import (
+    _TOML_KIND,
+    _TYPE_ERRORS,
     ConfigError,
     ExperimentConfig,
+    Int,
     check_key,
     load_config,
     set_value,
@@ -68,8 +71,8 @@ class _CampaignModel(BaseModel):
     name: str = Field("campaign", min_length=1, pattern=_NAME.pattern)
     description: str = ""
     base: str | dict[str, Any]
-    seeds: list[int] | None = None
-    seed_count: int | None = Field(None, ge=1)
+    seeds: list[Int] | None = None  # strict, as the experiment's seed: not true, "3" or 2.0
+    seed_count: Int | None = Field(None, ge=1)
     seeding: str = SEEDING[0]
     set: dict[str, Any] = Field(default_factory=dict)
     condition: list[_ConditionEntry] = Field(default_factory=list)
@@ -125,8 +128,12 @@ def _one_line(error: ValidationError) -> str:
         fields = _ConditionEntry if first["loc"][0] == "condition" else _CampaignModel
         return f"unknown key '{key}'; allowed: {', '.join(sorted(fields.model_fields))}"
     message = first["msg"].removeprefix("Value error, ")
+    message = message.replace("Input should be ", "must be ", 1)
     given = first.get("input")
     shown = "" if isinstance(given, dict | list) else f" (got {given!r})"
+    if first["type"] in _TYPE_ERRORS and not isinstance(given, dict | list):
+        # Strict types, as the experiment's: a quoted "3" is a string in TOML, 2.0 a float.
+        shown = f" (got {given!r}, {_TOML_KIND.get(type(given), type(given).__name__)})"
     return f"{key}: {message}{shown}"
 
 

@@ -24,6 +24,7 @@ from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_geno
     executor_settings,
     prepare_run,
     resolve_plugins,
+    resume_settings,
 )
 
 __all__ = [
@@ -270,6 +271,9 @@ def resume_experiment(
 
     Refuses a folder that is not a run, a finished run, a run whose config was edited, and a
     run that another process is running (`RunInUseError`), before writing anything.
+    ``executor`` / ``workers`` / ``scheduler``: where it goes on; by default the kind of
+    executor (and worker count) it last ran on, but never a Dask scheduler address taken from
+    the folder: a Dask run without ``scheduler`` goes on on a local Dask cluster, and says so.
     """
     from ariel.evolution._checks import check_plugins
     from ariel.recording._lock import RunLock
@@ -277,13 +281,16 @@ def resume_experiment(
 
     folder = RunFolder(run_dir)
     info, config, _ = resumable(folder)
-    # Unless told otherwise, continue where the run last ran (results do not depend on it).
-    last = info.get("executor") or {}
-    kind = executor or last.get("kind") or config.executor.kind
-    if executor is None or executor == last.get("kind"):
-        workers = workers if workers is not None else last.get("workers")
-        scheduler = scheduler if scheduler is not None else last.get("scheduler")
-    settings = executor_settings(config, kind=kind, workers=workers, scheduler=scheduler)
+    # Unless told otherwise, continue on the kind of executor the run last ran on (results do
+    # not depend on it), but never on a Dask scheduler the folder names: only on one passed here.
+    settings = resume_settings(
+        config,
+        info.get("executor"),
+        kind=executor,
+        workers=workers,
+        scheduler=scheduler,
+        command=("resume", run_dir),
+    )
     plugins = resolve_plugins(config)
     check_plugins(config)
     with storage_errors(folder.path), RunLock(folder.path):

@@ -5,13 +5,14 @@ genotype file read, a fixed body built, the executor settings checked; every pro
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from ariel.evolution._config import ConfigError, ExperimentConfig
 from ariel.evolution._driver import Plugins, fixed_genotype
 from ariel.evolution._genotype import check_genotype, describe, is_genotype_file
 
-__all__ = ["executor_settings", "prepare_run", "resolve_plugins"]
+__all__ = ["executor_settings", "prepare_run", "resolve_plugins", "resume_settings"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,14 +120,77 @@ def _check_fixed_body(config: ExperimentConfig, plugins: Plugins) -> None:
 
 def executor_settings(config: ExperimentConfig, **given: Any) -> Any:
     """The config's ``[executor]`` with the caller's overrides, checked: `ConfigError`."""
+    changes = {key: value for key, value in given.items() if value is not None}
+    return _checked(config.executor.model_copy(update=changes))
+
+
+def _checked(settings: Any) -> Any:
     from ariel.evaluation.executors import ExecutorSettingsError, check_settings
 
-    changes = {key: value for key, value in given.items() if value is not None}
-    settings = config.executor.model_copy(update=changes)
     try:
         check_settings(settings)
     except ExecutorSettingsError as exc:
         raise ConfigError(str(exc)) from None
+    return settings
+
+
+def _stored_workers(value: Any) -> int | None:
+    """A worker count a folder recorded, if it is one this machine can honour (at most the
+    CPUs this process may use); None (the default) otherwise."""
+    from ariel.evaluation._threads import default_workers
+
+    if type(value) is int and 1 <= value <= default_workers():
+        return value
+    return None
+
+
+def _shown(value: Any, limit: int = 60) -> str:
+    """A value read from a folder, safe to print: escaped (no control characters), short."""
+    text = ascii(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
+
+
+def resume_settings(
+    config: ExperimentConfig,
+    stored: Any,
+    *,
+    kind: str | None,
+    workers: int | None,
+    scheduler: str | None,
+    command: Sequence[object],
+) -> Any:
+    """The executor of a resume: the caller's ``kind`` / ``workers`` / ``scheduler``, else what
+    the folder recorded (``stored``: run.json's or campaign.json's ``executor``, and the stored
+    config's section) for the kind and the worker count, but never a scheduler address: a
+    folder is data, and a Dask scheduler it names could be anyone's (Dask moves results as
+    pickles). A stored address not used is said in one line on stderr, with how to pass one
+    (``command``: the words of the resume command, e.g. ``("resume", run_dir)``)."""
+    import sys
+
+    from ariel.evaluation.executors import EXECUTOR_KINDS
+    from ariel.utils._commands import ariel_line
+
+    stored = stored if isinstance(stored, dict) else {}
+    stored_kind = stored.get("kind")
+    if stored_kind not in EXECUTOR_KINDS:  # absent, or not a kind: the stored config's
+        stored_kind = config.executor.kind
+    address = stored.get("scheduler") or config.executor.scheduler
+    if kind is None:
+        kind = "dask" if scheduler is not None else stored_kind
+    same_pool = kind == stored_kind and kind in ("local", "dask")
+    if workers is None and scheduler is None and same_pool:
+        workers = _stored_workers(stored.get("workers", config.executor.workers))
+    changes = {"kind": kind, "workers": workers, "scheduler": scheduler}
+    settings = _checked(config.executor.model_copy(update=changes))
+    if address and scheduler is None and kind == "dask":
+        print(
+            f"note: not connecting to the Dask scheduler {_shown(address)} that the folder "
+            "names (an address is never taken from a folder); resuming on a local Dask "
+            f"cluster. To use a scheduler you trust: {ariel_line(*command)} --scheduler "
+            "ADDRESS",
+            file=sys.stderr,
+            flush=True,
+        )
     return settings
 
 

@@ -6,6 +6,7 @@ Tiny settings and no timing assertions (the machine's load decides the numbers).
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -155,3 +156,28 @@ def test_campaign_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     result = run_benchmark("campaign.py", "--popsize", "1", cwd=tmp_path)
     assert result.returncode == 2
     assert "--popsize must be an integer >= 2" in result.stderr
+
+
+def test_science_benchmark_measures_a_run_and_prints_json_last(tmp_path: Path) -> None:
+    tiny = [
+        "generations=2",
+        "body.population=2",
+        "body.offspring=2",
+        "brain.popsize=4",
+        "brain.iterations=2",
+        "task.duration=3.0",
+        "task.settle=0.5",
+        "record.rerun=false",
+        "executor.kind=serial",
+    ]
+    args = [arg for item in tiny for arg in ("--set", item)]
+    result = run_benchmark("science.py", *args, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    summary = json.loads(result.stdout.strip().splitlines()[-1])
+    assert summary["evaluations"] == 4 * 2 * 2 + 2 * 4 * 2
+    assert (summary["fitness_fn"], summary["settle_seconds"]) == ("sustained_displacement", 0.5)
+    for key in ("first_second_share", "late_step_share", "best_saturated_share"):
+        assert 0.0 <= summary[key] <= 1.5, key  # shares (a fall and back can exceed 1)
+    assert summary["learning_gain_median"] >= 0.0
+    assert len(summary["distinct_bodies_per_generation"]) == 2
+    assert isinstance(summary["targets_met"], bool)

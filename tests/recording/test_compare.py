@@ -1,5 +1,7 @@
 """`ariel compare`'s statistics on synthetic runs: a known difference is found (A12, p), in the
-fitness's direction; identical conditions show none; the page embeds its figures."""
+fitness's direction; identical conditions show none; the page embeds its figures. Its output
+is safe to write from a folder someone sent: no write through a link, names escaped for each
+medium, a default folder the user can see (issue 27)."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from _helpers import exit_code, one_error_line
+from _helpers import exit_code, one_error_line, snapshot
 
 from ariel.cli import main
 from ariel.recording import load_run
@@ -21,6 +23,7 @@ from ariel.recording._compare import RunCurve, compare_runs
 from ariel.recording._compare_design import CompareError, check_comparable
 from ariel.recording._compare_stats import NOT_DETECTABLE, a12, holm, pairwise_table
 from ariel.recording._curves import best_so_far
+from ariel.recording._files import UnsafePathError
 
 
 def synthetic_run(
@@ -370,6 +373,7 @@ def test_the_command_compares_runs_of_3_and_2_generations_at_the_smaller_budget(
     assert "- `task.duration` = `0.3`" in readme  # the settings every run shares
 
     assert main(["compare", str(long), str(short), "--out", str(out), "--at-evaluations", "3"]) == 0
+    assert "replacing the comparison that was there" in capsys.readouterr().out
     runs = pd.read_csv(out / "runs.csv")
     assert runs["final_best"].tolist() == pytest.approx(
         [best_so_far(evaluations, maximise=True)[1][2]] * 2
@@ -424,3 +428,116 @@ def test_the_command_refuses_runs_measured_differently(
     assert exit_code(["compare", str(long), str(other), "--out", str(tmp_path / "o")]) == 2
     line = one_error_line(capsys, quiet=True)
     assert f"the runs differ in {key.replace('__', '.')}: " in line and str(other) in line
+
+
+# --- a folder someone sent: no write through a link, names escaped --------------------------
+
+
+def test_a_linked_output_folder_is_refused_and_its_target_kept(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    victim = tmp_path / "home"
+    victim.mkdir()
+    (victim / ".bashrc").write_text("precious\n")
+    out = tmp_path / "compare"
+    out.symlink_to(victim)  # a received campaign's compare/ -> ~
+    runs = [synthetic_run(c, s, 1.0 + s) for c in ("a", "b") for s in range(2)]
+    with pytest.raises(UnsafePathError, match="is a symbolic link"):
+        compare_runs(runs, out, maximise=True)
+    long, short = two_runs
+    assert exit_code(["compare", str(long), str(short), "--out", str(out)]) == 2
+    assert "is a symbolic link" in one_error_line(capsys, quiet=True)
+    assert snapshot(victim) == {".bashrc": b"precious\n"}
+
+
+def test_a_linked_file_in_the_output_folder_is_replaced_not_followed(tmp_path: Path) -> None:
+    victim = tmp_path / "bashrc"
+    victim.write_text("precious\n")
+    out = tmp_path / "compare"
+    out.mkdir()
+    for name in ("stats.md", "README.md", "runs.csv", "final_best.png", "compare.html"):
+        (out / name).symlink_to(victim)
+    (out / "omnibus.csv").symlink_to(tmp_path / "dangling")
+    runs = [synthetic_run(c, s, 1.0 + s) for c in ("a", "b") for s in range(2)]
+    result = compare_runs(runs, out, maximise=True)
+    assert victim.read_text() == "precious\n" and not (tmp_path / "dangling").exists()
+    assert result.replaced  # it held what looked like an earlier comparison
+    assert not any(p.is_symlink() for p in out.iterdir())
+    assert not (out / "omnibus.csv").exists()  # two conditions: none; the link removed
+    assert "| final best | a | b |" in (out / "stats.md").read_text()
+
+
+def test_an_output_folder_of_other_files_or_a_file_is_refused_in_one_line(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    long, short = two_runs
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "README.md").write_text("my notes\n")
+    (mine / "thesis.tex").write_text("chapter 1\n")
+    assert exit_code(["compare", str(long), str(short), "--out", str(mine)]) == 2
+    assert "holds files a comparison does not write ('thesis.tex')" in one_error_line(capsys)
+    assert (mine / "README.md").read_text() == "my notes\n" and len(list(mine.iterdir())) == 2
+    assert exit_code(["compare", str(long), str(short), "--out", str(mine / "thesis.tex")]) == 2
+    assert "is a file, not a folder" in one_error_line(capsys)
+
+
+CRAFTED = "x\nrm -rf ~ <script>alert(1)</script>"
+
+
+def test_names_from_folders_are_escaped_for_each_medium(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A campaign id and condition names with a newline, HTML, a formula, rich markup and
+    mathtext: each stays one name in stats.md, README.md, compare.html, the CSVs, the figures
+    and the terminal."""
+    from ariel._cli_campaign import _print_frame
+
+    names = [CRAFTED, '=HYPERLINK("http://x","y")', "[/bold]$\\frac{$ \x1b[2J\x1b]0;t\x07"]
+    runs = [synthetic_run(name, s, 1.0 + s + i) for i, name in enumerate(names) for s in range(2)]
+    result = compare_runs(runs, tmp_path / "c", maximise=True, title=CRAFTED, fitness_fn=CRAFTED)
+    for name in ("stats.md", "README.md"):
+        text = (tmp_path / "c" / name).read_text()
+        assert "<script>" not in text and "&lt;script&gt;" in text, name
+        assert not any(line.startswith("rm -rf") for line in text.splitlines()), name
+        assert "# x\\\\nrm -rf ~ &lt;script&gt;" in text, name  # the heading: one line
+        assert "\x1b" not in text, name
+    page = (tmp_path / "c" / "compare.html").read_text()
+    assert "<script>" not in page and "&lt;script&gt;" in page and "\x1b" not in page
+    assert not any(line.startswith("rm -rf") for line in page.splitlines())
+    for name in ("runs.csv", "stats.csv", "summary.csv", "omnibus.csv"):
+        frame = pd.read_csv(tmp_path / "c" / name)
+        cells = [str(v) for column in frame.columns for v in frame[column]]
+        assert not any(c.startswith(("=", "+", "@")) for c in cells), name
+    conditions = pd.read_csv(tmp_path / "c" / "runs.csv")["condition"].tolist()
+    assert """'=HYPERLINK("http://x","y")""" in conditions
+    assert CRAFTED in conditions  # a CSV cell holds the newline as data, quoted
+    assert set(result.figures) >= {"best_so_far", "final_best"}  # mathtext drew as text
+
+    _print_frame(result.summary_table(), f"{result.title}: per condition")
+    printed = capsys.readouterr().out
+    assert "\x1b" not in printed and "\x07" not in printed and "[/bold]" in printed
+
+
+def test_the_default_output_of_run_folders_is_a_new_folder_here(
+    two_runs: tuple[Path, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Not ``compare/`` in the runs' common parent (a folder the user never named), and a
+    second comparison does not overwrite the first."""
+    long, short = two_runs
+    monkeypatch.chdir(tmp_path)
+    written = []
+    for _ in range(2):
+        assert main(["compare", str(long), str(short)]) == 0
+        line = capsys.readouterr().out.splitlines()[-1]  # printed relative to here
+        folder = line.removeprefix("wrote ").split("/", 1)[0]
+        assert folder.startswith("compare-") and "replacing" not in line
+        assert f"(open {folder}/compare.html; " in line
+        written.append(folder)
+    assert written[0] != written[1]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(written)
+    assert all((tmp_path / folder / "compare.html").is_file() for folder in written)
+    assert not (long.parent / "compare").exists()

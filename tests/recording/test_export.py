@@ -1,9 +1,12 @@
 """`ariel export RUN EVAL_ID|best DIR`: MJCF that MuJoCo loads, genotype and controller JSON,
-and a replay script on the tutorial API that runs and follows the recorded path."""
+and a replay script on the tutorial API that runs and follows the recorded path; a run folder
+is data: its ids never become code (issue 27)."""
 
 from __future__ import annotations
 
+import ast
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -59,12 +62,17 @@ def test_export_writes_mjcf_json_and_a_replay_script_that_follows_the_run(
         timeout=120,
         check=True,
     )
-    final = json.loads(done.stdout.strip().removeprefix("core at "))
+    lines = done.stdout.splitlines()
+    final = json.loads(lines[0].removeprefix("core at "))
     frames = run.trajectories[run.trajectories["eval_id"] == brain["eval_id"]].sort_values("t")
     start = frames[["core_x", "core_y", "core_z"]].to_numpy()[0]
     end = frames[["core_x", "core_y", "core_z"]].to_numpy()[-1]
     np.testing.assert_array_equal(final, end)  # the tutorial path is the engine's
     assert np.linalg.norm(end - start) > 1e-3  # it moved
+    # ... printed beside what the run recorded: the core's end and the fitness
+    assert json.loads(lines[1].removeprefix("recorded core at ")) == final
+    assert lines[2] == f"recorded fitness {float(row['fitness'])!r} ({brain['fitness_fn']})"
+    assert lines[3] == f"evaluation {brain['eval_id']} of run {brain['run_id']}"
 
 
 def test_export_of_an_unknown_evaluation_is_one_line(
@@ -82,3 +90,89 @@ def test_export_into_a_folder_that_is_not_empty_is_one_line(
     assert exit_code(["export", str(run_dir), "best", str(tmp_path)]) == 2
     assert "is not an empty folder" in one_error_line(capsys)
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+# --- a run folder is data: its ids never become code ------------------------------------------
+
+CRAFTED = '"""\nimport pathlib; pathlib.Path("code-ran").touch()\n"""'
+
+
+def test_replay_script_holds_no_data_of_the_run(run_dir: Path, tmp_path: Path) -> None:
+    """replay.py is the same text for every export: the ids are read from controller.json
+    when it runs, so no id can close a string and become code."""
+    import string
+
+    from ariel.recording._export import _SCRIPT, export
+
+    fields = {name for _, name, _, _ in string.Formatter().parse(_SCRIPT) if name}
+    assert fields == {"core"}  # our constant, the core geom's name: nothing of the run
+    evaluations = load_run(run_dir).evaluations
+    ok = evaluations[np.isfinite(evaluations["fitness"])]
+    scripts = []
+    for eval_id in ("best", ok.sort_values("fitness")["eval_id"].iloc[0]):  # best, worst
+        out = export(run_dir, eval_id, tmp_path / eval_id)
+        scripts.append((out / "replay.py").read_text())
+        assert json.loads((out / "controller.json").read_text())["eval_id"] not in scripts[-1]
+    assert scripts[0] == scripts[1]
+    ast.parse(scripts[0])
+
+
+def test_a_crafted_run_id_is_refused_in_one_line(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy)
+    info = json.loads((copy / "run.json").read_text())
+    info["run_id"] = CRAFTED
+    (copy / "run.json").write_text(json.dumps(info))
+    assert exit_code(["export", str(copy), "best", str(tmp_path / "x")]) == 2
+    line = one_error_line(capsys)
+    assert "holds a run id that is not one: " in line and "code-ran" in line
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_crafted_eval_id_is_refused_in_one_line(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The table changed and its manifest written again, as a crafter would."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from ariel.recording._manifest import write_manifest
+
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy)
+    best = load_run(copy).evaluations.sort_values("fitness").iloc[-1]
+    generation = int(best["generation"])
+    path = copy / "evaluations" / f"gen-{generation:06d}.parquet"
+    table = pq.read_table(path)
+    ids = [CRAFTED if i == best["eval_id"] else i for i in table.column("eval_id").to_pylist()]
+    column = table.schema.get_field_index("eval_id")
+    table = table.set_column(column, table.schema.field(column), pa.array(ids, pa.string()))
+    pq.write_table(table, path)
+    write_manifest(copy, generation)
+    assert exit_code(["export", str(copy), "best", str(tmp_path / "x")]) == 2
+    line = one_error_line(capsys)
+    assert "holds an evaluation id that is not one: " in line and "code-ran" in line
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_crafted_id_in_an_exported_folder_runs_nothing(run_dir: Path, tmp_path: Path) -> None:
+    """An exported folder mailed on with its controller.json edited: replay.py reads the id
+    as data, refuses it, and runs none of it."""
+    from ariel.recording._export import export
+
+    out = export(run_dir, "best", tmp_path / "x")
+    brain = json.loads((out / "controller.json").read_text())
+    brain["run_id"] = CRAFTED
+    (out / "controller.json").write_text(json.dumps(brain))
+    done = subprocess.run(
+        [sys.executable, str(out / "replay.py")],
+        cwd=tmp_path,
+        env=repo_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode != 0 and not (tmp_path / "code-ran").exists()
+    assert "holds a run id that is not one" in done.stderr.splitlines()[-1]

@@ -1,0 +1,51 @@
+"""The shapes of the ids a run folder holds, checked where an id leaves the folder.
+
+An evaluation id is ``b<body number>-i<iteration>-c<candidate>`` (``b000052-i005-c002``,
+`ariel.evolution._bodies`). A run id is ``<experiment name>-<date>-<time>-s<seed>``
+(``coevolve_flat-20261126-101500-s1``), the name of the folder ``ariel run --out`` made, or
+``<campaign id>-<condition>-s<seed>``: letters, digits, spaces and ``. _ - + @ = , : ~ ( ) [ ]
+{ } # % !``, not starting with a space, at most 255 characters. Nothing else (no quote,
+backslash, slash, newline or other control character) can be one; a folder holding another is
+crafted, and refused in one line (`DamagedRunError`) before the id is written anywhere.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from ariel.errors import DamagedRunError
+
+__all__ = ["EVAL_ID", "RUN_ID", "check_eval_id", "check_run_id"]
+
+EVAL_ID = re.compile(r"b\d{6,}-i\d{3,}-c\d{3,}")
+_RUN_ID_CHARS = r"\w.+@=,:~()\[\]{}#%!-"
+RUN_ID = re.compile(rf"[{_RUN_ID_CHARS}][ {_RUN_ID_CHARS}]{{0,254}}")
+_SHOWN = 60
+
+
+def _shown(value: object) -> str:
+    """``value`` as one line: its repr (escapes control characters), cut to `_SHOWN`."""
+    text = repr(value)
+    return text if len(text) <= _SHOWN else f"{text[: _SHOWN - 20]}...({len(str(value))} chars)"
+
+
+def check_eval_id(value: object, where: str | Path) -> str:
+    """``value`` where it is an evaluation id (`EVAL_ID`); else `DamagedRunError` naming
+    ``where`` (the run or export folder)."""
+    if isinstance(value, str) and EVAL_ID.fullmatch(value):
+        return value
+    raise DamagedRunError(
+        f"{str(where)!r} holds an evaluation id that is not one: {_shown(value)} (evaluation "
+        "ids look like b000012-i003-c005); the folder was changed by hand or crafted: refused"
+    )
+
+
+def check_run_id(value: object, where: str | Path) -> str:
+    """``value`` where it is a run id (`RUN_ID`); else `DamagedRunError` naming ``where``."""
+    if isinstance(value, str) and RUN_ID.fullmatch(value):
+        return value
+    raise DamagedRunError(
+        f"{str(where)!r} holds a run id that is not one: {_shown(value)} (run ids look like "
+        "coevolve_flat-20261126-101500-s1); the folder was changed by hand or crafted: refused"
+    )

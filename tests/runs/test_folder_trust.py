@@ -1,0 +1,241 @@
+"""A run or campaign folder is data (issue 27, items 3, 4 and 11): resuming one never connects
+to a Dask scheduler it names, and campaign.json's run paths are only ever
+``runs/condition=<name>/seed=<n>`` inside the campaign, with no link on the way.
+
+No evaluation runs here: the campaign is made with an executor that stops at once (its runs
+are created and left ``failed``, resumable), and each resume stops where it would make its
+executor, after recording what it was given.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+from _helpers import REPO, exit_code, one_error_line
+
+import ariel.evaluation
+from ariel.evolution import ConfigError
+from ariel.recording import load_campaign
+from ariel.recording._campaign import NotACampaignError
+from ariel.runs import resume_campaign, resume_experiment, run_campaign
+from ariel.runs._campaign_file import load_campaign_file
+
+TINY = REPO / "tests" / "data" / "campaign_tiny.toml"
+ROGUE = "tcp://10.0.0.1:8786"
+
+
+class _StoppedError(Exception):
+    """Raised where the executor would be made: nothing is evaluated."""
+
+
+def _stop_at_executor(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """``make_executor`` records the settings it is given and stops the run there."""
+    given: list[Any] = []
+
+    def make_executor(settings: Any, *args: Any, **kwargs: Any) -> Any:
+        given.append(settings)
+        raise _StoppedError
+
+    monkeypatch.setattr(ariel.evaluation, "make_executor", make_executor)
+    return given
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny campaign, its 4 run folders created and left resumable (none evaluated)."""
+    out = tmp_path_factory.mktemp("made") / "tiny"
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        _stop_at_executor(monkeypatch)
+        with pytest.raises(_StoppedError):
+            run_campaign(TINY, out=out)
+    return out
+
+
+@pytest.fixture
+def campaign(made: Path, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(made, tmp_path / "tiny", symlinks=True))
+
+
+def _edit(path: Path, change: Any) -> None:
+    info = json.loads(path.read_text())
+    change(info)
+    path.write_text(json.dumps(info))
+
+
+def _name_the_rogue_scheduler(info: dict[str, Any]) -> None:
+    """A folder that ran (or claims it ran) on the Dask scheduler ROGUE."""
+    info["executor"] = {"kind": "dask", "workers": None, "scheduler": ROGUE}
+    for config in [info.get("config")] + [r["config"] for r in info.get("runs", [])]:
+        if config is not None:
+            config["executor"].update(kind="dask", workers=None, scheduler=ROGUE)
+
+
+def _tree(root: Path) -> dict[str, tuple[int, int]]:
+    """Every path under ``root`` (links not followed) with its size and modification time."""
+    found = {}
+    for parent, folders, files in os.walk(root):
+        for name in folders + files:
+            stat = (Path(parent) / name).lstat()
+            found[os.path.join(parent, name)] = (stat.st_size, stat.st_mtime_ns)
+    return found
+
+
+# --- item 3: a scheduler address is never taken from a folder ---------------------------------
+
+
+def test_resume_never_connects_to_the_scheduler_a_run_json_names(
+    campaign: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run_dir = campaign / "runs/condition=fresh/seed=1"
+    _edit(run_dir / "run.json", _name_the_rogue_scheduler)
+    given = _stop_at_executor(monkeypatch)
+    with pytest.raises(_StoppedError):
+        exit_code(["resume", str(run_dir), "--quiet"])
+    (settings,) = given
+    assert (settings.kind, settings.scheduler) == ("dask", None)  # a local Dask cluster
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"note: not connecting to the Dask scheduler '{ROGUE}'"), line
+    assert re.search(rf"\S*ariel resume {re.escape(str(run_dir))} --scheduler ADDRESS$", line)
+    # A scheduler passed here is used (and implies --executor dask), without the note.
+    with pytest.raises(_StoppedError):
+        resume_experiment(run_dir, scheduler="tcp://127.0.0.1:8786")
+    assert (given[1].kind, given[1].scheduler) == ("dask", "tcp://127.0.0.1:8786")
+    # Another executor asked for: the stored address is beside the point.
+    with pytest.raises(_StoppedError):
+        resume_experiment(run_dir, executor="serial")
+    assert (given[2].kind, given[2].scheduler) == ("serial", None)
+    assert capsys.readouterr().err == ""
+
+
+def test_campaign_resume_never_connects_to_the_scheduler_campaign_json_names(
+    campaign: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _edit(campaign / "campaign.json", _name_the_rogue_scheduler)
+    for run_json in campaign.glob("runs/*/*/run.json"):
+        _edit(run_json, _name_the_rogue_scheduler)
+    given = _stop_at_executor(monkeypatch)
+    with pytest.raises(_StoppedError):
+        exit_code(["campaign", "resume", str(campaign), "--quiet"])
+    assert [(s.kind, s.scheduler) for s in given] == [("dask", None)]
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"note: not connecting to the Dask scheduler '{ROGUE}'"), line
+    assert line.endswith(f"campaign resume {campaign} --scheduler ADDRESS")
+
+
+def test_a_stored_worker_count_is_kept_only_where_this_machine_has_the_cpus() -> None:
+    from ariel.evaluation._threads import default_workers
+    from ariel.evolution import ExperimentConfig
+    from ariel.runs._prepare import resume_settings
+
+    config = ExperimentConfig()
+
+    def resumed(stored: Any) -> Any:
+        return resume_settings(
+            config, stored, kind=None, workers=None, scheduler=None, command=("resume", "r")
+        )
+
+    assert resumed({"kind": "local", "workers": 1}).workers == 1
+    assert resumed({"kind": "local", "workers": default_workers() + 1}).workers is None
+    assert resumed({"kind": "local", "workers": True}).workers is None
+    assert resumed({"kind": "\x1b[2J", "workers": 10**9}).kind == config.executor.kind
+
+
+# --- item 4: campaign.json's run paths ----------------------------------------------------------
+
+
+def _set_first_path(path: str) -> Any:
+    def change(info: dict[str, Any]) -> None:
+        info["runs"][0]["path"] = path
+
+    return change
+
+
+def _refused(campaign: Path, capsys: pytest.CaptureFixture[str], expected: str) -> None:
+    """Every reader and resume refuse the campaign in one line (exit 2) naming ``expected``,
+    before writing anything anywhere."""
+    before = _tree(campaign.parent)
+    commands = (["campaign", "resume", "--quiet"], ["campaign", "status"], ["view"], ["compare"])
+    for command in commands:
+        assert exit_code([*command, str(campaign)]) == 2, command
+        line = one_error_line(capsys, quiet=True)
+        assert expected in line, (command, line)
+    with pytest.raises(NotACampaignError, match=re.escape(expected)):
+        load_campaign(campaign)
+    with pytest.raises(NotACampaignError):
+        resume_campaign(campaign)
+    assert _tree(campaign.parent) == before
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        "../x",
+        "runs/condition=fresh/../../../x",
+        "runs/condition=inherit/seed=2",  # another run of this campaign
+        "runs/condition=fresh/seed=1/",
+        "ABSOLUTE",
+    ],
+)
+def test_a_run_path_out_of_place_is_refused_in_one_line(
+    campaign: Path, path: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    if path == "ABSOLUTE":
+        path = str(campaign.parent / "elsewhere")
+    _edit(campaign / "campaign.json", _set_first_path(path))
+    _refused(campaign, capsys, "runs[0] (condition fresh, seed 1): refusing path")
+    assert not (campaign.parent / "x").exists() and not (campaign.parent / "elsewhere").exists()
+
+
+def test_a_path_to_another_campaign_s_run_is_refused_and_that_run_left_alone(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    other = Path(shutil.copytree(campaign, campaign.parent / "other", symlinks=True))
+    _edit(campaign / "campaign.json", _set_first_path("../other/runs/condition=fresh/seed=1"))
+    _refused(campaign, capsys, "refusing path '../other/runs/condition=fresh/seed=1'")
+    assert json.loads((other / "runs/condition=fresh/seed=1/run.json").read_text())["status"] == (
+        "failed"
+    )
+
+
+@pytest.mark.parametrize("link", ["runs", "runs/condition=fresh", "runs/condition=fresh/seed=1"])
+def test_a_linked_runs_condition_or_run_folder_is_refused(
+    campaign: Path, link: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    target = campaign.parent / "outside"
+    (campaign / link).rename(target)
+    (campaign / link).symlink_to(target)
+    _refused(campaign, capsys, "a symbolic link")
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (lambda r: r.update(seed=True), "seed True is not a seed"),
+        (lambda r: r.update(seed="1"), "seed '1' is not a seed"),
+        (lambda r: r.update(seed=1.0), "seed 1.0 is not a seed"),
+        (lambda r: r.update(condition="../../x"), "condition '../../x' is not a condition name"),
+        (lambda r: r.update(condition="\x1b[2J"), r"condition '\x1b[2J' is not"),
+    ],
+)
+def test_a_run_entry_with_a_bad_seed_or_condition_is_refused(
+    campaign: Path, change: Any, expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _edit(campaign / "campaign.json", lambda info: change(info["runs"][0]))
+    _refused(campaign, capsys, expected)
+
+
+@pytest.mark.parametrize("seeds", ["[true]", '["3"]', "[2.0]"])
+def test_campaign_file_seeds_are_strict_integers(seeds: str, tmp_path: Path) -> None:
+    file = tmp_path / "c.toml"
+    file.write_text(f'base = {{ name = "t" }}\nseeds = {seeds}\n')
+    with pytest.raises(ConfigError, match=r"^seeds\.0: must be a valid integer \(got "):
+        load_campaign_file(file)
+    file.write_text(f'base = {{ name = "t" }}\nseed_count = {seeds[1:-1]}\n')
+    with pytest.raises(ConfigError, match=r"^seed_count: must be a valid integer \(got "):
+        load_campaign_file(file)
