@@ -198,19 +198,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _evaluations(text: str) -> int:
-    """``--at-evaluations``: a whole number >= 1 (argparse's one-line error otherwise)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, not {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, not {value}")
-    return value
-
-
 def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None]) -> None:
     """Add ``campaign`` (with run, resume, status) and ``compare`` to the sub-parsers."""
+    from ariel.cli import _positive_int  # the CLI's one check of a count (loaded: it calls us)
+
     campaign = sub.add_parser(
         "campaign", help="conditions x seeds as one command: run, resume, status"
     )
@@ -252,7 +243,7 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
     )
     p.add_argument(
         "--at-evaluations",
-        type=_evaluations,
+        type=_positive_int,
         metavar="N",
         help="compare every run after its first N evaluations (default: as many as the "
         "shortest run made)",

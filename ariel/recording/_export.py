@@ -132,21 +132,12 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
 def _recorded_core(run: Any, row: dict[str, Any]) -> list[float] | None:
     """Where the run recorded the core at the evaluation's end (its last trajectory frame);
     None where the run kept no trajectories."""
-    from ariel.recording._tables import generation_file, read_file
+    from ariel.recording._report import _frames
 
-    path = generation_file(run.path, "trajectories", int(row["generation"]))
-    if not path.is_file():
+    frames = _frames(run, row)
+    if frames is None or not len(frames):
         return None
-    frames = read_file(
-        run.path,
-        path,
-        "trajectories",
-        manifest=run.manifest,
-        filters=[("eval_id", "==", row["eval_id"])],
-    ).to_pandas()
-    if not len(frames):
-        return None
-    last = frames.sort_values("t").iloc[-1]
+    last = frames.iloc[-1]  # sorted by time
     return [float(last["core_x"]), float(last["core_y"]), float(last["core_z"])]
 
 
