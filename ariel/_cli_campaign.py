@@ -13,6 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ariel._cli_types import positive_int
+
 __all__ = ["add_campaign_commands"]
 
 EXIT_USAGE = 2
@@ -200,8 +202,6 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None]) -> None:
     """Add ``campaign`` (with run, resume, status) and ``compare`` to the sub-parsers."""
-    from ariel.cli import _positive_int  # the CLI's one check of a count (loaded: it calls us)
-
     campaign = sub.add_parser(
         "campaign", help="conditions x seeds as one command: run, resume, status"
     )
@@ -243,7 +243,7 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
     )
     p.add_argument(
         "--at-evaluations",
-        type=_positive_int,
+        type=positive_int,
         metavar="N",
         help="compare every run after its first N evaluations (default: as many as the "
         "shortest run made)",

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from ariel import __version__
+from ariel._cli_types import positive_int
 from ariel.errors import ArielError, ConfigError
 
 EXIT_USAGE = 2
@@ -41,14 +42,6 @@ def _fail_with(exc: BaseException) -> int:
     return _fail(str(exc) or type(exc).__name__)
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, not {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, not {value}")
-    return value
 
 
 #: What the printed ``python -c`` line shows of a run: a few columns, none hidden behind ``...``.
@@ -398,7 +391,7 @@ def _add_executor_options(p: argparse.ArgumentParser) -> None:
         choices=("local", "dask", "serial", "gpu"),
         help="where evaluations run (default: the config's executor.kind)",
     )
-    p.add_argument("--workers", type=_positive_int, help="worker processes (default: all CPUs)")
+    p.add_argument("--workers", type=positive_int, help="worker processes (default: all CPUs)")
     p.add_argument(
         "--scheduler",
         metavar="ADDRESS",
@@ -503,7 +496,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("eval_id", nargs="?", metavar="EVAL_ID", help="one evaluation")
     which = p.add_mutually_exclusive_group()
     which.add_argument(
-        "--best", type=_positive_int, metavar="K", help="the K best evaluations of the run"
+        "--best", type=positive_int, metavar="K", help="the K best evaluations of the run"
     )
     which.add_argument(
         "--generation",

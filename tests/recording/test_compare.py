@@ -380,9 +380,7 @@ def test_the_command_compares_runs_of_3_and_2_generations_at_the_smaller_budget(
     )
 
 
-@pytest.mark.parametrize(
-    ("value", "expected"), [("1000", "exceeds the"), ("0", "integer >= 1")]
-)
+@pytest.mark.parametrize(("value", "expected"), [("1000", "exceeds the"), ("0", "integer >= 1")])
 def test_a_bad_at_evaluations_is_one_line_exit_2(
     two_runs: tuple[Path, Path],
     value: str,
