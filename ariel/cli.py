@@ -42,8 +42,6 @@ def _fail_with(exc: BaseException) -> int:
     return _fail(str(exc) or type(exc).__name__)
 
 
-
-
 #: What the printed ``python -c`` line shows of a run: a few columns, none hidden behind ``...``.
 GENERATIONS_SHOWN = (
     'r.generations[["generation", "evaluations", "best_fitness", "mean_fitness", '
