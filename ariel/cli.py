@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from ariel import __version__
-from ariel._cli_types import positive_int
+from ariel._cli_types import integer_at_least, positive_int
 from ariel.errors import ArielError, ConfigError
 
 EXIT_USAGE = 2
@@ -199,16 +199,6 @@ def _port(text: str) -> int:
         raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {text!r}") from None
     if not 0 <= value <= 65535:
         raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {value}")
-    return value
-
-
-def _generation(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0, not {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0, not {value}")
     return value
 
 
@@ -498,7 +488,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     which.add_argument(
         "--generation",
-        type=_generation,
+        type=integer_at_least(0),
         metavar="G",
         help="every evaluation of generation G (its evaluations.rrd)",
     )

@@ -22,6 +22,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
+from ariel.recording._escape import short_ascii
 from ariel.recording._files import atomic_write_json
 from ariel.recording._load import Run, load_run
 from ariel.recording._run_folder import NotARunError
@@ -85,12 +86,6 @@ def read_campaign_info(path: str | Path) -> dict[str, Any]:
 _CONDITION = re.compile(r"[A-Za-z0-9_.-]+")
 
 
-def _shown(value: Any, limit: int = 60) -> str:
-    """A value read from campaign.json, safe to print: escaped (no control characters), short."""
-    text = ascii(value)
-    return text if len(text) <= limit else f"{text[: limit - 3]}..."
-
-
 def _is_seed(value: Any) -> bool:
     """A seed as the experiment's ``seed`` allows it: an integer (not a bool, a float or a
     string), 0 <= seed < 2**63."""
@@ -106,7 +101,9 @@ def _check_conditions(file: Path, info: dict[str, Any]) -> None:
     unless they are names and seeds a campaign file can give."""
     seeds = info.get("seeds", [])
     if not isinstance(seeds, list) or not all(_is_seed(s) for s in seeds):
-        raise NotACampaignError(f"{file}: seeds {_shown(seeds)} is not a list of seeds (0, 1, ...)")
+        raise NotACampaignError(
+            f"{file}: seeds {short_ascii(seeds)} is not a list of seeds (0, 1, ...)"
+        )
     conditions = info.get("conditions", [])
     if not isinstance(conditions, list):
         raise NotACampaignError(f"{file}: conditions is not a list")
@@ -115,12 +112,12 @@ def _check_conditions(file: Path, info: dict[str, Any]) -> None:
         if not isinstance(condition, dict) or not _is_condition(condition.get("name")):
             name = condition.get("name") if isinstance(condition, dict) else condition
             raise NotACampaignError(
-                f"{where}: {_shown(name)} is not a condition name (letters, digits, _ . -)"
+                f"{where}: {short_ascii(name)} is not a condition name (letters, digits, _ . -)"
             )
         own = condition.get("seeds", [])
         if not isinstance(own, list) or not all(_is_seed(s) for s in own):
             raise NotACampaignError(
-                f"{where}: seeds {_shown(own)} is not a list of seeds (0, 1, ...)"
+                f"{where}: seeds {short_ascii(own)} is not a list of seeds (0, 1, ...)"
             )
 
 
@@ -131,28 +128,28 @@ def _check_runs(path: Path, file: Path, info: dict[str, Any]) -> None:
     folder is data: its runs never lie outside it, nor at a path it chose."""
     runs = info.get("runs")
     if not isinstance(runs, list) or not runs:
-        raise NotACampaignError(f"{file}: lists no runs (its 'runs' is {_shown(runs)})")
+        raise NotACampaignError(f"{file}: lists no runs (its 'runs' is {short_ascii(runs)})")
     seen: set[tuple[str, int]] = set()
     for index, entry in enumerate(runs):
         where = f"{file}: runs[{index}]"
         if not isinstance(entry, dict):
-            raise NotACampaignError(f"{where}: {_shown(entry)} is not a run (an object)")
+            raise NotACampaignError(f"{where}: {short_ascii(entry)} is not a run (an object)")
         condition, seed = entry.get("condition"), entry.get("seed")
         if not _is_condition(condition):
             raise NotACampaignError(
-                f"{where}: condition {_shown(condition)} is not a condition name "
+                f"{where}: condition {short_ascii(condition)} is not a condition name "
                 "(letters, digits, _ . -)"
             )
         if not _is_seed(seed):
             raise NotACampaignError(
-                f"{where}: seed {_shown(seed)} is not a seed (an integer, 0 <= seed < 2**63)"
+                f"{where}: seed {short_ascii(seed)} is not a seed (an integer, 0 <= seed < 2**63)"
             )
         where = f"{where} (condition {condition}, seed {seed})"
         expected = run_path(condition, seed)
         if entry.get("path") != expected:
             raise NotACampaignError(
-                f"{where}: refusing path {_shown(entry.get('path'))}: a campaign's run lies at "
-                f"{expected!r} inside the campaign folder, nowhere else"
+                f"{where}: refusing path {short_ascii(entry.get('path'))}: a campaign's run lies "
+                f"at {expected!r} inside the campaign folder, nowhere else"
             )
         if (condition, seed) in seen:
             raise NotACampaignError(f"{where}: listed twice")

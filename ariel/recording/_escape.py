@@ -22,6 +22,7 @@ __all__ = [
     "markdown_code",
     "markdown_text",
     "one_line",
+    "short_ascii",
     "terminal_text",
 ]
 
@@ -34,6 +35,13 @@ def one_line(text: object) -> str:
     if text.isprintable():
         return text
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def short_ascii(value: Any, limit: int = 60) -> str:
+    """A value read from a folder, for a one-line error: ``ascii(value)`` (no control or
+    non-ASCII characters), cut to ``limit`` characters."""
+    text = ascii(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
 def terminal_text(text: object) -> str:

@@ -11,6 +11,7 @@ from typing import Any
 from ariel.evolution._config import ConfigError, ExperimentConfig
 from ariel.evolution._driver import Plugins, fixed_genotype
 from ariel.evolution._genotype import check_genotype, describe, is_genotype_file
+from ariel.recording._escape import short_ascii
 
 __all__ = ["executor_settings", "prepare_run", "resolve_plugins", "resume_settings"]
 
@@ -144,12 +145,6 @@ def _stored_workers(value: Any) -> int | None:
     return None
 
 
-def _shown(value: Any, limit: int = 60) -> str:
-    """A value read from a folder, safe to print: escaped (no control characters), short."""
-    text = ascii(value)
-    return text if len(text) <= limit else f"{text[: limit - 3]}..."
-
-
 def resume_settings(
     config: ExperimentConfig,
     stored: Any,
@@ -184,7 +179,7 @@ def resume_settings(
     settings = _checked(config.executor.model_copy(update=changes))
     if address and scheduler is None and kind == "dask":
         print(
-            f"note: not connecting to the Dask scheduler {_shown(address)} that the folder "
+            f"note: not connecting to the Dask scheduler {short_ascii(address)} that the folder "
             "names (an address is never taken from a folder); resuming on a local Dask "
             f"cluster. To use a scheduler you trust: {ariel_line(*command)} --scheduler "
             "ADDRESS",

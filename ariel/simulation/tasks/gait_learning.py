@@ -41,8 +41,8 @@ def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0)
     The path ``xy`` ``(T, 2+)`` sampled at ascending ``times`` is cut into consecutive windows
     of ``window`` seconds (positions at the window edges interpolated between samples); each
     window's progress is its displacement along the net direction (first to last position).
-    The result is the median window's progress times the number of windows that fit the
-    whole span: a steady gait scores its `xy_displacement`; a body that tips over once scores
+    The result is the median window's progress scaled to the whole span (times span / window):
+    a steady gait scores its `xy_displacement`; a body that tips over once scores
     what it does in its other windows. Never negative (a typical window going nowhere or
     backwards scores 0); a span shorter than one window scores its `xy_displacement`.
     """
