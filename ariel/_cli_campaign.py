@@ -233,13 +233,19 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
         help="compare a campaign's conditions (or run folders) with statistics and figures",
     )
     p.add_argument(
-        "paths", nargs="+", type=Path, metavar="DIR", help="a campaign folder, or run folders"
+        "paths",
+        nargs="+",
+        type=Path,
+        metavar="DIR",
+        help="a campaign folder (several of one campaign file, run on different seeds, are "
+        "pooled), or run folders",
     )
     p.add_argument(
         "--out",
         metavar="DIR",
         help="output folder (default: CAMPAIGN_DIR/compare for a campaign, a new "
-        "./compare-<date>-<time> for run folders; an earlier comparison there is replaced)",
+        "./compare-<date>-<time> for pooled campaigns and run folders; an earlier "
+        "comparison there is replaced)",
     )
     p.add_argument(
         "--at-evaluations",

@@ -1,5 +1,6 @@
-"""`ariel compare`: conditions of a campaign (or plain run folders grouped by how their configs
-differ) compared with statistics; writes ``compare/`` and returns a `Comparison`.
+"""`ariel compare`: conditions of a campaign (or of several folders of one campaign file run
+on different seeds, pooled; or plain run folders grouped by how their configs differ) compared
+with statistics; writes ``compare/`` and returns a `Comparison`.
 
 Every run is compared at one budget of evaluations (the smallest any run made, or
 ``at_evaluations``), on two measures: its best fitness after that many evaluations (``final
@@ -14,8 +15,9 @@ condition), ``omnibus.csv`` (more than two conditions), ``runs.csv`` (each run's
 ``compare.html``, one self-contained page with the figures embedded. The fitness direction
 comes from the runs' records.
 
-Where it writes: ``out``, or by default ``CAMPAIGN_DIR/compare`` for a campaign and a new
-folder ``compare-<date>-<time>`` in the current directory for plain run folders (never a
+Where it writes: ``out``, or by default ``CAMPAIGN_DIR/compare`` for one campaign and a new
+folder ``compare-<date>-<time>`` in the current directory for pooled campaigns and plain run
+folders (never a
 folder the user did not name beside the runs). An output folder that is a symbolic link is
 refused (`UnsafePathError`); one holding files a comparison did not write is refused
 (`CompareError`); an earlier comparison there is replaced (`Comparison.replaced` says so).
@@ -183,9 +185,12 @@ def _overrides(changes: dict[str, Any]) -> str:
     return ", ".join(f"{k} = {json.dumps(v)}" for k, v in changes.items())
 
 
-def _campaign_runs(path: Path) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
-    """(title, source, whether the conditions share seeds, the runs) of a campaign folder."""
-    campaign = load_campaign(path)
+def _campaign_runs(
+    path: Path, campaign: Any = None
+) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
+    """(title, source, whether the conditions share seeds, the runs) of a campaign folder
+    (``campaign``: its records where already loaded)."""
+    campaign = campaign if campaign is not None else load_campaign(path)
     info = campaign.info
     seeding = campaign.seeding
     found = [(_curve(c, seed, run), run) for (c, seed), run in campaign.runs.items()]
@@ -199,6 +204,55 @@ def _campaign_runs(path: Path) -> tuple[str, Source, bool, list[tuple[RunCurve, 
         else f"the base of the campaign file {info.get('file', '?')}",
     )
     return str(info.get("campaign_id", path.name)), source, seeding == "shared", found
+
+
+def _campaign_key(campaign: Any) -> tuple[Any, ...]:
+    """What campaign folders must share to be pooled: the campaign file's name, seeding and
+    conditions (each with its settings)."""
+    import json
+
+    info = campaign.info
+    conditions = [
+        (c["name"], json.dumps(c.get("set", {}), sort_keys=True))
+        for c in info.get("conditions", [])
+    ]
+    return (info.get("name"), campaign.seeding, tuple(conditions))
+
+
+def _pooled_campaign_runs(
+    paths: Sequence[Path],
+) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
+    """Several folders of one campaign file run on different seeds (a campaign extended with
+    more seeds), pooled as one campaign: the same conditions and seeding, no seed twice."""
+    campaigns = [load_campaign(p) for p in paths]
+    first = _campaign_key(campaigns[0])
+    for path, campaign in zip(paths[1:], campaigns[1:]):
+        if _campaign_key(campaign) != first:
+            raise CompareError(
+                f"{str(path)!r} is not the same campaign as {str(paths[0])!r} (name, seeding "
+                "and conditions must match): compare several campaign folders only to pool "
+                "one campaign's seeds"
+            )
+    found: list[tuple[RunCurve, Run]] = []
+    seen: dict[tuple[str, int], Path] = {}
+    for path, campaign in zip(paths, campaigns):
+        for (condition, seed), run in campaign.runs.items():
+            if (condition, seed) in seen:
+                raise CompareError(
+                    f"condition {condition!r} seed {seed} is in both "
+                    f"{str(seen[condition, seed])!r} and {str(path)!r}: pooled campaign folders "
+                    "must have different seeds"
+                )
+            seen[condition, seed] = path
+            found.append((_curve(condition, seed, run), run))
+    _, source, paired, _ = _campaign_runs(paths[0], campaigns[0])
+    ids = [str(c.info.get("campaign_id", p.name)) for p, c in zip(paths, campaigns)]
+    source.what = (
+        f"campaign {campaigns[0].info.get('name', '?')} pooled from {len(paths)} folders "
+        f"({', '.join(f'{i} ({p})' for i, p in zip(ids, paths))}), {len(found)} runs, "
+        f"seeding = {campaigns[0].seeding!r}"
+    )
+    return " + ".join(ids), source, paired, found
 
 
 def _folder_runs(paths: Sequence[Path]) -> tuple[str, Source, list[tuple[RunCurve, Run]]]:
@@ -534,9 +588,10 @@ def compare(
     at_evaluations: int | None = None,
     write: bool = True,
 ) -> Comparison:
-    """Compare a campaign's conditions (one campaign folder) or plain run folders (grouped by
-    their config difference). ``out``: default ``CAMPAIGN_DIR/compare`` (an earlier comparison
-    there is replaced), or for run folders a new folder ``compare-<date>-<time>`` in the
+    """Compare a campaign's conditions (one campaign folder, or several folders of one
+    campaign file run on different seeds, pooled) or plain run folders (grouped by their
+    config difference). ``out``: default ``CAMPAIGN_DIR/compare`` for one campaign (an earlier
+    comparison there is replaced), else a new folder ``compare-<date>-<time>`` in the
     current directory (`new_folder`); ``at_evaluations``: compare every run after its first N
     evaluations (default: as many as the shortest run made); ``write=False``: compute only
     (a notebook's table), write nothing."""
@@ -550,11 +605,17 @@ def compare(
         reason = _REASONS["shared" if paired else "independent"]
         default = paths[0] / "compare"
         labels = [f"condition {c.condition} seed {c.seed}" for c, _ in found]
+    elif all(is_campaign(p) for p in paths):
+        title, source, paired, found = _pooled_campaign_runs(paths)
+        reason = _REASONS["shared" if paired else "independent"]
+        default = None  # not inside one of them: a new folder here, as for run folders
+        labels = [f"condition {c.condition} seed {c.seed}" for c, _ in found]
     else:
         campaigns = [p for p in paths if is_campaign(p)]
         if campaigns:
             raise CompareError(
-                f"{str(campaigns[0])!r} is a campaign: compare one campaign alone, or run folders"
+                f"{str(campaigns[0])!r} is a campaign: compare campaign folders (one, or "
+                "several of one campaign file to pool their seeds), or run folders, not both"
             )
         title, source, found = _folder_runs(paths)
         paired, reason = False, _REASONS["folders"]

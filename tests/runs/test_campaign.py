@@ -193,6 +193,46 @@ def test_compare_a_campaign_writes_figures_tables_and_one_page(
     assert "brain.inherit=false 2, brain.inherit=true 2" in capsys.readouterr().out
 
 
+def _relabelled(campaign: Path, folder: Path, shift: int) -> Path:
+    """A copy of ``campaign`` whose runs stand for seeds ``seed + shift`` (campaign.json and
+    the run folders' names): the same campaign file extended with more seeds, for pooling."""
+    import shutil
+
+    shutil.copytree(campaign, folder, symlinks=True)
+    info = json.loads((folder / "campaign.json").read_text())
+    for entry in info["runs"]:
+        old = folder / entry["path"]
+        entry["seed"] += shift
+        entry["path"] = f"runs/condition={entry['condition']}/seed={entry['seed']}"
+        old.rename(folder / entry["path"])
+    info["seeds"] = [s + shift for s in info["seeds"]]
+    for condition in info["conditions"]:
+        condition["seeds"] = [s + shift for s in condition["seeds"]]
+    (folder / "campaign.json").write_text(json.dumps(info))
+    return folder
+
+
+def test_folders_of_one_campaign_on_other_seeds_are_pooled_paired(
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    more = _relabelled(campaign, tmp_path / "more", 2)
+    out = tmp_path / "pooled"
+    assert main(["compare", str(campaign), str(more), "--out", str(out)]) == 0
+    assert "runs: fresh 4, inherit 4" in capsys.readouterr().out
+    stats = (out / "stats.csv").read_text()
+    assert "wilcoxon" in stats.lower() and "mann" not in stats.lower()
+    assert "pooled from 2 folders" in (out / "README.md").read_text()
+    # A seed in both folders, and a folder of another campaign, are refused in one line.
+    assert exit_code(["compare", str(campaign), str(campaign), "--out", str(out)]) == 2
+    assert "must have different seeds" in one_error_line(capsys)
+    other = _relabelled(campaign, tmp_path / "other", 4)
+    info = json.loads((other / "campaign.json").read_text())
+    info["conditions"][1]["set"] = {"brain.inherit": False}
+    (other / "campaign.json").write_text(json.dumps(info))
+    assert exit_code(["compare", str(campaign), str(other), "--out", str(out)]) == 2
+    assert "is not the same campaign" in one_error_line(capsys)
+
+
 def _interrupt_at(monkeypatch: pytest.MonkeyPatch, call: int) -> None:
     """Ctrl-C in the ``call``-th generation end of the campaign (after its checkpoint)."""
     original, calls = Progress.end_generation, []
