@@ -46,6 +46,13 @@ def test_the_shipped_campaigns_are_valid() -> None:
     ):
         spec = load_campaign_file(REPO / "experiments" / "campaigns" / f"{name}.toml")
         assert [c.name for c in spec.conditions] == conditions and len(spec.seeds) == 5
+    # The study's two stages: one campaign, seeds 1..10 and 11..20 (pooled by ariel compare).
+    first, second = (
+        load_campaign_file(REPO / "experiments" / "campaigns" / f"{name}.toml")
+        for name in ("default_vs_baselines", "default_vs_baselines_more_seeds")
+    )
+    assert first.name == second.name and first.conditions == second.conditions
+    assert first.seeds == list(range(1, 11)) and second.seeds == list(range(11, 21))
 
 
 _GOOD = 'base = {{ name = "t", executor = {{ kind = "serial" }} }}\nseeds = [1]\n{rest}'
