@@ -9,7 +9,17 @@ TORCH_SPEC ?= torch==2.13.0
 # Headless rendering backend on Linux (EGL); other systems keep MuJoCo's default.
 GL_ENV := $(if $(filter Linux,$(shell uname -s)),MUJOCO_GL=$${MUJOCO_GL:-egl},)
 
-.PHONY: run test setup lint format clean gl
+.PHONY: run test setup gpu lab lint format clean gl
+
+# The GPU extra (MuJoCo Warp, ~0.4 GB: `--executor gpu`, docs/gpu.md) is installed only where
+# it can be used or is asked for: GPU=1 (make setup GPU=1, or make gpu), or by default where
+# `nvidia-smi -L` finds a GPU, or where it was installed before (.venv/.stamp-gpu); GPU=0 skips
+# it. CI asks for it (.ci/run): its Warp tests run on Warp's CPU device. Without it those tests
+# skip and say why.
+ifeq ($(origin GPU),undefined)
+GPU := $(if $(wildcard $(VENV)/.stamp-gpu),1,$(shell nvidia-smi -L >/dev/null 2>&1 && echo 1))
+endif
+WITH_GPU := $(filter 1 yes true,$(GPU))
 
 # pip's output (hundreds of lines) goes to a log named in one line; a failed step prints the
 # end of the log and stops.
@@ -17,15 +27,31 @@ SETUP_LOG := $(VENV)/setup.log
 LOGGED = >>$(SETUP_LOG) 2>&1 || { tail -n 40 $(SETUP_LOG); echo "setup failed: see $(SETUP_LOG)"; exit 1; }
 
 $(VENV)/.stamp-setup: pyproject.toml Makefile
-	@echo "setting up $(VENV): ariel and its dependencies (pip's log: $(SETUP_LOG))"
+	@echo "setting up $(VENV): ariel and its dependencies$(if $(WITH_GPU),, for the CPU (the GPU extra: make gpu)) (pip's log: $(SETUP_LOG))"
 	@$(PYTHON) -m venv $(VENV)
 	@: >$(SETUP_LOG)
 	@$(PIP) install --upgrade pip $(LOGGED)
 	@$(PIP) install "$(TORCH_SPEC)" $(LOGGED)
-	@$(PIP) install -e ".[dev,distributed,analysis,gpu]" $(LOGGED)
+	@$(PIP) install -e ".[dev,distributed,analysis]" $(LOGGED)
 	@touch $@
 
-setup: $(VENV)/.stamp-setup
+# The GPU extra on top of the CPU setup (mujoco-warp, warp-lang).
+$(VENV)/.stamp-gpu: $(VENV)/.stamp-setup
+	@echo "installing the GPU extra into $(VENV): mujoco-warp, warp-lang (pip's log: $(SETUP_LOG))"
+	@$(PIP) install -e ".[gpu]" $(LOGGED)
+	@touch $@
+
+setup: $(VENV)/.stamp-setup $(if $(WITH_GPU),$(VENV)/.stamp-gpu)
+
+gpu:
+	@$(MAKE) --no-print-directory setup GPU=1
+
+# JupyterLab on the analysis/ notebooks (installed into .venv on first use; the default setup
+# has what runs them headless: nbconvert, ipykernel). make lab ARIEL_RUN_DIR=data/runs/<id>
+# opens them on that run.
+lab: setup
+	@$(PY) -c "import jupyterlab" 2>/dev/null || { echo "installing JupyterLab into $(VENV) (pip's log: $(SETUP_LOG))"; $(PIP) install jupyterlab $(LOGGED); }
+	$(VENV)/bin/jupyter lab analysis/ $(if $(filter 0,$(shell id -u)),--allow-root)
 
 # Headless OpenGL (EGL/OSMesa) for rendering, installed with apt where we may (root or
 # passwordless sudo); otherwise a note, and rendering tests skip saying why.

@@ -25,9 +25,10 @@ def _fail(message: str) -> int:
     return EXIT_USAGE
 
 
-def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str) -> int:
+def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str | None) -> int:
     """``start()``; bad input, a folder in use or that cannot be written -> one line, exit 2;
-    Ctrl-C -> how to resume."""
+    Ctrl-C -> how to resume: the folder the interrupt names (its ``campaign_dir``,
+    `ariel.runs`), else ``hint``, else none (nothing was written yet)."""
     from ariel.evolution import ConfigError
     from ariel.plugins import DuplicatePluginError, PluginLoadError
     from ariel.recording import NotARunError, RunInUseError, RunStorageError
@@ -48,11 +49,12 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str) -
     ) as exc:
         return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
     except KeyboardInterrupt as exc:
-        from ariel._cli_commands import ariel_command
+        from ariel._cli_commands import ariel_line
 
-        resume = f"{ariel_command()} campaign resume {hint}"
+        folder = getattr(exc, "campaign_dir", None) or hint
+        resume = f"; continue it with: {ariel_line('campaign', 'resume', folder)}" if folder else ""
         code, how = exit_status(exc)
-        print(f"\ninterrupted{how}; continue it with: {resume}", file=sys.stderr)
+        print(f"\ninterrupted{how}{resume}", file=sys.stderr)
         return code
     show(result)
     return 0
@@ -65,7 +67,8 @@ def _show_campaign(result: Any) -> None:
     print(
         f"{result.status}: campaign {result.campaign_id}: {finished} of {len(result.runs)} runs "
         f"finished{skipped} in {result.wall_seconds:.1f} s; workers busy "
-        f"{result.busy_share:.0%} of the time ({result.workers} workers)"
+        f"{result.busy_share:.0%} of the time ({result.workers} "
+        f"worker{'' if result.workers == 1 else 's'})"
     )
     print(f"campaign folder: {result.path}")
     from ariel._cli_commands import ariel_command, load_run_command
@@ -87,6 +90,9 @@ def _show_campaign(result: Any) -> None:
 def _cmd_campaign_run(args: argparse.Namespace) -> int:
     from ariel.runs import run_campaign
 
+    if args.dry_run:
+        return _guarded(lambda: _plan(args), lambda lines: print("\n".join(lines)), None)
+
     def start() -> Any:
         return run_campaign(
             args.file,
@@ -98,7 +104,22 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
             overrides=args.set,
         )
 
-    return _guarded(start, _show_campaign, args.out or "data/campaigns/<id>")
+    return _guarded(start, _show_campaign, None)  # the folder: from the interrupt, once made
+
+
+def _plan(args: argparse.Namespace) -> list[str]:
+    """`--dry-run`: the campaign's conditions x seeds x evaluations and a timed estimate."""
+    from ariel.recording._escape import terminal_text
+    from ariel.runs._campaign_plan import campaign_plan, plan_text
+
+    def timing() -> None:
+        if not args.quiet:
+            print("timing a few evaluations of each condition here ...", file=sys.stderr)
+
+    plan = campaign_plan(
+        args.file, tuple(args.set), executor=args.executor, workers=args.workers, on_timing=timing
+    )
+    return [terminal_text(line) for line in plan_text(plan)]
 
 
 def _cmd_campaign_resume(args: argparse.Namespace) -> int:
@@ -113,21 +134,43 @@ def _cmd_campaign_resume(args: argparse.Namespace) -> int:
             progress=not args.quiet,
         )
 
-    return _guarded(start, _show_campaign, args.campaign_dir)
+    resumed: list[Any] = []
+
+    def show(result: Any) -> None:
+        resumed.append(result)
+        _show_campaign(result)
+
+    code = _guarded(start, show, args.campaign_dir)
+    if code == 0 and resumed and resumed[0].damaged:
+        from ariel.recording._escape import terminal_text
+
+        for line in resumed[0].damaged:  # the others went on: say which did not, and why
+            print(f"ariel: error: {terminal_text(line)}", file=sys.stderr)
+        return EXIT_SKIPPED
+    return code
+
+
+#: `ariel campaign resume`'s exit status when some runs went on and others could not.
+EXIT_SKIPPED = 1
 
 
 def _cmd_campaign_status(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
     from ariel.recording import NotARunError
+    from ariel.recording._escape import terminal_text
     from ariel.runs import campaign_status
+
+    def shown(value: object) -> Text:  # from the folder: no rich markup, no control sequence
+        return Text(terminal_text(value))
 
     try:
         rows = campaign_status(args.campaign_dir)
     except NotARunError as exc:
-        return _fail(str(exc))
-    table = Table(title=f"campaign {args.campaign_dir}")
+        return _fail(terminal_text(exc))
+    table = Table(title=shown(f"campaign {args.campaign_dir}"))
     for name, justify in (
         ("condition", "left"),
         ("seed", "right"),
@@ -140,11 +183,11 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
     for row in rows:
         best = row["best_fitness"]
         table.add_row(
-            row["condition"],
-            str(row["seed"]),
-            str(row["status"]),
-            f"{row['generations_done']}/{row['generations']}",
-            str(row["evaluations"]),
+            shown(row["condition"]),
+            shown(row["seed"]),
+            shown(row["status"]),
+            shown(f"{row['generations_done']}/{row['generations']}"),
+            shown(row["evaluations"]),
             f"{best:.6g}" if math.isfinite(best) else "-",
         )
     Console(width=max(100, Console().width)).print(table)
@@ -168,15 +211,39 @@ def _print_frame(frame: Any, title: str) -> None:
     Console(width=max(160, Console().width)).print(table)
 
 
+def _label(text: str) -> tuple[str, str]:
+    """``--label NAME=RUN_DIR`` -> (NAME, RUN_DIR); the name is checked by `compare`."""
+    name, equals, folder = text.partition("=")
+    if not equals or not name or not folder:
+        raise argparse.ArgumentTypeError(f"expected NAME=RUN_DIR, not {text!r}")
+    return name, folder
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
     from ariel.recording import NotARunError
     from ariel.recording._compare import CompareError, compare, shown_path
     from ariel.recording._escape import terminal_text as shown
 
+    labels: dict[str, str] = {}
+    for name, folder in args.label:
+        if labels.setdefault(folder, name) != name:
+            return _fail(shown(f"{folder!r} has two labels, {labels[folder]!r} and {name!r}"))
+
+    def announce(line: str) -> None:
+        print(f"note: {shown(line)}", file=sys.stderr, flush=True)
+
     try:
-        comparison = compare(args.paths, out=args.out, at_evaluations=args.at_evaluations)
+        comparison = compare(
+            args.paths,
+            out=args.out,
+            at_evaluations=args.at_evaluations,
+            labels=labels or None,
+            announce=announce,
+        )
     except (CompareError, NotARunError) as exc:
         return _fail(shown(exc))
+    except OSError as exc:  # a folder that cannot be read or written: no permission, disk full
+        return _fail(shown(f"cannot compare: {exc}"))
     direction = "higher" if comparison.maximise else "lower"
     about = f"{comparison.title}: {comparison.fitness_fn}, {direction} is better"
     print(
@@ -216,6 +283,12 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
         help="override a value of the base experiment, e.g. --set generations=4 (repeatable)",
     )
     p.add_argument("--out", metavar="DIR", help="campaign folder (default: data/campaigns/<id>)")
+    p.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="write nothing: print conditions x seeds x evaluations and an estimate of the "
+        "time, from a few evaluations timed here",
+    )
     add_executor_options(p)
     p.set_defaults(func=_cmd_campaign_run)
 
@@ -253,5 +326,15 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
         metavar="N",
         help="compare every run after its first N evaluations (default: as many as the "
         "shortest run made)",
+    )
+    p.add_argument(
+        "--label",
+        action="append",
+        default=[],
+        type=_label,
+        metavar="NAME=RUN_DIR",
+        help="name the condition of a run folder given (repeatable; runs with one NAME form one "
+        "condition; label every run folder or none; NAME: up to 64 letters, digits, _ . -); "
+        "default: named by the config values that differ",
     )
     p.set_defaults(func=_cmd_compare)

@@ -2,7 +2,9 @@
 
 The output is a valid experiment file: ``ariel config show > mine.toml`` then ``ariel run
 mine.toml`` runs the same experiment. TOML has no null, so a key that is not set (``none`` in
-docs/evolution.md) is a comment.
+docs/evolution.md) is a comment. A key that the configured executor does not use
+(``executor.device`` unless ``executor.kind`` is ``gpu``) is a comment too when it holds its
+default, and otherwise stays, with a comment saying that it is not used.
 """
 
 from __future__ import annotations
@@ -46,26 +48,49 @@ def _value(value: Any) -> str:
     raise TypeError(f"no TOML form for {type(value).__name__}: {value!r}")
 
 
-def to_toml(config: Mapping[str, Any]) -> str:
+def to_toml(config: Mapping[str, Any], unused: Mapping[str, tuple[str, bool]] | None = None) -> str:
     """``config`` as TOML: plain keys first, then one ``[table]`` per nested mapping whose values
-    are inline (options tables as inline tables). ``None`` values become comments."""
+    are inline (options tables as inline tables). ``None`` values become comments.
+
+    ``unused`` maps a dotted key (``"executor.device"``) to ``(why, as_comment)``: the key is
+    written as a comment (``# key = value  (why)``) when ``as_comment``, else as a key with
+    ``# why`` after it."""
     lines: list[str] = []
     tables: list[tuple[str, Mapping[str, Any]]] = []
+    unused = unused or {}
 
-    def write(entries: Mapping[str, Any]) -> None:
+    def write(entries: Mapping[str, Any], prefix: str = "") -> None:
         for name, value in entries.items():
             if value is None:
                 lines.append(f"# {_key(str(name))}: not set")
+                continue
+            line = f"{_key(str(name))} = {_value(value)}"
+            why, as_comment = unused.get(prefix + str(name), ("", False))
+            if not why:
+                lines.append(line)
+            elif as_comment:
+                lines.append(f"# {line}  ({why})")
             else:
-                lines.append(f"{_key(str(name))} = {_value(value)}")
+                lines.append(f"{line}  # {why}")
 
     top = {k: v for k, v in config.items() if not isinstance(v, Mapping)}
     tables = [(k, v) for k, v in config.items() if isinstance(v, Mapping)]
     write(top)
     for name, table in tables:
         lines += ["", f"[{_key(str(name))}]"]
-        write(table)
+        write(table, f"{name}.")
     return "\n".join(lines) + "\n"
+
+
+def _unused_keys(config: Any) -> dict[str, tuple[str, bool]]:
+    """The keys ``config``'s executor does not use: ``executor.device`` unless the kind is
+    ``gpu``; a comment at its default, else kept (it reads back the same) with a note."""
+    executor = config.executor
+    if executor.kind == "gpu":
+        return {}
+    default = type(executor).model_fields["device"].default
+    why = f'not used: only the gpu executor has a device, and executor.kind is "{executor.kind}"'
+    return {"executor.device": (why, executor.device == default)}
 
 
 def _cmd_config_show(args: argparse.Namespace) -> int:
@@ -76,7 +101,7 @@ def _cmd_config_show(args: argparse.Namespace) -> int:
     overrides = "".join(f" --set {shlex.quote(item)}" for item in args.set)
     print(f"# {source}{overrides}, resolved: every key, defaults included")
     print("# the keys: docs/evolution.md, 'Configuration keys'")
-    print(to_toml(config.to_plain()), end="")
+    print(to_toml(config.to_plain(), _unused_keys(config)), end="")
     return 0
 
 

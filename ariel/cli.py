@@ -90,7 +90,8 @@ def _print_result(result: object) -> None:
 
 def _run_guarded(start: object, path_hint: str | None) -> int:
     """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
-    -> one line and exit 2; Ctrl-C -> how to resume."""
+    -> one line and exit 2; Ctrl-C -> how to resume: the folder the interrupt names (its
+    ``run_dir``, `ariel.runs`), else ``path_hint``, else none (nothing was written yet)."""
     from ariel.utils.interrupts import exit_status, stop_on_signals
 
     try:
@@ -99,10 +100,10 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
         return _fail_with(exc)
     except KeyboardInterrupt as exc:
-        from ariel._cli_commands import ariel_command
+        from ariel._cli_commands import ariel_line
 
-        resume = f"{ariel_command()} resume {path_hint}"
-        hint = f"; continue it with: {resume}" if path_hint else ""
+        folder = getattr(exc, "run_dir", None) or path_hint
+        hint = f"; continue it with: {ariel_line('resume', folder)}" if folder else ""
         code, how = exit_status(exc)
         print(f"\ninterrupted{how}{hint}", file=sys.stderr)
         return code
@@ -121,11 +122,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
             executor=args.executor,
             workers=args.workers,
             scheduler=args.scheduler,
-            progress=None if not args.quiet else False,
+            progress=not args.quiet,
             overrides=args.set,
         )
 
-    return _run_guarded(start, args.out or "data/runs/<run-id>")
+    return _run_guarded(start, None)  # the run's folder: from the interrupt, once it exists
 
 
 def _cmd_resume(args: argparse.Namespace) -> int:
@@ -138,7 +139,7 @@ def _cmd_resume(args: argparse.Namespace) -> int:
                 executor=args.executor,
                 workers=args.workers,
                 scheduler=args.scheduler,
-                progress=None if not args.quiet else False,
+                progress=not args.quiet,
             )
         except ValueError as exc:
             if isinstance(exc, ArielError):
@@ -155,6 +156,12 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     if args.folder is not None and not folder.is_dir():  # a typo must not read as "no runs"
         problem = "is not a folder" if folder.exists() else "does not exist"
         return _fail(f"{str(folder)!r} {problem}")
+    if args.yes and not args.prune:
+        return _fail("--yes goes with --prune (it answers the question before deleting)")
+    if args.prune:
+        from ariel._cli_prune import prune_runs
+
+        return prune_runs(folder, yes=args.yes)
     runs = list_runs(folder)
     if not runs:
         print(f"no runs under {folder}")
@@ -358,8 +365,12 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         result = verify_run(args.run_dir)
     except NotARunError as exc:
         return _fail(str(exc))
+    from ariel.recording._escape import terminal_text
+
     for problem in result.problems:
-        print(f"damaged: {problem}")
+        print(f"damaged: {terminal_text(problem)}")
+    for note in result.notes:
+        print(f"note: {terminal_text(note)}")
     how = (
         "size and SHA-256 of every table"
         if result.checked
@@ -426,6 +437,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help=f"a folder of run folders (default: {DEFAULT_RUNS})",
     )
+    p.add_argument(
+        "--prune",
+        action="store_true",
+        help="delete the runs that failed or were interrupted before their first generation "
+        "finished (lists them and asks first; never a finished generation or a symbolic link)",
+    )
+    p.add_argument("--yes", action="store_true", help="with --prune: delete without asking")
     p.set_defaults(func=_cmd_runs)
 
     p = sub.add_parser(

@@ -50,10 +50,15 @@ STEPS_PER_SNAPSHOT = 25
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--duration", type=float, default=15.0, help="simulated seconds")
-    parser.add_argument("--seed", type=int, default=42, help="seed of the CPG parameters")
-    parser.add_argument("--out", type=Path, default=Path("data/quickstart"), help="output folder")
-    parser.add_argument("--video-seconds", type=float, default=5.0, help="length of the video")
+    default = " (default: %(default)s)"
+    parser.add_argument("--duration", type=float, default=15.0, help="simulated seconds" + default)
+    parser.add_argument("--seed", type=int, default=42, help="seed of the CPG parameters" + default)
+    parser.add_argument(
+        "--out", type=Path, default=Path("data/quickstart"), help="output folder" + default
+    )
+    parser.add_argument(
+        "--video-seconds", type=float, default=5.0, help="length of the video in seconds" + default
+    )
     parser.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL)")
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -213,6 +214,36 @@ def interrupted_run(
         rf"continue it with: \S*ariel resume {re.escape(str(out))}$", capsys.readouterr().err, re.M
     )
     return out
+
+
+@pytest.mark.parametrize("out", [None, "my runs/it's"], ids=["default-folder", "quoted-out"])
+def test_ctrl_c_prints_a_resume_line_that_works_pasted(
+    out: str | None,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Without --out the line names the run's real folder (data/runs/<run-id>), never a
+    placeholder; a folder that needs quoting is quoted."""
+    from ariel.evolution._progress import Progress
+
+    def interrupt(self: Progress, generation: int, *args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.chdir(tmp_path)
+    Path("tiny.toml").write_text(tiny_run_toml("hint", 1))
+    with monkeypatch.context() as patch:
+        patch.setattr(Progress, "end_generation", interrupt)
+        assert main(["run", "tiny.toml", "--quiet", *(["--out", out] if out else [])]) == 130
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    words = shlex.split(line.split("; continue it with: ", 1)[1])  # as a POSIX shell would
+    at = words.index("resume")
+    assert Path(words[at - 1]).name in {"ariel", "ariel.cli"}, line  # e.g. .venv/bin/ariel
+    (made,) = [Path(out)] if out else list(Path("data/runs").iterdir())
+    assert words[at + 1 :] == [str(made)], line
+    assert json.loads((made / "run.json").read_text())["status"] == "interrupted"
+    assert main(words[at:]) == 0  # the pasted command, after its `ariel`
+    assert json.loads((made / "run.json").read_text())["status"] == "finished"
 
 
 def test_resume_refuses_what_it_cannot_resume_and_changes_nothing(

@@ -64,6 +64,45 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+def _fence_problems(text: str) -> list[str]:
+    """Code fences that do not pair: an opening fence (```lang or ```) must be closed by a bare
+    ``` before the next fence with a language and before the end of the file; else a fence
+    swallows the prose (and the blocks) after it."""
+    problems, opened = [], None
+    for number, line in enumerate(text.splitlines(), 1):
+        fence = re.match(r"\s*```(.*)$", line)
+        if fence is None:
+            continue
+        info = fence.group(1).strip()
+        if opened is None:
+            opened = number
+        elif info:
+            problems.append(f"line {number}: ```{info} inside the block opened on line {opened}")
+            opened = number
+        else:
+            opened = None
+    if opened is not None:
+        problems.append(f"line {opened}: a block that is never closed")
+    return problems
+
+
+def test_fence_problems_are_found() -> None:
+    assert _fence_problems("```bash\nls\n```\n\ntext\n```python\nx = 1\n```\n") == []
+    # a closing fence where an opening one was meant: the prose and the python block swallowed
+    broken = "```bash\nls\n```\ntext\nls\n```\n\nprose\n```python\nx = 1\n```\n"
+    assert _fence_problems(broken) == ["line 9: ```python inside the block opened on line 6"]
+    assert _fence_problems("```\nx\n```\n```toml\n") == ["line 4: a block that is never closed"]
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=[d.name for d in DOCS])
+def test_code_fences_pair(doc: Path) -> None:
+    """Every ``` fence of README.md and docs/*.md opens and closes a block as meant."""
+    text = doc.read_text(encoding="utf-8")
+    fences = [line for line in text.splitlines() if re.match(r"\s*```", line)]
+    assert len(fences) % 2 == 0, f"{doc.name}: {len(fences)} fence lines"
+    assert _fence_problems(text) == [], doc.name
+
+
 def test_every_block_is_found_and_most_run() -> None:
     assert len(BLOCKS) >= 20
     runnable = [name for name, _, reason in BLOCKS if reason is None]

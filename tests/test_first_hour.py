@@ -201,6 +201,15 @@ def test_quickstart_help_is_the_scripts(capsys: pytest.CaptureFixture[str]) -> N
     assert exit_code(["quickstart", "--help"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("usage: ariel quickstart") and "--duration" in out
+    out = " ".join(out.split("options:", 1)[1].split())  # argparse wraps at the terminal width
+    for option, default in (
+        ("--duration DURATION", "15.0"),
+        ("--seed SEED", "42"),
+        ("--out OUT", "data/quickstart"),
+        ("--video-seconds VIDEO_SECONDS", "5.0"),
+    ):
+        help_text = out.split(option, 1)[1].split(" --", 1)[0]
+        assert f"(default: {default})" in help_text, (option, help_text)
 
 
 def test_other_commands_still_refuse_unknown_options(capsys: pytest.CaptureFixture[str]) -> None:
@@ -241,9 +250,34 @@ def test_config_show_prints_every_key_as_toml(capsys: pytest.CaptureFixture[str]
         for key, value in values.items():
             if value is None:
                 assert f"# {key}: not set" in text
+            elif (table, key) == ("executor", "device"):  # the local executor has no device
+                assert "device" not in data[table]
+                assert '# device = "cuda"  (not used: only the gpu executor' in text
             else:
                 assert data[table][key] == value, (table, key)
     assert load_config(data).to_plain() == expected  # it reads back as the same experiment
+
+
+@pytest.mark.parametrize(
+    ("sets", "line"),
+    [
+        (["executor.kind=gpu"], 'device = "cuda"\n'),  # the gpu executor: a plain key
+        (  # another kind with a device set: kept (it reads back the same), said to be unused
+            ["executor.kind=serial", "executor.device=cpu"],
+            'device = "cpu"  # not used: only the gpu executor has a device, and '
+            'executor.kind is "serial"\n',
+        ),
+    ],
+)
+def test_config_show_says_when_the_device_is_not_used(
+    capsys: pytest.CaptureFixture[str], sets: list[str], line: str
+) -> None:
+    from ariel.evolution import load_config
+
+    assert main(["config", "show", *[arg for s in sets for arg in ("--set", s)]]) == 0
+    text = capsys.readouterr().out
+    assert line in text
+    assert load_config(tomllib.loads(text)).to_plain() == load_config(None, sets).to_plain()
 
 
 def test_config_show_of_a_file_and_a_bad_file(

@@ -50,6 +50,7 @@ from ariel.errors import CallTimeoutError, WorkerLostError
 __all__ = [
     "CallTimeoutError",
     "LocalPool",
+    "WorkerCannotStartError",
     "WorkerLostError",
     "call_with_timeout",
     "temporary_environ",
@@ -68,6 +69,11 @@ _ORPHANED_EXIT = 3
 #: Exit status of a worker that cannot start at all (EX_CONFIG), e.g. its re-import of the
 #: driver's script refused to go on: the pool fails at once, no call is retried.
 WORKER_CANNOT_START = 78
+
+
+class WorkerCannotStartError(BrokenProcessPool):
+    """The pool is broken because a worker exited with `WORKER_CANNOT_START` before its first
+    call (it said why on its stderr, e.g. the script it re-imported lacks a ``__main__`` guard)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -253,6 +259,7 @@ class _Driver:
         self.workers: list[_Worker] = []
         self.shutting_down = False
         self.broken: str | None = None
+        self.broken_error: type[BrokenProcessPool] = BrokenProcessPool  # raised while broken
         self._wake_reader, self._wake_writer = multiprocessing.Pipe(duplex=False)
         self._lifeline, self._lifeline_end = context.Pipe(duplex=False)
         self._woken = False
@@ -427,7 +434,8 @@ class _Driver:
         if not worker.spoke and worker.process.exitcode == WORKER_CANNOT_START:
             self._fail_everything(
                 f"a worker process could not start (exit code {WORKER_CANNOT_START}; its "
-                "stderr says why)"
+                "stderr says why)",
+                WorkerCannotStartError,
             )
             return
         call, worker.call = worker.call, None
@@ -459,9 +467,11 @@ class _Driver:
             CallTimeoutError(f"no result after {call.timeout:g} s; the worker was stopped")
         )
 
-    def _fail_everything(self, reason: str) -> None:
+    def _fail_everything(
+        self, reason: str, error: type[BrokenProcessPool] = BrokenProcessPool
+    ) -> None:
         with self.lock:
-            self.broken = reason
+            self.broken, self.broken_error = reason, error
             calls = list(self.pending) + [w.call for w in self.workers if w.call is not None]
             self.pending.clear()
             for worker in self.workers:
@@ -471,7 +481,7 @@ class _Driver:
             if not call.running and not call.future.set_running_or_notify_cancel():
                 continue  # cancelled
             if not call.future.done():
-                call.future.set_exception(BrokenProcessPool(reason))
+                call.future.set_exception(error(reason))
 
     def _close_workers(self) -> None:
         with self.lock:
@@ -573,7 +583,7 @@ class LocalPool(cf.Executor):
             return future
         with driver.lock:
             if driver.broken is not None:
-                raise BrokenProcessPool(driver.broken)
+                raise driver.broken_error(driver.broken)
             if driver.shutting_down:
                 raise RuntimeError("cannot schedule new futures after shutdown")
             driver.pending.append(_Call(future, payload, timeout))

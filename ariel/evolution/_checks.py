@@ -26,6 +26,7 @@ __all__ = [
     "check_plugins",
     "check_resources",
     "machine_memory",
+    "no_main_guard_line",
     "refuse_in_spawned_child",
 ]
 
@@ -39,25 +40,36 @@ _CHECKED: set[str] = set()  # plugins (kind, name, options) that passed in this 
 
 
 def refuse_in_spawned_child() -> None:
-    """`ConfigError` when this process is a multiprocessing child (a pool worker): a script that
-    calls ``run_experiment`` without ``if __name__ == "__main__":`` runs again in each worker
-    the spawn and forkserver start methods start, which would start a run in each of them."""
+    """One line on stderr and exit code `WORKER_CANNOT_START` when this process is a
+    multiprocessing child (a pool worker) re-importing the script: a script that calls
+    ``run_experiment`` without ``if __name__ == "__main__":`` runs again in each worker the
+    spawn and forkserver start methods start, which would start a run in each of them."""
     # (multiprocessing.parent_process() is still None while a child re-imports the script.)
     if not _importing_main_again():
         return  # a child that calls run_experiment from a function it was given is fine
     from ariel.evaluation._pool import WORKER_CANNOT_START
 
+    line = (no_main_guard_line() + "\n").encode(errors="replace")
+    try:  # one write: the workers' lines never interleave (print writes the newline apart)
+        sys.stderr.flush()
+        os.write(sys.stderr.fileno(), line)
+    except (AttributeError, OSError, ValueError):  # a stand-in stderr without a file
+        print(no_main_guard_line(), file=sys.stderr, flush=True)
+    # The pool sees this exit code and stops (`LocalPool`); `run_experiment` in the script's
+    # own process then ends it quietly. Not an exception: a traceback per worker would bury
+    # the line, and forkserver turns any exit of its child into code 1.
+    os._exit(WORKER_CANNOT_START)
+
+
+def no_main_guard_line() -> str:
+    """The one line that says the script (``__main__``, or ``__mp_main__`` in a worker) needs
+    an ``if __name__ == "__main__":`` guard."""
     main = sys.modules.get("__mp_main__") or sys.modules.get("__main__")
     script = getattr(main, "__file__", None) or "the script"
-    print(
+    return (
         f"ariel: error: a worker process re-imported {script}, whose top level calls "
-        'run_experiment: put that code under `if __name__ == "__main__":`',
-        file=sys.stderr,
-        flush=True,
+        'run_experiment: put that code under `if __name__ == "__main__":`'
     )
-    # The pool sees this exit code and stops (`LocalPool`). Not an exception: a traceback per
-    # worker would bury the line, and forkserver turns any exit of its child into code 1.
-    os._exit(WORKER_CANNOT_START)
 
 
 def _importing_main_again() -> bool:

@@ -286,9 +286,10 @@ def check_key(key: str, label: str) -> None:
         if model is None:  # inside a free `options` table
             break
         if part not in model.model_fields:
-            allowed = ", ".join(sorted(model.model_fields))
+            names = sorted(model.model_fields)
             where = ".".join(parts[:depth]) or "the top level"
-            raise ConfigError(f"{label}: no such key; keys under {where}: {allowed}")
+            hint = _did_you_mean(parts, depth, names)
+            raise ConfigError(f"{label}: no such key; keys under {where}: {', '.join(names)}{hint}")
         if depth < len(parts) - 1:
             annotation = model.model_fields[part].annotation
             if isinstance(annotation, type) and issubclass(annotation, BaseModel):
@@ -297,6 +298,23 @@ def check_key(key: str, label: str) -> None:
                 model = None
             else:
                 raise ConfigError(f"{label}: '{part}' is a value, not a table")
+
+
+def _did_you_mean(parts: list[str], depth: int, names: list[str]) -> str:
+    """``; did you mean 'KEY'?`` for the closest name to ``parts[depth]``, or ``""``.
+
+    The whole key is suggested when the rest of it exists under that name (``bodyy.population``
+    -> ``body.population``), else the key up to that name.
+    """
+    close = difflib.get_close_matches(parts[depth], names, n=1)
+    if not close:
+        return ""
+    whole = ".".join([*parts[:depth], close[0], *parts[depth + 1 :]])
+    try:
+        check_key(whole, "")
+    except ConfigError:
+        whole = ".".join([*parts[:depth], close[0]])
+    return f"; did you mean '{whole}'?"
 
 
 def set_value(data: dict[str, Any], key: str, value: Any, label: str) -> None:

@@ -124,6 +124,7 @@ class BrainWork:
             body.fitness = job.run.best_fitness
             body.best_params = job.run.best_params.tolist()  # type: ignore[union-attr]
             body.best_eval_id = self._tasks[improved].eval_id
+        driver.candidates.extend(float(r.fitness) for r in results if math.isfinite(r.fitness))
         driver.progress.advance(len(results), driver.best_so_far())
 
     def failed_result(self, task: Any, reason: str) -> Any:
@@ -170,6 +171,9 @@ class RunDriver:
             [],
             [],
         )  # this generation's parents, children
+        # The finite fitnesses of this generation's evaluations (a brain-only run's progress
+        # line shows their mean: the population is one body, whose mean is its best).
+        self.candidates: list[float] = []
         self._started = time.perf_counter()
         self._wall_before = state.wall_seconds if state is not None else 0.0
 
@@ -186,6 +190,7 @@ class RunDriver:
     def generations(self) -> Iterator[list[BrainWork]]:
         for generation in range(self.first_generation, self.config.generations):
             self.progress.start_generation(generation, self._generation_budget())
+            self.candidates = []
             jobs = (
                 self._brain_only_jobs(generation) if self.brain_only else self._jobs_of(generation)
             )
@@ -282,6 +287,10 @@ class RunDriver:
             **({} if offset is None else {"qd_offset": float(offset)}),
         )
         extra = "".join(f", {n} {s}" for s, n in counts.items() if s != "rows" and n)
+        label = "mean"
+        if self.brain_only:  # as `ariel report` draws it: the mean of the CMA-ES candidates
+            label = "mean of candidates"
+            mean = float(np.mean(self.candidates)) if self.candidates else math.nan
         self.progress.end_generation(
             generation,
             best,
@@ -289,6 +298,7 @@ class RunDriver:
             extra,
             morphs=None if self.optimizer is None else distinct_bodies(state.population),
             archive=stats() if stats else None,
+            mean_label=label,
         )
 
     @property

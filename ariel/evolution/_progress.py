@@ -6,6 +6,10 @@ printed per finished generation. The generation's line also says, in a co-evolut
 many distinct bodies the population after selection holds (``morphs 5/8``: distinct robot
 graphs / bodies), and in a MAP-Elites run the archive's coverage, QD-score and normalised
 QD-score (``ariel.evolution._map_elites``), the numbers ``load_run(...).generations`` has.
+Its ``mean`` is the population's mean fitness after selection; in a brain-only run, whose
+population is the one fixed body, it is the mean of the generation's CMA-ES candidates
+(``mean of candidates``, the finite fitnesses of the generation's evaluations), as `ariel
+report` draws it.
 """
 
 from __future__ import annotations
@@ -16,14 +20,43 @@ import time
 from collections.abc import Mapping
 from typing import Any, TextIO
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "auto_progress", "eta_text", "fmt_value", "shows_progress"]
 
 
-def _fmt(value: float) -> str:
+def shows_progress(progress: bool | None) -> bool:
+    """Whether a run shows its progress: ``progress`` as given, or for None (the default of
+    `run_experiment` and its kin) `auto_progress`."""
+    return auto_progress() if progress is None else bool(progress)
+
+
+def auto_progress() -> bool:
+    """Whether someone is watching: stdout or stderr is a terminal, or this is a Jupyter
+    (IPython) kernel, whose streams are none. Not in a pipe, a batch job's log or pytest."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None and stream.isatty():
+                return True
+        except (AttributeError, ValueError):  # a stand-in stream without isatty, or closed
+            continue
+    return _in_notebook_kernel()
+
+
+def _in_notebook_kernel() -> bool:
+    """An IPython shell with a kernel runs this (Jupyter, VS Code, Colab); IPython is never
+    imported here, only looked up when the process already has it."""
+    get_ipython = getattr(sys.modules.get("IPython"), "get_ipython", None)
+    try:
+        shell = get_ipython() if callable(get_ipython) else None
+    except Exception:  # a half-imported or odd IPython: not a notebook
+        return False
+    return getattr(shell, "kernel", None) is not None
+
+
+def fmt_value(value: float) -> str:
     return "-" if value is None or math.isnan(value) else f"{value:.4g}"
 
 
-def _eta(left: int, rate: float) -> str:
+def eta_text(left: int, rate: float) -> str:
     if left <= 0:
         return "0s"
     if rate <= 0:
@@ -65,6 +98,7 @@ class Progress:
         self._generation_start_done = done
         self._best = math.nan
         self._mean = math.nan
+        self._mean_label = "mean"
         self._population = ""  # morphs and archive of the last generation's line
         self._rich: Any = None
         self._run_task: Any = None
@@ -118,7 +152,7 @@ class Progress:
         total = self._generation_total
         return {
             "rate": f"{rate:.1f}",
-            "eta": _eta(total - self.generation_done, rate) if total is not None else "-",
+            "eta": eta_text(total - self.generation_done, rate) if total is not None else "-",
             "info": "",
         }
 
@@ -126,8 +160,8 @@ class Progress:
         rate = self.rate()
         return {
             "rate": f"{rate:.1f}",
-            "eta": _eta(self.total - self.done, rate),
-            "info": f"best {_fmt(self._best)}  mean {_fmt(self._mean)}"
+            "eta": eta_text(self.total - self.done, rate),
+            "info": f"best {fmt_value(self._best)}  {self._mean_label} {fmt_value(self._mean)}"
             + self._population.replace(", ", "  "),
         }
 
@@ -168,11 +202,13 @@ class Progress:
         *,
         morphs: tuple[int, int] | None = None,
         archive: Mapping[str, float] | None = None,
+        mean_label: str = "mean",
     ) -> None:
         """The generation's line. ``morphs``: (distinct bodies, bodies) of the population after
         selection; ``archive``: a MAP-Elites archive's ``coverage``, ``qd_score``,
-        ``norm_qd_score`` (and ``filled`` / ``cells``); ``extra``: appended as it is."""
-        self._best, self._mean = best, mean
+        ``norm_qd_score`` (and ``filled`` / ``cells``); ``extra``: appended as it is;
+        ``mean_label``: what ``mean`` is the mean of (``mean of candidates``)."""
+        self._best, self._mean, self._mean_label = best, mean, mean_label
         self._population = population_text(morphs, archive)
         if self._rich is not None:
             self._refresh()
@@ -185,8 +221,10 @@ class Progress:
         left = self.total - self.done
         eta = f"{left / rate:.0f}s" if rate > 0 else "-"
         return (
-            f"gen {generation}: evaluations {self.done}/{self.total}, best {_fmt(self._best)}, "
-            f"mean {_fmt(self._mean)}{self._population}, {rate:.1f} eval/s, ETA {eta}{extra}"
+            f"gen {generation}: evaluations {self.done}/{self.total}, "
+            f"best {fmt_value(self._best)}, {self._mean_label} {fmt_value(self._mean)}"
+            f"{self._population}, "
+            f"{rate:.1f} eval/s, ETA {eta}{extra}"
         )
 
 
@@ -203,7 +241,7 @@ def population_text(morphs: tuple[int, int] | None, archive: Mapping[str, float]
         share = f"{coverage:.0%}" if math.isfinite(coverage) else "-"
         text += (
             f", coverage {share}{cells}, "
-            f"qd_score {_fmt(archive.get('qd_score', math.nan))}, "
-            f"norm_qd_score {_fmt(archive.get('norm_qd_score', math.nan))}"
+            f"qd_score {fmt_value(archive.get('qd_score', math.nan))}, "
+            f"norm_qd_score {fmt_value(archive.get('norm_qd_score', math.nan))}"
         )
     return text

@@ -16,6 +16,7 @@ dataset with ``condition`` and ``seed`` columns; `load_campaign` does it with pa
 from __future__ import annotations
 
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -25,7 +26,7 @@ from typing import Any
 from ariel.recording._escape import short_ascii
 from ariel.recording._files import atomic_write_json
 from ariel.recording._load import Run, load_run
-from ariel.recording._run_folder import NotARunError
+from ariel.recording._run_folder import NotARunError, json_data
 
 __all__ = [
     "CAMPAIGN_FORMAT",
@@ -46,6 +47,10 @@ CAMPAIGN_JSON = "campaign.json"
 CAMPAIGN_RRD = "campaign.rrd"
 
 
+#: `Campaign.status` of a run whose folder holds a run.json that does not load (damaged).
+DAMAGED = "damaged"
+
+
 class NotACampaignError(NotARunError):
     """A folder that is not a campaign folder (no readable campaign.json)."""
 
@@ -63,12 +68,11 @@ def read_campaign_info(path: str | Path) -> dict[str, Any]:
     """``campaign.json`` of the campaign in ``path``; `NotACampaignError` if there is none, or
     if it is not what a campaign writes: a run elsewhere than at its own
     ``runs/condition=<name>/seed=<n>`` (or through a symbolic link), a seed that is not an
-    integer, a condition name that is not one (one line naming the entry)."""
-    import json
-
+    integer, a condition name that is not one, a run without a config (one line naming the
+    entry)."""
     file = Path(path) / CAMPAIGN_JSON
     try:
-        info = json.loads(file.read_text(encoding="utf-8"))
+        info = json_data(file.read_text(encoding="utf-8"))
     except (FileNotFoundError, NotADirectoryError):
         raise NotACampaignError(
             f"{str(path)!r} is not an ariel campaign folder (no {CAMPAIGN_JSON})"
@@ -77,6 +81,9 @@ def read_campaign_info(path: str | Path) -> dict[str, Any]:
         raise NotACampaignError(f"{file}: unreadable {CAMPAIGN_JSON} ({exc})") from None
     if not isinstance(info, dict) or info.get("format") != CAMPAIGN_FORMAT:
         raise NotACampaignError(f"{file}: not a {CAMPAIGN_JSON} of format {CAMPAIGN_FORMAT}")
+    if not isinstance(info.get("campaign_id"), str):
+        shown = short_ascii(info.get("campaign_id"))
+        raise NotACampaignError(f"{file}: its campaign_id {shown} is not a campaign id (a string)")
     _check_conditions(file, info)
     _check_runs(Path(path), file, info)
     return info
@@ -84,6 +91,10 @@ def read_campaign_info(path: str | Path) -> dict[str, Any]:
 
 # A condition's name, as the campaign file allows it: one path component, never "." or "..".
 _CONDITION = re.compile(r"[A-Za-z0-9_.-]+")
+#: The longest condition name: its folder ``condition=<name>`` is one file name, and a file
+#: system allows at most 255 bytes (ENAMETOOLONG).
+MAX_CONDITION_NAME = 255 - len("condition=")
+_CONDITION_RULE = f"letters, digits, _ . -; at most {MAX_CONDITION_NAME} characters"
 
 
 def _is_seed(value: Any) -> bool:
@@ -93,7 +104,11 @@ def _is_seed(value: Any) -> bool:
 
 
 def _is_condition(value: Any) -> bool:
-    return isinstance(value, str) and _CONDITION.fullmatch(value) is not None
+    return (
+        isinstance(value, str)
+        and len(value) <= MAX_CONDITION_NAME
+        and _CONDITION.fullmatch(value) is not None
+    )
 
 
 def _check_conditions(file: Path, info: dict[str, Any]) -> None:
@@ -112,7 +127,7 @@ def _check_conditions(file: Path, info: dict[str, Any]) -> None:
         if not isinstance(condition, dict) or not _is_condition(condition.get("name")):
             name = condition.get("name") if isinstance(condition, dict) else condition
             raise NotACampaignError(
-                f"{where}: {short_ascii(name)} is not a condition name (letters, digits, _ . -)"
+                f"{where}: {short_ascii(name)} is not a condition name ({_CONDITION_RULE})"
             )
         own = condition.get("seeds", [])
         if not isinstance(own, list) or not all(_is_seed(s) for s in own):
@@ -124,7 +139,8 @@ def _check_conditions(file: Path, info: dict[str, Any]) -> None:
 def _check_runs(path: Path, file: Path, info: dict[str, Any]) -> None:
     """campaign.json's runs: `NotACampaignError`, naming the entry, unless each is a condition
     and a seed at exactly ``runs/condition=<name>/seed=<n>``, once, with no symbolic link and
-    nothing but folders on the way (a folder not made yet is made as a real one). A campaign
+    nothing but folders on the way (a folder not made yet is made as a real one), with a config
+    (an object) and a run id (a string), which resume needs. A campaign
     folder is data: its runs never lie outside it, nor at a path it chose."""
     runs = info.get("runs")
     if not isinstance(runs, list) or not runs:
@@ -138,7 +154,7 @@ def _check_runs(path: Path, file: Path, info: dict[str, Any]) -> None:
         if not _is_condition(condition):
             raise NotACampaignError(
                 f"{where}: condition {short_ascii(condition)} is not a condition name "
-                "(letters, digits, _ . -)"
+                f"({_CONDITION_RULE})"
             )
         if not _is_seed(seed):
             raise NotACampaignError(
@@ -153,6 +169,15 @@ def _check_runs(path: Path, file: Path, info: dict[str, Any]) -> None:
             )
         if (condition, seed) in seen:
             raise NotACampaignError(f"{where}: listed twice")
+        if not isinstance(entry.get("config"), dict):
+            raise NotACampaignError(
+                f"{where}: its config {short_ascii(entry.get('config'))} is not a config "
+                "(an object)"
+            )
+        if not isinstance(entry.get("run_id"), str):
+            raise NotACampaignError(
+                f"{where}: its run_id {short_ascii(entry.get('run_id'))} is not a run id (a string)"
+            )
         seen.add((condition, seed))
         _check_folders(path, expected, where)
 
@@ -262,7 +287,10 @@ class Campaign:
         return self._joined("generations")
 
     def status(self) -> list[dict[str, Any]]:
-        """One row per run of campaign.json: condition, seed, status, generations, best."""
+        """One row per run of campaign.json: condition, seed, status, generations, best.
+        ``status``: run.json's, `STOPPED` for a killed run, ``"not started"`` for a run not
+        made yet, `DAMAGED` for one whose folder does not load (`load_campaign` leaves it out;
+        ``ariel verify`` it)."""
         from ariel.recording._load import STOPPED
         from ariel.recording._lock import lock_is_free
 
@@ -272,18 +300,21 @@ class Campaign:
             run = self.runs.get(key)
             info = run.info if run is not None else {}
             status = info.get("status", "not started")
+            if run is None and os.path.lexists(self.path / entry["path"] / "run.json"):
+                status = DAMAGED  # load_campaign left it out: `ariel verify` it
             if status == "running" and lock_is_free(self.path / entry["path"]):
                 status = STOPPED
             best = info.get("best_fitness")
+            evaluations = info.get("evaluations_done", 0)
             rows.append(
                 {
                     "condition": key[0],
                     "seed": key[1],
                     "path": entry["path"],
                     "status": status,
-                    "generations_done": int(info.get("generations_done", 0)),
+                    "generations_done": run.generations_done if run is not None else 0,
                     "generations": entry.get("config", {}).get("generations"),
-                    "evaluations": int(info.get("evaluations_done", 0)),
+                    "evaluations": evaluations if type(evaluations) is int else 0,
                     "best_fitness": best if isinstance(best, float) else math.nan,
                 }
             )

@@ -1,6 +1,9 @@
 """`ariel compare`: conditions of a campaign (or of several folders of one campaign file run
-on different seeds, pooled; or plain run folders grouped by how their configs differ) compared
-with statistics; writes ``compare/`` and returns a `Comparison`.
+on different seeds, pooled; or plain run folders grouped by how their configs differ, or by
+``labels``) compared with statistics; writes ``compare/`` and returns a `Comparison`. Each run
+counts once: a folder given twice, or a copy of a run folder, is one run (a note says so).
+Automatic names of plain run folders' conditions are at most `NAME_LIMIT` characters
+(`condition_names`); what was compared lists each condition's whole settings.
 
 Every run is compared at one budget of evaluations (the smallest any run made, or
 ``at_evaluations``), on two measures: its best fitness after that many evaluations (``final
@@ -29,10 +32,13 @@ with ``'``.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import os
+import re
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -63,7 +69,7 @@ from ariel.recording._compare_stats import (
     small_n_warning,
 )
 from ariel.recording._curves import best_so_far, on_grid
-from ariel.recording._escape import csv_safe
+from ariel.recording._escape import csv_safe, short_ascii
 from ariel.recording._files import UnsafePathError, written_path
 from ariel.recording._load import Run, load_run
 
@@ -79,6 +85,13 @@ __all__ = [
 
 GRID_POINTS = 200
 MORPHOLOGY_BINS = 20
+#: The longest automatic condition name of plain run folders (`condition_names`).
+NAME_LIMIT = 60
+#: A ``--label``: 1 to 64 ASCII letters, digits, ``_``, ``.`` or ``-``.
+LABEL = re.compile(r"[A-Za-z0-9_.-]{1,64}")
+#: Above this many conditions, `compare_runs` says how many pairs it tests before it starts
+#: (each pair of each measure takes a bootstrap: the time grows with the square of them).
+MANY_CONDITIONS = 20
 #: Every file a comparison may write into its folder.
 FILES = (
     "best_so_far.png",
@@ -255,24 +268,169 @@ def _pooled_campaign_runs(
     return " + ".join(ids), source, paired, found
 
 
-def _folder_runs(paths: Sequence[Path]) -> tuple[str, Source, list[tuple[RunCurve, Run]]]:
-    """Plain run folders, each condition named by the config values that tell it apart."""
-    runs = [load_run(p) for p in paths]
+def _times(n: int) -> str:
+    return "twice" if n == 2 else f"{n} times"
+
+
+def _once(items: Sequence[Any], key: Callable[[Any], Hashable | None]) -> list[list[Any]]:
+    """``items`` grouped by ``key`` (None: an item of its own), in the order each group's
+    first item comes: the first of each group is the one counted."""
+    groups: dict[Any, list[Any]] = {}
+    for i, item in enumerate(items):
+        found = key(item)
+        groups.setdefault(("own", i) if found is None else ("key", found), []).append(item)
+    return list(groups.values())
+
+
+def unique_folders(paths: Sequence[Path], what: str = "run") -> tuple[list[Path], list[str]]:
+    """(``paths`` less those naming a folder given before: ``R R``, ``R sub/../R``, a link to
+    ``R``, compared by their resolved paths; a note for each folder given more than once)."""
+    groups = _once(paths, lambda p: os.path.realpath(p))
+    notes = [
+        f"the same {what} was given {_times(len(group))}: "
+        f"{', '.join(repr(str(p)) for p in group)} (one folder); counted once"
+        for group in groups
+        if len(group) > 1
+    ]
+    return [group[0] for group in groups], notes
+
+
+def _run_identity(run: Run) -> Hashable | None:
+    """What makes two run folders one run (a copy of a folder): its run id, when run.json
+    was created, its seed and its config. None without a run id. (A run id alone is not one
+    run: ``ariel run --out a/seed1`` and ``--out b/seed1`` both have the run id ``seed1``.)"""
+    run_id = run.info.get("run_id")
+    if not run_id:
+        return None
+    config = json.dumps(run.info.get("config", run.config), sort_keys=True, default=str)
+    return (str(run_id), str(run.info.get("created")), str(run.info.get("seed")), config)
+
+
+def _short_keys(keys: Sequence[str]) -> dict[str, str]:
+    """Each dotted key's shortest ending that no other of ``keys`` ends with
+    (``body.population`` -> ``population``; ``body.options`` and ``brain.options`` stay)."""
+    short = {}
+    for key in keys:
+        parts = key.split(".")
+        for depth in range(1, len(parts) + 1):
+            ending = ".".join(parts[-depth:])
+            if not any(o != key and (o == ending or o.endswith(f".{ending}")) for o in keys):
+                break
+        short[key] = ending
+    return short
+
+
+def condition_names(keys: Sequence[str], flats: Sequence[Mapping[str, str]]) -> list[str]:
+    """Each run's condition name from its values of the differing ``keys``
+    (``brain.inherit=false``). Where one would be longer than `NAME_LIMIT`, every name uses
+    the keys' last components (`_short_keys`), and one still too long is cut and ends in
+    ``~`` and 8 hex digits of a hash of its whole name: the same settings, the same name.
+    Never merges two conditions (the whole names then)."""
+    whole = [",".join(f"{k}={f.get(k, '-')}" for k in keys) for f in flats]
+    if max(map(len, whole), default=0) <= NAME_LIMIT:
+        return whole
+    short_keys = _short_keys(keys)
+    names = []
+    for name, flat in zip(whole, flats):
+        short = ",".join(f"{short_keys[k]}={flat.get(k, '-')}" for k in keys)
+        if len(short) > NAME_LIMIT:
+            digest = hashlib.sha256(name.encode()).hexdigest()[:8]
+            short = f"{short[: NAME_LIMIT - 9]}~{digest}"
+        names.append(short)
+    return names if len(set(names)) == len(set(whole)) else whole
+
+
+def _settings_text(keys: Sequence[str], flats: Sequence[Mapping[str, str]]) -> str:
+    """The values of ``keys`` in the runs of one condition (``a = 1 | 2`` where they differ)."""
+    parts = []
+    for key in keys:
+        values = list(dict.fromkeys(f.get(key, "-") for f in flats))
+        parts.append(f"{key} = {' | '.join(values)}")
+    return ", ".join(parts)
+
+
+def _checked_labels(labels: Mapping[str | Path, str], paths: Sequence[Path]) -> dict[str, str]:
+    """``labels`` (run folder -> condition name) by resolved path, checked: every label a
+    name (`LABEL`), every folder one of ``paths``, one label per folder, every folder
+    labelled (`CompareError`, one line)."""
+    given = {os.path.realpath(p): p for p in paths}
+    found: dict[str, str] = {}
+    for folder, name in labels.items():
+        if not isinstance(name, str) or not LABEL.fullmatch(name):
+            raise CompareError(
+                f"--label {short_ascii(name)}: a label is 1 to 64 letters, digits, '_', '.' or '-'"
+            )
+        resolved = os.path.realpath(folder)
+        if resolved not in given:
+            raise CompareError(
+                f"--label {name}={str(folder)!r}: that folder is not one of the run folders "
+                "compared; give it as well"
+            )
+        if found.get(resolved, name) != name:
+            raise CompareError(
+                f"{str(given[resolved])!r} has two labels, {found[resolved]!r} and {name!r}"
+            )
+        found[resolved] = name
+    missing = [p for r, p in given.items() if r not in found]
+    if missing:
+        raise CompareError(
+            f"{str(missing[0])!r} has no --label: label every run folder or none"
+            f"{f' ({len(missing)} unlabelled)' if len(missing) > 1 else ''}"
+        )
+    return found
+
+
+def _folder_runs(
+    paths: Sequence[Path], labels: Mapping[str, str] | None = None
+) -> tuple[str, Source, list[tuple[RunCurve, Run]], list[str]]:
+    """Plain run folders (each once: `unique_folders` first), each condition named by the
+    config values that tell it apart (`condition_names`) or by ``labels`` (resolved run
+    folder -> name, `_checked_labels`); with a note for each run given twice. A copy of a
+    run folder (`_run_identity`) counts once."""
+    loaded = [(p, load_run(p)) for p in paths]
+    notes = []
+    kept = []
+    for group in _once(loaded, lambda item: _run_identity(item[1])):
+        kept.append(group[0])
+        if len(group) == 1:
+            continue
+        if labels is not None:
+            named = {labels[os.path.realpath(p)] for p, _ in group}
+            if len(named) > 1:
+                raise CompareError(
+                    f"{str(group[0][0])!r} and {str(group[1][0])!r} are the same run (run id "
+                    f"{group[0][1].info.get('run_id')!r}) but have different labels"
+                )
+        notes.append(
+            f"the same run was given {_times(len(group))}: "
+            f"{', '.join(repr(str(p)) for p, _ in group)} (run id "
+            f"{group[0][1].info.get('run_id')!r}: a copy); counted once"
+        )
+    runs = [run for _, run in kept]
     flats = [condition_settings(run.config) for run in runs]
     keys = sorted({k for f in flats for k in f})
     differing = [k for k in keys if len({f.get(k) for f in flats}) > 1]
+    if labels is not None:
+        names = [labels[os.path.realpath(p)] for p, _ in kept]
+    elif differing:
+        names = condition_names(differing, flats)
+    else:
+        names = [str(run.config.get("name", "runs")) for run in runs]
     found = []
-    for run, flat in zip(runs, flats):
-        name = ",".join(f"{k}={flat.get(k, '-')}" for k in differing) or str(
-            run.config.get("name", "runs")
-        )
+    for name, run in zip(names, runs):
         seed = int(run.info.get("seed", run.config.get("seed", 0)))
         found.append((_curve(name, seed, run), run))
+    overrides = {
+        name: _settings_text(differing, [f for n, f in zip(names, flats) if n == name])
+        for name in dict.fromkeys(names)
+    }
+    how = "by --label" if labels is not None else "by the config values that differ"
     source = Source(
-        what=f"{len(runs)} run folders: {', '.join(str(p) for p in paths)}",
-        base="none: plain run folders, each condition named by the config values that differ",
+        what=f"{len(runs)} run folders: {', '.join(str(p) for p, _ in kept)}",
+        overrides=overrides if differing else {},
+        base=f"none: plain run folders, each condition named {how}",
     )
-    return f"{len(runs)} runs", source, found
+    return f"{len(runs)} runs", source, found, notes
 
 
 def _direction(runs: Sequence[Run]) -> tuple[bool, str]:
@@ -439,19 +597,44 @@ def _is_ours(path: Path) -> bool:
     return path.name in FILES or (name is not None and name.name in FILES)
 
 
+def _check_parents(out: Path) -> None:
+    """Refuse (`CompareError`) an ``out`` that cannot be made because the nearest of its
+    parents that is there is no folder: a file (``--out notes.txt/cmp``) or a link to
+    nothing (``--out dangling/cmp``)."""
+    for parent in out.parents:
+        if not os.path.lexists(parent):
+            continue
+        if parent.is_dir():  # a link to a folder included: the path the user named
+            return
+        if parent.is_symlink():
+            raise CompareError(
+                f"cannot make {str(out)!r}: {str(parent)!r} is a symbolic link to "
+                f"{os.readlink(parent)!r}, which does not exist; name a folder with --out DIR"
+            )
+        raise CompareError(
+            f"cannot make {str(out)!r}: {str(parent)!r} is a file, not a folder; name a "
+            "folder with --out DIR"
+        )
+
+
 def prepare_folder(out: Path) -> bool:
     """Check that ``out`` can take a comparison; True where it holds an earlier one (to be
     replaced). A link is refused (`UnsafePathError`: nothing is written through it), and so
-    are a file and a folder holding anything a comparison did not write (`CompareError`)."""
+    are a file, a folder holding anything a comparison did not write and a folder that
+    cannot be made (a parent that is a file or a link to nothing) (`CompareError`)."""
     if out.is_symlink():
+        missing = "" if out.exists() else ", which does not exist"
         raise UnsafePathError(
             f"refusing to write the comparison into {str(out)!r}: it is a symbolic link (to "
-            f"{os.readlink(out)!r}); remove the link or name another folder with --out DIR"
+            f"{os.readlink(out)!r}{missing}); remove the link or name another folder with "
+            "--out DIR"
         )
     if not out.exists():
+        _check_parents(out)
         return False
     if not out.is_dir():
-        raise CompareError(f"{str(out)!r} is a file, not a folder: name a folder with --out DIR")
+        what = "a file, not a folder" if out.is_file() else "not a folder"
+        raise CompareError(f"{str(out)!r} is {what}: name a folder with --out DIR")
     entries = sorted(out.iterdir())
     foreign = [p.name for p in entries if not _is_ours(p) or (p.is_dir() and not p.is_symlink())]
     if foreign:
@@ -524,21 +707,28 @@ def compare_runs(
     at_evaluations: int | None = None,
     source: Source | None = None,
     write: bool = True,
+    notes: Sequence[str] = (),
+    announce: Callable[[str], None] | None = None,
 ) -> Comparison:
     """Compare ``curves`` (runs with their conditions) and write ``out`` (see the module
     docstring; nothing is written where ``write`` is false); the core of `compare`, usable
     on any evaluations tables. ``paired``: the conditions share seeds (paired tests; why:
-    ``reason``); ``at_evaluations``: the budget (default: the smallest run's)."""
+    ``reason``); ``at_evaluations``: the budget (default: the smallest run's); ``notes``:
+    warnings to put first (`Comparison.notes`); ``announce``: given one line before the
+    statistics are computed where there are more than `MANY_CONDITIONS` conditions."""
     import pandas as pd
 
     if not curves:
         raise CompareError("no run with a finished generation to compare")
+    count = len({c.condition for c in curves})
+    if announce is not None and count > MANY_CONDITIONS:
+        announce(many_conditions(count))
     totals = {f"{c.condition} seed {c.seed}": len(c.evaluations) for c in curves}
     budget, budget_note = common_budget(totals, at_evaluations)
     truncated = [replace(c, evaluations=first_evaluations(c.evaluations, budget)) for c in curves]
     runs = pd.DataFrame(_run_rows(curves, truncated, maximise, budget))
     choice = Design(paired, reason or ("the conditions share seeds" if paired else ""))
-    rows, omnibus, notes = _statistics(runs, maximise, choice)
+    rows, omnibus, found_notes = _statistics(runs, maximise, choice)
     grouped = _by_condition(truncated)
     comparison = Comparison(
         out=Path(out) if out is not None else None,
@@ -552,7 +742,7 @@ def compare_runs(
         omnibus=pd.DataFrame(omnibus),
         budget=budget,
         tests=choice,
-        notes=[n for n in (budget_note, *notes) if n],
+        notes=[n for n in (*notes, budget_note, *found_notes) if n],
         about=describe(
             source or Source(),
             seeds={name: [c.seed for c in group] for name, group in grouped.items()},
@@ -572,6 +762,16 @@ def compare_runs(
     return comparison
 
 
+def many_conditions(count: int) -> str:
+    """The line `compare_runs` announces before comparing ``count`` conditions."""
+    pairs = count * (count - 1) // 2
+    return (
+        f"{count} conditions: testing {pairs:,} pairs of conditions for each of "
+        f"{len(MEASURES)} measures, each with a bootstrap CI (the time grows with the square "
+        "of the number of conditions)"
+    )
+
+
 _REASONS = {
     "shared": "the conditions share seeds (seeding = 'shared': common random numbers, "
     "generation 0 is the same in every condition), so their runs are paired by seed",
@@ -587,45 +787,61 @@ def compare(
     out: str | Path | None = None,
     at_evaluations: int | None = None,
     write: bool = True,
+    labels: Mapping[str | Path, str] | None = None,
+    announce: Callable[[str], None] | None = None,
 ) -> Comparison:
     """Compare a campaign's conditions (one campaign folder, or several folders of one
     campaign file run on different seeds, pooled) or plain run folders (grouped by their
-    config difference). ``out``: default ``CAMPAIGN_DIR/compare`` for one campaign (an earlier
-    comparison there is replaced), else a new folder ``compare-<date>-<time>`` in the
-    current directory (`new_folder`); ``at_evaluations``: compare every run after its first N
-    evaluations (default: as many as the shortest run made); ``write=False``: compute only
-    (a notebook's table), write nothing."""
+    config difference, or by ``labels``). ``out``: default ``CAMPAIGN_DIR/compare`` for one
+    campaign (an earlier comparison there is replaced), else a new folder
+    ``compare-<date>-<time>`` in the current directory (`new_folder`); ``at_evaluations``:
+    compare every run after its first N evaluations (default: as many as the shortest run
+    made); ``write=False``: compute only (a notebook's table), write nothing.
+
+    A folder given twice (``R R``, ``R sub/../R``) counts once, and so does a copy of a run
+    folder (the same run id, created at the same time, seed and config); a note says so.
+    ``labels``: run folder -> condition name (`LABEL`: 1 to 64 letters, digits, ``_ . -``),
+    for plain run folders only; runs with one label form one condition; every folder given
+    must have one. ``announce``: told one line before a long computation (`compare_runs`)."""
     paths = [Path(p) for p in paths]
     if not paths:
         raise CompareError("give a campaign folder or run folders to compare")
     if write and out is not None:
         prepare_folder(Path(out))  # refused before the runs are read (again when written)
+    campaigns = [p for p in paths if is_campaign(p)]
+    paths, notes = unique_folders(paths, "campaign folder" if campaigns else "run")
+    if labels and campaigns:
+        raise CompareError(
+            "--label names plain run folders; a campaign's conditions have the names its "
+            "campaign file gives them"
+        )
     if len(paths) == 1 and is_campaign(paths[0]):
         title, source, paired, found = _campaign_runs(paths[0])
         reason = _REASONS["shared" if paired else "independent"]
         default = paths[0] / "compare"
-        labels = [f"condition {c.condition} seed {c.seed}" for c, _ in found]
+        names = [f"condition {c.condition} seed {c.seed}" for c, _ in found]
     elif all(is_campaign(p) for p in paths):
         title, source, paired, found = _pooled_campaign_runs(paths)
         reason = _REASONS["shared" if paired else "independent"]
         default = None  # not inside one of them: a new folder here, as for run folders
-        labels = [f"condition {c.condition} seed {c.seed}" for c, _ in found]
+        names = [f"condition {c.condition} seed {c.seed}" for c, _ in found]
     else:
-        campaigns = [p for p in paths if is_campaign(p)]
         if campaigns:
             raise CompareError(
                 f"{str(campaigns[0])!r} is a campaign: compare campaign folders (one, or "
                 "several of one campaign file to pool their seeds), or run folders, not both"
             )
-        title, source, found = _folder_runs(paths)
+        checked = _checked_labels(labels, paths) if labels else None
+        title, source, found, copies = _folder_runs(paths, checked)
+        notes += copies
         paired, reason = False, _REASONS["folders"]
         default = None  # a new folder here, named when it is written (below)
-        labels = [c.path for c, _ in found]
+        names = [c.path for c, _ in found]
     done = [i for i, (_, run) in enumerate(found) if run.generations_done > 0]
     if not done:
         raise CompareError("no run with a finished generation to compare")
     found = [found[i] for i in done]
-    check_comparable([(labels[i], found[j][1].config) for j, i in enumerate(done)])
+    check_comparable([(names[i], found[j][1].config) for j, i in enumerate(done)])
     maximise, fitness_fn = _direction([r for _, r in found])
     if out is None and write:
         out = default if default is not None else new_folder(Path("."), "compare")
@@ -640,6 +856,8 @@ def compare(
         at_evaluations=at_evaluations,
         source=source,
         write=write,
+        notes=notes,
+        announce=announce,
     )
 
 

@@ -6,8 +6,10 @@ controller and its exact parameters (``controller.json``), and ``replay.py``: a 
 script of the tutorial API that rebuilds the robot (`load_exported`: the registries, the
 constructor, ``world.spawn``, `Controller`), drives it (``mjcb_control``, `simple_runner`)
 and prints where the core ends up, beside where the run recorded it (the same: the tutorial
-path equals the engine's) and the recorded fitness. (MJCF rounds numbers to 6 digits, so a
-simulation of ``body.xml`` drifts from the recorded path; it is for looking at.)
+path equals the engine's), and the fitness of the replay (the run's fitness function on the
+frames the run recorded, `ExportedRobot.replayed_fitness`) beside the recorded one. (MJCF
+rounds numbers to 6 digits, so a simulation of ``body.xml`` drifts from the recorded path;
+it is for looking at.)
 
 A run folder is data, and so is what is exported from it: ``replay.py`` is the same text for
 every export (it reads the ids and values from ``controller.json`` when it runs), and the run
@@ -34,8 +36,8 @@ FILES = ("body.xml", "genotype.json", "controller.json", "replay.py")
 _SCRIPT = '''\
 """Replay the evaluation exported to this folder with ARIEL's tutorial API: python replay.py
 
-Which evaluation of which run, and what it recorded: controller.json. The replayed fitness:
-ariel replay RUN_DIR EVAL_ID re-simulates it with the run's fitness function.
+Which evaluation of which run, and what it recorded: controller.json. The replayed fitness is
+the run's fitness function on the frames the run recorded (robot.set_control keeps them).
 """
 
 from pathlib import Path
@@ -46,12 +48,16 @@ from ariel.recording import load_exported
 from ariel.utils.runners import simple_runner
 
 robot = load_exported(Path(__file__).resolve().parent)  # genotype.json, controller.json
-mujoco.set_mjcb_control(robot.controller.set_control)
+mujoco.set_mjcb_control(robot.set_control)  # robot.controller, and the fitness's frames
 simple_runner(robot.model, robot.data, duration=robot.duration)
 mujoco.mj_kinematics(robot.model, robot.data)  # the final state's positions
 print("core at", robot.data.geom("{core}").xpos.tolist())
 print("recorded core at", robot.recorded_core)  # the run's record of the same path
-print("recorded fitness", robot.fitness, "(" + robot.fitness_fn + ")")
+unit = " " + robot.fitness_unit if robot.fitness_unit else ""
+print(
+    f"replayed fitness {{robot.replayed_fitness()!r}}{{unit}} "
+    f"(recorded {{robot.fitness!r}}{{unit}}; {{robot.fitness_fn}})"
+)
 print("evaluation", robot.eval_id, "of run", robot.run_id)
 '''
 
@@ -112,6 +118,8 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
         "spawn_position": list(task.spawn_position),
         "spawn_rotation": list(task.spawn_rotation),
         "fitness_fn": task.fitness,
+        "fitness_options": task.fitness_options,
+        "record_every": int(task.record_every),
         "fitness": float(row["fitness"]),
         "core_end": _recorded_core(run, row),
     }

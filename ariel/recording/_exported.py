@@ -3,15 +3,19 @@
 `load_exported` rebuilds the body from ``genotype.json`` with the tutorial API (the
 registries, the constructor, ``world.spawn``) and the controller from ``controller.json``
 (`Controller`), as the run evaluated them: simulated with `simple_runner`, the core ends
-where the run recorded it. The folder is data: only its two JSON files are read, and its
-run id and evaluation id must have their shapes (`_ids`: one line otherwise).
+where the run recorded it. Driven through `ExportedRobot.set_control`, it also keeps the
+frames the run's fitness function saw (every ``record_every`` physics steps and the last,
+as the evaluation engine records them), and `ExportedRobot.replayed_fitness` scores them
+with that function: the recorded fitness again. The folder is data: only its two JSON files
+are read, and its run id and evaluation id must have their shapes (`_ids`: one line
+otherwise).
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +29,10 @@ class ExportedRobot:
     """A compiled model and its data, the controller to hand ``mujoco.set_mjcb_control``
     (``controller.set_control``), and the evaluation's simulated seconds; what the run
     recorded of it: its ids, its fitness (and the fitness function's name) and where the core
-    ended (``[x, y, z]``, None where the run kept no trajectories)."""
+    ended (``[x, y, z]``, None where the run kept no trajectories).
+
+    ``mujoco.set_mjcb_control(robot.set_control)`` drives it with ``controller`` and keeps
+    the frames its fitness function scores: `replayed_fitness` after `simple_runner`."""
 
     model: Any
     data: Any
@@ -36,6 +43,77 @@ class ExportedRobot:
     fitness: float = math.nan
     fitness_fn: str = ""
     recorded_core: list[float] | None = None
+    fitness_unit: str = ""
+    _frames: _Frames | None = field(default=None, repr=False)
+
+    def set_control(self, model: Any, data: Any, *args: Any, **kwargs: Any) -> None:
+        """The MuJoCo control callback: ``controller.set_control``, then this step's frame
+        where the run recorded one."""
+        self.controller.set_control(model, data, *args, **kwargs)
+        if self._frames is not None:
+            self._frames.record(data)
+
+    def replayed_fitness(self) -> float:
+        """The run's fitness function (with its options) on the frames recorded while
+        `set_control` drove ``data`` through the whole evaluation (``duration`` seconds);
+        NaN for an export that does not say how the run recorded frames (made before
+        ``record_every`` was exported). `ValueError` when the robot was not simulated for
+        ``duration`` seconds through `set_control`."""
+        if self._frames is None:
+            return math.nan
+        return self._frames.fitness(self.data)
+
+
+class _Frames:
+    """The frames a fitness function sees (`TrajectoryRecord`), kept on the tutorial path at
+    the physics steps where the engine keeps them (`frame_steps`): core position and joint
+    angles of the state about to be stepped, the control just set."""
+
+    def __init__(self, model: Any, brain: dict[str, Any], target: Any) -> None:
+        from ariel.evaluation._engine import SPAWN_PREFIX, frame_steps
+        from ariel.plugins import fitness_functions
+
+        self.model = model
+        self.dt = model.opt.timestep
+        self.nstep = max(1, round(float(brain["duration"]) / self.dt))
+        self.every = int(brain["record_every"])
+        self.wanted = frame_steps(self.nstep, self.every)
+        self.core = model.geom(SPAWN_PREFIX + "core").id
+        self.joint_qpos = model.jnt_qposadr[model.actuator_trnid[:, 0]]
+        self.target = None if target is None else tuple(float(v) for v in target)
+        self.function = fitness_functions.get(brain["fitness_fn"])
+        self.options = dict(brain.get("fitness_options", {}))
+        self.rows: dict[int, tuple[Any, Any, Any]] = {}
+
+    def record(self, data: Any) -> None:
+        step = round(data.time / self.dt)
+        if step == 0:
+            self.rows.clear()  # a new simulation (simple_runner resets the data)
+        if step < self.nstep and (step % self.every == 0 if self.every > 0 else step == 0):
+            self._keep(step, data)
+
+    def _keep(self, step: int, data: Any) -> None:
+        core = data.geom_xpos[self.core].copy()
+        self.rows[step] = (core, data.ctrl.copy(), data.qpos[self.joint_qpos].copy())
+
+    def fitness(self, data: Any) -> float:
+        import mujoco
+
+        from ariel.evaluation._engine import TrajectoryRecord
+
+        kept = self.rows.keys() | {self.nstep}
+        if round(data.time / self.dt) != self.nstep or not set(self.wanted.tolist()) <= kept:
+            raise ValueError(
+                f"simulate the robot for its {self.nstep * self.dt:g} seconds through "
+                "robot.set_control first (mujoco.set_mjcb_control, simple_runner)"
+            )
+        mujoco.mj_kinematics(self.model, data)  # the final state's positions
+        self._keep(self.nstep, data)
+        core, ctrl, angle = (
+            np.array([self.rows[int(k)][i] for k in self.wanted]) for i in range(3)
+        )
+        record = TrajectoryRecord(self.wanted * self.dt, core, ctrl, angle, self.target)
+        return float(self.function(record, **self.options))
 
 
 def load_exported(folder: str | Path) -> ExportedRobot:
@@ -82,6 +160,9 @@ def load_exported(folder: str | Path) -> ExportedRobot:
 
     controller = Controller(policy, time_steps_per_ctrl_step=period, alpha=brain["smoothing"])
     core = brain.get("core_end")
+    frames = None
+    if "record_every" in brain:  # exports before it did not say how the run kept frames
+        frames = _Frames(model, brain, getattr(world, "target_position", None))
     return ExportedRobot(
         model,
         mujoco.MjData(model),
@@ -92,4 +173,6 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         fitness=float(brain.get("fitness", math.nan)),
         fitness_fn=one_line(brain.get("fitness_fn", "")),
         recorded_core=[float(v) for v in core] if isinstance(core, list) else None,
+        fitness_unit=one_line(str(getattr(frames.function, "unit", None) or "")) if frames else "",
+        _frames=frames,
     )

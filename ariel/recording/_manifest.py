@@ -11,8 +11,16 @@ they are views, not fsynced one by one, and may be empty after a power cut (docs
 
 A run folder made before manifests existed has no ``"manifests"`` key in ``run.json``: its
 readers check that every finished generation's evaluations and bodies tables are there and
-readable, nothing more; ``ariel resume`` of such a run writes the manifests of the generations it
-keeps (after that check), so from then on it is checked like any other.
+readable (and a generation that has a manifest all the same, against it); ``ariel resume`` of
+such a run writes the manifests of the generations it keeps (after that check), so from then on
+it is checked like any other.
+
+run.json is in no manifest (it changes while the run goes on), so its ``"manifests"`` alone
+never switches the check off: a value no ariel writes (``0``: one flipped bit of ``1``) or no
+``"manifests"`` in a run.json with keys that came with manifests (``segments``, ``maximise``,
+``brain_only``) is damage, and the tables are checked against the manifests all the same
+(`manifests_expected`). What never changes in run.json is checked by `verify_run`: the config
+against its ``config_hash`` and seed, the checkpoint's ``config_hash``, the tables' ``run_id``.
 """
 
 from __future__ import annotations
@@ -20,12 +28,20 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ariel.recording._escape import short_ascii
 from ariel.recording._files import atomic_write_json, within
-from ariel.recording._run_folder import DamagedRunError, RunFolder, damaged
+from ariel.recording._run_folder import (
+    DamagedRunError,
+    NotARunError,
+    RunFolder,
+    damaged,
+    json_data,
+)
 from ariel.recording._tables import MANIFEST_DIR, TABLES, generation_file
 
 __all__ = [
@@ -35,6 +51,7 @@ __all__ = [
     "VerifyResult",
     "adopt_manifests",
     "manifest_file",
+    "manifests_expected",
     "verify_run",
     "write_manifest",
 ]
@@ -43,6 +60,10 @@ MANIFEST_FORMAT = 1
 #: Tables every finished generation has (trajectories only with ``record.trajectories``).
 _REQUIRED = ("evaluations", "bodies")
 _CHUNK = 1 << 20
+#: Keys of run.json that came with manifests: only an ariel that writes a manifest for every
+#: finished generation (and ``"manifests": 1``) writes them.
+_MANIFEST_ERA = ("segments", "maximise", "brain_only")
+_MANIFEST_NAME = re.compile(r"gen-\d{6}\.json")
 
 
 def manifest_file(run_dir: str | Path, generation: int) -> Path:
@@ -87,11 +108,14 @@ def _read_manifest(run_dir: Path, generation: int) -> dict[str, dict[str, Any]]:
     if path.is_symlink():
         raise damaged(run_dir, name, "is a symbolic link")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json_data(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise damaged(run_dir, name, f"is missing (generation {generation} is finished)") from None
-    except (OSError, ValueError) as exc:
+    except OSError as exc:
         raise damaged(run_dir, name, f"is unreadable ({type(exc).__name__})") from None
+    except ValueError as exc:  # not JSON, not UTF-8, or nested too deep
+        first = (str(exc).splitlines() or [""])[0]
+        raise damaged(run_dir, name, f"is unreadable ({type(exc).__name__}: {first})") from None
     files = data.get("files") if isinstance(data, dict) else None
     ok = (
         isinstance(files, dict)
@@ -117,6 +141,48 @@ def _read_manifest(run_dir: Path, generation: int) -> dict[str, dict[str, Any]]:
     return files
 
 
+def _manifests_held(run_dir: Path) -> int:
+    """How many ``gen-NNNNNN.json`` manifests/ holds."""
+    try:
+        return sum(
+            bool(_MANIFEST_NAME.fullmatch(p.name)) for p in (run_dir / MANIFEST_DIR).iterdir()
+        )
+    except OSError:
+        return 0
+
+
+def manifests_expected(run_dir: str | Path, info: dict[str, Any]) -> tuple[bool, str | None]:
+    """Whether every finished generation of the run (``info``: its run.json) has a manifest,
+    and where run.json's ``"manifests"`` contradicts that, the problem (one line, ``run.json
+    ...``). Only a run.json of a run made before manifests (no ``"manifests"``, none of the keys
+    that came with them) has its tables checked without them."""
+    flag = info.get("manifests")
+    if flag:
+        return True, None
+    era = [key for key in _MANIFEST_ERA if key in info]
+    if "manifests" not in info and not era:
+        return False, None
+    held = _manifests_held(Path(run_dir))
+    on_disk = f"; {MANIFEST_DIR}/ holds {held} manifest(s)" if held else ""
+    if "manifests" in info:
+        why = f"has 'manifests': {json.dumps(flag)}, a value no ariel writes (1: every "
+        why += "finished generation has a manifest)"
+    else:
+        why = f"has no 'manifests' but has {era[0]!r}, which only an ariel writing manifests writes"
+    return True, f"run.json {why}{on_disk}"
+
+
+def _entries(run_dir: Path, generation: int, expected: bool) -> dict[str, tuple[int, str] | None]:
+    """What one finished generation's tables must be: its manifest's files, each with its size
+    and SHA-256 (``expected``: every generation has one; else, a run made before manifests, the
+    manifest where there is one all the same), or the required tables, their bytes unknown.
+    `DamagedRunError` for a manifest that is missing (where expected) or bad."""
+    if expected or os.path.lexists(manifest_file(run_dir, generation)):
+        listed = _read_manifest(run_dir, generation)
+        return {name: (entry["bytes"], entry["sha256"]) for name, entry in listed.items()}
+    return {_relative(run_dir, generation_file(run_dir, t, generation)): None for t in _REQUIRED}
+
+
 @dataclass
 class Manifest:
     """What a run's finished generations hold: table file -> (bytes, SHA-256).
@@ -137,15 +203,12 @@ class Manifest:
         run_dir = Path(run_dir)
         done = info.get("generations_done", 0)
         done = done if isinstance(done, int) and done >= 0 else 0
-        manifest = cls(run_dir, done, checked=bool(info.get("manifests")))
+        expected, problem = manifests_expected(run_dir, info)
+        if problem is not None:
+            raise damaged(run_dir, *problem.split(" ", 1))
+        manifest = cls(run_dir, done, checked=expected)
         for generation in range(done):
-            if manifest.checked:
-                for name, entry in _read_manifest(run_dir, generation).items():
-                    manifest.files[name] = (entry["bytes"], entry["sha256"])
-            else:
-                for table in _REQUIRED:
-                    path = generation_file(run_dir, table, generation)
-                    manifest.files[_relative(run_dir, path)] = None
+            manifest.files.update(_entries(run_dir, generation, expected))
         for name, entry in manifest.files.items():
             manifest.check_present(name, entry)
         return manifest
@@ -200,6 +263,8 @@ class VerifyResult:
     bytes: int = 0
     checked: bool = True  # False: a run made before manifests (presence and readability only)
     problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # what could not be checked, and why
+    run_id_checked: bool = False  # run.json's run_id against a table's rows
 
     @property
     def ok(self) -> bool:
@@ -219,8 +284,9 @@ def _check_readable(path: Path) -> str | None:
 
 def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyResult:
     """Check every file the manifests list (size and SHA-256), or for a run made before
-    manifests, that the required tables are there and readable. ``generations``: check only
-    the first ones (default: the finished ones, run.json's ``generations_done``).
+    manifests, that the required tables are there and readable; and what never changes in
+    run.json (`_check_run_json`). ``generations``: check only the first ones (default: the
+    finished ones, run.json's ``generations_done``).
 
     Raises `NotARunError` for a folder that is not a run at all.
     """
@@ -231,24 +297,83 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
         done = 0
     if generations is not None:  # resume: the checkpoint's count (run.json may lag by one)
         done = generations
-    result = VerifyResult(run_dir, done, checked=bool(info.get("manifests")))
+    expected, problem = manifests_expected(run_dir, info)
+    result = VerifyResult(run_dir, done, checked=expected)
+    if problem is not None:
+        result.problems.append(f"{problem}; checked against the manifests all the same")
     for generation in range(done):
-        if result.checked:
-            try:
-                listed = _read_manifest(run_dir, generation)
-            except DamagedRunError as exc:
-                result.problems.append(_problem(exc))
-                continue
-            entries = {name: (e["bytes"], e["sha256"]) for name, e in listed.items()}
-        else:
-            entries = {
-                _relative(run_dir, generation_file(run_dir, t, generation)): None for t in _REQUIRED
-            }
+        try:
+            entries = _entries(run_dir, generation, expected)
+        except DamagedRunError as exc:
+            result.problems.append(_problem(exc))
+            continue
         for name, entry in entries.items():
             problem = _check_file(run_dir, name, entry, result)
             if problem is not None:
                 result.problems.append(f"{name} {problem}")
+            elif name.startswith("evaluations/") and not result.run_id_checked:
+                _check_run_id(run_dir / name, info, result)
+    _check_run_json(run_dir, info, result)
     return result
+
+
+def _check_run_json(run_dir: Path, info: dict[str, Any], result: VerifyResult) -> None:
+    """What never changes in run.json (it is in no manifest): its config against its
+    ``config_hash`` and its ``seed``, and the checkpoint's ``config_hash`` against run.json's.
+    A config this ariel cannot read (a newer ariel's, say) is a note, not damage."""
+    from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash
+
+    config, recorded = info.get("config"), info.get("config_hash")
+    if not isinstance(config, dict):
+        result.problems.append(f"run.json has no config (its 'config' is {short_ascii(config)})")
+        return
+    if info.get("seed") != config.get("seed"):
+        result.problems.append(
+            f"run.json has seed {short_ascii(info.get('seed'))}, its config "
+            f"{short_ascii(config.get('seed'))}"
+        )
+    try:
+        digest = config_hash(ExperimentConfig.from_plain(config))
+    except (ConfigError, TypeError, ValueError) as exc:
+        first = (str(exc).splitlines() or [""])[0]
+        result.notes.append(
+            f"run.json's config is not one this ariel reads ({first}): its config_hash was not "
+            "checked"
+        )
+    else:
+        if digest != recorded:
+            result.problems.append(
+                "run.json has a config_hash that is not its config's (SHA-256): the config or "
+                "the hash changed after the run started"
+            )
+    folder = RunFolder(run_dir)
+    if not os.path.lexists(folder.checkpoint):
+        return
+    name = _relative(run_dir, folder.checkpoint)
+    try:
+        state = folder.load_checkpoint()
+    except NotARunError as exc:
+        result.problems.append(f"{name} {str(exc).removeprefix(f'{folder.checkpoint}: ')}")
+        return
+    if isinstance(state, dict) and state.get("config_hash") != recorded:
+        result.problems.append(f"{name} has a config_hash that is not run.json's")
+
+
+def _check_run_id(path: Path, info: dict[str, Any], result: VerifyResult) -> None:
+    """The ``run_id`` of a sound evaluations table's rows is run.json's."""
+    import pyarrow.parquet as pq
+
+    try:
+        ids = set(pq.read_table(path, columns=["run_id"]).column("run_id").to_pylist())
+    except Exception:  # a table that does not decode: `_check_file` says so
+        return
+    result.run_id_checked = True
+    others = sorted(str(i) for i in ids if i != info.get("run_id"))
+    if others:
+        result.problems.append(
+            f"run.json has run_id {short_ascii(info.get('run_id'))}, its tables "
+            f"{short_ascii(others[0])}"
+        )
 
 
 def _problem(exc: DamagedRunError) -> str:

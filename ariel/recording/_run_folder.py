@@ -43,6 +43,7 @@ __all__ = [
     "RunFolder",
     "RunStorageError",
     "damaged",
+    "json_data",
     "now",
     "software_versions",
     "storage_errors",
@@ -51,6 +52,27 @@ __all__ = [
 RUN_FORMAT = 1
 CHECKPOINT_FORMAT = 2  # 1: a pickle (no longer loaded)
 _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
+#: How deep the JSON of a folder's file may nest (run.json, a manifest, the checkpoint,
+#: campaign.json): what ariel writes nests a few levels; no reader then recurses out of stack.
+MAX_JSON_DEPTH = 100
+
+
+def json_data(raw: str | bytes) -> Any:
+    """The data of a folder's JSON file (``raw``: its text or bytes); `ValueError` (one line)
+    for one that is not JSON, or that nests deeper than `MAX_JSON_DEPTH` (``[[[[...]]]]``
+    100,000 deep would be a `RecursionError` here, or in whatever walks it later)."""
+    try:
+        data = json.loads(raw)
+    except RecursionError:
+        raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep") from None
+    found: list[tuple[Any, int]] = [(data, 1)] if isinstance(data, dict | list) else []
+    while found:  # no recursion: the walk itself cannot run out of stack
+        value, depth = found.pop()
+        children = value.values() if isinstance(value, dict) else value
+        if depth > MAX_JSON_DEPTH:
+            raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep")
+        found.extend((c, depth + 1) for c in children if isinstance(c, dict | list))
+    return data
 
 
 def _is_temporary(path: Path) -> bool:
@@ -248,7 +270,7 @@ class RunFolder:
 
     def read_info(self) -> dict[str, Any]:
         try:
-            info = json.loads(self.run_json.read_text(encoding="utf-8"))
+            info = json_data(self.run_json.read_text(encoding="utf-8"))
         except (FileNotFoundError, NotADirectoryError):
             why = "no run.json" if self.path.is_dir() else "no such folder"
             if self.path.exists() and not self.path.is_dir():
@@ -300,7 +322,7 @@ class RunFolder:
         if not self.checkpoint.is_file():
             return None
         try:
-            payload = json.loads(self.checkpoint.read_bytes())
+            payload = json_data(self.checkpoint.read_bytes())
         except (OSError, ValueError) as exc:  # written atomically: only outside damage
             first = (str(exc).splitlines() or [""])[0]
             raise NotARunError(

@@ -13,18 +13,20 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ariel.evolution._config import ExperimentConfig
+from ariel.evolution._config import ConfigError, ExperimentConfig
 from ariel.evolution._driver import Plugins, RunDriver
-from ariel.evolution._progress import Progress
+from ariel.evolution._progress import shows_progress
 from ariel.evolution._state import LoopState
+from ariel.runs._campaign_progress import CampaignProgress, RunProgress
 from ariel.runs._experiment import (
     RunResult,
     end_run,
     new_progress,
+    noted_on_interrupt,
     reopen,
     resumable,
     run_info,
@@ -41,7 +43,9 @@ __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign
 class CampaignResult:
     """What `run_campaign` and `resume_campaign` return. ``runs``: the runs driven by this
     call (finished ones skipped on resume are not among them); ``busy_share``: the workers'
-    time spent in evaluations / (wall time x workers), over this call."""
+    time spent in evaluations / (wall time x workers), over this call; ``damaged``: one line
+    per run a resume left alone because it cannot go on (a damaged run folder, a config that
+    does not validate), each naming the run."""
 
     path: Path
     campaign_id: str
@@ -51,25 +55,13 @@ class CampaignResult:
     wall_seconds: float
     busy_share: float
     workers: int
+    damaged: list[str] = field(default_factory=list)
 
     def load(self) -> Any:
         """The campaign's records (`ariel.recording.load_campaign`)."""
         from ariel.recording._campaign import load_campaign
 
         return load_campaign(self.path)
-
-
-class _RunProgress(Progress):
-    """One line per generation, prefixed by the run's condition and seed (never live: one
-    rich display per run would fight over the terminal)."""
-
-    def __init__(self, *, label: str, **options: Any) -> None:
-        super().__init__(**options)
-        self.label = label
-        self.live = False
-
-    def _line(self, generation: int, extra: str) -> str:
-        return f"{self.label}: {super()._line(generation, extra)}"
 
 
 @dataclass
@@ -107,14 +99,17 @@ def run_campaign(
     executor: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
-    progress: bool = False,
+    progress: bool | None = None,
     overrides: Sequence[str] = (),
 ) -> CampaignResult:
     """Run every condition x seed of the campaign ``file`` into a new campaign folder.
 
     ``out``: the folder (default ``data/campaigns/<name>-<time>``); it must not exist (or be
     empty). ``overrides``: ``key=value`` applied to the base experiment. ``progress``: one
-    line per run and generation. Everything is validated before anything is written.
+    line per run and generation; True, False or None (the default: where someone watches, a
+    terminal or a Jupyter notebook; see `run_experiment`). Everything is validated before
+    anything is written. Ctrl-C (or SIGTERM) raises `KeyboardInterrupt` with ``campaign_dir``
+    set to the folder to pass to `resume_campaign`.
     """
     from ariel.recording._campaign import run_path, write_campaign_info
     from ariel.recording._lock import RunLock
@@ -137,6 +132,7 @@ def run_campaign(
     info = _campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
         write_campaign_info(path, info)
+        locks.enter_context(noted_on_interrupt("campaign_dir", path))
         for run in runs:
             locks.enter_context(RunLock(run.folder.path, create=True))
             RunFolder.create(
@@ -198,20 +194,29 @@ def resume_campaign(
     executor: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
-    progress: bool = False,
+    progress: bool | None = None,
 ) -> CampaignResult:
     """Continue every unfinished run of a campaign (finished runs are skipped) on one
     executor; refuses a finished campaign and a campaign in use (`RunInUseError`).
 
+    A run that cannot go on (a damaged run folder, an unreadable checkpoint or config) does
+    not hold up the others: they go on, and the result's ``damaged`` names it in one line;
+    when no run can go on, the first such line is the error (`DamagedRunError`).
+
     The executor: ``executor`` / ``workers`` / ``scheduler``, else the kind the campaign ran
-    on, never a Dask scheduler address from campaign.json (see `resume_experiment`)."""
-    from ariel.recording._campaign import read_campaign_info
+    on, never a Dask scheduler address from campaign.json (see `resume_experiment`).
+    ``progress`` and an interrupt: as `run_campaign`."""
+    from ariel.errors import DamagedRunError
+    from ariel.recording._campaign import CAMPAIGN_JSON, read_campaign_info
     from ariel.recording._lock import RunLock
     from ariel.recording._run_folder import storage_errors
 
     path = Path(campaign_dir)
     info = read_campaign_info(path)
-    first = ExperimentConfig.from_plain(info["runs"][0]["config"])
+    try:
+        first = ExperimentConfig.from_plain(info["runs"][0]["config"])
+    except ConfigError as exc:
+        raise ConfigError(f"{path / CAMPAIGN_JSON}: runs[0]: its config: {exc}") from None
     # As a run's resume: the kind it ran on, never a Dask scheduler address from the folder.
     settings = resume_settings(
         first,
@@ -223,69 +228,99 @@ def resume_campaign(
     )
     with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
-        runs, skipped = _unfinished_runs(path, info, locks)
+        locks.enter_context(noted_on_interrupt("campaign_dir", path))
+        runs, skipped, damaged = _unfinished_runs(path, info, locks)
+        if not runs and damaged:
+            more = f" ({len(damaged) - 1} more cannot either)" if len(damaged) > 1 else ""
+            raise DamagedRunError(f"campaign {str(path)!r}: no run resumed: {damaged[0]}{more}")
         if not runs:
             raise ValueError(f"campaign {str(path)!r} is already finished; nothing to resume")
-        return _drive_campaign(path, runs, settings, progress, skipped=skipped)
+        result = _drive_campaign(path, runs, settings, progress, skipped=skipped)
+        result.damaged = damaged
+        return result
 
 
 def _unfinished_runs(
     path: Path, info: dict[str, Any], locks: contextlib.ExitStack
-) -> tuple[list[_Run], int]:
-    """The campaign's runs left to do, each locked (by ``locks``) and made ready to go on."""
+) -> tuple[list[_Run], int, list[str]]:
+    """The campaign's runs left to do, each locked (by ``locks``) and made ready to go on;
+    how many finished before; and one line per run that cannot go on (left alone, unlocked)."""
+    from ariel.recording._escape import one_line
+    from ariel.recording._run_folder import NotARunError
+
+    runs, skipped, damaged = [], 0, []
+    for entry in info["runs"]:
+        try:
+            with contextlib.ExitStack() as own:
+                run = _unfinished_run(path, entry, own)
+                locks.enter_context(own.pop_all())
+        except (NotARunError, ValueError) as exc:  # damaged, or a config that does not validate
+            first = one_line((str(exc).splitlines() or [type(exc).__name__])[0])
+            name = f"condition {entry['condition']} seed {entry['seed']}"
+            damaged.append(f"{name} not resumed: {first}")
+            continue
+        if run is None:
+            skipped += 1
+        else:
+            runs.append(run)
+    return runs, skipped, damaged
+
+
+def _unfinished_run(path: Path, entry: dict[str, Any], locks: contextlib.ExitStack) -> _Run | None:
+    """campaign.json's run ``entry`` locked (by ``locks``) and made ready to go on; None when it
+    is finished."""
     from ariel.recording._lock import RunLock
     from ariel.recording._run_folder import RunFolder
 
-    runs, skipped = [], 0
-    for entry in info["runs"]:
-        folder = RunFolder(path / entry["path"])
-        condition, seed = entry["condition"], int(entry["seed"])
-        if not folder.run_json.is_file():  # killed while the campaign was being made
-            config, plugins = prepare_run(ExperimentConfig.from_plain(entry["config"]))
-            locks.enter_context(RunLock(folder.path, create=True))
-            RunFolder.create(
-                folder.path, run_info(config, entry["run_id"], plugins), overwrite=True, locked=True
-            ).start_segment("run")
-            runs.append(_Run(condition, seed, folder, entry["run_id"], config, plugins))
-            continue
-        if folder.read_info().get("status") == "finished":
-            skipped += 1
-            continue
-        locks.enter_context(RunLock(folder.path))
-        run_json, config, state = resumable(folder)
-        plugins = resolve_plugins(config)
-        reopen(folder, state)
-        run = _Run(condition, seed, folder, run_json["run_id"], config, plugins, state)
-        runs.append(run)
-    return runs, skipped
+    folder = RunFolder(path / entry["path"])
+    condition, seed = entry["condition"], int(entry["seed"])
+    if not folder.run_json.is_file():  # killed while the campaign was being made
+        config, plugins = prepare_run(ExperimentConfig.from_plain(entry["config"]))
+        locks.enter_context(RunLock(folder.path, create=True))
+        RunFolder.create(
+            folder.path, run_info(config, entry["run_id"], plugins), overwrite=True, locked=True
+        ).start_segment("run")
+        return _Run(condition, seed, folder, entry["run_id"], config, plugins)
+    if folder.read_info().get("status") == "finished":
+        return None
+    locks.enter_context(RunLock(folder.path))
+    run_json, config, state = resumable(folder)
+    plugins = resolve_plugins(config)
+    reopen(folder, state)
+    return _Run(condition, seed, folder, run_json["run_id"], config, plugins, state)
 
 
-def _group(run: _Run) -> Iterator[list[Any]]:
+def _group(run: _Run, campaign: CampaignProgress) -> Iterator[list[Any]]:
     """The run's generations for the scheduler; marked finished the moment its last ends."""
     assert run.driver is not None
     yield from run.driver.generations()
     run.status = "finished"
     end_run(run.folder, run.driver, "finished")
+    campaign.run_finished()
 
 
 def _drive_campaign(
-    path: Path, runs: list[_Run], settings: Any, show_progress: bool, *, skipped: int
+    path: Path, runs: list[_Run], settings: Any, show_progress: bool | None, *, skipped: int
 ) -> CampaignResult:
     """Drive ``runs`` (locked, ready) side by side on one executor; campaign.json and every
     run.json say how it ended, however it ends."""
+    show_progress = shows_progress(show_progress)
     from ariel.evolution._scheduler import run_groups
     from ariel.recording._campaign import read_campaign_info, write_campaign_info
     from ariel.recording._run_folder import now
 
+    campaign = CampaignProgress(runs=len(runs), total=0, enabled=show_progress)
     for run in runs:
         label = f"{run.condition} seed {run.seed}"
         shown = new_progress(
-            run.config, run.plugins, run.state, show_progress, _RunProgress, label=label
+            run.config, run.plugins, run.state, True, RunProgress, label=label, campaign=campaign
         )
+        campaign.total, campaign.done = campaign.total + shown.total, campaign.done + shown.done
         run.driver = start_driver(
             run.config, run.plugins, run.folder, run.run_id, run.state, settings, shown
         )
         run.first_generation = run.driver.first_generation
+    campaign.restart()  # counts what earlier calls did as done, not as this call's rate
     info = read_campaign_info(path)
     info.pop("format")
     write_campaign_info(path, {**info, "status": "running"})
@@ -293,7 +328,8 @@ def _drive_campaign(
         print(f"campaign {info['campaign_id']}: {path} ({len(runs)} runs to go)", flush=True)
     status, started, capacity = "failed", time.perf_counter(), 1
     try:
-        capacity = run_groups([_group(run) for run in runs], settings)
+        with campaign:
+            capacity = run_groups([_group(run, campaign) for run in runs], settings)
         status = "finished"
     except KeyboardInterrupt:
         status = "interrupted"

@@ -19,6 +19,13 @@ set = { "brain.inherit" = true }
 Conditions and a grid together give every condition crossed with every grid point. Every
 problem is a `ConfigError`: one line naming the key, what was given and what is allowed.
 
+Each run's folder is ``runs/condition=<name>/seed=<n>``, and a file system allows a name of at
+most 255 bytes: a condition's name is at most `MAX_CONDITION_NAME` (245) characters, a
+campaign's at most `MAX_CAMPAIGN_NAME` (239: its default folder is ``<name>-<date>-<time>``).
+A longer name given in the file is refused; a longer name made from a grid's values (or a
+condition crossed with a grid point) is cut to fit and ends in 8 hex digits of the SHA-256 of
+the whole name, so names stay distinct.
+
 ``seeding``: ``"shared"`` (the default): every condition runs the seeds as given (common random
 numbers: generation 0 is the same in every condition, and `ariel compare` pairs the runs by
 seed); ``"independent"``: condition i (0, 1, ... in the order of the campaign's conditions)
@@ -28,6 +35,7 @@ runs each seed + i x (max(seeds) - min(seeds) + 1), so no two conditions share a
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 import re
@@ -50,9 +58,23 @@ from ariel.evolution._config import (
     set_value,
 )
 
-__all__ = ["SEEDING", "CampaignSpec", "Condition", "condition_seeds", "load_campaign_file"]
+__all__ = [
+    "MAX_CAMPAIGN_NAME",
+    "MAX_CONDITION_NAME",
+    "SEEDING",
+    "CampaignSpec",
+    "Condition",
+    "condition_seeds",
+    "load_campaign_file",
+]
 
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
+#: A file name's limit (bytes; a name here is ASCII), less ``condition=`` for a condition's
+#: folder (as `ariel.recording._campaign` checks campaign.json) and less ``-<date>-<time>`` for
+#: a campaign's default folder.
+_NAME_MAX = 255
+MAX_CONDITION_NAME = _NAME_MAX - len("condition=")
+MAX_CAMPAIGN_NAME = _NAME_MAX - len("-20261124-101500")
 #: The values of a campaign's ``seeding`` (the first is the default).
 SEEDING = ("shared", "independent")
 
@@ -172,16 +194,37 @@ def _grid_conditions(grid: Mapping[str, list[Any]]) -> list[Condition]:
     points = []
     for combination in itertools.product(*(grid[k] for k in keys)):
         name = "_".join(f"{label}-{_value_name(v)}" for label, v in zip(labels, combination))
-        points.append(Condition(name, dict(zip(keys, combination))))
+        points.append(Condition(_fitted(name), dict(zip(keys, combination))))
     return points
 
 
+def _fitted(name: str) -> str:
+    """A name made from values, cut to `MAX_CONDITION_NAME` where longer: its start and 8 hex
+    digits of the SHA-256 of the whole name (distinct names stay distinct)."""
+    if len(name) <= MAX_CONDITION_NAME:
+        return name
+    digest = hashlib.sha256(name.encode()).hexdigest()[:8]
+    return f"{name[: MAX_CONDITION_NAME - 9]}-{digest}"
+
+
+def _check_name(name: str, key: str, limit: int, why: str) -> None:
+    """A name given in the file: `ConfigError` when longer than ``limit``."""
+    if len(name) > limit:
+        raise ConfigError(
+            f"{key}: name {name[:20]!r}... has {len(name)} characters; at most {limit} ({why}: "
+            f"a file name, at most {_NAME_MAX} bytes)"
+        )
+
+
 def _conditions(model: _CampaignModel) -> list[Condition]:
+    for index, entry in enumerate(model.condition):
+        why = "its runs' folder is condition=<name>"
+        _check_name(entry.name, f"condition.{index}", MAX_CONDITION_NAME, why)
     named = [Condition(c.name, dict(c.set), c.description) for c in model.condition]
     points = _grid_conditions(model.grid)
     if named and points:
         conditions = [
-            Condition(f"{c.name}_{p.name}", {**c.set, **p.set}, c.description)
+            Condition(_fitted(f"{c.name}_{p.name}"), {**c.set, **p.set}, c.description)
             for c in named
             for p in points
         ]
@@ -242,6 +285,8 @@ def campaign_spec(
         model = _CampaignModel.model_validate(dict(data))
     except ValidationError as exc:
         raise ConfigError(_one_line(exc)) from None
+    why = "the campaign's default folder is <name>-<date>-<time>"
+    _check_name(model.name, "name", MAX_CAMPAIGN_NAME, why)
     seeds = _seeds(model)
     base = _apply(_base_data(model.base, beside), model.set, "set", condition=False)
     base = apply_overrides(base, overrides)
@@ -277,6 +322,8 @@ def load_campaign_file(path: str | Path, overrides: tuple[str, ...] = ()) -> Cam
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: malformed TOML: {exc}") from None
+    except RecursionError:  # tomllib recurses per nested array or table
+        raise ConfigError(f"{path}: malformed TOML: nested too deeply") from None
     except UnicodeDecodeError:
         raise ConfigError(f"{path}: not a UTF-8 text file") from None
     return campaign_spec(data, beside=path.parent, overrides=overrides)

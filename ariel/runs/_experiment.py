@@ -9,14 +9,14 @@ records writer of `ariel.recording`.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash, load_config
 from ariel.evolution._driver import Plugins, RunDriver, budget
-from ariel.evolution._progress import Progress
+from ariel.evolution._progress import Progress, shows_progress
 from ariel.evolution._scheduler import run_groups
 from ariel.evolution._state import LoopState, state_from_plain
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
@@ -32,6 +32,7 @@ __all__ = [
     "end_run",
     "executor_settings",
     "new_progress",
+    "noted_on_interrupt",
     "prepare_run",
     "resolve_plugins",
     "resumable",
@@ -77,14 +78,14 @@ def new_progress(
     kind: type[Progress] = Progress,
     **extra: Any,
 ) -> Progress:
-    """The run's progress display (``kind``: a `Progress` class; ``extra``: its keywords)."""
+    """The run's progress display (``kind``: a `Progress` class; ``extra``: its keywords);
+    ``show_progress``: see `shows_progress` (None: only where someone watches)."""
     from ariel.evolution._driver import is_brain_only
 
     return kind(
         total=budget(config, is_brain_only(config, plugins.encoder)),
         done=state.budget_done if state else 0,
-        enabled=show_progress is not False,
-        live=None if show_progress is None else show_progress,
+        enabled=shows_progress(show_progress),
         **extra,
     )
 
@@ -217,7 +218,7 @@ def run_experiment(
     executor: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
-    progress: bool | None = False,
+    progress: bool | None = None,
     overrides: Sequence[str] = (),
 ) -> RunResult:
     """Run one experiment into a new run folder and return its summary.
@@ -225,8 +226,14 @@ def run_experiment(
     ``config``: a config object, a TOML path, a dict, or None for the default experiment.
     ``out``: the run folder (default ``data/runs/<run-id>``); an existing one needs
     ``overwrite``. ``executor`` / ``workers`` / ``scheduler`` override the config's executor.
-    ``progress``: None shows progress (live on a terminal), False prints nothing.
-    Everything is validated before anything is written.
+    ``progress``: True shows it (live bars on a terminal, else a line per generation), False
+    prints nothing, None (the default) shows it where someone watches: when stdout or stderr
+    is a terminal, or in a Jupyter notebook. Everything is validated before anything is written.
+
+    Ctrl-C (or SIGTERM) raises `KeyboardInterrupt` with ``run_dir`` set to the folder to pass
+    to `resume_experiment`. A script that calls this at its top level without
+    ``if __name__ == "__main__":``, on the local executor: its workers say so on stderr, and the
+    script ends (`SystemExit`, code 2) leaving no run folder.
     """
     from ariel.evaluation.executors import planned_workers
     from ariel.evolution._checks import check_resources, refuse_in_spawned_child
@@ -252,11 +259,60 @@ def run_experiment(
         run_id = path.name or run_id
     RunFolder.check_new(path, overwrite=overwrite)
     info = run_info(config, run_id, plugins)
-    # The lock is held for the whole run; create() checks the folder again under it.
-    with storage_errors(path), RunLock(path, create=True):
-        folder = RunFolder.create(path, info, overwrite=overwrite, locked=True)
-        folder.start_segment("run")
-        return _drive(config, plugins, folder, run_id, None, settings, progress)
+    try:
+        # The lock is held for the whole run; create() checks the folder again under it.
+        with storage_errors(path), RunLock(path, create=True):
+            folder = RunFolder.create(path, info, overwrite=overwrite, locked=True)
+            with noted_on_interrupt("run_dir", folder.path):
+                folder.start_segment("run")
+                return _drive(config, plugins, folder, run_id, None, settings, progress)
+    except Exception as exc:
+        if not _worker_cannot_start(exc):
+            raise
+    _end_script_without_main_guard(path, progress)
+
+
+def _end_script_without_main_guard(path: Path, progress: bool | None) -> NoReturn:
+    """A worker re-imported this script, which has no ``__main__`` guard, and said so in one
+    line on stderr (`refuse_in_spawned_child`); a traceback would bury it. Nothing ran: the
+    new run folder goes, and the script ends (exit code 2). A live progress display on the
+    terminal may have drawn over the workers' lines: then the line again, below it."""
+    import shutil
+    import sys
+
+    from ariel.evolution._checks import no_main_guard_line
+
+    shutil.rmtree(path, ignore_errors=True)
+    isatty = getattr(sys.stdout, "isatty", None)
+    if shows_progress(progress) and callable(isatty) and isatty():
+        print(no_main_guard_line(), file=sys.stderr, flush=True)
+    raise SystemExit(2)
+
+
+@contextlib.contextmanager
+def noted_on_interrupt(name: str, folder: Path) -> Iterator[None]:
+    """A `KeyboardInterrupt` (Ctrl-C, SIGTERM) that leaves the block carries ``folder`` as its
+    attribute ``name`` (``run_dir``, ``campaign_dir``): what to resume, for the ``ariel``
+    command's hint and for a script or notebook."""
+    try:
+        yield
+    except KeyboardInterrupt as exc:
+        setattr(exc, name, folder)
+        raise
+
+
+def _worker_cannot_start(exc: BaseException | None) -> bool:
+    """Whether ``exc`` (or one it was raised from or during) is the local pool saying that a
+    worker could not start (`WorkerCannotStartError`)."""
+    from ariel.evaluation._pool import WorkerCannotStartError
+
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, WorkerCannotStartError):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def resume_experiment(
@@ -265,7 +321,7 @@ def resume_experiment(
     executor: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
-    progress: bool | None = False,
+    progress: bool | None = None,
 ) -> RunResult:
     """Continue a killed or interrupted run from its last finished generation.
 
@@ -274,6 +330,7 @@ def resume_experiment(
     ``executor`` / ``workers`` / ``scheduler``: where it goes on; by default the kind of
     executor (and worker count) it last ran on, but never a Dask scheduler address taken from
     the folder: a Dask run without ``scheduler`` goes on on a local Dask cluster, and says so.
+    ``progress`` and an interrupt: as `run_experiment`.
     """
     from ariel.evolution._checks import check_plugins
     from ariel.recording._lock import RunLock
@@ -297,7 +354,8 @@ def resume_experiment(
         # Again under the lock: another resume may have run (or finished) the run meanwhile.
         info, config, state = resumable(folder)
         reopen(folder, state)
-        return _drive(config, plugins, folder, info["run_id"], state, settings, progress)
+        with noted_on_interrupt("run_dir", folder.path):
+            return _drive(config, plugins, folder, info["run_id"], state, settings, progress)
 
 
 def reopen(folder: Any, state: LoopState | None) -> None:

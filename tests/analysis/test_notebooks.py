@@ -6,8 +6,10 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import os
 import re
 import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -192,15 +194,20 @@ def test_gait_of_best_plots_the_core_path_and_joint_signals_of_the_best(
         assert f"<td>{label}</td>" in html
 
 
-def test_without_run_dir_the_newest_run_under_data_runs_is_read(tiny_run: Path, tmp_path) -> None:
-    """The first cell, run from a checkout whose data/runs holds two runs and, newest, one
-    interrupted before its first generation ended (no tables): that one is passed over."""
+def test_without_run_dir_the_newest_finished_run_under_data_runs_is_read(
+    tiny_run: Path, tmp_path
+) -> None:
+    """The first cell, run from a checkout whose data/runs holds two finished runs and, newer,
+    one interrupted after its first generation and one before (no tables): both are passed
+    over, and the cell says so."""
     checkout = tmp_path / "checkout"
     (checkout / "analysis").mkdir(parents=True)
     (checkout / "pyproject.toml").write_text("")
+    shutil.copy(ANALYSIS / "run_choice.py", checkout / "analysis")
     for name, created, done in (
         ("older", "2026-01-02T00:00:00+00:00", None),
         ("newer", "2026-03-04T00:00:00+00:00", None),
+        ("abandoned", "2026-04-05T00:00:00+00:00", 1),
         ("interrupted", "2026-05-06T00:00:00+00:00", 0),
     ):
         folder = checkout / "data" / "runs" / name
@@ -215,7 +222,11 @@ def test_without_run_dir_the_newest_run_under_data_runs_is_read(tiny_run: Path, 
         notebook.cells = [next(c for c in notebook.cells if c.cell_type == "code")]
         home = tmp_path / f"jupyter-{name}"
         _execute(notebook, cwd=checkout / "analysis", home=home, run_dir=None)
-        assert _text(notebook).startswith("run newer (finished)")
+        text = _text(notebook)
+        assert text.startswith("run newer (finished)")
+        runs = checkout / "data" / "runs"
+        assert f"\nchosen: the newest finished run under {runs}; passed over, newer: " in text
+        assert "interrupted (interrupted, 0 generations), abandoned (interrupted, 1 " in text
 
 
 # --- compare_conditions.ipynb: a campaign's conditions from pandas ------------------------------
@@ -287,3 +298,67 @@ def test_a_brain_only_run_s_best_body_shows_its_best_fitness(
     _execute(notebook, cwd=ANALYSIS, home=tmp_path_factory.mktemp("gecko-nb"), run_dir=out)
     shown = re.search(r"^best body: (\S+) \(fitness (\S+),", _text(notebook), re.MULTILINE)
     assert shown.group(2) == f"{bodies['fitness'].max():.6g}"
+
+
+# --- the README's headless command, as typed at the repository root ------------------------------
+
+
+def _readme_command(run_id: str, out: Path) -> str:
+    """analysis/README.md's `jupyter nbconvert --execute` command, its `<run-id>` and output
+    folder filled in."""
+    readme = (ANALYSIS / "README.md").read_text()
+    start = readme.index("ARIEL_RUN_DIR=data/runs/<run-id> .venv/bin/jupyter nbconvert")
+    lines = []
+    for line in readme[start:].splitlines():
+        lines.append(line.split("#", 1)[0].rstrip().removesuffix("\\"))
+        if not line.split("#", 1)[0].rstrip().endswith("\\"):
+            break
+    command = " ".join(part.strip() for part in lines)
+    assert command.endswith("--output-dir /tmp"), command
+    return command.replace("<run-id>", run_id).removesuffix("/tmp") + str(out)
+
+
+def test_the_readme_command_renders_a_run_named_relative_to_the_root(
+    tiny_run: Path, tmp_path: Path
+) -> None:
+    """`ARIEL_RUN_DIR=data/runs/<id> .venv/bin/jupyter nbconvert ...` typed at the root of a
+    checkout: the kernel runs in analysis/, and still reads <root>/data/runs/<id>; a run that
+    is not there ends the output in one line naming where it looked."""
+    pytest.importorskip("nbconvert", reason="nbconvert: the analysis extra, which make installs")
+    checkout = tmp_path / "checkout"
+    (checkout / "analysis").mkdir(parents=True)
+    for name in ("gait_of_best.ipynb", "run_choice.py"):
+        shutil.copy(ANALYSIS / name, checkout / "analysis")
+    shutil.copytree(tiny_run, checkout / "data" / "runs" / "tiny")
+    (checkout / ".venv").symlink_to(sys.prefix)  # this environment, as `make` makes it
+    home = tmp_path / "home"
+    env = {
+        **os.environ,
+        "JUPYTER_DATA_DIR": str(home / "data"),  # no user kernel "python3" in the way
+        "JUPYTER_CONFIG_DIR": str(home / "config"),
+        "JUPYTER_RUNTIME_DIR": str(home / "runtime"),
+        "IPYTHONDIR": str(home / "ipython"),
+        "PWD": str(checkout),  # as a shell in the checkout would have it
+    }
+    env.pop("MPLBACKEND", None)
+    env.pop("ARIEL_RUN_DIR", None)
+    out = tmp_path / "html"
+    command = _readme_command("tiny", out)
+
+    done = subprocess.run(
+        command, shell=True, cwd=checkout, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    html = (out / "gait_of_best.html").read_text()
+    assert "chosen: ARIEL_RUN_DIR=data/runs/tiny" in html
+    assert str(checkout / "data" / "runs" / "tiny") in html and "<img" in html
+
+    typo = command.replace("data/runs/tiny", "data/runs/tinny")
+    failed = subprocess.run(
+        typo, shell=True, cwd=checkout, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert failed.returncode != 0
+    last = failed.stderr.strip().splitlines()[-1]
+    assert last.startswith("error: ARIEL_RUN_DIR=data/runs/tinny: no such folder (looked in ")
+    assert str(checkout / "data" / "runs" / "tinny") in last
+    assert "Traceback" not in failed.stderr.split("------------------")[-1]  # the kernel's part

@@ -215,11 +215,14 @@ def test_a_300_character_eval_id_is_one_line_in_view(
 # --- 13: a script without a __main__ guard --------------------------------------------------
 
 
-def test_a_script_without_a_main_guard_stops_in_one_line_per_worker(tmp_path: Path) -> None:
+@pytest.mark.parametrize("out", ["run", None], ids=["out", "default-folder"])
+def test_a_script_without_a_main_guard_stops_in_one_line_per_worker(
+    tmp_path: Path, out: str | None
+) -> None:
     script = tmp_path / "noguard.py"
     script.write_text(
         "from ariel.evolution import run_experiment\n"
-        'run_experiment(None, out="run", executor="local", workers=2, overrides=['
+        f"run_experiment(None, out={out!r}, executor='local', workers=2, overrides=["
         '"generations=1", "body.population=2", "body.offspring=2", "brain.popsize=2", '
         '"brain.iterations=1", "task.duration=0.3", "record.rerun=false"])\n'
     )
@@ -231,12 +234,13 @@ def test_a_script_without_a_main_guard_stops_in_one_line_per_worker(tmp_path: Pa
         text=True,
         timeout=300,
     )
-    assert result.returncode != 0
+    assert result.returncode == 2
     lines = result.stderr.splitlines()
-    refusals = [line for line in lines if "whose top level calls run_experiment" in line]
-    assert 1 <= len(refusals) <= 2, result.stderr[-2000:]
-    assert "could not start (exit code 78" in lines[-1]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["noguard.py", "run"]  # one run folder
+    assert 1 <= len(lines) <= 2 and "Traceback" not in result.stderr, result.stderr[-2000:]
+    assert all("whose top level calls run_experiment" in line for line in lines), lines
+    assert result.stdout == ""  # no terminal: no progress
+    assert not list(tmp_path.rglob("run.json"))  # no run folder left, failed or any other
+    assert not (tmp_path / "run").exists()
 
 
 # --- 3: local workers die with their driver -------------------------------------------------

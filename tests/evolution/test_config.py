@@ -102,6 +102,15 @@ def test_set_overrides_parse_toml_values_and_reject_missing_keys() -> None:
     assert config.brain.inherit is True
     with pytest.raises(ConfigError, match=r"--set brain.popsiz: no such key; keys under brain"):
         load_config({}, ["brain.popsiz=3"])
+    with pytest.raises(ConfigError) as caught:
+        load_config({}, ["brain.popsiz=3"])
+    assert str(caught.value).endswith("; did you mean 'brain.popsize'?")
+    assert "\n" not in str(caught.value)
+    with pytest.raises(ConfigError, match=r"did you mean 'body.population'\?$"):
+        load_config({}, ["bodyy.population=3"])  # the whole key, when the rest of it exists
+    with pytest.raises(ConfigError) as caught:
+        load_config({}, ["brain.zzzzzz=3"])  # nothing close: no suggestion
+    assert "did you mean" not in str(caught.value)
     with pytest.raises(ConfigError, match=r"expected key=value"):
         load_config({}, ["brain.popsize"])
 

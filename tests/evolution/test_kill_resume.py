@@ -299,7 +299,9 @@ def _assert_killed_run_loads(run_dir: Path, reference: Path) -> int:
     """A killed run loads: its finished generations only, equal to the reference's."""
     run = load_run(run_dir)
     done = run.generations_done
-    assert run.info["status"] == "running"
+    # "created": killed after the folder was made, before the driver marked it running (on a
+    # busy machine that window is wide enough for a random kill to land in).
+    assert run.info["status"] in ("created", "running")
     for table in TABLES:
         assert set(getattr(run, table)["generation"]) == set(range(done)), table
     assert list(run.generations["generation"]) == list(range(done))

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import io
+import math
 import re
+import sys
+import types
 
 import pytest
 
@@ -82,9 +85,9 @@ def test_the_driver_announces_each_generations_evaluations(tmp_path, monkeypatch
 
 @pytest.mark.parametrize("seconds", [0, 5, 75, 4000])
 def test_eta_reads_as_time(seconds: int) -> None:
-    from ariel.evolution._progress import _eta
+    from ariel.evolution._progress import eta_text
 
-    text = _eta(seconds, 1.0)
+    text = eta_text(seconds, 1.0)
     assert text == {0: "0s", 5: "5s", 75: "1m15s", 4000: "1h06m"}[seconds]
 
 
@@ -118,7 +121,7 @@ def _value(line: str, name: str) -> str:
 @pytest.mark.parametrize("optimizer", ["ga", "map_elites"])
 def test_a_coevolution_run_prints_what_its_records_hold(optimizer: str, tmp_path, capsys) -> None:
     config = {**TINY, "body": {**TINY["body"], "optimizer": optimizer}}
-    run_experiment(config, out=tmp_path / "run", progress=None)  # no terminal: plain lines
+    run_experiment(config, out=tmp_path / "run", progress=True)  # no terminal: plain lines
     lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("gen ")]
     run = load_run(tmp_path / "run")
     generations = run.generations
@@ -142,6 +145,61 @@ def test_a_brain_only_run_prints_no_morphologies(tmp_path, capsys) -> None:
         "brain": {"popsize": 2, "iterations": 1},
         "task": {"duration": 0.2},
     }
-    run_experiment(config, out=tmp_path / "run", progress=None)
+    run_experiment(config, out=tmp_path / "run", progress=True)
     lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("gen ")]
     assert len(lines) == 2 and not any("morphs" in line for line in lines)
+    # best: the fixed body's best so far; mean: of the generation's CMA-ES candidates, as
+    # `ariel report` draws it (the population's mean would be its one body's best again)
+    run = load_run(tmp_path / "run")
+    evaluations = run.evaluations[run.evaluations["fitness"].map(math.isfinite)]
+    means = evaluations.groupby("generation")["fitness"].mean()
+    for line, row in zip(lines, run.generations.itertuples()):
+        assert _value(line, "best") == f"{row.best_fitness:.4g}"
+        assert _value(line, "mean of candidates") == f"{means[row.generation]:.4g}"
+    assert any(means[g] != run.generations["best_fitness"][g] for g in means.index)
+
+
+class _Stream(io.StringIO):
+    def __init__(self, tty: bool) -> None:
+        super().__init__()
+        self.tty = tty
+
+    def isatty(self) -> bool:
+        return self.tty
+
+
+@pytest.mark.parametrize(
+    ("stdout", "stderr", "shell", "shown"),
+    [
+        (False, False, None, False),  # a pipe, a batch job's log, pytest
+        (True, False, None, True),  # a terminal
+        (False, True, None, True),  # stdout piped (| tee), stderr on the terminal
+        (False, False, types.SimpleNamespace(kernel=object()), True),  # a Jupyter kernel
+        (False, False, types.SimpleNamespace(), False),  # IPython without a kernel, no terminal
+    ],
+)
+def test_progress_is_shown_by_default_only_where_someone_watches(
+    stdout: bool, stderr: bool, shell: object, shown: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from ariel.evolution._progress import auto_progress, shows_progress
+
+    monkeypatch.setattr(sys, "stdout", _Stream(stdout))
+    monkeypatch.setattr(sys, "stderr", _Stream(stderr))
+    monkeypatch.setitem(sys.modules, "IPython", types.SimpleNamespace(get_ipython=lambda: shell))
+    assert auto_progress() is shown
+    assert shows_progress(None) is shown
+    assert shows_progress(True) is True and shows_progress(False) is False
+
+
+def test_run_experiments_default_progress_is_the_automatic_one(tmp_path, monkeypatch, capsys):
+    import ariel.evolution._progress as progress
+
+    config = {**TINY, "generations": 1}
+    run_experiment(config, out=tmp_path / "quiet")  # pytest: no terminal, no notebook
+    assert capsys.readouterr().out == ""
+    monkeypatch.setattr(progress, "auto_progress", lambda: True)  # as on a terminal
+    run_experiment(config, out=tmp_path / "watched")
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("run watched: ") and lines[1].startswith("gen 0: ")
+    run_experiment(config, out=tmp_path / "off", progress=False)
+    assert capsys.readouterr().out == ""

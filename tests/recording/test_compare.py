@@ -539,3 +539,269 @@ def test_the_default_output_of_run_folders_is_a_new_folder_here(
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(written)
     assert all((tmp_path / folder / "compare.html").is_file() for folder in written)
     assert not (long.parent / "compare").exists()
+
+
+# --- each run once, names a person can read, a clear --out (issue: compare reliability) ------
+
+
+def test_a_folder_given_twice_counts_once(tmp_path: Path) -> None:
+    from ariel.recording._compare import unique_folders
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "link").symlink_to(a)
+    given = [a, b, a, tmp_path / "sub" / ".." / "a", tmp_path / "link"]
+    kept, notes = unique_folders(given)
+    assert kept == [a, b]
+    assert notes == [
+        f"the same run was given 4 times: {str(a)!r}, {str(a)!r}, "
+        f"{str(tmp_path / 'sub' / '..' / 'a')!r}, {str(tmp_path / 'link')!r} (one folder); "
+        "counted once"
+    ]
+    assert unique_folders([a, b]) == ([a, b], [])
+
+
+def test_the_command_counts_a_run_given_twice_or_copied_once(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``R R sub/../R`` and a copy of R's folder are one run; a run that only shares R's run
+    id (``--out a/seed1``, ``--out b/seed1``) is another."""
+    long, short = two_runs
+    copy, other = tmp_path / "copy", tmp_path / "other"
+    shutil.copytree(long, copy)
+    shutil.copytree(long, other)
+    info = json.loads((other / "run.json").read_text())
+    info["created"] = "2001-01-01T00:00:00+00:00"  # the same run id, another run
+    (other / "run.json").write_text(json.dumps(info))
+    alias = long.parent / "." / long.name
+    out = tmp_path / "out"
+    argv = ["compare", str(long), str(short), str(long), str(alias), str(copy), str(other)]
+    assert main([*argv, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    runs = pd.read_csv(out / "runs.csv")
+    assert sorted(runs["path"]) == sorted([str(long), str(short), str(other)])
+    assert (
+        f"warning: the same run was given 3 times: {str(long)!r}, {str(long)!r}, "
+        f"{str(alias)!r} (one folder); counted once" in printed
+    )
+    assert (
+        f"warning: the same run was given twice: {str(long)!r}, {str(copy)!r} (run id "
+        f"{info['run_id']!r}: a copy); counted once" in printed
+    )
+    assert "counted once" in (out / "README.md").read_text()
+
+
+def test_labels_name_the_conditions_of_run_folders(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    long, short = two_runs
+    other = tmp_path / "other"
+    shutil.copytree(long, other)
+    edit_run_json(other, brain__sigma0=0.5)
+    out = tmp_path / "out"
+    argv = ["compare", str(long), str(short), str(other), "--out", str(out)]
+    labels = ["--label", f"fresh={long}", "--label", f"fresh={other}", "--label", f"cut={short}"]
+    assert main([*argv, *labels]) == 0
+    assert "runs: fresh 2, cut 1" in capsys.readouterr().out
+    runs = pd.read_csv(out / "runs.csv")
+    assert runs["condition"].tolist() == ["fresh", "cut", "fresh"]
+    readme = (out / "README.md").read_text()  # what each label stands for
+    assert "fresh: brain.sigma0 = 1.0 \\| 0.5, generations = 3" in readme or (
+        "fresh: brain.sigma0 = 1.0 | 0.5, generations = 3" in readme
+    )
+    assert "cut: brain.sigma0 = 1.0, generations = 2" in readme
+    assert "each condition named by --label" in readme
+
+
+@pytest.mark.parametrize(
+    ("labels", "expected"),
+    [
+        (["bad name={long}", "b={short}"], "--label 'bad name': a label is 1 to 64 letters"),
+        (["{x65}={long}", "b={short}"], "a label is 1 to 64 letters"),
+        (["a[red]={long}", "b={short}"], "--label 'a[red]': a label is"),
+        (["a={long}"], "has no --label: label every run folder or none"),
+        (["a={long}", "b={short}", "c={nowhere}"], "that folder is not one of the run folders"),
+        (["a={long}", "b={long}/.", "c={short}"], "has two labels, 'a' and 'b'"),
+        (["a={long}", "b={long}", "c={short}"], "has two labels, 'a' and 'b'"),
+    ],
+)
+def test_a_bad_label_is_one_line_exit_2(
+    two_runs: tuple[Path, Path],
+    labels: list[str],
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    long, short = two_runs
+    names = {"long": long, "short": short, "nowhere": tmp_path, "x65": "x" * 65}
+    argv = ["compare", str(long), str(short), "--out", str(tmp_path / "o")]
+    for label in labels:
+        argv += ["--label", label.format(**names)]
+    assert exit_code(argv) == 2
+    assert expected in one_error_line(capsys, quiet=True)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_label_without_a_folder_is_a_usage_error(
+    two_runs: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    long, short = two_runs
+    assert exit_code(["compare", str(long), str(short), "--label", "fresh"]) == 2
+    assert "expected NAME=RUN_DIR, not 'fresh'" in one_error_line(capsys, subcommand=True)
+
+
+def test_automatic_names_stay_short_and_distinct() -> None:
+    from ariel.recording._compare import NAME_LIMIT, condition_names
+
+    assert condition_names(["brain.inherit"], [{"brain.inherit": "false"}]) == [
+        "brain.inherit=false"
+    ]  # short: the whole key, as before
+    keys = [f"body.setting_{i:02d}" for i in range(30)] + ["body.options", "brain.options"]
+    flats = [{k: str(v) for k in keys} for v in range(4)]
+    flats[3]["body.options"] = '{"a": 1}'
+    whole = [",".join(f"{k}={f[k]}" for k in keys) for f in flats]
+    assert min(map(len, whole)) > 500
+    names = condition_names(keys, flats)
+    assert all(len(n) <= NAME_LIMIT for n in names) and len(set(names)) == 4
+    assert names[0].startswith("setting_00=0,setting_01=0,")  # the keys' last components
+    assert re.fullmatch(r".*~[0-9a-f]{8}", names[0])  # cut, with a hash of the whole name
+    assert condition_names(keys, flats) == names  # stable: the same settings, the same name
+    two = ["body.options", "brain.options", "body.population"]
+    few = [
+        {"body.options": "{}", "brain.options": str(v), "body.population": "1" * 15} for v in (1, 2)
+    ]
+    assert (
+        condition_names(two, few)[0] == f"body.options={{}},brain.options=1,population={'1' * 15}"
+    )
+
+
+def test_long_differences_give_short_names_and_the_page_keeps_them_whole(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    long, _ = two_runs
+    other = tmp_path / "other"
+    shutil.copytree(long, other)
+    edit_run_json(
+        other,
+        body__crossover_rate=0.9,
+        body__tournament=3,
+        brain__sigma0=0.25,
+        brain__smoothing=0.75,
+        brain__control_period=25,
+    )
+    out = tmp_path / "out"
+    assert main(["compare", str(long), str(other), "--out", str(out)]) == 0
+    conditions = pd.read_csv(out / "runs.csv")["condition"].tolist()
+    assert all(len(c) <= 60 for c in conditions) and len(set(conditions)) == 2
+    assert conditions[0].startswith("crossover_rate=0.5,tournament=2,control_period=50,")
+    printed = capsys.readouterr().out
+    assert f"runs: {conditions[0]} 1, {conditions[1]} 1" in printed
+    whole = (
+        "body.crossover_rate = 0.9, body.tournament = 3, brain.control_period = 25, "
+        "brain.sigma0 = 0.25, brain.smoothing = 0.75"
+    )
+    assert f"{conditions[1]}: {whole}" in (out / "README.md").read_text()
+    assert whole in (out / "compare.html").read_text()
+
+
+def test_the_command_prints_names_with_markup_and_control_characters_as_text(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run folder and a config name holding rich markup, mathtext and terminal control
+    sequences: the command draws and prints them as text."""
+    long, _ = two_runs
+    crafted = "[/bold][red]$\\frac{$\x1b[2J\x1b]0;t\x07"
+    first, second = tmp_path / "a[red]$\\frac{$\x1b]0;t\x07", tmp_path / "b[/x]"
+    for i, folder in enumerate((first, second)):
+        shutil.copytree(long, folder)
+        info = json.loads((folder / "run.json").read_text())
+        info["config"]["name"] = crafted
+        info["created"] = f"2001-01-0{i + 1}T00:00:00+00:00"
+        (folder / "run.json").write_text(json.dumps(info))
+    out = tmp_path / "out"
+    assert main(["compare", str(first), str(second), str(first), "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    printed = captured.out + captured.err
+    assert "\x1b" not in printed and "\x07" not in printed
+    assert "[/bold][red]$\\frac{$\\x1b[2J" in printed  # the name as it is, one line
+    assert f"the same run was given twice: {str(first)!r}, {str(first)!r}" in printed
+    assert "a[red]$\\\\frac{$\\x1b]0;t\\x07'" in printed  # the folder's name: repr
+    assert {"best_so_far.png", "final_best.png"} <= {p.name for p in out.iterdir()}
+
+
+@pytest.mark.parametrize(
+    ("make", "given", "expected"),
+    [
+        ("file", "afile/sub", "cannot make '{out}': '{base}/afile' is a file, not a folder"),
+        (
+            "dangling",
+            "dangling",
+            "it is a symbolic link (to '{base}/nowhere', which does not exist)",
+        ),
+        (
+            "dangling",
+            "dangling/sub",
+            "cannot make '{out}': '{base}/dangling' is a symbolic link to '{base}/nowhere', "
+            "which does not exist",
+        ),
+    ],
+)
+def test_an_output_folder_that_cannot_be_made_is_one_line_exit_2(
+    two_runs: tuple[Path, Path],
+    make: str,
+    given: str,
+    expected: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    long, short = two_runs
+    (tmp_path / "afile").write_text("notes\n")
+    (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")
+    out = tmp_path / given
+    assert exit_code(["compare", str(long), str(short), "--out", str(out)]) == 2
+    line = one_error_line(capsys, quiet=True)
+    assert expected.format(out=out, base=tmp_path) in line
+    assert (tmp_path / "afile").read_text() == "notes\n" and not (tmp_path / "nowhere").exists()
+
+
+def test_many_conditions_are_announced_before_the_statistics(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from ariel.recording import _compare
+
+    events: list[str] = []
+
+    def counted(*args, **kwargs):
+        events.append("statistics")
+        return [], [], []  # the pairs themselves are not what this test is about
+
+    monkeypatch.setattr(_compare, "_statistics", counted)
+    runs = [synthetic_run(f"c{i}", 0, 1.0 + i, evaluations=8) for i in range(21)]
+    compare_runs(runs, None, maximise=True, write=False, announce=events.append)
+    assert events == [
+        "21 conditions: testing 210 pairs of conditions for each of 2 measures, each with a "
+        "bootstrap CI (the time grows with the square of the number of conditions)",
+        "statistics",
+    ]
+    events.clear()
+    compare_runs(runs[:20], None, maximise=True, write=False, announce=events.append)
+    assert events == ["statistics"]
+
+
+def test_the_command_announces_many_conditions_on_stderr(
+    two_runs: tuple[Path, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from ariel.recording import _compare
+
+    monkeypatch.setattr(_compare, "MANY_CONDITIONS", 1)  # long and short: 2 conditions
+    long, short = two_runs
+    assert main(["compare", str(long), str(short), "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    assert (
+        err.startswith("note: 2 conditions: testing 1 pairs of conditions") and err.count("\n") == 1
+    )

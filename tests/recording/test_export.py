@@ -71,7 +71,15 @@ def test_export_writes_mjcf_json_and_a_replay_script_that_follows_the_run(
     assert np.linalg.norm(end - start) > 1e-3  # it moved
     # ... printed beside what the run recorded: the core's end and the fitness
     assert json.loads(lines[1].removeprefix("recorded core at ")) == final
-    assert lines[2] == f"recorded fitness {float(row['fitness'])!r} ({brain['fitness_fn']})"
+    # the replay's own fitness (the run's function on the frames it kept), beside the record's
+    from ariel.plugins import fitness_functions
+
+    unit = fitness_functions.get(brain["fitness_fn"]).unit
+    unit = f" {unit}" if unit else ""
+    recorded = float(row["fitness"])
+    assert lines[2] == (
+        f"replayed fitness {recorded!r}{unit} (recorded {recorded!r}{unit}; {brain['fitness_fn']})"
+    )
     assert lines[3] == f"evaluation {brain['eval_id']} of run {brain['run_id']}"
 
 
@@ -176,3 +184,21 @@ def test_a_crafted_id_in_an_exported_folder_runs_nothing(run_dir: Path, tmp_path
     )
     assert done.returncode != 0 and not (tmp_path / "code-ran").exists()
     assert "holds a run id that is not one" in done.stderr.splitlines()[-1]
+
+
+def test_replayed_fitness_needs_the_whole_simulation_and_the_exported_frame_rate(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    import math
+
+    from ariel.recording import load_exported
+    from ariel.recording._export import export
+
+    out = export(run_dir, "best", tmp_path / "x")
+    robot = load_exported(out)
+    with pytest.raises(ValueError, match="simulate the robot for its"):
+        robot.replayed_fitness()  # not simulated yet
+    brain = json.loads((out / "controller.json").read_text())
+    del brain["record_every"]  # an export made before the key
+    (out / "controller.json").write_text(json.dumps(brain))
+    assert math.isnan(load_exported(out).replayed_fitness())

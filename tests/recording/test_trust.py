@@ -195,6 +195,16 @@ def test_a_single_flipped_bit_is_caught(finished: Path, tmp_path: Path) -> None:
         load_run(copy).trajectories  # noqa: B018
 
 
+def _as_made_before_manifests(run: Path) -> None:
+    """``run`` as an ariel made before manifests left it: no manifests, no run.json keys that
+    came with them (a run.json with them, or a manifests/ folder, is checked against them)."""
+    shutil.rmtree(run / "manifests")
+    info = json.loads((run / "run.json").read_text())
+    for key in ("manifests", "segments", "maximise", "brain_only"):
+        del info[key]
+    (run / "run.json").write_text(json.dumps(info))
+
+
 def test_a_truncated_table_is_one_line(
     finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -204,9 +214,7 @@ def test_a_truncated_table_is_one_line(
     assert exit_code(["report", str(copy), "--no-render"]) == 2
     assert "bodies/gen-000000.parquet has 100 bytes" in one_error_line(capsys)
     # Without a manifest (an old run) the decoding error itself is the one line.
-    info = json.loads((copy / "run.json").read_text())
-    del info["manifests"]
-    (copy / "run.json").write_text(json.dumps(info))
+    _as_made_before_manifests(copy)
     assert exit_code(["report", str(copy), "--no-render"]) == 2
     assert "is not a readable Parquet table" in one_error_line(capsys)
 
@@ -215,10 +223,7 @@ def test_a_run_made_before_manifests_verifies_and_resume_adopts_them(
     finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     copy = _copy(finished, tmp_path, status="interrupted")
-    shutil.rmtree(copy / "manifests")
-    info = json.loads((copy / "run.json").read_text())
-    del info["manifests"]
-    (copy / "run.json").write_text(json.dumps(info))
+    _as_made_before_manifests(copy)
     assert main(["verify", str(copy)]) == 0
     assert "a run made before manifests" in capsys.readouterr().out
     assert len(load_run(copy).evaluations) > 0

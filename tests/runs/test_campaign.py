@@ -12,6 +12,7 @@ import io
 import json
 import os
 import re
+import shlex
 import signal
 from pathlib import Path
 
@@ -222,8 +223,9 @@ def test_folders_of_one_campaign_on_other_seeds_are_pooled_paired(
     stats = (out / "stats.csv").read_text()
     assert "wilcoxon" in stats.lower() and "mann" not in stats.lower()
     assert "pooled from 2 folders" in (out / "README.md").read_text()
-    # A seed in both folders, and a folder of another campaign, are refused in one line.
-    assert exit_code(["compare", str(campaign), str(campaign), "--out", str(out)]) == 2
+    # A seed in two folders, and a folder of another campaign, are refused in one line.
+    copy = _relabelled(campaign, tmp_path / "copy", 0)
+    assert exit_code(["compare", str(campaign), str(copy), "--out", str(out)]) == 2
     assert "must have different seeds" in one_error_line(capsys)
     other = _relabelled(campaign, tmp_path / "other", 4)
     info = json.loads((other / "campaign.json").read_text())
@@ -284,6 +286,25 @@ def test_sigterm_stops_a_campaign_command_like_ctrl_c(
     resume = rf"\S*ariel campaign resume {re.escape(str(out))}"
     assert re.fullmatch(rf"interrupted \(SIGTERM\); continue it with: {resume}", line), line
     assert json.loads((out / "campaign.json").read_text())["status"] == "interrupted"
+
+
+def test_ctrl_c_without_out_names_the_campaigns_real_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def interrupt(self, generation, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.chdir(tmp_path)
+    with monkeypatch.context() as patch:
+        patch.setattr(Progress, "end_generation", interrupt)
+        assert main(["campaign", "run", str(TINY), "--quiet"]) == 130
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    words = shlex.split(line.split("; continue it with: ", 1)[1])
+    at = words.index("campaign")
+    (made,) = Path("data/campaigns").iterdir()  # data/campaigns/tiny-<time>, no placeholder
+    assert words[at:] == ["campaign", "resume", str(made)], line
+    assert main([*words[at:], "--quiet"]) == 0  # the pasted command, after its `ariel`
+    assert json.loads((made / "campaign.json").read_text())["status"] == "finished"
 
 
 def test_a_campaign_runs_on_a_dask_cluster_through_its_address(

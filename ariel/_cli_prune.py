@@ -1,0 +1,53 @@
+"""``ariel runs [DIR] --prune [--yes]``: delete the run folders that failed or were interrupted
+before their first generation finished (`ariel.recording._prune` decides which), after a y/N
+question on stdin that ``--yes`` skips."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+__all__ = ["prune_runs"]
+
+
+def prune_runs(folder: Path, *, yes: bool) -> int:
+    """List the prunable runs under ``folder``, ask, delete them; exit status (2: one or
+    more could not be deleted, each said in one line on stderr)."""
+    from ariel.recording._escape import one_line
+    from ariel.recording._prune import PruneError, prunable_runs, prune_run
+
+    found, links = prunable_runs(folder)
+    for path, why in links:
+        print(f"left alone: {one_line(path)}: {why}")
+    if not found:
+        print(
+            f"nothing to prune under {one_line(folder)}: no run that failed or was "
+            "interrupted before its first generation finished"
+        )
+        return 0
+    print(
+        f"{len(found)} run folder(s) under {one_line(folder)} failed or were interrupted "
+        "before their first generation finished:"
+    )
+    for run in found:
+        print(f"  {one_line(Path(run['path']).name)}  ({run['status']})")
+    if not yes:
+        try:
+            answer = input(f"delete {'it' if len(found) == 1 else 'them'}? [y/N] ")
+        except EOFError:  # no answer (stdin closed): no
+            answer = ""
+        if not sys.stdin.isatty():  # a piped answer is not echoed: end the question's line
+            print()
+        if answer.strip().lower() not in ("y", "yes"):
+            print("nothing deleted")
+            return 0
+    failed = 0
+    for run in found:
+        try:
+            prune_run(folder, run["path"])
+        except PruneError as exc:
+            print(f"ariel: error: {one_line(exc)}", file=sys.stderr)
+            failed += 1
+        else:
+            print(f"deleted {one_line(run['path'])}")
+    return 2 if failed else 0

@@ -1,0 +1,161 @@
+"""`ariel campaign run FILE --dry-run`: what a campaign will do, and roughly how long, before it
+starts. Nothing is written.
+
+The estimate times real evaluations here: for each condition, one batch (the brain's popsize)
+of random brains on a few random bodies of its encoder (the fixed body of a brain-only run), on
+this process's threads, and scales each condition's evaluations by it over the workers. It
+leaves out what a run adds to the physics (CMA-ES, records, Rerun, shipping to workers: the
+ratio `experiments/benchmarks/coevolution.py` measures) and how the bodies evolve (bigger
+or smaller bodies simulate slower or faster), so it is a figure to plan with, not a promise:
+83 min for `default_vs_baselines.toml` on 2 cores, which took 70.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["CampaignPlan", "campaign_plan"]
+
+_BODIES = 3  # random bodies timed per condition (their sizes vary)
+
+
+@dataclass
+class CampaignPlan:
+    """``rows``: per condition, its seeds, evaluations per run and simulated seconds per
+    evaluation, and (where timed) seconds per evaluation here; ``workers``: the executor's."""
+
+    name: str
+    workers: int
+    rows: list[dict[str, Any]] = field(default_factory=list)
+
+    @property
+    def runs(self) -> int:
+        return sum(len(row["seeds"]) for row in self.rows)
+
+    @property
+    def evaluations(self) -> int:
+        return sum(len(row["seeds"]) * row["evaluations"] for row in self.rows)
+
+    @property
+    def estimate_seconds(self) -> float | None:
+        """Wall seconds on ``workers`` processes, from the timed evaluations (None: not timed)."""
+        if any(row.get("seconds_per_evaluation") is None for row in self.rows):
+            return None
+        busy = sum(
+            len(row["seeds"]) * row["evaluations"] * row["seconds_per_evaluation"]
+            for row in self.rows
+        )
+        return busy / max(1, self.workers)
+
+
+def campaign_plan(
+    file: str | Path,
+    overrides: tuple[str, ...] = (),
+    *,
+    executor: str | None = None,
+    workers: int | None = None,
+    timed: bool = True,
+    on_timing: Callable[[], None] | None = None,
+) -> CampaignPlan:
+    """The campaign ``file`` (with ``overrides`` on its base) as conditions x seeds x
+    evaluations, each condition timed here unless ``timed`` is False (``on_timing`` is called
+    before the timing starts). Raises what `run_campaign` would for a bad file, before timing
+    anything."""
+    from ariel.evolution._driver import budget, is_brain_only
+    from ariel.runs._campaign_file import load_campaign_file
+    from ariel.runs._prepare import executor_settings, prepare_run
+
+    spec = load_campaign_file(file, overrides)
+    first = next(iter(spec.configs.values()))
+    settings = executor_settings(first, kind=executor, workers=workers)
+    from ariel.evaluation._threads import default_workers
+
+    plan = CampaignPlan(spec.name, int(getattr(settings, "workers", None) or default_workers()))
+    prepared = {key: prepare_run(config) for key, config in spec.configs.items()}
+    if timed and on_timing is not None:
+        on_timing()
+    seen: dict[str, dict[str, Any]] = {}
+    for (condition, seed), (config, plugins) in prepared.items():
+        if condition in seen:
+            seen[condition]["seeds"].append(seed)
+            continue
+        brain_only = is_brain_only(config, plugins.encoder)
+        row: dict[str, Any] = {
+            "condition": condition,
+            "seeds": [seed],
+            "evaluations": budget(config, brain_only),
+            "simulated_seconds": config.task.duration,
+        }
+        if timed:
+            row["seconds_per_evaluation"] = _seconds_per_evaluation(config, plugins, brain_only)
+        seen[condition] = row
+        plan.rows.append(row)
+    return plan
+
+
+def _seconds_per_evaluation(config: Any, plugins: Any, brain_only: bool) -> float:
+    """CPU seconds per evaluation of a batch of random brains on random bodies, here, on one
+    thread (as a worker process of the local pool runs it; CPU time, so that other work on the
+    machine does not inflate it)."""
+    from ariel.evaluation import BodyBuildError, build, evaluate_batch
+    from ariel.evolution._driver import fixed_genotype
+    from ariel.evolution._tasks import body_spec, evaluation_task
+
+    rng = np.random.default_rng(0)
+    seconds, count = 0.0, 0
+    for _ in range(1 if brain_only else _BODIES):
+        encoder = plugins.encoder
+        genotype = fixed_genotype(config, encoder) if brain_only else encoder.random_genotype(rng)
+        spec = body_spec(config, genotype)
+        try:
+            model = build(evaluation_task(config, spec)).model
+        except BodyBuildError:
+            continue
+        n_params = int(plugins.controller.num_parameters(model))
+        batch = max(1, config.brain.popsize if n_params else 1)
+        tasks = [
+            evaluation_task(config, spec, rng.normal(0.0, 0.5, n_params), seed=i)
+            for i in range(batch)
+        ]
+        begin = time.process_time()  # this process's CPU: what a worker of its own would take
+        evaluate_batch(tasks, nthread=1)
+        seconds, count = seconds + time.process_time() - begin, count + batch
+    return seconds / count if count else 0.0
+
+
+def plan_text(plan: CampaignPlan) -> list[str]:
+    """The lines `ariel campaign run --dry-run` prints."""
+    lines = [f"campaign {plan.name}: {len(plan.rows)} conditions, {plan.runs} runs (dry run)"]
+    for row in plan.rows:
+        seeds = row["seeds"]
+        shown = (
+            f"{seeds[0]}..{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) else seeds
+        )
+        per = row.get("seconds_per_evaluation")
+        timing = f", {per * 1000:.0f} ms per evaluation here" if per is not None else ""
+        lines.append(
+            f"  {row['condition']}: seeds {shown} ({len(seeds)} runs) x {row['evaluations']} "
+            f"evaluations of {row['simulated_seconds']:g} s{timing}"
+        )
+    workers = f"{plan.workers} worker{'' if plan.workers == 1 else 's'}"
+    lines.append(f"total: {plan.evaluations} evaluations on {workers}")
+    seconds = plan.estimate_seconds
+    if seconds is not None:
+        lines.append(
+            f"estimate: about {_duration(seconds)} (from the physics of random bodies timed here; "
+            "the loop and records add to it, evolved bodies may be slower or faster)"
+        )
+    return lines
+
+
+def _duration(seconds: float) -> str:
+    minutes = seconds / 60
+    if minutes < 1:
+        return f"{seconds:.0f} s"
+    return f"{minutes:.0f} min" if minutes < 120 else f"{minutes / 60:.1f} h"

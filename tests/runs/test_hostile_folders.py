@@ -1,0 +1,439 @@
+"""Folders crafted to hurt (a hostile probe): each is refused or reported in one line, never a
+traceback, and never holds up what is sound beside it.
+
+1. JSON nested 100,000 deep in run.json, a manifest, the checkpoint or campaign.json;
+2. condition (and campaign) names too long for a folder name;
+3. campaign.json run entries without what resume needs;
+4. rich markup and terminal control sequences in what `ariel campaign status` shows;
+5. one damaged run of a campaign: `ariel campaign resume` resumes the others;
+6. run.json's ``"manifests": 1`` flipped to 0 (run.json is in no manifest): verification is not
+   switched off; what never changes in run.json is checked.
+
+Run folders are made by hand here (tables of a few bytes, their manifests written by
+`write_manifest`); the campaign is made with an executor that stops at once, as in
+test_folder_trust.py. Only item 5 evaluates (the tiny campaign's runs, a few seconds).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from _helpers import REPO, exit_code, one_error_line, snapshot
+
+import ariel.evaluation
+from ariel.evolution import ConfigError, ExperimentConfig
+from ariel.evolution._config import config_hash
+from ariel.recording import DamagedRunError, NotARunError, load_campaign, load_run, verify_run
+from ariel.recording._campaign import NotACampaignError
+from ariel.recording._manifest import write_manifest
+from ariel.recording._run_folder import MAX_JSON_DEPTH, RunFolder, json_data
+from ariel.runs import resume_campaign, run_campaign
+from ariel.runs._campaign_file import MAX_CONDITION_NAME, load_campaign_file
+
+TINY = REPO / "tests" / "data" / "campaign_tiny.toml"
+DEEP = "[" * 100_000 + "]" * 100_000
+
+
+class _StoppedError(Exception):
+    """Raised where the executor would be made: nothing is evaluated."""
+
+
+def _stop_at_executor(monkeypatch: pytest.MonkeyPatch) -> None:
+    def make_executor(*args: Any, **kwargs: Any) -> Any:
+        raise _StoppedError
+
+    monkeypatch.setattr(ariel.evaluation, "make_executor", make_executor)
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny campaign, its 4 run folders created and left resumable (none evaluated)."""
+    out = tmp_path_factory.mktemp("made") / "tiny"
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        _stop_at_executor(monkeypatch)
+        with pytest.raises(_StoppedError):
+            run_campaign(TINY, out=out)
+    return out
+
+
+@pytest.fixture
+def campaign(made: Path, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(made, tmp_path / "tiny", symlinks=True))
+
+
+def _edit(path: Path, change: Any) -> None:
+    info = json.loads(path.read_text())
+    change(info)
+    path.write_text(json.dumps(info))
+
+
+def _run(folder: Path, *, generations: int = 2, run_id: str = "hostile-s3") -> Path:
+    """A finished run folder made by hand: run.json as `ariel run` writes it (a real config and
+    its hash), ``generations`` generations of evaluations and bodies tables (one row each), their
+    manifests, and a checkpoint."""
+    config = ExperimentConfig.from_plain({"name": "hostile", "seed": 3})
+    digest = config_hash(config)
+    for generation in range(generations):
+        for table in ("evaluations", "bodies"):
+            (folder / table).mkdir(parents=True, exist_ok=True)
+            rows = pa.table({"run_id": [run_id], "generation": [generation]})
+            pq.write_table(rows, folder / table / f"gen-{generation:06d}.parquet")
+        write_manifest(folder, generation)
+    RunFolder(folder).write_info(
+        {
+            "format": 1,
+            "run_id": run_id,
+            "name": "hostile",
+            "status": "finished",
+            "seed": 3,
+            "config": config.to_plain(),
+            "config_hash": digest,
+            "generations_done": generations,
+            "evaluations_done": generations,
+            "maximise": True,
+            "brain_only": False,
+            "manifests": 1,
+            "segments": [{"kind": "run", "from_generation": 0}],
+        }
+    )
+    RunFolder(folder).save_checkpoint({"config_hash": digest, "generation": generations - 1})
+    return folder
+
+
+def _flip_a_bit(path: Path) -> None:
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0x04
+    path.write_bytes(bytes(data))
+
+
+# --- 1: JSON nested 100,000 deep ----------------------------------------------------------------
+
+
+def test_json_nested_deeper_than_any_reader_goes_is_a_value_error() -> None:
+    nested = lambda depth: "[" * depth + "]" * depth  # noqa: E731
+    assert json_data(nested(MAX_JSON_DEPTH)) == json.loads(nested(MAX_JSON_DEPTH))
+    for text in (nested(MAX_JSON_DEPTH + 1), DEEP, '{"a": ' * 5000 + "1" + "}" * 5000):
+        with pytest.raises(ValueError, match=f"^JSON nested more than {MAX_JSON_DEPTH} deep$"):
+            json_data(text)
+    assert json_data("3") == 3 and json_data(b'{"a": [1, {"b": []}]}') == {"a": [1, {"b": []}]}
+
+
+def test_a_deep_run_json_is_one_line_and_runs_lists_the_others(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sound = _run(tmp_path / "a-sound")
+    deep = _run(tmp_path / "b-deep", run_id="deep-s3")
+    (deep / "run.json").write_text(DEEP)
+    with pytest.raises(NotARunError, match=r"unreadable run\.json .*nested more than 100 deep"):
+        load_run(deep)
+    for command in (["verify"], ["report", "--no-render"], ["resume", "--quiet"]):
+        assert exit_code([*command, str(deep)]) == 2, command
+        assert "unreadable run.json" in one_error_line(capsys), command
+    assert exit_code(["runs", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "hostile-s3" in out and "finished" in out  # the sound run is listed
+    (line,) = [line for line in out.splitlines() if line.startswith("b-deep")]
+    assert "unreadable" in line  # the damaged one is named
+    assert len(load_run(sound).evaluations) == 2
+
+
+def test_a_deep_manifest_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    run = _run(tmp_path / "run")
+    (run / "manifests" / "gen-000001.json").write_text(DEEP)
+    expected = "manifests/gen-000001.json is unreadable (ValueError: JSON nested more than 100"
+    with pytest.raises(DamagedRunError, match=expected.replace("(", r"\(")):
+        load_run(run)
+    assert exit_code(["verify", str(run)]) == 1
+    assert f"damaged: {expected}" in capsys.readouterr().out
+
+
+def test_a_deep_checkpoint_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    run = _run(tmp_path / "run")
+    _edit(run / "run.json", lambda info: info.update(status="interrupted"))
+    RunFolder(run).checkpoint.write_text(DEEP)
+    with pytest.raises(NotARunError, match=r"unreadable checkpoint .*nested more than 100 deep"):
+        RunFolder(run).load_checkpoint()
+    before = snapshot(run)
+    assert exit_code(["resume", str(run), "--quiet"]) == 2
+    assert "unreadable checkpoint (ValueError: JSON nested" in one_error_line(capsys)
+    assert snapshot(run) == before
+    assert exit_code(["verify", str(run)]) == 1
+    assert "damaged: checkpoints/state.json unreadable checkpoint" in capsys.readouterr().out
+
+
+def test_a_deep_campaign_json_is_one_line(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (campaign / "campaign.json").write_text(DEEP)
+    for command in (["campaign", "status"], ["campaign", "resume", "--quiet"], ["compare"]):
+        assert exit_code([*command, str(campaign)]) == 2, command
+        assert "unreadable campaign.json (JSON nested more than 100" in one_error_line(capsys)
+
+
+# --- 2: names too long for a folder ---------------------------------------------------------------
+
+
+def _campaign_file(tmp_path: Path, text: str) -> Path:
+    file = tmp_path / "c.toml"
+    file.write_text('base = { name = "t", generations = 1 }\nseeds = [1]\n' + text)
+    return file
+
+
+def test_a_condition_name_too_long_for_a_folder_is_refused_before_anything_is_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert MAX_CONDITION_NAME == 245  # condition=<name>: 255 bytes
+    fits = _campaign_file(tmp_path, f'[[condition]]\nname = "{"a" * 245}"\n')
+    assert [c.name for c in load_campaign_file(fits).conditions] == ["a" * 245]
+    file = _campaign_file(tmp_path, f'[[condition]]\nname = "{"a" * 246}"\n')
+    with pytest.raises(ConfigError, match=r"^condition\.0: name 'a{20}'\.\.\. has 246 characters"):
+        load_campaign_file(file)
+    out = tmp_path / "out"
+    assert exit_code(["campaign", "run", str(file), "--out", str(out), "--quiet"]) == 2
+    assert "at most 245 (its runs' folder is condition=<name>" in one_error_line(capsys)
+    assert not out.exists()
+    file = _campaign_file(tmp_path, f'name = "{"n" * 240}"\n')
+    with pytest.raises(
+        ConfigError, match=r"^name: name 'n{20}'\.\.\. has 240 characters; at most 239"
+    ):
+        load_campaign_file(file)
+
+
+def test_grid_condition_names_are_cut_to_fit_and_stay_distinct(tmp_path: Path) -> None:
+    long_a, long_b = "a" * 300 + "1", "a" * 300 + "2"  # the names differ past 245 characters
+    file = _campaign_file(tmp_path, f'[grid]\ndescription = ["{long_a}", "{long_b}", "short"]\n')
+    names = [c.name for c in load_campaign_file(file).conditions]
+    assert [len(name) for name in names] == [245, 245, len("description-short")]
+    assert len(set(names)) == 3 and names[0].startswith("description-aaaa")
+    assert names[2] == "description-short"  # a name that fits is kept as it is
+    named = _campaign_file(
+        tmp_path,
+        f'[[condition]]\nname = "{"c" * 200}"\n[grid]\ndescription = ["{"d" * 50}", "e"]\n',
+    )
+    names = [c.name for c in load_campaign_file(named).conditions]
+    assert [len(name) for name in names] == [245, 200 + len("_description-e")]
+
+
+def test_a_campaign_json_condition_too_long_for_a_folder_is_refused(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def rename(info: dict[str, Any]) -> None:
+        info["runs"][0]["condition"] = "c" * 246
+        info["runs"][0]["path"] = f"runs/condition={'c' * 246}/seed=1"
+
+    _edit(campaign / "campaign.json", rename)
+    before = snapshot(campaign)
+    assert exit_code(["campaign", "resume", str(campaign), "--quiet"]) == 2
+    assert "is not a condition name (letters, digits, _ . -; at most 245" in one_error_line(capsys)
+    assert snapshot(campaign) == before
+
+
+# --- 3: campaign.json run entries without what resume needs -----------------------------------
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (lambda info: info.pop("runs"), "lists no runs (its 'runs' is None)"),
+        (lambda info: info.update(runs=[]), "lists no runs (its 'runs' is [])"),
+        (
+            lambda info: info["runs"][0].pop("config"),
+            "runs[0] (condition fresh, seed 1): its config",
+        ),
+        (
+            lambda info: info["runs"][1].update(config=[]),
+            "runs[1] (condition fresh, seed 2): its con",
+        ),
+        (
+            lambda info: info["runs"][2].pop("run_id"),
+            "runs[2] (condition inherit, seed 1): its run_id",
+        ),
+        (lambda info: info.pop("campaign_id"), "its campaign_id None is not a campaign id"),
+    ],
+)
+def test_a_campaign_json_run_entry_without_what_resume_needs_is_one_line(
+    campaign: Path, change: Any, expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _edit(campaign / "campaign.json", change)
+    before = snapshot(campaign)
+    for command in (["campaign", "resume", "--quiet"], ["campaign", "status"]):
+        assert exit_code([*command, str(campaign)]) == 2, command
+        assert expected in one_error_line(capsys), command
+    with pytest.raises(NotACampaignError):
+        resume_campaign(campaign)
+    assert snapshot(campaign) == before
+
+
+def test_a_first_run_config_that_does_not_validate_names_the_entry(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _edit(campaign / "campaign.json", lambda info: info["runs"][0]["config"].update(surprise=1))
+    assert exit_code(["campaign", "resume", str(campaign), "--quiet"]) == 2
+    assert "campaign.json: runs[0]: its config: " in one_error_line(capsys)
+
+
+# --- 4: what campaign status shows is text -------------------------------------------------------
+
+
+def test_campaign_status_shows_markup_and_control_sequences_as_text(
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    hostile = "[/bold]\x1b[2J\x1b]0;pwned\x07[red]x"
+    _edit(
+        campaign / "runs/condition=fresh/seed=1/run.json", lambda info: info.update(status=hostile)
+    )
+    _edit(
+        campaign / "campaign.json",
+        lambda info: info["runs"][1]["config"].update(generations=hostile),
+    )
+    moved = Path(shutil.move(campaign, tmp_path / "[/bold]camp"))
+    assert exit_code(["campaign", "status", str(moved)]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\x07" not in out
+    assert out.count("[/bold]\\x1b[2J\\x1b]0;pwn") == 2  # status, generations: cut to fit
+    assert "[/bold]camp" in out  # the title: the folder as given
+
+
+# --- 5: one damaged run does not hold up the others --------------------------------------------
+
+
+def test_campaign_resume_resumes_the_others_and_names_the_damaged_run(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    damaged = campaign / "runs/condition=fresh/seed=1"
+    RunFolder(damaged).checkpoint.parent.mkdir(exist_ok=True)
+    RunFolder(damaged).checkpoint.write_text(DEEP)
+    before = snapshot(damaged)
+    assert exit_code(["campaign", "resume", str(campaign), "--quiet"]) == 1
+    captured = capsys.readouterr()
+    assert "3 of 3 runs finished" in captured.out
+    (line,) = captured.err.splitlines()
+    assert line.startswith("ariel: error: condition fresh seed 1 not resumed: ")
+    assert "unreadable checkpoint (ValueError: JSON nested more than 100 deep)" in line
+    assert snapshot(damaged) == before  # left alone
+    rows = {(r["condition"], r["seed"]): r["status"] for r in load_campaign(campaign).status()}
+    assert rows == {
+        ("fresh", 1): "failed",
+        ("fresh", 2): "finished",
+        ("inherit", 1): "finished",
+        ("inherit", 2): "finished",
+    }
+    # Nothing left but the damaged run: one line, exit 2, nothing written.
+    before = snapshot(campaign)
+    assert exit_code(["campaign", "resume", str(campaign), "--quiet"]) == 2
+    line = one_error_line(capsys, quiet=True)
+    assert "no run resumed: condition fresh seed 1 not resumed: " in line
+    assert snapshot(campaign) == before
+
+
+def test_campaign_status_names_a_run_that_does_not_load(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (campaign / "runs/condition=inherit/seed=2/run.json").write_text(DEEP)
+    rows = {(r["condition"], r["seed"]): r["status"] for r in load_campaign(campaign).status()}
+    assert rows[("inherit", 2)] == "damaged" and rows[("fresh", 1)] == "failed"
+    _edit(
+        campaign / "runs/condition=fresh/seed=1/run.json",
+        lambda info: info.update(generations_done="x", evaluations_done=[1]),
+    )
+    assert exit_code(["campaign", "status", str(campaign)]) == 0
+    assert "damaged" in capsys.readouterr().out
+
+
+# --- 6: run.json's "manifests" does not switch verification off ---------------------------------
+
+
+def test_a_flipped_manifests_flag_does_not_switch_verification_off(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _run(tmp_path / "run")
+    text = (run / "run.json").read_text()
+    assert text.count('"manifests": 1') == 1
+    (run / "run.json").write_text(text.replace('"manifests": 1', '"manifests": 0'))  # one bit
+    _flip_a_bit(run / "bodies" / "gen-000001.parquet")  # still the same size
+    assert exit_code(["verify", str(run)]) == 1
+    out = capsys.readouterr().out
+    assert "damaged: run.json has 'manifests': 0, a value no ariel writes" in out
+    assert "damaged: bodies/gen-000001.parquet has other bytes than when it was written" in out
+    assert out.splitlines()[-1].startswith("2 damaged file(s): ")
+    with pytest.raises(DamagedRunError, match=r"run\.json has 'manifests': 0"):
+        load_run(run)
+
+
+def test_a_missing_manifests_flag_with_keys_that_came_with_manifests_is_damage(
+    tmp_path: Path,
+) -> None:
+    run = _run(tmp_path / "run")
+    _edit(run / "run.json", lambda info: info.pop("manifests"))
+    shutil.rmtree(run / "manifests")
+    result = verify_run(run)
+    assert result.checked
+    assert result.problems[0].startswith("run.json has no 'manifests' but has 'segments'")
+    assert "manifests/gen-000000.json is missing (generation 0 is finished)" in result.problems[1]
+    with pytest.raises(DamagedRunError, match=r"run\.json has no 'manifests' but has 'segments'"):
+        load_run(run)
+
+
+def test_a_run_made_before_manifests_is_checked_against_a_manifest_it_has(
+    tmp_path: Path,
+) -> None:
+    """An old run (no flag, no keys that came with manifests) whose resume was killed while it
+    wrote the manifests: what it wrote is checked; the rest as before manifests, not damage."""
+    run = _run(tmp_path / "run")
+    old_keys = ("manifests", "segments", "maximise", "brain_only")
+    _edit(run / "run.json", lambda info: [info.pop(k) for k in old_keys])
+    (run / "manifests" / "gen-000001.json").unlink()
+    result = verify_run(run)
+    assert result.ok and not result.checked and result.files == 4
+    _flip_a_bit(run / "evaluations" / "gen-000000.parquet")
+    assert verify_run(run).problems == [
+        "evaluations/gen-000000.parquet has other bytes than when it was written (SHA-256)"
+    ]
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (
+            lambda info: info["config"]["brain"].update(popsize=99),
+            "run.json has a config_hash that is not its config's (SHA-256)",
+        ),
+        (
+            lambda info: info.update(config_hash="0" * 64),
+            "run.json has a config_hash that is not its config",
+        ),
+        (lambda info: info.update(seed=4), "run.json has seed 4, its config 3"),
+        (lambda info: info.update(run_id="other-s3"), "run.json has run_id 'other-s3', its tables"),
+        (lambda info: info.update(config="x"), "run.json has no config (its 'config' is 'x')"),
+    ],
+)
+def test_verify_checks_what_never_changes_in_run_json(
+    tmp_path: Path, change: Any, expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _run(tmp_path / "run")
+    assert verify_run(run).ok and verify_run(run).run_id_checked
+    _edit(run / "run.json", change)
+    assert exit_code(["verify", str(run)]) == 1
+    assert f"damaged: {expected}" in capsys.readouterr().out
+
+
+def test_verify_checks_the_checkpoint_s_config_hash_and_notes_a_config_it_cannot_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _run(tmp_path / "run")
+    RunFolder(run).save_checkpoint({"config_hash": "0" * 64})
+    assert verify_run(run).problems == [
+        "checkpoints/state.json has a config_hash that is not run.json's"
+    ]
+    run = _run(tmp_path / "newer")
+    _edit(run / "run.json", lambda info: info["config"].update(added_later=1))
+    assert exit_code(["verify", str(run)]) == 0  # a newer ariel's config: not damage
+    out = capsys.readouterr().out
+    assert "note: run.json's config is not one this ariel reads (" in out
+    assert out.splitlines()[-1].startswith("ok: ")
