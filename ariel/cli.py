@@ -162,12 +162,16 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         from ariel._cli_prune import prune_runs
 
         return prune_runs(folder, yes=args.yes)
+    from ariel.recording._escape import terminal_text
+
     runs = list_runs(folder)
     if not runs:
-        print(f"no runs under {folder}")
+        print(f"no runs under {terminal_text(folder)}")
         return 0
+    for r in runs:  # names from run.json files: no control sequence reaches the terminal
+        r["run_id"], r["status"] = terminal_text(r["run_id"]), terminal_text(r["status"] or "?")
     width = max(len(r["run_id"]) for r in runs)
-    status_width = max(11, *(len(str(r["status"])) for r in runs))
+    status_width = max(11, *(len(r["status"]) for r in runs))
     print(
         f"{'run':<{width}}  {'status':<{status_width}} {'generations':>11} {'evaluations':>11}"
         "  best"
@@ -177,7 +181,7 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         shown = f"{best:.6g}" if isinstance(best, float) and math.isfinite(best) else "-"
         gens = f"{r['generations_done']}/{r['generations']}"
         print(
-            f"{r['run_id']:<{width}}  {r['status'] or '?':<{status_width}} {gens:>11} "
+            f"{r['run_id']:<{width}}  {r['status']:<{status_width}} {gens:>11} "
             f"{r['evaluations']:>11}  {shown}"
         )
     return 0
@@ -341,6 +345,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             replayed.view()
     except (ValueError, RuntimeError, ImportError) as exc:
         return _fail(str(exc).splitlines()[0])
+    except OSError as exc:  # --rrd / --video onto a full disk, a read-only file system, ...
+        from ariel.recording._files import cannot_write
+
+        return _fail(cannot_write(exc))
     close = not replayed.exact and replayed.status == replayed.stored_status
     return 0 if replayed.identical or close else 1
 

@@ -21,7 +21,15 @@ waits on it; the kernel closes the write end when the driver dies, the wait retu
 worker exits at once, in the middle of a call if need be. (A parent-death signal would not do:
 under forkserver the workers' parent is the fork server, not the driver.) Ctrl-C or SIGTERM in
 the driver (a `KeyboardInterrupt` leaving the ``with`` block) kills the workers too, rather
-than waiting for their calls.
+than waiting for their calls, and starts no new ones.
+
+The fork server dying (a SIGKILL, or SIGTERM to the whole process group) is not a worker dying:
+the forkserver's workers look dead to `multiprocessing` (its sentinel is the pipe to the fork
+server), but live on. The pool stops them (by a pidfd: never another process that reused the
+pid) and runs their calls again, not counted as deaths; the next worker starts a new fork
+server. A worker cannot be started even after a few tries: the pool breaks, every future fails
+with ``BrokenProcessPool`` saying so. Nothing here prints a traceback: the driver thread's
+failures go to the futures, and a worker whose driver closed its pipe exits quietly.
 """
 
 from __future__ import annotations
@@ -66,6 +74,12 @@ _STARTED, _DONE, _RETIRING, _BROKEN = b"S", b"D", b"R", b"B"
 _START_SECONDS = 120.0
 # Exit status of a worker whose driver died (no one reads it; for `ps` and tests).
 _ORPHANED_EXIT = 3
+# `multiprocessing`'s exit code for a forkserver worker whose fork server died (not its own).
+_FORKSERVER_GONE = 255
+# A call whose fork server died this often while it ran counts such deaths as its own.
+_MAX_ORPHANED = 3
+# Pauses between tries to start a worker process (a fork server that just died is replaced).
+_START_RETRY_SECONDS = (0.05, 0.5, 2.0)
 #: Exit status of a worker that cannot start at all (EX_CONFIG), e.g. its re-import of the
 #: driver's script refused to go on: the pool fails at once, no call is retried.
 WORKER_CANNOT_START = 78
@@ -129,7 +143,8 @@ def _worker_main(
         try:
             initializer(*initargs)
         except BaseException:
-            conn.send_bytes(_BROKEN + traceback.format_exc().encode(errors="replace"))
+            with contextlib.suppress(OSError):  # the driver may be gone already
+                conn.send_bytes(_BROKEN + traceback.format_exc().encode(errors="replace"))
             return
     calls = 0
     while True:
@@ -155,7 +170,10 @@ def _worker_main(
             )
             message = pickle.dumps((False, error, traceback.format_exc()))
         del value
-        conn.send_bytes((_RETIRING if retiring else _DONE) + message)
+        try:
+            conn.send_bytes((_RETIRING if retiring else _DONE) + message)
+        except OSError:  # the driver closed this pipe (it took this worker for lost): quietly
+            return
         if retiring:
             return
 
@@ -190,6 +208,7 @@ class _Call:
     payload: bytes
     timeout: float | None
     deaths: int = 0
+    orphaned: int = 0  # times its worker's fork server died while it ran (not deaths)
     running: bool = False  # its future is marked running (it was handed to a worker once)
 
 
@@ -202,6 +221,23 @@ class _Worker:
     retiring: bool = False
     killed: str = ""  # why the pool killed it ("timeout", "closed"): not the call's fault
     spoke: bool = False  # it sent a message: it started
+    pidfd: int | None = None  # forkserver workers (not our children): a pidfd to stop it by
+
+
+def _open_pidfd(pid: int | None) -> int | None:
+    """A pidfd for process ``pid`` (Linux 5.3 and later), or None."""
+    opener = getattr(os, "pidfd_open", None)
+    if opener is None or pid is None:
+        return None
+    try:
+        return int(opener(pid))
+    except OSError:
+        return None
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
 
 
 def _settle(call: _Call, data: bytes) -> None:
@@ -258,6 +294,7 @@ class _Driver:
         self.pending: deque[_Call] = deque()
         self.workers: list[_Worker] = []
         self.shutting_down = False
+        self.killing = False  # stopped by a KeyboardInterrupt: no new worker, no retry
         self.broken: str | None = None
         self.broken_error: type[BrokenProcessPool] = BrokenProcessPool  # raised while broken
         self._wake_reader, self._wake_writer = multiprocessing.Pipe(duplex=False)
@@ -276,18 +313,24 @@ class _Driver:
             self._wake_writer.send_bytes(b"!")
 
     def stop(self, *, cancel: bool, kill: bool, wait: bool) -> None:
+        retries: list[_Call] = []
         with self.lock:
             self.shutting_down = True
-            if cancel:  # calls waiting for their first worker; a retry goes on
+            if cancel or kill:  # calls waiting for their first worker; a retry goes on ...
                 for call in self.pending:
                     if not call.running:
                         call.future.cancel()
                 self.pending = deque(call for call in self.pending if call.running)
-            if kill:
+            if kill:  # ... unless the pool is killed: then no worker is started any more
+                self.killing = True
+                retries, self.pending = list(self.pending), deque()
                 for worker in self.workers:
                     worker.killed = "closed"
                     with contextlib.suppress(Exception):
                         worker.process.kill()
+        for call in retries:  # outside the lock: the futures' callbacks may submit
+            if not call.future.done():
+                call.future.set_exception(BrokenProcessPool("the pool was closed during the call"))
         self.wake()
         if wait and self.thread.is_alive() and threading.current_thread() is not self.thread:
             self.thread.join()
@@ -299,8 +342,9 @@ class _Driver:
             while self._step():
                 pass
         except BaseException as exc:  # a bug here must not leave futures waiting forever
-            self._fail_everything(f"the pool's driver thread failed: {exc!r}")
-            raise
+            # Not raised again: the futures carry it (as their cause); a thread's traceback
+            # would only come on top of the one line that the caller makes of them.
+            self._fail_everything(f"the pool's driver thread failed: {exc!r}", cause=exc)
         finally:
             self._close_workers()
 
@@ -341,7 +385,7 @@ class _Driver:
     def _dispatch(self) -> None:
         while True:
             with self.lock:
-                if not self.pending or self.broken is not None:
+                if not self.pending or self.broken is not None or self.killing:
                     return
                 idle = [w for w in self.workers if w.call is None and not w.retiring]
                 if not idle and len(self.workers) >= self.max_workers:
@@ -353,7 +397,14 @@ class _Driver:
                 call.running = True
             try:
                 worker = idle[0] if idle else self._start_worker()
-            except BaseException:  # e.g. no more processes: the pool fails, with this call
+            except Exception as exc:  # e.g. no more processes: the pool fails, with this call
+                with self.lock:
+                    self.pending.appendleft(call)
+                self._fail_everything(
+                    f"a worker process could not be started: {_one_line(exc)}", cause=exc
+                )
+                return
+            except BaseException:
                 with self.lock:
                     self.pending.appendleft(call)
                 raise
@@ -369,8 +420,20 @@ class _Driver:
                 worker.deadline = time.monotonic() + _START_SECONDS + call.timeout
 
     def _start_worker(self) -> _Worker:
+        """A new worker process; tried again a few times when starting it fails for a reason
+        that may pass (an OS error, e.g. the fork server died just now: the next try starts
+        a new one)."""
+        for pause in _START_RETRY_SECONDS:
+            try:
+                return self._try_start_worker()
+            except (OSError, EOFError):
+                time.sleep(pause)
+        return self._try_start_worker()
+
+    def _try_start_worker(self) -> _Worker:
         mine, theirs = self.context.Pipe(duplex=True)
-        forked = self.context.get_start_method() == "fork"
+        method = self.context.get_start_method()
+        forked = method == "fork"
         process = self.context.Process(
             target=_worker_main,
             args=(
@@ -385,12 +448,22 @@ class _Driver:
         )
         # The thread limits must be in the environment the process starts with: BLAS reads them
         # when numpy is first imported, which spawn/forkserver may do before the initializer.
-        with temporary_environ(self.worker_env):
-            process.start()
-        theirs.close()
-        worker = _Worker(process, mine)
+        try:
+            with temporary_environ(self.worker_env):
+                process.start()
+        except BaseException:
+            mine.close()
+            raise
+        finally:
+            theirs.close()
+        pidfd = _open_pidfd(process.pid) if method == "forkserver" else None
+        worker = _Worker(process, mine, pidfd=pidfd)
         with self.lock:
             self.workers.append(worker)
+            if self.killing:  # the pool was killed while this one started
+                worker.killed = "closed"
+                with contextlib.suppress(Exception):
+                    process.kill()
         return worker
 
     def _read(self, worker: _Worker, finished: list[tuple[_Call, bytes]]) -> bool:
@@ -422,11 +495,13 @@ class _Driver:
         return True
 
     def _lost(self, worker: _Worker) -> None:
-        """A worker process ended (or its pipe broke): retry or fail its call; forget it."""
+        """A worker process ended (or its pipe broke, or its fork server died): retry or fail
+        its call; forget it."""
         with contextlib.suppress(Exception):
             if worker.process.is_alive():
                 worker.process.kill()
         worker.process.join(timeout=10)
+        orphaned = self._stop_orphan(worker)
         with self.lock:
             if worker in self.workers:
                 self.workers.remove(worker)
@@ -445,6 +520,15 @@ class _Driver:
             if not call.future.done():
                 call.future.set_exception(BrokenProcessPool("the pool was closed during the call"))
             return
+        if orphaned and call.orphaned < _MAX_ORPHANED:  # not the call's fault: not a death
+            call.orphaned += 1
+            with self.lock:
+                if not self.killing:
+                    self.pending.appendleft(call)
+                    return
+            if not call.future.done():
+                call.future.set_exception(BrokenProcessPool("the pool was closed during the call"))
+            return
         call.deaths += 1
         how = _ended_how(worker.process.exitcode)
         if call.deaths > self.max_retries:
@@ -454,7 +538,28 @@ class _Driver:
             )
             return
         with self.lock:
-            self.pending.appendleft(call)  # next in line, on a fresh worker
+            if not self.killing:
+                self.pending.appendleft(call)  # next in line, on a fresh worker
+                return
+        if not call.future.done():
+            call.future.set_exception(BrokenProcessPool("the pool was closed during the call"))
+
+    @staticmethod
+    def _stop_orphan(worker: _Worker) -> bool:
+        """Whether the worker lives on although its fork server died (see the module
+        docstring); if so, stop it. Closes the worker's pidfd."""
+        pidfd, worker.pidfd = worker.pidfd, None
+        if pidfd is None:
+            return False
+        try:
+            if worker.process.exitcode != _FORKSERVER_GONE:
+                return False
+            signal.pidfd_send_signal(pidfd, signal.SIGKILL)
+        except OSError:  # it has ended (ProcessLookupError), or no pidfd_send_signal
+            return False
+        finally:
+            os.close(pidfd)
+        return True
 
     def _time_out(self, worker: _Worker) -> None:
         call = worker.call
@@ -468,7 +573,11 @@ class _Driver:
         )
 
     def _fail_everything(
-        self, reason: str, error: type[BrokenProcessPool] = BrokenProcessPool
+        self,
+        reason: str,
+        error: type[BrokenProcessPool] = BrokenProcessPool,
+        *,
+        cause: BaseException | None = None,
     ) -> None:
         with self.lock:
             self.broken, self.broken_error = reason, error
@@ -481,7 +590,9 @@ class _Driver:
             if not call.running and not call.future.set_running_or_notify_cancel():
                 continue  # cancelled
             if not call.future.done():
-                call.future.set_exception(error(reason))
+                failure = error(reason)
+                failure.__cause__ = cause
+                call.future.set_exception(failure)
 
     def _close_workers(self) -> None:
         with self.lock:
@@ -495,6 +606,7 @@ class _Driver:
             if worker.process.is_alive():
                 worker.process.kill()
                 worker.process.join()
+            self._stop_orphan(worker)
             worker.conn.close()
         self._wake_reader.close()
         self._lifeline.close()

@@ -22,11 +22,13 @@ import concurrent.futures as cf
 import contextlib
 import functools
 import logging
+import math
 import multiprocessing
 import os
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -45,6 +47,7 @@ __all__ = [
     "DEFAULT_MAX_RETRIES",
     "EVAL_THREADS_VARIABLE",
     "EXECUTOR_KINDS",
+    "NO_WORKER_TIMEOUT_VARIABLE",
     "THREAD_LIMIT_VARIABLES",
     "BatchExecutor",
     "CallTimeoutError",
@@ -75,6 +78,16 @@ EXECUTOR_KINDS: tuple[str, ...] = ("serial", "local", "dask", "gpu")
 DEFAULT_MAX_RETRIES = 2
 
 _DASK_MISSING = "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
+
+#: Seconds a Dask run waits with no worker at all before it stops (resumable): on a
+#: ``LocalCluster`` (its workers were killed, or could not start again) and on a scheduler you
+#: run (its workers may wait in a batch queue). The variable `NO_WORKER_TIMEOUT_VARIABLE`
+#: overrides both; ``no_worker_timeout=`` of `make_executor` overrides that.
+NO_WORKER_TIMEOUT_LOCAL = 60.0
+NO_WORKER_TIMEOUT_SCHEDULER = 3600.0
+NO_WORKER_TIMEOUT_VARIABLE = "ARIEL_NO_WORKER_TIMEOUT"
+#: While it waits for a worker, a Dask run says so on stderr this often (seconds).
+NO_WORKER_NOTE_SECONDS = 120.0
 
 
 def _is_count(value: object) -> bool:
@@ -116,6 +129,17 @@ class BatchExecutor:
     @property
     def capacity(self) -> int:
         return 1
+
+    @property
+    def watch_seconds(self) -> float | None:
+        """How often the scheduler asks `stalled` while it waits for results (None: never)."""
+        return None
+
+    def stalled(self) -> str | None:
+        """Why this executor cannot go on, in one line (e.g. no Dask worker for a minute), or
+        None. The scheduler asks every `watch_seconds` while it waits, and stops the run
+        (`ariel.utils.interrupts.Stopped`, resumable) on a reason. May print a note meanwhile."""
+        return None
 
     def submit_batch(self, tasks: list[Any], *, timeout: float | None = None) -> cf.Future[Any]:
         """Evaluate ``tasks`` (`ariel.evaluation.evaluate_batch`) within ``timeout`` seconds
@@ -290,12 +314,27 @@ class DaskExecutor(BatchExecutor, cf.Executor):
         cluster: the ``LocalCluster`` this executor started, or None.
     """
 
-    def __init__(self, client: Client, *, cluster: Any = None, close_client: bool = True) -> None:
+    def __init__(
+        self,
+        client: Client,
+        *,
+        cluster: Any = None,
+        close_client: bool = True,
+        no_worker_timeout: float | None = None,
+    ) -> None:
+        default = NO_WORKER_TIMEOUT_LOCAL if cluster is not None else NO_WORKER_TIMEOUT_SCHEDULER
+        #: Seconds with no worker at all before `stalled` gives a reason (see
+        #: `NO_WORKER_TIMEOUT_LOCAL`); ``math.inf``: wait for ever, with notes.
+        self.no_worker_timeout = _no_worker_timeout(no_worker_timeout, default)
+        #: Seconds between the notes on stderr while no worker is there.
+        self.note_every = NO_WORKER_NOTE_SECONDS
         self.client = client
         self.cluster = cluster
         self._close_client = close_client
         self._executor = client.get_executor(pure=False)
         self._closed = False
+        self._none_since: float | None = None  # when `stalled` first saw no worker
+        self._notes = 0
 
     kind = "dask"
 
@@ -306,6 +345,49 @@ class DaskExecutor(BatchExecutor, cf.Executor):
             return max(1, sum(self.client.nthreads().values()))
         except Exception:  # a scheduler that is gone or slow: still send work, one call
             return 1
+
+    @property
+    def watch_seconds(self) -> float | None:
+        return max(0.05, min(5.0, self.no_worker_timeout / 10, self.note_every / 10))
+
+    def stalled(self) -> str | None:
+        """A reason once the cluster has had no worker for `no_worker_timeout` seconds (its
+        tasks would wait for ever); before that, every `note_every` seconds without one, a
+        note on stderr (a batch queue may be slow to start workers). None while workers are
+        there."""
+        trouble = ""
+        try:
+            count = len(self.client.nthreads())
+        except Exception as exc:  # the scheduler is gone or does not answer: no worker either
+            count, trouble = 0, f"the Dask scheduler does not answer ({type(exc).__name__})"
+        now = time.monotonic()
+        if count:
+            self._none_since, self._notes = None, 0
+            return None
+        if self._none_since is None:
+            self._none_since = now
+        waited = now - self._none_since
+        if waited >= self.no_worker_timeout:
+            if not trouble:
+                address = getattr(self.client.scheduler, "address", None)
+                trouble = (
+                    "the local Dask cluster has lost all its workers (killed, or they could "
+                    "not start again)"
+                    if self.cluster is not None
+                    else f"none is connected to the Dask scheduler {address}"
+                )
+            return f"no Dask worker for {_duration(self.no_worker_timeout)}: {trouble}"
+        if waited >= (self._notes + 1) * self.note_every:
+            self._notes += 1
+            limit = self.no_worker_timeout
+            until = "" if math.isinf(limit) else f"; the run stops after {_duration(limit)}"
+            why = f" ({trouble})" if trouble else ""
+            print(
+                f"waiting for Dask workers: 0 connected for {_duration(waited)}{why}{until}",
+                file=sys.stderr,
+                flush=True,
+            )
+        return None
 
     def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
         return self._executor.submit(fn, *args, **kwargs)
@@ -343,9 +425,49 @@ class DaskExecutor(BatchExecutor, cf.Executor):
                 if self.cluster is not None:
                     self.cluster.close()
 
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> bool | None:
+        if exc_type is not None and not issubclass(exc_type, Exception):
+            # Ctrl-C, SIGTERM, a stopped run (`KeyboardInterrupt`): cancel, do not wait for
+            # tasks that may never run (no worker left).
+            self.shutdown(wait=False, cancel_futures=True)
+            return None
+        return super().__exit__(exc_type, exc, tb)
+
     def __repr__(self) -> str:
         address = getattr(self.client.scheduler, "address", None)
         return f"DaskExecutor(scheduler={address!r}, closed={self._closed})"
+
+
+def _duration(seconds: float) -> str:
+    """``45 s``, ``2 min``, ``1.5 h``: a wait as people say it."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _no_worker_timeout(given: float | None, default: float) -> float:
+    """`DaskExecutor.no_worker_timeout`: ``given``, else `NO_WORKER_TIMEOUT_VARIABLE`, else
+    ``default``; a number of seconds > 0 (``inf``: wait for ever)."""
+    from ariel.errors import ConfigError
+
+    where, value = "no_worker_timeout", given
+    if value is None:
+        text = os.environ.get(NO_WORKER_TIMEOUT_VARIABLE, "").strip()
+        if not text:
+            return default
+        where = NO_WORKER_TIMEOUT_VARIABLE
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise ConfigError(
+            f"{where}: seconds to wait for a Dask worker must be a number > 0 or inf "
+            f"(got {value if where != NO_WORKER_TIMEOUT_VARIABLE else text!r})"
+        )
+    return float(value)
 
 
 @contextlib.contextmanager
@@ -372,6 +494,7 @@ def _make_dask(
     *,
     max_retries: int | None = None,
     blas_threads: int = 1,
+    no_worker_timeout: float | None = None,
     **cluster_options: Any,
 ) -> DaskExecutor:
     try:
@@ -414,6 +537,7 @@ def _make_dask(
                 **(cluster_options.get("scheduler_kwargs") or {}),
             }
         settings.update(cluster_options)
+        limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_LOCAL)  # before starting
         with _workers_ignore_sigint():
             cluster = LocalCluster(**settings)
         try:
@@ -421,7 +545,7 @@ def _make_dask(
         except BaseException:
             cluster.close()
             raise
-        return DaskExecutor(client, cluster=cluster)
+        return DaskExecutor(client, cluster=cluster, no_worker_timeout=limit)
     if workers is not None:
         raise ValueError(
             "workers= sizes a LocalCluster; with scheduler= the cluster's own workers are used "
@@ -433,10 +557,11 @@ def _make_dask(
             f"options {given} are for a LocalCluster; they cannot be used with scheduler= "
             "(a scheduler's retries are its distributed.scheduler.allowed-failures setting)"
         )
-    if isinstance(scheduler, Client):
-        return DaskExecutor(scheduler, close_client=False)  # the caller owns it
+    limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_SCHEDULER)
+    if isinstance(scheduler, Client):  # the caller owns it
+        return DaskExecutor(scheduler, close_client=False, no_worker_timeout=limit)
     # An address such as "tcp://host:8786", or a cluster object (e.g. a SLURMCluster).
-    return DaskExecutor(Client(scheduler))
+    return DaskExecutor(Client(scheduler), no_worker_timeout=limit)
 
 
 # --------------------------------------------------------------------------------------------
@@ -543,8 +668,10 @@ def make_executor(
             for ``local``, Dask's ``allowed-failures`` setting for Dask); then its future
             fails (`WorkerLostError`, Dask's ``KilledWorker``). Not for ``serial`` (it runs here).
         **options: ``blas_threads`` (default 1, for ``local`` and ``dask``); for ``local`` also
-            ``mp_context``, ``initializer``, ``initargs``, ``max_tasks_per_child``; for a Dask
-            ``LocalCluster`` any of its keyword arguments.
+            ``mp_context``, ``initializer``, ``initargs``, ``max_tasks_per_child``; for
+            ``dask`` ``no_worker_timeout`` (seconds with no worker before a run stops, see
+            `NO_WORKER_TIMEOUT_LOCAL`), and for a Dask ``LocalCluster`` any of its keyword
+            arguments.
     """
     if not isinstance(kind, str):  # a config's [executor] section
         return make_executor(kind.kind, **settings_options(kind))

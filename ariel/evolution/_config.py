@@ -19,6 +19,7 @@ from typing import Annotated, Any, Literal
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Strict, ValidationError
 
 from ariel.errors import ConfigError
+from ariel.evolution._toml import read_toml_file
 
 __all__ = [
     "BodyConfig",
@@ -344,13 +345,7 @@ def load_config(
             return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
         if not path.is_file():  # never opened: reading a FIFO would wait forever
             raise ConfigError(f"config file {str(path)!r} {_not_a_file(path)}")
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{path}: malformed TOML: {exc}") from None
-        except UnicodeDecodeError:
-            raise ConfigError(f"{path}: not a UTF-8 text file") from None
-        data = _genotype_file_beside(data, path)
+        data = _genotype_file_beside(read_toml_file(path), path)
     return _validate(apply_overrides(data, overrides))
 
 

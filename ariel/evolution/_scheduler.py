@@ -9,6 +9,13 @@ out, or raised) is tried again one task at a time, so only the task that keeps f
 lost to its worker, it gets an ``error`` result with the worst fitness and the reason; raising
 (a plugin's fault), it stops the run with the error its work makes of it.
 
+An executor that can tell that it will never give results (a Dask cluster with no worker left,
+`BatchExecutor.stalled`) is asked every ``watch_seconds`` while results are awaited; on its
+reason the run stops (`ariel.utils.interrupts.Stopped`: as an interrupt, resumable; the line
+names the generation that the pieces of work in flight give as ``generation``, if any). A pool
+that broke as a whole (``BrokenExecutor``: its workers cannot be started) stops the run with
+the error its work makes of it, without trying its tasks one by one.
+
 A group is a generator: it yields a list of work, the scheduler runs that work to the end,
 and the generator goes on (writes the generation, makes the next one) and yields the next
 list, until it returns. Nothing here knows what a body, a brain or a generation is; the order
@@ -19,6 +26,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import math
+import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -75,13 +83,20 @@ class Scheduler:
         from ariel.utils.interrupts import raise_pending
 
         groups = list(groups)
+        watch = getattr(self.executor, "watch_seconds", None)
+        checked = time.monotonic()
         try:
             for index in range(len(groups)):
                 self._advance(groups, index)
             while self._in_flight:
                 raise_pending()  # a Ctrl-C whose KeyboardInterrupt got lost: ariel.utils.interrupts
-                done, _ = cf.wait(list(self._in_flight), return_when=cf.FIRST_COMPLETED)
+                done, _ = cf.wait(
+                    list(self._in_flight), timeout=watch, return_when=cf.FIRST_COMPLETED
+                )
                 raise_pending()
+                if watch is not None and time.monotonic() - checked >= watch:
+                    self._check_stalled()
+                    checked = time.monotonic()
                 for future in done:
                     batch, part = self._in_flight.pop(future)
                     if self._collect(batch, part, future):
@@ -91,6 +106,26 @@ class Scheduler:
                 future.cancel()
             self._in_flight.clear()
             raise
+
+    def _check_stalled(self) -> None:
+        """Stop the run (`Stopped`) when the executor says it will give no more results."""
+        from ariel.utils.interrupts import Stopped
+
+        reason = self.executor.stalled()
+        if not reason:
+            return
+        generations = sorted(
+            {
+                generation
+                for batch, _ in self._in_flight.values()
+                if isinstance(generation := getattr(batch.work, "generation", None), int)
+            }
+        )
+        if len(generations) == 1:
+            reason += f"; the run stopped at generation {generations[0]}"
+        elif generations:
+            reason += f"; the runs stopped at generations {generations[0]} to {generations[-1]}"
+        raise Stopped(reason)
 
     # -- groups and work -----------------------------------------------------------------------
 
@@ -137,7 +172,10 @@ class Scheduler:
         chunk = [batch.tasks[i] for i in part]
         # A call of k evaluations may take k times one evaluation's timeout.
         timeout = None if self.timeout is None else self.timeout * len(chunk)
-        future = self.executor.submit_batch(chunk, timeout=timeout)
+        try:
+            future = self.executor.submit_batch(chunk, timeout=timeout)
+        except cf.BrokenExecutor as exc:  # the pool broke (e.g. no worker can start)
+            raise batch.work.task_error(chunk[0], exc) from exc
         self._in_flight[future] = (batch, part)
 
     def _collect(self, batch: _Batch, part: np.ndarray, future: cf.Future) -> bool:
@@ -146,6 +184,8 @@ class Scheduler:
 
         try:
             results = future.result()
+        except cf.BrokenExecutor as exc:  # the pool, not this chunk: one at a time cannot help
+            raise batch.work.task_error(batch.tasks[part[0]], exc) from exc
         except Exception as exc:
             if len(part) > 1:  # one at a time: the bad one fails, the rest finish
                 batch.left += len(part) - 1

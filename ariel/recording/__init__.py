@@ -43,6 +43,10 @@ _LAZY: dict[str, str] = {
     "write_generation_recording": "ariel.recording._generation_rrd",
     "load_exported": "ariel.recording._exported",
     "ExportedRobot": "ariel.recording._exported",
+    # The figures' conventions (units in labels, whole-number ticks), for notebooks.
+    "DESCRIPTORS": "ariel.recording._axes",
+    "fitness_label": "ariel.recording._axes",
+    "integer_ticks": "ariel.recording._axes",
 }
 
 __all__ = sorted(_LAZY)

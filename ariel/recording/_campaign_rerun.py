@@ -1,6 +1,11 @@
 """``campaign.rrd``: every run's best-so-far fitness on an ``evaluations`` timeline, at
 ``/condition/<name>/seed/<n>``, and ``campaign.rbl``: one time series view per condition.
 
+Rerun's time series views have no axis titles, so each view's title says what its axes are
+("best fitness so far (m) over evaluations"). Every series of a condition is named after the
+condition, so a legend lists each condition once (the viewer merges series of one name); it
+sits in the corner the best-so-far curves leave empty, and views of one condition have none.
+
 Written whole (chunks, no `RecordingStream`), like `write_run_recording`; application id
 ``ariel``, recording id the campaign id.
 """
@@ -9,6 +14,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -50,29 +56,64 @@ def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
         if not keep.any():
             continue
         entity = f"/condition/{condition}/seed/{seed}"
-        style = rr.SeriesLines(names=[f"{condition} seed {seed}"], colors=[colours[condition]])
+        # Named after the condition only: the legend then lists each condition once.
+        style = rr.SeriesLines(names=[condition], colors=[colours[condition]])
         chunks.append(_static(entity, style))
         index = [rr.TimeColumn("evaluations", sequence=x[keep])]
         chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=best[keep])))
     path = Path(campaign.path) / CAMPAIGN_RRD
     _write_chunks(path, str(campaign.info.get("campaign_id", "campaign")), chunks, fsync=True)
-    write_campaign_blueprint(Path(campaign.path) / CAMPAIGN_BLUEPRINT, campaign.path)
+    write_campaign_blueprint(
+        Path(campaign.path) / CAMPAIGN_BLUEPRINT,
+        campaign.path,
+        fitness_unit=_fitness_unit(campaign),
+        maximise=campaign.maximise,
+    )
     return path
 
 
+def _fitness_unit(campaign: Any) -> str | None:
+    """The unit of the campaign's fitness function (its first run's), None where unknown."""
+    from ariel.recording._axes import fitness_unit
+
+    for run in campaign.runs.values():
+        name = run.config.get("task", {}).get("fitness")
+        return fitness_unit(name) if isinstance(name, str) and name else None
+    return None
+
+
 def write_campaign_blueprint(
-    path: Path, campaign_dir: str | os.PathLike[str], *, panels: bool = True
+    path: Path,
+    campaign_dir: str | os.PathLike[str],
+    *,
+    panels: bool = True,
+    fitness_unit: str | None = None,
+    maximise: bool | None = None,
 ) -> Path:
-    """The campaign's layout: every run's curve in one view, then one view per condition
-    (``panels=False``: the side panels collapsed, for pictures)."""
-    from ariel.recording._campaign import read_campaign_info
+    """The campaign's layout: every run's curve in one view, with a legend of the conditions
+    in the corner its curves leave empty (top left where fitness is maximised, bottom left
+    where minimised), then one view per condition, without legend; each view's title names
+    its axes, with the fitness function's unit. ``fitness_unit`` and ``maximise``: read from
+    the campaign's runs when not given. ``panels=False``: the side panels collapsed, for
+    pictures."""
+    from ariel.recording._campaign import load_campaign, read_campaign_info
 
     conditions = [c["name"] for c in read_campaign_info(campaign_dir).get("conditions", [])]
+    if fitness_unit is None or maximise is None:
+        campaign = load_campaign(campaign_dir)
+        fitness_unit = _fitness_unit(campaign) if fitness_unit is None else fitness_unit
+        maximise = campaign.maximise if maximise is None else maximise
     rrb = _rr().blueprint
+    axes = f"best fitness so far{f' ({fitness_unit})' if fitness_unit else ''} over evaluations"
     views = [
-        rrb.TimeSeriesView(name=f"best so far: {name}", origin=f"/condition/{name}")
+        rrb.TimeSeriesView(
+            name=f"{name}: {axes}",
+            origin=f"/condition/{name}",
+            plot_legend=rrb.PlotLegend(visible=False),
+        )
         for name in conditions
     ]
+    corner = rrb.Corner2D.LeftTop if maximise else rrb.Corner2D.LeftBottom
     side = (
         []
         if panels
@@ -84,7 +125,11 @@ def write_campaign_blueprint(
     )
     layout = rrb.Blueprint(
         rrb.Vertical(
-            rrb.TimeSeriesView(name="best so far: every run", origin="/condition"),
+            rrb.TimeSeriesView(
+                name=f"every run: {axes}",
+                origin="/condition",
+                plot_legend=rrb.PlotLegend(corner=corner),
+            ),
             rrb.Grid(*views),
             row_shares=[1, 1],
         ),

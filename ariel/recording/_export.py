@@ -20,7 +20,9 @@ never through a link (`_files.atomic_write`).
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -75,14 +77,14 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     `MissingPluginError` when a plugin the body or world needs is not installed here.
     """
     from ariel.evaluation._engine import SPAWN_PREFIX
-    from ariel.recording._files import atomic_write
     from ariel.recording._ids import check_eval_id, check_run_id
     from ariel.recording._load import load_run
-    from ariel.recording._replay import _find_row, _require_plugins, replay_task
+    from ariel.recording._replay import _find_row, _require_plugins, cell_json, replay_task
 
     out = Path(out)
     if out.is_symlink():
         raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
+    _check_way(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ExportError(f"{out}: exists and is not an empty folder; name a new one")
     run = load_run(run_dir)
@@ -95,12 +97,12 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
             f"built ({row.get('error') or 'build error'})"
         )
     _require_plugins(run)
-    task = replay_task(run, row)
+    task = replay_task(run, row, check_params=True)
     xml = _world_spec(task).to_xml()
     genotype = {  # as the run's encoder sees it (the task may ship the decoded graph instead)
         "body_encoder": str(row["body_encoder"]),
         "options": run.config.get("body", {}).get("options", {}),
-        "genotype": json.loads(row["body_genotype"]),
+        "genotype": cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"]),
     }
     brain = {
         "run_id": run_id,
@@ -130,11 +132,48 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
         "controller.json": json.dumps(brain, indent=1) + "\n",
         "replay.py": script,
     }
-    out.mkdir(parents=True, exist_ok=True)
-    for name, text in texts.items():
-        data = text.encode("utf-8")
-        atomic_write(out / name, lambda temporary, data=data: temporary.write_bytes(data), root=out)
+    _write(out, texts)
     return out
+
+
+def _check_way(out: Path) -> None:
+    """`ExportError` where a folder on the way to ``out`` cannot be one: a symbolic link that
+    leads nowhere (dangling, or a loop), or a file."""
+    for folder in [*reversed(out.parents), out]:
+        if folder.is_symlink() and not folder.exists():
+            raise ExportError(
+                f"cannot make the folder {str(out)!r}: {str(folder)!r} is a symbolic link to "
+                f"{os.readlink(folder)!r}, which is no folder; name another folder"
+            )
+        if folder != out and folder.exists() and not folder.is_dir():
+            raise ExportError(
+                f"cannot make the folder {str(out)!r}: {str(folder)!r} is not a folder"
+            )
+
+
+def _write(out: Path, texts: dict[str, str]) -> None:
+    """Make ``out`` and write ``texts`` (file name -> text) into it, each whole; on a failed
+    write (disk full, read-only, no permission) the files written are removed again (and
+    ``out``, when made here), and `ExportError` names the file and why."""
+    from ariel.recording._files import atomic_write, cannot_write
+
+    made = not out.exists()
+    written: list[Path] = []
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for name, text in texts.items():
+            data = text.encode("utf-8")
+            path = out / name
+            atomic_write(path, lambda temporary, data=data: temporary.write_bytes(data), root=out)
+            written.append(path)
+    except OSError as exc:
+        for path in written:  # no half export: all its files or none
+            with contextlib.suppress(OSError):
+                path.unlink()
+        if made:
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise ExportError(f"{cannot_write(exc, out)}; nothing was exported") from exc
 
 
 def _recorded_core(run: Any, row: dict[str, Any]) -> list[float] | None:

@@ -13,7 +13,6 @@ otherwise).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -116,6 +115,25 @@ class _Frames:
         return float(self.function(record, **self.options))
 
 
+def _read(folder: Path, name: str) -> dict[str, Any]:
+    """The JSON object in ``folder``/``name``, read with the guarded parser (`json_data`: none
+    nested out of stack); `DamagedRunError`, one line, for one missing or unreadable."""
+    from ariel.errors import DamagedRunError
+    from ariel.recording._run_folder import json_data
+
+    try:
+        data = json_data((folder / name).read_bytes())
+    except (OSError, ValueError) as exc:
+        problem = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+    else:
+        if isinstance(data, dict):
+            return data
+        problem = "not a JSON object"
+    raise DamagedRunError(
+        f"{str(folder)!r} is not a readable `ariel export` folder: {name}: {problem}"
+    )
+
+
 def load_exported(folder: str | Path) -> ExportedRobot:
     """The exported evaluation in ``folder`` (``genotype.json``, ``controller.json``)."""
     import mujoco
@@ -129,8 +147,7 @@ def load_exported(folder: str | Path) -> ExportedRobot:
     from ariel.simulation.settle import settle_model
 
     folder = Path(folder)
-    body = json.loads((folder / "genotype.json").read_text(encoding="utf-8"))
-    brain = json.loads((folder / "controller.json").read_text(encoding="utf-8"))
+    body, brain = (_read(folder, name) for name in ("genotype.json", "controller.json"))
     eval_id = check_eval_id(brain.get("eval_id"), folder)
     run_id = check_run_id(brain.get("run_id"), folder)
     encoder = body_encoders.make(body["body_encoder"], **body["options"])

@@ -30,6 +30,7 @@ __all__ = [
     "atomic_write",
     "atomic_write_bytes",
     "atomic_write_json",
+    "cannot_write",
     "damaged",
     "json_text",
     "refuse_symlinks",
@@ -145,6 +146,19 @@ def atomic_write(
         raise
     if fsync:
         _fsync_dir(path.parent)
+
+
+def cannot_write(exc: OSError, path: str | os.PathLike[str] | None = None) -> str:
+    """``cannot write 'FILE': REASON``, one line, for a write that failed with ``exc`` (disk
+    full, read-only file system, no permission, ...): the file the error names (for a
+    temporary, the file it stands for), else ``path``; the reason from its errno."""
+    name = exc.filename if exc.filename is not None else path
+    if name is None:
+        return f"cannot write: {exc.strerror or exc}"
+    shown = Path(os.fsdecode(name))
+    shown = written_path(shown) or shown
+    reason = os.strerror(exc.errno) if exc.errno else (exc.strerror or type(exc).__name__)
+    return f"cannot write {str(shown)!r}: {reason}"
 
 
 def require_free_space(folder: Path, needed: int) -> None:

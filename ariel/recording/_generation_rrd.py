@@ -10,7 +10,8 @@ evaluation after another. Per step:
 * ``/world/trajectory``: the core's path, a `LineStrips3D`;
 * ``/joints/target`` and ``/joints/angle``: one `LineStrips2D` per joint, x = simulated
   seconds, y = rad, labelled with the joint's name (the same joint the same colour in both);
-* ``/graph``: the morphology, `GraphNodes` coloured by module type and directed `GraphEdges`.
+* ``/graph``: the morphology, `GraphNodes` coloured by module type, drawn as a tree from the
+  core down, and directed `GraphEdges`.
 
 Why one recording and not one per evaluation: a Rerun 0.41 recording costs at least 10-17 kB
 whatever it holds (its footer's manifest and every chunk's Arrow schema, about 2 kB a chunk),
@@ -139,17 +140,20 @@ def _joint_labels(names: tuple[str, ...], graph_json: str | None, joints: int) -
 
 
 @lru_cache(maxsize=64)
-def _drawing(graph_json: str | None) -> tuple[list[str], list[str], list[Any], list[Any]]:
-    """A morphology's node ids, labels, colours and edges (cached as `_joint_labels`)."""
+def _drawing(
+    graph_json: str | None,
+) -> tuple[list[str], list[str], list[Any], list[Any], list[tuple[float, float]]]:
+    """A morphology's node ids, labels, colours, edges and positions (a tree drawn top-down,
+    `tree_positions`; cached as `_joint_labels`)."""
     from ariel.recording._joint_names import module_labels
-    from ariel.recording._rerun import _OTHER_COLOUR, _graph_parts, module_colours
+    from ariel.recording._rerun import _graph_parts, graph_colour, tree_positions
 
     if not graph_json:
-        return [], [], [], []
+        return [], [], [], [], []
     ids, types, edges = _graph_parts(graph_json)
-    palette = module_colours()
-    colours = [palette.get(t, _OTHER_COLOUR) for t in types]
-    return ids, module_labels(ids, types, graph_json), colours, edges
+    colours = [graph_colour(t) for t in types]
+    labels = module_labels(ids, types, graph_json)
+    return ids, labels, colours, edges, tree_positions(ids, edges)
 
 
 def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
@@ -157,16 +161,23 @@ def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
     from ariel.recording._rerun import _rr
 
     rr = _rr()
-    ids, labels, colours, edges, node_counts, edge_counts = [], [], [], [], [], []
+    ids, labels, colours, edges, positions = [], [], [], [], []
+    node_counts, edge_counts = [], []
     for trace in traces:
-        node_ids, node_labels, node_colours, links = _drawing(trace.graph_json)
+        node_ids, node_labels, node_colours, links, places = _drawing(trace.graph_json)
         ids += node_ids
         labels += node_labels
         colours += node_colours
         edges += links
+        positions += places
         node_counts.append(len(node_ids))
         edge_counts.append(len(links))
-    nodes = rr.GraphNodes.columns(node_ids=ids, labels=labels, colors=colours)
+    nodes = rr.GraphNodes.columns(
+        node_ids=ids,
+        labels=labels,
+        colors=colours,
+        positions=np.asarray(positions, dtype=np.float32).reshape(-1, 2),
+    )
     return [
         *nodes.partition(node_counts),
         *rr.GraphEdges.columns(edges=edges).partition(edge_counts),
@@ -249,7 +260,8 @@ def generation_blueprint(*, panels: bool = True) -> Any:
             ),
             row_shares=[3, 2],
         ),
-        rrb.TimePanel(timeline="evaluation"),
+        # Its own state, else the time panel stays open whatever collapse_panels says.
+        rrb.TimePanel(timeline="evaluation", **({} if panels else {"state": "collapsed"})),
         collapse_panels=not panels,
     )
 

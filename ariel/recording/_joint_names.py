@@ -21,12 +21,12 @@ suffix: "fl leg". Should two labels still be equal, those two keep their names w
 prefix.
 
 Used by ``ariel report`` (joints.png), the Rerun recordings' joint series and graphs
-(`module_labels`: a hinge node carries its joint's label) and the analysis notebooks.
+(`module_labels`: a hinge node carries its joint's label, shortened to "right 1") and the
+analysis notebooks.
 """
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -60,7 +60,9 @@ def _tree(graph: Any) -> Any:
 
     try:
         if isinstance(graph, str | bytes):
-            graph = json.loads(graph)
+            from ariel.recording._run_folder import json_data
+
+            graph = json_data(graph)  # guarded: a table's cell nested out of stack is refused
         if isinstance(graph, Mapping):
             edges = "links" if "edges" not in graph and "links" in graph else "edges"
             data = {**graph, "directed": True, "multigraph": False}
@@ -71,8 +73,9 @@ def _tree(graph: Any) -> Any:
         return None
 
 
-def _hinge_places(tree: Any) -> dict[tuple[int, int, int], str]:
-    """(parent, hinge, face value) -> "right branch, hinge 1" for every hinge of ``tree``."""
+def _hinge_places(tree: Any) -> dict[tuple[int, int, int], tuple[str, int]]:
+    """(parent, hinge, face value) -> (branch, number): ("right", 1) for every hinge of
+    ``tree``."""
     from ariel.body_phenotypes.robogen_lite.config import IDX_OF_CORE, ModuleType
 
     branch_of: dict[int, str] = {}
@@ -86,7 +89,7 @@ def _hinge_places(tree: Any) -> dict[tuple[int, int, int], str]:
         if tree.types[node] is ModuleType.HINGE:
             branch = branch_of[node]
             counted[branch] = counted.get(branch, 0) + 1
-            places[(parent, node, face.value)] = f"{branch} branch, hinge {counted[branch]}"
+            places[(parent, node, face.value)] = (branch, counted[branch])
     return places
 
 
@@ -107,7 +110,8 @@ def joint_labels(names: Sequence[str], graph: Any = None) -> list[str]:
             labels.append(_plain(name))
             continue
         parent, hinge, face = (int(group) for group in found.groups())
-        labels.append(places.get((parent, hinge, face), f"hinge module {hinge}"))
+        place = places.get((parent, hinge, face))
+        labels.append(f"{place[0]} branch, hinge {place[1]}" if place else f"hinge module {hinge}")
     seen: dict[str, int] = {}
     for label in labels:
         seen[label] = seen.get(label, 0) + 1
@@ -118,14 +122,16 @@ def joint_labels(names: Sequence[str], graph: Any = None) -> list[str]:
 
 
 def module_labels(node_ids: Sequence[str], types: Sequence[str], graph: Any) -> list[str]:
-    """Labels of a body's modules for its graph drawings: a hinge as its joint's label
-    ("right branch, hinge 1", so the graph and the joint legends agree), any other module by
-    type and id ("brick 6", "core 0"). ``node_ids`` and ``types`` (CORE, BRICK, HINGE) as
-    the graph lists them; ``graph``: the same graph (node-link JSON or its dict)."""
+    """Short labels of a body's modules for its graph drawings, legible in a small view: a
+    hinge by its branch and number ("right 1": the joint legends' "right branch, hinge 1"),
+    any other module by its type alone ("core", "brick"; the colour says it too, and module
+    ids mean nothing to a reader). ``node_ids`` and ``types`` (CORE, BRICK, HINGE) as the
+    graph lists them; ``graph``: the same graph (node-link JSON or its dict). A hinge the
+    graph does not place is "hinge <id>"."""
     tree = _tree(graph) if len(node_ids) else None
-    by_hinge = (
-        {str(hinge): label for (_, hinge, _), label in _hinge_places(tree).items()}
-        if tree is not None
-        else {}
-    )
-    return [by_hinge.get(str(i)) or f"{t.lower()} {i}" for i, t in zip(node_ids, types)]
+    places = _hinge_places(tree) if tree is not None else {}
+    by_hinge = {str(hinge): f"{branch} {n}" for (_, hinge, _), (branch, n) in places.items()}
+    return [
+        by_hinge.get(str(i)) or (f"hinge {i}" if t.upper() == "HINGE" else t.lower())
+        for i, t in zip(node_ids, types)
+    ]

@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from ariel.recording._run_folder import NotARunError, RunFolder
+from ariel.recording._escape import terminal_text
+from ariel.recording._run_folder import DamagedRunError, NotARunError, RunFolder
 from ariel.recording._tables import read_table, to_pandas
 
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
@@ -154,6 +155,7 @@ class Run:
             "trajectories",
             manifest=self.manifest,
             filters=[("eval_id", "==", eval_id)],
+            columns=["eval_id", "t", "joint_target", "joint_angle"],
         ).sort_by("t")
         width = len(joints)
 
@@ -297,11 +299,21 @@ def _distinct_bodies(population: Any) -> int | float:
 
     if "graph" not in population.columns:
         return math.nan
-    keys = {
-        graph_key(graph) if isinstance(graph, str) and graph else body_id
-        for graph, body_id in zip(population["graph"], population["body_id"])
-    }
-    return len(keys)
+
+    def key(graph: Any, body_id: Any) -> Any:
+        if not (isinstance(graph, str) and graph):
+            return body_id
+        try:
+            return graph_key(graph)
+        except Exception as exc:  # RecursionError, JSON, networkx: a cell no run writes
+            raise DamagedRunError(
+                f"body {terminal_text(body_id)}: its graph cell is not a robot graph "
+                f"({type(exc).__name__}); the bodies table was changed or damaged"
+            ) from None
+
+    return len(
+        {key(graph, body_id) for graph, body_id in zip(population["graph"], population["body_id"])}
+    )
 
 
 def population_after_selection(bodies: Any) -> Any:

@@ -188,13 +188,15 @@ class Manifest:
     """What a run's finished generations hold: table file -> (bytes, SHA-256).
 
     ``checked`` is False for a run made before manifests existed: then only the presence of the
-    required tables is known (``files`` maps them to None).
+    required tables is known (``files`` maps them to None). ``config``: run.json's config, which
+    bounds the rows a table file may hold (`ariel.recording._tables.row_limit`).
     """
 
     run_dir: Path
     generations: int
     checked: bool
     files: dict[str, tuple[int, str] | None] = field(default_factory=dict)
+    config: dict[str, Any] | None = None
 
     @classmethod
     def load(cls, run_dir: str | Path, info: dict[str, Any]) -> Manifest:
@@ -206,7 +208,9 @@ class Manifest:
         expected, problem = manifests_expected(run_dir, info)
         if problem is not None:
             raise damaged(run_dir, *problem.split(" ", 1))
+        config = info.get("config")
         manifest = cls(run_dir, done, checked=expected)
+        manifest.config = config if isinstance(config, dict) else None
         for generation in range(done):
             manifest.files.update(_entries(run_dir, generation, expected))
         for name, entry in manifest.files.items():
@@ -308,8 +312,11 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
             result.problems.append(_problem(exc))
             continue
         for name, entry in entries.items():
-            problem = _check_file(run_dir, name, entry, result)
-            if problem is not None:
+            problem = _check_file(run_dir, name, entry, result, info.get("config"))
+            if problem is not None and problem.startswith("run.json "):  # its config: once
+                if problem not in result.problems:
+                    result.problems.append(problem)
+            elif problem is not None:
                 result.problems.append(f"{name} {problem}")
             elif name.startswith("evaluations/") and not result.run_id_checked:
                 _check_run_id(run_dir / name, info, result)
@@ -359,6 +366,20 @@ def _check_run_json(run_dir: Path, info: dict[str, Any], result: VerifyResult) -
         result.problems.append(f"{name} has a config_hash that is not run.json's")
 
 
+def _check_rows(path: Path, config: Any) -> str | None:
+    """A sound table file's row count against what the run's config makes (`rows_problem`),
+    from its footer alone; a footer that does not decode is `_check_file`'s to say."""
+    import pyarrow.parquet as pq
+
+    from ariel.recording._tables import rows_problem
+
+    try:
+        metadata = pq.read_metadata(path)
+    except Exception:  # not Parquet: a run made before manifests says so when it is read
+        return None
+    return rows_problem(config if isinstance(config, dict) else None, path, metadata)
+
+
 def _check_run_id(path: Path, info: dict[str, Any], result: VerifyResult) -> None:
     """The ``run_id`` of a sound evaluations table's rows is run.json's."""
     import pyarrow.parquet as pq
@@ -382,7 +403,11 @@ def _problem(exc: DamagedRunError) -> str:
 
 
 def _check_file(
-    run_dir: Path, name: str, entry: tuple[int, str] | None, result: VerifyResult
+    run_dir: Path,
+    name: str,
+    entry: tuple[int, str] | None,
+    result: VerifyResult,
+    config: Any = None,
 ) -> str | None:
     path = run_dir / name
     if path.is_symlink():
@@ -392,7 +417,7 @@ def _check_file(
     result.files += 1
     if entry is None:
         result.bytes += path.stat().st_size
-        return _check_readable(path)
+        return _check_rows(path, config) or _check_readable(path)
     try:
         size, digest = _sha256_file(path)
     except OSError as exc:
@@ -402,7 +427,7 @@ def _check_file(
         return f"has {size} bytes, not {entry[0]}"
     if digest != entry[1]:
         return "has other bytes than when it was written (SHA-256)"
-    return None
+    return _check_rows(path, config)
 
 
 def adopt_manifests(folder: RunFolder, generations: int) -> None:

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ariel.errors import MissingPluginError, UnknownEvaluationError
+from ariel.errors import DamagedRunError, MissingPluginError, UnknownEvaluationError
 from ariel.recording._load import Run, load_run
 from ariel.utils._gl import has_display
 
@@ -217,11 +217,16 @@ class ReplayResult:
         }
 
     def graph_json(self) -> str | None:
-        """The body's morphology graph (networkx node-link JSON) from the bodies table."""
+        """The body's morphology graph (networkx node-link JSON) from the bodies table;
+        `DamagedRunError` for one that is not a JSON object (a changed table)."""
         bodies = self.run.bodies
         mine = bodies[bodies["body_id"] == self.row["body_id"]]
         graphs = [g for g in mine["graph"] if isinstance(g, str) and g]
-        return graphs[0] if graphs else None
+        if not graphs:
+            return None
+        if not isinstance(cell_json(self.run, self.row, "bodies", "graph", graphs[0]), dict):
+            raise _changed(self.run, self.row, "bodies", "its body's graph is not a JSON object")
+        return graphs[0]
 
     def write_rrd(self, path: str | Path) -> Path:
         """A Rerun recording of the full-rate replay (3D bodies over time, joints, graph)."""
@@ -385,12 +390,74 @@ def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[Any, 
     return differences
 
 
-def replay_task(run: Run, row: dict[str, Any], *, graph: str | None = None) -> Any:
+def cell_json(run: Run, row: dict[str, Any], table: str, column: str, text: Any) -> Any:
+    """The JSON in the cell ``column`` of ``table`` (``text``) for evaluation ``row`` of
+    ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
+    that is not JSON is a changed table: `DamagedRunError`, one line."""
+    from ariel.recording._run_folder import json_data
+
+    try:
+        return json_data(text)
+    except (TypeError, ValueError) as exc:
+        raise _changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
+
+
+def _changed(run: Run, row: dict[str, Any], table: str, problem: str) -> DamagedRunError:
+    from ariel.recording._escape import short_ascii
+
+    return DamagedRunError(
+        f"evaluation {short_ascii(row.get('eval_id'))} of run {str(run.path)!r}: {problem}; "
+        f"the {table} table was changed or damaged"
+    )
+
+
+def _row_params(row: dict[str, Any]) -> np.ndarray | None:
+    """The row's controller parameters, float64; None where they are not a list of finite
+    numbers (a changed table)."""
+    try:
+        params = np.asarray(row["controller_params"], dtype=np.float64)
+    except (KeyError, TypeError, ValueError):
+        return None
+    return params if params.ndim == 1 and np.all(np.isfinite(params)) else None
+
+
+def _check_params(
+    run: Run, row: dict[str, Any], task: Any, model: Any, params: np.ndarray | None
+) -> None:
+    """`DamagedRunError` naming the evaluation, the number of parameters its row holds and the
+    number its body's controller needs, where the two differ (a changed table)."""
+    from ariel.evaluation._engine import _plugin
+    from ariel.plugins import controllers
+
+    needed = _plugin(controllers, task.controller, task.controller_options).num_parameters(model)
+    if params is not None and len(params) == needed:
+        return
+    found = (
+        f"{len(params)} controller parameters"
+        if params is not None
+        else "controller parameters that are not a list of finite numbers"
+    )
+    raise _changed(
+        run,
+        row,
+        "evaluations",
+        f"its row holds {found}, but its body's controller {task.controller!r} needs {needed} "
+        f"({model.nu} actuators)",
+    )
+
+
+def replay_task(
+    run: Run, row: dict[str, Any], *, graph: str | None = None, check_params: bool = False
+) -> Any:
     """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``.
 
     ``graph``: the body's decoded robot graph (the bodies table's ``graph``), the form the
     loop's tasks carry (`shipped_body`) for an encoder that decodes to a graph: used as it is
     instead of decoding the genotype again (the NDE's decoding imports torch, ~2 s).
+    ``check_params`` (to re-simulate): `DamagedRunError` where the row's controller parameters
+    are not as many finite numbers as its body's controller needs (a changed table); without
+    it (to draw the body), parameters that are not a list of finite numbers are left out.
+    A genotype or graph cell that is not JSON is `DamagedRunError` either way.
     """
     from ariel.evaluation import BodyBuildError, BodySpec, build
     from ariel.evolution import ExperimentConfig
@@ -400,19 +467,23 @@ def replay_task(run: Run, row: dict[str, Any], *, graph: str | None = None) -> A
     config = ExperimentConfig.from_plain(run.config)
     encoder = config.body.encoder
     if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
-        spec = BodySpec("graph", json.loads(graph))
+        spec = BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
     else:
-        spec = shipped_body(config, body_spec(config, json.loads(row["body_genotype"])))
+        genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
+        spec = shipped_body(config, body_spec(config, genotype))
     fields: dict[str, Any] = {
         "seed": int(row["seed"]),
         "eval_id": str(row["eval_id"]),
     }
+    params = _row_params(row)
     # An error row's body cannot be built: evaluating its task gives the same error again.
     with contextlib.suppress(BodyBuildError):
-        model = build(evaluation_task(config, spec)).model
+        shape = evaluation_task(config, spec)
+        model = build(shape).model
         fields["record_every"] = record_steps(config, model.opt.timestep)
-    params = np.asarray(row["controller_params"], dtype=np.float64)
-    return evaluation_task(config, spec, params, **fields)
+        if check_params:
+            _check_params(run, row, shape, model, params)
+    return evaluation_task(config, spec, () if params is None else params, **fields)
 
 
 def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
@@ -426,7 +497,7 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
     run = load_run(run_dir)
     row = _find_row(run, eval_id)
     _require_plugins(run)
-    task = replay_task(run, row)
+    task = replay_task(run, row, check_params=True)
     result = _evaluate_as_stored(task, row.get("backend"))
     return ReplayResult(
         run=run,
@@ -491,7 +562,7 @@ def on_demand_recording(run_dir: str | Path, eval_id: str) -> Path:
     replayed._need_body("a 3D replay")
     graph = replayed.graph_json()
     # Poses are computed from the recorded frames after the physics: the same physics.
-    task = replace(replay_task(run, row, graph=graph), record_bodies=True)
+    task = replace(replay_task(run, row, graph=graph, check_params=True), record_bodies=True)
     replayed.task = task
     result = _evaluate_as_stored(task, row.get("backend"))
     replayed.result = result

@@ -24,8 +24,10 @@ from typing import Any
 
 import numpy as np
 
+from ariel.errors import DamagedRunError, RunStorageError
 from ariel.recording._axes import DESCRIPTORS, fitness_label, fitted, integer_ticks
 from ariel.recording._camera import three_quarter_view
+from ariel.recording._escape import one_line
 from ariel.recording._load import QD_COLUMNS, Run, load_run, population_after_selection
 from ariel.recording._report_archive import archive_figure
 
@@ -105,21 +107,38 @@ def _figure(width: float, height: float) -> Any:
     return Figure(figsize=(width, height), dpi=_DPI, layout="constrained")
 
 
+def _cannot_write(exc: OSError, path: Path, report: Report) -> RunStorageError:
+    """A failed write (disk full, read-only, no permission) of the report: one line naming the
+    file and why. `atomic_write` leaves no part of the file; the figures written before it
+    are whole."""
+    from ariel.recording._files import cannot_write
+    from ariel.utils._commands import ariel_line
+
+    return RunStorageError(
+        f"{cannot_write(exc, path)}; the report is not finished (the run is unchanged): make "
+        f"room (or fix the folder), then run {ariel_line('report', report.run.path)} again"
+    )
+
+
 def _save(figure: Any, path: Path, report: Report) -> None:
     from ariel.recording._files import atomic_write
 
     # Never through a link planted in a copied run folder (``report/fitness.png -> ~/x``).
-    atomic_write(
-        path,
-        lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"),
-        root=report.run.path,
-    )
+    try:
+        atomic_write(
+            path,
+            lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"),
+            root=report.run.path,
+        )
+    except OSError as exc:
+        raise _cannot_write(exc, path, report) from exc
     report.written.append(path)
     report.figures[path.name] = figure
 
 
 def _run_title(run: Run) -> str:
-    return str(run.info.get("run_id") or run.path.name)
+    """The run's id (from run.json: any text) as one line, no control character in it."""
+    return one_line(run.info.get("run_id") or run.path.name)
 
 
 # --------------------------------------------------------------------------------------------
@@ -129,7 +148,9 @@ def _run_title(run: Run) -> str:
 
 def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) -> None:
     """A title (of axes ``on``, or ``suptitle`` of figure ``on``) wrapped to fit the width it
-    has (`fitted`), so it is never clipped at the figure's edge."""
+    has (`fitted`), so it is never clipped at the figure's edge. A ``$`` in it (a run id is
+    any text) is a dollar sign, not mathtext, which could fail to draw."""
+    text = text.replace("$", r"\$")
     if suptitle:
         on.suptitle(fitted(text, on.get_figwidth(), fontsize), fontsize=fontsize)
         return
@@ -285,7 +306,11 @@ def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
 
     best = report.best
     assert best is not None
-    built = build(replay_task(report.run, best))
+    try:
+        built = build(replay_task(report.run, best))
+    except DamagedRunError as exc:  # a changed table: the rest of the report stands
+        report.notes.append(f"best_body.png: left out ({exc})")
+        return
     model = built.model
     size = max(float(best.get(k) or 0.0) for k in ("extent_x", "extent_y", "extent_z"))
     try:
@@ -343,7 +368,10 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     from ariel.recording._files import refuse_symlinks
 
     refuse_symlinks(report.folder / "fitness.png", run.path)
-    report.folder.mkdir(parents=True, exist_ok=True)
+    try:
+        report.folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _cannot_write(exc, report.folder, report) from exc
     _fitness_figure(report, maximise)
     _morphology_figure(report)
     archive_figure(report, maximise, render=render, figure=_figure, save=_save)
@@ -408,6 +436,7 @@ def print_report(report: Report, console: Any = None) -> None:
     from rich import box
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
     if console is None:
         console = Console()
@@ -416,7 +445,8 @@ def print_report(report: Report, console: Any = None) -> None:
     run = report.run
     status = run.info.get("status", "?")
     done, total = run.generations_done, run.config.get("generations", "?")
-    table = _table(Table, box, f"{_run_title(run)}: {status}, {done}/{total} generations")
+    title = f"{_run_title(run)}: {one_line(status)}, {done}/{total} generations"
+    table = _table(Table, box, Text(title))  # Text: a run id's [bold] is no markup
     for heading in TABLE_COLUMNS.values():
         wide = 10 if heading in ("best", "mean", "median") else len(heading)  # -0.0123456
         table.add_column(heading, justify="right", no_wrap=True, min_width=wide)
@@ -441,11 +471,13 @@ def print_report(report: Report, console: Any = None) -> None:
     if report.best is not None:
         best = report.best
         console.print(
-            f"best evaluation: {best['eval_id']} (generation {int(best['generation'])}, "
-            f"fitness {float(best['fitness'])!r})",
+            Text(
+                f"best evaluation: {one_line(best['eval_id'])} (generation "
+                f"{int(best['generation'])}, fitness {float(best['fitness'])!r})"
+            ),
             highlight=False,
         )
-    for path in report.written:
-        console.print(f"wrote {path}", highlight=False, soft_wrap=True)
+    for path in report.written:  # Text: no markup in a folder's name or a note
+        console.print(Text(f"wrote {one_line(path)}"), highlight=False, soft_wrap=True)
     for note in report.notes:
-        console.print(note, highlight=False, soft_wrap=True)
+        console.print(Text(one_line(note)), highlight=False, soft_wrap=True)

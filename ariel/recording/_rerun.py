@@ -28,13 +28,16 @@ Entities of an evaluation recording (few on purpose: each is a chunk of ~1.5 kB 
 * ``/world/trajectory``: the core's path, a `LineStrips3D`.
 * ``/joints/target`` and ``/joints/angle``: one scalar series per joint (named after the
   joint, `SeriesLines` names) over ``sim_time``: the control target and the measured angle.
-* ``/graph``: the morphology graph, `GraphNodes` labelled and coloured by module type, and
-  directed `GraphEdges` (parent -> child).
+* ``/graph``: the morphology graph, `GraphNodes` coloured by module type, labelled short
+  ("core", "brick", a hinge by branch and number: "right 1") and placed as a tree from the
+  core down (`tree_positions`), and directed `GraphEdges` (parent -> child).
 * recording properties (``/__properties/ariel``): the caller's ``properties``.
 
 ``run.rrd`` (`write_run_recording`) holds per-generation fitness and diversity on a
 ``generation`` timeline and the best body of each generation; ``blueprint.rbl``
-(`write_blueprint`) the default layout for all of them.
+(`write_blueprint`) the default layout for all of them. ``ariel view`` opens an evaluation's
+recording as a copy with the run's charts (and a MAP-Elites archive) beside it
+(`write_view_recording`), laid out by a `blueprint` written for that run.
 """
 
 from __future__ import annotations
@@ -57,9 +60,12 @@ from ariel.recording._joint_names import joint_labels, module_labels
 
 __all__ = [
     "APPLICATION_ID",
+    "ARCHIVE_ENTITY",
     "TERRAIN_MARGIN",
+    "archive_chunks",
     "module_colours",
     "module_type_of",
+    "tree_positions",
     "write_blueprint",
     "write_evaluation_recording",
     "write_run_recording",
@@ -397,7 +403,9 @@ def _terrain(field: _Heightfield, path_xy: np.ndarray) -> Any:
 
 def _graph_parts(graph_json: str | Mapping[str, Any]) -> tuple[list[str], list[str], list[Any]]:
     """Node ids, their module types and (parent, child) edges of a node-link graph."""
-    data = json.loads(graph_json) if isinstance(graph_json, str) else graph_json
+    from ariel.recording._run_folder import json_data
+
+    data = json_data(graph_json) if isinstance(graph_json, str) else graph_json  # guarded
     nodes = data.get("nodes", [])
     ids = [str(node["id"]) for node in nodes]
     types = [str(node.get("type", "?")).upper() for node in nodes]
@@ -406,17 +414,76 @@ def _graph_parts(graph_json: str | Mapping[str, Any]) -> tuple[list[str], list[s
     return ids, types, edges
 
 
+#: Scene units between neighbouring leaves of a drawn morphology (across) and between a module
+#: and its children (down): room for a label such as "right 1" beside the next.
+GRAPH_STEP = (110.0, 70.0)
+
+
+def tree_positions(ids: Sequence[str], edges: Sequence[Any]) -> list[tuple[float, float]]:
+    """Where to draw each node of a morphology (``ids``, parent -> child ``edges``): a tree
+    drawn top-down, the root (the core) on top at x = 0, each module one row below its parent,
+    the leaves side by side in depth-first order and a parent centred over its children, so
+    no two labels overlap (the viewer's force layout piles them up). A graph that is not one
+    tree (never a robot's) is drawn as rows of four."""
+    children: dict[str, list[str]] = {str(i): [] for i in ids}
+    parents: set[str] = set()
+    tree = True
+    for source, target in edges:
+        source, target = str(source), str(target)
+        if source not in children or target not in children or target in parents:
+            tree = False
+            break
+        children[source].append(target)
+        parents.add(target)
+    roots = [i for i in children if i not in parents]
+    order: list[str] = []
+    depth: dict[str, int] = {}
+    if tree and len(roots) == 1:
+        stack = [(roots[0], 0)]
+        while stack:  # depth-first, children in their order
+            node, d = stack.pop()
+            if node in depth:
+                break
+            depth[node] = d
+            order.append(node)
+            stack.extend((child, d + 1) for child in reversed(children[node]))
+    if len(order) != len(children):
+        step_x, step_y = GRAPH_STEP
+        return [(step_x * (k % 4), step_y * (k // 4)) for k in range(len(ids))]
+    x: dict[str, float] = {}
+    leaves = 0
+    for node in order:
+        if not children[node]:
+            x[node] = float(leaves)
+            leaves += 1
+    for node in reversed(order):  # children before their parent
+        if children[node]:
+            x[node] = float(np.mean([x[child] for child in children[node]]))
+    root_x = x[roots[0]]
+    step_x, step_y = GRAPH_STEP
+    return [(step_x * (x[str(i)] - root_x), step_y * depth[str(i)]) for i in ids]
+
+
+def graph_colour(module_type: str) -> tuple[int, int, int, int]:
+    """A module type's colour for a graph label: its module colour, darkened where it is too
+    light to read on the viewer's white graph background (the core's yellow)."""
+    r, g, b, a = module_colours().get(module_type, _OTHER_COLOUR)
+    brightness = (0.299 * r + 0.587 * g + 0.114 * b) / 255
+    scale = min(1.0, 0.5 / brightness) if brightness else 1.0
+    return round(r * scale), round(g * scale), round(b * scale), a
+
+
 def _graph_archetypes(graph_json: str | Mapping[str, Any]) -> list[Any]:
     rr = _rr()
     ids, types, edges = _graph_parts(graph_json)
     if not ids:
         return []
-    palette = module_colours()
     return [
         rr.GraphNodes(
             ids,
             labels=module_labels(ids, types, graph_json),
-            colors=[palette.get(t, _OTHER_COLOUR) for t in types],
+            colors=[graph_colour(t) for t in types],
+            positions=tree_positions(ids, edges),
             show_labels=True,
         ),
         rr.GraphEdges(edges, graph_type="directed"),
@@ -681,14 +748,28 @@ def write_run_recording(
     return _write_chunks(path, name, chunks, fsync=fsync)
 
 
-#: Per-generation series drawn beside an evaluation (bar charts: they show on any timeline),
-#: their entities and colours.
-SUMMARY_SERIES: dict[str, tuple[str, tuple[int, int, int, int]]] = {
-    "best_fitness": ("/run/fitness/best", (214, 39, 40, 255)),
-    "mean_fitness": ("/run/fitness/mean", (31, 119, 180, 140)),
-    "diversity": ("/run/diversity/descriptor_distance", (44, 160, 44, 255)),
-    "distinct_morphologies": ("/run/diversity/distinct_morphologies", (148, 103, 189, 140)),
+#: Per-generation series drawn beside an evaluation (bar charts: they show on any timeline):
+#: their entities, names and colours. A bar chart has no series name (its legend would show
+#: the entity path), so each gets a view of its own, titled with its name and unit.
+SUMMARY_SERIES: dict[str, tuple[str, str, tuple[int, int, int, int]]] = {
+    "best_fitness": ("/run/fitness/best", "best fitness", (214, 39, 40, 255)),
+    "mean_fitness": ("/run/fitness/mean", "mean fitness", (31, 119, 180, 255)),
+    "diversity": (
+        "/run/diversity/descriptor_distance",
+        "descriptor distance",
+        (44, 160, 44, 255),
+    ),
+    "distinct_morphologies": (
+        "/run/diversity/distinct_morphologies",
+        "distinct bodies",
+        (148, 103, 189, 255),
+    ),
 }
+#: A MAP-Elites run's archive beside an evaluation (static, the last generation's).
+ARCHIVE_ENTITY = "/run/archive"
+#: Where empty archive cells are drawn: this share of the elites' fitness span below the
+#: worst elite, so they take the darkest colour and no elite looks empty.
+_EMPTY_BELOW = 0.5
 
 
 def run_summary_chunks(generations_df: Any) -> list[Any]:
@@ -701,30 +782,67 @@ def run_summary_chunks(generations_df: Any) -> list[Any]:
     rr = _rr()
     columns = set(getattr(generations_df, "columns", generations_df))
     generation = np.asarray(generations_df["generation"], dtype=np.float64)
+    # A bar starts at its abscissa: half a generation earlier centres it on its number.
+    left = generation - 0.5
     chunks = []
-    for column, (entity, colour) in SUMMARY_SERIES.items():
+    for column, (entity, _name, colour) in SUMMARY_SERIES.items():
         if column not in columns or not len(generation):
             continue
         values = np.asarray(generations_df[column], dtype=np.float64)
-        chart = rr.BarChart(values, abscissa=generation, color=colour)
+        chart = rr.BarChart(values, abscissa=left, color=colour)
         chunks.append(_static(entity, chart))
     return chunks
+
+
+def archive_chunks(grid: Any, dimensions: Sequence[str] | None = None) -> list[Any]:
+    """A MAP-Elites archive (fitness per cell, NaN where empty: `archive_grid`) as a static
+    tensor at `ARCHIVE_ENTITY`, its dimensions named (``dimensions``: the measures, e.g.
+    "num_limbs (0 to 8)"), for a tensor view beside an evaluation. The viewer draws NaN in
+    the brightest colour, so empty cells get a value below every elite's (`_EMPTY_BELOW`) and
+    the colour scale spans them to the best elite. Nothing for an archive without elites."""
+    rr = _rr()
+    values = np.asarray(grid, dtype=np.float64)
+    filled = values[np.isfinite(values)]
+    if not filled.size:
+        return []
+    low, high = float(filled.min()), float(filled.max())
+    empty = low - max(_EMPTY_BELOW * (high - low), 1e-9 + 1e-3 * abs(low))
+    shown = np.where(np.isfinite(values), values, empty)
+    names = list(dimensions or [])[: values.ndim]
+    names += [f"measure {d}" for d in range(len(names), values.ndim)]
+    return [_static(ARCHIVE_ENTITY, rr.Tensor(shown, dim_names=names, value_range=[empty, high]))]
 
 
 def write_view_recording(
     path: str | os.PathLike[str],
     evaluation: str | os.PathLike[str],
     generations_df: Any,
+    *,
+    archive: Any = None,
+    archive_dimensions: Sequence[str] | None = None,
+    graph_json: str | Mapping[str, Any] | None = None,
 ) -> Path:
-    """One recording to open first: the evaluation recording ``evaluation`` (its robot,
-    joints and graph on ``sim_time``) with the run's fitness and diversity per generation
-    beside (`run_summary_chunks`), under the evaluation's recording id; returns its path."""
+    """One recording to open: the evaluation recording ``evaluation`` (its robot, joints and
+    graph on ``sim_time``) with the run's fitness and diversity per generation beside
+    (`run_summary_chunks`) and, for a MAP-Elites run, its ``archive`` (`archive_chunks`),
+    under the evaluation's recording id; returns its path. ``graph_json``: the body's
+    morphology, drawn again as this version draws it (a recording made by an older one keeps
+    its own drawing otherwise)."""
     from rerun.chunk import RrdReader
 
     reader = RrdReader(evaluation)
     (store,) = reader.recordings()[:1] or [None]
     recording_id = store.recording_id if store is not None else Path(evaluation).stem
-    chunks = [*reader.stream().to_chunks(), *run_summary_chunks(generations_df)]
+    graph = _graph_chunk(graph_json) if graph_json else None
+    replaced = ("/run/", *(["/graph"] if graph is not None else []))
+    mine = [
+        chunk
+        for chunk in reader.stream().to_chunks()
+        if not any(chunk.entity_path.startswith(prefix) for prefix in replaced)
+    ]
+    chunks = [*mine, *([graph] if graph is not None else []), *run_summary_chunks(generations_df)]
+    if archive is not None:
+        chunks += archive_chunks(archive, archive_dimensions)
     return _write_chunks(Path(path), recording_id, chunks, fsync=False)
 
 
@@ -733,18 +851,27 @@ def write_view_recording(
 # --------------------------------------------------------------------------------------------
 
 
-def blueprint(*, panels: bool = True) -> Any:
-    """The default layout: the 3D replay and the morphology above, joints and the run's
-    fitness and diversity below; the time panel on ``sim_time`` (the evaluation's clock).
+def blueprint(
+    *,
+    panels: bool = True,
+    archive: bool = False,
+    fitness_unit: str | None = None,
+    run_curves: bool = True,
+) -> Any:
+    """The default layout: the 3D replay and the morphology (and, with ``archive``, a MAP-Elites
+    run's archive, `ARCHIVE_ENTITY`) above, joints and the run's fitness and diversity per
+    generation below; the time panel on ``sim_time`` (the evaluation's clock).
 
     The morphology view shows an evaluation's ``/graph`` and run.rrd's best body of each
-    generation (``/best/graph``); fitness and diversity open on the bar charts per generation
-    (`run_summary_chunks`, drawn whatever the timeline), with run.rrd's curves (on the
-    ``generation`` timeline) in a second tab. The 3D camera looks at the start, from 1.5 m
-    away. ``panels=False`` collapses the side panels (the blueprint tree, the selection, the
-    time panel) for pictures of the views alone.
+    generation (``/best/graph``). Fitness and diversity per generation are static bar charts
+    (`run_summary_chunks`, drawn whatever the timeline), one view per series, titled with its
+    name and unit (``fitness_unit``, e.g. "m"); with ``run_curves`` each group has a second
+    tab of run.rrd's curves on the ``generation`` timeline. The 3D camera looks at the start,
+    from 1.5 m away. ``panels=False`` collapses the side panels (the blueprint tree, the
+    selection, the time panel) for pictures of the views alone.
     """
-    rrb = _rr().blueprint
+    rr = _rr()
+    rrb = rr.blueprint
     time_panel = rrb.TimePanel(timeline="sim_time", **({} if panels else {"state": "collapsed"}))
     side = (
         [time_panel]
@@ -755,37 +882,77 @@ def blueprint(*, panels: bool = True) -> Any:
             time_panel,
         ]
     )
+    unit = f" ({fitness_unit})" if fitness_unit else ""
+    hidden = rrb.PlotLegend(visible=False)
 
-    def per_generation(what: str) -> Any:
-        return rrb.Tabs(
-            rrb.BarChartView(name=f"{what} per generation", origin=f"/run/{what}"),
-            rrb.TimeSeriesView(name=f"{what} (generation timeline)", origin=f"/{what}"),
+    def bars(column: str) -> Any:
+        entity, name, _ = SUMMARY_SERIES[column]
+        title = f"{name}{unit if 'fitness' in column else ''} per generation"
+        return rrb.BarChartView(name=title, origin=entity, plot_legend=hidden)
+
+    def curve(entity: str, title: str) -> Any:
+        return rrb.TimeSeriesView(name=title, origin=entity, plot_legend=hidden)
+
+    fitness: Any = rrb.Vertical(
+        bars("best_fitness"), bars("mean_fitness"), name="fitness per generation"
+    )
+    diversity: Any = rrb.Vertical(
+        bars("diversity"), bars("distinct_morphologies"), name="diversity per generation"
+    )
+    if run_curves:
+        fitness = rrb.Tabs(
+            fitness,
+            rrb.TimeSeriesView(
+                name=f"fitness{unit} (generation timeline)",
+                origin="/fitness",
+                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftTop),
+            ),
             active_tab=0,
         )
-
+        diversity = rrb.Tabs(
+            diversity,
+            rrb.Vertical(
+                curve("/diversity/descriptor_distance", "descriptor distance"),
+                curve("/diversity/distinct_morphologies", "distinct bodies"),
+                name="diversity (generation timeline)",
+            ),
+            active_tab=0,
+        )
+    top = [
+        rrb.Spatial3DView(
+            name="robot",
+            origin="/world",
+            eye_controls=rrb.EyeControls3D(
+                kind=rrb.components.Eye3DKind.Orbital,
+                position=(0.8, -1.2, 0.7),
+                look_target=(0.1, 0.0, 0.0),
+                eye_up=(0.0, 0.0, 1.0),
+            ),
+        ),
+        rrb.GraphView(name="morphology", origin="/", contents=["/graph/**", "/best/graph/**"]),
+    ]
+    if archive:
+        top.append(
+            rrb.TensorView(
+                name=f"archive: fitness{unit}, dark: empty",
+                origin=ARCHIVE_ENTITY,
+                # measure 0 across, measure 1 up
+                slice_selection=rrb.TensorSliceSelection(
+                    width=rr.TensorDimensionSelection(dimension=0),
+                    height=rr.TensorDimensionSelection(dimension=1, invert=True),
+                ),
+                scalar_mapping=rrb.TensorScalarMapping(mag_filter="nearest", colormap="viridis"),
+                view_fit="FillKeepAspectRatio",
+            )
+        )
     return rrb.Blueprint(
         rrb.Vertical(
-            rrb.Horizontal(
-                rrb.Spatial3DView(
-                    name="robot",
-                    origin="/world",
-                    eye_controls=rrb.EyeControls3D(
-                        kind=rrb.components.Eye3DKind.Orbital,
-                        position=(0.8, -1.2, 0.7),
-                        look_target=(0.1, 0.0, 0.0),
-                        eye_up=(0.0, 0.0, 1.0),
-                    ),
-                ),
-                rrb.GraphView(
-                    name="morphology", origin="/", contents=["/graph/**", "/best/graph/**"]
-                ),
-                column_shares=[3, 1],
-            ),
+            rrb.Horizontal(*top, column_shares=[4, 2, 2] if archive else [3, 1]),
             rrb.Horizontal(
                 rrb.TimeSeriesView(name="joint targets (rad)", origin="/joints/target"),
                 rrb.TimeSeriesView(name="joint angles (rad)", origin="/joints/angle"),
-                per_generation("fitness"),
-                per_generation("diversity"),
+                fitness,
+                diversity,
             ),
             row_shares=[3, 2],
         ),
@@ -794,13 +961,23 @@ def blueprint(*, panels: bool = True) -> Any:
     )
 
 
-def write_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Path:
-    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``);
-    ``panels=False``: with the side panels collapsed (see `blueprint`).
+def write_blueprint(
+    path: str | os.PathLike[str],
+    *,
+    panels: bool = True,
+    archive: bool = False,
+    fitness_unit: str | None = None,
+    run_curves: bool = True,
+) -> Path:
+    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``); the
+    options as for `blueprint` (``panels=False``: the side panels collapsed).
 
     Open it with the recordings: ``rerun blueprint.rbl run.rrd recordings/gen-000000/*.rrd``.
     """
-    return save_blueprint(path, blueprint(panels=panels), APPLICATION_ID)
+    layout = blueprint(
+        panels=panels, archive=archive, fitness_unit=fitness_unit, run_curves=run_curves
+    )
+    return save_blueprint(path, layout, APPLICATION_ID)
 
 
 def save_blueprint(path: str | os.PathLike[str], layout: Any, application_id: str) -> Path:

@@ -34,6 +34,7 @@ from ariel.recording._files import (
 from ariel.recording._lock import LOCK_NAME, in_use_error, lock_holder
 from ariel.recording._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
 from ariel.utils._commands import ariel_line
+from ariel.utils._json import nests_deeper_than
 
 __all__ = [
     "CHECKPOINT_FORMAT",
@@ -65,13 +66,8 @@ def json_data(raw: str | bytes) -> Any:
         data = json.loads(raw)
     except RecursionError:
         raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep") from None
-    found: list[tuple[Any, int]] = [(data, 1)] if isinstance(data, dict | list) else []
-    while found:  # no recursion: the walk itself cannot run out of stack
-        value, depth = found.pop()
-        children = value.values() if isinstance(value, dict) else value
-        if depth > MAX_JSON_DEPTH:
-            raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep")
-        found.extend((c, depth + 1) for c in children if isinstance(c, dict | list))
+    if nests_deeper_than(data, MAX_JSON_DEPTH):
+        raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep")
     return data
 
 

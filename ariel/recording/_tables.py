@@ -33,6 +33,8 @@ __all__ = [
     "read_file",
     "read_table",
     "recording_path",
+    "row_limit",
+    "rows_problem",
     "table_generations",
     "to_pandas",
     "trajectory_columns",
@@ -311,22 +313,139 @@ def table_generations(run_dir: Path, table: str) -> list[int]:
     return sorted(int(m.group(1)) for m in found if m)
 
 
+#: The row counts `row_limit` works out are the most the writers make; a file is refused only
+#: past this many times that, so a miscount here never refuses a run's own records.
+ROW_MARGIN = 2
+
+
+@cache
+def _config_defaults() -> dict[str, Any]:
+    from ariel.evolution._config import ExperimentConfig
+
+    return ExperimentConfig().to_plain()
+
+
+def _config_number(config: Mapping[str, Any], key: str, *, whole: bool) -> int | float:
+    """``section.key`` of a run's config (run.json's, plain data), its default when missing;
+    `ValueError` for a value no ariel writes (a count below 1, a duration or rate that is not a
+    positive finite number)."""
+    import math
+
+    section, name = key.split(".")
+    part = config.get(section, {})
+    if not isinstance(part, Mapping):
+        raise ValueError(f"has {section} {_shown(part)} in its config, not a section (a table)")
+    value = part.get(name, _config_defaults()[section][name])
+    kinds = (int,) if whole else (int, float)
+    good = isinstance(value, kinds) and not isinstance(value, bool)
+    if not good or not (value >= 1 if whole else math.isfinite(value) and value > 0):
+        what = "a whole number >= 1" if whole else "a positive finite number"
+        raise ValueError(f"has {key} {_shown(value)} in its config, not {what}")
+    return value
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:37]}..."
+
+
+def row_limit(config: Mapping[str, Any] | None, table: str, generation: int) -> int:
+    """The most rows ``table``'s file of ``generation`` holds in a run of ``config`` (run.json's
+    config, plain data; a missing key counts as its default), as the run driver makes them:
+
+    - ``evaluations``: every body of the generation runs CMA-ES for ``brain.iterations``
+      iterations of ``brain.popsize`` (a body that cannot be built or has no parameters: fewer),
+      and a generation makes ``body.population`` (generation 0) or ``body.offspring`` bodies
+      (a brain-only run: one);
+    - ``bodies`` and ``archive``: the bodies of the generation and the parents it keeps (the
+      elites), each once: at most every body made so far;
+    - ``trajectories``: a frame every ``round(1 / (record.rate_hz x timestep))`` physics steps
+      of ``task.duration``, plus the first and last (`ariel.evaluation._engine.frame_steps`):
+      at most 3 x duration x rate_hz + 4 per evaluation, whatever the world's timestep.
+
+    `ValueError` (``has KEY VALUE in its config, ...``) for a config value no ariel writes.
+    """
+    import math
+
+    config = config if isinstance(config, Mapping) else {}
+    bodies = max(
+        _config_number(config, "body.population", whole=True),
+        _config_number(config, "body.offspring", whole=True),
+    )
+    per_body = _config_number(config, "brain.popsize", whole=True) * _config_number(
+        config, "brain.iterations", whole=True
+    )
+    evaluations = int(bodies * per_body)
+    if table == "evaluations":
+        return evaluations
+    if table in ("bodies", "archive"):
+        return int(bodies) * (max(generation, 0) + 1)
+    duration = _config_number(config, "task.duration", whole=False)
+    rate = _config_number(config, "record.rate_hz", whole=False)
+    return evaluations * (math.ceil(3 * duration * rate) + 4)
+
+
+def rows_problem(config: Mapping[str, Any] | None, path: Path, metadata: Any) -> str | None:
+    """What is wrong with the row count of the table file ``path`` (``TABLE/gen-NNNNNN.parquet``,
+    its Parquet footer ``metadata``) for a run of ``config``: ``has N rows; ...`` when it holds
+    more than `ROW_MARGIN` x `row_limit`, ``run.json has ...`` for a config no ariel writes;
+    None when it is fine. Reads the footer only: a crafted file of a few bytes a row (2,000,000
+    dictionary-encoded rows in 1 MB) is refused before gigabytes are decoded."""
+    found = _GEN_FILE.match(path.name)
+    table = path.parent.name
+    if found is None or table not in _SCHEMAS:
+        return None
+    generation = int(found.group(1))
+    rows = max(
+        metadata.num_rows,
+        sum(metadata.row_group(i).num_rows for i in range(metadata.num_row_groups)),
+    )
+    try:
+        most = row_limit(config, table, generation)
+    except ValueError as exc:
+        return f"run.json {exc}: damaged or crafted, no table of it is loaded"
+    if rows <= ROW_MARGIN * most:
+        return None
+    return (
+        f"has {rows} rows; generation {generation} of this run's config makes at most {most}: "
+        "damaged or crafted, not loaded"
+    )
+
+
+def _check_rows(run_dir: Path, path: Path, metadata: Any, config: Any) -> None:
+    from ariel.recording._files import damaged
+
+    problem = rows_problem(config, path, metadata)
+    if problem is None:
+        return
+    if problem.startswith("run.json "):
+        raise damaged(run_dir, *problem.split(" ", 1))
+    raise _unreadable(run_dir, path, problem)
+
+
 def read_table(
-    run_dir: Path, table: str, up_to: int | None = None, manifest: Any = None
+    run_dir: Path,
+    table: str,
+    up_to: int | None = None,
+    manifest: Any = None,
+    columns: Sequence[str] | None = None,
 ) -> pa.Table:
     """All generations of ``table`` (those <= ``up_to`` when given) as one Arrow table.
 
     ``manifest`` (`ariel.recording._manifest.Manifest`): read the files it lists, each checked
-    against it (a missing or changed file raises `DamagedRunError`); without it, the files
-    found. A file that cannot be decoded raises `DamagedRunError` too, one line naming it.
+    against it (a missing or changed file raises `DamagedRunError`) and against the rows its
+    run's config can make (`row_limit`); without it, the files found. A file that cannot be
+    decoded raises `DamagedRunError` too, one line naming it. ``columns``: decode only these.
     """
     schema = _SCHEMAS[table]()
+    if columns is not None:
+        schema = pa.schema([schema.field(name) for name in columns])
     if manifest is not None:
         paths = [path for _, path in manifest.table_files(table, up_to)]
     else:
         gens = [g for g in table_generations(run_dir, table) if up_to is None or g <= up_to]
         paths = [generation_file(run_dir, table, g) for g in gens]
-    parts = [read_file(run_dir, path, table, manifest=manifest) for path in paths]
+    parts = [read_file(run_dir, path, table, manifest=manifest, columns=columns) for path in paths]
     if any(part.schema != parts[0].schema for part in parts):
         parts = [part.cast(schema) for part in parts]  # fixed-size lists of other sizes: lists
     return pa.concat_tables(parts) if parts else schema.empty_table()
@@ -339,12 +458,26 @@ def _unreadable(run_dir: Path, path: Path, problem: str) -> Exception:
     return damaged(run_dir, name, problem)
 
 
+def _not_parquet(run_dir: Path, path: Path, exc: Exception) -> Exception:
+    first = (str(exc).splitlines() or [""])[0]
+    problem = f"is not a readable Parquet table ({type(exc).__name__}: {first})"
+    return _unreadable(run_dir, path, problem)
+
+
 def read_file(
-    run_dir: Path, path: Path, table: str, *, manifest: Any = None, filters: Any = None
+    run_dir: Path,
+    path: Path,
+    table: str,
+    *,
+    manifest: Any = None,
+    filters: Any = None,
+    columns: Sequence[str] | None = None,
 ) -> pa.Table:
     """One file of ``table`` in today's schema (columns it predates get the value they meant
-    then), checked against ``manifest`` when given. A link out of the run folder is refused:
-    the folder's records are its own files, and a reader must not be pointed elsewhere."""
+    then), checked against ``manifest`` when given: its bytes, and before anything is decoded,
+    its row count against what its run's config can make in a generation (`row_limit`). A link
+    out of the run folder is refused: the folder's records are its own files, and a reader must
+    not be pointed elsewhere. ``columns``: decode only these (``filters`` may name only them)."""
     from ariel.recording._files import within
 
     run_dir, path = Path(run_dir), Path(path)
@@ -359,20 +492,26 @@ def read_file(
     if manifest is not None:
         manifest.check_bytes(path, data)
     try:
-        stored_schema = pq.read_schema(pa.BufferReader(data))
+        parquet = pq.ParquetFile(pa.BufferReader(data))  # reads the footer only
+        metadata, stored_schema = parquet.metadata, parquet.schema_arrow
         stored = set(stored_schema.names)
+        wanted = set(columns) if columns is not None else None
         fields = [
             _read_field(f, stored_schema.field(f.name) if f.name in stored else None)
             for f in _SCHEMAS[table]()
+            if wanted is None or f.name in wanted
         ]
         schema = pa.schema(fields)
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        raise _not_parquet(run_dir, path, exc) from None
+    if manifest is not None:
+        _check_rows(run_dir, path, metadata, getattr(manifest, "config", None))
+    try:
         part = pq.read_table(pa.BufferReader(data), schema=schema, filters=filters)
     except (pa.ArrowException, OSError, ValueError) as exc:
-        first = (str(exc).splitlines() or [""])[0]
-        problem = f"is not a readable Parquet table ({type(exc).__name__}: {first})"
-        raise _unreadable(run_dir, path, problem) from None
+        raise _not_parquet(run_dir, path, exc) from None
     for name, value in _ADDED_COLUMNS.get(table, {}).items():
-        if name not in stored:
+        if name not in stored and name in schema.names:
             index = part.schema.get_field_index(name)
             column = pa.array([value] * part.num_rows, type=schema.field(name).type)
             part = part.set_column(index, schema.field(name), column)

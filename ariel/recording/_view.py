@@ -72,12 +72,17 @@ class Selection:
     recordings: tuple[Path, ...]
     blueprint: Path | None
     description: str
-    #: The best evaluation's recording, opened first with the run's fitness and diversity
-    #: beside it (`write_view_recording`), so the viewer starts on its robot and joints.
+    #: The best evaluation's recording: the default view opens it alone, with the run's
+    #: fitness, diversity (and archive) beside it (`write_view_recording`), so the viewer
+    #: starts on its robot, morphology and joints.
     overview: Path | None = None
     #: Layouts of other application ids among the recordings (a generation's
     #: ``evaluations.rrd`` has its own, ``generation.rbl``).
     more_layouts: tuple[Path, ...] = ()
+    #: The recordings are the run's, of application ``ariel`` (evaluations' own, run.rrd):
+    #: each is opened as a copy with the run's charts beside it, laid out for the run (see
+    #: `_prepared`). Not a generation's ``evaluations.rrd`` nor a campaign's recording.
+    beside_run: bool = False
 
     @property
     def files(self) -> list[Path]:
@@ -140,7 +145,7 @@ def select_recordings(
         raise _no_recordings(run)
 
     def chosen(paths: Sequence[Path], description: str) -> Selection:
-        return Selection(folder, tuple(paths), blueprint_or_none, description)
+        return Selection(folder, tuple(paths), blueprint_or_none, description, beside_run=True)
 
     if eval_id is not None:
         if len(eval_id) > _MAX_EVAL_ID or not _EVAL_ID.fullmatch(eval_id):
@@ -184,10 +189,10 @@ def select_recordings(
             raise ViewError(f"no finished evaluation in {folder} to rank")
         return chosen(paths, f"the {len(paths)} best evaluations")
 
-    # Default: the best evaluation's recording (opened first: the viewer starts on its robot)
-    # and the run-level recording, whichever exist.
+    # Default: the best evaluation's recording (its own, else its 3D replay made on demand;
+    # the viewer opens on its robot) and the run-level recording, whichever exist.
     picked, parts = [], []
-    overview = paths[0] if paths and paths[0].is_file() else None
+    overview = _best_recording(run, paths[0]) if paths else None
     if overview is not None:
         picked.append(overview)
         parts.append(f"the best evaluation {overview.stem}")
@@ -197,6 +202,18 @@ def select_recordings(
     if not picked:
         raise _no_recordings(run)
     return dataclasses.replace(chosen(picked, " and ".join(parts)), overview=overview)
+
+
+def _best_recording(run: Any, path: Path) -> Path | None:
+    """The best evaluation's recording: its own, else its 3D replay made on demand; None (with
+    a note) where neither can be had."""
+    if path.is_file():
+        return path
+    try:
+        return _own_or_replayed(run, path)
+    except ViewError as exc:
+        print(f"ariel: {exc}; showing {RUN_RECORDING} alone", file=sys.stderr)
+        return None
 
 
 def _run_series(run: Any) -> Any:
@@ -213,27 +230,113 @@ def _run_series(run: Any) -> Any:
     return pd.DataFrame(rows) if rows else pd.DataFrame({"generation": []})
 
 
+def _archive_beside(run: Any) -> tuple[Any, list[str]] | None:
+    """A MAP-Elites run's archive after its last finished generation, as its grid of fitness
+    per cell (NaN: empty), and its dimensions' names ("num_limbs (0 to 8)"); None for a run
+    without an archive."""
+    import inspect
+
+    from ariel.evolution._map_elites import DEFAULT_RANGES, MapElites
+    from ariel.recording._recorder import archive_grid
+
+    archive = run.archive
+    if not len(archive):
+        return None
+    last = archive[archive["generation"] == archive["generation"].max()]
+    grid = archive_grid(last.to_dict("records"))
+    options = run.config.get("body", {}).get("optimizer_options") or {}
+    measures = list(
+        options.get("measures") or inspect.signature(MapElites).parameters["measures"].default
+    )
+    ranges = options.get("ranges") or [DEFAULT_RANGES.get(m) for m in measures]
+    names = []
+    for d in range(grid.ndim):
+        name = str(measures[d]) if d < len(measures) else f"measure {d}"
+        span = ranges[d] if d < len(ranges) else None
+        if span is not None and len(span) == 2:
+            name += f" ({float(span[0]):g} to {float(span[1]):g})"
+        names.append(name)
+    return grid, names
+
+
+def _graph_of(run: Any, eval_id: str) -> str | None:
+    """The morphology (node-link JSON, the bodies table's) of evaluation ``eval_id``'s body;
+    None for another recording (run.rrd) or a body without one."""
+    evaluations, bodies = run.evaluations, run.bodies
+    if not len(evaluations) or not len(bodies) or "graph" not in bodies:
+        return None
+    body = evaluations.loc[evaluations["eval_id"] == eval_id, "body_id"]
+    if body.empty:
+        return None
+    graphs = bodies.loc[bodies["body_id"] == body.iloc[0], "graph"]
+    graph = graphs.iloc[0] if len(graphs) else None
+    return graph if isinstance(graph, str) and graph else None
+
+
+def _fitness_unit(run: Any) -> str | None:
+    from ariel.recording._axes import fitness_unit
+
+    name = run.config.get("task", {}).get("fitness")
+    return fitness_unit(name) if isinstance(name, str) and name else None
+
+
 @contextlib.contextmanager
-def _with_overview(selection: Selection) -> Iterator[Selection]:
-    """``selection`` with its best evaluation's recording replaced, for as long as the
-    viewer runs, by one that also holds the run's fitness and diversity per generation (a
-    scratch file; the run folder is never written to)."""
-    if selection.overview is None:
+def _prepared(selection: Selection, *, panels: bool = True) -> Iterator[Selection]:
+    """``selection`` as the viewer is given it, for as long as the viewer runs (scratch files;
+    the run folder is never written to).
+
+    A run's recordings (`Selection.beside_run`) are each replaced by a copy that also holds
+    the run's fitness and diversity per generation and, for a MAP-Elites run, its archive
+    (`write_view_recording`), so every panel of the layout has data whichever recording the
+    viewer shows. The default view opens the best evaluation's copy alone: given ``run.rrd``
+    as well, the viewer opens on that, and the robot, morphology and joint views stay empty.
+    The layout is written for what is shown: the archive view for a run with an archive, the
+    fitness function's unit in the titles, the tabs of curves on the ``generation`` timeline
+    where ``run.rrd`` is shown (``panels=False``: the side panels collapsed, for pictures). A
+    generation's or a campaign's recording is given as it is.
+    """
+    if not selection.beside_run:
         yield selection
         return
     import tempfile
 
     from ariel.recording._load import load_run
-    from ariel.recording._rerun import write_view_recording
+    from ariel.recording._rerun import write_blueprint, write_view_recording
 
     scratch = Path(tempfile.mkdtemp(prefix="ariel-view-"))
     try:
-        generations = _run_series(load_run(selection.run_dir))
-        combined = write_view_recording(
-            scratch / selection.overview.name, selection.overview, generations
+        run = load_run(selection.run_dir)
+        beside = _archive_beside(run)
+        grid, dimensions = beside if beside is not None else (None, None)
+        generations = _run_series(run)
+        sources = (selection.overview,) if selection.overview else selection.recordings
+        recordings = tuple(
+            write_view_recording(
+                scratch / f"{k:03d}" / path.name,  # one folder each: names may repeat
+                path,
+                generations,
+                archive=grid,
+                archive_dimensions=dimensions,
+                graph_json=_graph_of(run, path.stem),
+            )
+            for k, path in enumerate(sources)
         )
-        recordings = tuple(combined if p == selection.overview else p for p in selection.recordings)
-        yield dataclasses.replace(selection, recordings=recordings)
+        layout = write_blueprint(
+            scratch / "views.rbl",
+            panels=panels,
+            archive=grid is not None,
+            fitness_unit=_fitness_unit(run),
+            run_curves=any(path.name == RUN_RECORDING for path in sources),
+        )
+        description = selection.description
+        if selection.overview is not None:
+            description = (
+                f"the best evaluation {selection.overview.stem} "
+                "with the run's fitness and diversity per generation"
+            )
+        yield dataclasses.replace(
+            selection, recordings=recordings, blueprint=layout, description=description
+        )
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 
@@ -277,7 +380,11 @@ def _replayed_or_generation(
             run, generation, f"generation {generation}'s evaluations ({eval_id} among them)"
         )
     return Selection(
-        run.path, (made,), blueprint, f"evaluation {eval_id} (3D replay re-simulated on demand)"
+        run.path,
+        (made,),
+        blueprint,
+        f"evaluation {eval_id} (3D replay re-simulated on demand)",
+        beside_run=True,
     )
 
 
@@ -587,7 +694,6 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
 
     from ariel.recording._browser import BrowserError, HeadlessChromium, find_chromium
     from ariel.recording._files import atomic_write_bytes
-    from ariel.recording._rerun import write_blueprint
 
     try:
         chromium = find_chromium()
@@ -597,8 +703,8 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
     grpc = _any_free_port({web_port})
     taken: list[str] = []
     scratch = tempfile.mkdtemp(prefix="ariel-screenshot-")  # the browser profile, the layout
-    # The layout of what is shown (a generation's recording, a campaign, a run) with the side
-    # panels collapsed: the picture shows the views.
+    # The layout of what is shown (a generation's recording, a campaign; a run's is written by
+    # `_prepared`) with the side panels collapsed: the picture shows the views.
     if selection.more_layouts:
         from ariel.recording._generation_rrd import write_generation_blueprint
 
@@ -610,9 +716,6 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
         layout = write_campaign_blueprint(
             Path(scratch) / "views.rbl", selection.run_dir, panels=False
         )
-        selection = dataclasses.replace(selection, blueprint=layout)
-    else:
-        layout = write_blueprint(Path(scratch) / "views.rbl", panels=False)
         selection = dataclasses.replace(selection, blueprint=layout)
 
     def capture(proc: subprocess.Popen[bytes]) -> None:
@@ -685,7 +788,7 @@ def view(
     """
     selection = select_recordings(run_dir, best=best, generation=generation, eval_id=eval_id)
     if screenshot is not None or web:
-        with _with_overview(selection) as shown:
+        with _prepared(selection, panels=screenshot is None) as shown:
             if screenshot is not None:
                 return _screenshot(shown, Path(screenshot), size, settle_s)
             return _serve_web(shown, port, grpc_port)
@@ -695,6 +798,6 @@ def view(
             "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); "
             f"serve it to a browser instead: {web_line}"
         )
-    print(f"Rerun viewer: {selection.description} of {selection.run_dir}", flush=True)
-    with _with_overview(selection) as shown:
+    with _prepared(selection) as shown:
+        print(f"Rerun viewer: {shown.description} of {shown.run_dir}", flush=True)
         return _run_child(native_command(shown), when_started=None)

@@ -21,6 +21,7 @@ from ariel.evolution._config import ConfigError, ExperimentConfig
 from ariel.evolution._driver import Plugins, RunDriver
 from ariel.evolution._progress import shows_progress
 from ariel.evolution._state import LoopState
+from ariel.runs._campaign_info import campaign_info
 from ariel.runs._campaign_progress import CampaignProgress, RunProgress
 from ariel.runs._experiment import (
     RunResult,
@@ -119,6 +120,7 @@ def run_campaign(
     spec = load_campaign_file(file, tuple(overrides))
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers, scheduler=scheduler)
+    _check_open_files(len(spec.configs), settings)
     campaign_id = _new_campaign_id(spec.name)
     path = Path(out) if out is not None else Path("data") / "campaigns" / campaign_id
     campaign_id = path.name or campaign_id
@@ -129,7 +131,7 @@ def run_campaign(
         folder = RunFolder(path / run_path(condition, seed))
         runs.append(_Run(condition, seed, folder, run_id, config, plugins))
     _check_new_folder(path)
-    info = _campaign_info(spec, runs, settings, campaign_id, Path(file).name)
+    info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
         write_campaign_info(path, info)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
@@ -144,48 +146,15 @@ def run_campaign(
         return _drive_campaign(path, runs, settings, progress, skipped=0)
 
 
-def _campaign_info(
-    spec: Any, runs: list[_Run], settings: Any, campaign_id: str, file_name: str
-) -> dict[str, Any]:
-    """campaign.json of a new campaign: what resume and the readers need, no absolute path."""
-    from ariel.recording._campaign import run_path
-    from ariel.recording._run_folder import now
+def _check_open_files(runs: int, settings: Any) -> None:
+    """Each run the campaign drives holds its lock (an open file) throughout: the process's
+    limit on open files must allow them all (`ensure_open_files`), checked before anything is
+    written or locked."""
+    from ariel.evaluation._threads import default_workers
+    from ariel.recording._lock import ensure_open_files
 
-    return {
-        "campaign_id": campaign_id,
-        "name": spec.name,
-        "description": spec.description,
-        "file": file_name,
-        "base": spec.base_name,
-        "seeds": spec.seeds,
-        "seeding": spec.seeding,
-        "conditions": [
-            {
-                "name": c.name,
-                "set": c.set,
-                "description": c.description,
-                "seeds": spec.seeds_of(c.name),
-            }
-            for c in spec.conditions
-        ],
-        "runs": [
-            {
-                "condition": r.condition,
-                "seed": r.seed,
-                "path": run_path(r.condition, r.seed),
-                "run_id": r.run_id,
-                "config": r.config.to_plain(),
-            }
-            for r in runs
-        ],
-        "executor": {
-            "kind": settings.kind,
-            "workers": settings.workers,
-            "scheduler": settings.scheduler,
-        },
-        "status": "created",
-        "created": now(),
-    }
+    workers = getattr(settings, "workers", None) or default_workers()
+    ensure_open_files(runs, 1 if getattr(settings, "kind", None) == "serial" else workers)
 
 
 def resume_campaign(
@@ -229,7 +198,7 @@ def resume_campaign(
     with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
-        runs, skipped, damaged = _unfinished_runs(path, info, locks)
+        runs, skipped, damaged = _unfinished_runs(path, info, locks, settings)
         if not runs and damaged:
             more = f" ({len(damaged) - 1} more cannot either)" if len(damaged) > 1 else ""
             raise DamagedRunError(f"campaign {str(path)!r}: no run resumed: {damaged[0]}{more}")
@@ -241,13 +210,15 @@ def resume_campaign(
 
 
 def _unfinished_runs(
-    path: Path, info: dict[str, Any], locks: contextlib.ExitStack
+    path: Path, info: dict[str, Any], locks: contextlib.ExitStack, settings: Any = None
 ) -> tuple[list[_Run], int, list[str]]:
     """The campaign's runs left to do, each locked (by ``locks``) and made ready to go on;
-    how many finished before; and one line per run that cannot go on (left alone, unlocked)."""
+    how many finished before; and one line per run that cannot go on (left alone, unlocked).
+    First, that the limit on open files allows a lock for each (`_check_open_files`)."""
     from ariel.recording._escape import one_line
     from ariel.recording._run_folder import NotARunError
 
+    _check_open_files(_left_to_do(path, info), settings)
     runs, skipped, damaged = [], 0, []
     for entry in info["runs"]:
         try:
@@ -264,6 +235,20 @@ def _unfinished_runs(
         else:
             runs.append(run)
     return runs, skipped, damaged
+
+
+def _left_to_do(path: Path, info: dict[str, Any]) -> int:
+    """How many of the campaign's runs are not finished (reads each run.json only)."""
+    from ariel.recording._run_folder import NotARunError, RunFolder
+
+    left = 0
+    for entry in info["runs"]:
+        try:
+            finished = RunFolder(path / entry["path"]).read_info().get("status") == "finished"
+        except (NotARunError, ValueError, OSError):
+            finished = False
+        left += not finished
+    return left
 
 
 def _unfinished_run(path: Path, entry: dict[str, Any], locks: contextlib.ExitStack) -> _Run | None:

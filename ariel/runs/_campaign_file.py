@@ -26,6 +26,11 @@ A longer name given in the file is refused; a longer name made from a grid's val
 condition crossed with a grid point) is cut to fit and ends in 8 hex digits of the SHA-256 of
 the whole name, so names stay distinct.
 
+A campaign has at most `MAX_RUNS` (10,000) runs (conditions x seeds), counted before any
+condition or config is made: a grid of 1,000 x 1,000 values or ``seed_count = 1000000000`` is
+refused in one line, not built (``max_runs`` of `campaign_spec` / `load_campaign_file` changes
+the limit).
+
 ``seeding``: ``"shared"`` (the default): every condition runs the seeds as given (common random
 numbers: generation 0 is the same in every condition, and `ariel compare` pairs the runs by
 seed); ``"independent"``: condition i (0, 1, ... in the order of the campaign's conditions)
@@ -39,7 +44,6 @@ import hashlib
 import itertools
 import json
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -57,10 +61,12 @@ from ariel.evolution._config import (
     load_config,
     set_value,
 )
+from ariel.evolution._toml import read_toml_file
 
 __all__ = [
     "MAX_CAMPAIGN_NAME",
     "MAX_CONDITION_NAME",
+    "MAX_RUNS",
     "SEEDING",
     "CampaignSpec",
     "Condition",
@@ -77,6 +83,9 @@ MAX_CONDITION_NAME = _NAME_MAX - len("condition=")
 MAX_CAMPAIGN_NAME = _NAME_MAX - len("-20261124-101500")
 #: The values of a campaign's ``seeding`` (the first is the default).
 SEEDING = ("shared", "independent")
+#: The most runs (conditions x seeds) a campaign may have unless the caller allows more: each
+#: is a config in memory and a folder, and a campaign drives them all at once.
+MAX_RUNS = 10_000
 
 
 class _ConditionEntry(BaseModel):
@@ -256,6 +265,24 @@ def _apply(
     return result
 
 
+def _check_size(model: _CampaignModel, max_runs: int) -> None:
+    """`ConfigError` when the campaign has more than ``max_runs`` runs, counted from the file's
+    lists alone: nothing per run or per condition is made first."""
+    import math
+
+    seeds = len(model.seeds) if model.seeds is not None else int(model.seed_count or 0)
+    points = math.prod(len(values) for values in model.grid.values()) if model.grid else 0
+    named = len(model.condition)
+    conditions = (named * points if named and points else named or points) or 1
+    runs = conditions * seeds
+    if runs > max_runs:
+        raise ConfigError(
+            f"campaign: {conditions} condition(s) x {seeds} seed(s) = {runs} runs; at most "
+            f"{max_runs} runs a campaign: fewer grid values or seeds, or split it into "
+            "smaller campaigns"
+        )
+
+
 def _seeds(model: _CampaignModel) -> list[int]:
     seeds = model.seeds if model.seeds is not None else list(range(1, model.seed_count + 1))
     if not seeds:
@@ -275,16 +302,22 @@ def condition_seeds(seeds: list[int], index: int, seeding: str) -> list[int]:
 
 
 def campaign_spec(
-    data: Mapping[str, Any], *, beside: Path | None = None, overrides: tuple[str, ...] = ()
+    data: Mapping[str, Any],
+    *,
+    beside: Path | None = None,
+    overrides: tuple[str, ...] = (),
+    max_runs: int = MAX_RUNS,
 ) -> CampaignSpec:
     """Validate a campaign's raw data (``beside``: the folder of its file, for ``base``);
-    ``overrides``: ``key=value`` strings applied to the base (``--set``)."""
+    ``overrides``: ``key=value`` strings applied to the base (``--set``); ``max_runs``: the
+    most runs (conditions x seeds) allowed, checked before any is made."""
     from ariel.evolution._config import apply_overrides
 
     try:
         model = _CampaignModel.model_validate(dict(data))
     except ValidationError as exc:
         raise ConfigError(_one_line(exc)) from None
+    _check_size(model, max_runs)
     why = "the campaign's default folder is <name>-<date>-<time>"
     _check_name(model.name, "name", MAX_CAMPAIGN_NAME, why)
     seeds = _seeds(model)
@@ -313,17 +346,13 @@ def campaign_spec(
     )
 
 
-def load_campaign_file(path: str | Path, overrides: tuple[str, ...] = ()) -> CampaignSpec:
-    """Read and validate a campaign TOML file (see the module docstring)."""
+def load_campaign_file(
+    path: str | Path, overrides: tuple[str, ...] = (), *, max_runs: int = MAX_RUNS
+) -> CampaignSpec:
+    """Read and validate a campaign TOML file (see the module docstring); ``max_runs``: as
+    `campaign_spec`'s."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"campaign file {str(path)!r} not found")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: malformed TOML: {exc}") from None
-    except RecursionError:  # tomllib recurses per nested array or table
-        raise ConfigError(f"{path}: malformed TOML: nested too deeply") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a UTF-8 text file") from None
-    return campaign_spec(data, beside=path.parent, overrides=overrides)
+    data = read_toml_file(path)
+    return campaign_spec(data, beside=path.parent, overrides=overrides, max_runs=max_runs)

@@ -10,6 +10,10 @@ catches the interrupt (the ``ariel`` command) leaves the ``with`` block, which c
 SIGTERM (a batch system, ``kill``) and SIGHUP (a closed terminal or SSH session) stop a run as
 Ctrl-C does: status ``interrupted``, the lock released, resumable. Once: a second signal
 meanwhile ends the process at once, as Python's own handling of a second Ctrl-C would.
+
+`Stopped` is the same kind of stop without a signal: the run cannot go on for a reason outside
+it (e.g. its Dask cluster has had no worker for a minute), so it ends as an interrupted one,
+resumable, with the reason in its one line.
 """
 
 from __future__ import annotations
@@ -19,7 +23,17 @@ import signal
 import threading
 from collections.abc import Iterator
 
-__all__ = ["Interrupted", "exit_status", "raise_pending", "stop_on_signals"]
+__all__ = [
+    "STOPPED_EXIT",
+    "Interrupted",
+    "Stopped",
+    "exit_status",
+    "raise_pending",
+    "stop_on_signals",
+]
+
+#: Exit status of a run that `Stopped` (EX_TEMPFAIL: a temporary failure; resume it later).
+STOPPED_EXIT = 75
 
 _pending: int | None = None  # the signal number taken and not yet acted on
 
@@ -32,9 +46,24 @@ class Interrupted(KeyboardInterrupt):
         self.signum = signum
 
 
+class Stopped(KeyboardInterrupt):
+    """The run stopped itself: ``reason`` (one line) says why, e.g. no Dask worker for 60 s.
+
+    A `KeyboardInterrupt`, so that it ends a run as Ctrl-C does: status ``interrupted``, the
+    lock released, the folder noted for the resume hint, the executor stopped without waiting.
+    """
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
 def exit_status(exc: KeyboardInterrupt) -> tuple[int, str]:
-    """The exit code for a run ``exc`` stopped (128 + the signal's number: 130 for Ctrl-C) and
-    what to add to the word "interrupted" ("" for Ctrl-C, " (SIGTERM)")."""
+    """The exit code for a run ``exc`` stopped (128 + the signal's number: 130 for Ctrl-C;
+    `STOPPED_EXIT` for `Stopped`) and what to add to the word "interrupted" ("" for Ctrl-C,
+    " (SIGTERM)", ": <reason>")."""
+    if isinstance(exc, Stopped):
+        return STOPPED_EXIT, f": {exc.reason}"
     signum = int(exc.signum) if isinstance(exc, Interrupted) else int(signal.SIGINT)
     how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
     return 128 + signum, how

@@ -3,6 +3,7 @@ environment's ipykernel) and show what they promise; the stored notebooks hold n
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import json
 import math
@@ -46,9 +47,70 @@ def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+def describe_figure(figure) -> dict:
+    """What a reader sees of a matplotlib figure: its title, and per visible axes the title,
+    axis labels, whether the ticks shown are whole numbers, and the colour of each labelled
+    line or single-coloured collection (label -> hex). The notebooks' figures are described
+    by this same function in their kernel (`PROBE`), the report's here."""
+    from matplotlib.colors import to_hex
+
+    def whole(axis, limits) -> bool:
+        low, high = sorted(limits)
+        shown = [t for t in axis.get_majorticklocs() if low - 1e-9 <= t <= high + 1e-9]
+        return bool(shown) and all(float(t).is_integer() for t in shown)
+
+    axes = []
+    for ax in figure.axes:
+        if not ax.get_visible():
+            continue
+        colours = {}
+        for line in ax.get_lines():
+            colours[line.get_label()] = to_hex(line.get_color())
+        for collection in ax.collections:
+            faces = collection.get_facecolor()
+            if collection.get_array() is None and len(faces):  # not colour-mapped
+                colours[collection.get_label()] = to_hex(faces[0])
+        axes.append(
+            {
+                "title": " ".join(ax.get_title().split() or ax.get_title(loc="left").split()),
+                "xlabel": ax.get_xlabel(),
+                "ylabel": ax.get_ylabel(),
+                "whole_x": whole(ax.xaxis, ax.get_xlim()),
+                "whole_y": whole(ax.yaxis, ax.get_ylim()),
+                "colours": {k: v for k, v in colours.items() if not k.startswith("_")},
+            }
+        )
+    return {"title": figure.get_suptitle(), "axes": axes}
+
+
+#: A first cell for a notebook under test: every figure it shows carries, as its text/plain,
+#: ``figure `` and `describe_figure`'s JSON (read back by `_drawn`). Registered again before
+#: every cell: ``%matplotlib inline`` drops every formatter of figures.
+PROBE = (
+    "import json as _json\n\n"
+    + inspect.getsource(describe_figure)
+    + "\n\ndef _describe(figure, printer, cycle):\n"
+    "    printer.text('figure ' + _json.dumps(describe_figure(figure)))\n\n\n"
+    "def _register(*_):\n"
+    "    plain = get_ipython().display_formatter.formatters['text/plain']\n"
+    "    plain.for_type_by_name('matplotlib.figure', 'Figure', _describe)\n\n\n"
+    "_register()\n"
+    "get_ipython().events.register('pre_run_cell', _register)\n"
+)
+
+
+def _drawn(cell) -> list[dict]:
+    """`describe_figure` of every figure ``cell`` showed, in order (a notebook run with
+    `PROBE`)."""
+    shown = [o["data"]["text/plain"] for o in cell.outputs if "image/png" in o.get("data", {})]
+    assert all(text.startswith("figure {") for text in shown), shown
+    return [json.loads(text.removeprefix("figure ")) for text in shown]
+
+
 def _execute(notebook, *, cwd: Path, home: Path, run_dir: Path | None) -> None:
     """Run ``notebook`` in place, in a kernel of this interpreter's ipykernel, in ``cwd``, with
-    ``ARIEL_RUN_DIR`` set to ``run_dir`` (unset for None); Jupyter's files go under ``home``."""
+    ``ARIEL_RUN_DIR`` set to ``run_dir`` (unset for None); Jupyter's files go under ``home``.
+    A first cell (`PROBE`) is added: each figure shown carries its description (`_drawn`)."""
     from ipykernel.kernelspec import write_kernel_spec
     from jupyter_client.manager import AsyncKernelManager
 
@@ -67,6 +129,7 @@ def _execute(notebook, *, cwd: Path, home: Path, run_dir: Path | None) -> None:
         manager = AsyncKernelManager(
             kernel_name="ariel-test", transport="ipc", ip=str(home / "ipc")
         )
+        notebook.cells.insert(0, nbformat.v4.new_code_cell(PROBE))
         client = nbclient.NotebookClient(
             notebook, km=manager, timeout=120, resources={"metadata": {"path": str(cwd)}}
         )
@@ -162,6 +225,75 @@ def test_the_morphology_is_that_of_the_population_the_report_draws(
         assert re.search(rf"^{generation}\s+{size}\s", shown, re.MULTILINE), shown
 
 
+@pytest.fixture(scope="module")
+def report(tiny_run: Path, tmp_path_factory: pytest.TempPathFactory):
+    """`ariel report` of a copy of the tiny run (its figures, to hold the notebooks' to)."""
+    from ariel.recording import make_report
+
+    copy = tmp_path_factory.mktemp("report") / "tiny"
+    shutil.copytree(tiny_run, copy)
+    return make_report(copy, render=False)
+
+
+def test_fitness_and_diversity_draws_as_the_report_does(executed: dict, report) -> None:
+    """The notebook's figures follow `ariel report`'s: the same labels with units, whole
+    generations on the x axis, the same colour for each line."""
+    from ariel.recording._axes import DESCRIPTORS, fitness_label
+    from ariel.recording._report import MORPHOLOGY_TITLE
+
+    notebook = executed["fitness_and_diversity"]
+    (fitness,) = _drawn(_cell_with(notebook, "ax.scatter(ok"))
+    (drawn,) = fitness["axes"]
+    (theirs,) = describe_figure(report.figures["fitness.png"])["axes"]
+    label = fitness_label("xy_displacement", True)
+    assert drawn["ylabel"] == theirs["ylabel"] == label  # the fitness function's unit
+    assert label == "fitness: xy_displacement (m), higher is better"
+    assert drawn["xlabel"] == theirs["xlabel"] == "generation"
+    assert drawn["whole_x"] and theirs["whole_x"]  # 0, 1, 2: no 0.25 generations
+    assert set(drawn["colours"]) == {"evaluations", "mean", "median", "best"}
+    assert drawn["colours"] == theirs["colours"]  # best green, mean blue, median orange, grey
+    assert theirs["title"].endswith(f": {drawn['title']}")
+
+    (morphology,) = _drawn(_cell_with(notebook, "ax.boxplot("))
+    theirs = {a["title"]: a for a in describe_figure(report.figures["morphology.png"])["axes"]}
+    assert len(morphology["axes"]) == 6 and morphology["title"] == MORPHOLOGY_TITLE
+    for axes in morphology["axes"]:
+        name = axes["title"]
+        unit, whole = DESCRIPTORS[name]
+        assert axes["ylabel"] == theirs[name]["ylabel"] == unit, name  # "extent_x": m
+        assert axes["whole_x"], name
+        assert axes["colours"] == theirs[name]["colours"], name
+        if whole:  # a count: 2, 3, 4 leaf modules, never 2.5
+            assert axes["whole_y"] and theirs[name]["whole_y"], name
+    assert [a["xlabel"] for a in morphology["axes"][3:]] == ["generation"] * 3
+
+    (lineage,) = _drawn(_cell_with(notebook, "nx.draw_networkx_nodes("))
+    assert label in [a["ylabel"] for a in lineage["axes"]]  # the colour bar: fitness (m)
+
+
+def test_gait_of_best_draws_as_the_report_does(executed: dict, report) -> None:
+    notebook = executed["gait_of_best"]
+    (path,) = _drawn(_cell_with(notebook, "core_x"))
+    theirs = describe_figure(report.figures["trajectory.png"])["axes"]
+    top, height, away = (a for a in path["axes"] if a["ylabel"] != "time (s)")
+    assert (top["xlabel"], top["ylabel"]) == (theirs[0]["xlabel"], theirs[0]["ylabel"])
+    assert (top["xlabel"], top["ylabel"]) == ("core x (m)", "core y (m)")
+    assert {"start", "end"} <= set(top["colours"]) and {"start", "end"} <= set(theirs[0]["colours"])
+    assert [a["ylabel"] for a in path["axes"]].count("time (s)") == 1  # the colour bar, as theirs
+    assert [a["ylabel"] for a in theirs].count("time (s)") == 1
+    assert (height["xlabel"], height["ylabel"]) == ("time (s)", "core z (m)")
+    assert (away["xlabel"], away["ylabel"]) == ("time (s)", "distance from the start (m)")
+
+    (joints,) = _drawn(_cell_with(notebook, "joint_target"))
+    theirs = describe_figure(report.figures["joints.png"])["axes"]
+    assert [a["title"] for a in joints["axes"]] == [a["title"] for a in theirs]  # joint_labels
+    for axes, their in zip(joints["axes"], theirs):
+        assert axes["ylabel"] == their["ylabel"] == "angle (rad)"
+        assert axes["colours"] == their["colours"]  # target blue dashed, angle orange
+        assert set(axes["colours"]) == {"target", "angle"}
+    assert joints["axes"][-1]["xlabel"] == "time (s)"
+
+
 def test_duckdb_reads_the_parquet_tables_in_place(executed: dict, tiny_run: Path) -> None:
     cell = _cell_with(executed["fitness_and_diversity"], "duckdb.sql(")
     (table,) = [o for o in cell.outputs if "text/plain" in o.get("data", {})]
@@ -242,6 +374,17 @@ def tiny_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.fixture(scope="module")
+def compared(tiny_campaign: Path, tmp_path_factory: pytest.TempPathFactory):
+    """compare_conditions.ipynb executed against the tiny campaign, from analysis/."""
+    notebook = nbformat.read(ANALYSIS / "compare_conditions.ipynb", as_version=4)
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("ARIEL_CAMPAIGN_DIR", str(tiny_campaign))
+        home = tmp_path_factory.mktemp("jupyter-compare")
+        _execute(notebook, cwd=ANALYSIS, home=home, run_dir=None)
+    return notebook
+
+
 def test_compare_conditions_is_stored_without_outputs() -> None:
     notebook = nbformat.read(ANALYSIS / "compare_conditions.ipynb", as_version=4)
     nbformat.validate(notebook)
@@ -251,13 +394,11 @@ def test_compare_conditions_is_stored_without_outputs() -> None:
 
 
 def test_compare_conditions_shows_the_comparison_of_compare_from_pandas(
-    tiny_campaign: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    compared, tiny_campaign: Path, tmp_path: Path
 ) -> None:
     from ariel.recording import compare, load_campaign
 
-    notebook = nbformat.read(ANALYSIS / "compare_conditions.ipynb", as_version=4)
-    monkeypatch.setenv("ARIEL_CAMPAIGN_DIR", str(tiny_campaign))
-    _execute(notebook, cwd=ANALYSIS, home=tmp_path / "jupyter", run_dir=None)
+    notebook = compared
     text = _text(notebook)
     assert "conditions fresh, inherit; seeds [1, 2]" in text
     assert _figures(notebook) == 3  # best so far, final best, morphology
@@ -277,6 +418,59 @@ def test_compare_conditions_shows_the_comparison_of_compare_from_pandas(
     a12 = comparison.stats.loc[0, "a12"]
     assert f"{a12:.2f} (n=2 vs 2)" in shown and "warning: fewer than 5 runs" in text
     assert load_campaign(tiny_campaign).maximise
+    # Its headings: the Holm-corrected p, the test the design calls for (shared seeds: paired).
+    heading = [line for line in shown.splitlines() if "p (Holm)" in line]
+    assert heading and "A12 (n)" in shown and "median A (mean ± sd)" in shown
+    assert table["data"]["text/html"].count("<th>p (Holm)</th>") == 1
+    assert "Wilcoxon signed-rank, 2 pairs" in shown and "Mann" not in shown
+    about = f"{comparison.title}: xy_displacement, higher is better"  # the command's titles
+    for part in ("per condition", "pairs of conditions"):
+        assert f"{about}: {part}\n" in text
+    summary = "".join(
+        o["data"].get("text/plain", "")
+        for o in _cell_with(notebook, "comparison.summary_table()").outputs
+        if o.output_type == "display_data"
+    )
+    for row in comparison.summary_table().itertuples(index=False):
+        assert all(str(cell) in summary for cell in row), (row, summary)
+    assert "final best: mean ± sd" in summary
+
+
+def test_compare_conditions_draws_as_compare_does(compared, tiny_campaign: Path) -> None:
+    """The notebook's figures: `ariel compare`'s colour for each condition, its axis labels
+    (the fitness's unit, a descriptor's unit) and whole numbers of evaluations."""
+    from matplotlib.colors import to_hex
+
+    from ariel.recording import compare
+    from ariel.recording._axes import DESCRIPTORS, fitness_label
+    from ariel.recording._compare_plots import _colours
+
+    notebook = compared
+    comparison = compare([tiny_campaign], write=False)
+    colours = {name: to_hex(c) for name, c in _colours(comparison.conditions).items()}
+    assert len(set(colours.values())) == 2
+    ylabel = fitness_label("xy_displacement", True, what="best fitness")
+    assert ylabel == "best fitness: xy_displacement (m), higher is better"
+
+    (best,) = _drawn(_cell_with(notebook, "pivot_table("))
+    (axes,) = best["axes"]
+    assert (axes["xlabel"], axes["ylabel"]) == ("evaluations", ylabel) and axes["whole_x"]
+    for name, colour in colours.items():
+        assert axes["colours"][name] == colour  # the median line
+        assert next(v for k, v in axes["colours"].items() if k.startswith(f"{name}: ")) == colour
+
+    (final,) = _drawn(_cell_with(notebook, "ax.boxplot("))
+    (axes,) = final["axes"]
+    assert axes["ylabel"] == ylabel
+    assert {k: v for k, v in axes["colours"].items() if k in colours} == colours  # the dots
+
+    (morphology,) = _drawn(_cell_with(notebook, "DESCRIPTORS[descriptor]"))
+    titles = [a["title"] for a in morphology["axes"]]
+    assert titles == ["num_modules", "num_limbs", "joints_ratio", "symmetry"]
+    for axes in morphology["axes"]:
+        assert axes["ylabel"] == DESCRIPTORS[axes["title"]][0]  # modules, hinges / modules
+        assert axes["xlabel"] == "evaluations" and axes["whole_x"]
+        assert {k: v for k, v in axes["colours"].items() if k in colours} == colours
 
 
 def test_a_brain_only_run_s_best_body_shows_its_best_fitness(

@@ -30,6 +30,13 @@ SMALL = {
     "executor": {"kind": "serial"},
 }
 FRAMES = 6  # 10 Hz over 0.5 s, first frame at t = 0
+#: A hinge's label in a morphology graph: its branch and number ("right 1").
+HINGE = re.compile(r"(front|back|right|left) \d+")
+
+
+def short(joint_label: str) -> str:
+    """The graph's label of a joint's hinge: "right branch, hinge 1" -> "right 1"."""
+    return re.sub(r"^(\w+) branch, hinge (\d+)$", r"\1 \2", joint_label)
 
 
 def small(**record: Any) -> dict[str, Any]:
@@ -134,12 +141,19 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
         nodes = column(graph, "GraphNodes:node_ids")[0]
         assert len(nodes) == row["num_modules"]
         assert len(column(graph, "GraphEdges:edges")[0]) == row["num_modules"] - 1
-        # Labels: a hinge as its joint's legend says, the others by type and id.
+        # Labels, short: a hinge as its joint's legend says ("right 1" for "right branch,
+        # hinge 1"), the others by type alone; placed as a tree, the core on top.
         labels = column(graph, "GraphNodes:labels")[0]
         legend = joint_labels(row["joint_names"], body_graph)
-        assert sorted(label for label in labels if "branch" in label) == sorted(legend)
-        others = [label for label in labels if "branch" not in label]
-        assert "core 0" in others and all(re.fullmatch(r"(core|brick) \d+", o) for o in others)
+        assert sorted(label for label in labels if HINGE.fullmatch(label)) == sorted(
+            map(short, legend)
+        )
+        others = [label for label in labels if not HINGE.fullmatch(label)]
+        assert others.count("core") == 1 and set(others) <= {"core", "brick"}
+        positions = np.array(column(graph, "GraphNodes:positions")[0])
+        assert positions.shape == (len(nodes), 2)
+        assert len({tuple(p) for p in positions}) == len(nodes)  # no two nodes on one spot
+        assert positions[labels.index("core")][1] == positions[:, 1].min()  # the core on top
         # Properties: the evaluation's ids and fitness; the world (floor) is drawn.
         props = found[("/__properties/ariel", True)]
         assert column(props, "eval_id")[0] == [row["eval_id"]]
@@ -190,8 +204,8 @@ def test_a_generation_recording_holds_every_evaluation_s_path_joints_graph_and_f
                 assert np.array_equal(values, expected)
             graph = run.bodies.loc[run.bodies["body_id"] == row["body_id"], "graph"].iloc[0]
             assert labels[k] == joint_labels(row["joint_names"], graph)
-            hinges = sorted(label for label in node_labels[k] if "branch" in label)
-            assert hinges == sorted(labels[k])  # the graph's hinges read as the legend
+            hinges = sorted(label for label in node_labels[k] if HINGE.fullmatch(label))
+            assert hinges == sorted(map(short, labels[k]))  # the hinges read as the legend
             assert len(nodes[k]) == row["num_modules"]
 
 
@@ -240,8 +254,15 @@ def test_run_rrd_holds_fitness_diversity_and_best_bodies_and_the_blueprint_reads
             timelines += [t[0] for t in column(batch, "TimePanelBlueprint:timeline")]
     assert views["robot"] == "3D" and views["morphology"] == "Graph"
     assert views["joint angles (rad)"] == views["fitness (generation timeline)"] == "TimeSeries"
-    # The run's fitness and diversity show beside an evaluation, whatever the timeline...
-    assert views["fitness per generation"] == views["diversity per generation"] == "BarChart"
+    # The run's fitness and diversity show beside an evaluation, whatever the timeline, one
+    # view per series (a bar chart's legend could only show its entity path)...
+    for name in (
+        "best fitness per generation",
+        "mean fitness per generation",
+        "descriptor distance per generation",
+        "distinct bodies per generation",
+    ):
+        assert views[name] == "BarChart"
     # ...and the viewer opens on the evaluation's clock, not on `generation`.
     assert timelines == ["sim_time"]
     summary = {key for key in found if key[0].startswith("/run/")}

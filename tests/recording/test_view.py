@@ -29,7 +29,7 @@ import rerun.blueprint as rrb
 from ariel.evolution import run_experiment
 from ariel.recording import load_run
 from ariel.recording._browser import HeadlessChromium
-from ariel.recording._rerun import module_colours
+from ariel.recording._rerun import SUMMARY_SERIES, module_colours
 from ariel.recording._view import (
     ViewError,
     best_evaluations,
@@ -274,8 +274,13 @@ def test_native_viewer_gets_the_recordings_and_the_blueprint(recorded_run: Path,
     result = _ariel_run("view", str(recorded_run), "--best", "2", env=env)
     assert result.returncode == 0, result.stderr
     best = select_recordings(recorded_run, best=2).recordings
-    argv = (tmp_path / "argv").read_text().split()
-    assert argv == [*map(str, best), str(recorded_run / "blueprint.rbl")]
+    argv = [Path(arg) for arg in (tmp_path / "argv").read_text().split()]
+    # Copies of the two, in that order, with the run's charts beside; a layout for them.
+    *copies, layout = argv
+    assert [p.name for p in copies] == [p.name for p in best]
+    assert layout.name == "views.rbl"
+    assert all(p.parents[1] == layout.parent for p in copies)
+    assert layout.parent.name.startswith("ariel-view-") and not layout.exists()  # gone
 
 
 def test_the_viewer_exit_code_comes_back(recorded_run: Path, tmp_path: Path) -> None:
@@ -395,17 +400,19 @@ def test_web_serves_on_localhost_only_and_leaves_nothing_behind(recorded_run, si
         # The recordings and the blueprint are what the server was given.
         cmdline = served.rerun.cmdline()
         assert "--serve-web" in cmdline and "--web-viewer" not in cmdline  # never a browser
-        best, run_rrd = select_recordings(recorded_run).recordings
-        assert cmdline[-2:] == [str(run_rrd), str(recorded_run / "blueprint.rbl")]
-        # The best evaluation comes first, as a scratch copy with the run's fitness beside it.
-        combined = Path(cmdline[-3])
-        assert combined.name == best.name and combined.parent.name.startswith("ariel-view-")
-        assert combined.is_file()
+        best, _run_rrd = select_recordings(recorded_run).recordings
+        # The best evaluation alone (given run.rrd too, the viewer opens on that), as a
+        # scratch copy with the run's fitness beside it, and a layout written for it.
+        combined, layout = map(Path, cmdline[-2:])
+        assert combined.name == best.name and layout.name == "views.rbl"
+        assert combined.parents[1] == layout.parent
+        assert layout.parent.name.startswith("ariel-view-")
+        assert combined.is_file() and layout.is_file()
     finally:
         assert served.stop(signum) == code
     assert _gone(served.rerun.pid)
     if signum != 9:  # SIGKILL leaves the scratch copy in the temporary folder
-        assert _eventually(lambda: not combined.parent.exists())
+        assert _eventually(lambda: not layout.parent.exists())
     assert _eventually(lambda: _ports_closed(ports))
 
 
@@ -428,6 +435,15 @@ def _pixels(png: bytes) -> np.ndarray:
 def _share(image: np.ndarray, colour: tuple[int, int, int]) -> float:
     near = np.abs(image.astype(int) - np.array(colour)).sum(axis=-1) < 60
     return float(near.mean())
+
+
+def _tinted(image: np.ndarray, colour: tuple[int, int, int]) -> float:
+    """The share of pixels drawn in ``colour`` at half to full opacity over white (the viewer
+    fills bars translucent)."""
+    pixels, target = 255.0 - image.astype(float), 255.0 - np.array(colour, dtype=float)
+    opacity = (pixels @ target) / (target @ target)  # the best fit of pixel = opacity x colour
+    error = np.abs(pixels - opacity[..., None] * target).max(axis=-1)
+    return float(((opacity >= 0.5) & (opacity <= 1.05) & (error < 20)).mean())
 
 
 @pytest.mark.skipif(not CHROMIUM.exists(), reason=f"{CHROMIUM} missing (apt-get install chromium)")
@@ -457,12 +473,13 @@ def test_a_headless_browser_loads_the_recording_from_the_served_viewer(recorded_
             if c.status == psutil.CONN_ESTABLISHED and c.laddr.port == grpc
         ]
         assert clients, "no browser connection to the gRPC proxy"
-        # ...and drew it: the recording is one red image, which fills the blueprint's 2D view.
-        share = 0.0
-        while time.monotonic() < deadline and share < 0.05:
+        # ...and drew it: the evaluation's copy holds the run's best fitness per generation,
+        # drawn as bars in their own colour beside the (stand-in) evaluation.
+        share, bars = 0.0, SUMMARY_SERIES["best_fitness"][2][:3]
+        while time.monotonic() < deadline and share < 0.003:
             time.sleep(0.5)
-            share = _share(_pixels(browser.png()), RED)
-        assert share >= 0.05, f"red covers {share:.1%} of the page"
+            share = _tinted(_pixels(browser.png()), bars)
+        assert share >= 0.003, f"the best fitness bars cover {share:.1%} of the page"
     finally:
         browser.close()
         assert served.stop(signal.SIGINT) == 0
@@ -524,14 +541,15 @@ def test_screenshot_bad_input_is_one_line_exit_2(recorded_run: Path, tmp_path: P
 
 def test_the_view_recording_is_the_best_evaluation_with_the_run_beside(tmp_path: Path) -> None:
     """`ariel view RUN` opens one recording holding the best evaluation's robot, joints and
-    graph (on sim_time) and the run's fitness and diversity per generation (static charts)."""
-    from ariel.recording._view import _with_overview
+    graph (on sim_time) and the run's fitness and diversity per generation (static charts):
+    alone, since given run.rrd too the viewer opens on that."""
+    from ariel.recording._view import _prepared
 
     result = run_experiment({**TINY, "record": {"rerun": True}}, out=tmp_path / "run")
     chosen = select_recordings(result.run_dir)
-    with _with_overview(chosen) as shown:
-        combined = shown.recordings[0]
-        assert combined != chosen.overview and shown.recordings[1:] == chosen.recordings[1:]
+    with _prepared(chosen) as shown:
+        (combined,) = shown.recordings
+        assert combined != chosen.overview and combined.name == chosen.overview.name
         reader = rr.chunk.RrdReader(combined)
         (store,) = reader.recordings()
         assert store.recording_id == result.best_eval_id

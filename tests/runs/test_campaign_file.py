@@ -178,11 +178,11 @@ def test_campaign_json_records_the_seeding_and_old_ones_read_as_shared(tmp_path:
     from types import SimpleNamespace
 
     from ariel.recording._campaign import Campaign
-    from ariel.runs._campaign import _campaign_info
+    from ariel.runs._campaign_info import campaign_info
 
     spec = campaign_spec(_two_conditions(seed_count=2, seeding="independent"))
     settings = SimpleNamespace(kind="serial", workers=1, scheduler=None)
-    info = _campaign_info(spec, [], settings, "c-1", "c.toml")
+    info = campaign_info(spec, [], settings, "c-1", "c.toml")
     assert info["seeding"] == "independent" and info["seeds"] == [1, 2]
     assert info["base"] == "inline"
     assert [c["seeds"] for c in info["conditions"]] == [[1, 2], [3, 4]]

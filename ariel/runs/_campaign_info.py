@@ -1,0 +1,54 @@
+"""campaign.json's content for a new campaign (`run_campaign`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+__all__ = ["campaign_info"]
+
+
+def campaign_info(
+    spec: Any, runs: Sequence[Any], settings: Any, campaign_id: str, file_name: str
+) -> dict[str, Any]:
+    """campaign.json of a new campaign: what resume and the readers need, no absolute path.
+    ``spec``: the campaign file's `CampaignSpec`; ``runs``: its runs (``condition``, ``seed``,
+    ``run_id``, ``config``); ``settings``: the executor's."""
+    from ariel.recording._campaign import run_path
+    from ariel.recording._run_folder import now
+
+    return {
+        "campaign_id": campaign_id,
+        "name": spec.name,
+        "description": spec.description,
+        "file": file_name,
+        "base": spec.base_name,
+        "seeds": spec.seeds,
+        "seeding": spec.seeding,
+        "conditions": [
+            {
+                "name": c.name,
+                "set": c.set,
+                "description": c.description,
+                "seeds": spec.seeds_of(c.name),
+            }
+            for c in spec.conditions
+        ],
+        "runs": [
+            {
+                "condition": r.condition,
+                "seed": r.seed,
+                "path": run_path(r.condition, r.seed),
+                "run_id": r.run_id,
+                "config": r.config.to_plain(),
+            }
+            for r in runs
+        ],
+        "executor": {
+            "kind": settings.kind,
+            "workers": settings.workers,
+            "scheduler": settings.scheduler,
+        },
+        "status": "created",
+        "created": now(),
+    }

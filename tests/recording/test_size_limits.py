@@ -1,0 +1,309 @@
+"""Size attacks and limits, refused before anything is built or decoded.
+
+- A table file with more rows than its run's config can make in a generation (a 1 MB file of
+  2,000,000 dictionary-encoded rows with a matching manifest made `load_run`, `report` and
+  `compare` allocate 4 GB) is refused from its Parquet footer, in one line.
+- A campaign of more than `MAX_RUNS` runs (a 1,000 x 1,000 grid, ``seed_count = 10**9``) is
+  refused from the file's counts, before any condition or config is made.
+- A campaign whose runs' locks (an open file each) do not fit the limit on open files is
+  refused in one line before anything is written (it died with a traceback), and the soft
+  limit is raised towards the hard one where that is enough. These run in a child process,
+  whose limit is lowered, so this process keeps its own.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from _helpers import REPO, ariel_run, exit_code, one_error_line, repo_env, tiny_run_toml
+
+from ariel.errors import ConfigError, DamagedRunError
+from ariel.recording import load_run
+from ariel.recording._manifest import verify_run, write_manifest
+from ariel.recording._tables import ROW_MARGIN, TABLES, row_limit
+from ariel.runs._campaign_file import MAX_RUNS, campaign_spec
+
+TINY_CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished tiny run (2 generations of 2 + 2 bodies, popsize 2, 1 iteration, 0.3 s)."""
+    root = tmp_path_factory.mktemp("sizes")
+    config = root / "tiny.toml"
+    config.write_text(tiny_run_toml("sizes", 1))
+    ariel_run(config, root / "run")
+    return root / "run"
+
+
+def _config(run: Path) -> dict:
+    return json.loads((run / "run.json").read_text())["config"]
+
+
+def _grown(run: Path, tmp_path: Path, table: str, rows: int, generation: int = 1) -> Path:
+    """A copy of ``run`` whose ``table`` file of ``generation`` holds ``rows`` rows (its first
+    row again and again, dictionary encoded: a small file), with a manifest that matches."""
+    copy = tmp_path / "copy"
+    shutil.copytree(run, copy)
+    path = copy / table / f"gen-{generation:06d}.parquet"
+    part = pq.read_table(path)
+    chunk = part.take(pa.array(np.zeros(min(rows, 100_000), dtype=np.int64)))
+    with pq.ParquetWriter(path, part.schema, compression="zstd") as writer:
+        for start in range(0, rows, chunk.num_rows):
+            writer.write_table(chunk.slice(0, rows - start))
+    write_manifest(copy, generation)
+    return copy
+
+
+def test_the_limits_bound_what_a_run_writes(finished: Path) -> None:
+    config = _config(finished)
+    for table in TABLES:
+        for path in sorted((finished / table).glob("gen-*.parquet")):
+            generation = int(path.stem.removeprefix("gen-"))
+            rows = pq.ParquetFile(path).metadata.num_rows
+            assert 0 < rows <= row_limit(config, table, generation), (table, generation, rows)
+    # The default experiment: 8 bodies x popsize 8 x 6 iterations a generation.
+    assert row_limit({}, "evaluations", 3) == 384
+    assert row_limit({}, "bodies", 3) == 8 * 4  # every body made by generation 3, at most
+    assert row_limit({}, "trajectories", 0) == 384 * (3 * 10 * 10 + 4)
+
+
+@pytest.mark.parametrize("table", ["evaluations", "bodies", "trajectories"])
+def test_a_table_with_more_rows_than_its_config_makes_is_refused_from_its_footer(
+    finished: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, table: str
+) -> None:
+    most = row_limit(_config(finished), table, 1)
+    rows = ROW_MARGIN * most + 1
+    copy = _grown(finished, tmp_path, table, rows)
+    run = load_run(copy)
+
+    original = pq.read_table
+
+    def decode(*args: object, **kwargs: object) -> pa.Table:
+        part = original(*args, **kwargs)
+        assert part.num_rows < rows, "the table was decoded before its row count was checked"
+        return part
+
+    monkeypatch.setattr(pq, "read_table", decode)
+    with pytest.raises(DamagedRunError) as caught:
+        getattr(run, table)
+    message = str(caught.value)
+    assert message.startswith(f"run folder {str(copy)!r} is damaged: "), message
+    assert (
+        f" is damaged: {table}/gen-000001.parquet has {rows} rows; generation 1 of this run's "
+        f"config makes at most {most}: damaged or crafted, not loaded; restore the folder"
+    ) in message
+    assert "\n" not in message
+
+
+def test_a_table_within_the_margin_still_loads(finished: Path, tmp_path: Path) -> None:
+    most = row_limit(_config(finished), "evaluations", 1)
+    copy = _grown(finished, tmp_path, "evaluations", ROW_MARGIN * most)
+    assert len(load_run(copy).evaluations) == 4 + ROW_MARGIN * most
+
+
+def test_report_and_verify_say_so_in_one_line(
+    finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    copy = _grown(finished, tmp_path, "evaluations", 500_000)
+    assert (copy / "evaluations" / "gen-000001.parquet").stat().st_size < 1_000_000  # a small file
+    capsys.readouterr()
+    assert exit_code(["report", str(copy)]) == 2
+    line = one_error_line(capsys)
+    assert "evaluations/gen-000001.parquet has 500000 rows; generation 1 of this run's " in line
+    assert "makes at most 4: damaged or crafted, not loaded" in line
+    assert not (copy / "report").exists()
+    result = verify_run(copy)
+    assert result.problems == [
+        "evaluations/gen-000001.parquet has 500000 rows; generation 1 of this run's config "
+        "makes at most 4: damaged or crafted, not loaded"
+    ]
+    assert exit_code(["verify", str(copy)]) == 1
+
+
+def test_a_config_value_no_ariel_writes_is_damage_not_a_limit(
+    finished: Path, tmp_path: Path
+) -> None:
+    copy = tmp_path / "copy"
+    shutil.copytree(finished, copy)
+    info = json.loads((copy / "run.json").read_text())
+    info["config"]["brain"]["popsize"] = "8"  # a string: no limit can be worked out
+    (copy / "run.json").write_text(json.dumps(info))
+    with pytest.raises(DamagedRunError, match=r"is damaged: run\.json has brain\.popsize '8' in"):
+        load_run(copy).evaluations  # noqa: B018
+    assert any(p.startswith("run.json has brain.popsize '8'") for p in verify_run(copy).problems)
+
+
+def test_joint_signals_read_only_their_columns(finished: Path) -> None:
+    run = load_run(finished)
+    eval_id = str(run.evaluations["eval_id"].iloc[0])
+    signals = run.joint_signals(eval_id)
+    frames = run.trajectories[run.trajectories["eval_id"] == eval_id]
+    assert len(signals) == len(frames) > 0
+    assert list(signals.index) == sorted(frames["t"])
+
+
+# --------------------------------------------------------------------------------------------
+# Campaigns: how many runs
+# --------------------------------------------------------------------------------------------
+
+_BASE = {"generations": 1}
+
+
+def test_a_campaign_of_a_billion_seeds_or_a_million_point_grid_is_refused_unbuilt() -> None:
+    with pytest.raises(ConfigError) as caught:
+        campaign_spec({"base": _BASE, "seed_count": 10**9})
+    assert str(caught.value) == (
+        f"campaign: 1 condition(s) x 1000000000 seed(s) = 1000000000 runs; at most {MAX_RUNS} "
+        "runs a campaign: fewer grid values or seeds, or split it into smaller campaigns"
+    )
+    grid = {"brain.popsize": list(range(2, 1002)), "brain.iterations": list(range(1, 1001))}
+    with pytest.raises(ConfigError, match=r"1000000 condition\(s\) x 2 seed\(s\) = 2000000 runs"):
+        campaign_spec({"base": _BASE, "seeds": [1, 2], "grid": grid})
+    named = [{"name": "a"}, {"name": "b"}]
+    with pytest.raises(ConfigError, match=r"= 10002 runs; at most 10000 runs"):
+        campaign_spec({"base": _BASE, "seed_count": 5001, "condition": named})
+    with pytest.raises(ConfigError, match=r"4 condition\(s\) x 2 seed\(s\) = 8 runs; at most 7"):
+        campaign_spec(
+            {"base": _BASE, "seeds": [1, 2], "condition": named, "grid": {"brain.popsize": [2, 4]}},
+            max_runs=7,
+        )
+    assert len(campaign_spec({"base": _BASE, "seeds": [1, 2], "condition": named}).configs) == 4
+
+
+def test_the_campaign_command_refuses_too_many_runs_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    file = tmp_path / "huge.toml"
+    file.write_text(TINY_CAMPAIGN.read_text().replace("seeds = [1, 2]", "seed_count = 1000000000"))
+    capsys.readouterr()
+    assert exit_code(["campaign", "run", str(file), "--out", str(tmp_path / "out")]) == 2
+    assert "= 2000000000 runs; at most 10000 runs" in one_error_line(capsys)
+    assert not (tmp_path / "out").exists()
+
+
+# --------------------------------------------------------------------------------------------
+# Campaigns: one lock (an open file) per run
+# --------------------------------------------------------------------------------------------
+
+
+def _under_limit(code: str, soft: int, hard: int | None = None) -> subprocess.CompletedProcess:
+    """``code`` in a child process whose limit on open files is ``soft`` (hard: ``hard``, else
+    the same); its exit code, stdout and stderr."""
+    limit = f"({soft}, {hard if hard is not None else soft})"
+    script = "import resource, sys\n"
+    script += f"resource.setrlimit(resource.RLIMIT_NOFILE, {limit})\n"
+    script += textwrap.dedent(code)
+    return subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        env=repo_env(),
+        cwd=REPO,
+        timeout=300,
+    )
+
+
+def _many_seeds(tmp_path: Path) -> Path:
+    """The tiny campaign on seeds 1..59: 118 runs, more than 64 open files allow."""
+    file = tmp_path / "many.toml"
+    seeds = f"seeds = {list(range(1, 60))}"
+    file.write_text(TINY_CAMPAIGN.read_text().replace("seeds = [1, 2]", seeds))
+    return file
+
+
+def test_a_campaign_that_needs_more_open_files_than_allowed_is_refused_in_one_line(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "out"
+    done = _under_limit(
+        f"""
+        from ariel.cli import main
+        sys.exit(main(["campaign", "run", {str(_many_seeds(tmp_path))!r}, "--out", {str(out)!r}]))
+        """,
+        64,
+    )
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1, done.stderr
+    assert re.match(r"ariel: error: this campaign needs about \d+ open files \(118 runs", lines[0])
+    assert "the limit is 64 (ulimit -n): raise it with ulimit -n" in lines[0]
+    assert not out.exists()  # nothing written
+
+
+def test_a_campaign_resume_that_needs_more_open_files_is_refused_before_it_writes(
+    tmp_path: Path,
+) -> None:
+    """campaign.json of 118 runs killed before their folders were made (resume makes them)."""
+    from ariel.recording._campaign import run_path, write_campaign_info
+
+    spec = campaign_spec(json.loads(json.dumps(_toml(_many_seeds(tmp_path)))), beside=REPO)
+    folder = tmp_path / "campaign"
+    folder.mkdir()
+    runs = [
+        {
+            "condition": condition,
+            "seed": seed,
+            "path": run_path(condition, seed),
+            "run_id": f"many-{condition}-s{seed}",
+            "config": config.to_plain(),
+        }
+        for (condition, seed), config in spec.configs.items()
+    ]
+    conditions = [
+        {"name": c.name, "set": c.set, "description": "", "seeds": spec.seeds_of(c.name)}
+        for c in spec.conditions
+    ]
+    info = {
+        "campaign_id": "many",
+        "name": "many",
+        "seeds": spec.seeds,
+        "seeding": "shared",
+        "conditions": conditions,
+        "runs": runs,
+        "executor": {"kind": "serial", "workers": None, "scheduler": None},
+        "status": "interrupted",
+    }
+    write_campaign_info(folder, info)
+    done = _under_limit(
+        f"""
+        from ariel.cli import main
+        sys.exit(main(["campaign", "resume", {str(folder)!r}]))
+        """,
+        64,
+    )
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1, done.stderr
+    assert re.search(r"this campaign needs about \d+ open files \(118 runs at once", lines[0])
+    assert not (folder / "runs").exists()  # no run folder made
+
+
+def _toml(path: Path) -> dict:
+    import tomllib
+
+    return tomllib.loads(path.read_text())
+
+
+def test_the_soft_limit_is_raised_where_the_hard_one_allows() -> None:
+    done = _under_limit(
+        """
+        from ariel.recording._lock import ensure_open_files
+        ensure_open_files(118, 2)
+        print(resource.getrlimit(resource.RLIMIT_NOFILE)[0])
+        """,
+        64,
+        1024,
+    )
+    assert done.returncode == 0, done.stderr
+    assert int(done.stdout) >= 118 + 64 + 2 * 8
