@@ -536,9 +536,13 @@ def has_body_poses(path: str | Path) -> bool:
 
 
 def replay_recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
-    """``recordings/gen-NNNNNN/replays/<eval_id>.rrd``: an on-demand 3D replay's cache file."""
+    """``recordings/gen-NNNNNN/replays/<eval_id>.rrd``: an on-demand 3D replay's cache file;
+    an ``eval_id`` that is not one (a crafted table's ``../../x``) is refused in one line
+    (`DamagedRunError`), never a path outside the run folder."""
+    from ariel.recording._ids import check_eval_id
     from ariel.recording._tables import recording_path
 
+    check_eval_id(eval_id, run_dir)
     return recording_path(run_dir, generation, eval_id).parent / REPLAYS / f"{eval_id}.rrd"
 
 

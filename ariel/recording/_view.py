@@ -30,6 +30,7 @@ from typing import Any
 from urllib.parse import quote
 
 from ariel.errors import ViewError
+from ariel.recording._ids import check_eval_id
 from ariel.recording._tables import (
     GENERATION_BLUEPRINT,
     generation_recording_path,
@@ -182,7 +183,11 @@ def select_recordings(
     ranked = best_evaluations(
         evaluations, best or 1, maximise=run.maximise if len(evaluations) else True
     )
-    paths = [recording_path(folder, g, e) for g, e in zip(ranked["generation"], ranked["eval_id"])]
+    # Ids from the table name files: a crafted one (``../../x``) is refused, never opened.
+    paths = [
+        recording_path(folder, g, check_eval_id(e, folder))
+        for g, e in zip(ranked["generation"], ranked["eval_id"])
+    ]
     if best is not None:
         paths = [_own_or_replayed(run, path) for path in paths]
         if not paths:

@@ -294,3 +294,17 @@ def test_runs_and_report_print_names_with_control_sequences_and_markup_as_text(
     assert exit_code(["report", str(run), "--no-render"]) == 0  # mathtext: drawn as text
     out = capsys.readouterr().out
     assert "\x1b" not in out and "[red]x[/red]\\x1b[2J" in out
+
+
+def test_a_crafted_eval_id_never_names_a_file_outside_the_run(copy: Path) -> None:
+    from ariel.recording._replay import replay_recording_path
+    from ariel.recording._view import select_recordings
+
+    _craft(copy, "evaluations", "eval_id", "../../../../outside")
+    recordings = copy / "recordings" / "gen-000000"
+    recordings.mkdir(parents=True)
+    (recordings / "b000000-i000-c000.rrd").write_bytes(b"")  # a run with recordings
+    with pytest.raises(DamagedRunError, match="holds an evaluation id that is not one"):
+        select_recordings(copy, best=1)  # ariel view RUN --best 1
+    with pytest.raises(DamagedRunError, match="holds an evaluation id that is not one"):
+        replay_recording_path(copy, 0, "../../../../outside")  # where a replay is cached
