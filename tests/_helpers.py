@@ -144,3 +144,28 @@ def benchmark_summary(result: Any, keys: tuple[str, ...]) -> tuple[dict[str, Any
         assert isinstance(value, int | float) and not isinstance(value, bool), key
         assert math.isfinite(value) and value > 0, (key, value)
     return summary, "\n".join(lines[:-1])
+
+
+class StoppedError(Exception):
+    """Raised where the executor would be made (`stop_at_executor`): nothing is evaluated."""
+
+
+def stop_at_executor(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """``make_executor`` records the settings it is given and stops the run there."""
+    import ariel.evaluation
+
+    given: list[Any] = []
+
+    def make_executor(settings: Any, *args: Any, **kwargs: Any) -> Any:
+        given.append(settings)
+        raise StoppedError
+
+    monkeypatch.setattr(ariel.evaluation, "make_executor", make_executor)
+    return given
+
+
+def edit_json(path: Path, change: Any) -> None:
+    """Apply ``change`` (a function of the data, in place) to the JSON file ``path``."""
+    info = json.loads(path.read_text())
+    change(info)
+    path.write_text(json.dumps(info))

@@ -17,55 +17,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from _helpers import REPO, exit_code, one_error_line
+from _helpers import REPO, StoppedError, edit_json, exit_code, one_error_line, stop_at_executor
 
-import ariel.evaluation
 from ariel.evolution import ConfigError
 from ariel.recording import load_campaign
 from ariel.recording._campaign import NotACampaignError
-from ariel.runs import resume_campaign, resume_experiment, run_campaign
+from ariel.runs import resume_campaign, resume_experiment
 from ariel.runs._campaign_file import load_campaign_file
 
 TINY = REPO / "tests" / "data" / "campaign_tiny.toml"
 ROGUE = "tcp://10.0.0.1:8786"
-
-
-class _StoppedError(Exception):
-    """Raised where the executor would be made: nothing is evaluated."""
-
-
-def _stop_at_executor(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
-    """``make_executor`` records the settings it is given and stops the run there."""
-    given: list[Any] = []
-
-    def make_executor(settings: Any, *args: Any, **kwargs: Any) -> Any:
-        given.append(settings)
-        raise _StoppedError
-
-    monkeypatch.setattr(ariel.evaluation, "make_executor", make_executor)
-    return given
-
-
-@pytest.fixture(scope="module")
-def made(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The tiny campaign, its 4 run folders created and left resumable (none evaluated)."""
-    out = tmp_path_factory.mktemp("made") / "tiny"
-    with pytest.MonkeyPatch.context() as monkeypatch:
-        _stop_at_executor(monkeypatch)
-        with pytest.raises(_StoppedError):
-            run_campaign(TINY, out=out)
-    return out
-
-
-@pytest.fixture
-def campaign(made: Path, tmp_path: Path) -> Path:
-    return Path(shutil.copytree(made, tmp_path / "tiny", symlinks=True))
-
-
-def _edit(path: Path, change: Any) -> None:
-    info = json.loads(path.read_text())
-    change(info)
-    path.write_text(json.dumps(info))
 
 
 def _name_the_rogue_scheduler(info: dict[str, Any]) -> None:
@@ -93,9 +54,9 @@ def test_resume_never_connects_to_the_scheduler_a_run_json_names(
     campaign: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     run_dir = campaign / "runs/condition=fresh/seed=1"
-    _edit(run_dir / "run.json", _name_the_rogue_scheduler)
-    given = _stop_at_executor(monkeypatch)
-    with pytest.raises(_StoppedError):
+    edit_json(run_dir / "run.json", _name_the_rogue_scheduler)
+    given = stop_at_executor(monkeypatch)
+    with pytest.raises(StoppedError):
         exit_code(["resume", str(run_dir), "--quiet"])
     (settings,) = given
     assert (settings.kind, settings.scheduler) == ("dask", None)  # a local Dask cluster
@@ -103,11 +64,11 @@ def test_resume_never_connects_to_the_scheduler_a_run_json_names(
     assert line.startswith(f"note: not connecting to the Dask scheduler '{ROGUE}'"), line
     assert re.search(rf"\S*ariel resume {re.escape(str(run_dir))} --scheduler ADDRESS$", line)
     # A scheduler passed here is used (and implies --executor dask), without the note.
-    with pytest.raises(_StoppedError):
+    with pytest.raises(StoppedError):
         resume_experiment(run_dir, scheduler="tcp://127.0.0.1:8786")
     assert (given[1].kind, given[1].scheduler) == ("dask", "tcp://127.0.0.1:8786")
     # Another executor asked for: the stored address is beside the point.
-    with pytest.raises(_StoppedError):
+    with pytest.raises(StoppedError):
         resume_experiment(run_dir, executor="serial")
     assert (given[2].kind, given[2].scheduler) == ("serial", None)
     assert capsys.readouterr().err == ""
@@ -116,11 +77,11 @@ def test_resume_never_connects_to_the_scheduler_a_run_json_names(
 def test_campaign_resume_never_connects_to_the_scheduler_campaign_json_names(
     campaign: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    _edit(campaign / "campaign.json", _name_the_rogue_scheduler)
+    edit_json(campaign / "campaign.json", _name_the_rogue_scheduler)
     for run_json in campaign.glob("runs/*/*/run.json"):
-        _edit(run_json, _name_the_rogue_scheduler)
-    given = _stop_at_executor(monkeypatch)
-    with pytest.raises(_StoppedError):
+        edit_json(run_json, _name_the_rogue_scheduler)
+    given = stop_at_executor(monkeypatch)
+    with pytest.raises(StoppedError):
         exit_code(["campaign", "resume", str(campaign), "--quiet"])
     assert [(s.kind, s.scheduler) for s in given] == [("dask", None)]
     (line,) = capsys.readouterr().err.strip().splitlines()
@@ -187,7 +148,7 @@ def test_a_run_path_out_of_place_is_refused_in_one_line(
 ) -> None:
     if path == "ABSOLUTE":
         path = str(campaign.parent / "elsewhere")
-    _edit(campaign / "campaign.json", _set_first_path(path))
+    edit_json(campaign / "campaign.json", _set_first_path(path))
     _refused(campaign, capsys, "runs[0] (condition fresh, seed 1): refusing path")
     assert not (campaign.parent / "x").exists() and not (campaign.parent / "elsewhere").exists()
 
@@ -196,7 +157,7 @@ def test_a_path_to_another_campaign_s_run_is_refused_and_that_run_left_alone(
     campaign: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     other = Path(shutil.copytree(campaign, campaign.parent / "other", symlinks=True))
-    _edit(campaign / "campaign.json", _set_first_path("../other/runs/condition=fresh/seed=1"))
+    edit_json(campaign / "campaign.json", _set_first_path("../other/runs/condition=fresh/seed=1"))
     _refused(campaign, capsys, "refusing path '../other/runs/condition=fresh/seed=1'")
     assert json.loads((other / "runs/condition=fresh/seed=1/run.json").read_text())["status"] == (
         "failed"
@@ -226,7 +187,7 @@ def test_a_linked_runs_condition_or_run_folder_is_refused(
 def test_a_run_entry_with_a_bad_seed_or_condition_is_refused(
     campaign: Path, change: Any, expected: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    _edit(campaign / "campaign.json", lambda info: change(info["runs"][0]))
+    edit_json(campaign / "campaign.json", lambda info: change(info["runs"][0]))
     _refused(campaign, capsys, expected)
 
 

@@ -24,53 +24,19 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from _helpers import REPO, exit_code, one_error_line, snapshot
+from _helpers import REPO, edit_json, exit_code, one_error_line, snapshot
 
-import ariel.evaluation
 from ariel.evolution import ConfigError, ExperimentConfig
 from ariel.evolution._config import config_hash
 from ariel.recording import DamagedRunError, NotARunError, load_campaign, load_run, verify_run
 from ariel.recording._campaign import NotACampaignError
 from ariel.recording._manifest import write_manifest
 from ariel.recording._run_folder import MAX_JSON_DEPTH, RunFolder, json_data
-from ariel.runs import resume_campaign, run_campaign
+from ariel.runs import resume_campaign
 from ariel.runs._campaign_file import MAX_CONDITION_NAME, load_campaign_file
 
 TINY = REPO / "tests" / "data" / "campaign_tiny.toml"
 DEEP = "[" * 100_000 + "]" * 100_000
-
-
-class _StoppedError(Exception):
-    """Raised where the executor would be made: nothing is evaluated."""
-
-
-def _stop_at_executor(monkeypatch: pytest.MonkeyPatch) -> None:
-    def make_executor(*args: Any, **kwargs: Any) -> Any:
-        raise _StoppedError
-
-    monkeypatch.setattr(ariel.evaluation, "make_executor", make_executor)
-
-
-@pytest.fixture(scope="module")
-def made(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The tiny campaign, its 4 run folders created and left resumable (none evaluated)."""
-    out = tmp_path_factory.mktemp("made") / "tiny"
-    with pytest.MonkeyPatch.context() as monkeypatch:
-        _stop_at_executor(monkeypatch)
-        with pytest.raises(_StoppedError):
-            run_campaign(TINY, out=out)
-    return out
-
-
-@pytest.fixture
-def campaign(made: Path, tmp_path: Path) -> Path:
-    return Path(shutil.copytree(made, tmp_path / "tiny", symlinks=True))
-
-
-def _edit(path: Path, change: Any) -> None:
-    info = json.loads(path.read_text())
-    change(info)
-    path.write_text(json.dumps(info))
 
 
 def _run(folder: Path, *, generations: int = 2, run_id: str = "hostile-s3") -> Path:
@@ -155,7 +121,7 @@ def test_a_deep_manifest_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixtu
 
 def test_a_deep_checkpoint_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     run = _run(tmp_path / "run")
-    _edit(run / "run.json", lambda info: info.update(status="interrupted"))
+    edit_json(run / "run.json", lambda info: info.update(status="interrupted"))
     RunFolder(run).checkpoint.write_text(DEEP)
     with pytest.raises(NotARunError, match=r"unreadable checkpoint .*nested more than 100 deep"):
         RunFolder(run).load_checkpoint()
@@ -227,7 +193,7 @@ def test_a_campaign_json_condition_too_long_for_a_folder_is_refused(
         info["runs"][0]["condition"] = "c" * 246
         info["runs"][0]["path"] = f"runs/condition={'c' * 246}/seed=1"
 
-    _edit(campaign / "campaign.json", rename)
+    edit_json(campaign / "campaign.json", rename)
     before = snapshot(campaign)
     assert exit_code(["campaign", "resume", str(campaign), "--quiet"]) == 2
     assert "is not a condition name (letters, digits, _ . -; at most 245" in one_error_line(capsys)
@@ -260,7 +226,7 @@ def test_a_campaign_json_condition_too_long_for_a_folder_is_refused(
 def test_a_campaign_json_run_entry_without_what_resume_needs_is_one_line(
     campaign: Path, change: Any, expected: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    _edit(campaign / "campaign.json", change)
+    edit_json(campaign / "campaign.json", change)
     before = snapshot(campaign)
     for command in (["campaign", "resume", "--quiet"], ["campaign", "status"]):
         assert exit_code([*command, str(campaign)]) == 2, command
@@ -273,7 +239,7 @@ def test_a_campaign_json_run_entry_without_what_resume_needs_is_one_line(
 def test_a_first_run_config_that_does_not_validate_names_the_entry(
     campaign: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    _edit(campaign / "campaign.json", lambda info: info["runs"][0]["config"].update(surprise=1))
+    edit_json(campaign / "campaign.json", lambda info: info["runs"][0]["config"].update(surprise=1))
     assert exit_code(["campaign", "resume", str(campaign), "--quiet"]) == 2
     assert "campaign.json: runs[0]: its config: " in one_error_line(capsys)
 
@@ -285,10 +251,10 @@ def test_campaign_status_shows_markup_and_control_sequences_as_text(
     campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     hostile = "[/bold]\x1b[2J\x1b]0;pwned\x07[red]x"
-    _edit(
+    edit_json(
         campaign / "runs/condition=fresh/seed=1/run.json", lambda info: info.update(status=hostile)
     )
-    _edit(
+    edit_json(
         campaign / "campaign.json",
         lambda info: info["runs"][1]["config"].update(generations=hostile),
     )
@@ -338,7 +304,7 @@ def test_campaign_status_names_a_run_that_does_not_load(
     (campaign / "runs/condition=inherit/seed=2/run.json").write_text(DEEP)
     rows = {(r["condition"], r["seed"]): r["status"] for r in load_campaign(campaign).status()}
     assert rows[("inherit", 2)] == "damaged" and rows[("fresh", 1)] == "failed"
-    _edit(
+    edit_json(
         campaign / "runs/condition=fresh/seed=1/run.json",
         lambda info: info.update(generations_done="x", evaluations_done=[1]),
     )
@@ -370,7 +336,7 @@ def test_a_missing_manifests_flag_with_keys_that_came_with_manifests_is_damage(
     tmp_path: Path,
 ) -> None:
     run = _run(tmp_path / "run")
-    _edit(run / "run.json", lambda info: info.pop("manifests"))
+    edit_json(run / "run.json", lambda info: info.pop("manifests"))
     shutil.rmtree(run / "manifests")
     result = verify_run(run)
     assert result.checked
@@ -387,7 +353,7 @@ def test_a_run_made_before_manifests_is_checked_against_a_manifest_it_has(
     wrote the manifests: what it wrote is checked; the rest as before manifests, not damage."""
     run = _run(tmp_path / "run")
     old_keys = ("manifests", "segments", "maximise", "brain_only")
-    _edit(run / "run.json", lambda info: [info.pop(k) for k in old_keys])
+    edit_json(run / "run.json", lambda info: [info.pop(k) for k in old_keys])
     (run / "manifests" / "gen-000001.json").unlink()
     result = verify_run(run)
     assert result.ok and not result.checked and result.files == 4
@@ -418,7 +384,7 @@ def test_verify_checks_what_never_changes_in_run_json(
 ) -> None:
     run = _run(tmp_path / "run")
     assert verify_run(run).ok and verify_run(run).run_id_checked
-    _edit(run / "run.json", change)
+    edit_json(run / "run.json", change)
     assert exit_code(["verify", str(run)]) == 1
     assert f"damaged: {expected}" in capsys.readouterr().out
 
@@ -432,7 +398,7 @@ def test_verify_checks_the_checkpoint_s_config_hash_and_notes_a_config_it_cannot
         "checkpoints/state.json has a config_hash that is not run.json's"
     ]
     run = _run(tmp_path / "newer")
-    _edit(run / "run.json", lambda info: info["config"].update(added_later=1))
+    edit_json(run / "run.json", lambda info: info["config"].update(added_later=1))
     assert exit_code(["verify", str(run)]) == 0  # a newer ariel's config: not damage
     out = capsys.readouterr().out
     assert "note: run.json's config is not one this ariel reads (" in out
