@@ -18,7 +18,9 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 
-from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain, robot_graph  # noqa: E402
+from test_joint_names import _two_branches  # noqa: E402 - the same robot graph
+
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain  # noqa: E402
 from ariel.evolution import run_experiment  # noqa: E402
 from ariel.recording import load_run  # noqa: E402
 from ariel.recording._axes import fitness_unit  # noqa: E402
@@ -60,22 +62,6 @@ BAR_VIEWS = {
     "diversity": "descriptor distance per generation",
     "distinct_morphologies": "distinct bodies per generation",
 }
-
-
-def _two_branches() -> nx.DiGraph:
-    """Core; RIGHT: hinge 1 > hinge 2; FRONT: brick 3 with hinge 4 on its LEFT face and hinge 5
-    on its RIGHT face (as in test_joint_names.py)."""
-    return robot_graph(
-        {
-            0: ("CORE", "DEG_0"),
-            1: ("HINGE", "DEG_0"),
-            2: ("HINGE", "DEG_90"),
-            3: ("BRICK", "DEG_0"),
-            4: ("HINGE", "DEG_0"),
-            5: ("HINGE", "DEG_0"),
-        },
-        [(0, 1, "RIGHT"), (1, 2, "FRONT"), (0, 3, "FRONT"), (3, 4, "LEFT"), (3, 5, "RIGHT")],
-    )
 
 
 def _stored(graph: nx.DiGraph) -> str:
