@@ -310,7 +310,10 @@ def _drive_campaign(
     info.pop("format")
     write_campaign_info(path, {**info, "status": "running"})
     if show_progress:
-        print(f"campaign {info['campaign_id']}: {path} ({len(runs)} runs to go)", flush=True)
+        from ariel.recording._escape import terminal_text  # names from the folder: as text
+
+        shown = terminal_text(f"campaign {info['campaign_id']}: {path}")
+        print(f"{shown} ({len(runs)} runs to go)", flush=True)
     status, started, capacity = "failed", time.perf_counter(), 1
     try:
         with campaign:

@@ -82,3 +82,14 @@ def test_a_dry_run_says_what_the_campaign_will_do_and_writes_nothing(
     # A bad file is refused as a real run would refuse it.
     assert exit_code(["campaign", "run", str(TINY), "--dry-run", "--set", "brain.popsize=0"]) == 2
     assert "brain.popsize" in one_error_line(capsys)
+
+
+def test_the_campaign_line_prints_a_folder_name_with_control_sequences_as_text(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from ariel.runs import run_campaign
+
+    out = tmp_path / "camp\x1b[2J"
+    run_campaign(TINY, out=out, progress=True, overrides=["generations=1"])
+    printed = capsys.readouterr().out
+    assert "\x1b" not in printed and "campaign camp\\x1b[2J: " in printed
