@@ -131,7 +131,8 @@ def _seconds_per_evaluation(config: Any, plugins: Any, brain_only: bool) -> floa
 
 def plan_text(plan: CampaignPlan) -> list[str]:
     """The lines `ariel campaign run --dry-run` prints."""
-    lines = [f"campaign {plan.name}: {len(plan.rows)} conditions, {plan.runs} runs (dry run)"]
+    count = f"{len(plan.rows)} condition{'' if len(plan.rows) == 1 else 's'}"
+    lines = [f"campaign {plan.name}: {count}, {plan.runs} runs (dry run)"]
     for row in plan.rows:
         seeds = row["seeds"]
         shown = (
