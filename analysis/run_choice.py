@@ -101,6 +101,38 @@ def newest_run(root: str | os.PathLike[str]) -> Choice:
     return Choice(Path(chosen["path"]), why)
 
 
+def _given(
+    name: str,
+    value: str | os.PathLike[str] | None,
+    environ: Mapping[str, str] | None,
+    cwd: str | os.PathLike[str] | None,
+) -> Choice | None:
+    """The folder named by ``ARIEL_<name>`` (it wins), else by the notebook's ``<name>``
+    (``value``), resolved (`resolve`); None where neither names one."""
+    environ = os.environ if environ is None else environ
+    variable = f"ARIEL_{name}"
+    if environ.get(variable):
+        named = environ[variable]
+        return Choice(
+            resolve(named, name=variable, environ=environ, cwd=cwd), f"{variable}={named}"
+        )
+    if value is not None:
+        path = resolve(value, name=name, environ=environ, cwd=cwd)
+        return Choice(path, f"{name} = {str(value)!r}")
+    return None
+
+
+def _opened(choice: Choice, load: Any) -> tuple[Any, Choice]:
+    """``load(choice.path)`` and the choice; `ChoiceError` with the loader's one-line message
+    for a folder that is not what it reads (or a damaged one)."""
+    from ariel.errors import ArielError
+
+    try:
+        return load(choice.path), choice
+    except ArielError as error:
+        raise ChoiceError(f"{choice.why}: {error}") from None
+
+
 def choose_run(
     run_dir: str | os.PathLike[str] | None = None,
     *,
@@ -110,28 +142,18 @@ def choose_run(
 ) -> Choice:
     """The run folder a notebook reads: ``ARIEL_RUN_DIR``, else ``run_dir``, else the newest
     finished run under ``root`` (default ``<repository>/data/runs``)."""
-    environ = os.environ if environ is None else environ
-    if environ.get("ARIEL_RUN_DIR"):
-        value = environ["ARIEL_RUN_DIR"]
-        path = resolve(value, name="ARIEL_RUN_DIR", environ=environ, cwd=cwd)
-        return Choice(path, f"ARIEL_RUN_DIR={value}")
-    if run_dir is not None:
-        path = resolve(run_dir, name="RUN_DIR", environ=environ, cwd=cwd)
-        return Choice(path, f"RUN_DIR = {str(run_dir)!r}")
+    given = _given("RUN_DIR", run_dir, environ, cwd)
+    if given is not None:
+        return given
     return newest_run(REPO / "data" / "runs" if root is None else root)
 
 
 def open_run(run_dir: str | os.PathLike[str] | None = None, **choose: Any) -> tuple[Any, Choice]:
     """`load_run` of `choose_run`'s folder, and the choice; `ChoiceError` for a folder that is not
     a run (or a damaged one), with `load_run`'s one-line message."""
-    from ariel.errors import ArielError
     from ariel.recording import load_run
 
-    choice = choose_run(run_dir, **choose)
-    try:
-        return load_run(choice.path), choice
-    except ArielError as error:
-        raise ChoiceError(f"{choice.why}: {error}") from None
+    return _opened(choose_run(run_dir, **choose), load_run)
 
 
 def choose_campaign(
@@ -143,14 +165,9 @@ def choose_campaign(
 ) -> Choice:
     """The campaign folder: ``ARIEL_CAMPAIGN_DIR``, else ``campaign_dir``, else the newest
     (campaign.json modified last) under ``root`` (default ``<repository>/data/campaigns``)."""
-    environ = os.environ if environ is None else environ
-    if environ.get("ARIEL_CAMPAIGN_DIR"):
-        value = environ["ARIEL_CAMPAIGN_DIR"]
-        path = resolve(value, name="ARIEL_CAMPAIGN_DIR", environ=environ, cwd=cwd)
-        return Choice(path, f"ARIEL_CAMPAIGN_DIR={value}")
-    if campaign_dir is not None:
-        path = resolve(campaign_dir, name="CAMPAIGN_DIR", environ=environ, cwd=cwd)
-        return Choice(path, f"CAMPAIGN_DIR = {str(campaign_dir)!r}")
+    given = _given("CAMPAIGN_DIR", campaign_dir, environ, cwd)
+    if given is not None:
+        return given
     root = Path(REPO / "data" / "campaigns" if root is None else root)
     found = sorted(root.glob("*/campaign.json"), key=lambda p: p.stat().st_mtime)
     if not found:
@@ -165,11 +182,6 @@ def open_campaign(
     campaign_dir: str | os.PathLike[str] | None = None, **choose: Any
 ) -> tuple[Any, Choice]:
     """`load_campaign` of `choose_campaign`'s folder, and the choice (`ChoiceError` as above)."""
-    from ariel.errors import ArielError
     from ariel.recording import load_campaign
 
-    choice = choose_campaign(campaign_dir, **choose)
-    try:
-        return load_campaign(choice.path), choice
-    except ArielError as error:
-        raise ChoiceError(f"{choice.why}: {error}") from None
+    return _opened(choose_campaign(campaign_dir, **choose), load_campaign)

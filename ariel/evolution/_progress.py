@@ -20,7 +20,14 @@ import time
 from collections.abc import Mapping
 from typing import Any, TextIO
 
-__all__ = ["Progress", "auto_progress", "eta_text", "fmt_value", "shows_progress"]
+__all__ = [
+    "Progress",
+    "auto_progress",
+    "eta_text",
+    "fmt_value",
+    "live_bars",
+    "shows_progress",
+]
 
 
 def shows_progress(progress: bool | None) -> bool:
@@ -50,6 +57,26 @@ def _in_notebook_kernel() -> bool:
     except Exception:  # a half-imported or odd IPython: not a notebook
         return False
     return getattr(shell, "kernel", None) is not None
+
+
+def live_bars(stream: TextIO, label: str, *texts: str) -> Any:
+    """A started rich display of bars on ``stream`` (rich is imported only here): each row
+    ``label``, its bar, done / total, then ``texts`` and the task's ``info`` field."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
+    from rich.progress import Progress as RichProgress
+
+    display = RichProgress(
+        TextColumn(label),
+        BarColumn(),
+        MofNCompleteColumn(),
+        *(TextColumn(text) for text in texts),
+        TextColumn("{task.fields[info]}"),
+        console=Console(file=stream),
+        transient=False,
+    )
+    display.__enter__()
+    return display
 
 
 def fmt_value(value: float) -> str:
@@ -106,20 +133,11 @@ class Progress:
 
     def __enter__(self) -> Progress:
         if self.live:
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
-            from rich.progress import Progress as RichProgress
-
-            self._rich = RichProgress(
-                TextColumn("{task.description:>10}"),
-                BarColumn(),
-                MofNCompleteColumn(),
-                TextColumn("{task.fields[rate]:>7} eval/s  ETA {task.fields[eta]:>7}"),
-                TextColumn("{task.fields[info]}"),
-                console=Console(file=self.stream),
-                transient=False,
+            self._rich = live_bars(
+                self.stream,
+                "{task.description:>10}",
+                "{task.fields[rate]:>7} eval/s  ETA {task.fields[eta]:>7}",
             )
-            self._rich.__enter__()
             self._generation_task = self._rich.add_task("gen -", total=None, **self._gen_fields())
             self._run_task = self._rich.add_task(
                 "run", total=self.total, completed=self.done, **self._run_fields()

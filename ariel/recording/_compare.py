@@ -198,25 +198,27 @@ def _overrides(changes: dict[str, Any]) -> str:
     return ", ".join(f"{k} = {json.dumps(v)}" for k, v in changes.items())
 
 
-def _campaign_runs(
-    path: Path, campaign: Any = None
-) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
-    """(title, source, whether the conditions share seeds, the runs) of a campaign folder
-    (``campaign``: its records where already loaded)."""
-    campaign = campaign if campaign is not None else load_campaign(path)
-    info = campaign.info
-    seeding = campaign.seeding
+def _campaign_runs(path: Path) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
+    """(title, source, whether the conditions share seeds, the runs) of a campaign folder."""
+    campaign = load_campaign(path)
     found = [(_curve(c, seed, run), run) for (c, seed), run in campaign.runs.items()]
+    source = _campaign_source(path, campaign, len(found))
+    title = str(campaign.info.get("campaign_id", path.name))
+    return title, source, campaign.seeding == "shared", found
+
+
+def _campaign_source(path: Path, campaign: Any, runs: int) -> Source:
+    """What `compare` says it compared for the campaign in ``path`` (``runs`` of its runs)."""
+    info = campaign.info
     base = info.get("base")
-    source = Source(
+    return Source(
         what=f"campaign {info.get('campaign_id', path.name)} ({path}), "
-        f"{len(found)} runs, seeding = {seeding!r}",
+        f"{runs} runs, seeding = {campaign.seeding!r}",
         overrides={c["name"]: _overrides(c.get("set", {})) for c in info.get("conditions", [])},
         base=f"{base} (from the campaign file {info.get('file', '?')})"
         if base
         else f"the base of the campaign file {info.get('file', '?')}",
     )
-    return str(info.get("campaign_id", path.name)), source, seeding == "shared", found
 
 
 def _campaign_key(campaign: Any) -> tuple[Any, ...]:
@@ -258,14 +260,14 @@ def _pooled_campaign_runs(
                 )
             seen[condition, seed] = path
             found.append((_curve(condition, seed, run), run))
-    _, source, paired, _ = _campaign_runs(paths[0], campaigns[0])
+    source = _campaign_source(paths[0], campaigns[0], len(found))
     ids = [str(c.info.get("campaign_id", p.name)) for p, c in zip(paths, campaigns)]
     source.what = (
         f"campaign {campaigns[0].info.get('name', '?')} pooled from {len(paths)} folders "
         f"({', '.join(f'{i} ({p})' for i, p in zip(ids, paths))}), {len(found)} runs, "
         f"seeding = {campaigns[0].seeding!r}"
     )
-    return " + ".join(ids), source, paired, found
+    return " + ".join(ids), source, campaigns[0].seeding == "shared", found
 
 
 def _times(n: int) -> str:

@@ -74,9 +74,9 @@ def campaign_plan(
     spec = load_campaign_file(file, overrides)
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers)
-    from ariel.evaluation._threads import default_workers
+    from ariel.evaluation.executors import planned_workers
 
-    plan = CampaignPlan(spec.name, int(getattr(settings, "workers", None) or default_workers()))
+    plan = CampaignPlan(spec.name, planned_workers(settings)[0])
     prepared = {key: prepare_run(config) for key, config in spec.configs.items()}
     if timed and on_timing is not None:
         on_timing()

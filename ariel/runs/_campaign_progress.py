@@ -16,7 +16,7 @@ import sys
 import time
 from typing import Any, TextIO
 
-from ariel.evolution._progress import Progress, eta_text, fmt_value
+from ariel.evolution._progress import Progress, eta_text, fmt_value, live_bars
 
 __all__ = ["CampaignProgress", "RunProgress"]
 
@@ -47,19 +47,7 @@ class CampaignProgress:
 
     def __enter__(self) -> CampaignProgress:
         if self.live:
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
-            from rich.progress import Progress as RichProgress
-
-            self._rich = RichProgress(
-                TextColumn("campaign"),
-                BarColumn(),
-                MofNCompleteColumn(),
-                TextColumn("{task.fields[info]}"),
-                console=Console(file=self.stream),
-                transient=False,
-            )
-            self._rich.__enter__()
+            self._rich = live_bars(self.stream, "campaign")
             self._task = self._rich.add_task("campaign", total=self.total, info=self._info())
         elif self.enabled:
             self._print_line()
