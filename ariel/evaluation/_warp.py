@@ -28,6 +28,7 @@ first evaluator only.
 from __future__ import annotations
 
 import functools
+import itertools
 import time as _time
 from collections import OrderedDict
 from collections.abc import Iterator, Sequence
@@ -49,6 +50,8 @@ from ariel.evaluation._engine import (
     run_groups,
 )
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
+from ariel.evaluation._warp_cpg import CPGInputs, DeviceCPG, batch_key, cpg_inputs
+from ariel.evaluation._warp_cpg import device_cpg_reason as device_cpg_reason
 
 __all__ = [
     "BACKEND",
@@ -145,9 +148,11 @@ def check_device(device: str) -> str:
 def _kernels() -> Any:
     wp, _ = warp_modules()
 
+    # The frame index is read from a device counter (bumped after each frame), so the same
+    # captured graph records any frame.
     @wp.kernel
     def record_state(
-        frame: int,
+        counter: wp.array(dtype=wp.int32),
         core_geom: int,
         qpos: wp.array2d(dtype=wp.float32),
         geom_xpos: wp.array2d(dtype=wp.vec3),
@@ -155,13 +160,14 @@ def _kernels() -> Any:
         out_core: wp.array2d(dtype=wp.vec3),
     ):
         world, i = wp.tid()
+        frame = counter[0]
         out_qpos[frame, world, i] = qpos[world, i]
         if i == 0:
             out_core[frame, world] = geom_xpos[world, core_geom]
 
     @wp.kernel
     def record_bodies(
-        frame: int,
+        counter: wp.array(dtype=wp.int32),
         bodies: wp.array(dtype=wp.int32),
         xpos: wp.array2d(dtype=wp.vec3),
         xquat: wp.array2d(dtype=wp.quat),
@@ -169,15 +175,58 @@ def _kernels() -> Any:
         out_quat: wp.array3d(dtype=wp.quat),
     ):
         world, j = wp.tid()
+        frame = counter[0]
         out_pos[frame, world, j] = xpos[world, bodies[j]]
         out_quat[frame, world, j] = xquat[world, bodies[j]]
 
-    return record_state, record_bodies
+    @wp.kernel
+    def record_held(
+        counter: wp.array(dtype=wp.int32),
+        held: wp.array2d(dtype=wp.float64),
+        out_held: wp.array3d(dtype=wp.float64),
+    ):
+        world, i = wp.tid()
+        out_held[counter[0], world, i] = held[world, i]
+
+    @wp.kernel
+    def bump(counter: wp.array(dtype=wp.int32)):
+        counter[wp.tid()] = counter[wp.tid()] + 1
+
+    return record_state, record_bodies, record_held, bump
 
 
 # --------------------------------------------------------------------------------------------
 # One body on the device
 # --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Run:
+    """The shape of one batch's run."""
+
+    nworld: int
+    ncalls: int
+    nstep: int
+    period: int
+    steps: np.ndarray  # physics steps of the recorded frames
+    record_bodies: bool
+
+
+@dataclass
+class _Buffers:
+    """Frame buffers (and the device CPG) of one batch shape, with the graphs that use them."""
+
+    key: tuple[Any, ...]
+    core_geom: int
+    bodies: Any | None  # (nbody,) int32: the robot's bodies, when their poses are recorded
+    counter: Any  # (1,) int32: frames recorded so far
+    qpos: Any  # (F, B, nq) float32
+    core: Any  # (F, B) vec3
+    held: Any | None  # (F, B, nu) float64, with the device CPG
+    pos: Any | None  # (F, B, nbody) vec3
+    quat: Any | None  # (F, B, nbody) quat
+    cpg: DeviceCPG | None
+    graphs: dict[tuple[bool, bool, int], Any]  # (cpg call, frame, steps) -> captured graph
 
 
 @dataclass
@@ -188,6 +237,7 @@ class _Worlds:
     nworld: int
     sizes: tuple[int, int]  # (nconmax, njmax) it was made with
     graphs: dict[int, Any]  # steps -> captured graph of that many steps
+    buffers: _Buffers | None = None
 
 
 @dataclass
@@ -206,6 +256,7 @@ class _Frames:
     body_quat: np.ndarray | None  # (F, B, nbody, 4), MuJoCo's (w, x, y, z) order
     final_qvel: np.ndarray  # (B, nv)
     overflowed: np.ndarray  # (B,) bool: contacts or constraints did not fit
+    held: np.ndarray | None = None  # (F, B, nu): the control in force, from the device CPG
 
 
 class WarpEvaluator:
@@ -300,25 +351,43 @@ class WarpEvaluator:
         period = head.control_period
         dt = model.opt.timestep
         steps = frame_steps(nstep, head.record_every)
-        ncalls = len(range(0, nstep, period))
+        call_times = np.arange(0, nstep, period) * dt
         start = _time.perf_counter()
         body = self._device_body(head, built)
         parts: list[np.ndarray] = []
-        pieces = _control_pieces(tasks, built, controller, np.arange(ncalls) * period * dt)
-        shape = (len(tasks), ncalls, nstep, period, steps, head.record_bodies)
-        frames = self._simulate(body, _kept(pieces, parts), *shape)
-        held = np.concatenate(parts, axis=1)  # (B, calls, nu): the control after each call
+        if device_cpg_reason(controller) is None:
+            controls: Any = _device_inputs(tasks, built, controller, call_times)
+        else:
+            controls = _kept(_control_pieces(tasks, built, controller, call_times), parts)
+        run = _Run(len(tasks), call_times.size, nstep, period, steps, head.record_bodies)
+        frames = self._simulate(body, controls, run, head.smoothing, controller)
+        if parts:  # the host's held controls, (B, calls, nu), for a re-run and the records
+            controls = np.concatenate(parts, axis=1)
         for _ in range(_MAX_GROWTH):
             if not frames.overflowed.any():
                 break
             nconmax, njmax = body.sizes  # type: ignore[misc]
             body.sizes = (2 * nconmax, 2 * njmax)  # kept for this body's later batches
-            frames = self._simulate(body, iter([held]), *shape)
+            again = controls if isinstance(controls, CPGInputs) else iter([controls])
+            frames = self._simulate(body, again, run, head.smoothing, controller)
         wall = (_time.perf_counter() - start) / len(tasks)
+        if frames.held is not None:
+            joint_target = frames.held.transpose(1, 0, 2)
+        else:  # the control in force at each frame (the last step's at the end), as on CPU
+            joint_target = controls[:, np.minimum(steps, nstep - 1) // period]
+        return self._results(tasks, built, fitness_fn, body, frames, steps * dt, joint_target, wall)
 
-        times = steps * dt
-        # The control in force at each frame (the last step's at the end), as the CPU engine.
-        joint_target = held[:, np.minimum(steps, nstep - 1) // period]
+    def _results(
+        self,
+        tasks: Sequence[EvaluationTask],
+        built: BuiltBody,
+        fitness_fn: Any,
+        body: _DeviceBody,
+        frames: _Frames,
+        times: np.ndarray,
+        joint_target: np.ndarray,
+        wall: float,
+    ) -> list[EvaluationResult]:
         within = np.abs(frames.qpos) <= _MAX_VALUE  # False for NaN and inf
         stable = within.all(axis=(0, 2)) & (np.abs(frames.final_qvel) <= _MAX_VALUE).all(axis=1)
         results = []
@@ -352,94 +421,178 @@ class WarpEvaluator:
     def _simulate(
         self,
         body: _DeviceBody,
-        pieces: Iterator[np.ndarray],
-        nworld: int,
-        ncalls: int,
-        nstep: int,
-        period: int,
-        steps: np.ndarray,
-        record_bodies: bool,
+        controls: CPGInputs | Iterator[np.ndarray],
+        run: _Run,
+        smoothing: float,
+        controller: Any,
     ) -> _Frames:
-        """Step every world from the initial state with its controls; frames at ``steps``.
+        """Step every world from the initial state with its controls; frames at ``run.steps``.
 
-        ``pieces``: the held controls ``(B, n, nu)`` of consecutive controller calls. Each is
-        uploaded and its steps launched before the next is asked for: on a GPU, launches
-        return at once, so the host computes the next piece while the device steps this one.
+        ``controls``: the device CPG's inputs (the controls are computed in the graphs), or
+        the host's held controls ``(B, n, nu)`` of consecutive controller calls in pieces:
+        each is uploaded and its steps launched before the next is asked for (on a GPU,
+        launches return at once, so the host computes the next piece while the device steps).
         """
         wp, mjw = warp_modules()
-        record_state, record_pose = _kernels()
         built = body.built
-        nq, nu = built.model.nq, built.model.nu
-        nframes = steps.size
-        nrobot = len(built.robot_bodies)
-        record_bodies = record_bodies and nrobot > 0
-        frame_of = {int(k): f for f, k in enumerate(steps)}
-        events = sorted(set(range(0, nstep, period)) | set(frame_of))
+        nworld, nstep, period = run.nworld, run.nstep, run.period
+        frames = set(run.steps.tolist())
+        events = sorted(set(range(0, nstep, period)) | frames)
+        on_device = isinstance(controls, CPGInputs)
         with wp.ScopedDevice(self.device):
-            cuda = wp.get_device().is_cuda
             worlds = self._worlds(body, nworld)
             m, d = body.model, worlds.data
+            cpg = (controls, smoothing, controller) if on_device else None
+            bufs = self._buffers(worlds, built, run, cpg)
+            keys = []
+            for i, k in enumerate(events):
+                end = events[i + 1] if i + 1 < len(events) else nstep
+                keys.append((on_device and k % period == 0 and k < nstep, k in frames, end - k))
+            self._prepare_graphs(worlds, bufs, m, set(keys))
             mjw.reset_data(m, d)
-            # Controls as (call, world, actuator): one contiguous block per controller call,
-            # staged in page-locked host memory on a GPU so that uploads do not wait.
-            controls = wp.empty((ncalls, nworld, nu), dtype=wp.float32)
-            staging = wp.empty((ncalls, nworld, nu), dtype=wp.float32, device="cpu", pinned=cuda)
-            staged = staging.numpy()
-            out_qpos = wp.empty((nframes, nworld, nq), dtype=wp.float32)
-            out_core = wp.empty((nframes, nworld), dtype=wp.vec3)
-            if record_bodies:
-                bodies = wp.array(built.robot_bodies.astype(np.int32), dtype=wp.int32)
-                out_pos = wp.empty((nframes, nworld, nrobot), dtype=wp.vec3)
-                out_quat = wp.empty((nframes, nworld, nrobot), dtype=wp.quat)
+            bufs.counter.zero_()
+            if on_device:
+                bufs.cpg.load(controls)  # type: ignore[union-attr]
+                for key in keys:
+                    wp.capture_launch(bufs.graphs[key])
+            else:
+                self._host_controlled(d, bufs, events, keys, controls, run)  # type: ignore[arg-type]
+            wp.synchronize()
+            return _Frames(
+                qpos=bufs.qpos.numpy().astype(np.float64),
+                core=bufs.core.numpy().astype(np.float64),
+                body_pos=None if bufs.pos is None else bufs.pos.numpy().astype(np.float64),
+                # MuJoCo Warp keeps MuJoCo's (w, x, y, z) order in its quaternions.
+                body_quat=None if bufs.quat is None else bufs.quat.numpy().astype(np.float64),
+                final_qvel=d.qvel.numpy().astype(np.float64),
+                overflowed=(d.overflow.numpy() & _capacity_bits(mjw)) != 0,
+                held=None if bufs.held is None else bufs.held.numpy(),
+            )
 
-            def run_event(i: int) -> None:
-                k = events[i]
-                if k % period == 0 and k < nstep:
-                    wp.copy(d.ctrl, controls[k // period])
-                frame = frame_of.get(k)
-                if frame is not None:
-                    mjw.kinematics(m, d)
-                    wp.launch(
-                        record_state,
-                        dim=(nworld, nq),
-                        inputs=[frame, built.core_geom, d.qpos, d.geom_xpos, out_qpos, out_core],
-                    )
-                    if record_bodies:
-                        wp.launch(
-                            record_pose,
-                            dim=(nworld, nrobot),
-                            inputs=[frame, bodies, d.xpos, d.xquat, out_pos, out_quat],
-                        )
-                if k < nstep:
-                    end = events[i + 1] if i + 1 < len(events) else nstep
-                    wp.capture_launch(self._graph(worlds, m, end - k))
-
-            uploaded = 0  # controller calls on the device
-            i = 0  # next event
-            for piece in pieces:
+    def _host_controlled(
+        self,
+        d: Any,
+        bufs: _Buffers,
+        events: list[int],
+        keys: list[tuple[bool, bool, int]],
+        pieces: Iterator[np.ndarray],
+        run: _Run,
+    ) -> None:
+        """Run the events with controls computed on the host, uploaded piece by piece."""
+        wp, _ = warp_modules()
+        nworld, nu, period = run.nworld, d.ctrl.shape[1], run.period
+        cuda = wp.get_device().is_cuda
+        # Controls as (call, world, actuator): one contiguous block per controller call,
+        # staged in page-locked host memory on a GPU so that uploads do not wait.
+        controls = wp.empty((run.ncalls, nworld, nu), dtype=wp.float32)
+        staging = wp.empty((run.ncalls, nworld, nu), dtype=wp.float32, device="cpu", pinned=cuda)
+        staged = staging.numpy()
+        uploaded = 0  # controller calls on the device
+        i = 0  # next event
+        for piece in itertools.chain(pieces, [None]):
+            if piece is not None:
                 n = piece.shape[1]
                 staged[uploaded : uploaded + n] = piece.transpose(1, 0, 2)
                 offset = uploaded * nworld * nu
                 wp.copy(controls, staging, offset, offset, n * nworld * nu)
                 uploaded += n
-                while i < len(events) and events[i] < uploaded * period:
-                    run_event(i)
-                    i += 1
-            if uploaded != ncalls:
-                raise RuntimeError(f"controls for {uploaded} controller calls, not {ncalls}")
-            while i < len(events):  # the last frame, at the end of the run
-                run_event(i)
+            elif uploaded != run.ncalls:
+                raise RuntimeError(f"controls for {uploaded} controller calls, not {run.ncalls}")
+            # The last frame, at the end of the run, comes after every piece.
+            while i < len(events) and (events[i] < uploaded * period or piece is None):
+                k = events[i]
+                if k % period == 0 and k < run.nstep:
+                    wp.copy(d.ctrl, controls[k // period])
+                wp.capture_launch(bufs.graphs[keys[i]])
                 i += 1
-            wp.synchronize()
-            return _Frames(
-                qpos=out_qpos.numpy().astype(np.float64),
-                core=out_core.numpy().astype(np.float64),
-                body_pos=out_pos.numpy().astype(np.float64) if record_bodies else None,
-                # MuJoCo Warp keeps MuJoCo's (w, x, y, z) order in its quaternions.
-                body_quat=out_quat.numpy().astype(np.float64) if record_bodies else None,
-                final_qvel=d.qvel.numpy().astype(np.float64),
-                overflowed=(d.overflow.numpy() & _capacity_bits(mjw)) != 0,
+
+    def _buffers(
+        self, worlds: _Worlds, built: BuiltBody, run: _Run, cpg: tuple[Any, ...] | None
+    ) -> _Buffers:
+        """The frame buffers (and device CPG) for this batch shape: kept while it repeats."""
+        wp, _ = warp_modules()
+        nworld, nframes = run.nworld, run.steps.size
+        nq, nu, nrobot = built.model.nq, built.model.nu, len(built.robot_bodies)
+        record_bodies = run.record_bodies and nrobot > 0
+        cpg_key = None if cpg is None else batch_key(cpg[0], cpg[2], cpg[1], built.low, built.high)
+        key = (nframes, record_bodies, cpg_key)
+        bufs = worlds.buffers
+        if bufs is not None and bufs.key == key:
+            return bufs
+        worlds.buffers = None  # free the old buffers (and their graphs) first
+        bodies = wp.array(built.robot_bodies.astype(np.int32), dtype=wp.int32)
+        bufs = worlds.buffers = _Buffers(
+            key=key,
+            core_geom=built.core_geom,
+            bodies=bodies if record_bodies else None,
+            counter=wp.zeros(1, dtype=wp.int32),
+            qpos=wp.empty((nframes, nworld, nq), dtype=wp.float32),
+            core=wp.empty((nframes, nworld), dtype=wp.vec3),
+            held=None if cpg is None else wp.empty((nframes, nworld, nu), dtype=wp.float64),
+            pos=wp.empty((nframes, nworld, nrobot), dtype=wp.vec3) if record_bodies else None,
+            quat=wp.empty((nframes, nworld, nrobot), dtype=wp.quat) if record_bodies else None,
+            cpg=None
+            if cpg is None
+            else DeviceCPG(wp, cpg[0], cpg[2], cpg[1], built.low, built.high),
+            graphs={},
+        )
+        return bufs
+
+    def _prepare_graphs(
+        self, worlds: _Worlds, bufs: _Buffers, model: Any, keys: set[tuple[bool, bool, int]]
+    ) -> None:
+        """Capture the graph of every event kind not captured yet on these buffers.
+
+        Each event's work runs once outside a capture first, so that every kernel it needs is
+        compiled and loaded before a graph is captured (the caller resets the state after).
+        """
+        wp, _ = warp_modules()
+        for key in sorted(keys - bufs.graphs.keys()):
+            for _ in range(2):  # counters at 0 for the warm-up run and for the capture
+                bufs.counter.zero_()
+                if bufs.cpg is not None:
+                    bufs.cpg.counter.zero_()
+            self._event_work(worlds, bufs, model, key)
+            bufs.counter.zero_()
+            if bufs.cpg is not None:
+                bufs.cpg.counter.zero_()
+            with wp.ScopedCapture() as capture:
+                self._event_work(worlds, bufs, model, key)
+            bufs.graphs[key] = capture.graph
+
+    def _event_work(
+        self, worlds: _Worlds, bufs: _Buffers, model: Any, key: tuple[bool, bool, int]
+    ) -> None:
+        """One event: a device controller call, a recorded frame, then the steps to the next."""
+        wp, mjw = warp_modules()
+        record_state, record_pose, record_held, bump = _kernels()
+        d, nworld = worlds.data, worlds.nworld
+        call, frame, nsteps = key
+        if call and bufs.cpg is not None:
+            bufs.cpg.launch(d.ctrl)
+        if frame:
+            mjw.kinematics(model, d)
+            wp.launch(
+                record_state,
+                dim=(nworld, bufs.qpos.shape[2]),
+                inputs=[bufs.counter, bufs.core_geom, d.qpos, d.geom_xpos, bufs.qpos, bufs.core],
             )
+            if bufs.pos is not None:
+                wp.launch(
+                    record_pose,
+                    dim=(nworld, bufs.pos.shape[2]),
+                    inputs=[bufs.counter, bufs.bodies, d.xpos, d.xquat,
+                            bufs.pos, bufs.quat],
+                )  # fmt: skip
+            if bufs.held is not None and bufs.cpg is not None:
+                wp.launch(
+                    record_held,
+                    dim=(nworld, bufs.held.shape[2]),
+                    inputs=[bufs.counter, bufs.cpg.held, bufs.held],
+                )
+            wp.launch(bump, dim=1, inputs=[bufs.counter])
+        for _ in range(nsteps):
+            mjw.step(model, d)
 
     def _graph(self, worlds: _Worlds, model: Any, nsteps: int) -> Any:
         """The captured graph of ``nsteps`` physics steps on these worlds (captured once)."""
@@ -491,6 +644,24 @@ def _control_pieces(
         held = held_controls(piece, head.smoothing, built.low, built.high, ctrl)
         ctrl = held[:, -1]
         yield held
+
+
+def _device_inputs(
+    tasks: Sequence[EvaluationTask], built: BuiltBody, controller: Any, call_times: np.ndarray
+) -> CPGInputs:
+    """The device CPG's inputs: every task's parameters and its seed's initial state."""
+    model = built.model
+    params = np.array([t.params for t in tasks], dtype=np.float64)
+    if not np.all(np.isfinite(params)):
+        raise ValueError(f"controller {tasks[0].controller!r}: parameters contain NaN or inf")
+    state = np.empty((len(tasks), model.nu, 2, 2))
+    drawn: dict[int, np.ndarray] = {}
+    for b, task in enumerate(tasks):
+        if task.seed not in drawn:
+            xy, xy_dot_old = controller.initial_state(model, task.seed)
+            drawn[task.seed] = np.stack([xy, xy_dot_old], axis=-1)
+        state[b] = drawn[task.seed]
+    return cpg_inputs(controller, [(0, params, state)], call_times)
 
 
 def _kept(pieces: Iterator[np.ndarray], into: list[np.ndarray]) -> Iterator[np.ndarray]:
