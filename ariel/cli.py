@@ -280,12 +280,14 @@ def _cmd_quickstart(args: argparse.Namespace) -> int:
         sys.argv = saved
 
 
-def _headless_unless_display() -> None:
-    """Render off-screen (EGL) where no window can open; must run before mujoco is imported."""
+def _headless_unless_display(without: str) -> None:
+    """Render off-screen (EGL) where no window can open. Only for commands that render, and
+    before mujoco is imported: a command that draws nothing must not load a GL library (EGL
+    missing would fail its ``import mujoco``). ``without``: how to run without rendering."""
     from ariel.utils._gl import ensure_headless_gl, has_display
 
     if not has_display():
-        ensure_headless_gl()
+        ensure_headless_gl(without=without)
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
@@ -310,7 +312,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             "--viewer needs a display (DISPLAY is not set); write a video with --video FILE "
             "or a Rerun recording with --rrd FILE instead"
         )
-    _headless_unless_display()
+    if args.video:  # replay() imports mujoco to re-simulate: the backend is chosen first
+        _headless_unless_display("run without --video")
     from ariel.recording._replay import replay
 
     replayed = replay(args.run_dir, args.eval_id)
@@ -354,7 +357,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    _headless_unless_display()
+    if not args.no_render:  # loading the run imports mujoco (body descriptors) before it renders
+        _headless_unless_display("run with --no-render")
     from ariel.recording._report import make_report, print_report
 
     report = make_report(args.run_dir, render=not args.no_render)
@@ -581,6 +585,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args))
     except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line
         return _fail_with(exc)
+    except Exception as exc:  # `import mujoco` failing in its OpenGL backend (MUJOCO_GL): one line
+        from ariel.utils._gl import gl_backend_error
+
+        error = gl_backend_error(exc)
+        if error is None:
+            raise
+        return _fail_with(error)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -23,6 +23,7 @@ __all__ = [
     "DamagedRunError",
     "DuplicatePluginError",
     "FaceNotAvailableError",
+    "GLBackendError",
     "MissingPluginError",
     "NotARunError",
     "PluginCheckError",
@@ -115,6 +116,11 @@ class BodyBuildError(ArielError, RuntimeError):
     never for the caller's mistakes, which propagate as they are; `evaluate_batch` turns it
     into ``error`` results, and a driver that builds bodies itself can catch just this.
     """
+
+
+class GLBackendError(ArielError, RuntimeError):
+    """No OpenGL backend works for rendering (``MUJOCO_GL``: EGL, OSMesa, GLFW), or ``import
+    mujoco`` failed in the one ``MUJOCO_GL`` names: one line saying what to install or set."""
 
 
 class WarpUnavailableError(ArielError, RuntimeError):

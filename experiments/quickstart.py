@@ -8,40 +8,43 @@ and a short video that follows the robot (MP4), and prints their paths.
     python experiments/quickstart.py [--duration 15] [--seed 42] [--out data/quickstart]
 
 Rendering is headless: on Linux ``MUJOCO_GL`` defaults to ``egl`` (set before ``mujoco`` is
-imported); pass ``--no-video`` on a machine without OpenGL.
+imported, and only when the video is made: with ``--no-video`` no GL library is loaded); pass
+``--no-video`` on a machine without OpenGL.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 from pathlib import Path
 
 from ariel.utils._gl import ensure_headless_gl
 
-ensure_headless_gl()  # must run before anything imports mujoco
+if "--no-video" not in sys.argv[1:]:  # only the video renders; before anything imports mujoco
+    ensure_headless_gl(without="run with --no-video")
 
 # The imports below need the GL choice above, hence after code.
-import matplotlib  # noqa: E402
+import matplotlib
 
 matplotlib.use("Agg")  # files only, never a window
 
-import matplotlib.pyplot as plt  # noqa: E402
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import mujoco
+import numpy as np
 
-from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko  # noqa: E402
-from ariel.simulation.controllers.controller import Controller  # noqa: E402
-from ariel.simulation.controllers.na_cpg import (  # noqa: E402
+from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
+from ariel.simulation.controllers.controller import Controller
+from ariel.simulation.controllers.na_cpg import (
     NaCPG,
     create_fully_connected_adjacency,
 )
-from ariel.simulation.environments import SimpleFlatWorld  # noqa: E402
-from ariel.utils.renderers import tracking_video_renderer  # noqa: E402
-from ariel.utils.runners import simple_runner  # noqa: E402
-from ariel.utils.tracker import Tracker  # noqa: E402
-from ariel.utils.video_recorder import VideoRecorder  # noqa: E402
+from ariel.simulation.environments import SimpleFlatWorld
+from ariel.utils.renderers import tracking_video_renderer
+from ariel.utils.runners import simple_runner
+from ariel.utils.tracker import Tracker
+from ariel.utils.video_recorder import VideoRecorder
 
 # Snapshot the core every 25 physics steps (0.05 s at 0.002 s) for a smooth trajectory plot;
 # the tutorial's default of 500 steps gives only 15 points in 15 s.

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import shlex
 import subprocess
@@ -10,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, snapshot, tiny_run_toml
+from _helpers import ariel_run, exit_code, one_error_line, repo_env, snapshot, tiny_run_toml
 
 from ariel import __version__
 from ariel.cli import main
@@ -433,3 +434,97 @@ def test_report_of_a_folder_that_is_not_a_run_is_one_line_exit_2(tmp_path: Path,
     assert main(["report", str(tmp_path)]) == 2
     assert "not an ariel run folder" in one_error_line(capsys, subcommand=True)
     assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------------------------
+# Headless: MUJOCO_GL only where a command renders; a GL backend that cannot load is one line
+# --------------------------------------------------------------------------------------------
+
+#: A ``sitecustomize`` that makes loading any library named *EGL* fail, as on a machine
+#: without libEGL. With PyOpenGL installed, ``import mujoco`` under ``MUJOCO_GL=egl`` then
+#: raises AttributeError (PyOpenGL's EGL platform has no library); without PyOpenGL, MuJoCo's
+#: EGL backend fails when a renderer is made.
+NO_EGL_SITECUSTOMIZE = """
+import ctypes
+
+_load = ctypes.CDLL.__init__
+
+
+def _no_egl(self, name, *args, **kwargs):
+    if name and "EGL" in str(name):
+        raise OSError(f"{name}: cannot open shared object file: No such file or directory")
+    _load(self, name, *args, **kwargs)
+
+
+ctypes.CDLL.__init__ = _no_egl
+"""
+
+
+def _headless_env(tmp_path: Path, *, no_egl: bool = False, **extra: str) -> dict[str, str]:
+    """This environment without a display or a GL choice (``extra`` added); ``no_egl``: and
+    with libEGL unloadable."""
+    drop = ("MUJOCO_GL", "PYOPENGL_PLATFORM", "DISPLAY", "WAYLAND_DISPLAY")
+    env = {k: v for k, v in repo_env().items() if k not in drop}
+    if no_egl:
+        shim = tmp_path / "no_egl"
+        shim.mkdir()
+        (shim / "sitecustomize.py").write_text(NO_EGL_SITECUSTOMIZE)
+        env["PYTHONPATH"] = os.pathsep.join([str(shim), env["PYTHONPATH"]])
+    return {**env, **extra}
+
+
+def test_replay_and_report_that_render_nothing_choose_no_gl_backend(
+    finished_run, tmp_path: Path
+) -> None:
+    out = str(finished_run[0])
+    script = (
+        "import os, sys\n"
+        "from ariel.cli import main\n"
+        f"codes = [main(['replay', {out!r}, 'best']), main(['report', {out!r}, '--no-render'])]\n"
+        "print(codes, os.environ.get('MUJOCO_GL', '<unset>'), 'mujoco' in sys.modules)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        env=_headless_env(tmp_path),
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1] == "[0, 0] <unset> True"  # mujoco ran, no GL chosen
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="MUJOCO_GL=egl is a Linux backend")
+@pytest.mark.parametrize(
+    ("video", "user_gl", "hint"),
+    [(False, "", None), (True, "", "or run without --video"), (False, "egl", "unset MUJOCO_GL")],
+    ids=["replay", "replay-video", "replay-user-egl"],
+)
+def test_a_gl_backend_that_cannot_load_is_one_line_exit_2(
+    finished_run, tmp_path: Path, video: bool, user_gl: str, hint: str | None
+) -> None:
+    import importlib.util
+
+    if user_gl and importlib.util.find_spec("OpenGL") is None:
+        pytest.skip("without PyOpenGL, import mujoco loads no EGL library: nothing to fail")
+    argv = ["replay", str(finished_run[0]), "best"]
+    argv += ["--video", str(tmp_path / "best.mp4")] if video else []
+    env = _headless_env(tmp_path, no_egl=True, **({"MUJOCO_GL": user_gl} if user_gl else {}))
+    done = subprocess.run(
+        [sys.executable, "-m", "ariel.cli", *argv],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        env=env,
+        cwd=tmp_path,
+    )
+    if hint is None:  # nothing rendered: no GL library loaded, nothing fails
+        assert done.returncode == 0, done.stderr
+        assert "identical: yes, bit for bit" in done.stdout
+        return
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert lines[0].startswith("ariel: error: no OpenGL backend available"), lines[0]
+    assert "(MUJOCO_GL=egl)" in lines[0] and "libegl1" in lines[0] and hint in lines[0]
+    assert not (tmp_path / "best.mp4").exists()

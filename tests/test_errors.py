@@ -30,6 +30,7 @@ OLD_HOMES: dict[str, tuple[tuple[str, ...], tuple[type[BaseException], ...]]] = 
         (KeyError, ValueError),
     ),
     "BodyBuildError": (("ariel.evaluation", "ariel.evaluation._engine"), (RuntimeError,)),
+    "GLBackendError": (("ariel.utils._gl",), (RuntimeError,)),
     "WarpUnavailableError": (("ariel.evaluation._warp",), (RuntimeError,)),
     "WorkerLostError": (("ariel.evaluation._pool", "ariel.evaluation.executors"), (RuntimeError,)),
     "CallTimeoutError": (("ariel.evaluation._pool", "ariel.evaluation.executors"), (TimeoutError,)),

@@ -250,6 +250,9 @@ class ReplayResult:
         self, path: str | Path, *, width: int = 640, height: int = 480, fps: int = 30
     ) -> Path:
         """An MP4 of the replay, filmed by a camera that tracks the robot's core."""
+        # mujoco is imported already (the replay simulated), so it renders with the backend
+        # MUJOCO_GL named then (`ariel replay --video` sets egl first where no display is set;
+        # setting it now would be ignored); one that fails is create_renderer's one line.
         import mujoco
 
         from ariel.evaluation._engine import SPAWN_PREFIX

@@ -298,6 +298,9 @@ def _graph_of(run: Run, body_id: str) -> Any:
 
 
 def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
+    # Reading the run's tables imported mujoco, with the GL backend MUJOCO_GL named then
+    # (`ariel report` sets egl first where no display is set, unless --no-render); a backend
+    # that fails leaves the image out, with create_renderer's one-line reason as the note.
     import mujoco
 
     from ariel.evaluation._engine import build

@@ -1,10 +1,18 @@
 """Headless OpenGL helpers for MuJoCo rendering.
 
 MuJoCo picks its OpenGL backend from the ``MUJOCO_GL`` environment variable when ``mujoco`` is
-first imported (``egl`` or ``osmesa`` for headless machines, ``glfw`` for a desktop). Setting it
-later has no effect, so ``make run``/``make test`` and ``tests/conftest.py`` set
-``MUJOCO_GL=egl`` before anything imports ``mujoco``. Scripts can call
-:func:`ensure_headless_gl` as their very first action instead.
+first imported (``egl`` or ``osmesa`` for headless machines, ``glfw`` for a desktop), and
+imports that backend with itself. Setting it later has no effect, so ``make run``/``make test``
+and ``tests/conftest.py`` set ``MUJOCO_GL=egl`` before anything imports ``mujoco``. The
+``ariel`` command calls :func:`ensure_headless_gl` only where it renders (``replay --video``,
+``report`` without ``--no-render``) and no display is set: a command that draws nothing loads
+no GL library. Scripts that render can call it as their very first action.
+
+A backend that does not work is one line, `ariel.errors.GLBackendError`, naming what to install
+or set: :func:`create_renderer` raises it when no GL context can be made, and
+:func:`gl_backend_error` makes it from an ``import mujoco`` that failed inside the backend
+(``MUJOCO_GL=egl`` with PyOpenGL installed but no libEGL raises ``AttributeError`` there, even
+where nothing is rendered); the ``ariel`` command prints it (exit code 2).
 
 This module imports ``mujoco`` only inside functions, so calling :func:`ensure_headless_gl`
 from it is safe before ``mujoco`` has been imported.
@@ -16,38 +24,103 @@ import os
 import sys
 from typing import TYPE_CHECKING
 
+from ariel.errors import GLBackendError
+
 if TYPE_CHECKING:
     import mujoco
 
-__all__ = ["NO_GL_MESSAGE", "create_renderer", "ensure_headless_gl", "has_display"]
+__all__ = [
+    "NO_GL_MESSAGE",
+    "GLBackendError",
+    "create_renderer",
+    "ensure_headless_gl",
+    "gl_backend_error",
+    "has_display",
+]
 
 NO_GL_MESSAGE = (
     "no OpenGL backend available for headless rendering (MUJOCO_GL={backend}): "
-    "install EGL (libegl1, libgl1-mesa-dri) or OSMesa (libosmesa6) "
+    "install EGL (apt install libegl1 libgl1-mesa-dri) or OSMesa (apt install libosmesa6) "
     "and set MUJOCO_GL=egl or osmesa"
 )
 
+#: The modules in which ``import mujoco`` loads the backend ``MUJOCO_GL`` names (MuJoCo's
+#: backend modules, PyOpenGL, glfw): an exception raised inside one of them is the backend's.
+_GL_MODULES = (
+    "mujoco.rendering.classic.gl_context",
+    "mujoco.egl",
+    "mujoco.osmesa",
+    "mujoco.glfw",
+    "mujoco.cgl",
+    "OpenGL",
+    "glfw",
+)
 
-def ensure_headless_gl(backend: str = "egl") -> bool:
+#: How to go without rendering, once `ensure_headless_gl` has set ``MUJOCO_GL`` (else None).
+_chosen: str | None = None
+
+
+def ensure_headless_gl(backend: str = "egl", *, without: str = "leave rendering out") -> bool:
     """Select a headless GL backend if the user has not chosen one.
 
     Sets ``MUJOCO_GL=backend`` only on Linux, only when ``MUJOCO_GL`` is unset and only while
     ``mujoco`` has not been imported yet (afterwards the variable would be ignored). Returns
-    True when it set the variable.
+    True when it set the variable. ``without`` says how to run without rendering (e.g. "run
+    without --video"): `gl_backend_error` offers it where that backend then fails.
     """
+    global _chosen
     if sys.platform != "linux" or "MUJOCO_GL" in os.environ or "mujoco" in sys.modules:
         return False
     os.environ["MUJOCO_GL"] = backend
+    _chosen = without
     return True
 
 
-def _no_gl_error(cause: BaseException | None) -> RuntimeError:
+def _no_gl_error(cause: BaseException | None, *, importing: bool = False) -> GLBackendError:
+    """The one line: what to install, how to go without rendering where this process chose the
+    backend (else, for a failed ``import mujoco``: unset ``MUJOCO_GL``), and the cause."""
     backend = os.environ.get("MUJOCO_GL") or "<unset>"
     message = NO_GL_MESSAGE.format(backend=backend)
+    if _chosen:
+        message += f", or {_chosen}"
+    elif importing:
+        message += "; where nothing is rendered, unset MUJOCO_GL"
     if cause is not None:
         first_line = (str(cause).strip().splitlines() or [type(cause).__name__])[0]
         message += f" (cause: {type(cause).__name__}: {first_line})"
-    return RuntimeError(message)
+    return GLBackendError(message)
+
+
+def _raised_in_gl_backend(exc: BaseException) -> bool:
+    """Whether ``exc``, or an exception it was raised from, passed through `_GL_MODULES`."""
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        tb = current.__traceback__
+        while tb is not None:
+            name = str(tb.tb_frame.f_globals.get("__name__", ""))
+            if any(name == m or name.startswith(m + ".") for m in _GL_MODULES):
+                return True
+            tb = tb.tb_next
+        current = current.__cause__
+    return False
+
+
+def gl_backend_error(exc: BaseException) -> GLBackendError | None:
+    """``exc`` as a one-line `GLBackendError` when MuJoCo's OpenGL backend raised it, else None.
+
+    ``import mujoco`` imports the backend ``MUJOCO_GL`` names even where nothing is rendered,
+    and a broken one fails there: PyOpenGL's EGL platform without libEGL raises
+    ``AttributeError``, other set-ups ``ImportError``, ``OSError`` or ``RuntimeError``. The
+    message says what to install, and how to go without rendering: leave it out where this
+    process chose the backend (`ensure_headless_gl`), else unset ``MUJOCO_GL``.
+    """
+    if isinstance(exc, GLBackendError):
+        return exc
+    if not _raised_in_gl_backend(exc):
+        return None
+    return _no_gl_error(exc, importing=True)
 
 
 def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
@@ -55,7 +128,8 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
 
     The model's offscreen framebuffer is enlarged when the image is larger than it (MuJoCo
     refuses otherwise); the original size is restored once the GL context exists, so the
-    model is left as it was. Raises a one-line ``RuntimeError`` when no OpenGL backend works.
+    model is left as it was. Raises a one-line `GLBackendError` (a ``RuntimeError``) when no
+    OpenGL backend works.
     """
     import mujoco
 

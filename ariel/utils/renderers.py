@@ -1,9 +1,9 @@
 """Headless renderers: one frame, a fixed-camera video, a tracking video (tutorial API).
 
 Rendering needs an OpenGL backend. On a machine without a display set ``MUJOCO_GL=egl``
-(or ``osmesa``) before ``mujoco`` is first imported; ``make run``, ``make test`` and the test
-suite do so. Without a working backend these functions raise a one-line ``RuntimeError``
-saying what to install.
+(or ``osmesa``) before ``mujoco`` is first imported; ``make run``, ``make test``, the test
+suite and the ``ariel`` commands that render do so. Without a working backend these functions
+raise a one-line ``RuntimeError`` (`ariel.errors.GLBackendError`) saying what to install.
 
 Camera: if the model has a camera named ``"ortho-cam"`` (every ARIEL world does) it is used,
 with ``cam_fovy`` / ``cam_pos`` / ``cam_quat`` overriding its settings for this call only;

@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from ariel.errors import GLBackendError
 from ariel.utils import _gl
 from ariel.utils.renderers import (
     single_frame_renderer,
@@ -174,6 +175,38 @@ def test_ensure_headless_gl_is_a_no_op_once_mujoco_is_imported(
     monkeypatch.delenv("MUJOCO_GL", raising=False)
     assert _gl.ensure_headless_gl() is False  # too late to matter: leave the env alone
     assert "MUJOCO_GL" not in __import__("os").environ
+
+
+def _raised_in(module: str, exc: Exception) -> Exception:
+    """``exc`` raised by code of ``module`` (its traceback passes through that module)."""
+    namespace = {"__name__": module}
+    exec("def fail(exc):\n    raise exc\n", namespace)
+    try:
+        namespace["fail"](exc)
+    except Exception as raised:
+        return raised
+    raise AssertionError("not raised")
+
+
+def test_a_failure_inside_the_gl_backend_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``import mujoco`` under MUJOCO_GL=egl, PyOpenGL installed, no libEGL: AttributeError
+    in PyOpenGL; what the ``ariel`` command prints instead of the traceback."""
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    no_egl = AttributeError("'NoneType' object has no attribute 'eglQueryString'")
+    error = _gl.gl_backend_error(_raised_in("OpenGL.raw.EGL._types", no_egl))
+    assert isinstance(error, GLBackendError) and "\n" not in str(error)
+    assert str(error).startswith(
+        "no OpenGL backend available for headless rendering (MUJOCO_GL=egl)"
+    )
+    assert "libegl1" in str(error) and "unset MUJOCO_GL" in str(error)
+    assert "(cause: AttributeError: 'NoneType' object has no attribute 'eglQueryString')" in str(
+        error
+    )
+    # Failures elsewhere, the renderer module's own included, are not the backend's.
+    assert _gl.gl_backend_error(_raised_in("ariel.cli", AttributeError("x"))) is None
+    assert (
+        _gl.gl_backend_error(_raised_in("mujoco.rendering.classic.renderer", ValueError())) is None
+    )
 
 
 # --- Rendering (needs OpenGL) ---------------------------------------------------------------
