@@ -1,4 +1,5 @@
-"""Pieces the benchmark scripts share: thread limits, options, config overrides, load average.
+"""Pieces the benchmark scripts share: thread limits, options, config overrides, load average,
+timing, versions and the GPU.
 
 A benchmark runs as a script (``python experiments/benchmarks/x.py``), which puts this folder
 first on ``sys.path``, so the scripts import this module as ``_common``; so do the processes a
@@ -10,9 +11,15 @@ hold no more than a worker of ``ariel run`` holds.
 from __future__ import annotations
 
 import argparse
+import datetime
+import gc
 import math
 import os
-from collections.abc import Mapping
+import platform
+import shutil
+import subprocess
+from collections.abc import Callable, Mapping
+from importlib import metadata
 from typing import Any
 
 THREAD_VARIABLES = (
@@ -41,6 +48,68 @@ def load_average() -> tuple[float, float, float] | None:
         return os.getloadavg()
     except (AttributeError, OSError):
         return None
+
+
+# --- the machine ------------------------------------------------------------------------------
+
+
+def versions(**distributions: str) -> dict[str, str | None]:
+    """Python's version and each installed distribution's (``name="dist-name"``; None: absent)."""
+    found: dict[str, str | None] = {"python": platform.python_version()}
+    for name, distribution in distributions.items():
+        try:
+            found[name] = metadata.version(distribution)
+        except metadata.PackageNotFoundError:
+            found[name] = None
+    return found
+
+
+def utc_now() -> str:
+    """The date and time now, UTC, ISO 8601 to the second."""
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+
+
+def nvidia_card(index: int = 0) -> dict[str, str] | None:
+    """``nvidia-smi``'s name, memory.total and driver_version of GPU ``index`` (its order: PCI
+    bus order); None where nvidia-smi is absent or fails."""
+    smi = shutil.which("nvidia-smi")
+    if smi is None:
+        return None
+    query = ["--query-gpu=name,memory.total,driver_version", "--format=csv,noheader"]
+    try:
+        done = subprocess.run([smi, *query], capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    lines = [line for line in done.stdout.splitlines() if line.count(",") >= 2]
+    if done.returncode != 0 or not lines:
+        return None
+    name, memory, driver = (
+        part.strip() for part in lines[min(index, len(lines) - 1)].rsplit(",", 2)
+    )
+    return {"name": name, "memory": memory, "driver_version": driver, "source": "nvidia-smi"}
+
+
+# --- timing -----------------------------------------------------------------------------------
+
+
+def best_of(repeats: int, sample: Callable[[], float]) -> float:
+    """The least of ``repeats`` calls of ``sample`` (seconds), each after a garbage collection."""
+    times = []
+    for _ in range(repeats):
+        gc.collect()
+        times.append(sample())
+    return min(times)
+
+
+def rates(prefix: str, seconds: float, worlds: int, steps: int) -> dict[str, float]:
+    """``worlds`` simulations of ``steps`` steps each in ``seconds``: evaluations/s, steps/s,
+    seconds and ``ns_per_world_step`` (seconds x 1e9 / (worlds x steps)), keys prefixed."""
+    return {
+        f"{prefix}evals_per_s": worlds / seconds,
+        f"{prefix}steps_per_s": worlds * steps / seconds,
+        f"{prefix}seconds": seconds,
+        f"{prefix}ns_per_world_step": seconds * 1e9 / (worlds * steps),
+    }
 
 
 # --- options ----------------------------------------------------------------------------------

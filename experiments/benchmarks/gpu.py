@@ -1,25 +1,38 @@
 """MuJoCo Warp benchmark: gecko evaluations per second on a device against all CPU cores.
 
 The gecko on the flat world, ``--duration`` simulated seconds (15 s = 7,500 steps of 0.002 s),
-NA-CPG brains with random parameters, frames recorded at ``--rate-hz`` (10 Hz), fitness
-``xy_displacement``. Three figures, in one process on one machine:
+NA-CPG brains with random parameters, frames at ``--rate-hz`` (10 Hz), fitness
+``xy_displacement``. Four rows, in one process on one machine; each timed row is the best of
+``--repeats`` and has ``ns_per_world_step`` = wall seconds x 1e9 / (worlds x steps):
 
-1. warp, per world count in ``--worlds``: one call of ``WarpEvaluator(device).evaluate_batch``
-   on that many tasks: the CPG controls on the host (overlapping the device's stepping), the
-   stepping, the recorded frames copied back, kinematics, fitness and results. The first call
-   of each size is untimed (kernel compilation in a fresh process, graph capture for a new
-   world count) and reported; then the best of ``--repeats`` calls.
+1. warp, per world count in ``--worlds`` (any count >= 1; 65,536 fits a GPU): one call of
+   ``WarpEvaluator(device).evaluate_batch`` on that many tasks: CPG controls on the host
+   (overlapping the device's stepping), stepping, frames copied back, kinematics, fitness,
+   results. The first call of each size (kernel compilation, graph capture) is untimed and
+   reported.
 2. bare, per world count: the same worlds stepping the same controls (uploaded beforehand) with
-   the same captured graphs, nothing else: no CPG, no frames, no results. ``warp / bare`` is
-   what the evaluator adds to the stepping (the issue's target: within 20 %).
-3. cpu: ``mujoco.rollout.Rollout(nthread=T)`` on T = all CPUs this process may use, of
-   ``--cpu-evals`` evaluations with the same kind of controls (the engine's CPG, computed outside
-   the timed region): the reference. The engine's own ``evaluate_batch`` on T threads (CPG and
-   recording included) is reported beside it.
+   the same captured graphs, nothing else. ``warp / bare`` is what the evaluator adds to the
+   stepping (the issue's target: within 20 %).
+3. testspeed, per world count: MuJoCo Warp's own speed test (``mjwarp-testspeed``) on the same
+   compiled model (``build(EvaluationTask(body=GECKO)).model``), device, world count, steps and
+   contact/constraint buffers: its timing function ``mujoco_warp._src.cli.unroll``, called
+   in-process (on Warp's CPU device, which has no streams, a copy of its loop). It times each
+   one-step graph launch and synchronize, nothing between. It replays ONE control sequence to
+   every world (as ``--replay``; it cannot replay one per world): the first task's held
+   controls, per step, with ``noise_std = 0`` and ``noise_rate = 1e-12`` s, so that its noise
+   kernel sets ``ctrl`` to them exactly. ``bare / testspeed`` = bare steps/s / testspeed
+   steps/s (the issue's target: >= 0.9).
+4. cpu: ``mujoco.rollout.Rollout(nthread=T)``, T = all CPUs this process may use, of
+   ``--cpu-evals`` evaluations with the engine's CPG controls (computed untimed): the
+   reference; beside it the engine's ``evaluate_batch`` on T threads (CPG, recording included).
 
-``speedup`` = warp evaluations/s at the largest world count / cpu evaluations/s. The last line of
-output is one JSON object: ``gpu_evals_per_s``, ``cpu_evals_per_s``, ``speedup``, ``device``,
-``worlds``, ``steps`` and the per-size figures, compile times, threads, versions, load average.
+``speedup`` = warp evaluations/s at the largest world count / cpu evaluations/s. The last line
+of output is one JSON object: ``gpu_evals_per_s``, ``cpu_evals_per_s``, ``speedup``,
+``bare_over_testspeed`` and ``ns_per_world_step`` per row at the largest world count, the
+per-size figures, ``device``, ``worlds``, ``steps``, ``versions`` (python, mujoco,
+mujoco_warp, warp, numpy), ``card`` (name, memory, NVIDIA driver: nvidia-smi's, else Warp's;
+None on the CPU), ``date``, threads and load average. A ``--coevolution`` row (K bodies x
+popsize worlds, packed) is to come: see HOOK in main.
 
     python experiments/benchmarks/gpu.py [--worlds 1024,4096,16384] [--device cuda|cpu]
         [--duration 15] [--repeats 2] [--cpu-evals 64] [--rate-hz 10] [--seed 0] [--quick]
@@ -39,18 +52,19 @@ one_blas_thread()
 import argparse  # noqa: E402
 import gc  # noqa: E402
 import json  # noqa: E402
-import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from typing import Any  # noqa: E402
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
+from _common import best_of, nvidia_card, rates, utc_now, versions  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
 from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate_batch  # noqa: E402
 from ariel.evaluation._engine import (  # noqa: E402
     control_sequence,
+    held_controls,
     num_steps,
     open_loop_targets,
 )
@@ -59,6 +73,9 @@ from ariel.evaluation.executors import default_workers  # noqa: E402
 
 GECKO = BodySpec("prebuilt", "gecko")
 SEED = 3  # the evaluation seed: every candidate's CPG starts from the same state (one batch)
+# testspeed's control noise off: rate = exp(-timestep / NOISE_RATE) = 0, so ctrl = the replay
+TESTSPEED_FLAGS = ("--noise_std=0", "--noise_rate=1e-12")  # and --function=step (mjw.step)
+DISTRIBUTIONS = dict(mujoco="mujoco", mujoco_warp="mujoco-warp", warp="warp-lang", numpy="numpy")
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -71,6 +88,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--rate-hz", type=float, default=10.0, help="recorded frames per second")
     parser.add_argument("--seed", type=int, default=0, help="seeds the random parameters")
     parser.add_argument("--quick", action="store_true", help="smoke run on Warp's CPU device")
+    # HOOK: --coevolution (K bodies x popsize worlds) goes here; see main.
     args = parser.parse_args(argv)
     if args.quick:
         args.device, args.worlds, args.duration = "cpu", "2,4", 0.2
@@ -93,84 +111,62 @@ def gecko_tasks(n: int, args: argparse.Namespace) -> list[EvaluationTask]:
     rng = np.random.default_rng(args.seed)
     params = NaCPGController().random_parameters(model, rng, n)
     record_every = max(1, round(1.0 / (args.rate_hz * model.opt.timestep)))
+    same = {"duration": args.duration, "record_every": record_every, "record_bodies": False}
     return [
-        EvaluationTask(
-            body=GECKO,
-            params=p,
-            duration=args.duration,
-            record_every=record_every,
-            record_bodies=False,
-            seed=SEED,
-            eval_id=f"c{i:05d}",
-        )
+        EvaluationTask(body=GECKO, params=p, seed=SEED, eval_id=f"c{i:05d}", **same)
         for i, p in enumerate(params)
     ]
 
 
-def engine_controls(tasks: list[EvaluationTask]) -> np.ndarray:
-    """Per-step controls ``(B, nstep, nu)`` of the tasks, as the CPU engine computes them."""
-    built = build(tasks[0])
-    model = built.model
+def cpg_targets(tasks: list[EvaluationTask]) -> tuple[np.ndarray, Any, int]:
+    """The CPG targets ``(B, calls, nu)`` of the tasks, their built body and their steps."""
     head = tasks[0]
+    built = build(head)
+    model = built.model
     nstep = num_steps(head, model)
     call_times = np.arange(0, nstep, head.control_period) * model.opt.timestep
-    params = np.array([t.params for t in tasks])
-    targets = open_loop_targets(NaCPGController(), params, [SEED] * len(tasks), call_times, model)
-    period, smoothing = head.control_period, head.smoothing
+    params, seeds = np.array([t.params for t in tasks]), [SEED] * len(tasks)
+    return open_loop_targets(NaCPGController(), params, seeds, call_times, model), built, nstep
+
+
+def engine_controls(tasks: list[EvaluationTask]) -> np.ndarray:
+    """Per-step controls ``(B, nstep, nu)`` of the tasks, as the CPU engine computes them."""
+    targets, built, nstep = cpg_targets(tasks)
+    period, smoothing = tasks[0].control_period, tasks[0].smoothing
     return control_sequence(targets, nstep, period, smoothing, built.low, built.high)
 
 
-def best_of(repeats: int, sample: Any) -> float:
-    times = []
-    for _ in range(repeats):
-        gc.collect()
-        times.append(sample())
-    return min(times)
-
-
-def warp_figures(args: argparse.Namespace, worlds: int, evaluator: Any) -> dict[str, Any]:
-    """The evaluator on ``worlds`` tasks (first call untimed) and bare stepping of the same."""
-    tasks = gecko_tasks(worlds, args)
+def warp_row(args: argparse.Namespace, tasks: list[EvaluationTask], evaluator: Any) -> dict:
+    """The evaluator on the tasks: the first call untimed, then the best of ``--repeats``."""
     start = time.perf_counter()
     results = evaluator.evaluate_batch(tasks)
     first = time.perf_counter() - start
-    unstable = sum(r.status != "ok" for r in results)
 
     def full() -> float:
         start = time.perf_counter()
         evaluator.evaluate_batch(tasks)
         return time.perf_counter() - start
 
-    full_s = best_of(args.repeats, full)
-    bare_s = best_of(args.repeats, bare_sampler(evaluator, tasks))
+    seconds = best_of(args.repeats, full)
+    worlds, nstep = len(tasks), num_steps(tasks[0], build(tasks[0]).model)
     return {
         "worlds": worlds,
-        "evals_per_s": worlds / full_s,
-        "bare_evals_per_s": worlds / bare_s,
-        "overhead_ratio": full_s / bare_s,
-        "steps_per_s": worlds * num_steps(tasks[0], build(tasks[0]).model) / full_s,
-        "seconds": full_s,
-        "bare_seconds": bare_s,
+        **rates("", seconds, worlds, nstep),
         "first_call_s": first,
-        "not_ok": unstable,
+        "not_ok": sum(r.status != "ok" for r in results),
     }
 
 
-def bare_sampler(evaluator: Any, tasks: list[EvaluationTask]) -> Any:
-    """Step the evaluator's worlds with these tasks' controls and its graphs: nothing else."""
-    from ariel.evaluation._engine import held_controls
+def bare_row(args: argparse.Namespace, tasks: list[EvaluationTask], evaluator: Any) -> dict:
+    """The evaluator's worlds (after warp_row) stepping these tasks' controls with its graphs,
+    nothing else; and their ``buffer_sizes`` (nconmax, njmax), for testspeed to use the same."""
     from ariel.evaluation._warp import warp_modules
 
     wp, mjw = warp_modules()
-    built = build(tasks[0])
-    model = built.model
-    head = tasks[0]
-    nstep, period = num_steps(head, model), head.control_period
-    body = evaluator._device_body(head, built)
-    call_times = np.arange(0, nstep, period) * model.opt.timestep
-    params = np.array([t.params for t in tasks])
-    targets = open_loop_targets(NaCPGController(), params, [SEED] * len(tasks), call_times, model)
-    held = held_controls(targets, head.smoothing, built.low, built.high)
+    targets, built, nstep = cpg_targets(tasks)
+    period = tasks[0].control_period
+    body = evaluator._device_body(tasks[0], built)
+    held = held_controls(targets, tasks[0].smoothing, built.low, built.high)
     with wp.ScopedDevice(evaluator.device):
         worlds = evaluator._worlds(body, len(tasks))
         controls = wp.array(np.ascontiguousarray(held.transpose(1, 0, 2)), dtype=wp.float32)
@@ -187,10 +183,94 @@ def bare_sampler(evaluator: Any, tasks: list[EvaluationTask]) -> Any:
             wp.synchronize()
             return time.perf_counter() - start
 
-    return sample
+    sample()  # untimed: captures the graphs where the evaluator's steps run in other graphs
+    seconds = best_of(args.repeats, sample)
+    return {**rates("bare_", seconds, len(tasks), nstep), "buffer_sizes": list(worlds.sizes)}
 
 
-def cpu_figures(args: argparse.Namespace, threads: int) -> dict[str, float]:
+def testspeed_row(args: argparse.Namespace, tasks: list[EvaluationTask], sizes: tuple) -> dict:
+    """MuJoCo Warp's testspeed on the same model, worlds, steps and buffers (see the docs)."""
+    from absl import flags
+    from mujoco_warp._src import cli
+
+    from ariel.evaluation._warp import warp_modules
+
+    wp, mjw = warp_modules()
+    worlds, ctrls = len(tasks), list(engine_controls(tasks[:1])[0])  # the first task's, per step
+    nstep = len(ctrls)
+    flags.FLAGS.unparse_flags()
+    buffers = (f"--nconmax={sizes[0]}", f"--njmax={sizes[1]}")
+    flags.FLAGS(["gpu.py", f"--nworld={worlds}", f"--nstep={nstep}", *buffers, *TESTSPEED_FLAGS])
+    flags.FLAGS.device = args.device
+    m, d, _, _ = cli.init_structs(mjw.step, build(tasks[0]).model)
+    m.opt.warn_overflow = 0  # as testspeed's default (overflows counted below instead)
+    unroll = cli.unroll if wp.get_device(args.device).is_cuda else unroll_without_streams
+    jit, runs, latencies = [], [], []
+
+    def timed(step: int, trace: dict, latency: float) -> None:
+        latencies.append(latency)
+
+    for _ in range(args.repeats):
+        gc.collect()
+        mjw.reset_data(m, d)
+        latencies.clear()
+        jit.append(unroll(mjw.step, m, d, None, timed, ctrls))
+        runs.append(sum(latencies))
+    return {
+        **rates("testspeed_", min(runs), worlds, nstep),
+        "testspeed_jit_s": jit[0],
+        "testspeed_converged": int(np.sum(~np.isnan(d.qpos.numpy()).any(axis=1))),
+        "testspeed_overflowed": int(np.count_nonzero(d.overflow.numpy())),
+    }
+
+
+def unroll_without_streams(fn: Any, m: Any, d: Any, rc: Any, callback: Any, ctrls: Any) -> float:
+    """``mujoco_warp._src.cli.unroll``'s loop for Warp's CPU device, which has no streams."""
+    import warp as wp
+    from mujoco_warp._src import cli
+
+    with wp.ScopedDevice(cli.DEVICE.value):
+        start = time.perf_counter()
+        with wp.ScopedCapture() as capture:
+            fn(m, d)
+        jit = time.perf_counter() - start
+        noise = (cli.NOISE_STD.value, cli.NOISE_RATE.value)
+        model_in = [m.opt.timestep, m.actuator_ctrllimited, m.actuator_ctrlrange, d.ctrl]
+        for i in range(cli.NSTEP.value):
+            center = wp.array(ctrls[i], dtype=wp.float32)
+            inputs = [*model_in, center, i, *noise]
+            wp.launch(cli._ctrl_noise, dim=(d.nworld, m.nu), inputs=inputs, outputs=[d.ctrl])
+            wp.synchronize()
+            start = time.perf_counter()
+            wp.capture_launch(capture.graph)
+            wp.synchronize()
+            callback(i, {}, time.perf_counter() - start)
+    return jit
+
+
+def size_row(args: argparse.Namespace, worlds: int, evaluator: Any) -> dict[str, Any]:
+    """Every per-world-count row (warp, bare, testspeed) of ``worlds`` worlds, printed."""
+    tasks = gecko_tasks(worlds, args)
+    row = warp_row(args, tasks, evaluator)
+    row |= bare_row(args, tasks, evaluator)
+    row |= testspeed_row(args, tasks, tuple(row["buffer_sizes"]))
+    row["overhead_ratio"] = row["seconds"] / row["bare_seconds"]
+    row["bare_over_testspeed"] = row["bare_steps_per_s"] / row["testspeed_steps_per_s"]
+    for label, key in (("warp", ""), ("bare stepping", "bare_"), ("testspeed", "testspeed_")):
+        print(
+            f"{label:<13} {worlds:>6} worlds: {row[key + 'evals_per_s']:10.1f} evals/s, "
+            f"{row[key + 'steps_per_s'] / 1e6:8.3f} M steps/s, "
+            f"{row[key + 'ns_per_world_step']:8.1f} ns/world-step"
+        )
+    print(
+        f"{'':<13} {worlds:>6} worlds: warp/bare {row['overhead_ratio']:.2f}, bare/testspeed "
+        f"{row['bare_over_testspeed']:.2f}, first call {row['first_call_s']:.1f} s"
+        + (f", {row['not_ok']} not ok" if row["not_ok"] else "")
+    )
+    return row
+
+
+def cpu_row(args: argparse.Namespace, threads: int) -> dict[str, float]:
     tasks = gecko_tasks(args.cpu_evals, args)
     built = build(tasks[0])
     model = built.model
@@ -215,10 +295,61 @@ def cpu_figures(args: argparse.Namespace, threads: int) -> dict[str, float]:
     raw_s = best_of(args.repeats, raw)
     engine_s = best_of(args.repeats, engine)
     pool.close()
+    cpu = rates("", raw_s, len(tasks), nstep) | rates("engine_", engine_s, len(tasks), nstep)
+    print(
+        f"cpu  {threads:>6} threads: {cpu['evals_per_s']:9.1f} evals/s (mujoco.rollout, "
+        f"{cpu['ns_per_world_step']:.1f} ns/world-step), engine evaluate_batch "
+        f"{cpu['engine_evals_per_s']:.1f} evals/s"
+    )
+    return cpu
+
+
+def card(wp: Any, device: str) -> dict[str, Any]:
+    """The GPU's name, memory and NVIDIA driver: nvidia-smi's, else Warp's; None on the CPU."""
+    found = wp.get_device(device)
+    if not found.is_cuda:
+        return dict.fromkeys(("name", "memory", "driver_version", "source"))
+    driver = wp.get_cuda_driver_version()  # Warp knows the CUDA driver API version, e.g. 12040
+    return nvidia_card(found.ordinal) or {
+        "name": found.name,
+        "memory": f"{found.total_memory // 2**20} MiB",
+        "driver_version": f"CUDA {driver // 1000}.{driver % 1000 // 10}",
+        "source": "warp",
+    }
+
+
+def summary(
+    args: argparse.Namespace, sizes: list[dict], cpu: dict, context: dict[str, Any]
+) -> dict[str, Any]:
+    """The JSON summary: headline figures at the largest world count, then every figure."""
+    largest = max(sizes, key=lambda f: f["worlds"])
     return {
-        "evals_per_s": len(tasks) / raw_s,
-        "engine_evals_per_s": len(tasks) / engine_s,
-        "seconds": raw_s,
+        "gpu_evals_per_s": largest["evals_per_s"],
+        "cpu_evals_per_s": cpu["evals_per_s"],
+        "speedup": largest["evals_per_s"] / cpu["evals_per_s"],
+        "bare_over_testspeed": largest["bare_over_testspeed"],
+        "ns_per_world_step": {
+            "warp": largest["ns_per_world_step"],
+            "bare": largest["bare_ns_per_world_step"],
+            "testspeed": largest["testspeed_ns_per_world_step"],
+            "cpu_rollout": cpu["ns_per_world_step"],
+        },
+        **{key: getattr(args, key) for key in ("device", "worlds", "duration", "rate_hz")},
+        "steps": context["steps"],
+        "per_worlds": sizes,
+        "first_compile_s": sizes[0]["first_call_s"],
+        "testspeed": {
+            "timing": "mujoco_warp._src.cli.unroll (cuda) or its loop (cpu), function step",
+            "controls": "the first task's held controls, replayed to every world",
+            "flags": list(TESTSPEED_FLAGS),
+        },
+        "cpu_engine_evals_per_s": cpu["engine_evals_per_s"],
+        "cpu_engine_ns_per_world_step": cpu["engine_ns_per_world_step"],
+        **{key: getattr(args, key) for key in ("cpu_evals", "repeats")},
+        "threads": context["threads"],
+        **{key: context[key] for key in ("device_name", "card", "versions", "date")},
+        "load_average": {"before": context["load_before"], "after": load_average()},
+        **context["extra_rows"],
     }
 
 
@@ -227,66 +358,41 @@ def main(argv: list[str] | None = None) -> int:
     from ariel.evaluation._warp import WarpEvaluator, WarpUnavailableError, warp_modules
 
     try:
-        wp, mjw = warp_modules()
+        wp, _ = warp_modules()
         evaluator = WarpEvaluator(args.device)
     except WarpUnavailableError as exc:
         print(f"gpu.py: {exc}", file=sys.stderr)
         return 2
-    threads = default_workers()
     model = build(EvaluationTask(body=GECKO)).model
-    nstep = max(1, round(args.duration / model.opt.timestep))
-    load_before = load_average()
-    device_name = wp.get_device(args.device).name
-    print(
-        f"MuJoCo Warp benchmark: gecko, flat world, {args.duration:g} s = {nstep} steps, frames at "
-        f"{args.rate_hz:g} Hz; warp on {args.device} ({device_name}), worlds {args.worlds}; cpu: "
-        f"Rollout(nthread={threads}) of {args.cpu_evals}; best of {args.repeats}; "
-        f"load average {load_before}"
-    )
-    sizes = []
-    for worlds in args.worlds:
-        figures = warp_figures(args, worlds, evaluator)
-        sizes.append(figures)
-        print(
-            f"warp {worlds:>6} worlds: {figures['evals_per_s']:9.1f} evals/s "
-            f"({figures['steps_per_s'] / 1e6:.3f} M steps/s), bare stepping "
-            f"{figures['bare_evals_per_s']:9.1f} evals/s, warp/bare "
-            f"{figures['overhead_ratio']:.2f}; first call {figures['first_call_s']:.1f} s"
-            + (f"; {figures['not_ok']} not ok" if figures["not_ok"] else "")
-        )
-    cpu = cpu_figures(args, threads)
-    print(
-        f"cpu  {threads:>6} threads: {cpu['evals_per_s']:9.1f} evals/s (mujoco.rollout), "
-        f"engine evaluate_batch {cpu['engine_evals_per_s']:.1f} evals/s"
-    )
-    largest = max(sizes, key=lambda f: f["worlds"])
-    speedup = largest["evals_per_s"] / cpu["evals_per_s"]
-    print(f"speedup at {largest['worlds']} worlds: {speedup:.2f}x all {threads} CPU threads")
-    summary = {
-        "gpu_evals_per_s": largest["evals_per_s"],
-        "cpu_evals_per_s": cpu["evals_per_s"],
-        "speedup": speedup,
-        "device": args.device,
-        "device_name": device_name,
-        "worlds": args.worlds,
-        "steps": nstep,
-        "duration": args.duration,
-        "rate_hz": args.rate_hz,
-        "per_worlds": sizes,
-        "first_compile_s": sizes[0]["first_call_s"],
-        "cpu_engine_evals_per_s": cpu["engine_evals_per_s"],
-        "cpu_evals": args.cpu_evals,
-        "threads": threads,
-        "repeats": args.repeats,
-        "versions": {
-            "python": platform.python_version(),
-            "mujoco": mujoco.__version__,
-            "mujoco_warp": getattr(mjw, "__version__", "?"),
-            "warp": wp.config.version,
-        },
-        "load_average": {"before": load_before, "after": load_average()},
+    context: dict[str, Any] = {
+        "threads": default_workers(),
+        "steps": max(1, round(args.duration / model.opt.timestep)),
+        "load_before": load_average(),
+        "device_name": wp.get_device(args.device).name,
+        "card": card(wp, args.device),
+        "versions": versions(**DISTRIBUTIONS),
+        "date": utc_now(),
     }
-    print(json.dumps(summary))
+    print(
+        f"MuJoCo Warp benchmark: gecko, flat world, {args.duration:g} s = {context['steps']} "
+        f"steps, frames at {args.rate_hz:g} Hz; warp, bare and testspeed on {args.device} "
+        f"({context['device_name']}; {context['card']['name']}), worlds {args.worlds}; cpu: "
+        f"Rollout(nthread={context['threads']}) of {args.cpu_evals}; best of {args.repeats}; "
+        f"load average {context['load_before']}"
+    )
+    sizes = [size_row(args, worlds, evaluator) for worlds in args.worlds]
+    cpu = cpu_row(args, context["threads"])
+    # --- HOOK: a --coevolution row (packed bodies: K bodies x popsize worlds) -------------------
+    # Add `coevolution_row(args, evaluator) -> dict` (with ``ns_per_world_step``) beside
+    # `testspeed_row`, its option in parse_args, and here: context["extra_rows"]["coevolution"]
+    # = coevolution_row(args, evaluator). summary() puts every extra row in the JSON summary.
+    context["extra_rows"] = {}
+    result = summary(args, sizes, cpu, context)
+    print(
+        f"speedup at {max(args.worlds)} worlds: {result['speedup']:.2f}x all "
+        f"{context['threads']} CPU threads; bare/testspeed {result['bare_over_testspeed']:.2f}"
+    )
+    print(json.dumps(result))
     return 0
 
 

@@ -1,5 +1,5 @@
-"""Smoke test of experiments/benchmarks/gpu.py on Warp's CPU device: it runs both sides and
-ends with its JSON summary. Tiny settings and no timing assertions."""
+"""Smoke test of experiments/benchmarks/gpu.py on Warp's CPU device: it runs every row (warp,
+bare, testspeed, cpu) and ends with its JSON summary. Tiny settings and no timing assertions."""
 
 from __future__ import annotations
 
@@ -24,6 +24,23 @@ def test_gpu_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     assert [f["worlds"] for f in summary["per_worlds"]] == [2, 4]
     assert all(f["not_ok"] == 0 and f["bare_evals_per_s"] > 0 for f in summary["per_worlds"])
     assert "mujoco.rollout" in result.stdout and "bare stepping" in result.stdout
+    # the testspeed row (MuJoCo Warp's own speed test, same worlds and steps) and its ratio
+    assert "testspeed" in result.stdout
+    for size in summary["per_worlds"]:
+        assert size["testspeed_steps_per_s"] > 0 and size["testspeed_evals_per_s"] > 0
+        assert size["testspeed_converged"] == size["worlds"]
+        assert size["bare_over_testspeed"] > 0
+        for key in ("ns_per_world_step", "bare_ns_per_world_step", "testspeed_ns_per_world_step"):
+            assert math.isfinite(size[key]) and size[key] > 0, key
+    assert summary["bare_over_testspeed"] > 0
+    ns = summary["ns_per_world_step"]
+    assert set(ns) == {"warp", "bare", "testspeed", "cpu_rollout"}
+    assert all(math.isfinite(v) and v > 0 for v in ns.values()), ns
+    assert set(summary["versions"]) == {"python", "mujoco", "mujoco_warp", "warp", "numpy"}
+    assert all(summary["versions"].values()), summary["versions"]
+    # no GPU on Warp's CPU device: the card's fields are None
+    assert summary["card"] == dict.fromkeys(("name", "memory", "driver_version", "source"))
+    assert isinstance(summary["date"], str) and summary["date"][:2] == "20"
 
 
 def test_gpu_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
