@@ -103,10 +103,7 @@ def cpg_inputs(
 
 
 @functools.cache
-def _kernels() -> Any:
-    from ariel.evaluation._warp import warp_modules
-
-    wp, _ = warp_modules()
+def _kernels(wp: Any) -> Any:
     eps = float(cpg_kernel.EPSILON)
 
     @wp.func
@@ -217,7 +214,7 @@ class DeviceCPG:
 
     def launch(self, ctrl: Any) -> None:
         """One controller call: advance, targets, blend and clip into ``ctrl``; count it."""
-        cpg_call, bump = _kernels()
+        cpg_call, bump = _kernels(self.wp)
         nworld = self.z.shape[0]
         self.wp.launch(
             cpg_call,

@@ -90,6 +90,9 @@ class Scheduler:
                 self._advance(groups, index)
             while self._in_flight:
                 raise_pending()  # a Ctrl-C whose KeyboardInterrupt got lost: ariel.utils.interrupts
+                dispatch = getattr(self.executor, "dispatch", None)
+                if dispatch is not None:  # an executor that gathers batches starts them now
+                    dispatch()
                 done, _ = cf.wait(
                     list(self._in_flight), timeout=watch, return_when=cf.FIRST_COMPLETED
                 )

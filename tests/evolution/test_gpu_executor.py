@@ -131,3 +131,31 @@ def test_make_executor_gpu_evaluates_batches_on_warp() -> None:
     assert result.backend == "mujoco-warp:cpu" and math.isfinite(result.fitness)
     with pytest.raises(ValueError, match="one device; no workers"):
         make_executor("gpu", device="cpu", workers=2)
+
+
+def test_queued_batches_go_to_the_device_together_and_a_faulty_one_fails_alone() -> None:
+    from ariel.evaluation import make_executor
+
+    calls: list[list[str]] = []
+
+    def evaluate_batch(tasks):
+        calls.append(list(tasks))
+        if "bad" in tasks:
+            raise ValueError("a plugin failed")
+        return [f"result of {t}" for t in tasks]
+
+    with make_executor("gpu", device="cpu") as executor:
+        executor.evaluator.evaluate_batch = evaluate_batch
+        first = executor.submit_batch(["a", "b"])
+        second = executor.submit_batch(["c"])
+        assert not calls  # queued until dispatched (the scheduler does it before it waits)
+        executor.dispatch()
+        assert first.result() == ["result of a", "result of b"]
+        assert second.result() == ["result of c"]
+        assert calls == [["a", "b", "c"]]  # one call for both batches
+        calls.clear()
+        good, bad = executor.submit_batch(["d"]), executor.submit_batch(["bad"])
+        assert good.result() == ["result of d"]  # asking for a result dispatches too
+        with pytest.raises(ValueError, match="a plugin failed"):
+            bad.result()
+        assert calls == [["d", "bad"], ["d"], ["bad"]]  # together, then batch by batch
