@@ -153,17 +153,21 @@ def _kernels() -> Any:
     @wp.kernel
     def record_state(
         counter: wp.array(dtype=wp.int32),
-        core_geom: int,
         qpos: wp.array2d(dtype=wp.float32),
-        geom_xpos: wp.array2d(dtype=wp.vec3),
         out_qpos: wp.array3d(dtype=wp.float32),
-        out_core: wp.array2d(dtype=wp.vec3),
     ):
         world, i = wp.tid()
-        frame = counter[0]
-        out_qpos[frame, world, i] = qpos[world, i]
-        if i == 0:
-            out_core[frame, world] = geom_xpos[world, core_geom]
+        out_qpos[counter[0], world, i] = qpos[world, i]
+
+    @wp.kernel
+    def record_cores(
+        counter: wp.array(dtype=wp.int32),
+        cores: wp.array(dtype=wp.int32),
+        geom_xpos: wp.array2d(dtype=wp.vec3),
+        out_core: wp.array3d(dtype=wp.vec3),
+    ):
+        world, k = wp.tid()
+        out_core[counter[0], world, k] = geom_xpos[world, cores[k]]
 
     @wp.kernel
     def record_bodies(
@@ -192,7 +196,7 @@ def _kernels() -> Any:
     def bump(counter: wp.array(dtype=wp.int32)):
         counter[wp.tid()] = counter[wp.tid()] + 1
 
-    return record_state, record_bodies, record_held, bump
+    return record_state, record_cores, record_bodies, record_held, bump
 
 
 # --------------------------------------------------------------------------------------------
@@ -217,11 +221,11 @@ class _Buffers:
     """Frame buffers (and the device CPG) of one batch shape, with the graphs that use them."""
 
     key: tuple[Any, ...]
-    core_geom: int
-    bodies: Any | None  # (nbody,) int32: the robot's bodies, when their poses are recorded
+    cores: Any  # (K,) int32: each robot's core geom
+    bodies: Any | None  # (nbody,) int32: the robots' bodies, when their poses are recorded
     counter: Any  # (1,) int32: frames recorded so far
     qpos: Any  # (F, B, nq) float32
-    core: Any  # (F, B) vec3
+    core: Any  # (F, B, K) vec3
     held: Any | None  # (F, B, nu) float64, with the device CPG
     pos: Any | None  # (F, B, nbody) vec3
     quat: Any | None  # (F, B, nbody) quat
@@ -240,9 +244,26 @@ class _Worlds:
     buffers: _Buffers | None = None
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """What the device records of a model: one robot (a body) or several (a packed model)."""
+
+    model: Any  # mujoco.MjModel
+    core_geoms: np.ndarray  # (K,) each robot's core geom
+    robot_bodies: np.ndarray  # every robot's bodies, robot after robot
+    low: np.ndarray  # (nu,) actuator bounds, robot after robot
+    high: np.ndarray
+
+    @classmethod
+    def of(cls, built: BuiltBody) -> _Layout:
+        core = np.array([built.core_geom])
+        return cls(built.model, core, built.robot_bodies, built.low, built.high)
+
+
 @dataclass
 class _DeviceBody:
-    built: BuiltBody
+    built: Any  # the BuiltBody (or packed model) it was made from
+    layout: _Layout
     model: Any  # mujoco_warp.Model
     sizes: tuple[int, int] | None = None  # grown (nconmax, njmax), None: MuJoCo Warp's defaults
     worlds: _Worlds | None = None
@@ -251,7 +272,7 @@ class _DeviceBody:
 @dataclass
 class _Frames:
     qpos: np.ndarray  # (F, B, nq)
-    core: np.ndarray  # (F, B, 3)
+    core: np.ndarray  # (F, B, K, 3): each robot's core
     body_pos: np.ndarray | None  # (F, B, nbody, 3)
     body_quat: np.ndarray | None  # (F, B, nbody, 4), MuJoCo's (w, x, y, z) order
     final_qvel: np.ndarray  # (B, nv)
@@ -300,15 +321,19 @@ class WarpEvaluator:
             outs.extend(self._open_loop(piece, group.built, group.controller, group.fitness_fn))
         return outs
 
-    def _device_body(self, task: EvaluationTask, built: BuiltBody) -> _DeviceBody:
-        key = _build_key(task)
+    def _lone_body(self, task: EvaluationTask, built: BuiltBody) -> _DeviceBody:
+        """The device copy of one task's body."""
+        return self._device_body(_build_key(task), built, _Layout.of(built))
+
+    def _device_body(self, key: str, built: Any, layout: _Layout) -> _DeviceBody:
+        """The device copy of ``built`` (a body, or a packed model), kept for later batches."""
         body = self._bodies.get(key)
         if body is None or body.built is not built:
             wp, mjw = warp_modules()
             with wp.ScopedDevice(self.device):
-                model = mjw.put_model(built.model)
+                model = mjw.put_model(layout.model)
             model.opt.warn_overflow = 0  # overflows are handled here (re-run, larger buffers)
-            body = self._bodies[key] = _DeviceBody(built=built, model=model)
+            body = self._bodies[key] = _DeviceBody(built=built, layout=layout, model=model)
         self._bodies.move_to_end(key)
         while len(self._bodies) > _CACHE_SIZE:
             self._bodies.popitem(last=False)
@@ -323,7 +348,7 @@ class WarpEvaluator:
 
         wp, mjw = warp_modules()
         body.worlds = None  # free the old buffers first
-        model = body.built.model
+        model = body.layout.model
         nconmax, njmax = body.sizes or (None, None)
         with wp.ScopedDevice(self.device):
             data = mjw.put_data(
@@ -353,7 +378,7 @@ class WarpEvaluator:
         steps = frame_steps(nstep, head.record_every)
         call_times = np.arange(0, nstep, period) * dt
         start = _time.perf_counter()
-        body = self._device_body(head, built)
+        body = self._lone_body(head, built)
         parts: list[np.ndarray] = []
         if device_cpg_reason(controller) is None:
             controls: Any = _device_inputs(tasks, built, controller, call_times)
@@ -398,7 +423,7 @@ class WarpEvaluator:
             poses = None  # unstable: the host computes poses from the finite part, as on CPU
             if stable[b]:
                 poses = (
-                    frames.core[:, b],
+                    frames.core[:, b, 0],
                     None if frames.body_pos is None else frames.body_pos[:, b],
                     None if frames.body_quat is None else frames.body_quat[:, b],
                 )
@@ -434,7 +459,7 @@ class WarpEvaluator:
         launches return at once, so the host computes the next piece while the device steps).
         """
         wp, mjw = warp_modules()
-        built = body.built
+        layout = body.layout
         nworld, nstep, period = run.nworld, run.nstep, run.period
         frames = set(run.steps.tolist())
         events = sorted(set(range(0, nstep, period)) | frames)
@@ -443,7 +468,7 @@ class WarpEvaluator:
             worlds = self._worlds(body, nworld)
             m, d = body.model, worlds.data
             cpg = (controls, smoothing, controller) if on_device else None
-            bufs = self._buffers(worlds, built, run, cpg)
+            bufs = self._buffers(worlds, layout, run, cpg)
             keys = []
             for i, k in enumerate(events):
                 end = events[i + 1] if i + 1 < len(events) else nstep
@@ -507,33 +532,35 @@ class WarpEvaluator:
                 i += 1
 
     def _buffers(
-        self, worlds: _Worlds, built: BuiltBody, run: _Run, cpg: tuple[Any, ...] | None
+        self, worlds: _Worlds, layout: _Layout, run: _Run, cpg: tuple[Any, ...] | None
     ) -> _Buffers:
         """The frame buffers (and device CPG) for this batch shape: kept while it repeats."""
         wp, _ = warp_modules()
         nworld, nframes = run.nworld, run.steps.size
-        nq, nu, nrobot = built.model.nq, built.model.nu, len(built.robot_bodies)
+        nq, nu, nrobot = layout.model.nq, layout.model.nu, len(layout.robot_bodies)
+        ncore = len(layout.core_geoms)
+        low, high = layout.low, layout.high
         record_bodies = run.record_bodies and nrobot > 0
-        cpg_key = None if cpg is None else batch_key(cpg[0], cpg[2], cpg[1], built.low, built.high)
+        cpg_key = None if cpg is None else batch_key(cpg[0], cpg[2], cpg[1], low, high)
         key = (nframes, record_bodies, cpg_key)
         bufs = worlds.buffers
         if bufs is not None and bufs.key == key:
             return bufs
         worlds.buffers = None  # free the old buffers (and their graphs) first
-        bodies = wp.array(built.robot_bodies.astype(np.int32), dtype=wp.int32)
+        bodies = wp.array(layout.robot_bodies.astype(np.int32), dtype=wp.int32)
         bufs = worlds.buffers = _Buffers(
             key=key,
-            core_geom=built.core_geom,
+            cores=wp.array(layout.core_geoms.astype(np.int32), dtype=wp.int32),
             bodies=bodies if record_bodies else None,
             counter=wp.zeros(1, dtype=wp.int32),
             qpos=wp.empty((nframes, nworld, nq), dtype=wp.float32),
-            core=wp.empty((nframes, nworld), dtype=wp.vec3),
+            core=wp.empty((nframes, nworld, ncore), dtype=wp.vec3),
             held=None if cpg is None else wp.empty((nframes, nworld, nu), dtype=wp.float64),
             pos=wp.empty((nframes, nworld, nrobot), dtype=wp.vec3) if record_bodies else None,
             quat=wp.empty((nframes, nworld, nrobot), dtype=wp.quat) if record_bodies else None,
             cpg=None
             if cpg is None
-            else DeviceCPG(wp, cpg[0], cpg[2], cpg[1], built.low, built.high),
+            else DeviceCPG(wp, cpg[0], cpg[2], cpg[1], low, high),
             graphs={},
         )
         return bufs
@@ -565,7 +592,7 @@ class WarpEvaluator:
     ) -> None:
         """One event: a device controller call, a recorded frame, then the steps to the next."""
         wp, mjw = warp_modules()
-        record_state, record_pose, record_held, bump = _kernels()
+        record_state, record_cores, record_pose, record_held, bump = _kernels()
         d, nworld = worlds.data, worlds.nworld
         call, frame, nsteps = key
         if call and bufs.cpg is not None:
@@ -575,7 +602,12 @@ class WarpEvaluator:
             wp.launch(
                 record_state,
                 dim=(nworld, bufs.qpos.shape[2]),
-                inputs=[bufs.counter, bufs.core_geom, d.qpos, d.geom_xpos, bufs.qpos, bufs.core],
+                inputs=[bufs.counter, d.qpos, bufs.qpos],
+            )
+            wp.launch(
+                record_cores,
+                dim=(nworld, bufs.core.shape[2]),
+                inputs=[bufs.counter, bufs.cores, d.geom_xpos, bufs.core],
             )
             if bufs.pos is not None:
                 wp.launch(

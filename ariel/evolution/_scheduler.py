@@ -90,9 +90,7 @@ class Scheduler:
                 self._advance(groups, index)
             while self._in_flight:
                 raise_pending()  # a Ctrl-C whose KeyboardInterrupt got lost: ariel.utils.interrupts
-                dispatch = getattr(self.executor, "dispatch", None)
-                if dispatch is not None:  # an executor that gathers batches starts them now
-                    dispatch()
+                self._dispatch()
                 done, _ = cf.wait(
                     list(self._in_flight), timeout=watch, return_when=cf.FIRST_COMPLETED
                 )
@@ -100,10 +98,12 @@ class Scheduler:
                 if watch is not None and time.monotonic() - checked >= watch:
                     self._check_stalled()
                     checked = time.monotonic()
+                finished = []
                 for future in done:
                     batch, part = self._in_flight.pop(future)
                     if self._collect(batch, part, future):
-                        self._finish(groups, batch)
+                        finished.append(batch)
+                self._finish(groups, finished)
         except BaseException:
             for future in self._in_flight:
                 future.cancel()
@@ -160,14 +160,27 @@ class Scheduler:
             self._send(batch, part)
         return True
 
-    def _finish(self, groups: list[Iterator[list[Work]]], batch: _Batch) -> None:
-        work = batch.work
-        work.batch_done(batch.results)
-        if not self._launch(work, batch.group):
-            self._working[batch.group] -= 1
-        work.flush()
-        if self._working.get(batch.group) == 0:
-            self._advance(groups, batch.group)
+    def _finish(self, groups: list[Iterator[list[Work]]], finished: list[_Batch]) -> None:
+        """Hand each finished batch to its work and send the work's next batch; only then
+        write their records (`Work.flush`), so the executor steps the next batches meanwhile.
+        """
+        relaunched = []
+        for batch in finished:
+            batch.work.batch_done(batch.results)
+            relaunched.append(self._launch(batch.work, batch.group))
+        if any(relaunched):
+            self._dispatch()
+        for batch, again in zip(finished, relaunched):
+            if not again:
+                self._working[batch.group] -= 1
+            batch.work.flush()
+            if self._working.get(batch.group) == 0:
+                self._advance(groups, batch.group)
+
+    def _dispatch(self) -> None:
+        dispatch = getattr(self.executor, "dispatch", None)
+        if dispatch is not None:  # an executor that gathers batches starts them now
+            dispatch()
 
     # -- chunks --------------------------------------------------------------------------------
 

@@ -165,7 +165,7 @@ def bare_row(args: argparse.Namespace, tasks: list[EvaluationTask], evaluator: A
     wp, mjw = warp_modules()
     targets, built, nstep = cpg_targets(tasks)
     period = tasks[0].control_period
-    body = evaluator._device_body(tasks[0], built)
+    body = evaluator._lone_body(tasks[0], built)
     held = held_controls(targets, tasks[0].smoothing, built.low, built.high)
     with wp.ScopedDevice(evaluator.device):
         worlds = evaluator._worlds(body, len(tasks))

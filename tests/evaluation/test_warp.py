@@ -130,7 +130,7 @@ def test_unstable_physics_gives_status_unstable_and_the_worst_fitness(evaluator)
 def test_buffers_that_overflow_grow_and_the_batch_runs_again(evaluator) -> None:
     tasks = gecko_tasks(2, seed=7, record_bodies=False)
     small = WarpEvaluator("cpu")
-    body = small._device_body(tasks[0], build(tasks[0]))
+    body = small._lone_body(tasks[0], build(tasks[0]))
     body.sizes = (4, 8)  # room for 4 contacts and 8 constraint rows per world
     results = small.evaluate_batch(tasks)
     assert body.sizes[0] > 1 and body.sizes[1] > 1
@@ -175,7 +175,7 @@ def test_devices_are_checked_with_one_line(monkeypatch) -> None:
 def test_a_world_that_overflows_every_size_tried_is_an_error_result() -> None:
     tasks = gecko_tasks(1, seed=7, record_bodies=False)
     small = WarpEvaluator("cpu")
-    small._device_body(tasks[0], build(tasks[0])).sizes = (1, 1)  # 4 doublings: still short
+    small._lone_body(tasks[0], build(tasks[0])).sizes = (1, 1)  # 4 doublings: still short
     (result,) = small.evaluate_batch(tasks)
     assert result.status == "error" and result.fitness == -math.inf
     assert "overflowed the device buffers" in result.error
