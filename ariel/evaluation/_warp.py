@@ -558,9 +558,7 @@ class WarpEvaluator:
             held=None if cpg is None else wp.empty((nframes, nworld, nu), dtype=wp.float64),
             pos=wp.empty((nframes, nworld, nrobot), dtype=wp.vec3) if record_bodies else None,
             quat=wp.empty((nframes, nworld, nrobot), dtype=wp.quat) if record_bodies else None,
-            cpg=None
-            if cpg is None
-            else DeviceCPG(wp, cpg[0], cpg[2], cpg[1], low, high),
+            cpg=None if cpg is None else DeviceCPG(wp, cpg[0], cpg[2], cpg[1], low, high),
             graphs={},
         )
         return bufs
