@@ -687,16 +687,19 @@ def run_groups(
     by ``open_loop`` (all its tasks), a closed-loop one task by task here; input order."""
     results, ready = prepare_groups(tasks)
     for group in ready:
-        if group.controller.open_loop:
-            outs = open_loop(group)
-        else:  # a policy per controller call: on the CPU, task by task
-            outs = [
-                _closed_loop(task, group.built, group.controller, group.fitness_fn)
-                for task in group.tasks
-            ]
-        for i, out in zip(group.indices, outs):
+        for i, out in zip(group.indices, run_group(group, open_loop)):
             results[i] = out
     return results  # type: ignore[return-value]
+
+
+def run_group(
+    group: TaskGroup, open_loop: Callable[[TaskGroup], list[EvaluationResult]]
+) -> list[EvaluationResult]:
+    """One group's results: an open-loop group by ``open_loop``, a closed-loop one (a policy
+    per controller call) on the CPU here, task by task."""
+    if group.controller.open_loop:
+        return open_loop(group)
+    return [_closed_loop(t, group.built, group.controller, group.fitness_fn) for t in group.tasks]
 
 
 @dataclass

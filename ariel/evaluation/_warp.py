@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import json
 import time as _time
 from collections import OrderedDict
 from collections.abc import Iterator, Sequence
@@ -47,11 +48,14 @@ from ariel.evaluation._engine import (
     held_controls,
     num_steps,
     open_loop_targets,
-    run_groups,
+    prepare_groups,
+    run_group,
 )
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
-from ariel.evaluation._warp_cpg import CPGInputs, DeviceCPG, batch_key, cpg_inputs
+from ariel.evaluation._warp_cpg import CPGInputs, DeviceCPG, batch_key, cpg_inputs, net_inputs
 from ariel.evaluation._warp_cpg import device_cpg_reason as device_cpg_reason
+from ariel.evaluation._warp_pack import pack
+from ariel.evaluation._warp_packed import RobotView, pack_plan, packed_inputs, robot_views
 
 __all__ = [
     "BACKEND",
@@ -307,8 +311,19 @@ class WarpEvaluator:
     # -- public ----------------------------------------------------------------------------------
 
     def evaluate_batch(self, tasks: Sequence[EvaluationTask]) -> list[EvaluationResult]:
-        """Like `ariel.evaluation.evaluate_batch`: results in input order, checks first."""
-        return run_groups(tasks, self._open_loop_group)
+        """Like `ariel.evaluation.evaluate_batch`: results in input order, checks first.
+
+        Batches of different bodies that can share a model are packed into one
+        (`ariel.evaluation._warp_packed`); the others run body by body.
+        """
+        results, ready = prepare_groups(tasks)
+        alone, packs = pack_plan(ready)
+        done = [(g, outs) for pack in packs for g, outs in zip(pack, self._packed(pack))]
+        done += [(g, run_group(g, self._open_loop_group)) for g in alone]
+        for group, outs in done:
+            for i, out in zip(group.indices, outs):
+                results[i] = out
+        return results  # type: ignore[return-value]
 
     # -- internals -------------------------------------------------------------------------------
 
@@ -381,11 +396,88 @@ class WarpEvaluator:
         body = self._lone_body(head, built)
         parts: list[np.ndarray] = []
         if device_cpg_reason(controller) is None:
-            controls: Any = _device_inputs(tasks, built, controller, call_times)
+            controls: Any = cpg_inputs(
+                controller, [(0, *net_inputs(tasks, model, controller))], call_times
+            )
         else:
             controls = _kept(_control_pieces(tasks, built, controller, call_times), parts)
         run = _Run(len(tasks), call_times.size, nstep, period, steps, head.record_bodies)
-        frames = self._simulate(body, controls, run, head.smoothing, controller)
+        frames, controls = self._stepped(body, controls, parts, run, head.smoothing, controller)
+        wall = (_time.perf_counter() - start) / len(tasks)
+        if frames.held is None:  # the control in force at each frame (the last step's at the
+            # end), as on the CPU, from the host's held controls
+            frames.held = controls[:, np.minimum(steps, nstep - 1) // period].transpose(1, 0, 2)
+        return self._results(tasks, built, fitness_fn, body, frames, steps * dt, wall)
+
+    def _packed(self, groups: list[TaskGroup]) -> list[list[EvaluationResult]]:
+        """Groups of different bodies in one packed model, ``max_worlds`` worlds at a time."""
+        heads = [g.tasks[0] for g in groups]
+        key = json.dumps([_build_key(h) for h in heads])
+        body = self._bodies.get(key)  # the same bodies again (their next CMA-ES iteration)
+        if body is None or any(r.built is not g.built for r, g in zip(body.built.robots, groups)):
+            packed = pack(heads, [g.built for g in groups])
+            cores = np.array([r.core_geom for r in packed.robots])
+            bodies = np.concatenate([r.robot_bodies for r in packed.robots])
+            low, high = np.zeros(packed.model.nu), np.zeros(packed.model.nu)
+            for robot in packed.robots:
+                low[robot.ctrl], high[robot.ctrl] = robot.built.low, robot.built.high
+            layout = _Layout(packed.model, cores, bodies, low, high)
+            body = self._device_body(key, packed, layout)
+        packed = body.built
+        self._bodies.move_to_end(key)
+        if body.sizes is None:  # room for every robot's contacts from the start
+            body.sizes = tuple(len(groups) * n for n in self._default_sizes(body))  # type: ignore[assignment]
+        most = max(len(g.tasks) for g in groups)
+        size = self.max_worlds or most
+        outs: list[list[EvaluationResult]] = [[] for _ in groups]
+        for start in range(0, most, size):
+            pieces = [g.tasks[start : start + size] or g.tasks[-1:] for g in groups]
+            for k, results in enumerate(self._packed_piece(groups, packed, body, pieces)):
+                outs[k].extend(results[: max(0, len(groups[k].tasks) - start)])
+        return outs
+
+    def _packed_piece(
+        self, groups: list[TaskGroup], packed: Any, body: _DeviceBody, pieces: list[Any]
+    ) -> list[list[EvaluationResult]]:
+        head = groups[0].tasks[0]
+        model = packed.model
+        nstep, period, dt = num_steps(head, model), head.control_period, model.opt.timestep
+        steps = frame_steps(nstep, head.record_every)
+        call_times = np.arange(0, nstep, period) * dt
+        start = _time.perf_counter()
+        controller = groups[0].controller
+        inputs = packed_inputs(pieces, packed, controller, call_times)
+        nworld = inputs.z.shape[0]
+        run = _Run(nworld, call_times.size, nstep, period, steps, head.record_bodies)
+        frames, _ = self._stepped(body, inputs, [], run, head.smoothing, controller)
+        wall = (_time.perf_counter() - start) / (nworld * len(groups))
+        return [
+            self._results(tasks, g.built, g.fitness_fn, body, frames, steps * dt, wall, view)
+            for g, tasks, view in zip(groups, pieces, robot_views(packed))
+        ]
+
+    def _default_sizes(self, body: _DeviceBody) -> tuple[int, int]:
+        """MuJoCo Warp's default ``(nconmax, njmax)`` per world for this model."""
+        import mujoco
+
+        wp, mjw = warp_modules()
+        model = body.layout.model
+        with wp.ScopedDevice(self.device):
+            data = mjw.put_data(model, mujoco.MjData(model), nworld=1)
+        return int(data.naconmax), int(data.njmax)
+
+    def _stepped(
+        self,
+        body: _DeviceBody,
+        controls: Any,
+        parts: list[np.ndarray],
+        run: _Run,
+        smoothing: float,
+        controller: Any,
+    ) -> tuple[_Frames, Any]:
+        """`_simulate`, run again with larger buffers while contacts or constraints overflow
+        them (at most `_MAX_GROWTH` times); also the controls, as a re-run takes them."""
+        frames = self._simulate(body, controls, run, smoothing, controller)
         if parts:  # the host's held controls, (B, calls, nu), for a re-run and the records
             controls = np.concatenate(parts, axis=1)
         for _ in range(_MAX_GROWTH):
@@ -394,13 +486,8 @@ class WarpEvaluator:
             nconmax, njmax = body.sizes  # type: ignore[misc]
             body.sizes = (2 * nconmax, 2 * njmax)  # kept for this body's later batches
             again = controls if isinstance(controls, CPGInputs) else iter([controls])
-            frames = self._simulate(body, again, run, head.smoothing, controller)
-        wall = (_time.perf_counter() - start) / len(tasks)
-        if frames.held is not None:
-            joint_target = frames.held.transpose(1, 0, 2)
-        else:  # the control in force at each frame (the last step's at the end), as on CPU
-            joint_target = controls[:, np.minimum(steps, nstep - 1) // period]
-        return self._results(tasks, built, fitness_fn, body, frames, steps * dt, joint_target, wall)
+            frames = self._simulate(body, again, run, smoothing, controller)
+        return frames, controls
 
     def _results(
         self,
@@ -410,11 +497,17 @@ class WarpEvaluator:
         body: _DeviceBody,
         frames: _Frames,
         times: np.ndarray,
-        joint_target: np.ndarray,
         wall: float,
+        view: RobotView | None = None,
     ) -> list[EvaluationResult]:
-        within = np.abs(frames.qpos) <= _MAX_VALUE  # False for NaN and inf
-        stable = within.all(axis=(0, 2)) & (np.abs(frames.final_qvel) <= _MAX_VALUE).all(axis=1)
+        """Results of the first ``len(tasks)`` worlds, for the robot ``view`` shows (the
+        whole model: None)."""
+        view = view or RobotView.lone()
+        qpos = frames.qpos[:, :, view.qpos]
+        within = np.abs(qpos) <= _MAX_VALUE  # False for NaN and inf
+        final_qvel = np.abs(frames.final_qvel[:, view.qvel])
+        stable = within.all(axis=(0, 2)) & (final_qvel <= _MAX_VALUE).all(axis=1)
+        held = frames.held[:, :, view.ctrl]  # type: ignore[index]
         results = []
         for b, task in enumerate(tasks):
             if frames.overflowed[b]:
@@ -423,9 +516,9 @@ class WarpEvaluator:
             poses = None  # unstable: the host computes poses from the finite part, as on CPU
             if stable[b]:
                 poses = (
-                    frames.core[:, b, 0],
-                    None if frames.body_pos is None else frames.body_pos[:, b],
-                    None if frames.body_quat is None else frames.body_quat[:, b],
+                    frames.core[:, b, view.core],
+                    None if frames.body_pos is None else frames.body_pos[:, b, view.bodies],
+                    None if frames.body_quat is None else frames.body_quat[:, b, view.bodies],
                 )
             results.append(
                 _finish(
@@ -433,8 +526,8 @@ class WarpEvaluator:
                     built,
                     fitness_fn,
                     times,
-                    frames.qpos[:, b],
-                    joint_target[b],
+                    qpos[:, b],
+                    held[:, b],
                     bool(stable[b]),
                     wall,
                     poses=poses,
@@ -674,24 +767,6 @@ def _control_pieces(
         held = held_controls(piece, head.smoothing, built.low, built.high, ctrl)
         ctrl = held[:, -1]
         yield held
-
-
-def _device_inputs(
-    tasks: Sequence[EvaluationTask], built: BuiltBody, controller: Any, call_times: np.ndarray
-) -> CPGInputs:
-    """The device CPG's inputs: every task's parameters and its seed's initial state."""
-    model = built.model
-    params = np.array([t.params for t in tasks], dtype=np.float64)
-    if not np.all(np.isfinite(params)):
-        raise ValueError(f"controller {tasks[0].controller!r}: parameters contain NaN or inf")
-    state = np.empty((len(tasks), model.nu, 2, 2))
-    drawn: dict[int, np.ndarray] = {}
-    for b, task in enumerate(tasks):
-        if task.seed not in drawn:
-            xy, xy_dot_old = controller.initial_state(model, task.seed)
-            drawn[task.seed] = np.stack([xy, xy_dot_old], axis=-1)
-        state[b] = drawn[task.seed]
-    return cpg_inputs(controller, [(0, params, state)], call_times)
 
 
 def _kept(pieces: Iterator[np.ndarray], into: list[np.ndarray]) -> Iterator[np.ndarray]:

@@ -31,7 +31,7 @@ import numpy as np
 
 from ariel.simulation.controllers import cpg_kernel
 
-__all__ = ["CPGInputs", "DeviceCPG", "batch_key", "cpg_inputs", "device_cpg_reason"]
+__all__ = ["CPGInputs", "DeviceCPG", "batch_key", "cpg_inputs", "device_cpg_reason", "net_inputs"]
 
 
 def device_cpg_reason(controller: Any) -> str | None:
@@ -53,6 +53,22 @@ class CPGInputs:
     rot: np.ndarray  # (nworld, sum n_k^2, 2): dt * R(phase_i - phase_j) * adjacency, per net
     nets: np.ndarray  # (nnet, 3) int32: first node, size, first coupling entry
     advance: np.ndarray  # (ncalls,) int32: CPG steps before each call's sample
+
+
+def net_inputs(tasks: Sequence[Any], model: Any, controller: Any) -> tuple[np.ndarray, np.ndarray]:
+    """One network's ``(params (B, 5n), state (B, n, 2, 2))`` for tasks of one body: each
+    task's parameters and its seed's initial state (xy, xy_dot_old), as the host draws it."""
+    params = np.array([t.params for t in tasks], dtype=np.float64)
+    if not np.all(np.isfinite(params)):
+        raise ValueError(f"controller {tasks[0].controller!r}: parameters contain NaN or inf")
+    state = np.empty((len(tasks), model.nu, 2, 2))
+    drawn: dict[int, np.ndarray] = {}
+    for b, task in enumerate(tasks):
+        if task.seed not in drawn:
+            xy, xy_dot_old = controller.initial_state(model, task.seed)
+            drawn[task.seed] = np.stack([xy, xy_dot_old], axis=-1)
+        state[b] = drawn[task.seed]
+    return params, state
 
 
 def cpg_inputs(

@@ -31,8 +31,9 @@ of output is one JSON object: ``gpu_evals_per_s``, ``cpu_evals_per_s``, ``speedu
 ``bare_over_testspeed`` and ``ns_per_world_step`` per row at the largest world count, the
 per-size figures, ``device``, ``worlds``, ``steps``, ``versions`` (python, mujoco,
 mujoco_warp, warp, numpy), ``card`` (name, memory, NVIDIA driver: nvidia-smi's, else Warp's;
-None on the CPU), ``date``, threads and load average. A ``--coevolution`` row (K bodies x
-popsize worlds, packed) is to come: see HOOK in main.
+None on the CPU), ``date``, threads and load average. ``--coevolution KxP`` adds a row of
+one generation of K different bodies with P brains each, packed on the device, against the
+local executor on all CPU threads (`_coevolution.py`).
 
     python experiments/benchmarks/gpu.py [--worlds 1024,4096,16384] [--device cuda|cpu]
         [--duration 15] [--repeats 2] [--cpu-evals 64] [--rate-hz 10] [--seed 0] [--quick]
@@ -58,6 +59,7 @@ from typing import Any  # noqa: E402
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
+from _coevolution import coevolution_row, parse_coevolution  # noqa: E402
 from _common import best_of, nvidia_card, rates, utc_now, versions  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
@@ -88,8 +90,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--rate-hz", type=float, default=10.0, help="recorded frames per second")
     parser.add_argument("--seed", type=int, default=0, help="seeds the random parameters")
     parser.add_argument("--quick", action="store_true", help="smoke run on Warp's CPU device")
-    # HOOK: --coevolution (K bodies x popsize worlds) goes here; see main.
+    parser.add_argument("--coevolution", help="K bodies x P brains packed, e.g. 32x512")
+    parser.add_argument("--coevolution-duration", type=float, default=8.0)
+    parser.add_argument("--coevolution-cpu-brains", type=int, default=8)
     args = parser.parse_args(argv)
+    try:
+        args.coevolution = parse_coevolution(args.coevolution)
+    except ValueError as exc:
+        parser.error(str(exc))
     if args.quick:
         args.device, args.worlds, args.duration = "cpu", "2,4", 0.2
         args.repeats, args.cpu_evals = 1, 4
@@ -382,11 +390,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     sizes = [size_row(args, worlds, evaluator) for worlds in args.worlds]
     cpu = cpu_row(args, context["threads"])
-    # --- HOOK: a --coevolution row (packed bodies: K bodies x popsize worlds) -------------------
-    # Add `coevolution_row(args, evaluator) -> dict` (with ``ns_per_world_step``) beside
-    # `testspeed_row`, its option in parse_args, and here: context["extra_rows"]["coevolution"]
-    # = coevolution_row(args, evaluator). summary() puts every extra row in the JSON summary.
     context["extra_rows"] = {}
+    if args.coevolution:  # packed bodies: experiments/benchmarks/_coevolution.py
+        row = coevolution_row(args, evaluator, context["threads"])
+        context["extra_rows"]["coevolution"] = row
     result = summary(args, sizes, cpu, context)
     print(
         f"speedup at {max(args.worlds)} worlds: {result['speedup']:.2f}x all "

@@ -15,7 +15,16 @@ pytestmark = pytest.mark.warp
 
 
 def test_gpu_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
-    result = run_benchmark("gpu.py", "--quick", cwd=tmp_path, timeout=600)
+    coevolution = ["--coevolution", "2x2", "--coevolution-duration", "0.2"]
+    result = run_benchmark(
+        "gpu.py",
+        "--quick",
+        *coevolution,
+        "--coevolution-cpu-brains",
+        "2",
+        cwd=tmp_path,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     summary = json.loads(result.stdout.strip().splitlines()[-1])
     for key in ("gpu_evals_per_s", "cpu_evals_per_s", "speedup"):
@@ -41,9 +50,15 @@ def test_gpu_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     # no GPU on Warp's CPU device: the card's fields are None
     assert summary["card"] == dict.fromkeys(("name", "memory", "driver_version", "source"))
     assert isinstance(summary["date"], str) and summary["date"][:2] == "20"
+    # the packed co-evolution row: 2 different bodies x 2 brains, against the local executor
+    row = summary["coevolution"]
+    assert (row["bodies"], row["brains"], row["not_ok"]) == (2, 2, 0)
+    assert row["evals_per_s"] > 0 and row["cpu_evals_per_s"] > 0 and row["speedup"] > 0
 
 
 def test_gpu_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     result = run_benchmark("gpu.py", "--worlds", "16,x", cwd=tmp_path, timeout=600)
     assert result.returncode == 2
     assert "--worlds must be comma-separated integers" in result.stderr
+    result = run_benchmark("gpu.py", "--coevolution", "1x8", cwd=tmp_path, timeout=600)
+    assert result.returncode == 2 and "--coevolution needs K >= 2 bodies" in result.stderr
