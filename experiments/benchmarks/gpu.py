@@ -177,7 +177,10 @@ def bare_row(args: argparse.Namespace, tasks: list[EvaluationTask], evaluator: A
     held = held_controls(targets, tasks[0].smoothing, built.low, built.high)
     with wp.ScopedDevice(evaluator.device):
         worlds = evaluator._worlds(body, len(tasks))
-        controls = wp.array(np.ascontiguousarray(held.transpose(1, 0, 2)), dtype=wp.float32)
+        own = wp.array(np.ascontiguousarray(held.transpose(1, 0, 2)), dtype=wp.float32)
+        shared = np.broadcast_to(held[:1].transpose(1, 0, 2), own.shape)  # task 0's, as testspeed
+        same = wp.array(np.ascontiguousarray(shared), dtype=wp.float32)
+    controls = own
 
     def sample() -> float:
         with wp.ScopedDevice(evaluator.device):
@@ -193,7 +196,13 @@ def bare_row(args: argparse.Namespace, tasks: list[EvaluationTask], evaluator: A
 
     sample()  # untimed: captures the graphs where the evaluator's steps run in other graphs
     seconds = best_of(args.repeats, sample)
-    return {**rates("bare_", seconds, len(tasks), nstep), "buffer_sizes": list(worlds.sizes)}
+    controls = same  # every world task 0's controls: like for like with testspeed
+    same_s = best_of(args.repeats, sample)
+    return {
+        **rates("bare_", seconds, len(tasks), nstep),
+        **rates("bare_same_controls_", same_s, len(tasks), nstep),
+        "buffer_sizes": list(worlds.sizes),
+    }
 
 
 def testspeed_row(args: argparse.Namespace, tasks: list[EvaluationTask], sizes: tuple) -> dict:
@@ -264,6 +273,8 @@ def size_row(args: argparse.Namespace, worlds: int, evaluator: Any) -> dict[str,
     row |= testspeed_row(args, tasks, tuple(row["buffer_sizes"]))
     row["overhead_ratio"] = row["seconds"] / row["bare_seconds"]
     row["bare_over_testspeed"] = row["bare_steps_per_s"] / row["testspeed_steps_per_s"]
+    same = row["bare_same_controls_steps_per_s"]
+    row["bare_same_controls_over_testspeed"] = same / row["testspeed_steps_per_s"]
     for label, key in (("warp", ""), ("bare stepping", "bare_"), ("testspeed", "testspeed_")):
         print(
             f"{label:<13} {worlds:>6} worlds: {row[key + 'evals_per_s']:10.1f} evals/s, "
@@ -272,8 +283,9 @@ def size_row(args: argparse.Namespace, worlds: int, evaluator: Any) -> dict[str,
         )
     print(
         f"{'':<13} {worlds:>6} worlds: warp/bare {row['overhead_ratio']:.2f}, bare/testspeed "
-        f"{row['bare_over_testspeed']:.2f}, first call {row['first_call_s']:.1f} s"
-        + (f", {row['not_ok']} not ok" if row["not_ok"] else "")
+        f"{row['bare_over_testspeed']:.2f} (one control sequence for all worlds, as "
+        f"testspeed: {row['bare_same_controls_over_testspeed']:.2f}), first call "
+        f"{row['first_call_s']:.1f} s" + (f", {row['not_ok']} not ok" if row["not_ok"] else "")
     )
     return row
 
