@@ -275,13 +275,15 @@ class _DeviceBody:
 
 @dataclass
 class _Frames:
-    qpos: np.ndarray  # (F, B, nq)
-    core: np.ndarray  # (F, B, K, 3): each robot's core
-    body_pos: np.ndarray | None  # (F, B, nbody, 3)
-    body_quat: np.ndarray | None  # (F, B, nbody, 4), MuJoCo's (w, x, y, z) order
+    """A batch's frames, world-major (one world's frames contiguous: its results read them)."""
+
+    qpos: np.ndarray  # (B, F, nq)
+    core: np.ndarray  # (B, F, K, 3): each robot's core
+    body_pos: np.ndarray | None  # (B, F, nbody, 3)
+    body_quat: np.ndarray | None  # (B, F, nbody, 4), MuJoCo's (w, x, y, z) order
     final_qvel: np.ndarray  # (B, nv)
     overflowed: np.ndarray  # (B,) bool: contacts or constraints did not fit
-    held: np.ndarray | None = None  # (F, B, nu): the control in force, from the device CPG
+    held: np.ndarray | None = None  # (B, F, nu): the control in force, from the device CPG
 
 
 class WarpEvaluator:
@@ -406,7 +408,7 @@ class WarpEvaluator:
         wall = (_time.perf_counter() - start) / len(tasks)
         if frames.held is None:  # the control in force at each frame (the last step's at the
             # end), as on the CPU, from the host's held controls
-            frames.held = controls[:, np.minimum(steps, nstep - 1) // period].transpose(1, 0, 2)
+            frames.held = controls[:, np.minimum(steps, nstep - 1) // period]
         return self._results(tasks, built, fitness_fn, body, frames, steps * dt, wall)
 
     def _packed(self, groups: list[TaskGroup]) -> list[list[EvaluationResult]]:
@@ -503,10 +505,10 @@ class WarpEvaluator:
         """Results of the first ``len(tasks)`` worlds, for the robot ``view`` shows (the
         whole model: None)."""
         view = view or RobotView.lone()
-        qpos = frames.qpos[:, :, view.qpos]
+        qpos = frames.qpos[:, :, view.qpos]  # (B, F, nq) of this robot
         within = np.abs(qpos) <= _MAX_VALUE  # False for NaN and inf
         final_qvel = np.abs(frames.final_qvel[:, view.qvel])
-        stable = within.all(axis=(0, 2)) & (final_qvel <= _MAX_VALUE).all(axis=1)
+        stable = within.all(axis=(1, 2)) & (final_qvel <= _MAX_VALUE).all(axis=1)
         held = frames.held[:, :, view.ctrl]  # type: ignore[index]
         results = []
         for b, task in enumerate(tasks):
@@ -516,9 +518,9 @@ class WarpEvaluator:
             poses = None  # unstable: the host computes poses from the finite part, as on CPU
             if stable[b]:
                 poses = (
-                    frames.core[:, b, view.core],
-                    None if frames.body_pos is None else frames.body_pos[:, b, view.bodies],
-                    None if frames.body_quat is None else frames.body_quat[:, b, view.bodies],
+                    frames.core[b, :, view.core],
+                    None if frames.body_pos is None else frames.body_pos[b, :, view.bodies],
+                    None if frames.body_quat is None else frames.body_quat[b, :, view.bodies],
                 )
             results.append(
                 _finish(
@@ -526,8 +528,8 @@ class WarpEvaluator:
                     built,
                     fitness_fn,
                     times,
-                    qpos[:, b],
-                    held[:, b],
+                    qpos[b],
+                    held[b],
                     bool(stable[b]),
                     wall,
                     poses=poses,
@@ -577,14 +579,14 @@ class WarpEvaluator:
                 self._host_controlled(d, bufs, events, keys, controls, run)  # type: ignore[arg-type]
             wp.synchronize()
             return _Frames(
-                qpos=bufs.qpos.numpy().astype(np.float64),
-                core=bufs.core.numpy().astype(np.float64),
-                body_pos=None if bufs.pos is None else bufs.pos.numpy().astype(np.float64),
+                qpos=_world_major(bufs.qpos),
+                core=_world_major(bufs.core),
+                body_pos=None if bufs.pos is None else _world_major(bufs.pos),
                 # MuJoCo Warp keeps MuJoCo's (w, x, y, z) order in its quaternions.
-                body_quat=None if bufs.quat is None else bufs.quat.numpy().astype(np.float64),
+                body_quat=None if bufs.quat is None else _world_major(bufs.quat),
                 final_qvel=d.qvel.numpy().astype(np.float64),
                 overflowed=(d.overflow.numpy() & _capacity_bits(mjw)) != 0,
-                held=None if bufs.held is None else bufs.held.numpy(),
+                held=None if bufs.held is None else _world_major(bufs.held),
             )
 
     def _host_controlled(
@@ -767,6 +769,12 @@ def _control_pieces(
         held = held_controls(piece, head.smoothing, built.low, built.high, ctrl)
         ctrl = held[:, -1]
         yield held
+
+
+def _world_major(frames: Any) -> np.ndarray:
+    """A device array of frames ``(F, B, ...)`` as float64 ``(B, F, ...)``, in one copy."""
+    out = frames.numpy()
+    return np.ascontiguousarray(out.swapaxes(0, 1), dtype=np.float64)
 
 
 def _kept(pieces: Iterator[np.ndarray], into: list[np.ndarray]) -> Iterator[np.ndarray]:
