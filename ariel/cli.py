@@ -399,8 +399,9 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--executor",
-        choices=("local", "dask", "serial", "gpu"),
-        help="where evaluations run (default: the config's executor.kind)",
+        metavar="KIND",
+        help="where evaluations run: local, dask, serial, gpu or a registered executor kind "
+        "(default: the config's executor.kind)",
     )
     p.add_argument("--workers", type=positive_int, help="worker processes (default: all CPUs)")
     p.add_argument(

@@ -27,7 +27,8 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 def test_plugins_lists_every_kind_with_its_names(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["plugins"]) == 0
     lines = dict(line.split(": ", 1) for line in capsys.readouterr().out.strip().splitlines())
-    assert set(lines) == {"body_encoder", "world", "controller", "fitness", "body_optimizer"}
+    kinds = {"body_encoder", "world", "controller", "fitness", "body_optimizer", "brain_optimizer"}
+    assert set(lines) == kinds
     assert "na_cpg" in lines["controller"] and "flat" in lines["world"]
     assert "map_elites" in lines["body_optimizer"]
 
@@ -119,7 +120,7 @@ BAD_RUN_INPUT = {
     # executor options
     "workers=0": (["--workers", "0"], "--workers: must be an integer >= 1"),
     "serial-workers": (["--executor", "serial", "--workers", "2"], "executor.workers"),
-    "unknown-executor": (["--executor", "gpu9"], "--executor: invalid choice"),
+    "unknown-executor": (["--executor", "gpu9"], "executor.kind: unknown executor 'gpu9'"),
 }
 
 

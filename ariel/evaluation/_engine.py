@@ -674,12 +674,12 @@ def evaluate_batch(
     if nthread is None:
         nthread = evaluation_threads()
     threads: int = nthread
-    return run_groups(
+    return evaluate_groups(
         tasks, lambda g: _open_loop(g.tasks, g.built, g.controller, g.fitness_fn, threads)
     )
 
 
-def run_groups(
+def evaluate_groups(
     tasks: Sequence[EvaluationTask],
     open_loop: Callable[[TaskGroup], list[EvaluationResult]],
 ) -> list[EvaluationResult]:
@@ -687,12 +687,12 @@ def run_groups(
     by ``open_loop`` (all its tasks), a closed-loop one task by task here; input order."""
     results, ready = prepare_groups(tasks)
     for group in ready:
-        for i, out in zip(group.indices, run_group(group, open_loop)):
+        for i, out in zip(group.indices, evaluate_group(group, open_loop)):
             results[i] = out
     return results  # type: ignore[return-value]
 
 
-def run_group(
+def evaluate_group(
     group: TaskGroup, open_loop: Callable[[TaskGroup], list[EvaluationResult]]
 ) -> list[EvaluationResult]:
     """One group's results: an open-loop group by ``open_loop``, a closed-loop one (a policy

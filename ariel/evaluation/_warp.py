@@ -44,12 +44,12 @@ from ariel.evaluation._engine import (
     TaskGroup,
     _build_key,
     _finish,
+    evaluate_group,
     frame_steps,
     held_controls,
     num_steps,
     open_loop_targets,
     prepare_groups,
-    run_group,
 )
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
 from ariel.evaluation._warp_cpg import CPGInputs, DeviceCPG, batch_key, cpg_inputs, net_inputs
@@ -321,7 +321,7 @@ class WarpEvaluator:
         results, ready = prepare_groups(tasks)
         alone, packs = pack_plan(ready)
         done = [(g, outs) for pack in packs for g, outs in zip(pack, self._packed(pack))]
-        done += [(g, run_group(g, self._open_loop_group)) for g in alone]
+        done += [(g, evaluate_group(g, self._open_loop_group)) for g in alone]
         for group, outs in done:
             for i, out in zip(group.indices, outs):
                 results[i] = out

@@ -39,6 +39,7 @@ from ariel.evaluation._threads import (
     default_workers,
     evaluation_threads,
 )
+from ariel.plugins import Registry
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -52,14 +53,22 @@ __all__ = [
     "BatchExecutor",
     "CallTimeoutError",
     "DaskExecutor",
+    "DaskKind",
+    "ExecutorKind",
     "ExecutorSettingsError",
+    "GpuKind",
     "LocalExecutor",
+    "LocalKind",
     "LocalPool",
     "SerialExecutor",
+    "SerialKind",
     "WorkerLostError",
     "check_settings",
     "default_workers",
     "evaluation_threads",
+    "executor_kind",
+    "executor_kinds",
+    "known_kinds",
     "make_executor",
     "map_ordered",
     "planned_workers",
@@ -71,8 +80,9 @@ __all__ = [
 
 R = TypeVar("R")
 
-#: The executor kinds `make_executor` knows.
+#: The built-in executor kinds (`executor_kinds` has these and any registered ones).
 EXECUTOR_KINDS: tuple[str, ...] = ("serial", "local", "dask", "gpu")
+_BUILTIN_KINDS = dict(zip(EXECUTOR_KINDS, ("SerialKind", "LocalKind", "DaskKind", "GpuKind")))
 
 #: Times a call is tried again after its worker died (``local``; a Dask ``LocalCluster``).
 DEFAULT_MAX_RETRIES = 2
@@ -665,32 +675,101 @@ class ExecutorSettingsError(ValueError):
     """Bad executor settings; the message starts with the config key (``executor.workers: ...``)."""
 
 
-def check_settings(settings: Any) -> None:
-    """Check an ``[executor]`` section once, before anything runs: `ExecutorSettingsError`.
-
-    ``gpu`` also needs MuJoCo Warp and its device (``executor.device``).
+class ExecutorKind:
+    """One executor kind: how its ``[executor]`` settings are checked, how many batches it runs
+    at once, and how it is built. Register a subclass under its name (the entry-point group
+    ``ariel.executors``, or ``executor_kinds.register``) to add an executor: ``executor.kind``
+    and ``--executor`` then accept the name (docs/executors.md).
     """
-    kind, workers, scheduler = settings.kind, settings.workers, settings.scheduler
-    if kind not in EXECUTOR_KINDS:
-        raise ExecutorSettingsError(
-            f"executor.kind: unknown executor {kind!r}; known: {', '.join(EXECUTOR_KINDS)}"
-        )
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
-        raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
-    one_worker = {
-        "serial": "the serial executor has 1 worker",
-        "gpu": "the gpu executor runs on one device",
-    }
-    if kind in one_worker and workers not in (None, 1):
-        raise ExecutorSettingsError(f"executor.workers: {one_worker[kind]} (got {workers})")
-    if scheduler is not None and kind != "dask":
-        raise ExecutorSettingsError(f"executor.scheduler: only for the dask executor, not {kind!r}")
-    if scheduler is not None and workers is not None:
-        raise ExecutorSettingsError(
-            "executor.workers: sizes a local cluster; with executor.scheduler the cluster's own "
-            "workers are used (scale the cluster instead)"
-        )
-    if kind == "gpu":
+
+    #: Why ``executor.workers`` must be 1 (the kind runs batches in this process), or None.
+    one_worker: str | None = None
+    #: Whether the kind connects to a Dask scheduler (``executor.scheduler``).
+    takes_scheduler: bool = False
+
+    def check(self, settings: Any) -> None:
+        """Checks of this kind's own settings, before anything runs (`ExecutorSettingsError`)."""
+
+    def planned_workers(self, settings: Any) -> tuple[int, bool]:
+        """Batches run at once, and whether they run on this machine."""
+        if self.one_worker is not None:
+            return 1, True
+        return settings.workers or default_workers(), True
+
+    def options(self, settings: Any) -> dict[str, Any]:
+        """`make`'s keyword arguments for a checked ``[executor]`` section."""
+        return {"workers": settings.workers}
+
+    def make(
+        self,
+        *,
+        workers: int | None = None,
+        scheduler: Any = None,
+        max_retries: int | None = None,
+        **options: Any,
+    ) -> cf.Executor:
+        """The executor (a `BatchExecutor`), from `make_executor`'s checked arguments."""
+        raise NotImplementedError
+
+
+class SerialKind(ExecutorKind):
+    """``serial``: in this process, one call after another."""
+
+    one_worker = "the serial executor has 1 worker"
+
+    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+        if workers not in (None, 1):
+            raise ValueError(
+                f"the serial executor runs in this process; workers must be 1, got {workers}"
+            )
+        if options or max_retries is not None:
+            given = sorted(options) + (["max_retries"] if max_retries is not None else [])
+            raise TypeError(f"the serial executor takes no options, got {given}")
+        return SerialExecutor()
+
+
+class LocalKind(ExecutorKind):
+    """``local``: a process pool on this machine."""
+
+    def options(self, settings: Any) -> dict[str, Any]:
+        return {"workers": settings.workers, "max_retries": settings.max_retries}
+
+    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+        return _make_local(workers, max_retries=max_retries, **options)
+
+
+class DaskKind(ExecutorKind):
+    """``dask``: a Dask ``LocalCluster``, or a scheduler you run."""
+
+    takes_scheduler = True
+
+    def check(self, settings: Any) -> None:
+        if settings.scheduler is not None and settings.workers is not None:
+            raise ExecutorSettingsError(
+                "executor.workers: sizes a local cluster; with executor.scheduler the "
+                "cluster's own workers are used (scale the cluster instead)"
+            )
+
+    def planned_workers(self, settings: Any) -> tuple[int, bool]:
+        return settings.workers or default_workers(), settings.scheduler is None
+
+    def options(self, settings: Any) -> dict[str, Any]:
+        options = {"workers": settings.workers, "scheduler": settings.scheduler}
+        if settings.scheduler is None:
+            options["max_retries"] = settings.max_retries
+        return options
+
+    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+        return _make_dask(workers, scheduler, max_retries=max_retries, **options)
+
+
+class GpuKind(ExecutorKind):
+    """``gpu``: MuJoCo Warp on one device, in this process (docs/gpu.md)."""
+
+    one_worker = "the gpu executor runs on one device"
+
+    def check(self, settings: Any) -> None:
+        """MuJoCo Warp must be installed and its device (``executor.device``) present."""
         from ariel.evaluation._warp import WarpUnavailableError, check_device, warp_modules
 
         try:
@@ -704,29 +783,81 @@ def check_settings(settings: Any) -> None:
                 f"executor.device: {exc}; or the CPU engine: --executor local"
             ) from None
 
+    def options(self, settings: Any) -> dict[str, Any]:
+        return {"workers": settings.workers, "device": settings.device}
+
+    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+        if workers not in (None, 1):
+            raise ValueError(
+                f"the gpu executor runs in this process on one device; no workers (got {workers})"
+            )
+        return WarpExecutor(**options)
+
+
+def _check_kind(obj: Any) -> str | None:
+    if isinstance(obj, type) and issubclass(obj, ExecutorKind):
+        return None
+    return "an executor kind must be a subclass of ariel.evaluation.executors.ExecutorKind"
+
+
+#: Executor kinds by name: the built-in ones and those of the entry-point group
+#: ``ariel.executors`` (each an `ExecutorKind` subclass).
+executor_kinds: Registry[type[ExecutorKind]] = Registry(
+    "executor",
+    group="ariel.executors",
+    builtins={name: f"{__name__}:{kind}" for name, kind in _BUILTIN_KINDS.items()},
+    label="executor kind",
+    check=_check_kind,
+)
+
+
+def known_kinds() -> str:
+    """The executor kinds' names, for messages: the built-in ones first, in their order."""
+    extra = sorted(set(executor_kinds.names()) - set(EXECUTOR_KINDS))
+    return ", ".join([*EXECUTOR_KINDS, *extra])
+
+
+def executor_kind(name: str) -> ExecutorKind:
+    """The `ExecutorKind` called ``name``; ValueError naming the known kinds if none is."""
+    if not isinstance(name, str) or name not in executor_kinds:
+        raise ValueError(f"unknown executor kind {name!r}; known: {known_kinds()}")
+    return executor_kinds.get(name)()
+
+
+def check_settings(settings: Any) -> None:
+    """Check an ``[executor]`` section once, before anything runs: `ExecutorSettingsError`.
+
+    The settings every kind shares, then the kind's own (`ExecutorKind.check`; ``gpu`` also
+    needs MuJoCo Warp and its device, ``executor.device``).
+    """
+    kind_name, workers, scheduler = settings.kind, settings.workers, settings.scheduler
+    try:
+        kind = executor_kind(kind_name)
+    except ValueError:
+        raise ExecutorSettingsError(
+            f"executor.kind: unknown executor {kind_name!r}; known: {known_kinds()}"
+        ) from None
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
+    if kind.one_worker is not None and workers not in (None, 1):
+        raise ExecutorSettingsError(f"executor.workers: {kind.one_worker} (got {workers})")
+    if scheduler is not None and not kind.takes_scheduler:
+        raise ExecutorSettingsError(
+            f"executor.scheduler: only for the dask executor, not {kind_name!r}"
+        )
+    kind.check(settings)
+
 
 def planned_workers(settings: Any) -> tuple[int, bool]:
     """Batches an ``[executor]`` section will run at once, and whether they run on this
     machine (for a memory estimate before anything starts)."""
-    kind = settings.kind
-    if kind in ("serial", "gpu"):  # in this process, one batch at a time
-        return 1, True
-    on_this_machine = kind == "local" or settings.scheduler is None
-    return settings.workers or default_workers(), on_this_machine
+    return executor_kind(settings.kind).planned_workers(settings)
 
 
 def settings_options(settings: Any) -> dict[str, Any]:
     """`make_executor`'s keyword arguments for an ``[executor]`` section (checked first)."""
     check_settings(settings)
-    kind = settings.kind
-    options: dict[str, Any] = {"workers": settings.workers}
-    if kind == "gpu":
-        options["device"] = settings.device
-    if kind == "dask":
-        options["scheduler"] = settings.scheduler
-    if kind == "local" or (kind == "dask" and settings.scheduler is None):
-        options["max_retries"] = settings.max_retries
-    return options
+    return executor_kind(settings.kind).options(settings)
 
 
 def make_executor(
@@ -742,9 +873,10 @@ def make_executor(
 
     Args:
         kind: ``"serial"``, ``"local"``, ``"dask"`` or ``"gpu"`` (options ``device``:
-            ``"cuda"`` or ``"cpu"``, and ``max_worlds``; see `WarpExecutor`); or an
-            experiment config's ``[executor]`` section (``kind``, ``workers``, ``scheduler``,
-            ``device``, ``max_retries``; checked with `check_settings`).
+            ``"cuda"`` or ``"cpu"``, and ``max_worlds``; see `WarpExecutor`), or a kind
+            registered in `executor_kinds`; or an experiment config's ``[executor]`` section
+            (``kind``, ``workers``, ``scheduler``, ``device``, ``max_retries``; checked with
+            `check_settings`).
         workers: processes for ``local`` and for a Dask ``LocalCluster`` (default: one per
             usable CPU); ``serial`` accepts only 1.
         scheduler: ``dask`` only: an address like ``"tcp://host:8786"``, a cluster object
@@ -762,32 +894,14 @@ def make_executor(
     """
     if not isinstance(kind, str):  # a config's [executor] section
         return make_executor(kind.kind, **settings_options(kind))
-    if kind not in EXECUTOR_KINDS:
-        raise ValueError(f"unknown executor kind {kind!r}; known: {', '.join(EXECUTOR_KINDS)}")
+    executor = executor_kind(kind)
     if workers is not None and (
         not isinstance(workers, int) or isinstance(workers, bool) or workers < 1
     ):
         raise ValueError(f"workers must be an integer >= 1 or None, got {workers!r}")
-    if scheduler is not None and kind != "dask":
+    if scheduler is not None and not executor.takes_scheduler:
         raise ValueError(f"scheduler= is only for the dask executor, not {kind!r}")
-    if kind == "serial":
-        if workers not in (None, 1):
-            raise ValueError(
-                f"the serial executor runs in this process; workers must be 1, got {workers}"
-            )
-        if options or max_retries is not None:
-            given = sorted(options) + (["max_retries"] if max_retries is not None else [])
-            raise TypeError(f"the serial executor takes no options, got {given}")
-        return SerialExecutor()
-    if kind == "gpu":
-        if workers not in (None, 1):
-            raise ValueError(
-                f"the gpu executor runs in this process on one device; no workers (got {workers})"
-            )
-        return WarpExecutor(**options)
-    if kind == "local":
-        return _make_local(workers, max_retries=max_retries, **options)
-    return _make_dask(workers, scheduler, max_retries=max_retries, **options)
+    return executor.make(workers=workers, scheduler=scheduler, max_retries=max_retries, **options)
 
 
 def submit_with_timeout(

@@ -135,6 +135,14 @@ class RecordConfig(_Section):
     trajectories: Bool = True
 
 
+def _known_executor_kind(kind: str) -> str:
+    from ariel.evaluation.executors import executor_kinds, known_kinds  # entry points: late
+
+    if kind not in executor_kinds:
+        raise ValueError(f"must be an executor kind: {known_kinds()}")
+    return kind
+
+
 class ExecutorConfig(_Section):
     """Where evaluations run (docs/executors.md); none of it changes a finished evaluation.
 
@@ -144,7 +152,8 @@ class ExecutorConfig(_Section):
     whose worker process died is tried again (``local``, a Dask ``LocalCluster``).
     """
 
-    kind: Literal["serial", "local", "dask", "gpu"] = "local"
+    # A name in `ariel.evaluation.executors.executor_kinds` (built-in or registered).
+    kind: Annotated[Str, AfterValidator(_known_executor_kind)] = "local"
     workers: Int | None = Field(None, ge=1)
     scheduler: Str | None = None
     # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).

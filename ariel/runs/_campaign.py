@@ -150,11 +150,10 @@ def _check_open_files(runs: int, settings: Any) -> None:
     """Each run the campaign drives holds its lock (an open file) throughout: the process's
     limit on open files must allow them all (`ensure_open_files`), checked before anything is
     written or locked."""
-    from ariel.evaluation._threads import default_workers
+    from ariel.evaluation.executors import planned_workers
     from ariel.recording._lock import ensure_open_files
 
-    workers = getattr(settings, "workers", None) or default_workers()
-    ensure_open_files(runs, 1 if getattr(settings, "kind", None) == "serial" else workers)
+    ensure_open_files(runs, planned_workers(settings)[0])
 
 
 def resume_campaign(

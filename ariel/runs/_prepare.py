@@ -162,17 +162,20 @@ def resume_settings(
     (``command``: the words of the resume command, e.g. ``("resume", run_dir)``)."""
     import sys
 
-    from ariel.evaluation.executors import EXECUTOR_KINDS
+    from ariel.evaluation.executors import executor_kind, executor_kinds
     from ariel.utils._commands import ariel_line
 
     stored = stored if isinstance(stored, dict) else {}
     stored_kind = stored.get("kind")
-    if stored_kind not in EXECUTOR_KINDS:  # absent, or not a kind: the stored config's
+    if stored_kind not in executor_kinds:  # absent, or not a kind: the stored config's
         stored_kind = config.executor.kind
     address = stored.get("scheduler") or config.executor.scheduler
     if kind is None:
         kind = "dask" if scheduler is not None else stored_kind
-    same_pool = kind == stored_kind and kind in ("local", "dask")
+    # The same kind of worker pool: its stored worker count carries over.
+    same_pool = (
+        kind == stored_kind and kind in executor_kinds and executor_kind(kind).one_worker is None
+    )
     if workers is None and scheduler is None and same_pool:
         workers = _stored_workers(stored.get("workers", config.executor.workers))
     changes = {"kind": kind, "workers": workers, "scheduler": scheduler}

@@ -18,6 +18,7 @@ from ariel.evaluation.executors import (
     THREAD_LIMIT_VARIABLES,
     DaskExecutor,
     SerialExecutor,
+    check_settings,
     evaluation_threads,
     make_executor,
     map_ordered,
@@ -266,3 +267,53 @@ def test_dask_local_cluster_is_closed_on_shutdown() -> None:
     assert ex.client.status == "closed"
     assert cluster.status.name == "closed"
     ex.shutdown()  # idempotent
+
+
+def test_a_third_party_executor_from_an_entry_point_runs_an_experiment(
+    fake_distribution, tmp_path
+) -> None:
+    from ariel.evaluation.executors import executor_kinds
+    from ariel.evolution import run_experiment
+    from ariel.recording import load_run
+
+    fake_distribution(
+        "ariel_counting_executor",
+        "0.3",
+        source="""
+            from ariel.evaluation.executors import ExecutorKind, SerialExecutor
+
+            CALLS = []
+
+            class Counting(SerialExecutor):
+                def submit_batch(self, tasks, *, timeout=None):
+                    CALLS.append(len(tasks))
+                    return super().submit_batch(tasks, timeout=timeout)
+
+            class CountingKind(ExecutorKind):
+                one_worker = "the counting executor runs here"
+
+                def make(self, *, workers=None, scheduler=None, max_retries=None, **options):
+                    return Counting()
+        """,
+        entry_points={"ariel.executors": {"counting": "ariel_counting_executor:CountingKind"}},
+    )
+    executor_kinds.refresh()
+    try:
+        config = {
+            "name": "third_party_executor",
+            "generations": 2,
+            "body": {"encoder": "prebuilt", "genotype": "gecko"},
+            "brain": {"popsize": 2, "iterations": 1},
+            "task": {"duration": 0.2},
+            "record": {"rerun": False},
+            "executor": {"kind": "counting"},
+        }
+        run = load_run(run_experiment(config, out=tmp_path / "run").run_dir)
+        import ariel_counting_executor
+
+        assert ariel_counting_executor.CALLS == [2, 2]  # every brain batch went through it
+        assert len(run.evaluations) == 4 and (run.evaluations.status == "ok").all()
+        with pytest.raises(ValueError, match="counting executor runs here"):
+            check_settings(type("S", (), {"kind": "counting", "workers": 3, "scheduler": None})())
+    finally:
+        executor_kinds.refresh()
