@@ -4,8 +4,9 @@ Every evaluation of the generation is one step of an ``evaluation`` timeline (0,
 id order, so the file does not depend on the order results came back): scrubbing it shows one
 evaluation after another. Per step:
 
-* ``/evaluation``: a text card (eval id, body, iteration, candidate, fitness, status, seed,
-  parents, whether it improved its body's best, the morphology descriptors);
+* ``/evaluation``: a text card: the evaluation row's fields marked ``card`` in its declaration
+  (`_row_types.EvaluationRow`: ids, parents, plugins, fitness, status, error, seed), whether it
+  improved its body's best, its genotype's hash, parameter count and morphology descriptors;
 * ``/fitness``: the evaluation's fitness (a plot over the generation's evaluations);
 * ``/world/trajectory``: the core's path, a `LineStrips3D`;
 * ``/joints/target`` and ``/joints/angle``: one `LineStrips2D` per joint, x = simulated

@@ -36,7 +36,7 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -46,6 +46,9 @@ from ariel.recording._tables import (
     generation_recording_path,
     recording_path,
 )
+
+if TYPE_CHECKING:
+    from ariel.recording._row_types import EvaluationRow
 
 __all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
 
@@ -139,48 +142,26 @@ class RerunRecorder:
         return self.bodies != "none"
 
     def evaluation(
-        self,
-        *,
-        model: Any,
-        body: Any,
-        task: Any,
-        result: Any,
-        generation: int,
-        iteration: int,
-        candidate: int,
-        new_best: bool,
+        self, *, model: Any, body: Any, task: Any, result: Any, row: EvaluationRow, new_best: bool
     ) -> Path | None:
-        """Keep the evaluation for its generation's recording, and write its own recording (a
-        3D replay) when ``record.bodies`` asks for it; ``new_best``: it improved its body's
-        best. Returns the path of its own recording, if one was written."""
+        """Keep the evaluation (``row``: its `EvaluationRow`) for its generation's recording, and
+        write its own recording (a 3D replay) when ``record.bodies`` asks for it; ``new_best``:
+        it improved its body's best. Returns the path of its own recording, if one was written.
+        """
         from ariel.recording._generation_rrd import trace_of
         from ariel.recording._rerun import write_evaluation_recording
 
         if not self._blueprint:
             self.write_blueprint()
-        c = self.config
+        generation = row.generation
         properties = {
-            "eval_id": task.eval_id,
-            "run_id": self.run_id,
-            "generation": generation,
-            "body_id": body.body_id,
-            "iteration": iteration,
-            "candidate": candidate,
-            "parent_ids": list(body.parent_ids),
-            "fitness": float(result.fitness),
-            "status": result.status,
-            "error": result.error,
+            **row.card(),  # the row's fields marked for the card, in column order
             "new_best": bool(new_best),
-            "seed": int(task.seed),
-            "body_encoder": c.body.encoder,
             "body_genotype_sha1": task.body.key,
-            "controller": c.brain.controller,
-            "n_params": len(task.params),
-            "world": c.world.name,
-            "fitness_fn": c.task.fitness,
+            "n_params": len(row.controller_params),
             # One text property, not twelve: each property is a column of ~300 bytes.
             "morphology": json.dumps(
-                {name: float(value) for name, value in body.descriptors.items()}
+                {name: float(value) for name, value in row.descriptors.items()}
             ),
         }
         graph = body.graph or None

@@ -1,5 +1,5 @@
-"""Rows of a run's tables, built beside their schemas (`_tables`), and the writer that collects
-one generation's rows and recordings and writes them when the generation ends.
+"""Rows of a run's tables, built as their declarations say (`_row_types`), and the writer that
+collects one generation's rows and recordings and writes them when the generation ends.
 
 The run driver (`ariel.evolution`) hands the writer what happened (a batch of evaluations of a
 body, a body that could not be built, the end of a generation); the writer decides what the
@@ -16,13 +16,8 @@ from typing import Any
 
 from ariel.recording._load import FAILED_STATUSES
 from ariel.recording._manifest import write_manifest
-from ariel.recording._tables import (
-    archive_schema,
-    body_schema,
-    evaluation_schema,
-    trajectory_columns,
-    write_table,
-)
+from ariel.recording._row_types import ArchiveRow, BodyRow, EvaluationRow, table_columns
+from ariel.recording._tables import trajectory_columns, write_table
 
 __all__ = ["RunWriter", "body_row", "error_row", "evaluation_row"]
 
@@ -47,83 +42,80 @@ def evaluation_row(
     generation: int,
     iteration: int,
     k: int,
-) -> dict[str, Any]:
+) -> EvaluationRow:
     """Candidate ``k`` of iteration ``iteration`` of ``body``'s brain run."""
-    return {
-        **_common(run_id, config, body, generation),
-        "eval_id": task.eval_id,
-        "iteration": iteration,
-        "candidate": k,
-        "controller": config.brain.controller,
-        "controller_params": list(task.params),
-        "world": config.world.name,
-        "fitness_fn": config.task.fitness,
-        "settle_seconds": float(config.task.settle),
-        "fitness": float(result.fitness),
-        "status": result.status,
-        "error": result.error,
-        **body.descriptors,
-        "n_joints": body.n_joints,
-        "joint_names": list(body.joint_names),
-        "seed": task.seed,
-        "sim_seconds": float(result.sim_time),
-        "wall_seconds": float(result.wall_time),
-        "backend": result.backend,
-    }
+    return EvaluationRow.of(
+        {
+            **_common(run_id, config, body, generation),
+            "eval_id": task.eval_id,
+            "iteration": iteration,
+            "candidate": k,
+            "controller": config.brain.controller,
+            "controller_params": list(task.params),
+            "world": config.world.name,
+            "fitness_fn": config.task.fitness,
+            "settle_seconds": float(config.task.settle),
+            "fitness": float(result.fitness),
+            "status": result.status,
+            "error": result.error,
+            "descriptors": body.descriptors,
+            "n_joints": body.n_joints,
+            "joint_names": list(body.joint_names),
+            "seed": task.seed,
+            "sim_seconds": float(result.sim_time),
+            "wall_seconds": float(result.wall_time),
+            "backend": result.backend,
+        }
+    )
 
 
-def error_row(run_id: str, config: Any, body: Any, generation: int, worst: float) -> dict[str, Any]:
+def error_row(run_id: str, config: Any, body: Any, generation: int, worst: float) -> EvaluationRow:
     """An unbuildable body still appears in the evaluations table, with its error."""
-    return {
-        **_common(run_id, config, body, generation),
-        "eval_id": f"{body.body_id}-build",
-        "iteration": 0,
-        "candidate": 0,
-        "controller": config.brain.controller,
-        "controller_params": [],
-        "world": config.world.name,
-        "fitness_fn": config.task.fitness,
-        "settle_seconds": float(config.task.settle),
-        "fitness": worst,
-        "status": "error",
-        "error": body.error,
-        "n_joints": 0,
-        "joint_names": [],
-        "seed": 0,
-        "sim_seconds": 0.0,
-        "wall_seconds": 0.0,
-    }
+    return EvaluationRow.of(
+        {
+            **_common(run_id, config, body, generation),
+            "eval_id": f"{body.body_id}-build",
+            "iteration": 0,
+            "candidate": 0,
+            "controller": config.brain.controller,
+            "controller_params": [],
+            "world": config.world.name,
+            "fitness_fn": config.task.fitness,
+            "settle_seconds": float(config.task.settle),
+            "fitness": worst,
+            "status": "error",
+            "error": body.error,
+            "descriptors": {},  # no body: nulls
+            "n_joints": 0,
+            "joint_names": [],
+            "seed": 0,
+            "sim_seconds": 0.0,
+            "wall_seconds": 0.0,
+            "backend": None,  # no physics ran
+        }
+    )
 
 
 def body_row(
     run_id: str, config: Any, body: Any, generation: int, is_new: bool, selected: bool
-) -> dict[str, Any]:
+) -> BodyRow:
     """``body`` in generation ``generation``: new in it, kept after it (``selected``)."""
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-
-    return {
-        "run_id": run_id,
-        "generation": generation,
-        "body_id": body.body_id,
-        "parent_ids": list(body.parent_ids),
-        "born_generation": body.born,
-        "body_encoder": config.body.encoder,
-        "body_genotype": json.dumps(body.genotype),
-        "graph": body.graph,
-        **{name: body.descriptors.get(name) for name in DESCRIPTOR_NAMES},
-        "n_joints": body.n_joints,
-        "status": body.status,
-        "error": body.error,
-        "fitness": body.fitness,
-        "best_eval_id": body.best_eval_id,
-        "evaluations": body.evaluations,
-        "is_new": is_new,
-        "selected": selected,
-    }
-
-
-def _columns(rows: list[dict[str, Any]], schema: Any) -> dict[str, list[Any]]:
-    return {f.name: [row.get(f.name) for row in rows] for f in schema}
+    return BodyRow.of(
+        {
+            **_common(run_id, config, body, generation),
+            "born_generation": body.born,
+            "graph": body.graph,
+            "descriptors": body.descriptors,
+            "n_joints": body.n_joints,
+            "status": body.status,
+            "error": body.error,
+            "fitness": body.fitness,
+            "best_eval_id": body.best_eval_id,
+            "evaluations": body.evaluations,
+            "is_new": is_new,
+            "selected": selected,
+        }
+    )
 
 
 class RunWriter:
@@ -133,7 +125,7 @@ class RunWriter:
         self.folder = folder
         self.config = config
         self.run_id = run_id
-        self._rows: dict[tuple[int, int, int], dict[str, Any]] = {}
+        self._rows: dict[tuple[int, int, int], EvaluationRow] = {}
         self._frames: dict[tuple[int, int, int], Any] = {}
         self._recordings: list[dict[str, Any]] = []  # evaluations waiting for their recording
         self.recorder = None
@@ -172,9 +164,10 @@ class RunWriter:
         the body's best, if any)."""
         for k, (task, result) in enumerate(zip(tasks, results)):
             key = (body.number, iteration, k)
-            self._rows[key] = evaluation_row(
+            row = evaluation_row(
                 self.run_id, self.config, body, task, result, generation, iteration, k
             )
+            self._rows[key] = row
             if self.recorder is not None and result.time.size:
                 self._recordings.append(
                     dict(
@@ -182,9 +175,7 @@ class RunWriter:
                         body=body,
                         task=task,
                         result=result,
-                        generation=generation,
-                        iteration=iteration,
-                        candidate=k,
+                        row=row,
                         new_best=k == improved,
                     )
                 )
@@ -212,14 +203,14 @@ class RunWriter:
         archive: Sequence[dict[str, Any]] | None = None,
     ) -> dict[str, int]:
         """Write the generation's tables (``bodies``: (body, is_new, selected); ``archive``:
-        a MAP-Elites archive's rows, see `archive_schema`) and run.rrd.
+        a MAP-Elites archive's rows, see `ArchiveRow`) and run.rrd.
 
         Returns the counts of evaluations rows written, by status (``rows``: all of them).
         """
         rows = [self._rows[key] for key in sorted(self._rows)]
         counts = {"rows": len(rows)}
-        counts.update({s: sum(row["status"] == s for row in rows) for s in FAILED_STATUSES})
-        write_table(self.path, "evaluations", generation, _columns(rows, evaluation_schema()))
+        counts.update({s: sum(row.status == s for row in rows) for s in FAILED_STATUSES})
+        write_table(self.path, "evaluations", generation, table_columns(EvaluationRow, rows))
         if self.config.record.trajectories:
             frames = [self._frames[key] for key in sorted(self._frames)]
             write_table(
@@ -229,13 +220,13 @@ class RunWriter:
             body_row(self.run_id, self.config, body, generation, is_new, selected)
             for body, is_new, selected in bodies
         ]
-        body_rows.sort(key=lambda row: row["body_id"])
-        write_table(self.path, "bodies", generation, _columns(body_rows, body_schema()))
+        body_rows.sort(key=lambda row: row.body_id)
+        write_table(self.path, "bodies", generation, table_columns(BodyRow, body_rows))
         if archive is not None:
-            cells = [{"generation": generation, **row} for row in archive]
-            write_table(self.path, "archive", generation, _columns(cells, archive_schema()))
+            cells = [ArchiveRow.of({"generation": generation, **row}) for row in archive]
+            write_table(self.path, "archive", generation, table_columns(ArchiveRow, cells))
         if self.recorder is not None:
-            self.recorder.generation(generation, body_rows, archive)
+            self.recorder.generation(generation, [row.record() for row in body_rows], archive)
         write_manifest(self.path, generation)  # the tables' sizes and hashes; before the checkpoint
         self._rows.clear()
         self._frames.clear()

@@ -4,7 +4,8 @@
 row per body taking part in the generation (its parents and its offspring).
 ``trajectories/gen-NNNNNN.parquet``: one row per recorded frame of every evaluation.
 ``archive/gen-NNNNNN.parquet`` (MAP-Elites runs only): one row per filled cell of the archive
-after the generation.
+after the generation. Each table's columns are declared once, by its row's class in
+`_row_types`; the schemas here are derived from them.
 """
 
 from __future__ import annotations
@@ -19,6 +20,15 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ariel.recording._files import atomic_write
+from ariel.recording._row_types import (
+    COUNT_DESCRIPTORS,
+    ArchiveRow,
+    BodyRow,
+    EvaluationRow,
+    TrajectoryRow,
+    check_columns,
+    row_schema,
+)
 
 __all__ = [
     "COUNT_DESCRIPTORS",
@@ -49,61 +59,8 @@ MANIFEST_DIR = "manifests"
 _GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
 
 
-#: Morphology descriptors that count something: integers in the tables (null for a body that
-#: could not be built; pandas reads such a column as the nullable ``Int32``). Files written
-#: before they were integers (float64 columns) are cast on read.
-COUNT_DESCRIPTORS: tuple[str, ...] = (
-    "num_modules",
-    "num_hinges",
-    "num_bricks",
-    "num_limbs",
-    "num_core_children",
-    "depth",
-)
-
-
-def _descriptor_fields() -> list[pa.Field]:
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-
-    return [
-        pa.field(name, pa.int32() if name in COUNT_DESCRIPTORS else pa.float64())
-        for name in DESCRIPTOR_NAMES
-    ]
-
-
-@cache
 def evaluation_schema() -> pa.Schema:
-    return pa.schema(
-        [
-            ("run_id", pa.string()),
-            ("generation", pa.int32()),
-            ("body_id", pa.string()),
-            ("eval_id", pa.string()),
-            ("iteration", pa.int32()),
-            ("candidate", pa.int32()),
-            ("parent_ids", pa.list_(pa.string())),
-            ("body_encoder", pa.string()),
-            ("body_genotype", pa.string()),  # JSON of the genotype's plain data
-            ("controller", pa.string()),
-            ("controller_params", pa.list_(pa.float64())),
-            ("world", pa.string()),
-            ("fitness_fn", pa.string()),
-            # Seconds the robot was held at rest before the measured window (task.settle).
-            ("settle_seconds", pa.float64()),
-            ("fitness", pa.float64()),
-            ("status", pa.string()),
-            ("error", pa.string()),
-            *_descriptor_fields(),
-            ("n_joints", pa.int32()),
-            ("joint_names", pa.list_(pa.string())),
-            ("seed", pa.int64()),
-            ("sim_seconds", pa.float64()),
-            ("wall_seconds", pa.float64()),
-            # The simulator that produced the fitness: "mujoco" (the CPU engine) or
-            # "mujoco-warp:<device>"; null for a body that could not be built (no physics ran).
-            ("backend", pa.string()),
-        ]
-    )
+    return row_schema(EvaluationRow)
 
 
 #: Columns added after runs were recorded, and what an older file's rows read as.
@@ -112,61 +69,17 @@ _ADDED_COLUMNS: dict[str, dict[str, Any]] = {
 }
 
 
-@cache
 def body_schema() -> pa.Schema:
-    return pa.schema(
-        [
-            ("run_id", pa.string()),
-            ("generation", pa.int32()),
-            ("body_id", pa.string()),
-            ("parent_ids", pa.list_(pa.string())),
-            ("born_generation", pa.int32()),
-            ("body_encoder", pa.string()),
-            ("body_genotype", pa.string()),
-            ("graph", pa.string()),  # networkx node-link JSON of the decoded robot graph
-            *_descriptor_fields(),
-            ("n_joints", pa.int32()),
-            ("status", pa.string()),
-            ("error", pa.string()),
-            ("fitness", pa.float64()),
-            ("best_eval_id", pa.string()),
-            ("evaluations", pa.int32()),
-            ("is_new", pa.bool_()),
-            ("selected", pa.bool_()),
-        ]
-    )
+    return row_schema(BodyRow)
 
 
-@cache
 def trajectory_schema() -> pa.Schema:
-    return pa.schema(
-        [
-            ("generation", pa.int32()),
-            ("eval_id", pa.string()),
-            ("t", pa.float64()),
-            ("core_x", pa.float64()),
-            ("core_y", pa.float64()),
-            ("core_z", pa.float64()),
-            ("joint_target", pa.list_(pa.float64())),
-            ("joint_angle", pa.list_(pa.float64())),
-        ]
-    )
+    return row_schema(TrajectoryRow)
 
 
-@cache
 def archive_schema() -> pa.Schema:
     """A MAP-Elites archive after a generation: one row per filled cell."""
-    return pa.schema(
-        [
-            ("generation", pa.int32()),
-            ("cell", pa.int32()),  # the cell's index in the grid (row-major over the measures)
-            ("body_id", pa.string()),  # the elite
-            ("fitness", pa.float64()),
-            ("objective", pa.float64()),  # what the archive maximises: fitness, or -fitness
-            ("measures", pa.list_(pa.float64())),  # the elite's value of each measure
-            ("grid", pa.list_(pa.int32())),  # cells per measure (coverage = rows / their product)
-        ]
-    )
+    return row_schema(ArchiveRow)
 
 
 def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> dict[str, Any]:
@@ -239,18 +152,20 @@ def generation_file(run_dir: Path, table: str, generation: int) -> Path:
 def write_table(
     run_dir: Path, table: str, generation: int, columns: Mapping[str, Sequence[Any]]
 ) -> Path:
-    """Write one generation's rows (as columns) of ``table``, atomically; returns the path."""
-    schema = pa.schema([_written_field(f, columns[f.name]) for f in _SCHEMAS[table]()])
-    arrow = pa.Table.from_pydict({f.name: columns[f.name] for f in schema}, schema=schema)
+    """Write one generation's rows (as columns) of ``table``, atomically; returns the path.
+    A column too many or too few is a `RowError` naming it."""
+    check_columns(table, columns)
+    written = pa.schema([_written_field(f, columns[f.name]) for f in _SCHEMAS[table]()])
+    arrow = pa.Table.from_pydict({f.name: columns[f.name] for f in written}, schema=written)
     path = generation_file(run_dir, table, generation)
-    floats = _float_columns(schema)
+    floats = _float_columns(written)
 
     def write(temporary: Path) -> None:
         pq.write_table(
             arrow,
             temporary,
             compression="zstd",
-            use_dictionary=[f.name for f in schema if f.name not in floats],
+            use_dictionary=[f.name for f in written if f.name not in floats],
             use_byte_stream_split=floats or False,
         )
 

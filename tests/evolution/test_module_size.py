@@ -1,6 +1,6 @@
 """The loop stays in small parts: no module of the evolution layer (the optimizers, the
-scheduler, the driver, bodies, state), of `ariel.runs` (its entry points) or the records writer
-over 400 lines, and no function in them over 60."""
+scheduler, the driver, bodies, state), of `ariel.runs` (its entry points), the records writer
+or its row declarations over 400 lines, and no function in them over 60."""
 
 from __future__ import annotations
 
@@ -11,7 +11,12 @@ import pytest
 
 ARIEL = Path(__file__).resolve().parents[2] / "ariel"
 MODULES = sorted(
-    [*ARIEL.glob("evolution/*.py"), *ARIEL.glob("runs/*.py"), ARIEL / "recording" / "_rows.py"]
+    [
+        *ARIEL.glob("evolution/*.py"),
+        *ARIEL.glob("runs/*.py"),
+        ARIEL / "recording" / "_rows.py",
+        ARIEL / "recording" / "_row_types.py",
+    ]
 )
 
 
