@@ -301,6 +301,7 @@ class WarpEvaluator:
         self.device = check_device(device)
         self.max_worlds = max_worlds
         self._bodies: OrderedDict[str, _DeviceBody] = OrderedDict()
+        self._noted: set[str] = set()  # reasons for not packing, said once
 
     @property
     def backend(self) -> str:
@@ -319,7 +320,8 @@ class WarpEvaluator:
         (`ariel.evaluation._warp_packed`); the others run body by body.
         """
         results, ready = prepare_groups(tasks)
-        alone, packs = pack_plan(ready)
+        alone, packs, reasons = pack_plan(ready)
+        self._note_unpacked(reasons)
         done = [(g, outs) for pack in packs for g, outs in zip(pack, self._packed(pack))]
         done += [(g, evaluate_group(g, self._open_loop_group)) for g in alone]
         for group, outs in done:
@@ -328,6 +330,20 @@ class WarpEvaluator:
         return results  # type: ignore[return-value]
 
     # -- internals -------------------------------------------------------------------------------
+
+    def _note_unpacked(self, reasons: dict[str, int]) -> None:
+        """One line on stderr for each new reason why bodies could not be packed."""
+        import sys
+
+        for reason, count in reasons.items():
+            if reason not in self._noted:
+                self._noted.add(reason)
+                print(
+                    f"note: gpu: {count} bodies of a generation are not packed into one model "
+                    f"({reason[:200]}); each runs alone on the device (docs/gpu.md)",
+                    file=sys.stderr,
+                    flush=True,
+                )
 
     def _open_loop_group(self, group: TaskGroup) -> list[EvaluationResult]:
         """An open-loop group, ``max_worlds`` tasks at a time."""

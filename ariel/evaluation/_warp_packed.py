@@ -33,28 +33,39 @@ from ariel.evaluation._warp_pack import (
 __all__ = ["RobotView", "pack_plan", "packed_inputs", "robot_views"]
 
 
-def _pack_key(group: TaskGroup) -> str | None:
-    """Groups of one key may share a packed model; None: the group runs alone."""
+def _unpackable(group: TaskGroup) -> str | None:
+    """Why an open-loop group cannot share a model with other bodies; None if it can."""
     head = group.tasks[0]
-    if not group.controller.open_loop or device_cpg_reason(group.controller) is not None:
-        return None
-    if _world_reason(_world_key(head)) is not None or _body_reason(group.built) is not None:
-        return None
+    reason = device_cpg_reason(group.controller)
+    return reason or _world_reason(_world_key(head)) or _body_reason(group.built)
+
+
+def _pack_key(group: TaskGroup) -> str:
+    """Groups of one key may share a packed model."""
+    head = group.tasks[0]
     timing = [head.duration, head.control_period, head.smoothing, head.record_every]
     controller = [head.controller, head.controller_options]
     return json.dumps([head.world, head.world_options, *controller, *timing, head.record_bodies])
 
 
-def pack_plan(groups: Sequence[TaskGroup]) -> tuple[list[TaskGroup], list[list[TaskGroup]]]:
-    """``(alone, packs)``: groups that run alone, and lists of groups packed together."""
+def pack_plan(
+    groups: Sequence[TaskGroup],
+) -> tuple[list[TaskGroup], list[list[TaskGroup]], dict[str, int]]:
+    """``(alone, packs, reasons)``: groups that run alone, lists of groups packed together,
+    and why open-loop groups could not be packed (reason -> groups), when a call holds
+    several bodies' open-loop batches."""
     alone: list[TaskGroup] = []
     by_key: dict[str, list[TaskGroup]] = {}
+    reasons: dict[str, int] = {}
+    several = sum(g.controller.open_loop for g in groups) > 1
     for group in groups:
-        key = _pack_key(group)
-        if key is None:
-            alone.append(group)
-        else:
-            by_key.setdefault(key, []).append(group)
+        reason = _unpackable(group) if group.controller.open_loop else "closed loop"
+        if reason is None:
+            by_key.setdefault(_pack_key(group), []).append(group)
+            continue
+        alone.append(group)
+        if several and group.controller.open_loop:
+            reasons[reason] = reasons.get(reason, 0) + 1
     packs: list[list[TaskGroup]] = []
     for together in by_key.values():
         if len(together) < 2:
@@ -63,7 +74,7 @@ def pack_plan(groups: Sequence[TaskGroup]) -> tuple[list[TaskGroup], list[list[T
         models = math.ceil(len(together) / MAX_ROBOTS)  # as few models as bits allow, even sizes
         bounds = np.linspace(0, len(together), models + 1).round().astype(int).tolist()
         packs.extend(together[a:b] for a, b in itertools.pairwise(bounds))
-    return alone, packs
+    return alone, packs, reasons
 
 
 def packed_inputs(

@@ -79,9 +79,10 @@ def test_what_cannot_share_a_model_runs_alone(evaluator) -> None:
     tasks = [t for t in tasks if t.body != tasks[-1].body]
     tasks += [replace(t, duration=0.2) for t in other_timing]
     _, groups = prepare_groups(tasks)
-    alone, packs = pack_plan(groups)
+    alone, packs, reasons = pack_plan(groups)
     assert [len(p) for p in packs] == [2] and len(alone) == 1
     assert alone[0].tasks[0].duration == 0.2
+    assert reasons == {}  # it could be packed: only with none of the others
 
 
 def test_a_second_generation_in_the_same_bucket_compiles_nothing(evaluator, monkeypatch) -> None:
@@ -101,3 +102,20 @@ def test_a_second_generation_in_the_same_bucket_compiles_nothing(evaluator, monk
     assert all(r.status == "ok" for r in results)
     assert fresh, "no Warp module was asked for: the count would be vacuous"
     assert sum(fresh) == 0, f"{sum(fresh)} Warp modules compiled or loaded for a new generation"
+
+
+def test_bodies_that_cannot_be_packed_run_alone_and_say_why_once(monkeypatch, capsys) -> None:
+    from ariel.evaluation import _warp_packed
+
+    monkeypatch.setattr(_warp_packed, "_body_reason", lambda built: "a reason for the test")
+    evaluator = WarpEvaluator("cpu")
+    tasks = generation(2, seed=5)
+    results = evaluator.evaluate_batch(tasks)
+    evaluator.evaluate_batch(tasks)
+    assert all(r.status == "ok" for r in results)
+    assert not any(getattr(b.built, "robots", None) for b in evaluator._bodies.values())
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [
+        "note: gpu: 2 bodies of a generation are not packed into one model (a reason for the "
+        "test); each runs alone on the device (docs/gpu.md)"
+    ]
