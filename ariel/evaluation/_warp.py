@@ -1,17 +1,20 @@
-"""MuJoCo Warp: many brains of ONE body stepped at once, as parallel worlds on a GPU.
+"""MuJoCo Warp: many brains stepped at once, as parallel worlds on a GPU.
 
 `WarpEvaluator.evaluate_batch` takes the same tasks and gives the same `EvaluationResult`s as
-`ariel.evaluation.evaluate_batch`, for open-loop controllers (the CPGs) of a body that many
-tasks share:
+`ariel.evaluation.evaluate_batch`, for open-loop controllers (the CPGs):
 
-* The body is compiled by the CPU engine (`build`) and copied to the device once.
-* Controls follow the CPU engine to the letter: the controller's targets at every controller
-  call, blended and clipped (`held_controls`), are computed on the host in float64 and uploaded
-  (as float32) once per batch; each call's control holds for ``control_period`` steps.
-* Steps between two events (a controller call, a recorded frame) run as one captured graph:
-  a CUDA graph on a GPU, Warp's CPU graph on the CPU. At each recorded frame the device
-  computes the kinematics and copies qpos, the core geom's position and (``record_bodies``)
-  the robot's body poses into frame buffers, which come back to the host once at the end.
+* A body is compiled by the CPU engine (`build`) and copied to the device once. The batches
+  of several bodies in one call that can share a model are packed into one
+  (`ariel.evaluation._warp_pack`, `_warp_packed`): world ``w`` holds brain ``w`` of each.
+* Controls: the NA-CPG runs on the device (`ariel.evaluation._warp_cpg`): parameters and
+  initial state uploaded once per batch, each controller call a kernel that advances the
+  oscillators, blends and clips the targets and writes ``ctrl``. Other open-loop controllers'
+  held controls are computed on the host (`held_controls`) and uploaded in pieces.
+* Each event (a controller call, a recorded frame) and the steps to the next run as one
+  captured graph: a CUDA graph on a GPU, Warp's CPU graph on the CPU. At each recorded frame
+  the device computes the kinematics and copies qpos, each robot's core geom position and
+  (``record_bodies``) the robots' body poses into frame buffers, which come back to the host
+  once at the end.
 * Fitness comes from the same registered fitness functions, on the same frames (`_finish`).
 
 MuJoCo Warp computes in float32 and sums contact forces with atomics, so results agree with
