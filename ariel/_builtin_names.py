@@ -49,6 +49,11 @@ BUILTIN_PLUGINS: dict[str, dict[str, str]] = {
         "map_elites": "ariel.evolution._map_elites:MapElites",
         "random": "ariel.evolution._random_search:RandomSearch",
     },
+    "brain_optimizer": {
+        # Above the registry's layer (ariel.evolution), hence named by string.
+        "cmaes": "ariel.evolution._cmaes:CMAES",
+        "nevergrad": "ariel.evolution._nevergrad:Nevergrad",
+    },
     "fitness": {
         "xy_displacement": f"{_ADAPTERS}:xy_displacement",
         "sustained_displacement": f"{_ADAPTERS}:sustained_displacement",

@@ -1,4 +1,5 @@
-"""Plugin registries: body encoders, worlds, controllers and fitness functions.
+"""Plugin registries: body encoders, worlds, controllers, fitness functions, and the body
+and brain optimizers of the loop.
 
 Configs, Parquet rows and worker payloads name their plugins by string; a `Registry` turns a
 name back into the object, in the parent process and in every spawned worker alike.
@@ -33,7 +34,8 @@ Rules:
 
 The plugin checkers (``check_body_encoder``, ``check_world``, ``check_controller``,
 ``check_fitness``, ``check_all``) run the engine, so they live a layer up, in
-`ariel.evaluation`; ``ariel.plugins.check_*`` still gives them, imported on first use.
+`ariel.evaluation`; ``ariel.plugins.check_*`` still gives them, imported on first use (and
+``check_body_optimizer`` / ``check_brain_optimizer``, from `ariel.evolution`).
 """
 
 from __future__ import annotations
@@ -89,6 +91,7 @@ __all__ = [
     "WorldFactory",
     "body_encoders",
     "body_optimizers",
+    "brain_optimizers",
     "cannot_vary",
     "controllers",
     "fitness_function",
@@ -108,6 +111,7 @@ ENTRY_POINT_GROUPS: dict[str, str] = {
     "controller": "ariel.controllers",
     "fitness": "ariel.fitness",
     "body_optimizer": "ariel.body_optimizers",
+    "brain_optimizer": "ariel.brain_optimizers",
 }
 
 
@@ -643,7 +647,7 @@ class Registry(Generic[T]):
 
 
 # --------------------------------------------------------------------------------------------
-# The four registries
+# The registries
 # --------------------------------------------------------------------------------------------
 
 
@@ -696,6 +700,18 @@ body_optimizers: Registry[Callable[..., Any]] = Registry(
     check=_check_callable,
 )
 
+#: Brain optimizers (``brain.optimizer``): each body's learner over its controller's parameters,
+#: made with ``x0=``, ``popsize=``, ``sigma0=``, ``seed=``, ``maximise=`` and the config's
+#: ``brain.optimizer_options``; their interface is `ariel.evolution.BrainOptimizer`
+#: (docs/evolution.md, "Brain optimizers").
+brain_optimizers: Registry[Callable[..., Any]] = Registry(
+    "brain_optimizer",
+    group=ENTRY_POINT_GROUPS["brain_optimizer"],
+    builtins=BUILTIN_PLUGINS["brain_optimizer"],
+    label="brain optimizer",
+    check=_check_callable,
+)
+
 #: The registries by kind (the keys of `ENTRY_POINT_GROUPS`).
 REGISTRIES: dict[str, Registry[Any]] = {
     "body_encoder": body_encoders,
@@ -703,6 +719,7 @@ REGISTRIES: dict[str, Registry[Any]] = {
     "controller": controllers,
     "fitness": fitness_functions,
     "body_optimizer": body_optimizers,
+    "brain_optimizer": brain_optimizers,
 }
 
 
@@ -729,9 +746,10 @@ _CHECKS = {
     "check_controller": "ariel.evaluation._checks",
     "check_fitness": "ariel.evaluation._checks",
     "check_world": "ariel.evaluation._checks",
-    # Body optimizers are checked in ariel.evolution (a layer above the engine), and so is
-    # the whole set, which includes them.
+    # Body and brain optimizers are checked in ariel.evolution (a layer above the engine), and
+    # so is the whole set, which includes them.
     "check_body_optimizer": "ariel.evolution._optimizer_checks",
+    "check_brain_optimizer": "ariel.evolution._optimizer_checks",
     "check_all": "ariel.evolution._optimizer_checks",
 }
 

@@ -506,7 +506,7 @@ def check_all() -> list[tuple[str, str, str | None]]:
     """
     report: list[tuple[str, str, str | None]] = []
     for kind, registry in REGISTRIES.items():
-        if kind not in _CHECKERS:  # body optimizers: checked a layer up (ariel.evolution)
+        if kind not in _CHECKERS:  # body and brain optimizers: checked a layer up
             continue
         for name in registry.names():
             error: str | None = None

@@ -1,5 +1,5 @@
-"""Evolution: the co-evolution loop (body optimizers x brain CMA-ES), its configs, the scheduler
-and the run driver.
+"""Evolution: the co-evolution loop (body optimizers x brain optimizers), its configs, the
+scheduler and the run driver.
 
 Cheap to import: names are loaded from their modules on first access.
 """
@@ -21,6 +21,12 @@ _LAZY: dict[str, str] = {
     "WorldConfig": "ariel.evolution._config",
     "load_config": "ariel.evolution._config",
     "BrainRun": "ariel.evolution._brain",
+    "BrainOptimizer": "ariel.evolution._brain",
+    "ToldHistory": "ariel.evolution._brain",
+    "penalised_cost": "ariel.evolution._brain",
+    "replay_told": "ariel.evolution._brain",
+    "CMAES": "ariel.evolution._cmaes",
+    "Nevergrad": "ariel.evolution._nevergrad",
     "Body": "ariel.evolution._state",
     "BodyOptimizer": "ariel.evolution._optimizer",
     "Proposal": "ariel.evolution._optimizer",

@@ -87,8 +87,8 @@ class BodyFactory:
             del self._models[number]
 
     def new_brain(self, body: Body, population: Mapping[str, Body]) -> BrainRun:
-        """Body ``body``'s CMA-ES run: x0 random, or its first parent's best brain when
-        ``brain.inherit`` and the parameter counts agree."""
+        """Body ``body``'s brain run (its learner: ``brain.optimizer``): x0 random, or its
+        first parent's best brain when ``brain.inherit`` and the parameter counts agree."""
         c, seed = self.config, self.config.seed
         if body.n_params == 0:
             x0 = np.zeros(0)
@@ -109,7 +109,9 @@ class BodyFactory:
             maximise=self.maximise,
             x0=x0,
             sigma0=c.brain.sigma0,
-            seed=derive_seed(seed, "cma", body.number),
+            seed=derive_seed(seed, "cma", body.number),  # "cma": the key of the first learner
+            optimizer=c.brain.optimizer,
+            options=dict(c.brain.optimizer_options),
         )
 
     def job(self, body: Body, run: BrainRun, target: int) -> BrainJob:

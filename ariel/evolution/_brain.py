@@ -1,23 +1,42 @@
-"""Brain learning: CMA-ES (Hansen & Ostermeier 2001; the ``cma`` package) over controller
-parameters, one ask/tell run per body.
+"""Brain learning: one learner per body over its controller's parameters, ask / tell one
+iteration (a batch of ``brain.popsize`` candidates) at a time.
 
-pycma draws its samples from ``numpy.random``'s global generator unless given ``randn``; with
-several runs progressing side by side that would make each run depend on the others' timing.
-So every run owns its generator (`_Randn`), seeded from the run seed and the body. A run is
-stored as plain data (`BrainRun.to_plain`): its settings and the fitness it was told; loading
-it tells a fresh run the same again (`BrainRun.from_plain`), which rebuilds the same state.
+The learner is a `BrainOptimizer` plugin named by ``brain.optimizer`` (``cmaes``, the default:
+CMA-ES, Hansen & Ostermeier 2001, with the ``cma`` package; ``nevergrad``; or one from an
+entry point in group ``ariel.brain_optimizers``), made by ``brain_optimizers.make(name, x0=...,
+popsize=..., sigma0=..., seed=..., maximise=..., **options)``: ``x0`` the first mean (its
+length is the parameter count), ``popsize`` the batch every `ask` gives, ``sigma0`` the
+initial step size (``brain.sigma0``; a learner without one ignores it), ``seed`` the body's
+own seed (every draw of the learner derives from it, never from a shared generator), and
+``maximise`` the fitness direction; ``options`` are the config's ``brain.optimizer_options``.
+
+`BrainRun` wraps a body's learner for the loop: it keeps the iteration count and the best
+candidate it was told (the same for every learner, so a body's fitness is always its best
+evaluation's), and gives a body without parameters (no actuators) one evaluation of the empty
+vector without a learner. A run is stored as plain data (`BrainRun.to_plain`): its settings,
+its best, and its learner's `BrainOptimizer.state`; `BrainRun.from_plain` makes a fresh
+learner and restores that state. Both built-in learners store what they were told
+(`ToldHistory`) and restore by telling a fresh learner the same again (`replay_told`), which
+rebuilds the same state bit for bit.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
-import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["BrainRun", "fitness_rank"]
+__all__ = [
+    "BrainOptimizer",
+    "BrainRun",
+    "ToldHistory",
+    "fitness_rank",
+    "penalised_cost",
+    "replay_told",
+]
 
 
 def fitness_rank(fitness: float, maximise: bool) -> float:
@@ -28,19 +47,86 @@ def fitness_rank(fitness: float, maximise: bool) -> float:
     return -fitness if maximise else fitness
 
 
-class _Randn:
-    """``randn(*shape)`` from a run's own generator (pycma's ``randn`` option); picklable."""
+@runtime_checkable
+class BrainOptimizer(Protocol):
+    """Ask / tell over one body's controller parameters; see the module docstring."""
 
-    def __init__(self, rng: np.random.Generator) -> None:
-        self.rng = rng
+    def ask(self) -> np.ndarray:
+        """The next iteration's candidates, ``(popsize, len(x0))`` floats."""
+        ...
 
-    def __call__(self, *shape: int) -> np.ndarray:
-        return self.rng.standard_normal(shape)
+    def tell(self, params: np.ndarray, fitness: np.ndarray) -> None:
+        """The fitness of the candidates the last `ask` gave (same order), in the run's
+        direction (``maximise``); a failed evaluation's is NaN or infinite (`penalised_cost`
+        turns them into the worst finite cost)."""
+        ...
+
+    def state(self) -> dict[str, Any]:
+        """Plain data (JSON-able; NaN and infinities are allowed) that `restore` takes back."""
+        ...
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue, on a fresh learner made with the same keywords, from `state`: the next
+        `ask` gives exactly what the learner that gave `state` would have."""
+        ...
+
+
+def penalised_cost(fitness: np.ndarray, maximise: bool) -> np.ndarray:
+    """Costs to minimise: the fitness (negated when maximised), failed candidates (NaN, inf)
+    ranked last with a finite penalty (the batch's worst finite cost + 1e6)."""
+    fitness = np.asarray(fitness, dtype=np.float64)
+    finite = np.isfinite(fitness)
+    cost = -fitness if maximise else fitness.copy()
+    worst = float(np.max(cost[finite])) if finite.any() else 0.0
+    cost[~finite] = worst + 1e6
+    return cost
+
+
+def _digest(params: np.ndarray) -> str:
+    """A short fingerprint of a batch of candidates (float64 bytes)."""
+    data = np.ascontiguousarray(params, dtype=np.float64).tobytes()
+    return hashlib.sha256(data).hexdigest()[:16]
+
+
+class ToldHistory:
+    """What a learner was told, as plain data: each iteration's fitness and a fingerprint of
+    its candidates. The state of a learner whose asks depend only on its seed and what it was
+    told; `replay_told` restores it."""
+
+    def __init__(self) -> None:
+        self.told: list[list[float]] = []
+        self.asked: list[str] = []
+
+    def add(self, params: np.ndarray, fitness: np.ndarray) -> None:
+        self.told.append(np.asarray(fitness, dtype=np.float64).tolist())
+        self.asked.append(_digest(params))
+
+    def plain(self) -> dict[str, Any]:
+        return {"told": [list(batch) for batch in self.told], "asked": list(self.asked)}
+
+
+def replay_told(learner: BrainOptimizer, state: dict[str, Any]) -> None:
+    """Tell a fresh ``learner`` what ``state`` (`ToldHistory.plain`) says, asking again before
+    each tell; `ValueError` when it asks other candidates than the stored run did (e.g. made
+    by another version of its package), which would continue another run."""
+    from threadpoolctl import threadpool_limits
+
+    asked = state.get("asked")
+    with threadpool_limits(limits=1):  # as in the loop: the same eigendecompositions
+        for k, fitness in enumerate(state["told"]):
+            params = learner.ask()
+            if asked is not None and _digest(params) != asked[k]:
+                raise ValueError(
+                    f"the restored brain optimizer asks other candidates in iteration {k} than "
+                    "the stored run did (another version of its package?)"
+                )
+            learner.tell(params, np.asarray(fitness, dtype=np.float64))
 
 
 @dataclass
 class BrainRun:
-    """One body's CMA-ES run, `ask` / `tell` one iteration (a batch of ``popsize``) at a time.
+    """One body's brain run with learner ``optimizer`` (and its ``options``), `ask` / `tell`
+    one iteration (a batch of ``popsize``) at a time.
 
     A body without parameters (no actuators) gets one evaluation of the empty vector.
     ``best_params`` / ``best_fitness`` track the best candidate seen (in the fitness's own
@@ -53,29 +139,27 @@ class BrainRun:
     x0: np.ndarray
     sigma0: float
     seed: int
+    optimizer: str = "cmaes"
+    options: dict[str, Any] = field(default_factory=dict)
     iteration: int = 0
     best_params: np.ndarray | None = None
     best_fitness: float = field(default=math.nan)
-    told: list[list[float]] = field(default_factory=list)  # each iteration's fitness, in order
-    _es: object | None = field(default=None, repr=False)
+    learner: BrainOptimizer | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if self.n_params == 0:
             return
-        import cma
+        from ariel.plugins import brain_optimizers
 
-        options = {
-            "popsize": self.popsize,
-            "seed": math.nan,  # "do nothing" to the global RNG; samples come from randn
-            "randn": _Randn(np.random.default_rng(self.seed)),
-            "verbose": -9,
-            "verb_log": 0,  # no outcmaes/ files
-            "verb_disp": 0,
-            "CMA_diagonal": False,
-        }
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            self._es = cma.CMAEvolutionStrategy(np.asarray(self.x0, float), self.sigma0, options)
+        self.learner = brain_optimizers.make(
+            self.optimizer,
+            x0=np.asarray(self.x0, dtype=np.float64),
+            popsize=self.popsize,
+            sigma0=self.sigma0,
+            seed=self.seed,
+            maximise=self.maximise,
+            **self.options,
+        )
 
     @property
     def batch_size(self) -> int:
@@ -83,11 +167,16 @@ class BrainRun:
 
     def ask(self) -> np.ndarray:
         """The next iteration's candidates, ``(batch_size, n_params)`` float64."""
-        if self._es is None:
+        if self.learner is None:
             return np.zeros((1, 0))
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return np.array(self._es.ask(), dtype=np.float64)
+        params = np.asarray(self.learner.ask(), dtype=np.float64)
+        if params.shape != (self.popsize, self.n_params):
+            raise ValueError(
+                f"brain optimizer {self.optimizer!r} asked for candidates of shape "
+                f"{params.shape}; the run needs ({self.popsize}, {self.n_params}): "
+                "popsize x parameters"
+            )
+        return params
 
     def tell(self, params: np.ndarray, fitness: np.ndarray) -> int | None:
         """Report the fitness of the candidates `ask` gave (same order).
@@ -95,7 +184,6 @@ class BrainRun:
         Returns the index of this batch's candidate that became the best so far, or None.
         """
         fitness = np.asarray(fitness, dtype=np.float64)
-        self.told.append(fitness.tolist())
         finite = np.isfinite(fitness)
         improved = None
         if finite.any():
@@ -107,19 +195,14 @@ class BrainRun:
                 self.best_fitness = float(fitness[best])
                 self.best_params = np.array(params[best], dtype=np.float64)
                 improved = best
-        if self._es is not None:
-            # CMA-ES minimises; failed candidates (inf/NaN) rank last with a finite penalty.
-            cost = -fitness if self.maximise else fitness.copy()
-            worst = float(np.max(cost[finite])) if finite.any() else 0.0
-            cost[~finite] = worst + 1e6
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                self._es.tell(list(params), cost.tolist())
+        if self.learner is not None:
+            self.learner.tell(params, fitness)
         self.iteration += 1
         return improved
 
     def to_plain(self) -> dict[str, Any]:
-        """The run as JSON-able data: its settings and every fitness it was told."""
+        """The run as JSON-able data: its settings, its best and its learner's state."""
+        best = self.best_params
         return {
             "n_params": self.n_params,
             "popsize": self.popsize,
@@ -127,16 +210,39 @@ class BrainRun:
             "x0": np.asarray(self.x0, dtype=np.float64).tolist(),
             "sigma0": self.sigma0,
             "seed": self.seed,
-            "told": [list(batch) for batch in self.told],
+            "optimizer": self.optimizer,
+            "options": self.options,
+            "iteration": self.iteration,
+            "best_params": None if best is None else np.asarray(best, dtype=np.float64).tolist(),
+            "best_fitness": self.best_fitness,
+            "state": None if self.learner is None else self.learner.state(),
         }
 
     @classmethod
     def from_plain(cls, data: dict[str, Any]) -> BrainRun:
-        """The run `to_plain` describes: a fresh run asked and told the same again."""
+        """The run `to_plain` describes: a fresh learner, its state restored."""
+        data = dict(data)
+        if "state" not in data:  # stored before brain optimizers: a CMA-ES run and its told
+            return cls._told_again(data)
+        state = data.pop("state")
+        iteration, best = int(data.pop("iteration")), data.pop("best_params")
+        best_fitness = float(data.pop("best_fitness"))
+        run = cls(**data)
+        run.x0 = np.asarray(run.x0, dtype=np.float64)
+        if run.learner is not None:
+            run.learner.restore(state)
+        run.iteration, run.best_fitness = iteration, best_fitness
+        run.best_params = None if best is None else np.asarray(best, dtype=np.float64)
+        return run
+
+    @classmethod
+    def _told_again(cls, data: dict[str, Any]) -> BrainRun:
+        """A run stored as its CMA-ES settings and every fitness it was told: a fresh run
+        asked and told the same again."""
         from threadpoolctl import threadpool_limits
 
-        told = data["told"]
-        run = cls(**{key: value for key, value in data.items() if key != "told"})
+        told = data.pop("told")
+        run = cls(**data)
         run.x0 = np.asarray(run.x0, dtype=np.float64)
         with threadpool_limits(limits=1):  # as in the loop: the same eigendecompositions
             for fitness in told:

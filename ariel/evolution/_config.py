@@ -85,10 +85,12 @@ class BodyConfig(_Section):
 
 
 class BrainConfig(_Section):
-    """CMA-ES over the controller's parameters, run for every new body."""
+    """A learner (``optimizer``, a brain optimizer; CMA-ES by default) for each new body."""
 
     controller: Str = "na_cpg"
     options: dict[str, Any] = Field(default_factory=dict)
+    optimizer: Str = "cmaes"
+    optimizer_options: dict[str, Any] = Field(default_factory=dict)
     popsize: Int = Field(8, ge=2)
     iterations: Int = Field(6, ge=1)
     sigma0: Float = Field(1.0, gt=0.0)
@@ -196,6 +198,8 @@ class ExperimentConfig(_Section):
 _LATER_KEYS = {
     ("body", "optimizer"): "ga",
     ("body", "optimizer_options"): {},
+    ("brain", "optimizer"): "cmaes",
+    ("brain", "optimizer_options"): {},
     ("task", "settle"): 0.0,
 }
 

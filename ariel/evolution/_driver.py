@@ -1,12 +1,13 @@
 """The run driver: one run's generations, as a group of work for the `Scheduler`.
 
 Per generation: the body optimizer asks for genotypes, each becomes a compiled body
-(`BodyFactory`), each buildable body gets a CMA-ES brain run (`BrainWork`), the scheduler runs
-all brain runs side by side, the optimizer is told the bodies, and the records writer writes
-the generation; then the checkpoint. A body's fitness is its best brain's fitness.
+(`BodyFactory`), each buildable body gets a brain run (`BrainWork`: its learner, CMA-ES by
+default, ``brain.optimizer``), the scheduler runs all brain runs side by side, the optimizer
+is told the bodies, and the records writer writes the generation; then the checkpoint. A
+body's fitness is its best brain's fitness.
 
 An encoder that cannot vary its genotypes (``evolvable = False``, e.g. ``prebuilt``), or a
-fixed ``body.genotype`` under any encoder, gives a brain-only run: one fixed body whose CMA-ES
+fixed ``body.genotype`` under any encoder, gives a brain-only run: one fixed body whose brain
 run goes on across generations, each generation adding ``brain.iterations`` iterations.
 
 The driver writes nothing itself: it tells a records writer (``records``: `RunRecords`, made
@@ -89,7 +90,7 @@ def budget(config: ExperimentConfig, brain_only: bool) -> int:
 
 
 class BrainWork:
-    """A `BrainJob` as the scheduler's `Work`: ask CMA-ES, evaluate, tell, record."""
+    """A `BrainJob` as the scheduler's `Work`: ask the learner, evaluate, tell, record."""
 
     def __init__(self, driver: RunDriver, job: BrainJob, generation: int) -> None:
         self.driver, self.job, self.generation = driver, job, generation
@@ -288,7 +289,7 @@ class RunDriver:
         )
         extra = "".join(f", {n} {s}" for s, n in counts.items() if s != "rows" and n)
         label = "mean"
-        if self.brain_only:  # as `ariel report` draws it: the mean of the CMA-ES candidates
+        if self.brain_only:  # as `ariel report` draws it: the mean of the brain candidates
             label = "mean of candidates"
             mean = float(np.mean(self.candidates)) if self.candidates else math.nan
         self.progress.end_generation(

@@ -2,7 +2,8 @@
 
 In the shape of pyribs' schedulers and evosax's strategies. The run driver asks for
 ``body.population`` genotypes in generation 0 and ``body.offspring`` in every later one,
-builds a body from each, learns each body's brain with CMA-ES, and tells the optimizer the
+builds a body from each, learns each body's brain (a `BrainOptimizer`, CMA-ES by default:
+``brain.optimizer``, ``ariel.evolution._brain``), and tells the optimizer the
 bodies (fitness = best brain's fitness, morphology descriptors, status). What the optimizer
 keeps (`BodyOptimizer.population`: a GA's survivors, a MAP-Elites archive's elites) is what the
 next generation breeds from and what the bodies table marks ``selected``.

@@ -1,5 +1,5 @@
-"""`check_body_optimizer`: a body optimizer's contract, tested without physics; and `check_all`
-over every plugin kind (`ariel plugins --check`).
+"""`check_body_optimizer` and `check_brain_optimizer`: the optimizers' contracts, tested without
+physics; and `check_all` over every plugin kind (`ariel plugins --check`).
 
 The check drives the optimizer for three generations on made-up bodies (genotypes are short
 vectors from a checker encoder; a body's fitness and descriptors are functions of its
@@ -7,6 +7,11 @@ genotype), so it takes milliseconds and tests only the optimizer: it must make a
 `BodyOptimizer`, ask for the number of genotypes asked for (plain data, parents taken from what
 it keeps), keep bodies it was told about, ask the same for the same seed, and give plain-data
 state from which a fresh optimizer asks exactly what it would have.
+
+The brain optimizer check runs a learner for a few iterations on a made-up fitness of its
+candidates (a sphere, one candidate failing with NaN): it must make a `BrainOptimizer`, ask
+``popsize`` finite candidates of the parameter count, ask the same for the same seed, and give
+plain-data state from which a fresh learner asks exactly what it would have.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ from ariel.evaluation._checks import CHECK_SEED, _Checker, _make_call
 from ariel.evaluation._checks import check_all as _check_engine_plugins
 from ariel.evolution._state import Body
 
-__all__ = ["check_all", "check_body_optimizer"]
+__all__ = ["check_all", "check_body_optimizer", "check_brain_optimizer"]
 
 _GENERATIONS = 3
 _SIZE = 4  # bodies asked for per generation
@@ -122,20 +127,91 @@ def check_body_optimizer(name: str, **options: Any) -> None:
     check.expect(again == expected, "asks for other genotypes after restore(state(), population)")
 
 
+_BRAIN = {"popsize": 6, "sigma0": 0.5, "maximise": True}  # and x0: five parameters
+_ITERATIONS = 4
+
+
+def _brain_fitness(params: np.ndarray, iteration: int) -> np.ndarray:
+    """A sphere around 1 (maximised); in iteration 1 the last candidate fails (NaN)."""
+    fitness = -np.sum((params - 1.0) ** 2, axis=1)
+    if iteration == 1:
+        fitness[-1] = np.nan
+    return fitness
+
+
+def _learn(check: _Checker, factory: Any, options: dict[str, Any], seed: int) -> tuple:
+    """A learner made and run for `_ITERATIONS` iterations: (learner, its asks as bytes)."""
+    from ariel.evolution._brain import BrainOptimizer
+
+    x0 = np.linspace(-0.5, 0.5, 5)
+    with check.step(f"making it ({_make_call(options)})"):
+        learner = factory(x0=x0, seed=seed, **_BRAIN, **options)
+    check.expect(
+        isinstance(learner, BrainOptimizer),
+        "is no BrainOptimizer (needs ask, tell, state, restore)",
+    )
+    asked = []
+    for iteration in range(_ITERATIONS):
+        with check.step(f"ask() in iteration {iteration}"):
+            params = np.asarray(learner.ask(), dtype=np.float64)
+        check.expect(
+            params.shape == (_BRAIN["popsize"], len(x0)),
+            f"ask() gave shape {params.shape}, not (popsize, parameters) = "
+            f"({_BRAIN['popsize']}, {len(x0)})",
+        )
+        check.expect(np.isfinite(params).all(), "ask() gave non-finite candidates")
+        asked.append(params.tobytes())
+        with check.step(f"tell(...) in iteration {iteration}"):
+            learner.tell(params, _brain_fitness(params, iteration))
+    return learner, asked
+
+
+def check_brain_optimizer(name: str, **options: Any) -> None:
+    """Check brain optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
+    from ariel.evolution._state import from_json_safe, to_json_safe
+    from ariel.plugins import brain_optimizers
+
+    check = _Checker("brain optimizer", name)
+    with check.step("loading it"):
+        factory = brain_optimizers.get(name)
+    learner, asked = _learn(check, factory, options, CHECK_SEED)
+    check.expect(
+        _learn(check, factory, options, CHECK_SEED)[1] == asked,
+        "asks for different candidates with the same seed",
+    )
+    with check.step("state()"):
+        state = from_json_safe(
+            json.loads(json.dumps(to_json_safe(learner.state()), allow_nan=False))
+        )
+    with check.step(f"making it ({_make_call(options)})"):
+        restored = factory(x0=np.linspace(-0.5, 0.5, 5), seed=CHECK_SEED, **_BRAIN, **options)
+    with check.step("restore(state)"):
+        restored.restore(state)
+    with check.step("ask() after restore"):
+        again = np.asarray(restored.ask(), dtype=np.float64).tobytes()
+    expected = np.asarray(learner.ask(), dtype=np.float64).tobytes()
+    check.expect(again == expected, "asks for other candidates after restore(state())")
+
+
 def check_all() -> list[tuple[str, str, str | None]]:
     """Every registered plugin of every kind checked (see `ariel.evaluation.check_all`), body
-    optimizers included: ``(kind, name, error or None)`` rows."""
+    and brain optimizers included: ``(kind, name, error or None)`` rows."""
     from ariel.errors import PluginCheckError
-    from ariel.plugins import body_optimizers
+    from ariel.plugins import body_optimizers, brain_optimizers
 
     report = _check_engine_plugins()
-    for name in body_optimizers.names():
-        error = None
-        try:
-            check_body_optimizer(name)
-        except PluginCheckError as exc:
-            error = str(exc)
-        except Exception as exc:  # a broken entry point: still a row
-            error = f"body optimizer {name!r}: {type(exc).__name__}: {exc}"
-        report.append(("body_optimizer", name, error))
+    optimizers = (
+        ("body_optimizer", body_optimizers, check_body_optimizer),
+        ("brain_optimizer", brain_optimizers, check_brain_optimizer),
+    )
+    for kind, registry, checker in optimizers:
+        for name in registry.names():
+            error = None
+            try:
+                checker(name)
+            except PluginCheckError as exc:
+                error = str(exc)
+            except Exception as exc:  # a broken entry point: still a row
+                error = f"{registry.label} {name!r}: {type(exc).__name__}: {exc}"
+            report.append((kind, name, error))
     return report

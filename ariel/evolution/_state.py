@@ -1,12 +1,13 @@
 """What a run is between generations, as plain data: bodies, the loop's counters, the body
-optimizer's state and a brain-only run's CMA-ES.
+optimizer's state and a brain-only run's brain run (its learner's state).
 
 A checkpoint is this state as JSON (`state_to_plain` / `state_from_plain`): no pickle, so
 loading a run folder never runs code from it. Floats round-trip exactly (Python writes the
 shortest text that reads back to the same double); NaN and infinities, which JSON lacks, are
-written as ``{"$float": "nan"}`` and read back. A CMA-ES run is stored as what it was told
-(`BrainRun.to_plain`) and rebuilt by telling a fresh run the same again, which gives the
-same state bit for bit.
+written as ``{"$float": "nan"}`` and read back. A brain run is stored as its settings, its
+best and its learner's plain-data state (`BrainRun.to_plain`) and rebuilt from them; the
+built-in learners store what they were told and tell a fresh learner the same again, which
+gives the same state bit for bit.
 """
 
 from __future__ import annotations

@@ -189,6 +189,7 @@ def run_info(config: ExperimentConfig, run_id: str, plugins: Plugins) -> dict[st
             "world": config.world.name,
             "fitness": config.task.fitness,
             "body_optimizer": config.body.optimizer,
+            "brain_optimizer": config.brain.optimizer,
         }
     )
     return {

@@ -69,6 +69,34 @@ def _optimizer_factory(config: ExperimentConfig, encoder: Any, maximise: bool) -
     return make
 
 
+def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
+    """``brain.optimizer`` is a registered brain optimizer that takes ``optimizer_options``:
+    one is made here for a two-parameter body (each body makes its own during the run), with
+    at most 64 candidates (a popsize too big for this machine is the memory check's to refuse:
+    pycma allocates per candidate)."""
+    import numpy as np
+
+    from ariel.plugins import brain_optimizers
+
+    brain = config.brain
+    try:
+        factory = brain_optimizers.get(brain.optimizer)
+    except (KeyError, ValueError, ImportError) as exc:
+        raise ConfigError(f"brain.optimizer: {exc}") from None
+    keywords = {"popsize": min(brain.popsize, 64), "sigma0": brain.sigma0, "maximise": maximise}
+    taken = sorted(set(brain.optimizer_options) & {*keywords, "x0", "seed"})
+    if taken:
+        raise ConfigError(
+            f"brain.optimizer_options: {taken[0]!r} is not an option: the run gives every "
+            "learner x0, popsize, sigma0, seed and maximise (brain.popsize, brain.sigma0)"
+        )
+    try:
+        factory(x0=np.zeros(2), seed=1, **keywords, **brain.optimizer_options)
+    except (TypeError, ValueError) as exc:
+        first = (str(exc).splitlines() or [""])[0]
+        raise ConfigError(f"brain.optimizer_options: {brain.optimizer!r}: {first}") from None
+
+
 def resolve_plugins(config: ExperimentConfig) -> Plugins:
     """Make every plugin the config names; a bad name or option is a `ConfigError`."""
     from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
@@ -92,6 +120,7 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
         )
     maximise = bool(fitness.maximise)
     optimizer = _optimizer_factory(config, encoder, maximise)
+    _check_brain_optimizer(config, maximise)
     return Plugins(encoder, controller, fitness, optimizer)
 
 

@@ -12,6 +12,7 @@ from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate
 from ariel.plugins import (
     body_encoders,
     body_optimizers,
+    brain_optimizers,
     check_all,
     check_body_encoder,
     check_controller,
@@ -69,6 +70,7 @@ def test_check_all_reports_every_registered_name() -> None:
             ("controller", controllers),
             ("fitness", fitness_functions),
             ("body_optimizer", body_optimizers),
+            ("brain_optimizer", brain_optimizers),
         )
         for name in registry.names()
     ]

@@ -1,0 +1,72 @@
+"""The brain optimizer ``cmaes`` (the default): CMA-ES (Hansen & Ostermeier 2001) with pycma.
+
+pycma draws its samples from ``numpy.random``'s global generator unless given ``randn``; with
+several runs progressing side by side that would make each run depend on the others' timing.
+So every learner owns its generator (`_Randn`), seeded from the body's seed. Its state is what
+it was told (`ToldHistory`); restoring tells a fresh learner the same again (`replay_told`).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ariel.evolution._brain import ToldHistory, penalised_cost, replay_told
+
+__all__ = ["CMAES"]
+
+
+class _Randn:
+    """``randn(*shape)`` from a run's own generator (pycma's ``randn`` option); picklable."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+
+    def __call__(self, *shape: int) -> np.ndarray:
+        return self.rng.standard_normal(shape)
+
+
+class CMAES:
+    """CMA-ES from ``x0`` with step size ``sigma0`` and ``popsize`` candidates an iteration
+    (full covariance); no options."""
+
+    def __init__(
+        self, *, x0: np.ndarray, popsize: int, sigma0: float, seed: int, maximise: bool
+    ) -> None:
+        import cma
+
+        self.maximise = maximise
+        self.history = ToldHistory()
+        options = {
+            "popsize": popsize,
+            "seed": math.nan,  # "do nothing" to the global RNG; samples come from randn
+            "randn": _Randn(np.random.default_rng(seed)),
+            "verbose": -9,
+            "verb_log": 0,  # no outcmaes/ files
+            "verb_disp": 0,
+            "CMA_diagonal": False,
+        }
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self._es = cma.CMAEvolutionStrategy(np.asarray(x0, float), sigma0, options)
+
+    def ask(self) -> np.ndarray:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return np.array(self._es.ask(), dtype=np.float64)
+
+    def tell(self, params: np.ndarray, fitness: np.ndarray) -> None:
+        self.history.add(params, fitness)
+        cost = penalised_cost(fitness, self.maximise)  # CMA-ES minimises
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self._es.tell(list(params), cost.tolist())
+
+    def state(self) -> dict[str, Any]:
+        return self.history.plain()
+
+    def restore(self, state: dict[str, Any]) -> None:
+        replay_told(self, state)

@@ -1,0 +1,95 @@
+"""The brain optimizer ``nevergrad``: any optimizer of Nevergrad (Rapin & Teytaud 2018) over a
+body's controller parameters, ``method`` ``TwoPointsDE`` (differential evolution) by default.
+
+The parameters are one ``ng.p.Array`` starting at ``x0`` with mutation scale ``sigma0``
+(``brain.sigma0``); the optimizer is made with ``num_workers = popsize`` and asked for
+``popsize`` candidates each iteration. Every draw comes from the parametrization's own
+``random_state``, seeded from the body's seed, so a learner never touches numpy's global
+generator. A Nevergrad optimizer has no plain-data state, so the state is what it was told
+(`ToldHistory`), and restoring tells a fresh one the same again (`replay_told`): the same asks,
+bit for bit.
+"""
+
+from __future__ import annotations
+
+import difflib
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ariel.evolution._brain import ToldHistory, penalised_cost, replay_told
+
+__all__ = ["Nevergrad"]
+
+DEFAULT_METHOD = "TwoPointsDE"
+
+
+def _optimizer_class(method: Any) -> Any:
+    """``nevergrad.optimizers.registry[method]``; `ValueError` naming the closest for others."""
+    import nevergrad as ng
+
+    registry = ng.optimizers.registry
+    if not isinstance(method, str) or method not in registry:
+        close = difflib.get_close_matches(str(method), sorted(registry), n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ValueError(
+            f"unknown nevergrad method {method!r}{hint} (any name of "
+            f"nevergrad.optimizers.registry, {len(registry)} of them, e.g. {DEFAULT_METHOD!r}, "
+            "'NGOpt', 'CMA', 'PSO', 'OnePlusOne')"
+        )
+    return registry[method]
+
+
+class Nevergrad:
+    """Nevergrad's ``method`` from ``x0``; options ``method`` and ``budget`` (evaluations, for
+    methods that plan with one, such as ``NGOpt``; None by default: no budget)."""
+
+    def __init__(
+        self,
+        *,
+        x0: np.ndarray,
+        popsize: int,
+        sigma0: float,
+        seed: int,
+        maximise: bool,
+        method: str = DEFAULT_METHOD,
+        budget: int | None = None,
+    ) -> None:
+        import nevergrad as ng
+
+        cls = _optimizer_class(method)
+        if budget is not None and (type(budget) is not int or budget < 1):
+            raise ValueError(f"budget must be a whole number of evaluations >= 1 (got {budget!r})")
+        self.maximise, self.popsize = maximise, popsize
+        self.history = ToldHistory()
+        parameters = ng.p.Array(init=np.asarray(x0, dtype=np.float64)).set_mutation(sigma=sigma0)
+        parameters.random_state = np.random.RandomState(np.random.MT19937(seed))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self._optimizer = cls(parametrization=parameters, budget=budget, num_workers=popsize)
+        self._asked: list[Any] = []  # the candidates of the last ask, to tell
+
+    def ask(self) -> np.ndarray:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self._asked = [self._optimizer.ask() for _ in range(self.popsize)]
+        return np.array([c.value for c in self._asked], dtype=np.float64)
+
+    def tell(self, params: np.ndarray, fitness: np.ndarray) -> None:
+        asked = np.array([c.value for c in self._asked], dtype=np.float64)
+        if not np.array_equal(np.asarray(params, dtype=np.float64), asked):
+            raise ValueError("tell() needs the candidates of the last ask(), in order")
+        self.history.add(params, fitness)
+        cost = penalised_cost(fitness, self.maximise)  # Nevergrad minimises
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for candidate, value in zip(self._asked, cost.tolist()):
+                self._optimizer.tell(candidate, value)
+        self._asked = []
+
+    def state(self) -> dict[str, Any]:
+        return self.history.plain()
+
+    def restore(self, state: dict[str, Any]) -> None:
+        replay_told(self, state)
