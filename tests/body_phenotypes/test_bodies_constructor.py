@@ -238,15 +238,15 @@ INVALID: dict[str, tuple[Callable[[], object], str]] = {
     ),
     "unknown type": (
         lambda: _with(lambda g: g.nodes[1].update(type="WHEEL")),
-        r"node 1 has unknown module type 'WHEEL'; allowed: CORE, BRICK, HINGE",
+        r"Unknown module type 'WHEEL' \(node 1\); allowed: CORE, BRICK, HINGE",
     ),
     "unknown rotation": (
         lambda: _with(lambda g: g.nodes[1].update(rotation="DEG_30")),
-        "node 1 has unknown rotation 'DEG_30'; allowed: DEG_0, DEG_45, DEG_90",
+        r"Unknown rotation 'DEG_30' \(node 1\); allowed: DEG_0, DEG_45, DEG_90",
     ),
     "unknown face": (
         lambda: _with(lambda g: g.edges[1, 2].update(face="UP")),
-        "edge 1 -> 2 has unknown face 'UP'",
+        r"Unknown face 'UP' \(edge 1 -> 2\)",
     ),
     "NONE module": (
         lambda: _with(lambda g: g.nodes[2].update(type="NONE")),

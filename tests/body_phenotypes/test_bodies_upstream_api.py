@@ -76,3 +76,77 @@ def test_rotate_accepts_upstreams_angle_keyword() -> None:
     CoreModule(0).rotate(angle=0)
     with pytest.raises(TypeError, match="alias 'angle'"):
         hinge.rotate(degrees=1, angle=2)
+
+
+# --- upstream's decoder steps and helpers, by upstream's names ------------------------------
+
+
+def _spaces(n: int = 6, seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return rng.random((n, 4)), rng.random((n, n, 6)) ** 3, rng.random((n, 3))
+
+
+@pytest.mark.parametrize(
+    ("cls", "decode"),
+    [
+        (HighProbabilityDecoder, "decode_probability_to_graph"),
+        (VectorDecoder, "decode_vector_to_graph"),
+    ],
+)
+def test_decoder_steps_one_by_one_equal_the_whole_decode(cls, decode: str) -> None:
+    t, c, r = _spaces()
+    expected = HighProbabilityDecoder(6).probability_matrices_to_graph(t, c, r)
+    decoder = cls(6)
+    decoder.type_p_space, decoder.conn_p_space, decoder.rot_p_space = t.copy(), c.copy(), r.copy()
+    decoder.apply_connection_constraints()
+    diagonal = decoder.conn_p_space[np.arange(6), np.arange(6)]
+    assert not diagonal.any() and not decoder.conn_p_space[:, 0].any()
+    assert decoder.type_p_space[0, ModuleType.CORE.value] == 1.0
+    assert not decoder.type_p_space[1:, ModuleType.CORE.value].any()
+    decoder.set_module_types_and_rotations()
+    assert decoder.type_dict[0] is ModuleType.CORE and len(decoder.rot_dict) == 6
+    assert all(isinstance(v, ModuleRotationsIdx) for v in decoder.rot_dict.values())
+    getattr(decoder, decode)()
+    assert 0 in decoder.nodes and isinstance(decoder.edges, list)
+    decoder.generate_networkx_graph()
+    assert nx.utils.graphs_equal(decoder.graph, expected)
+    assert list(decoder.graph.nodes(data=True)) == list(expected.nodes(data=True))
+
+
+def test_decoder_steps_refuse_missing_state_in_one_line() -> None:
+    decoder = HighProbabilityDecoder(4)
+    with pytest.raises(ValueError, match="conn_p_space is not set") as info:
+        decoder.apply_connection_constraints()
+    assert "\n" not in str(info.value)
+    decoder.conn_p_space = np.ones((4, 4, 6))
+    with pytest.raises(ValueError, match="type_dict is not set"):
+        decoder.decode_probability_to_graph()
+    decoder.type_p_space = np.ones((3, 4))
+    with pytest.raises(ValueError, match=r"type_p_space must have shape \(4, 4\)"):
+        decoder.apply_connection_constraints()
+    # Skipping the constraints lets the core be picked as a child: refused, not decoded.
+    decoder = HighProbabilityDecoder(3)
+    decoder.type_p_space, decoder.rot_p_space = np.ones((3, 4)), np.ones((3, 3))
+    decoder.conn_p_space = np.ones((3, 3, 6))
+    decoder.set_module_types_and_rotations()
+    with pytest.raises(ValueError, match="call apply_connection_constraints"):
+        decoder.decode_probability_to_graph()
+
+
+def test_assign_symbols_from_range() -> None:
+    assign = VectorDecoder(2).assign_symbols_from_range
+    # Equal intervals; a value on a border takes the lower symbol; 0 the first, 1 the last.
+    assert assign([0.0, 1 / 3, 0.34, 0.7, 1.0], ["a", "b", "c"]) == ["a", "a", "b", "c", "c"]
+    assert assign(np.array([0.24, 0.26]), ["a", "b"], weight=[1, 3]) == ["a", "b"]
+    assert assign([0.2, 0.8], [[1, 2], ("x", "y", "z")]) == [1, "z"]
+    assert assign([0.5], [[1, 2]], weight=[[3, 1]]) == [1]
+    assert assign([0.3, 0.7], "XYZ") == assign([0.3, 0.7], "XYZ", weight=[1.0, 1.0, 1.0])
+    for bad in ([1.5], [-0.1], [np.nan]):
+        with pytest.raises(ValueError, match=r"\[0, 1\]"):
+            assign(bad, ["a", "b"])
+    with pytest.raises(ValueError, match="one per value"):
+        assign([0.1, 0.2], [["a"]])
+    with pytest.raises(ValueError, match="weight has 1 values for 2 symbols"):
+        assign([0.1], ["a", "b"], weight=[1.0])
+    with pytest.raises(ValueError, match="not all zero"):
+        assign([0.1], ["a", "b"], weight=[0.0, 0.0])

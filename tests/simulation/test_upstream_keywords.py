@@ -64,3 +64,43 @@ def test_spawn_keywords() -> None:
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     assert data.qpos[2] == pytest.approx(0.1307, abs=2e-3)
+
+
+def test_every_class_in_environments_is_a_world_upstreams_way() -> None:
+    """Upstream's tests instantiate every class found in the package (`Any` was one)."""
+    import inspect
+
+    from ariel.simulation import environments
+
+    classes = dict(inspect.getmembers(environments, inspect.isclass))
+    assert set(classes) == set(environments.__all__)
+    for cls in classes.values():
+        world = cls(load_precompiled=False)
+        assert isinstance(world, environments.BaseWorld)
+
+
+def test_heightmap_functions_has_upstreams_functions_by_name() -> None:
+    import inspect
+
+    from ariel.simulation import environments
+
+    assert environments.heightmap_functions is heightmap_functions  # a package attribute
+    functions = dict(inspect.getmembers(heightmap_functions, inspect.isfunction))
+    assert {name: f.__name__ for name, f in functions.items()} == {
+        name: name
+        for name in (
+            "amphitheater_heightmap",
+            "crater_heightmap",
+            "flat_heightmap",
+            "rugged_heightmap",
+            "smooth_edges_heightmap",
+        )
+    }
+    arena = heightmap_functions.amphitheater_heightmap(
+        (20, 20), ring_inner_radius=0.2, ring_outer_radius=0.45, cone_height=1.0, seed=1
+    )
+    assert np.array_equal(
+        arena, heightmaps.amphitheatre_heightmap((20, 20), 0.2, 0.45, 1.0, seed=1)
+    )
+    rugged = heightmap_functions.rugged_heightmap((8, 9), scale_of_noise=4, normalize=None, seed=1)
+    assert np.array_equal(rugged, heightmaps.rugged_heightmap((8, 9), 4, "none", seed=1))

@@ -206,7 +206,13 @@ def test_heightmap_helpers():
     assert np.unravel_index(np.argmin(crater), crater.shape) == (20, 20)
     arena = amphitheatre_heightmap((41, 41), height_of_noise=0.0, cone_height=2.0)
     assert arena[20, 20] == 0.0 and arena[0, 0] == 2.0
-    assert amphitheater_heightmap is amphitheatre_heightmap
+    # Upstream's spelling takes upstream's keywords and gives the same map.
+    assert np.array_equal(
+        amphitheater_heightmap(
+            (41, 41), ring_inner_radius=0.1, ring_outer_radius=0.4, height_of_noise=0.0
+        ),
+        amphitheatre_heightmap((41, 41), inner_radius=0.1, outer_radius=0.4, height_of_noise=0.0),
+    )
     with pytest.raises(ValueError, match="dims"):
         flat_heightmap((1, 5))
     with pytest.raises(ValueError, match="inner_radius"):

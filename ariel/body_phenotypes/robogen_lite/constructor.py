@@ -68,7 +68,8 @@ def _parse_enum(value: object, enum: type[_E], what: str, allowed: Sequence[_E],
         if member is not None:
             return member
     names = ", ".join(member.name for member in allowed)
-    raise ValueError(f"{where} has unknown {what} {value!r}; allowed: {names}")
+    # Worded as upstream's constructor ("Unknown module type ..."), which scripts match on.
+    raise ValueError(f"Unknown {what} {value!r} ({where}); allowed: {names}")
 
 
 def parse_module_type(value: object, where: str = "value") -> ModuleType:

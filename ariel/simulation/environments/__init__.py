@@ -3,13 +3,17 @@
 Every world builds a ``mujoco.MjSpec`` (``world.spec``), sets its timestep explicitly (default
 0.002 s, implicitfast) and spawns robots with ``world.spawn(robot.spec, position=...)`` so that
 their lowest point is 1 cm above the ground under them. ``world.ground_height(x, y)`` gives the
-ground's height anywhere. Classes load on first use (this package imports only on demand).
+ground's height anywhere. Classes load on first use (this package imports only on demand),
+and so do upstream's submodule attributes (``environments.heightmap_functions``).
+
+The package's classes are exactly its worlds (no helper class such as ``typing.Any`` is in its
+namespace): upstream's scripts instantiate every class that ``inspect.getmembers`` finds here.
 """
 
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from ariel.simulation.environments._amphitheatre import AmphitheatreTerrainWorld
@@ -50,7 +54,13 @@ _MODULES = {
 }
 
 
-def __getattr__(name: str) -> Any:
+# Public submodules reachable as attributes, as after upstream's eager imports.
+_SUBMODULES = ("heightmap_functions", "heightmaps")
+
+
+def __getattr__(name: str) -> object:
+    if name in _SUBMODULES:
+        return importlib.import_module(f"{__name__}.{name}")  # the import binds the attribute
     module = _MODULES.get(name)
     if module is None:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
@@ -60,4 +70,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    return sorted(set(globals()) | set(__all__) | set(_SUBMODULES))

@@ -57,10 +57,12 @@ def _non_negative(value: Any, what: str) -> float:
 def _noise(
     dims: tuple[int, int],
     scale_of_noise: float,
-    normalize: str,
+    normalize: str | None,
     seed: int | None,
 ) -> np.ndarray:
     rows, cols = dims
+    if normalize is None:  # upstream's scripts pass None for raw values
+        normalize = "none"
     return PerlinNoise(seed).as_grid(cols, rows, scale=scale_of_noise, normalize=normalize)
 
 
@@ -72,11 +74,13 @@ def flat_heightmap(dims: tuple[int, int]) -> np.ndarray:
 def rugged_heightmap(
     dims: tuple[int, int],
     scale_of_noise: float = 4.0,
-    normalize: str = "none",
+    normalize: str | None = "none",
     *,
     seed: int | None = None,
 ) -> np.ndarray:
-    """Perlin noise; pixel (col, row) samples the noise at (col, row) / scale_of_noise."""
+    """Perlin noise; pixel (col, row) samples the noise at (col, row) / scale_of_noise.
+
+    ``normalize``: "none" (or None) for raw values, "linear" or "clip"."""
     return _noise(as_dims(dims), scale_of_noise, normalize, seed)
 
 
@@ -149,5 +153,26 @@ def amphitheatre_heightmap(
     return profile + noise_height * _noise(dims, scale_of_noise, normalize, seed)
 
 
-#: Upstream's spelling.
-amphitheater_heightmap = amphitheatre_heightmap
+def amphitheater_heightmap(
+    dims: tuple[int, int],
+    ring_inner_radius: float = 0.2,
+    ring_outer_radius: float = 0.45,
+    cone_height: float = 1.0,
+    height_of_noise: float = 0.3,
+    scale_of_noise: float = 5.0,
+    normalize: str = "none",
+    *,
+    seed: int | None = None,
+) -> np.ndarray:
+    """Upstream's name and keywords (``ring_inner_radius``, ``ring_outer_radius``) for
+    `amphitheatre_heightmap`: the same map."""
+    return amphitheatre_heightmap(
+        dims,
+        ring_inner_radius,
+        ring_outer_radius,
+        cone_height,
+        height_of_noise,
+        scale_of_noise,
+        normalize,
+        seed=seed,
+    )

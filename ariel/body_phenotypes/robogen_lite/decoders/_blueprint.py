@@ -11,13 +11,19 @@ from typing import Any
 
 import networkx as nx
 
+from ariel.body_phenotypes.robogen_lite.config import ModuleFaces, ModuleRotationsIdx, ModuleType
 from ariel.body_phenotypes.robogen_lite.graph_io import load_graph_from_json, save_graph_as_json
 
 __all__ = ["Blueprint", "draw_graph", "load_graph_from_json", "save_graph_as_json"]
 
 
 class Blueprint:
-    """Base of decoders that grow a graph of ``num_modules`` modules at most."""
+    """Base of decoders that grow a graph of ``num_modules`` modules at most.
+
+    A decoder fills ``nodes`` (module indices), ``edges`` (``(parent, child, face)``),
+    ``type_dict`` and ``rot_dict`` (index -> ``ModuleType`` / ``ModuleRotationsIdx``);
+    `generate_networkx_graph` then adds them to ``graph``.
+    """
 
     def __init__(self, num_modules: int) -> None:
         if isinstance(num_modules, bool) or int(num_modules) < 1:
@@ -25,6 +31,27 @@ class Blueprint:
         self.num_modules = int(num_modules)
         self._graph: dict[int, Any] = {}
         self.graph = nx.DiGraph()
+        self.type_dict: dict[int, ModuleType] = {}
+        self.rot_dict: dict[int, ModuleRotationsIdx] = {}
+        self.nodes: set[int] = set()
+        self.edges: list[tuple[int, int, ModuleFaces]] = []
+
+    def generate_networkx_graph(self) -> None:
+        """Add ``nodes`` (ascending, with ``type`` and ``rotation`` names) and ``edges`` (with
+        the ``face`` name; a face may be a ``ModuleFaces`` or its value) to ``graph``."""
+        types, rotations = self.type_dict, self.rot_dict
+        self.graph.add_nodes_from(
+            (node, {"type": types[node].name, "rotation": rotations[node].name})
+            for node in sorted(self.nodes)
+        )
+        self.graph.add_edges_from(
+            (
+                parent,
+                child,
+                {"face": (face if isinstance(face, ModuleFaces) else ModuleFaces(face)).name},
+            )
+            for parent, child, face in self.edges
+        )
 
 
 def draw_graph(

@@ -3,6 +3,11 @@
 Greedy, as in upstream ARIEL: every module takes its most probable type and rotation, then
 modules are attached one at a time by the globally most probable (parent, child, face) among
 instantiated parents, free faces and unattached children, until nothing positive is left.
+
+`probability_matrices_to_graph` runs upstream's four steps, which are public as upstream has
+them (its scripts and tests call them one by one on ``conn_p_space``, ``type_p_space`` and
+``rot_p_space``): `apply_connection_constraints`, `set_module_types_and_rotations`,
+`decode_probability_to_graph` and `generate_networkx_graph`.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from ariel.body_phenotypes.robogen_lite.config import (
     ModuleType,
 )
 from ariel.body_phenotypes.robogen_lite.decoders._blueprint import (
+    Blueprint,
     draw_graph,
     load_graph_from_json,
     save_graph_as_json,
@@ -41,7 +47,7 @@ for _type, _rots in ALLOWED_ROTATIONS.items():
     _ALLOWED_ROT_TABLE[_type.value, [r.value for r in _rots]] = True
 del _type, _faces, _rots
 
-# Enum members and names by value, so the hot path avoids Enum lookups.
+# Enum members by value, so the hot path avoids Enum lookups.
 _TYPES = list(ModuleType)
 _ROTS = list(ModuleRotationsIdx)
 _FACES = list(ModuleFaces)
@@ -68,13 +74,17 @@ def _as_probability_array(name: str, value: Any, expected: tuple[int, ...]) -> n
     return arr
 
 
-class HighProbabilityDecoder:
-    """Greedy decoder from NDE probability matrices to a `networkx.DiGraph` robot tree.
+class _GreedyDecoder(Blueprint):
+    """Upstream's decoding steps on ``type_p_space`` (N, 4), ``conn_p_space`` (N, N, 6) and
+    ``rot_p_space`` (N, 3), shared by `HighProbabilityDecoder` and ``VectorDecoder``.
 
-    Node ids are the module indices (gaps allowed); node attributes `type` ("CORE", "BRICK",
-    "HINGE") and `rotation` ("DEG_0", "DEG_45", "DEG_90"); edge attribute `face` ("FRONT",
-    ...). NONE modules and modules that cannot be reached are dropped; node 0 is the core.
+    The steps work in place on those attributes, as upstream's do; the ``*_to_graph`` entry
+    points set them to checked float64 copies of their inputs first, so inputs are never
+    mutated.
     """
+
+    #: The entry point named in the error of a step called before its spaces are set.
+    _ENTRY = "probability_matrices_to_graph"
 
     def __init__(self, num_modules: int) -> None:
         if isinstance(num_modules, bool) or not isinstance(num_modules, (int, np.integer)):
@@ -83,75 +93,99 @@ class HighProbabilityDecoder:
         if num_modules < 1:
             msg = f"num_modules must be >= 1; got {num_modules}"
             raise ValueError(msg)
-        self.num_modules = int(num_modules)
-        self._graph: dict[int, Any] = {}
-        self.graph = nx.DiGraph()
-        self.type_dict: dict[int, ModuleType] = {}
-        self.rot_dict: dict[int, ModuleRotationsIdx] = {}
-        self.nodes: set[int] = set()
-        self.edges: list[tuple[int, int, ModuleFaces]] = []
+        super().__init__(int(num_modules))
+        self.type_p_space: Any = None
+        self.conn_p_space: Any = None
+        self.rot_p_space: Any = None
 
-    def probability_matrices_to_graph(
-        self,
-        type_probability_space: Any,
-        connection_probability_space: Any,
-        rotation_probability_space: Any,
-    ) -> nx.DiGraph:
-        """Decode (N, 4) type, (N, N, 6) connection and (N, 3) rotation matrices to a tree."""
-        n = self.num_modules
-        type_p = _as_probability_array(
-            "type_probability_space", type_probability_space, (n, NUM_OF_TYPES_OF_MODULES)
-        )
-        conn_p = _as_probability_array(
-            "connection_probability_space", connection_probability_space, (n, n, NUM_OF_FACES)
-        )
-        rot_p = _as_probability_array(
-            "rotation_probability_space", rotation_probability_space, (n, NUM_OF_ROTATIONS)
-        )
+    def _set_spaces(self, type_p: np.ndarray, conn_p: np.ndarray, rot_p: np.ndarray) -> None:
+        self.type_p_space, self.conn_p_space, self.rot_p_space = type_p, conn_p, rot_p
         self._graph = {}
         self.graph = nx.DiGraph()
 
-        # Constraints: no self-connection; the core is module 0 only and is never a child.
-        idx = np.arange(n)
+    def _space(self, name: str) -> np.ndarray:
+        """The attribute ``name`` as a float array of its shape (stored back, so in-place
+        changes show); a one-line ``ValueError`` when it is unset or misshapen."""
+        n = self.num_modules
+        shape = {
+            "type_p_space": (n, NUM_OF_TYPES_OF_MODULES),
+            "conn_p_space": (n, n, NUM_OF_FACES),
+            "rot_p_space": (n, NUM_OF_ROTATIONS),
+        }[name]
+        value = getattr(self, name)
+        if value is None:
+            msg = (
+                f"{name} is not set: assign type_p_space, conn_p_space and rot_p_space "
+                f"(or call {self._ENTRY}) first"
+            )
+            raise ValueError(msg)
+        arr = np.asarray(value)
+        if arr.dtype.kind != "f":
+            arr = arr.astype(np.float64)
+        if arr.shape != shape:
+            msg = f"{name} must have shape {shape} (num_modules={n}); got {arr.shape}"
+            raise ValueError(msg)
+        setattr(self, name, arr)
+        return arr
+
+    def apply_connection_constraints(self) -> None:
+        """No module connects to itself; module 0 is the only CORE and is never a child."""
+        conn_p = self._space("conn_p_space")
+        type_p = self._space("type_p_space")
+        idx = np.arange(self.num_modules)
         conn_p[idx, idx, :] = 0.0
+        conn_p[:, IDX_OF_CORE, :] = 0.0
         type_p[:, ModuleType.CORE.value] = 0.0
         type_p[IDX_OF_CORE, ModuleType.CORE.value] = 1.0
-        conn_p[:, IDX_OF_CORE, :] = 0.0
 
-        # Most probable type (ties -> lowest index); NONE modules take no part.
+    def set_module_types_and_rotations(self) -> None:
+        """Fill ``type_dict`` and ``rot_dict`` with each module's most probable type and
+        allowed rotation (ties: the lowest value). NONE modules lose every connection, and a
+        module keeps parent connections only on the faces its type allows."""
+        conn_p = self._space("conn_p_space")
+        type_p = self._space("type_p_space")
+        rot_p = self._space("rot_p_space")
         types = np.argmax(type_p, axis=1)
         is_none = types == ModuleType.NONE.value
         conn_p[is_none, :, :] = 0.0
         conn_p[:, is_none, :] = 0.0
-        # A module may only be a parent through the faces its type allows.
-        conn_p = np.where(_ALLOWED_FACE_TABLE[types][:, None, :], conn_p, 0.0)
-        rot_p = np.where(_ALLOWED_ROT_TABLE[types], rot_p, 0.0)
+        face_ok = np.broadcast_to(_ALLOWED_FACE_TABLE[types][:, None, :], conn_p.shape)
+        np.putmask(conn_p, ~face_ok, 0.0)
+        np.putmask(rot_p, ~_ALLOWED_ROT_TABLE[types], 0.0)
         rotations = np.argmax(rot_p, axis=1)
+        self.type_dict = {i: _TYPES[t] for i, t in enumerate(types.tolist())}
+        self.rot_dict = {i: _ROTS[r] for i, r in enumerate(rotations.tolist())}
 
-        types_list = types.tolist()
-        rotations_list = rotations.tolist()
-        self.type_dict = {i: _TYPES[t] for i, t in enumerate(types_list)}
-        self.rot_dict = {i: _ROTS[r] for i, r in enumerate(rotations_list)}
+    def _grow(self) -> None:
+        """Upstream's greedy growth over ``conn_p_space`` (consumed in place); fills ``nodes``
+        and ``edges`` (in decoding order, faces as ``ModuleFaces``)."""
+        n = self.num_modules
+        conn_p = self._space("conn_p_space")
+        if len(self.type_dict) != n:
+            msg = "type_dict is not set: call set_module_types_and_rotations first"
+            raise ValueError(msg)
+        none_list = [self.type_dict[i] is ModuleType.NONE for i in range(n)]
 
-        # Greedy growth. `active` equals conn_p on the rows of instantiated parents and 0
-        # elsewhere (upstream's conn * available), maintained incrementally.
-        none_list = is_none.tolist()
-        num_candidates = none_list.count(False)
+        # `active` equals conn_p on the rows of instantiated parents and 0 elsewhere
+        # (upstream's conn * available), maintained incrementally.
         instantiated = np.zeros(n, dtype=bool)
         instantiated[IDX_OF_CORE] = True
         active = np.zeros_like(conn_p)
         active[IDX_OF_CORE] = conn_p[IDX_OF_CORE]
         edges: list[tuple[int, int, ModuleFaces]] = []
         row = n * NUM_OF_FACES
-        for _ in range(num_candidates):
+        for _ in range(none_list.count(False)):
             flat = int(active.argmax())  # C order, ties -> first
-            if active.flat[flat] == 0.0:
+            if not active.flat[flat] > 0.0:
                 break
             parent, rest = divmod(flat, row)
             child, face = divmod(rest, NUM_OF_FACES)
-            # Sanity checks; the constraints above make these impossible.
-            if child == IDX_OF_CORE or none_list[child] or none_list[parent]:
-                msg = f"decoder picked an invalid edge ({parent} -> {child}, face {face})"
+            # apply_connection_constraints and set_module_types_and_rotations rule these out.
+            if child in (IDX_OF_CORE, parent) or none_list[child] or none_list[parent]:
+                msg = (
+                    f"decoder picked an invalid edge ({parent} -> {child}, face {face}); "
+                    "call apply_connection_constraints and set_module_types_and_rotations first"
+                )
                 raise ValueError(msg)
             edges.append((parent, child, _FACES[face]))
             instantiated[child] = True
@@ -161,17 +195,44 @@ class HighProbabilityDecoder:
             active[:, child, :] = 0.0
             active[child] = conn_p[child]  # the new module may now act as a parent
 
-        self.type_p_space = type_p
-        self.conn_p_space = conn_p
-        self.rot_p_space = rot_p
-        self.nodes = {int(i) for i in np.flatnonzero(instantiated)}
+        self.nodes = {i for i in np.flatnonzero(instantiated).tolist() if not none_list[i]}
         self.edges = edges
 
-        graph = self.graph
-        for i in sorted(self.nodes):
-            graph.add_node(
-                i, type=_TYPES[types_list[i]].name, rotation=_ROTS[rotations_list[i]].name
-            )
-        for parent, child, face in edges:
-            graph.add_edge(parent, child, face=face.name)
-        return graph
+
+class HighProbabilityDecoder(_GreedyDecoder):
+    """Greedy decoder from NDE probability matrices to a `networkx.DiGraph` robot tree.
+
+    Node ids are the module indices (gaps allowed); node attributes `type` ("CORE", "BRICK",
+    "HINGE") and `rotation` ("DEG_0", "DEG_45", "DEG_90"); edge attribute `face` ("FRONT",
+    ...). NONE modules and modules that cannot be reached are dropped; node 0 is the core.
+    """
+
+    def probability_matrices_to_graph(
+        self,
+        type_probability_space: Any,
+        connection_probability_space: Any,
+        rotation_probability_space: Any,
+    ) -> nx.DiGraph:
+        """Decode (N, 4) type, (N, N, 6) connection and (N, 3) rotation matrices to a tree."""
+        n = self.num_modules
+        self._set_spaces(
+            _as_probability_array(
+                "type_probability_space", type_probability_space, (n, NUM_OF_TYPES_OF_MODULES)
+            ),
+            _as_probability_array(
+                "connection_probability_space", connection_probability_space, (n, n, NUM_OF_FACES)
+            ),
+            _as_probability_array(
+                "rotation_probability_space", rotation_probability_space, (n, NUM_OF_ROTATIONS)
+            ),
+        )
+        self.apply_connection_constraints()
+        self.set_module_types_and_rotations()
+        self.decode_probability_to_graph()
+        self.generate_networkx_graph()
+        return self.graph
+
+    def decode_probability_to_graph(self) -> None:
+        """Grow the tree over ``conn_p_space`` (after the two constraint steps): fills
+        ``nodes`` and ``edges``."""
+        self._grow()
