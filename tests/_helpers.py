@@ -169,3 +169,21 @@ def edit_json(path: Path, change: Any) -> None:
     info = json.loads(path.read_text())
     change(info)
     path.write_text(json.dumps(info))
+
+
+def count_warp_module_loads(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
+    """From now on, per Warp module load (every launch asks): True where the module was
+    loaded or compiled anew, False where Warp reused one it had. Skips without Warp's
+    internals."""
+    context = pytest.importorskip("warp._src.context", reason="Warp's internals moved")
+    fresh: list[bool] = []
+    original = context.Module.load
+
+    def load(self: Any, *args: Any, **kwargs: Any) -> Any:
+        known = list(self.execs.values())
+        loaded = original(self, *args, **kwargs)
+        fresh.append(all(loaded is not e for e in known))
+        return loaded
+
+    monkeypatch.setattr(context.Module, "load", load)
+    return fresh

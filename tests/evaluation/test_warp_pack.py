@@ -14,6 +14,7 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from _helpers import count_warp_module_loads
 
 from ariel._builtin_names import BUILTIN_PLUGINS
 from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate_batch
@@ -258,7 +259,6 @@ def test_packed_worlds_on_mujoco_warp_match_lone_ones_and_compile_nothing_new(
     """Two bodies in one model on MuJoCo Warp, two brains each (world w: brain w of both),
     against each body packed alone: the same nv bucket, so the lone runs compile nothing."""
     pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
-    context = pytest.importorskip("warp._src.context", reason="Warp's internals moved")
 
     packed = pack(tasks[:2], builts[:2])
     alone = [pack([t], [b]) for t, b in zip(tasks[:2], builts[:2])]
@@ -267,16 +267,7 @@ def test_packed_worlds_on_mujoco_warp_match_lone_ones_and_compile_nothing_new(
     controls = [rng.uniform(-1.5, 1.5, (2, 100, b.model.nu)) for b in builts[:2]]
     qpos = _warp_qpos(packed, packed.packed_ctrl(controls))
 
-    fresh: list[bool] = []  # per module load (every launch asks): loaded or compiled anew?
-    original = context.Module.load
-
-    def load(self, *args, **kwargs):
-        known = list(self.execs.values())
-        loaded = original(self, *args, **kwargs)
-        fresh.append(all(loaded is not e for e in known))
-        return loaded
-
-    monkeypatch.setattr(context.Module, "load", load)
+    fresh = count_warp_module_loads(monkeypatch)
     for k, lone in enumerate(alone):
         lone_qpos = _warp_qpos(lone, controls[k])
         difference = np.abs(packed.robot_qpos(qpos, k) - lone.robot_qpos(lone_qpos, 0)).max()

@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from _helpers import count_warp_module_loads
 
 from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate_batch
 from ariel.evaluation.builtin_plugins import NaCPGController
@@ -86,18 +87,8 @@ def test_what_cannot_share_a_model_runs_alone(evaluator) -> None:
 
 
 def test_a_second_generation_in_the_same_bucket_compiles_nothing(evaluator, monkeypatch) -> None:
-    context = pytest.importorskip("warp._src.context", reason="Warp's internals moved")
     evaluator.evaluate_batch(generation(3, seed=21))
-    fresh: list[bool] = []  # per module load: loaded or compiled anew?
-    original = context.Module.load
-
-    def load(self, *args, **kwargs):
-        known = list(self.execs.values())
-        loaded = original(self, *args, **kwargs)
-        fresh.append(all(loaded is not e for e in known))
-        return loaded
-
-    monkeypatch.setattr(context.Module, "load", load)
+    fresh = count_warp_module_loads(monkeypatch)
     results = evaluator.evaluate_batch(generation(3, seed=22))  # other bodies, same bucket
     assert all(r.status == "ok" for r in results)
     assert fresh, "no Warp module was asked for: the count would be vacuous"
