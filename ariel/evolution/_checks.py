@@ -20,6 +20,7 @@ from typing import Any
 
 from ariel.errors import PluginFailedError
 from ariel.evolution._config import ConfigError, ExperimentConfig
+from ariel.evolution._driver import per_body
 
 __all__ = [
     "PluginFailedError",
@@ -180,8 +181,8 @@ def check_resources(
     nu, nbody = int(model.nu), int(model.nbody)
     state = 1 + model.nq + model.nv + model.na + 6 * nbody + model.nmocap * 7 + model.neq
     bodies = 1 if brain_only else max(c.body.population, c.body.offspring)
-    popsize, iterations = c.brain.popsize, c.brain.iterations
-    evaluations = bodies * popsize * iterations  # one generation's
+    popsize = c.brain.popsize
+    evaluations = bodies * per_body(c)  # one generation's
     per_frame = 8 * (4 + 2 * nu + (7 * nbody if c.record.rerun else 0))
     kept = evaluations * frames * 8 * (4 + 2 * nu) if c.record.trajectories else 0
     at_once = min(bodies * popsize, max(1, capacity) * popsize)

@@ -81,12 +81,17 @@ def fixed_genotype(config: ExperimentConfig, encoder: Any) -> Any:
     return encoder.random_genotype(derive_rng(config.seed, "body-init", 0))
 
 
+def per_body(config: ExperimentConfig) -> int:
+    """Evaluations of one body's brain run in a generation: ``popsize x iterations``."""
+    return config.brain.popsize * config.brain.iterations
+
+
 def budget(config: ExperimentConfig, brain_only: bool) -> int:
     """Evaluations the run will make (bodies without parameters count as a full brain run)."""
-    per_body = config.brain.popsize * config.brain.iterations
+    each = per_body(config)
     if brain_only:
-        return config.generations * per_body
-    return (config.body.population + (config.generations - 1) * config.body.offspring) * per_body
+        return config.generations * each
+    return (config.body.population + (config.generations - 1) * config.body.offspring) * each
 
 
 class BrainWork:
@@ -201,11 +206,11 @@ class RunDriver:
 
     def _generation_budget(self) -> int:
         """Evaluations the next generation makes (as `budget` counts them)."""
-        per_body = self.config.brain.popsize * self.config.brain.iterations
+        each = per_body(self.config)
         if self.optimizer is None:
-            return per_body
+            return each
         parents = self.optimizer.population
-        return (self.config.body.offspring if parents else self.config.body.population) * per_body
+        return (self.config.body.offspring if parents else self.config.body.population) * each
 
     # -- a generation's brain jobs -------------------------------------------------------------
 
@@ -240,19 +245,19 @@ class RunDriver:
             state.next_body += 1
         self._bodies = (parents, children)
         by_id = {b.body_id: b for b in parents}
-        per_body = config.brain.popsize * config.brain.iterations
+        each = per_body(config)
         jobs = []
         for child in children:
             if child.status == "error":
                 self.records.body_failed(child, generation, self.plugins.worst)
                 child.fitness = self.plugins.worst
-                self.progress.advance(per_body)
+                self.progress.advance(each)
                 continue
             jobs.append(
                 factory.job(child, factory.new_brain(child, by_id), config.brain.iterations)
             )
             if child.n_params == 0:  # one evaluation: count the rest as done
-                self.progress.advance(per_body - 1)
+                self.progress.advance(each - 1)
         return jobs
 
     # -- the end of a generation ---------------------------------------------------------------
