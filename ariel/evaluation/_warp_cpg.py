@@ -119,12 +119,45 @@ def cpg_inputs(
 
 
 @functools.cache
-def _kernels(wp: Any) -> Any:
+def _node_update(wp: Any) -> Any:
+    """``new z`` of node ``k`` of a network: its coupling from nodes ``j >= k`` (not yet
+    updated this step), its own ``(1 + dt K) z``, then nodes ``j < k`` (already updated), in
+    that order, clamped around ``z + dt * z_old`` (see the module docs)."""
     eps = float(cpg_kernel.EPSILON)
 
     @wp.func
     def cmul(a: wp.vec2d, b: wp.vec2d) -> wp.vec2d:
         return wp.vec2d(a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0])
+
+    @wp.func
+    def update(
+        world: int, first: int, n: int, k: int, r0: int, consts: wp.array(dtype=wp.float64),
+        node: wp.array3d(dtype=wp.float64), rot: wp.array2d(dtype=wp.vec2d),
+        z: wp.array2d(dtype=wp.vec2d), zk: wp.vec2d, zo: wp.vec2d,
+    ) -> wp.vec2d:  # fmt: skip
+        one = wp.float64(1.0)
+        e = wp.float64(eps)
+        acc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+        for j in range(k, n):
+            acc = acc + cmul(rot[world, r0 + k * n + j], z[world, first + j])
+        t2 = one + e - (zo[0] + e) / (wp.abs(zo[0]) + e) * node[world, first + k, 1]
+        r2 = zk[0] * zk[0] + zk[1] * zk[1]
+        k1 = wp.vec2d(one + consts[1] - r2 * r2 * consts[1], node[world, first + k, 0] / t2)
+        acc = acc + cmul(k1, zk)
+        for j in range(k):
+            acc = acc + cmul(rot[world, r0 + k * n + j], z[world, first + j])
+        lo = zo * consts[0] + zk
+        return wp.vec2d(
+            wp.clamp(acc[0], lo[0] - consts[2], lo[0] + consts[2]),
+            wp.clamp(acc[1], lo[1] - consts[2], lo[1] + consts[2]),
+        )
+
+    return update
+
+
+@functools.cache
+def _kernels(wp: Any) -> Any:
+    update = _node_update(wp)
 
     @wp.kernel
     def cpg_call(
@@ -144,40 +177,20 @@ def _kernels(wp: Any) -> Any:
         world, net = wp.tid()
         first = nets[net, 0]
         n = nets[net, 1]
-        r0 = nets[net, 2]
-        dt = consts[0]
-        dt_alpha = consts[1]
-        width = consts[2]
-        one = wp.float64(1.0)
-        e = wp.float64(eps)
         for _step in range(advance[counter[0]]):
             for k in range(n):
-                i = first + k
-                zk = z[world, i]
-                zo = z_old[world, i]
-                acc = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
-                for j in range(k, n):
-                    acc = acc + cmul(rot[world, r0 + k * n + j], z[world, first + j])
-                t2 = one + e - (zo[0] + e) / (wp.abs(zo[0]) + e) * node[world, i, 1]
-                r2 = zk[0] * zk[0] + zk[1] * zk[1]
-                k1 = wp.vec2d(one + dt_alpha - r2 * r2 * dt_alpha, node[world, i, 0] / t2)
-                acc = acc + cmul(k1, zk)
-                for j in range(k):
-                    acc = acc + cmul(rot[world, r0 + k * n + j], z[world, first + j])
-                lo = zo * dt + zk
-                new = wp.vec2d(
-                    wp.clamp(acc[0], lo[0] - width, lo[0] + width),
-                    wp.clamp(acc[1], lo[1] - width, lo[1] + width),
-                )
-                z_old[world, i] = zk
-                z[world, i] = new
+                zk = z[world, first + k]
+                zo = z_old[world, first + k]
+                new = update(world, first, n, k, nets[net, 2], consts, node, rot, z, zk, zo)
+                z_old[world, first + k] = zk
+                z[world, first + k] = new
         smoothing = consts[3]
         for k in range(n):
             i = first + k
             target = node[world, i, 2] * z[world, i][1] + node[world, i, 3]
             target = wp.clamp(target, consts[4], consts[5])
             target = wp.float64(wp.float32(target))  # the host path's float32 targets
-            blended = held[world, i] * (one - smoothing) + target * smoothing
+            blended = held[world, i] * (wp.float64(1.0) - smoothing) + target * smoothing
             blended = wp.clamp(blended, low[i], high[i])
             held[world, i] = blended
             ctrl[world, i] = wp.float32(blended)
