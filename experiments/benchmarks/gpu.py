@@ -33,7 +33,8 @@ per-size figures, ``device``, ``worlds``, ``steps``, ``versions`` (python, mujoc
 mujoco_warp, warp, numpy), ``card`` (name, memory, NVIDIA driver: nvidia-smi's, else Warp's;
 None on the CPU), ``date``, threads and load average. ``--coevolution KxP`` adds a row of
 one generation of K different bodies with P brains each, packed on the device, against the
-local executor on all CPU threads (`_coevolution.py`).
+local executor on all CPU threads (`_coevolution.py`); with ``--coevolution-only`` that row
+alone (its JSON: ``coevolution`` and the machine's description).
 
     python experiments/benchmarks/gpu.py [--worlds 1024,4096,16384] [--device cuda|cpu]
         [--duration 15] [--repeats 2] [--cpu-evals 64] [--rate-hz 10] [--seed 0] [--quick]
@@ -93,11 +94,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--coevolution", help="K bodies x P brains packed, e.g. 32x512")
     parser.add_argument("--coevolution-duration", type=float, default=8.0)
     parser.add_argument("--coevolution-cpu-brains", type=int, default=8)
+    parser.add_argument(
+        "--coevolution-only", action="store_true", help="only the --coevolution row (no gecko)"
+    )
     args = parser.parse_args(argv)
     try:
         args.coevolution = parse_coevolution(args.coevolution)
     except ValueError as exc:
         parser.error(str(exc))
+    if args.coevolution_only and not args.coevolution:
+        parser.error("--coevolution-only needs --coevolution KxP")
     if args.quick:
         args.device, args.worlds, args.duration = "cpu", "2,4", 0.2
         args.repeats, args.cpu_evals = 1, 4
@@ -400,6 +406,11 @@ def main(argv: list[str] | None = None) -> int:
         f"Rollout(nthread={context['threads']}) of {args.cpu_evals}; best of {args.repeats}; "
         f"load average {context['load_before']}"
     )
+    if args.coevolution_only:  # the packed row alone, with the machine's description
+        row = coevolution_row(args, evaluator, context["threads"])
+        keys = ("device_name", "card", "versions", "date", "threads")
+        print(json.dumps({"coevolution": row, **{key: context[key] for key in keys}}))
+        return 0
     sizes = [size_row(args, worlds, evaluator) for worlds in args.worlds]
     cpu = cpu_row(args, context["threads"])
     context["extra_rows"] = {}

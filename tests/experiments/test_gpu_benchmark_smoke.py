@@ -62,3 +62,15 @@ def test_gpu_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     assert "--worlds must be comma-separated integers" in result.stderr
     result = run_benchmark("gpu.py", "--coevolution", "1x8", cwd=tmp_path, timeout=600)
     assert result.returncode == 2 and "--coevolution needs K >= 2 bodies" in result.stderr
+
+
+def test_gpu_benchmark_runs_the_coevolution_row_alone(tmp_path: Path) -> None:
+    args = ["--quick", "--coevolution", "2x2", "--coevolution-duration", "0.2"]
+    result = run_benchmark(
+        "gpu.py", *args, "--coevolution-only", "--coevolution-cpu-brains", "1", cwd=tmp_path
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    summary = json.loads(result.stdout.strip().splitlines()[-1])
+    assert set(summary) == {"coevolution", "device_name", "card", "versions", "date", "threads"}
+    assert summary["coevolution"]["cpu_evals"] == 2 and summary["coevolution"]["speedup"] > 0
+    assert "bare stepping" not in result.stdout  # no gecko rows
