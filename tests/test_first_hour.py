@@ -139,7 +139,7 @@ def test_printed_commands_name_the_environments_ariel(printed_run) -> None:
 def test_ariel_command_is_the_venv_script_relative_to_the_current_folder(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from ariel import _cli_commands
+    from ariel.utils import _commands as _cli_commands
 
     scripts = tmp_path / ".venv" / "bin"
     scripts.mkdir(parents=True)
@@ -171,7 +171,7 @@ def test_ariel_command_is_the_venv_script_relative_to_the_current_folder(
 
 
 def test_load_run_command_quotes_an_odd_path() -> None:
-    from ariel._cli_commands import load_run_command
+    from ariel.utils._commands import load_run_command
 
     line = load_run_command("data/runs/it's $HOME", what="r")
     words = shlex.split(line)
@@ -294,7 +294,7 @@ def test_config_show_of_a_file_and_a_bad_file(
 
 
 def test_to_toml_writes_inline_tables_lists_and_odd_keys() -> None:
-    from ariel._cli_config import to_toml
+    from ariel.cli._config import to_toml
 
     config = {
         "name": 'a "quoted" name',

@@ -7,7 +7,7 @@ the current folder when they lie below it, ``.venv/bin/ariel``), ``ariel`` only 
 what the shell would find anyway.
 
 Here, in `ariel.utils`, so that every layer can print such a command: the CLI's run summary
-(`ariel._cli_commands`), the run folder's and the recordings' error messages and hints.
+(`ariel.cli`), the run folder's and the recordings' error messages and hints.
 """
 
 from __future__ import annotations

@@ -489,7 +489,7 @@ def test_names_from_folders_are_escaped_for_each_medium(
     """A campaign id and condition names with a newline, HTML, a formula, rich markup and
     mathtext: each stays one name in stats.md, README.md, compare.html, the CSVs, the figures
     and the terminal."""
-    from ariel._cli_campaign import _print_frame
+    from ariel.cli._campaign import _print_frame
 
     names = [CRAFTED, '=HYPERLINK("http://x","y")', "[/bold]$\\frac{$ \x1b[2J\x1b]0;t\x07"]
     runs = [synthetic_run(name, s, 1.0 + s + i) for i, name in enumerate(names) for s in range(2)]

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ariel._cli_types import positive_int
+from ariel.cli._types import positive_int
 
 __all__ = ["add_campaign_commands"]
 
@@ -49,7 +49,7 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str | 
     ) as exc:
         return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
     except KeyboardInterrupt as exc:
-        from ariel._cli_commands import ariel_line
+        from ariel.utils._commands import ariel_line
 
         folder = getattr(exc, "campaign_dir", None) or hint
         resume = f"; continue it with: {ariel_line('campaign', 'resume', folder)}" if folder else ""
@@ -71,7 +71,7 @@ def _show_campaign(result: Any) -> None:
         f"worker{'' if result.workers == 1 else 's'})"
     )
     print(f"campaign folder: {result.path}")
-    from ariel._cli_commands import ariel_command, load_run_command
+    from ariel.utils._commands import ariel_command, load_run_command
 
     ariel = ariel_command()
     # the last generation's best fitness, condition x seed

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from ariel import __version__
-from ariel._cli_types import integer_at_least, positive_int
+from ariel.cli._types import integer_at_least, positive_int
 from ariel.errors import ArielError, ConfigError
 
 EXIT_USAGE = 2
@@ -51,8 +51,8 @@ GENERATIONS_SHOWN = (
 
 def _how_to_look(path: Path) -> str:
     """The commands to look at a finished run, each working when pasted into a new shell here
-    (the environment's ``ariel`` and python named by path: `ariel._cli_commands`)."""
-    from ariel._cli_commands import ariel_command, load_run_command
+    (the environment's ``ariel`` and python named by path: `ariel.utils._commands`)."""
+    from ariel.utils._commands import ariel_command, load_run_command
 
     ariel = ariel_command()
     quoted = shlex.quote(str(path))
@@ -100,7 +100,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
         return _fail_with(exc)
     except KeyboardInterrupt as exc:
-        from ariel._cli_commands import ariel_line
+        from ariel.utils._commands import ariel_line
 
         folder = getattr(exc, "run_dir", None) or path_hint
         hint = f"; continue it with: {ariel_line('resume', folder)}" if folder else ""
@@ -159,7 +159,7 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     if args.yes and not args.prune:
         return _fail("--yes goes with --prune (it answers the question before deleting)")
     if args.prune:
-        from ariel._cli_prune import prune_runs
+        from ariel.cli._prune import prune_runs
 
         return prune_runs(folder, yes=args.yes)
     from ariel.recording._escape import terminal_text
@@ -268,7 +268,7 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
 def _cmd_quickstart(args: argparse.Namespace) -> int:
     import runpy
 
-    script = Path(__file__).resolve().parents[1] / "experiments" / "quickstart.py"
+    script = Path(__file__).resolve().parents[2] / "experiments" / "quickstart.py"
     if not script.exists():
         return _fail(f"{script} not found (run from a source checkout)")
     script_globals = runpy.run_path(str(script), run_name="ariel_quickstart")  # defines main()
@@ -291,8 +291,8 @@ def _headless_unless_display(without: str) -> None:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from ariel._cli_commands import python_command
     from ariel.recording._export import export
+    from ariel.utils._commands import python_command
 
     out = export(args.run_dir, args.eval_id, args.out)
     python = python_command()
@@ -553,11 +553,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_view)
 
-    from ariel._cli_campaign import add_campaign_commands
+    from ariel.cli._campaign import add_campaign_commands
 
     add_campaign_commands(sub, _add_executor_options)
 
-    from ariel._cli_config import add_config_commands
+    from ariel.cli._config import add_config_commands
 
     add_config_commands(sub)
 
@@ -593,7 +593,3 @@ def main(argv: Sequence[str] | None = None) -> int:
         if error is None:
             raise
         return _fail_with(error)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())
