@@ -33,12 +33,14 @@ from __future__ import annotations
 import functools
 import itertools
 import json
+import sys
 import time as _time
 from collections import OrderedDict
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco  # loaded with the engine already
 import numpy as np
 
 from ariel.errors import WarpUnavailableError
@@ -55,7 +57,14 @@ from ariel.evaluation._engine import (
     prepare_groups,
 )
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
-from ariel.evaluation._warp_cpg import CPGInputs, DeviceCPG, batch_key, cpg_inputs, net_inputs
+from ariel.evaluation._warp_cpg import (
+    CPGInputs,
+    DeviceCPG,
+    batch_key,
+    bump_kernel,
+    cpg_inputs,
+    net_inputs,
+)
 from ariel.evaluation._warp_cpg import device_cpg_reason as device_cpg_reason
 from ariel.evaluation._warp_pack import pack
 from ariel.evaluation._warp_packed import RobotView, pack_plan, packed_inputs, robot_views
@@ -199,11 +208,7 @@ def _kernels() -> Any:
         world, i = wp.tid()
         out_held[counter[0], world, i] = held[world, i]
 
-    @wp.kernel
-    def bump(counter: wp.array(dtype=wp.int32)):
-        counter[wp.tid()] = counter[wp.tid()] + 1
-
-    return record_state, record_cores, record_bodies, record_held, bump
+    return record_state, record_cores, record_bodies, record_held, bump_kernel(wp)
 
 
 # --------------------------------------------------------------------------------------------
@@ -238,6 +243,12 @@ class _Buffers:
     quat: Any | None  # (F, B, nbody) quat
     cpg: DeviceCPG | None
     graphs: dict[tuple[bool, bool, int], Any]  # (cpg call, frame, steps) -> captured graph
+
+    def zero_counters(self) -> None:
+        """The frame counter, and the device CPG's call counter, back to 0."""
+        self.counter.zero_()
+        if self.cpg is not None:
+            self.cpg.counter.zero_()
 
 
 @dataclass
@@ -336,8 +347,6 @@ class WarpEvaluator:
 
     def _note_unpacked(self, reasons: dict[str, int]) -> None:
         """One line on stderr for each new reason why bodies could not be packed."""
-        import sys
-
         for reason, count in reasons.items():
             if reason not in self._noted:
                 self._noted.add(reason)
@@ -380,8 +389,6 @@ class WarpEvaluator:
         worlds = body.worlds
         if worlds is not None and worlds.nworld == nworld and worlds.sizes == body.sizes:
             return worlds
-        import mujoco
-
         wp, mjw = warp_modules()
         body.worlds = None  # free the old buffers first
         model = body.layout.model
@@ -479,8 +486,6 @@ class WarpEvaluator:
 
     def _default_sizes(self, body: _DeviceBody) -> tuple[int, int]:
         """MuJoCo Warp's default ``(nconmax, njmax)`` per world for this model."""
-        import mujoco
-
         wp, mjw = warp_modules()
         model = body.layout.model
         with wp.ScopedDevice(self.device):
@@ -687,14 +692,9 @@ class WarpEvaluator:
         """
         wp, _ = warp_modules()
         for key in sorted(keys - bufs.graphs.keys()):
-            for _ in range(2):  # counters at 0 for the warm-up run and for the capture
-                bufs.counter.zero_()
-                if bufs.cpg is not None:
-                    bufs.cpg.counter.zero_()
+            bufs.zero_counters()  # in range for the warm-up run
             self._event_work(worlds, bufs, model, key)
-            bufs.counter.zero_()
-            if bufs.cpg is not None:
-                bufs.cpg.counter.zero_()
+            bufs.zero_counters()  # and for the capture (on the CPU device it runs too)
             with wp.ScopedCapture() as capture:
                 self._event_work(worlds, bufs, model, key)
             bufs.graphs[key] = capture.graph

@@ -31,7 +31,15 @@ import numpy as np
 
 from ariel.simulation.controllers import cpg_kernel
 
-__all__ = ["CPGInputs", "DeviceCPG", "batch_key", "cpg_inputs", "device_cpg_reason", "net_inputs"]
+__all__ = [
+    "CPGInputs",
+    "DeviceCPG",
+    "batch_key",
+    "bump_kernel",
+    "cpg_inputs",
+    "device_cpg_reason",
+    "net_inputs",
+]
 
 
 def device_cpg_reason(controller: Any) -> str | None:
@@ -195,11 +203,19 @@ def _kernels(wp: Any) -> Any:
             held[world, i] = blended
             ctrl[world, i] = wp.float32(blended)
 
+    return cpg_call, bump_kernel(wp)
+
+
+@functools.cache
+def bump_kernel(wp: Any) -> Any:
+    """A kernel adding 1 to a device counter (a call's or a frame's index, read by the
+    kernels after it in the same captured graph)."""
+
     @wp.kernel
     def bump(counter: wp.array(dtype=wp.int32)):
         counter[wp.tid()] = counter[wp.tid()] + 1
 
-    return cpg_call, bump
+    return bump
 
 
 class DeviceCPG:
