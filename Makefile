@@ -9,7 +9,7 @@ TORCH_SPEC ?= torch==2.13.0
 # Headless rendering backend on Linux (EGL); other systems keep MuJoCo's default.
 GL_ENV := $(if $(filter Linux,$(shell uname -s)),MUJOCO_GL=$${MUJOCO_GL:-egl},)
 
-.PHONY: run test setup gpu lab lint format clean gl
+.PHONY: run test setup gpu lab lint format clean gl docs docs-serve
 
 # The GPU extra (MuJoCo Warp, ~0.4 GB: `--executor gpu`, docs/gpu.md) is installed only where
 # it can be used or is asked for: GPU=1 (make setup GPU=1, or make gpu), or by default where
@@ -32,7 +32,7 @@ $(VENV)/.stamp-setup: pyproject.toml Makefile
 	@: >$(SETUP_LOG)
 	@$(PIP) install --upgrade pip $(LOGGED)
 	@$(PIP) install "$(TORCH_SPEC)" $(LOGGED)
-	@$(PIP) install -e ".[dev,distributed,analysis]" $(LOGGED)
+	@$(PIP) install -e ".[dev,distributed,analysis,docs]" $(LOGGED)
 	@touch $@
 
 # The GPU extra on top of the CPU setup (mujoco-warp, warp-lang).
@@ -66,6 +66,18 @@ run: setup gl
 test: setup gl
 	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q
 
+# The docs site (mkdocs.yml) into site/, warnings as errors (a broken link, a missing reference
+# or an API name mkdocstrings cannot resolve fails it). It runs the tutorials and the analysis
+# notebooks, on a small run and campaign it makes first under .cache/docs/ (a few minutes the
+# first time; reused after). Open site/index.html, or `make docs-serve` for a live preview.
+DOCS_ENV := $(GL_ENV) MPLBACKEND=Agg NO_MKDOCS_2_WARNING=1
+docs: setup gl
+	$(DOCS_ENV) $(VENV)/bin/mkdocs build --strict
+	@echo "the site is in site/: open site/index.html, or run make docs-serve"
+
+docs-serve: setup gl
+	$(DOCS_ENV) $(VENV)/bin/mkdocs serve --strict
+
 # ruff, then the layering of the package (import-linter: [tool.importlinter] in pyproject.toml).
 lint: setup
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check . && $(VENV)/bin/lint-imports
@@ -74,4 +86,4 @@ format: setup
 	$(VENV)/bin/ruff format . && $(VENV)/bin/ruff check --fix .
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache .import_linter_cache *.egg-info
+	rm -rf $(VENV) .pytest_cache .ruff_cache .import_linter_cache *.egg-info site .cache/docs .cache/mkdocs-jupyter

@@ -6,9 +6,17 @@ loads the co-evolution loop on first use; `console` (upstream ARIEL's shared ric
 ``from ariel import console``) is made on first use.
 """
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ariel._version import __version__
+
+if TYPE_CHECKING:  # the names as type checkers and the API reference see them
+    from rich.console import Console
+
+    from ariel.runs import run_experiment as run_experiment
+
+    console: Console
+    """Upstream ARIEL's shared rich console (``from ariel import console``), made on first use."""
 
 __all__ = ["__version__", "console", "run_experiment"]
 

@@ -89,6 +89,12 @@ def cannot_vary(encoder: str) -> NoReturn:
 
     Call it from such an encoder's ``mutate`` and ``crossover``: returning the input unchanged
     would let an evolutionary loop run on without ever changing a body.
+
+    Args:
+        encoder: The body encoder's registered name, quoted in the message.
+
+    Raises:
+        CannotVaryError: Always.
     """
     raise CannotVaryError(
         f"body encoder {encoder!r} cannot vary its genotypes; it serves fixed bodies "

@@ -72,6 +72,20 @@ if TYPE_CHECKING:
     import networkx as nx
     import numpy as np
 
+    # The checkers, loaded on first access (they run the engine, a layer above): as type
+    # checkers and the API reference see them.
+    from ariel.evaluation._checks import (
+        check_body_encoder as check_body_encoder,
+        check_controller as check_controller,
+        check_fitness as check_fitness,
+        check_world as check_world,
+    )
+    from ariel.evolution._optimizer_checks import (
+        check_all as check_all,
+        check_body_optimizer as check_body_optimizer,
+        check_brain_optimizer as check_brain_optimizer,
+    )
+
 __all__ = [
     "BUILTIN_PLUGINS",
     "ENTRY_POINT_GROUPS",
@@ -240,8 +254,36 @@ class FitnessFunction(Protocol):
 
 
 def fitness_function(*, maximise: bool, unit: str | None = None) -> Callable[[F], F]:
-    """Decorator that marks a plain function as a fitness function (sets ``maximise``, and
-    ``unit``: the fitness's unit, e.g. ``"m"``, None where it has none)."""
+    """Decorator that marks a plain function as a fitness function.
+
+    It sets the function's ``maximise`` and ``unit`` attributes and returns the function
+    itself; register it under a name to use it (``fitness_functions.register``).
+
+    Args:
+        maximise: True if larger values are better, False if smaller ones are.
+        unit: The fitness's unit, e.g. ``"m"`` (it labels the fitness axes of ``ariel
+            report``); None (the default) where it has none.
+
+    Returns:
+        The decorator: it takes the function and returns it, marked.
+
+    Raises:
+        TypeError: ``maximise`` is not a bool, or ``unit`` is neither a string nor None.
+
+    Example:
+        ```python
+        from ariel.plugins import fitness_function, fitness_functions
+
+
+        @fitness_functions.register("final_height")
+        @fitness_function(maximise=True, unit="m")
+        def final_height(record) -> float:  # the core's height at the end of the run
+            return float(record.core_pos[-1, 2])
+
+
+        print(final_height.maximise, final_height.unit)  # True m
+        ```
+    """
     if not isinstance(maximise, bool):
         raise TypeError(f"maximise must be True or False, not {maximise!r}")
     if unit is not None and not isinstance(unit, str):
@@ -730,7 +772,22 @@ def refresh_all() -> None:
 
 
 def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | None]]:
-    """Provenance of one plugin per kind, e.g. ``{"controller": "na_cpg", ...}``, for run.json."""
+    """Provenance of one plugin per kind, e.g. ``{"controller": "na_cpg", ...}``, for run.json.
+
+    Entry points are not imported for this.
+
+    Args:
+        names: Plugin name by kind; the kinds are keys of `REGISTRIES`.
+
+    Returns:
+        For each kind, `Registry.provenance` of its name: ``{"kind", "name", "source",
+        "object", "distribution"}``.
+
+    Raises:
+        ValueError: A kind that is not a key of `REGISTRIES`.
+        UnknownPluginError: A name no plugin of its kind has.
+        DuplicatePluginError: A name that two providers serve.
+    """
     result = {}
     for kind, name in names.items():
         if kind not in REGISTRIES:

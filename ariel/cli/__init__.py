@@ -439,7 +439,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("resume", help="continue a killed or interrupted run")
-    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     _add_executor_options(p)
     p.set_defaults(func=_cmd_resume)
 
@@ -463,7 +463,7 @@ def build_parser() -> argparse.ArgumentParser:
         "replay",
         help="re-simulate one evaluation of a run and check its stored fitness bit for bit",
     )
-    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     p.add_argument("eval_id", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'")
     p.add_argument("--rrd", metavar="FILE", help="write a full-rate Rerun recording")
     p.add_argument("--video", metavar="FILE", help="write an MP4 (camera tracking the robot)")
@@ -474,7 +474,7 @@ def build_parser() -> argparse.ArgumentParser:
         "export",
         help="write one evaluation as MJCF, genotype and controller JSON, and a replay script",
     )
-    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     p.add_argument("eval_id", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'")
     p.add_argument("out", metavar="DIR", help="a new or empty folder")
     p.set_defaults(func=_cmd_export)
@@ -482,7 +482,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "report", help="per-generation table and figures of a run (PNGs in RUN_DIR/report/)"
     )
-    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     p.add_argument(
         "--no-render", action="store_true", help="leave out the rendered image of the best body"
     )
@@ -495,7 +495,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(size and SHA-256), like `git fsck`: prints each damaged file; exit 0 when the folder "
         "is sound, 1 when damaged, 2 when it is not a run folder.",
     )
-    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     p.set_defaults(func=_cmd_verify)
 
     p = sub.add_parser("plugins", help="list the registered plugins of every kind")
@@ -511,7 +511,7 @@ def build_parser() -> argparse.ArgumentParser:
         "the best evaluation's recording.",
     )
     p.__class__ = _IntermixedParser  # EVAL_ID may follow the options
-    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     p.add_argument("eval_id", nargs="?", metavar="EVAL_ID", help="one evaluation")
     which = p.add_mutually_exclusive_group()
     which.add_argument(

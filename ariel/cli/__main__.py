@@ -4,4 +4,5 @@ import sys
 
 from ariel.cli import main
 
-sys.exit(main())
+if __name__ == "__main__":  # importing this module (a docs tool may) runs nothing
+    sys.exit(main())

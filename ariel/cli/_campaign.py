@@ -293,12 +293,12 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
     p.set_defaults(func=_cmd_campaign_run)
 
     p = actions.add_parser("resume", help="continue the unfinished runs of a campaign")
-    p.add_argument("campaign_dir", metavar="DIR")
+    p.add_argument("campaign_dir", metavar="DIR", help="a campaign folder")
     add_executor_options(p)
     p.set_defaults(func=_cmd_campaign_resume)
 
     p = actions.add_parser("status", help="condition x seed: status, generations, best")
-    p.add_argument("campaign_dir", metavar="DIR")
+    p.add_argument("campaign_dir", metavar="DIR", help="a campaign folder")
     p.set_defaults(func=_cmd_campaign_status)
 
     p = sub.add_parser(

@@ -7,7 +7,50 @@ load from their modules on first access, so ``import ariel.ec`` imports no datab
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as type checkers and the API reference see them
+    from ariel.ec._mutators import (
+        FloatMutator as FloatMutator,
+        IntegerMutator as IntegerMutator,
+    )
+    from ariel.ec._operation import (
+        EAOperation as EAOperation,
+        EAStep as EAStep,
+    )
+    from ariel.ec._rng import (
+        SEED as SEED,
+        set_seed as set_seed,
+    )
+    from ariel.ec._settings import (
+        DBHandlingMode as DBHandlingMode,
+        EASettings as EASettings,
+        config as config,
+    )
+    from ariel.ec.archive import (
+        Archive as Archive,
+    )
+    from ariel.ec.crossover import (
+        Crossover as Crossover,
+    )
+    from ariel.ec.ea import (
+        EA as EA,
+    )
+    from ariel.ec.generators import (
+        Floats as Floats,
+        FloatsGenerator as FloatsGenerator,
+        Integers as Integers,
+        IntegersGenerator as IntegersGenerator,
+    )
+    from ariel.ec.individual import (
+        Individual as Individual,
+        JSONIterable as JSONIterable,
+        JSONPrimitive as JSONPrimitive,
+        JSONType as JSONType,
+    )
+    from ariel.ec.population import (
+        Population as Population,
+    )
 
 # public name -> module that defines it (upstream ARIEL's ariel.ec exports, plus its older ones)
 _LAZY: dict[str, str] = {

@@ -62,6 +62,33 @@ class EAOperation:
     Decorate ``def mutate(population: Population, p: float = 0.2) -> Population`` with
     ``@EAOperation``; ``mutate(p=0.5)`` then returns a configured copy for the ``operations``
     list, and ``mutate(population)`` runs it. The signature is checked when decorating.
+
+    Args:
+        func: the operation, annotated ``(population: Population, ...) -> Population``
+            (string annotations from ``from __future__ import annotations`` are accepted).
+        *args: positional arguments bound after the population, passed on every run.
+        **kwargs: keyword arguments bound to every run; a call's own keyword arguments
+            override them.
+
+    Raises:
+        TypeError: ``func`` is not callable, lacks the ``Population`` annotations, or the bound
+            arguments do not fit its signature.
+
+    Example:
+        ```python
+        from ariel.ec import EAOperation, Individual, Population
+
+        @EAOperation
+        def kill_unfit(population: Population, threshold: float = 0.0) -> Population:
+            for ind in population:
+                ind.alive = ind.fitness >= threshold
+            return population
+
+        population = Population([Individual(), Individual()])
+        population[0].fitness, population[1].fitness = 0.2, 0.8
+        strict = kill_unfit(threshold=0.5)  # a configured copy, for an EA's operations list
+        print([ind.alive for ind in strict(population)])  # [False, True]
+        ```
     """
 
     def __init__(self, func: Callable[..., Population], *args: Any, **kwargs: Any) -> None:
@@ -93,7 +120,18 @@ class EAOperation:
 
 
 class EAStep:
-    """Upstream's older step wrapper: ``EAStep("name", func)`` or ``EAStep(func, name=, **kw)``."""
+    """Upstream's older step wrapper: ``EAStep("name", func)`` or ``EAStep(func, name=, **kw)``.
+
+    Args:
+        *args: either ``(name, operation)`` or ``(operation,)``; ``operation`` is any callable
+            ``Population -> Population`` (a returned plain list is turned into a `Population`).
+        name: the step's name; defaults to the operation's ``__name__``. A name given as the
+            first positional argument wins over this one.
+        **kwargs: keyword arguments passed to the operation on every call.
+
+    Raises:
+        TypeError: the positional arguments are neither form, or the operation is not callable.
+    """
 
     def __init__(self, *args: Any, name: str | None = None, **kwargs: Any) -> None:
         if len(args) == 2 and isinstance(args[0], str | type(None)):

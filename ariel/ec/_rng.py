@@ -44,6 +44,12 @@ def set_seed(seed: int) -> None:
     Python's ``random`` (used by ``Population.sample`` / ``shuffle`` without ``seed=``), NumPy's
     global RNG (used by the operators without ``seed=``) and, only if the script already
     imported it, torch's. Call it again whenever the seed changes.
+
+    Args:
+        seed: a non-negative integer (NumPy receives it modulo ``2**32``).
+
+    Raises:
+        ValueError: ``seed`` is not a non-negative integer (``bool`` included).
     """
     if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, not {seed!r}")

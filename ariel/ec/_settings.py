@@ -19,6 +19,20 @@ class EASettings(BaseSettings):
 
     ``output_folder`` defaults to ``./__data__`` of the working directory when the settings are
     made; nothing is created until an `EA` opens its database.
+
+    Attributes:
+        quiet: silence the EA's console output and progress bar (``ARIEL_EC_QUIET``).
+        is_maximisation: ``True`` if a higher fitness is better; decides which individual
+            `EA.get_solution` calls best.
+        first_generation_id: the generation number of the initial population; each step adds 1.
+        num_steps: generations `EA.run` performs (>= 0).
+        target_population_size: the population size the EA records as
+            ``EA.target_population_size`` for operations to read (>= 0); the engine itself
+            enforces no size.
+        output_folder: the folder of the database file; created when an `EA` opens it.
+        db_file_name: the database file's name inside ``output_folder``.
+        db_handling: what `EA` does when the database file already exists: ``"delete"`` it and
+            start afresh, or ``"halt"`` with ``FileExistsError``.
     """
 
     # A prefix, because upstream's bare names (QUIET, NUM_STEPS, ...) collide with unrelated

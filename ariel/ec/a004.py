@@ -14,8 +14,7 @@ from typing import Any, Literal
 from pydantic import Field
 from sqlmodel import col, select
 
-from ariel.ec import _settings
-from ariel.ec import ea as _ea
+from ariel.ec import _settings, ea as _ea
 from ariel.ec._db import session
 from ariel.ec._operation import EAStep
 from ariel.ec.individual import Individual
@@ -25,7 +24,25 @@ __all__ = ["EA", "EASettings", "EAStep", "Individual", "Population", "config"]
 
 
 class EASettings(_settings.EASettings):
-    """The current settings plus the old name for the number of generations."""
+    """The current settings plus the old name for the number of generations.
+
+    Each field can be overridden by an ``ARIEL_EC_<NAME>`` environment variable, as in
+    `ariel.ec.EASettings`.
+
+    Attributes:
+        quiet: silence the EA's console output and progress bar.
+        is_maximisation: ``True`` if a higher fitness is better.
+        first_generation_id: the generation number of the initial population.
+        num_steps: unused by the old `EA`, which reads ``num_of_generations`` instead.
+        target_population_size: copied to ``EA.target_population_size`` for operations to read
+            (>= 0).
+        output_folder: the folder of the database file.
+        db_file_name: the database file's name inside ``output_folder``.
+        db_handling: ``"delete"`` an existing database file, or ``"halt"`` with
+            ``FileExistsError``.
+        num_of_generations: generations `EA.run` performs when the old `EA` is not given
+            ``num_of_generations`` (>= 0).
+    """
 
     num_of_generations: int = Field(default=100, ge=0)
 
@@ -35,7 +52,21 @@ config: EASettings = EASettings()
 
 
 class EA(_ea.EA):
-    """The old constructor on the current engine (database path and handling from ``config``)."""
+    """The old constructor on the current engine (database path and handling from ``config``).
+
+    Settings not given as arguments (and the database path, database handling and fitness
+    direction always) come from this module's ``config``, not from ``ariel.ec.config``.
+
+    Args:
+        population: the initial individuals (a list or a `Population`).
+        operations: the per-generation pipeline: `EAStep`s, `EAOperation`s or plain functions
+            ``Population -> Population``, applied in order.
+        num_of_generations: generations `run` performs; ``None`` reads
+            ``config.num_of_generations``.
+        first_generation_id: the generation number of the initial population; ``None`` reads
+            ``config.first_generation_id``.
+        quiet: silence console output and the progress bar; ``None`` reads ``config.quiet``.
+    """
 
     def __init__(
         self,

@@ -31,7 +31,14 @@ def _check_mode(fitness_mode: str) -> None:
 
 
 class Archive:
-    """Queries on the SQLite database an `EA` wrote (``db_path``)."""
+    """Queries on the SQLite database an `EA` wrote (``db_path``).
+
+    Args:
+        db_path: the database file, e.g. an `EA`'s ``db_file_path``.
+
+    Raises:
+        FileNotFoundError: ``db_path`` is not an existing file.
+    """
 
     def __init__(self, db_path: Path | str) -> None:
         self.db_path = Path(db_path)

@@ -77,10 +77,28 @@ class EA:
             ``Population -> Population``.
         restart: continue from a previous run's database: a path (its last generation) or
             ``(path, generation)``. Starts at that generation + 1 unless told otherwise.
-        num_steps, first_generation_id, quiet, db_file_path, db_handling: fall back on
-            ``ariel.ec.config``.
+        num_steps: generations `run` performs (a whole number >= 0); falls back on
+            ``ariel.ec.config.num_steps``.
+        first_generation_id: the generation number of the initial population (each `step`
+            adds 1); falls back on ``restart``'s generation + 1, then on
+            ``ariel.ec.config.first_generation_id``.
+        quiet: silence console output and the progress bar; falls back on
+            ``ariel.ec.config.quiet``.
+        db_file_path: the SQLite file this run writes; falls back on
+            ``ariel.ec.config.db_file_path``. Its folder is created if missing.
+        db_handling: what to do if ``db_file_path`` exists: ``"delete"`` it or ``"halt"``;
+            falls back on ``ariel.ec.config.db_handling``.
         is_maximisation: the fitness direction for `get_solution`; falls back on
             ``ariel.ec.config.is_maximisation`` (upstream reads only the latter).
+
+    Raises:
+        ValueError: ``operations`` is missing, neither ``population`` nor ``restart`` is given,
+            ``num_steps`` is not a whole number >= 0, ``db_handling`` is unknown, or
+            ``restart`` is malformed, names ``db_file_path`` itself, or holds no evaluated
+            individual alive at that generation.
+        TypeError: an entry of ``operations`` is not callable.
+        FileExistsError: ``db_file_path`` exists and ``db_handling`` is ``"halt"``.
+        FileNotFoundError: the ``restart`` database does not exist.
     """
 
     def __init__(

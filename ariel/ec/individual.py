@@ -26,7 +26,15 @@ JSONIterable = Sequence[JSONType] | dict[str, JSONType]
 
 
 def to_json(value: Any) -> Any:
-    """``value`` as plain JSON data: numpy arrays become nested lists, numpy scalars numbers."""
+    """``value`` as plain JSON data: numpy arrays become nested lists, numpy scalars numbers.
+
+    Args:
+        value: any value; lists, tuples and dicts are converted recursively.
+
+    Returns:
+        The converted value: tuples become lists, anything else that is not numpy is returned
+            unchanged.
+    """
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
@@ -44,6 +52,18 @@ class Individual(SQLModel, table=True):
     Use the ``fitness``, ``genotype`` and ``tags`` properties; the raw columns (``fitness_``,
     ``genotype_``, ``tags_``) are for database queries. ``time_of_birth`` / ``time_of_death``
     are set by `EA` when it commits (first and last generation the individual was present).
+
+    Attributes:
+        id: the database row id; ``None`` until the individual is first saved.
+        alive: whether it belongs to the living population; an operation sets ``False`` to
+            remove it, and the EA fetches only living individuals for the next generation.
+        time_of_birth: the generation it was first committed in (``-1`` before that).
+        time_of_death: the last generation it was committed in (``-1`` before that).
+        requires_eval: ``True`` until a fitness is assigned through ``fitness``.
+        fitness_: the raw fitness column (``None`` before evaluation).
+        requires_init: ``True`` while no (non-empty) genotype was assigned through ``genotype``.
+        genotype_: the raw genotype column (JSON data, ``None`` before initialisation).
+        tags_: the raw tags column: a JSON dictionary of free-form annotations.
     """
 
     id: int | None = Field(default=None, primary_key=True)

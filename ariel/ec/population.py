@@ -41,7 +41,11 @@ def _check_order(sort: str) -> None:
 
 
 class Population(list):
-    """Ordered container of individuals: ``alive``, ``evaluated``, ``best(...)``, ``where(...)``."""
+    """Ordered container of individuals: ``alive``, ``evaluated``, ``best(...)``, ``where(...)``.
+
+    Args:
+        individuals: the individuals, in order; by default none.
+    """
 
     def __init__(self, individuals: Iterable[Individual] = ()) -> None:
         super().__init__(individuals)

@@ -7,7 +7,39 @@ Cheap to import: names are loaded from their modules on first access.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as type checkers and the API reference see them
+    from ariel.evaluation._checks import (
+        check_all as check_all,
+        check_body_encoder as check_body_encoder,
+        check_controller as check_controller,
+        check_fitness as check_fitness,
+        check_world as check_world,
+    )
+    from ariel.evaluation._engine import (
+        BodyBuildError as BodyBuildError,
+        TrajectoryRecord as TrajectoryRecord,
+        build as build,
+        evaluate as evaluate,
+        evaluate_batch as evaluate_batch,
+    )
+    from ariel.evaluation._task import (
+        BodySpec as BodySpec,
+        EvaluationResult as EvaluationResult,
+        EvaluationTask as EvaluationTask,
+    )
+    from ariel.evaluation._warp import (
+        WarpEvaluator as WarpEvaluator,
+    )
+    from ariel.evaluation.executors import (
+        EXECUTOR_KINDS as EXECUTOR_KINDS,
+        DaskExecutor as DaskExecutor,
+        SerialExecutor as SerialExecutor,
+        evaluation_threads as evaluation_threads,
+        make_executor as make_executor,
+        map_ordered as map_ordered,
+    )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {

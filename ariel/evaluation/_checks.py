@@ -169,6 +169,15 @@ def check_body_encoder(name: str, **options: Any) -> None:
     a new, different genotype, deterministically, and leaves its input unchanged; ``crossover``
     leaves its parents unchanged and gives a child that decodes. Encoders with ``evolvable =
     False``: ``mutate`` and ``crossover`` raise `NotImplementedError`.
+
+    Args:
+        name: The body encoder's registry name (an entry point's name works too).
+        **options: Keyword arguments passed to the encoder's factory, as in a config's body
+            options.
+
+    Raises:
+        PluginCheckError: The first broken part of the contract, in one line naming the plugin
+            (an exception raised by the encoder itself, or an unknown ``name``, included).
     """
     check = _Checker("body encoder", name)
     with check.step(_make_call(options)):
@@ -273,6 +282,15 @@ def check_world(name: str, **options: Any) -> None:
     Protocol (``spec`` is a ``mujoco.MjSpec``, ``spawn``); two worlds made with the same
     options and the gecko spawned in each compile to identical models (no hidden randomness);
     the gecko runs in it, stable, with a finite fitness.
+
+    Args:
+        name: The world's registry name (an entry point's name works too).
+        **options: Keyword arguments passed to the world's factory (a task's
+            ``world_options``).
+
+    Raises:
+        PluginCheckError: The first broken part of the contract, in one line naming the plugin
+            (an exception raised by the world itself, or an unknown ``name``, included).
     """
     from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
 
@@ -329,6 +347,15 @@ def check_controller(name: str, **options: Any) -> None:
     independent of the others (batch = single), and ``iter_targets`` (if any) yields the same
     in pieces. Closed loop: a policy maps an observation to ``(nu,)`` finite targets,
     deterministically. Evaluations of the gecko run stable and repeat bit for bit.
+
+    Args:
+        name: The controller's registry name (an entry point's name works too).
+        **options: Keyword arguments passed to the controller's factory (a task's
+            ``controller_options``).
+
+    Raises:
+        PluginCheckError: The first broken part of the contract, in one line naming the plugin
+            (an exception raised by the controller itself, or an unknown ``name``, included).
     """
     check = _Checker("controller", name)
     with check.step(_make_call(options)):
@@ -447,6 +474,15 @@ def check_fitness(name: str, **options: Any) -> None:
 
     Protocol (callable, bool ``maximise``); scoring a short gecko run (a read-only record)
     gives a finite float, the same value when scored again, and the value the engine reports.
+
+    Args:
+        name: The fitness function's registry name (an entry point's name works too).
+        **options: Keyword arguments passed to the function after the record (a task's
+            ``fitness_options``).
+
+    Raises:
+        PluginCheckError: The first broken part of the contract, in one line naming the plugin
+            (an exception raised by the function itself, or an unknown ``name``, included).
     """
     check = _Checker("fitness function", name)
     with check.step("get()"):
@@ -500,9 +536,13 @@ _CHECKERS: dict[str, Callable[[str], None]] = {
 def check_all() -> list[tuple[str, str, str | None]]:
     """Check every registered name of every kind, entry points included, with default options.
 
-    Returns ``(kind, name, error or None)`` per name, kinds in `REGISTRIES` order and names
-    sorted; nothing is raised for a broken plugin (an entry point that fails to load, or clashes
-    with another provider, is reported as its row's error).
+    Body encoders, worlds, controllers and fitness functions are checked (body and brain
+    optimizers are not). Nothing is raised for a broken plugin: an entry point that fails to
+    load, or clashes with another provider, is reported as its row's error.
+
+    Returns:
+        One ``(kind, name, error or None)`` row per name, kinds in `REGISTRIES` order and
+        names sorted; ``error`` is the one-line failure message, None for a plugin that passed.
     """
     report: list[tuple[str, str, str | None]] = []
     for kind, registry in REGISTRIES.items():

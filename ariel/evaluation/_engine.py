@@ -68,7 +68,20 @@ _BAD_WARNINGS = (
 
 @dataclass(frozen=True)
 class TrajectoryRecord:
-    """What a fitness function sees: the recorded frames of one evaluation."""
+    """What a fitness function sees: the recorded frames of one evaluation.
+
+    The frames are the result's (`EvaluationResult`): every ``record_every`` physics steps,
+    first at t = 0 and last at the end of the run; ``T`` frames, ``nu`` actuators.
+
+    Attributes:
+        time: ``(T,)`` simulated seconds of the frames, from 0.
+        core_pos: ``(T, 3)`` world position of the centre of the core geom, in metres.
+        joint_target: ``(T, nu)`` the control in force at each frame (after smoothing and
+            clipping to the actuator ranges).
+        joint_angle: ``(T, nu)`` the angle of each actuated joint, in radians.
+        target: The world's target position (its ``target_position``), or None for a world
+            without one.
+    """
 
     time: np.ndarray  # (T,)
     core_pos: np.ndarray  # (T, 3)
@@ -155,8 +168,24 @@ def build(task: EvaluationTask) -> BuiltBody:
     """Compile ``task``'s body in its world (cached per process by body, world, spawn and
     settle); with ``task.settle`` the model's reset pose is the settled one (`settle_model`).
 
-    Raises `BodyBuildError` when the genotype cannot become a body; unknown plugin names and
-    options the encoder or world rejects raise their own errors (the caller's mistakes).
+    Only the task's body, world, spawn pose and ``settle`` matter; its controller, params and
+    timing are not read. The last few bodies built are cached, so a repeated call is cheap.
+
+    Args:
+        task: The evaluation task whose body to build.
+
+    Returns:
+        The body built: its compiled ``model`` (a ``mujoco.MjModel``; the robot's names are
+        prefixed ``robot1_``), morphology ``descriptors``, the indices and names the engine
+        reads every frame, the actuator ranges, the world's ``target`` and the initial state.
+        The cache shares it: don't change it.
+
+    Raises:
+        BodyBuildError: The genotype cannot become a body (decoding, construction, spawning
+            or compiling failed; the cause is chained).
+        UnknownPluginError: No body encoder or world of that name.
+        TypeError: The encoder or world rejected the options (an unknown keyword).
+        ValueError: The encoder or world rejected an option's value.
     """
     key = _build_key(task)
     cached = _BUILD_CACHE.get(key)
@@ -663,10 +692,41 @@ def evaluate_batch(
     """Evaluate many tasks, compiling each body once; results in input order.
 
     Tasks that share a body, world, controller and timing run as one batch: open-loop ones in a
-    single threaded rollout over ``nthread`` threads (default: `evaluation_threads`, this
-    process's share of the CPUs). Every group is checked before any physics runs: unknown
-    plugin names, options a plugin rejects and wrong parameter counts raise. A body that cannot
+    single threaded rollout. Every group is checked before any physics runs. A body that cannot
     be built gives ``error`` results, unstable physics ``unstable`` ones.
+
+    Args:
+        tasks: The evaluation tasks, in any mix of bodies, worlds and controllers.
+        nthread: Threads of an open-loop batch's rollout (at most one per task of the batch);
+            None (the default): `evaluation_threads`, this process's share of the CPUs.
+
+    Returns:
+        One `EvaluationResult` per task, in the order of ``tasks``.
+
+    Raises:
+        TypeError: An item of ``tasks`` is not an `EvaluationTask`, or a plugin rejected its
+            options (an unknown keyword).
+        UnknownPluginError: A plugin name that nothing provides.
+        ValueError: A task's params do not number the controller's ``num_parameters`` for its
+            body, or a plugin rejected an option's value.
+
+    Example:
+        ```python
+        import numpy as np
+
+        from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate_batch
+        from ariel.plugins import controllers
+
+        body = BodySpec("prebuilt", "gecko")
+        model = build(EvaluationTask(body=body)).model
+        params = controllers.make("na_cpg").random_parameters(model, np.random.default_rng(1), 4)
+        tasks = [
+            EvaluationTask(body=body, params=p, duration=2.0, eval_id=f"c{i}")
+            for i, p in enumerate(params)
+        ]
+        for result in evaluate_batch(tasks):
+            print(result.eval_id, result.status, round(result.fitness, 3))
+        ```
     """
     from ariel.evaluation._threads import evaluation_threads
 
@@ -756,5 +816,28 @@ def prepare_groups(
 
 
 def evaluate(task: EvaluationTask) -> EvaluationResult:
-    """Evaluate one task (a pure function of the task)."""
+    """Evaluate one task (a pure function of the task).
+
+    The same as ``evaluate_batch([task], nthread=1)[0]``: see `evaluate_batch` for what is
+    checked and raised.
+
+    Args:
+        task: The evaluation to run: body, world, controller with its params, fitness.
+
+    Returns:
+        The task's result: fitness, status and the recorded frames.
+
+    Example:
+        ```python
+        import numpy as np
+
+        from ariel.evaluation import BodySpec, EvaluationTask, evaluate
+
+        # The gecko has 8 actuators; the default controller, "na_cpg", takes 5 numbers each.
+        params = np.random.default_rng(0).uniform(-1.0, 1.0, 40)
+        task = EvaluationTask(body=BodySpec("prebuilt", "gecko"), params=params, duration=2.0)
+        result = evaluate(task)
+        print(result.status, result.fitness, result.core_pos[-1])
+        ```
+    """
     return evaluate_batch([task], nthread=1)[0]

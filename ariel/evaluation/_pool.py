@@ -49,8 +49,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
-from multiprocessing.connection import Connection
-from multiprocessing.connection import wait as wait_for_ready
+from multiprocessing.connection import Connection, wait as wait_for_ready
 from typing import Any, TypeVar
 
 from ariel.errors import CallTimeoutError, WorkerLostError
@@ -621,8 +620,10 @@ class LocalPool(cf.Executor):
         mp_context: the multiprocessing context that starts them (never use fork if the
             calling process runs threads).
         worker_env: variables every worker process is started with.
-        initializer, initargs: run once in every worker before its first call; if it raises,
-            the pool is broken (every future fails with ``BrokenProcessPool``).
+        initializer: run once in every worker before its first call, with ``initargs``; if it
+            raises, the pool is broken (every future fails with ``BrokenProcessPool``). None:
+            nothing is run.
+        initargs: the positional arguments ``initializer`` is called with.
         max_tasks_per_child: a worker exits after this many calls (a fresh one replaces it).
         max_retries: how many times a call whose worker died is tried again.
     """

@@ -41,6 +41,14 @@ class BodySpec:
 
     Examples: ``BodySpec("prebuilt", "gecko")``, ``BodySpec("nde", genotype, {"number_of_modules":
     20})``, ``BodySpec("graph", networkx.node_link_data(graph, edges="edges"))``.
+
+    Attributes:
+        encoder: Registered body encoder name, e.g. ``"prebuilt"``, ``"nde"`` or ``"graph"``;
+            a non-empty string (else `ValueError`).
+        genotype: What the encoder decodes into a body. Stored as plain data: numpy arrays and
+            scalars become lists and Python numbers, so the spec survives JSON and pickling.
+        options: Keyword arguments for the encoder's factory (default: none), stored as plain
+            data too.
     """
 
     encoder: str
@@ -64,12 +72,20 @@ class BodySpec:
 class EvaluationTask:
     """One evaluation: a body in a world, driven by a controller with fixed parameters.
 
-    Args:
+    Every field is checked when the task is made (`ValueError` naming the field), and the
+    options, params and spawn pose are stored as plain data.
+
+    Attributes:
         body: the body to build.
-        params: the controller's flat parameter vector.
+        params: the controller's flat parameter vector (finite numbers; stored as a tuple of
+            floats).
         controller: registered controller name, e.g. ``"na_cpg"``.
         world: registered world name, e.g. ``"flat"``.
         fitness: registered fitness name, e.g. ``"xy_displacement"``.
+        controller_options: keyword arguments for the controller's factory (default: none).
+        world_options: keyword arguments for the world's factory (default: none).
+        fitness_options: keyword arguments passed to the fitness function after the record
+            (default: none).
         duration: simulated seconds (measured, after ``settle``).
         settle: seconds the robot is first held at zero controls to come to rest; the
             evaluation (frames, fitness, ``time`` 0) starts from the pose it reaches, with zero
@@ -82,7 +98,9 @@ class EvaluationTask:
         record_bodies: also record every body's world pose (for 3D replays).
         seed: seeds everything stochastic in this evaluation (e.g. the CPG's initial state); an
             integer, stored as a Python ``int``.
-        spawn_position / spawn_rotation: where the robot is spawned (rotation: Euler degrees).
+        spawn_position: where the robot is spawned, ``(x, y, z)`` in metres, as given to the
+            world's ``spawn`` (in the built-in worlds z is extra height above the ground).
+        spawn_rotation: the robot's orientation at spawn, Euler angles in degrees.
         eval_id: the caller's id for this evaluation, copied into the result.
     """
 
@@ -165,11 +183,40 @@ class EvaluationResult:
     """What one evaluation produced.
 
     Arrays are recorded every ``record_every`` physics steps, first frame at t = 0 and last at
-    the end of the run: ``time (T,)``, ``core_pos (T, 3)`` (centre of the core geom, as the
-    tutorial's tracker reports it), ``joint_target (T, nu)`` (the control in force), ``joint_angle
-    (T, nu)``, and with ``record_bodies`` ``body_pos (T, nbody, 3)`` / ``body_quat (T, nbody, 4)``
-    (robot bodies only, names in ``body_names``). ``backend`` names the simulator that produced
-    it: ``"mujoco"`` (the CPU engine) or ``"mujoco-warp:<device>"`` (`ariel.evaluation._warp`).
+    the end of the run: ``T`` frames, ``nu`` actuators, ``nbody`` robot bodies (the world's own
+    bodies are not recorded).
+
+    Attributes:
+        eval_id: The task's ``eval_id``, copied.
+        fitness: The fitness function's value; for a failed evaluation (any status but
+            ``"ok"``) the worst fitness there is (``-inf`` when maximising, ``inf`` otherwise).
+        status: ``"ok"``; ``"unstable"`` (MuJoCo warned about bad accelerations, or the state
+            became NaN or infinite); ``"error"`` (the evaluation could not run: the body could
+            not be built, say, or its worker failed); or ``"invalid"`` (the fitness function
+            returned NaN or an infinity).
+        error: One line saying what went wrong; empty when the status is ``"ok"``. An
+            ``"error"`` result carries no frames (empty arrays).
+        descriptors: The body's morphology descriptors by name (empty for a body without a
+            graph form).
+        sim_time: Simulated seconds at the last recorded frame (the run's length, settling
+            not counted).
+        wall_time: Wall-clock seconds the simulation took for this task (a batch's time
+            divided by its tasks).
+        time: ``(T,)`` simulated seconds of the recorded frames, from 0.
+        core_pos: ``(T, 3)`` world position of the centre of the core geom, in metres (as the
+            tutorial's tracker reports it).
+        joint_target: ``(T, nu)`` the control in force at each frame (after smoothing and
+            clipping to the actuator ranges).
+        joint_angle: ``(T, nu)`` the angle of each actuated joint, in radians.
+        body_pos: ``(T, nbody, 3)`` world positions of the robot's bodies, or None when the
+            task's ``record_bodies`` is False.
+        body_quat: ``(T, nbody, 4)`` world orientations of the robot's bodies as quaternions
+            (w, x, y, z), or None when the task's ``record_bodies`` is False.
+        body_names: Names of the robot's bodies, in the order of ``body_pos``'s second axis.
+        joint_names: Names of the actuators, in the order of the last axis of
+            ``joint_target`` and ``joint_angle``.
+        backend: The simulator that produced the result: ``"mujoco"`` (the CPU engine) or
+            ``"mujoco-warp:<device>"`` (`ariel.evaluation._warp`).
     """
 
     eval_id: str

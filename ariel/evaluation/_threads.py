@@ -31,7 +31,12 @@ EVAL_THREADS_VARIABLE = "ARIEL_EVAL_THREADS"
 
 
 def default_workers() -> int:
-    """CPUs this process may use (its affinity mask where the OS has one, e.g. under SLURM)."""
+    """CPUs this process may use (its affinity mask where the OS has one, e.g. under SLURM).
+
+    Returns:
+        The number of CPUs in this process's affinity mask, or where the OS has none
+        ``os.cpu_count()``; at least 1.
+    """
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))
     return max(1, os.cpu_count() or 1)
@@ -57,6 +62,14 @@ def evaluation_threads() -> int:
     per core. In a Dask worker without that variable (a remote cluster): 1, because the number
     of workers sharing its machine is not known there; set the variable on those workers (e.g.
     in dask-jobqueue's ``job_script_prologue``) to give them more.
+
+    Returns:
+        The number of threads, from 1 to `default_workers`: `EVAL_THREADS_VARIABLE`'s value
+        where it is set (capped at the CPUs this process may use), else 1 in a Dask worker and
+        every CPU this process may use elsewhere.
+
+    Raises:
+        ValueError: `EVAL_THREADS_VARIABLE` is set to something that is not a whole number.
     """
     cpus = default_workers()
     value = os.environ.get(EVAL_THREADS_VARIABLE, "").strip()

@@ -63,9 +63,9 @@ from ariel.evaluation._warp_cpg import (
     batch_key,
     bump_kernel,
     cpg_inputs,
+    device_cpg_reason as device_cpg_reason,
     net_inputs,
 )
-from ariel.evaluation._warp_cpg import device_cpg_reason as device_cpg_reason
 from ariel.evaluation._warp_pack import pack
 from ariel.evaluation._warp_packed import RobotView, pack_plan, packed_inputs, robot_views
 

@@ -21,9 +21,11 @@ import numpy as np
 from ariel.plugins import fitness_function
 from ariel.simulation.controllers import cpg_kernel
 from ariel.simulation.controllers.observations import hinge_observation
-from ariel.simulation.tasks.gait_learning import sustained_displacement as _sustained
-from ariel.simulation.tasks.gait_learning import x_speed as _x_speed
-from ariel.simulation.tasks.gait_learning import xy_displacement as _xy_displacement
+from ariel.simulation.tasks.gait_learning import (
+    sustained_displacement as _sustained,
+    x_speed as _x_speed,
+    xy_displacement as _xy_displacement,
+)
 from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _distance_to_target
 from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning_in_place
 
@@ -48,10 +50,19 @@ class NaCPGController:
     """Open-loop NA-CPG, one oscillator per actuator (the tutorial's NaCPG, batched in numpy).
 
     Parameters: ``5 * nu`` (phase, w, amplitudes, ha, b). The oscillators' initial state is
-    drawn from the evaluation seed. Options: ``alpha`` (0.1, limit-cycle convergence), ``dt``
-    (0.01 s internal step), ``coupling`` ("full": every node sees every other), ``hard_bounds``
-    (±π/2). Targets are rounded to float32, as the tutorial's ``NaCPG`` returns them, so this
-    path and the tutorial path drive the robot with identical numbers.
+    drawn from the evaluation seed. The constructor's keywords are the controller's options (a
+    task's ``controller_options``). Targets are rounded to float32, as the tutorial's ``NaCPG``
+    returns them, so this path and the tutorial path drive the robot with identical numbers.
+
+    Args:
+        alpha: Rate of convergence to the limit cycle (default 0.1).
+        dt: The oscillators' internal integration step, in seconds (default 0.01).
+        coupling: ``"full"`` (default): every oscillator sees every other; ``"none"``:
+            independent oscillators. Anything else raises `ValueError`.
+        hard_bounds: ``(low, high)`` joint targets are clipped to, in radians (default ±π/2).
+        initial_amplitude: Half-width of the range random amplitudes are drawn from
+            (`random_parameters` draws them from U(-initial_amplitude, initial_amplitude);
+            default 1.0); finite and > 0, else `ValueError`.
     """
 
     open_loop = True
@@ -155,9 +166,15 @@ class NaCPGController:
 class MLPController:
     """Closed-loop brain: a one-hidden-layer tanh network from joint state and body tilt.
 
-    Input ``[q, qdot, g_body]`` (``2 nu + 3``), ``hidden`` tanh units (16), output
-    ``tanh(.) * output_scale`` (π/2) as joint targets. Parameters: both weight matrices and
-    biases, flattened (``(2nu+3)·h + h + h·nu + nu``).
+    Input ``[q, qdot, g_body]`` (``2 nu + 3``), ``hidden`` tanh units, output
+    ``tanh(.) * output_scale`` as joint targets. Parameters: both weight matrices and
+    biases, flattened (``(2nu+3)·h + h + h·nu + nu``). The constructor's keywords are the
+    controller's options (a task's ``controller_options``).
+
+    Args:
+        hidden: Number of hidden tanh units, h (default 16); at least 1, else `ValueError`.
+        output_scale: Largest joint target, in radians: outputs lie in
+            ``(-output_scale, output_scale)`` (default π/2).
     """
 
     open_loop = False
@@ -207,7 +224,14 @@ class MLPController:
 
 @fitness_function(maximise=True, unit="m")
 def xy_displacement(record: Any) -> float:
-    """Planar distance between the core's first and last recorded position (m)."""
+    """Planar distance between the core's first and last recorded position (m).
+
+    Args:
+        record: The evaluation's recorded frames (a `TrajectoryRecord`).
+
+    Returns:
+        The distance in the xy plane, in metres (maximise).
+    """
     return float(_xy_displacement(record.core_pos[0, :2], record.core_pos[-1, :2]))
 
 
@@ -217,13 +241,29 @@ def sustained_displacement(record: Any, window: float = 1.0) -> float:
 
     The locomotion measure of the default experiment (docs/methodology.md): a steady gait
     scores its displacement; a single fall or lunge in one window does not count.
+
+    Args:
+        record: The evaluation's recorded frames (a `TrajectoryRecord`).
+        window: Length of the pieces the run is cut into, in seconds (default 1.0; > 0,
+            else `ValueError`). A fitness option.
+
+    Returns:
+        The median piece's progress along the net direction, scaled to the whole run, in
+        metres; never negative. A run shorter than one window scores its `xy_displacement`.
     """
     return _sustained(record.time, record.core_pos, float(window))
 
 
 @fitness_function(maximise=True, unit="m/s")
 def x_speed(record: Any) -> float:
-    """Mean speed along x over the run, |Δx| / duration (m/s), as upstream."""
+    """Mean speed along x over the run, |Δx| / duration (m/s), as upstream.
+
+    Args:
+        record: The evaluation's recorded frames (a `TrajectoryRecord`).
+
+    Returns:
+        The speed in m/s (maximise); 0.0 for a record that spans no time.
+    """
     return float(
         _x_speed(record.core_pos[0, :2], record.core_pos[-1, :2], record.time[-1] - record.time[0])
     )
@@ -233,7 +273,13 @@ def x_speed(record: Any) -> float:
 def distance_to_target(record: Any, target: Any = None) -> float:
     """Planar distance from the core's final position to the target (m; minimise).
 
-    ``target`` (x, y) from the fitness options, else the world's target, else (2, 0).
+    Args:
+        record: The evaluation's recorded frames (a `TrajectoryRecord`).
+        target: The goal ``(x, y)`` in metres (a fitness option; a third coordinate is
+            ignored). None (the default): the world's target (``record.target``), else (2, 0).
+
+    Returns:
+        The distance in the xy plane, in metres (minimise).
     """
     goal = target if target is not None else record.target
     goal = (2.0, 0.0) if goal is None else goal
@@ -242,5 +288,14 @@ def distance_to_target(record: Any, target: Any = None) -> float:
 
 @fitness_function(maximise=True)
 def turning_in_place(record: Any) -> float:
-    """Total heading change of the core's path per metre of net displacement (upstream's)."""
+    """Total heading change of the core's path per metre of net displacement (upstream's).
+
+    Args:
+        record: The evaluation's recorded frames (a `TrajectoryRecord`).
+
+    Returns:
+        The sum of the absolute heading changes between successive displacements of the
+        core (radians; a full circle counts 2π) divided by ``1 + net displacement`` (m),
+        planar; 0.0 for fewer than two frames. Maximise: more turning, less drift.
+    """
     return float(_turning_in_place(record.core_pos[:, :2]))

@@ -108,8 +108,20 @@ def worker_environment(threads: int = 1, *, workers: int | None = None) -> dict[
     """The variables set in every worker process.
 
     The BLAS/OpenMP/numexpr thread limits (BLAS is 3-57x slower oversubscribed) and, given the
-    number of worker ``workers`` sharing this machine, `EVAL_THREADS_VARIABLE`: each one's share
-    of this process's CPUs, which `evaluation_threads` reads.
+    number of workers sharing this machine, `EVAL_THREADS_VARIABLE`: each one's share of this
+    process's CPUs, which `evaluation_threads` reads.
+
+    Args:
+        threads: The thread limit of BLAS, OpenMP and numexpr in each worker, >= 1.
+        workers: How many workers share this machine, >= 1; None (the default): leave
+            `EVAL_THREADS_VARIABLE` out.
+
+    Returns:
+        Variable name to value: every name of `THREAD_LIMIT_VARIABLES`, and with ``workers``
+        `EVAL_THREADS_VARIABLE` (this process's CPUs divided by ``workers``, at least 1).
+
+    Raises:
+        ValueError: ``threads`` or ``workers`` is not an integer >= 1.
     """
     if not _is_count(threads):
         raise ValueError(f"blas_threads must be an integer >= 1, got {threads!r}")
@@ -405,6 +417,21 @@ class DaskExecutor(BatchExecutor, cf.Executor):
     """``client.get_executor(pure=False)`` that also closes what it started on shutdown.
 
     ``pure=False``: Dask would otherwise run identical calls once and share the result.
+    `make_executor` makes one; make it yourself only to wrap a client you set up.
+
+    Args:
+        client: The `distributed.Client` the calls are submitted through.
+        cluster: The ``LocalCluster`` behind ``client`` that this executor is to close on
+            shutdown, or None (a scheduler run elsewhere).
+        close_client: Whether shutdown closes ``client`` too (False for a client the caller
+            owns and closes).
+        no_worker_timeout: Seconds the cluster may have no worker at all before `stalled`
+            gives a reason to stop (``math.inf``: wait for ever, with notes on stderr). None
+            (the default): `NO_WORKER_TIMEOUT_VARIABLE` if set, else `NO_WORKER_TIMEOUT_LOCAL`
+            with a ``cluster`` and `NO_WORKER_TIMEOUT_SCHEDULER` without.
+
+    Raises:
+        ConfigError: ``no_worker_timeout`` (or the variable) is not a number of seconds > 0.
 
     Attributes:
         client: the `distributed.Client`.
@@ -812,13 +839,27 @@ executor_kinds: Registry[type[ExecutorKind]] = Registry(
 
 
 def known_kinds() -> str:
-    """The executor kinds' names, for messages: the built-in ones first, in their order."""
+    """The executor kinds' names, for messages: the built-in ones first, in their order.
+
+    Returns:
+        The names joined by ``", "``: `EXECUTOR_KINDS`, then the registered ones sorted.
+    """
     extra = sorted(set(executor_kinds.names()) - set(EXECUTOR_KINDS))
     return ", ".join([*EXECUTOR_KINDS, *extra])
 
 
 def executor_kind(name: str) -> ExecutorKind:
-    """The `ExecutorKind` called ``name``; ValueError naming the known kinds if none is."""
+    """The `ExecutorKind` called ``name``.
+
+    Args:
+        name: An executor kind's name, built-in (`EXECUTOR_KINDS`) or registered.
+
+    Returns:
+        A new instance of that kind's class.
+
+    Raises:
+        ValueError: No kind is called ``name``; the message names the known kinds.
+    """
     if not isinstance(name, str) or name not in executor_kinds:
         raise ValueError(f"unknown executor kind {name!r}; known: {known_kinds()}")
     return executor_kinds.get(name)()
@@ -829,6 +870,14 @@ def check_settings(settings: Any) -> None:
 
     The settings every kind shares, then the kind's own (`ExecutorKind.check`; ``gpu`` also
     needs MuJoCo Warp and its device, ``executor.device``).
+
+    Args:
+        settings: An experiment config's ``[executor]`` section
+            (`ariel.evolution.ExecutorConfig`), or any object with its attributes.
+
+    Raises:
+        ExecutorSettingsError: The first bad setting; the message starts with its key
+            (``executor.workers: ...``).
     """
     kind_name, workers, scheduler = settings.kind, settings.workers, settings.scheduler
     try:
@@ -850,12 +899,38 @@ def check_settings(settings: Any) -> None:
 
 def planned_workers(settings: Any) -> tuple[int, bool]:
     """Batches an ``[executor]`` section will run at once, and whether they run on this
-    machine (for a memory estimate before anything starts)."""
+    machine (for a memory estimate before anything starts).
+
+    Args:
+        settings: An experiment config's ``[executor]`` section
+            (`ariel.evolution.ExecutorConfig`), or any object with its attributes.
+
+    Returns:
+        ``(batches, local)``: how many batches run at once (of the built-in kinds: 1 for
+        ``serial`` and ``gpu``, ``workers`` or else one per usable CPU for ``local`` and
+        ``dask``), and whether they run on this machine (False for ``dask`` with a
+        ``scheduler``).
+
+    Raises:
+        ValueError: ``settings.kind`` names no executor kind.
+    """
     return executor_kind(settings.kind).planned_workers(settings)
 
 
 def settings_options(settings: Any) -> dict[str, Any]:
-    """`make_executor`'s keyword arguments for an ``[executor]`` section (checked first)."""
+    """`make_executor`'s keyword arguments for an ``[executor]`` section (checked first).
+
+    Args:
+        settings: An experiment config's ``[executor]`` section
+            (`ariel.evolution.ExecutorConfig`), or any object with its attributes.
+
+    Returns:
+        The keyword arguments, ``kind`` not included (`ExecutorKind.options` of the kind):
+        ``workers`` always, and per kind ``max_retries``, ``scheduler`` or ``device``.
+
+    Raises:
+        ExecutorSettingsError: A bad setting (`check_settings`).
+    """
     check_settings(settings)
     return executor_kind(settings.kind).options(settings)
 
@@ -891,6 +966,32 @@ def make_executor(
             ``dask`` ``no_worker_timeout`` (seconds with no worker before a run stops, see
             `NO_WORKER_TIMEOUT_LOCAL`), and for a Dask ``LocalCluster`` any of its keyword
             arguments.
+
+    Returns:
+        The executor (``local`` starts its workers on demand, ``dask`` its ``LocalCluster``
+        at once); shut it down, or leave its ``with`` block, to stop what it started.
+
+    Raises:
+        ValueError: An unknown ``kind``, ``workers`` that is not an integer >= 1 (or not 1
+            for ``serial`` and ``gpu``), or ``scheduler`` for a kind other than ``dask``.
+        TypeError: Options the kind does not take.
+        ExecutorSettingsError: A bad setting in a config's ``[executor]`` section.
+        ImportError: ``dask`` without the ``distributed`` extra installed.
+
+    Example:
+        ```python
+        import numpy as np
+
+        from ariel.evaluation import BodySpec, EvaluationTask, make_executor
+
+        if __name__ == "__main__":  # workers import this script: run only in the main process
+            body = BodySpec("prebuilt", "gecko")
+            brains = np.random.default_rng(0).uniform(-1.0, 1.0, (4, 40))  # na_cpg, 8 joints
+            tasks = [EvaluationTask(body=body, params=p, duration=2.0) for p in brains]
+            with make_executor("local", workers=2) as executor:
+                results = executor.submit_batch(tasks).result()
+            print([round(r.fitness, 3) for r in results])
+        ```
     """
     if not isinstance(kind, str):  # a config's [executor] section
         return make_executor(kind.kind, **settings_options(kind))
@@ -913,6 +1014,19 @@ def submit_with_timeout(
     and replaced, and the future fails with `CallTimeoutError`. ``dask``: the same exception, but
     the call goes on in its worker's thread until it ends. ``serial`` (and any other executor):
     no limit, the call runs as it would.
+
+    Args:
+        executor: Any `concurrent.futures.Executor`; the limit applies where it has a
+            ``submit_with_timeout`` method (``local``, ``dask``).
+        timeout: The limit in seconds, > 0; None: no limit.
+        fn: The function to call (for a process pool or Dask, a top-level function).
+        *args: Positional arguments ``fn`` is called with.
+
+    Returns:
+        The call's future: its result, its exception, or `CallTimeoutError`.
+
+    Raises:
+        ValueError: ``timeout`` is not None and not > 0.
     """
     if timeout is not None and not timeout > 0:
         raise ValueError(f"timeout must be > 0 seconds or None, got {timeout!r}")
@@ -927,6 +1041,13 @@ def worker_fault(exc: BaseException) -> str | None:
 
     Knows `WorkerLostError` and `CallTimeoutError` (``local``, and the soft timeout on Dask) and
     Dask's ``KilledWorker``; any other exception is the call's own and gives None.
+
+    Args:
+        exc: The exception a call's future raised.
+
+    Returns:
+        ``"timeout: ..."`` or ``"worker lost: ..."``; None for an exception raised by the
+        call itself.
     """
     if isinstance(exc, CallTimeoutError):
         return f"timeout: {exc}"
@@ -964,8 +1085,31 @@ def map_ordered(
     """Submit ``fn(item)`` for every item now; iterate over the results in input order.
 
     A failed call raises its exception when its turn comes; the calls not yet started are
-    then cancelled (also when the iteration is abandoned). ``progress`` shows a tqdm bar that
-    counts finished calls in any order.
+    then cancelled (also when the iteration is abandoned).
+
+    Args:
+        executor: Where the calls run, e.g. one from `make_executor`.
+        fn: A top-level function of one argument (workers import it by name).
+        items: The arguments, one call each; all are submitted at once.
+        progress: Show a tqdm bar that counts finished calls, in any order.
+        desc: The bar's label; None: no label.
+
+    Returns:
+        An iterator over the results, in the order of ``items``.
+
+    Raises:
+        TypeError: ``fn`` is a lambda or a function defined inside another (workers cannot
+            import it).
+
+    Example:
+        ```python
+        import math
+
+        from ariel.evaluation import make_executor, map_ordered
+
+        with make_executor("serial") as executor:
+            print(list(map_ordered(executor, math.sqrt, [1, 4, 9])))  # [1.0, 2.0, 3.0]
+        ```
     """
     _check_shippable(fn)
     futures = [executor.submit(fn, item) for item in items]

@@ -7,7 +7,58 @@ Cheap to import: names are loaded from their modules on first access.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as type checkers and the API reference see them
+    from ariel.evolution._brain import (
+        BrainOptimizer as BrainOptimizer,
+        BrainRun as BrainRun,
+        ToldHistory as ToldHistory,
+        penalised_cost as penalised_cost,
+        replay_told as replay_told,
+    )
+    from ariel.evolution._cmaes import (
+        CMAES as CMAES,
+    )
+    from ariel.evolution._config import (
+        BodyConfig as BodyConfig,
+        BrainConfig as BrainConfig,
+        ConfigError as ConfigError,
+        ExecutorConfig as ExecutorConfig,
+        ExperimentConfig as ExperimentConfig,
+        RecordConfig as RecordConfig,
+        TaskConfig as TaskConfig,
+        WorldConfig as WorldConfig,
+        load_config as load_config,
+    )
+    from ariel.evolution._ga import (
+        GeneticAlgorithm as GeneticAlgorithm,
+    )
+    from ariel.evolution._map_elites import (
+        MapElites as MapElites,
+    )
+    from ariel.evolution._nevergrad import (
+        Nevergrad as Nevergrad,
+    )
+    from ariel.evolution._optimizer import (
+        BodyOptimizer as BodyOptimizer,
+        Proposal as Proposal,
+    )
+    from ariel.evolution._random_search import (
+        RandomSearch as RandomSearch,
+    )
+    from ariel.evolution._seeds import (
+        derive_rng as derive_rng,
+        derive_seed as derive_seed,
+    )
+    from ariel.evolution._state import (
+        Body as Body,
+    )
+    from ariel.runs._experiment import (
+        RunResult as RunResult,
+        resume_experiment as resume_experiment,
+        run_experiment as run_experiment,
+    )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {

@@ -73,7 +73,18 @@ class BrainOptimizer(Protocol):
 
 def penalised_cost(fitness: np.ndarray, maximise: bool) -> np.ndarray:
     """Costs to minimise: the fitness (negated when maximised), failed candidates (NaN, inf)
-    ranked last with a finite penalty (the batch's worst finite cost + 1e6)."""
+    ranked last with a finite penalty (the batch's worst finite cost + 1e6).
+
+    Args:
+        fitness: One batch's fitness values, one per candidate; NaN or infinite for a failed
+            evaluation.
+        maximise: Whether higher fitness is better (then the cost is the negated fitness).
+
+    Returns:
+        A new float64 array of costs, the same shape as ``fitness``, smaller is better; every
+        failed candidate gets the worst finite cost of the batch + 1e6 (1e6 when none is
+        finite).
+    """
     fitness = np.asarray(fitness, dtype=np.float64)
     finite = np.isfinite(fitness)
     cost = -fitness if maximise else fitness.copy()
@@ -107,8 +118,18 @@ class ToldHistory:
 
 def replay_told(learner: BrainOptimizer, state: dict[str, Any]) -> None:
     """Tell a fresh ``learner`` what ``state`` (`ToldHistory.plain`) says, asking again before
-    each tell; `ValueError` when it asks other candidates than the stored run did (e.g. made
-    by another version of its package), which would continue another run."""
+    each tell.
+
+    Args:
+        learner: A fresh learner, made with the same keywords (seed included) as the one that
+            gave ``state``; it is asked and told in place.
+        state: `ToldHistory.plain` data: ``"told"``, each iteration's fitness, and optionally
+            ``"asked"``, a fingerprint of each iteration's candidates to check against.
+
+    Raises:
+        ValueError: When the learner asks other candidates than the stored run did (e.g. made
+            by another version of its package), which would continue another run.
+    """
     from threadpoolctl import threadpool_limits
 
     asked = state.get("asked")
@@ -131,6 +152,24 @@ class BrainRun:
     A body without parameters (no actuators) gets one evaluation of the empty vector.
     ``best_params`` / ``best_fitness`` track the best candidate seen (in the fitness's own
     direction, ``maximise``).
+
+    Attributes:
+        n_params: The number of controller parameters (the length of every candidate); 0 for a
+            body without actuators, which gets no learner.
+        popsize: Candidates per iteration (the batch every `ask` gives; ``brain.popsize``).
+        maximise: Whether higher fitness is better.
+        x0: The learner's first mean, ``(n_params,)`` floats.
+        sigma0: The learner's initial step size (``brain.sigma0``); a learner without one
+            ignores it.
+        seed: The body's own seed: every draw of the learner derives from it.
+        optimizer: The name of the `BrainOptimizer` plugin (``brain.optimizer``), e.g.
+            ``"cmaes"`` or ``"nevergrad"``.
+        options: Extra keywords for the learner (``brain.optimizer_options``).
+        iteration: How many iterations (batches) have been told so far.
+        best_params: The best candidate told so far, or None before the first finite fitness.
+        best_fitness: The fitness of ``best_params``; NaN before the first finite fitness.
+        learner: The learner, made from the fields above when the run is created; None when
+            ``n_params`` is 0.
     """
 
     n_params: int

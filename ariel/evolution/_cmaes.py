@@ -31,7 +31,19 @@ class _Randn:
 
 class CMAES:
     """CMA-ES from ``x0`` with step size ``sigma0`` and ``popsize`` candidates an iteration
-    (full covariance); no options."""
+    (full covariance); no options.
+
+    Made by the plugin registry (``brain_optimizers.make("cmaes", ...)``) with the keywords
+    every brain optimizer takes.
+
+    Args:
+        x0: The first mean, ``(n_params,)`` floats; its length is the parameter count.
+        popsize: Candidates per iteration (each `ask` gives this many).
+        sigma0: The initial step size (standard deviation of the first samples).
+        seed: The body's seed; the learner's own generator (never numpy's global one) is
+            seeded from it.
+        maximise: Whether higher fitness is better (CMA-ES minimises the penalised cost).
+    """
 
     def __init__(
         self, *, x0: np.ndarray, popsize: int, sigma0: float, seed: int, maximise: bool

@@ -63,13 +63,26 @@ class _Section(BaseModel):
 class BodyConfig(_Section):
     """The body optimizer (ignored, but for ``genotype``, in a brain-only run).
 
-    ``optimizer``: a registered body optimizer (``ga``, ``map_elites``) with its
-    ``optimizer_options``; ``population`` bodies are asked for in generation 0 and
-    ``offspring`` in every later one.
+    ``population`` bodies are asked for in generation 0 and ``offspring`` in every later one.
 
-    ``genotype``: a fixed body, which makes the run brain-only: a prebuilt name ("gecko" for
-    encoder "prebuilt"), a genotype, or a ``.json`` / ``.npy`` file holding one (a path in a
-    TOML file is relative to that file). A run stores the genotype, not the path.
+    Attributes:
+        encoder: The body encoder plugin (``ariel plugins`` lists them), ``"nde"`` by default.
+        options: The encoder's options, e.g. ``{"number_of_modules": 12}``.
+        optimizer: A registered body optimizer: ``"ga"`` (the default), ``"map_elites"`` or
+            ``"random"``.
+        optimizer_options: The body optimizer's options (``map_elites``: ``measures``,
+            ``bins``, ``ranges``, ``qd_offset``).
+        genotype: A fixed body, which makes the run brain-only: a prebuilt name ("gecko" for
+            encoder "prebuilt"), a genotype, or a ``.json`` / ``.npy`` file holding one (a path
+            in a TOML file is relative to that file). A run stores the genotype, not the path.
+            None (the default): bodies evolve.
+        population: Bodies of generation 0; the GA's mu (bodies kept each generation), >= 1.
+        offspring: Children bred in each later generation (the GA's lambda), >= 1.
+        survivors: ``"plus"`` (mu + lambda: parents and children compete) or
+            ``"generational"`` (children only; needs ``offspring >= population``).
+        tournament: The tournament size of parent selection, >= 1.
+        crossover_rate: The probability (0 to 1) that a child has two parents (else one,
+            mutated).
     """
 
     encoder: Str = "nde"
@@ -85,7 +98,25 @@ class BodyConfig(_Section):
 
 
 class BrainConfig(_Section):
-    """A learner (``optimizer``, a brain optimizer; CMA-ES by default) for each new body."""
+    """A learner (``optimizer``, a brain optimizer; CMA-ES by default) for each new body.
+
+    Attributes:
+        controller: The controller plugin, ``"na_cpg"`` by default.
+        options: The controller's options (``na_cpg``: ``initial_amplitude``, ``coupling``,
+            ``alpha``, ``dt``, ``hard_bounds``).
+        optimizer: The brain optimizer plugin, each body's learner: ``"cmaes"`` (the default)
+            or ``"nevergrad"``.
+        optimizer_options: The brain optimizer's options (``nevergrad``: ``method``,
+            ``budget``; ``cmaes``: none).
+        popsize: Candidates per learner iteration (one batch of evaluations), >= 2.
+        iterations: Learner iterations per new body, >= 1.
+        sigma0: The learner's initial step size, > 0 (CMA-ES's sigma0; ``nevergrad``: the
+            mutation scale of its parameters).
+        inherit: Whether a child starts its learner from its first parent's best parameters
+            when their count matches (else from random parameters).
+        smoothing: Control smoothing in (0, 1] (the tutorial Controller's ``alpha``; 1 = none).
+        control_period: Physics steps between controller calls, >= 1.
+    """
 
     controller: Str = "na_cpg"
     options: dict[str, Any] = Field(default_factory=dict)
@@ -100,6 +131,13 @@ class BrainConfig(_Section):
 
 
 class WorldConfig(_Section):
+    """The world the robots are evaluated in.
+
+    Attributes:
+        name: The world plugin, ``"flat"`` by default.
+        options: The world's options.
+    """
+
     name: Str = "flat"
     options: dict[str, Any] = Field(default_factory=dict)
 
@@ -108,7 +146,17 @@ class TaskConfig(_Section):
     """What an evaluation measures: ``fitness`` (a registered fitness function, with its
     ``options``) over ``duration`` seconds, after the robot was held ``settle`` seconds at
     zero controls to come to rest (docs/methodology.md); a run made before ``settle`` existed
-    reads as ``settle = 0``."""
+    reads as ``settle = 0``.
+
+    Attributes:
+        fitness: The fitness plugin, ``"xy_displacement"`` by default (whether it is maximised
+            is the plugin's).
+        options: The fitness function's keyword arguments.
+        duration: Simulated seconds per evaluation (measured after the settle), positive and
+            finite.
+        settle: Seconds each robot is first held at zero controls to come to rest, >= 0.
+        spawn_position: Where robots are spawned, ``(x, y, z)`` in metres.
+    """
 
     fitness: Str = "xy_displacement"
     options: dict[str, Any] = Field(default_factory=dict)
@@ -120,15 +168,19 @@ class TaskConfig(_Section):
 class RecordConfig(_Section):
     """What a run records besides its evaluations and bodies tables (docs/records.md).
 
-    ``rerun``: Rerun recordings: every generation's evaluations in one ``evaluations.rrd``,
-    own recordings (below), ``run.rrd`` and the layouts.
-    ``bodies``: which evaluations also get their own recording with the bodies' poses over
-    time (a 3D replay): ``elites``
-    (the default: each new best of a body's brain run; any other evaluation's 3D replay is
-    made on demand by `ariel view`, re-simulating it exactly), ``all`` or ``none``. It never
-    changes a result (``all`` and ``elites`` build the same tasks), and a run's config (with
-    this key) is stored resolved in run.json, so the default's change from ``all`` to
-    ``elites`` leaves the config hash of every earlier run, and its resume, as it was.
+    Attributes:
+        rerun: Whether to write Rerun recordings: every generation's evaluations in one
+            ``evaluations.rrd``, own recordings (``bodies``), ``run.rrd`` and the layouts.
+        bodies: Which evaluations also get their own recording with the bodies' poses over
+            time (a 3D replay): ``"elites"`` (the default: each new best of a body's brain run;
+            any other evaluation's 3D replay is made on demand by `ariel view`, re-simulating
+            it exactly), ``"all"`` or ``"none"``. It never changes a result (``all`` and
+            ``elites`` build the same tasks), and a run's config (with this key) is stored
+            resolved in run.json, so the default's change from ``all`` to ``elites`` leaves the
+            config hash of every earlier run, and its resume, as it was.
+        rate_hz: Frames recorded per simulated second, > 0. Fitness functions see these
+            frames, so this is part of the experiment.
+        trajectories: Whether to write the trajectories table.
     """
 
     rerun: Bool = True
@@ -148,10 +200,19 @@ def _known_executor_kind(kind: str) -> str:
 class ExecutorConfig(_Section):
     """Where evaluations run (docs/executors.md); none of it changes a finished evaluation.
 
-    ``timeout``: seconds one evaluation may take before it is stopped and recorded as an
-    ``error`` (a call of k evaluations gets k times as long); ``local`` kills the worker, Dask
-    only stops waiting, ``serial`` has no timeout. ``max_retries``: how often an evaluation
-    whose worker process died is tried again (``local``, a Dask ``LocalCluster``).
+    Attributes:
+        kind: The executor: ``"serial"``, ``"local"`` (a process pool; the default),
+            ``"dask"``, ``"gpu"`` (MuJoCo Warp) or another registered kind.
+        workers: Worker processes, >= 1; None (the default): all CPUs.
+        scheduler: The address of a running Dask scheduler; None: none.
+        device: ``gpu`` only: MuJoCo Warp's device, ``"cuda"`` (the default) or ``"cpu"``
+            (Warp's CPU device; slow, for tests). Unlike the other kinds, ``gpu`` does change
+            results: float32 physics (docs/gpu.md).
+        timeout: Seconds one evaluation may take before it is stopped and recorded as an
+            ``error`` (a call of k evaluations gets k times as long); ``local`` kills the
+            worker, Dask only stops waiting, ``serial`` has no timeout.
+        max_retries: How often an evaluation whose worker process died is tried again
+            (``local``, a Dask ``LocalCluster``), >= 0.
     """
 
     # A name in `ariel.evaluation.executors.executor_kinds` (built-in or registered).
@@ -166,7 +227,22 @@ class ExecutorConfig(_Section):
 
 
 class ExperimentConfig(_Section):
-    """One experiment. ``generations`` counts the random first generation too."""
+    """One experiment: the whole validated config, as `load_config` makes it.
+
+    Attributes:
+        name: The experiment's name (letters, digits, ``_``, ``.``, ``-``); the run id starts
+            with it.
+        description: Free text.
+        seed: The run seed, 0 <= seed < 2**63; every random decision of the run derives from
+            it.
+        generations: Generations, >= 1, counting the random first generation too.
+        body: The body optimizer's section, ``[body]``.
+        brain: The brain learners' section, ``[brain]``.
+        world: The world's section, ``[world]``.
+        task: The evaluation task's section, ``[task]``.
+        record: What the run records besides its tables, ``[record]``.
+        executor: Where evaluations run, ``[executor]`` (it never enters the config hash).
+    """
 
     name: Str = Field("experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
     description: Str = ""
@@ -347,7 +423,33 @@ def load_config(
     source: str | Path | Mapping[str, Any] | ExperimentConfig | None = None,
     overrides: Sequence[str] = (),
 ) -> ExperimentConfig:
-    """A validated config from a TOML file, a dict or a config (None: the default experiment)."""
+    """A validated config from a TOML file, a dict or a config (None: the default experiment).
+
+    Args:
+        source: A TOML file's path; raw config data (a mapping, as a TOML file reads); an
+            `ExperimentConfig` (validated again, with ``overrides`` applied); or None, the
+            default experiment (``experiments/coevolve_flat.toml`` of this checkout, or the
+            built-in defaults with name ``coevolve_flat`` where that file is not installed).
+            A relative ``body.genotype`` file named in a TOML file is relative to that file.
+        overrides: ``key=value`` strings with dotted keys, as ``--set`` takes them (values
+            read as TOML, e.g. ``"brain.popsize=16"``), applied in order.
+
+    Returns:
+        The validated, frozen config.
+
+    Raises:
+        ConfigError: For a file that is missing or not a regular file, an unknown key, a value
+            of the wrong type or out of range, or a malformed override; one line naming the
+            dotted key.
+
+    Example:
+        ```python
+        from ariel.evolution import load_config
+
+        config = load_config(overrides=["generations=3", "brain.popsize=16"])
+        print(config.generations, config.brain.popsize)  # 3 16
+        ```
+    """
     if isinstance(source, ExperimentConfig):
         data: Mapping[str, Any] = source.to_plain()
     elif isinstance(source, Mapping):

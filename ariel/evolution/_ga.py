@@ -49,7 +49,23 @@ def breed(
 
 
 class GeneticAlgorithm:
-    """Tournament selection, crossover, mutation and mu+lambda (or generational) survival."""
+    """Tournament selection, crossover, mutation and mu+lambda (or generational) survival.
+
+    Made by the plugin registry (``body_optimizers.make("ga", ...)``) with the keywords every
+    body optimizer takes.
+
+    Args:
+        encoder: The run's body encoder plugin (its ``random_genotype``, ``crossover`` and
+            ``mutate`` make the genotypes).
+        seed: The run seed; every draw derives from it (`derive_rng`).
+        maximise: Whether higher fitness is better.
+        settings: The config's ``[body]`` section (a `BodyConfig`): its ``population``,
+            ``tournament``, ``crossover_rate`` and ``survivors`` are used.
+        **options: ``body.optimizer_options``; the GA takes none.
+
+    Raises:
+        TypeError: When any ``options`` are given.
+    """
 
     def __init__(
         self, *, encoder: Any, seed: int, maximise: bool, settings: Any, **options: Any

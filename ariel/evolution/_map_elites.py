@@ -147,7 +147,34 @@ def _check_options(
 
 
 class MapElites:
-    """A pyribs ``GridArchive`` of bodies, bred from uniformly drawn elites."""
+    """A pyribs ``GridArchive`` of bodies, bred from uniformly drawn elites.
+
+    Made by the plugin registry (``body_optimizers.make("map_elites", ...)``) with the keywords
+    every body optimizer takes; ``measures``, ``bins``, ``ranges`` and ``qd_offset`` come from
+    ``body.optimizer_options``.
+
+    Args:
+        encoder: The run's body encoder plugin (its ``random_genotype``, ``crossover`` and
+            ``mutate`` make the genotypes).
+        seed: The run seed; every draw derives from it (`derive_rng`).
+        maximise: Whether higher fitness is better.
+        settings: The config's ``[body]`` section (a `BodyConfig`): its ``crossover_rate`` is
+            used.
+        measures: The archive's axes: morphology descriptor names (columns of the bodies
+            table) or ``"n_joints"``; ``("num_limbs", "joints_ratio")`` by default.
+        bins: Cells per measure, integers >= 1; None: 8 each.
+        ranges: ``[low, high]`` per measure, ``low < high`` (a value outside is put in the edge
+            cell); None: the defaults of `DEFAULT_RANGES`, which must then cover every measure.
+        qd_offset: The fitness that counts as nothing in the QD-score (pyribs'
+            ``qd_score_offset``, in the fitness's unit); None: 0 for a maximised fitness. It
+            must be given for a minimised one.
+
+    Raises:
+        ValueError: For an unknown or empty list of measures, ``bins`` or ``ranges`` that do
+            not give one valid entry per measure, a measure without a default range when
+            ``ranges`` is None, or a ``qd_offset`` that is not a finite number (or is missing
+            for a minimised fitness).
+    """
 
     def __init__(
         self,

@@ -42,8 +42,28 @@ def _optimizer_class(method: Any) -> Any:
 
 
 class Nevergrad:
-    """Nevergrad's ``method`` from ``x0``; options ``method`` and ``budget`` (evaluations, for
-    methods that plan with one, such as ``NGOpt``; None by default: no budget)."""
+    """Nevergrad's ``method`` from ``x0``; options ``method`` and ``budget``.
+
+    Made by the plugin registry (``brain_optimizers.make("nevergrad", ...)``) with the keywords
+    every brain optimizer takes; ``method`` and ``budget`` come from
+    ``brain.optimizer_options``.
+
+    Args:
+        x0: The starting point, ``(n_params,)`` floats; its length is the parameter count.
+        popsize: Candidates per iteration (each `ask` gives this many); also the optimizer's
+            ``num_workers``.
+        sigma0: The mutation scale of the parameters (``ng.p.Array.set_mutation(sigma=...)``).
+        seed: The body's seed; the parametrization's own ``random_state`` is seeded from it.
+        maximise: Whether higher fitness is better (Nevergrad minimises the penalised cost).
+        method: The name of an optimizer in ``nevergrad.optimizers.registry``, e.g.
+            ``"TwoPointsDE"`` (the default), ``"NGOpt"``, ``"CMA"``, ``"PSO"``.
+        budget: Evaluations, for methods that plan with one, such as ``NGOpt``; None (the
+            default) gives no budget.
+
+    Raises:
+        ValueError: When ``method`` is not in Nevergrad's registry (the message names the
+            closest one), or ``budget`` is not a whole number >= 1.
+    """
 
     def __init__(
         self,

@@ -30,7 +30,13 @@ __all__ = ["BodyOptimizer", "Proposal", "ranked"]
 
 @dataclass(frozen=True)
 class Proposal:
-    """A genotype the optimizer asks to evaluate, and the bodies it was made from."""
+    """A genotype the optimizer asks to evaluate, and the bodies it was made from.
+
+    Attributes:
+        genotype: The genotype to build a body from, in the run's body encoder's format.
+        parent_ids: The ids of the bodies it was bred from (e.g. ``["b000003"]``, two for a
+            crossover); empty for a random genotype.
+    """
 
     genotype: Any
     parent_ids: list[str]

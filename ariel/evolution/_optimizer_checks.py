@@ -21,8 +21,12 @@ from typing import Any
 
 import numpy as np
 
-from ariel.evaluation._checks import CHECK_SEED, _Checker, _make_call
-from ariel.evaluation._checks import check_all as _check_engine_plugins
+from ariel.evaluation._checks import (
+    CHECK_SEED,
+    _Checker,
+    _make_call,
+    check_all as _check_engine_plugins,
+)
 from ariel.evolution._state import Body
 
 __all__ = ["check_all", "check_body_optimizer", "check_brain_optimizer"]

@@ -63,8 +63,7 @@ def live_bars(stream: TextIO, label: str, *texts: str) -> Any:
     """A started rich display of bars on ``stream`` (rich is imported only here): each row
     ``label``, its bar, done / total, then ``texts`` and the task's ``info`` field."""
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
-    from rich.progress import Progress as RichProgress
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress as RichProgress, TextColumn
 
     display = RichProgress(
         TextColumn(label),

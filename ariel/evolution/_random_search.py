@@ -29,7 +29,22 @@ __all__ = ["RandomSearch"]
 
 
 class RandomSearch:
-    """New random genotypes every generation; the best ``body.population`` bodies kept."""
+    """New random genotypes every generation; the best ``body.population`` bodies kept.
+
+    Made by the plugin registry (``body_optimizers.make("random", ...)``) with the keywords
+    every body optimizer takes.
+
+    Args:
+        encoder: The run's body encoder plugin (its ``random_genotype`` makes the genotypes).
+        seed: The run seed; random genotype i draws from ``derive_rng(seed, "body-init", i)``.
+        maximise: Whether higher fitness is better.
+        settings: The config's ``[body]`` section (a `BodyConfig`): its ``population`` (the
+            bodies kept) is used.
+        **options: ``body.optimizer_options``; random search takes none.
+
+    Raises:
+        TypeError: When any ``options`` are given.
+    """
 
     def __init__(
         self, *, encoder: Any, seed: int, maximise: bool, settings: Any, **options: Any

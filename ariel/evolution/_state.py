@@ -31,7 +31,30 @@ __all__ = [
 
 @dataclass
 class Body:
-    """One body: identity, genotype (plain data), lineage and its learned brain."""
+    """One body: identity, genotype (plain data), lineage and its learned brain.
+
+    Attributes:
+        number: The body's number, in order of birth (its id is ``body_id``, e.g.
+            ``"b000012"`` for 12).
+        genotype: The genotype, as plain data.
+        parent_ids: The ids of the bodies it was bred from; empty for a random genotype.
+        born: The generation it was born in.
+        status: ``"ok"``, or ``"error"`` when the genotype gives no buildable body.
+        error: Why the body could not be built (the first line of the error); ``""`` when
+            ``status`` is ``"ok"``.
+        n_params: The number of controller parameters (0 for a body without actuators).
+        n_joints: The number of actuated joints.
+        joint_names: The names of the actuated joints, in control order.
+        descriptors: The morphology descriptors (e.g. ``num_limbs``, ``joints_ratio``).
+        graph: The decoded robot graph as node-link JSON; ``""`` for a body without a graph
+            form (some prebuilt bodies) or one that could not be built.
+        fitness: The fitness of its best evaluation so far; NaN before its first finite one
+            (a failed body gets the worst fitness).
+        best_params: The controller parameters of that best evaluation; None before one.
+        best_eval_id: The id of that best evaluation, e.g. ``"b000012-i003-c005"``; ``""``
+            before one.
+        evaluations: How many evaluations the body has had.
+    """
 
     number: int
     genotype: Any

@@ -10,7 +10,71 @@ Cheap to import: names are loaded from their modules on first access.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as type checkers and the API reference see them
+    from ariel.recording._axes import (
+        DESCRIPTORS as DESCRIPTORS,
+        fitness_label as fitness_label,
+        integer_ticks as integer_ticks,
+    )
+    from ariel.recording._campaign import (
+        Campaign as Campaign,
+        load_campaign as load_campaign,
+    )
+    from ariel.recording._campaign_rerun import (
+        write_campaign_recording as write_campaign_recording,
+    )
+    from ariel.recording._compare import (
+        Comparison as Comparison,
+        compare as compare,
+    )
+    from ariel.recording._exported import (
+        ExportedRobot as ExportedRobot,
+        load_exported as load_exported,
+    )
+    from ariel.recording._files import (
+        UnsafePathError as UnsafePathError,
+    )
+    from ariel.recording._generation_rrd import (
+        write_generation_recording as write_generation_recording,
+    )
+    from ariel.recording._joint_names import (
+        joint_labels as joint_labels,
+    )
+    from ariel.recording._load import (
+        Run as Run,
+        list_runs as list_runs,
+        load_run as load_run,
+        population_after_selection as population_after_selection,
+    )
+    from ariel.recording._lock import (
+        RunInUseError as RunInUseError,
+        RunLock as RunLock,
+    )
+    from ariel.recording._manifest import (
+        verify_run as verify_run,
+    )
+    from ariel.recording._replay import (
+        ReplayResult as ReplayResult,
+        UnknownEvaluationError as UnknownEvaluationError,
+        replay as replay,
+    )
+    from ariel.recording._report import (
+        Report as Report,
+        make_report as make_report,
+    )
+    from ariel.recording._rerun import (
+        write_blueprint as write_blueprint,
+        write_evaluation_recording as write_evaluation_recording,
+        write_run_recording as write_run_recording,
+    )
+    from ariel.recording._run_folder import (
+        DamagedRunError as DamagedRunError,
+        NotARunError as NotARunError,
+        RunFolder as RunFolder,
+        RunStorageError as RunStorageError,
+    )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {

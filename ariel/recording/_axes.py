@@ -46,7 +46,11 @@ def descriptor_label(name: str) -> str:
 
 
 def integer_ticks(axis: Any) -> None:
-    """Ticks at whole numbers only on ``axis`` (an x or y `matplotlib.axis.Axis`): for counts."""
+    """Ticks at whole numbers only on ``axis``: for counts.
+
+    Args:
+        axis: An x or y `matplotlib.axis.Axis` (e.g. ``ax.xaxis``); changed in place.
+    """
     from matplotlib.ticker import MaxNLocator, ScalarFormatter
 
     # min_n_ticks=1: one whole-number tick rather than fractions on a narrow range (all 9s)
@@ -66,7 +70,18 @@ def fitness_unit(name: str) -> str | None:
 
 
 def fitness_label(name: str, maximise: bool | None = None, *, what: str = "fitness") -> str:
-    """``fitness: xy_displacement (m), higher is better``: an axis label."""
+    """``fitness: xy_displacement (m), higher is better``: an axis label.
+
+    Args:
+        name: The fitness function's name; ``""`` (or ``what`` itself) labels ``what`` alone.
+        maximise: Whether higher fitness is better, which the label then says; None says
+            nothing about the direction.
+        what: The quantity, e.g. ``"best fitness"``.
+
+    Returns:
+        ``what``, then ``: name`` and the fitness function's unit in parentheses where it is
+        known here, then the direction when ``maximise`` is given.
+    """
     unit = fitness_unit(name)
     text = (what if name in ("", what) else f"{what}: {name}") + (f" ({unit})" if unit else "")
     if maximise is not None:

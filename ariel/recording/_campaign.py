@@ -322,7 +322,24 @@ class Campaign:
 
 
 def load_campaign(path: str | Path) -> Campaign:
-    """The records of the campaign in ``path`` (a folder made by `ariel campaign run`)."""
+    """The records of the campaign in ``path`` (a folder made by `ariel campaign run`).
+
+    A run whose folder has no readable run.json yet (a campaign killed while it was being
+    made), or whose folder does not load (damaged), is left out of ``Campaign.runs``;
+    `Campaign.status` still lists it.
+
+    Args:
+        path: The campaign folder.
+
+    Returns:
+        The campaign: its ``campaign.json`` and its runs' records, with the joined
+        ``evaluations``, ``bodies`` and ``generations`` tables (columns ``condition`` and
+        ``seed`` first).
+
+    Raises:
+        NotACampaignError: When ``path`` has no readable ``campaign.json``, or one that no
+            campaign writes.
+    """
     path = Path(path)
     info = read_campaign_info(path)
     campaign = Campaign(path=path, info=info)

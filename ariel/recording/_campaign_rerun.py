@@ -43,7 +43,21 @@ _COLOURS = [
 
 def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
     """Write ``campaign.rrd`` and ``campaign.rbl`` of the campaign in ``campaign_dir`` from
-    its runs' finished generations; returns the recording's path."""
+    its runs' finished generations.
+
+    The recording holds every run's best-so-far fitness over its evaluations, one line per
+    run at ``/condition/<name>/seed/<n>``, coloured by condition; the blueprint lays it out.
+
+    Args:
+        campaign_dir: The campaign folder; both files are written into it, replacing any
+            earlier ones.
+
+    Returns:
+        The path of ``campaign.rrd``.
+
+    Raises:
+        NotACampaignError: When ``campaign_dir`` is not a campaign folder.
+    """
     from rerun.chunk import Chunk
 
     rr = _rr()

@@ -126,14 +126,36 @@ class RunCurve:
 class Comparison:
     """What `compare` found (and wrote, unless ``write=False``).
 
-    ``stats``: one row per measure and pair of conditions (`_compare_stats.pairwise_table`);
-    ``summary``: one row per condition (runs, median / mean / sd of each measure, QD medians);
-    ``omnibus``: one row per measure for more than two conditions; ``runs``: one row per run.
-    ``budget``: the evaluations every run was compared at; ``tests``: which tests and why;
-    ``notes``: warnings the reader must see (small n, unequal budgets, missing pairs);
-    ``about``: what was compared, (label, text) lines; ``settings``: the config values every
-    run shares; ``replaced``: ``out`` held an earlier comparison, which this one replaced.
     `table`, `summary_table` and `omnibus_table` give the tables as printed.
+
+    Attributes:
+        out: The folder the comparison was written to (or would be); None when there is
+            none (``write=False`` without ``out``).
+        title: What was compared: the campaign id, the pooled campaigns' ids joined by
+            ``" + "``, or ``"<n> runs"`` for plain run folders.
+        maximise: Whether higher fitness is better (from the runs' records).
+        fitness_fn: The name of the runs' fitness function.
+        conditions: The conditions' names, in the order their first run came.
+        runs: One row per run (a DataFrame): ``condition``, ``seed``, ``evaluations``,
+            ``compared_at``, the measures ``final_best`` and ``auc``, the QD columns where the
+            runs have them, and ``path``.
+        stats: One row per measure and pair of conditions (a DataFrame;
+            `_compare_stats.pairwise_table`).
+        figures: Figure name (``best_so_far``, ``final_best``, ``morphology``) -> its PNG
+            file; empty when nothing was written.
+        html: The path of ``compare.html``; None when nothing was written.
+        summary: One row per condition (a DataFrame): runs, median / mean / sd of each
+            measure, QD medians.
+        omnibus: One row per measure for more than two conditions (a DataFrame; no rows
+            otherwise).
+        budget: The evaluations every run was compared at.
+        tests: Which tests were used (paired or not) and why.
+        notes: Warnings the reader must see (small n, unequal budgets, missing pairs, a folder
+            given twice).
+        about: What was compared, as (label, text) lines.
+        settings: The config values every run shares (dotted key -> value as text).
+        readme: The path of ``README.md``; None when nothing was written.
+        replaced: Whether ``out`` held an earlier comparison, which this one replaced.
     """
 
     out: Path | None
@@ -794,17 +816,52 @@ def compare(
 ) -> Comparison:
     """Compare a campaign's conditions (one campaign folder, or several folders of one
     campaign file run on different seeds, pooled) or plain run folders (grouped by their
-    config difference, or by ``labels``). ``out``: default ``CAMPAIGN_DIR/compare`` for one
-    campaign (an earlier comparison there is replaced), else a new folder
-    ``compare-<date>-<time>`` in the current directory (`new_folder`); ``at_evaluations``:
-    compare every run after its first N evaluations (default: as many as the shortest run
-    made); ``write=False``: compute only (a notebook's table), write nothing.
+    config difference, or by ``labels``).
 
     A folder given twice (``R R``, ``R sub/../R``) counts once, and so does a copy of a run
     folder (the same run id, created at the same time, seed and config); a note says so.
-    ``labels``: run folder -> condition name (`LABEL`: 1 to 64 letters, digits, ``_ . -``),
-    for plain run folders only; runs with one label form one condition; every folder given
-    must have one. ``announce``: told one line before a long computation (`compare_runs`)."""
+
+    Args:
+        paths: One campaign folder, several folders of one campaign file (pooled), or run
+            folders; campaign and run folders cannot be mixed.
+        out: Where to write ``compare/``'s files. None (the default): ``CAMPAIGN_DIR/compare``
+            for one campaign (an earlier comparison there is replaced), else a new folder
+            ``compare-<date>-<time>`` in the current directory (`new_folder`).
+        at_evaluations: Compare every run after its first N evaluations; None (the default):
+            as many as the shortest run made.
+        write: False computes only (a notebook's table) and writes nothing.
+        labels: Run folder -> condition name (`LABEL`: 1 to 64 letters, digits, ``_ . -``),
+            for plain run folders only; runs with one label form one condition; every folder
+            given must have one. None: conditions are named by their config difference.
+        announce: Told one line before a long computation (more than `MANY_CONDITIONS`
+            conditions, `compare_runs`), e.g. ``print``; None says nothing.
+
+    Returns:
+        The comparison: its tables, notes and (when written) the paths of its files.
+
+    Raises:
+        CompareError: For no paths, campaign and run folders mixed, labels that do not name
+            every run folder once, runs that cannot be compared (no finished generation,
+            different fitness functions or directions, ...), ``at_evaluations`` below 1 or
+            beyond a run's total, or an ``out`` that is a file or holds other files.
+        UnsafePathError: When ``out`` is a symbolic link.
+        NotARunError: When a path is neither a campaign nor a run folder (or is damaged).
+
+    Example:
+        Compare the conditions of a campaign folder (here the last by name under
+        ``data/campaigns``) without writing anything:
+
+        ```python
+        from pathlib import Path
+
+        from ariel.recording import compare
+
+        campaign = max(Path("data/campaigns").iterdir())
+        comparison = compare([campaign], write=False)
+        print(comparison.table())  # the pairwise statistics, as `ariel compare` prints them
+        print(comparison.notes)
+        ```
+    """
     paths = [Path(p) for p in paths]
     if not paths:
         raise CompareError("give a campaign folder or run folders to compare")

@@ -25,13 +25,27 @@ __all__ = ["ExportedRobot", "load_exported"]
 
 @dataclass
 class ExportedRobot:
-    """A compiled model and its data, the controller to hand ``mujoco.set_mjcb_control``
-    (``controller.set_control``), and the evaluation's simulated seconds; what the run
-    recorded of it: its ids, its fitness (and the fitness function's name) and where the core
-    ended (``[x, y, z]``, None where the run kept no trajectories).
+    """An exported robot, ready to simulate, and what the run recorded of its evaluation.
 
     ``mujoco.set_mjcb_control(robot.set_control)`` drives it with ``controller`` and keeps
-    the frames its fitness function scores: `replayed_fitness` after `simple_runner`."""
+    the frames its fitness function scores: `replayed_fitness` after `simple_runner`.
+
+    Attributes:
+        model: The compiled `mujoco.MjModel` of the world with the robot spawned, held at
+            rest for the run's settle time first, as the evaluation was.
+        data: A fresh `mujoco.MjData` of ``model``.
+        controller: The controller (`Controller`) to hand ``mujoco.set_mjcb_control``
+            (``controller.set_control``; `set_control` also keeps the fitness's frames).
+        duration: The evaluation's simulated seconds.
+        eval_id: The evaluation's id, e.g. ``"b000052-i005-c002"``.
+        run_id: The id of the run it came from.
+        fitness: The fitness the run recorded; NaN where the export does not say.
+        fitness_fn: The name of the run's fitness function.
+        recorded_core: Where the run recorded the core at the end, ``[x, y, z]`` in metres;
+            None where the run kept no trajectories.
+        fitness_unit: The fitness function's unit (e.g. ``"m"``); ``""`` where it is unknown
+            here or the export does not say how the run recorded frames.
+    """
 
     model: Any
     data: Any
@@ -135,7 +149,36 @@ def _read(folder: Path, name: str) -> dict[str, Any]:
 
 
 def load_exported(folder: str | Path) -> ExportedRobot:
-    """The exported evaluation in ``folder`` (``genotype.json``, ``controller.json``)."""
+    """The exported evaluation in ``folder`` (``genotype.json``, ``controller.json``).
+
+    Args:
+        folder: A folder written by `ariel export` (`export`); only its two JSON files are
+            read.
+
+    Returns:
+        The robot, rebuilt with the tutorial API as the run evaluated it, with what the run
+        recorded of the evaluation.
+
+    Raises:
+        DamagedRunError: When ``genotype.json`` or ``controller.json`` is missing or is not a
+            readable JSON object, or its run id or evaluation id does not have its shape.
+
+    Example:
+        After ``ariel export data/runs/<run-id> best exported`` (the run's best evaluation
+        into the new folder ``exported``), simulate it again:
+
+        ```python
+        import mujoco
+
+        from ariel.recording import load_exported
+        from ariel.utils.runners import simple_runner
+
+        robot = load_exported("exported")
+        mujoco.set_mjcb_control(robot.set_control)
+        simple_runner(robot.model, robot.data, duration=robot.duration)
+        print(robot.replayed_fitness(), robot.fitness)  # the recorded fitness again
+        ```
+    """
     import mujoco
 
     from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph

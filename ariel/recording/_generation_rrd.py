@@ -194,7 +194,21 @@ def write_generation_recording(
     properties: Mapping[str, Any] | None = None,
 ) -> Path:
     """Write a generation's evaluations as one recording (see the module docstring), whole
-    under a temporary name and renamed; recording id ``<run_id>/gen-NNNNNN``."""
+    under a temporary name and renamed; recording id ``<run_id>/gen-NNNNNN``.
+
+    Args:
+        path: The ``.rrd`` file to write (usually ``recordings/gen-NNNNNN/evaluations.rrd``
+            of the run folder); an existing one is replaced.
+        traces: The generation's evaluations (`trace_of`), in any order: they are stepped
+            through in eval id order.
+        run_id: The run's id (in the recording id and its properties).
+        generation: The generation's number.
+        properties: More recording properties (name -> value) beside ``run_id``,
+            ``generation`` and ``evaluations``; None: none.
+
+    Returns:
+        ``path``, as a `Path`.
+    """
     from rerun.chunk import Chunk
 
     from ariel.recording._rerun import (

@@ -96,9 +96,25 @@ def _hinge_places(tree: Any) -> dict[tuple[int, int, int], tuple[str, int]]:
 def joint_labels(names: Sequence[str], graph: Any = None) -> list[str]:
     """A short label for each joint of one body, unique within it (the rule: module docstring).
 
-    ``names``: the joints as the model names them (``joint_names`` of an evaluation);
-    ``graph``: the body's robot graph (the bodies table's ``graph``, node-link JSON, or a
-    networkx DiGraph), None where it is not at hand.
+    Args:
+        names: The joints as the model names them (``joint_names`` of an evaluation).
+        graph: The body's robot graph (the bodies table's ``graph``, node-link JSON, or a
+            networkx DiGraph), None where it is not at hand; a graph that cannot be read as a
+            robot graph counts as none.
+
+    Returns:
+        One label per name, in order: ``"right branch, hinge 1"`` for a constructor's hinge
+        the graph places, ``"hinge module 10"`` for one it does not, and a hand-made name
+        without its prefix and ``servo`` suffix (``"fl leg"``). Where labels would still
+        clash, the names themselves.
+
+    Example:
+        ```python
+        from ariel.recording import joint_labels
+
+        print(joint_labels(["robot1_0-10-2-servo", "robot1_fl_legservo"]))
+        # ['hinge module 10', 'fl leg']  (no graph: the branch is unknown)
+        ```
     """
     names = [str(name) for name in names]
     tree = _tree(graph) if graph is not None and len(names) else None

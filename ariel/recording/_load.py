@@ -35,6 +35,9 @@ class Run:
         path: the run folder.
         info: ``run.json`` (status, seed, versions, plugin provenance, times, ...).
         config: the resolved experiment config as a dict.
+        manifest: what the finished generations' tables must be (a
+            `ariel.recording._manifest.Manifest`: each file's size and SHA-256), checked as
+            the tables are read; None reads them unchecked.
     """
 
     path: Path
@@ -319,7 +322,15 @@ def _distinct_bodies(population: Any) -> int | float:
 def population_after_selection(bodies: Any) -> Any:
     """The rows of a bodies table (``Run.bodies``) that form the population after selection:
     ``selected`` (kept for the next generation; a MAP-Elites run: its elites) with a finite
-    fitness (a body that could not be built or never scored is left out)."""
+    fitness (a body that could not be built or never scored is left out).
+
+    Args:
+        bodies: A bodies table (a DataFrame with ``selected`` and ``fitness`` columns), of
+            one generation or of several.
+
+    Returns:
+        Those rows, a DataFrame with the same columns and index labels.
+    """
     kept = bodies[bodies["selected"]]
     return kept[kept["fitness"].map(math.isfinite)]
 
@@ -331,6 +342,30 @@ def load_run(path: str | Path) -> Run:
     changed table raises `DamagedRunError` (a `NotARunError`), here for a missing file or one of
     another size, when a table is first read for other bytes. Works without the run's plugins
     installed (run.json records what readers need).
+
+    Args:
+        path: The run folder.
+
+    Returns:
+        The run's records: ``info`` (run.json) and ``config`` at once, and its tables as
+        pandas DataFrames (``evaluations``, ``bodies``, ``trajectories``, ``archive``, the
+        per-generation summary ``generations``) loaded on first access.
+
+    Raises:
+        NotARunError: When ``path`` has no readable run.json.
+        DamagedRunError: When a finished generation's table is missing or has another size
+            than its manifest says.
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, load_run
+
+        run = load_run(list_runs()[-1]["path"])  # a run folder under data/runs
+        print(run)  # <Run ID: STATUS, DONE/GENERATIONS generations, N evaluations, ...>
+        print(run.generations[["generation", "best_fitness", "mean_fitness"]])
+        best = run.evaluations.sort_values("fitness", ascending=not run.maximise).iloc[0]
+        print(best["eval_id"], best["fitness"])
+        ```
     """
     from ariel.recording._manifest import Manifest
 
@@ -348,6 +383,15 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
     """One summary per run folder directly under ``root`` (folders that are not runs skipped).
 
     ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
+
+    Args:
+        root: The folder holding run folders; ``data/runs`` by default.
+
+    Returns:
+        One dict per run folder, sorted by folder name, with keys ``path``, ``run_id``,
+        ``status``, ``generations_done``, ``generations``, ``evaluations``, ``best_fitness``
+        (None when none yet) and ``created``. A folder whose run.json cannot be read is
+        listed with status `UNREADABLE`. Empty when ``root`` is not a folder.
     """
     from ariel.recording._lock import lock_is_free
 

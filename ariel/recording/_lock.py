@@ -142,8 +142,20 @@ def lock_is_free(run_dir: str | Path) -> bool:
 class RunLock:
     """The exclusive lock of one run folder; ``with RunLock(path):`` holds it.
 
-    ``create=True`` makes the folder when it is missing (a new run), and removes it again on
-    release when it is still empty (a run that refused to start).
+    Making one takes nothing; ``acquire`` (or entering the ``with`` block) takes the lock and
+    writes the holder's pid and host name into ``RUN_DIR/.lock``; ``release`` (or leaving the
+    block) deletes that file and drops the lock.
+
+    Args:
+        run_dir: The run (or campaign) folder to lock.
+        create: Whether to make the folder when it is missing (a new run), and remove it
+            again on release when it is still empty (a run that refused to start). With
+            False (the default) a missing folder is an error (`FileNotFoundError`).
+
+    Raises:
+        RunInUseError: On acquiring, when another process holds the lock.
+        UnsafePathError: On acquiring, when ``.lock`` is a symbolic link, not a plain file,
+            or a hard link.
     """
 
     def __init__(self, run_dir: str | Path, *, create: bool = False) -> None:

@@ -289,10 +289,28 @@ def _check_readable(path: Path) -> str | None:
 def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyResult:
     """Check every file the manifests list (size and SHA-256), or for a run made before
     manifests, that the required tables are there and readable; and what never changes in
-    run.json (`_check_run_json`). ``generations``: check only the first ones (default: the
-    finished ones, run.json's ``generations_done``).
+    run.json (`_check_run_json`).
 
-    Raises `NotARunError` for a folder that is not a run at all.
+    Args:
+        run_dir: The run folder.
+        generations: Check only the first this many generations; None (the default): the
+            finished ones, run.json's ``generations_done``.
+
+    Returns:
+        What was checked and found: ``ok`` is True when the folder is sound; ``problems``
+        has one line per damaged file (``ariel verify`` prints them), ``notes`` what could
+        not be checked, and ``files`` / ``bytes`` what was read.
+
+    Raises:
+        NotARunError: For a folder that is not a run at all (no readable run.json).
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, verify_run
+
+        result = verify_run(list_runs()[-1]["path"])  # a run folder under data/runs
+        print(result.ok, result.files, result.problems)
+        ```
     """
     run_dir = Path(run_dir)
     info = RunFolder(run_dir).read_info()

@@ -492,10 +492,32 @@ def replay_task(
 def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
     """Re-simulate evaluation ``eval_id`` (or ``"best"``) of the run in ``run_dir``.
 
-    Raises `UnknownEvaluationError` for an id not in the run's finished generations,
-    `MissingPluginError` when a plugin of the run is not installed here, and
-    `ariel.recording.NotARunError` for a folder that is not a run (`DamagedRunError`: one whose
-    tables were changed).
+    The task is rebuilt from the run's records as the loop built it, and evaluated on the
+    simulator the row names where it is installed here (else the CPU engine).
+
+    Args:
+        run_dir: The run folder.
+        eval_id: An evaluation id of its finished generations (e.g. ``"b000012-i003-c005"``),
+            or ``"best"``: the run's best evaluation.
+
+    Returns:
+        The evaluation re-simulated: the stored and the replayed fitness, whether they are
+        identical (bit for bit), and the versions of packages that decide results where
+        they differ from the run's.
+
+    Raises:
+        UnknownEvaluationError: For an id not in the run's finished generations.
+        MissingPluginError: When a plugin of the run is not installed here.
+        NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
+            were changed).
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, replay
+
+        again = replay(list_runs()[-1]["path"], "best")  # a run folder under data/runs
+        print(again.eval_id, again.stored_fitness, again.fitness, again.identical)
+        ```
     """
     run = load_run(run_dir)
     row = _find_row(run, eval_id)

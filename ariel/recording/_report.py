@@ -356,8 +356,32 @@ def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
 def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     """Write the report figures of the run in ``run_dir`` to ``RUN_DIR/report/``.
 
-    ``render=False`` leaves out the rendered image of the best body (no OpenGL needed).
-    Raises `ariel.recording.NotARunError` for a folder that is not a run.
+    A run without a finished generation gets no figures (a note says so); a figure that
+    cannot be drawn (no trajectories recorded, no successful evaluation) is left out with a
+    note.
+
+    Args:
+        run_dir: The run folder.
+        render: False leaves out the rendered image of the best body (no OpenGL needed).
+
+    Returns:
+        What was found and written: the per-generation table, the best evaluation's row,
+        the PNG files written, the figures themselves, and a note per figure left out.
+
+    Raises:
+        NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
+            were changed).
+        UnsafePathError: When a folder on the way to ``report/`` is a symbolic link.
+        RunStorageError: When a figure cannot be written (disk full, read-only).
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, make_report
+
+        report = make_report(list_runs()[-1]["path"], render=False)  # a run under data/runs
+        print(report.table)
+        print([path.name for path in report.written], report.notes)
+        ```
     """
     run = load_run(run_dir)
     generations = run.generations

@@ -598,21 +598,31 @@ def write_evaluation_recording(
     transforms: bool = True,
     fsync: bool = False,
 ) -> Path:
-    """Write one evaluation's ``.rrd`` (entities: see the module docstring); returns its path.
+    """Write one evaluation's ``.rrd`` (entities: see the module docstring).
 
-    ``model``: the compiled robot + world (``ariel.evaluation.build(task).model``).
-    ``body_names``: the robot bodies ``result.body_pos`` refers to (``result.body_names``).
-    ``result``: an `EvaluationResult`. ``properties``: plain values (eval_id, body_id, run_id,
-    generation, fitness, status, seed, controller, ...) stored as recording properties; the
-    recording id and name are ``properties["eval_id"]`` (else ``result.eval_id``).
-    ``graph_json``: the morphology as networkx node-link JSON (or its dict).
-    ``transforms``: the bodies' poses over ``sim_time`` (a 3D replay), when ``result`` has
-    them (``body_pos``/``body_quat``, from ``EvaluationTask(record_bodies=True)``); else the
-    robot is drawn in its start pose.
-    ``fsync``: also fsync the file (a killed writer never leaves a partial file either way;
-    fsync costs ~2 ms a file and only matters for a power cut).
     Safe to call from a loop and from threads: no global state but small caches of what the
     recordings of one model (and one graph) share.
+
+    Args:
+        path: The ``.rrd`` file to write, whole under a temporary name and renamed; an
+            existing one is replaced.
+        model: The compiled robot + world (``ariel.evaluation.build(task).model``).
+        body_names: The robot bodies ``result.body_pos`` refers to (``result.body_names``).
+        result: An `EvaluationResult`.
+        properties: Plain values (eval_id, body_id, run_id, generation, fitness, status,
+            seed, controller, ...) stored as recording properties; the recording id and name
+            are ``properties["eval_id"]`` (else ``result.eval_id``, else the file's stem).
+        graph_json: The morphology as networkx node-link JSON (or its dict), drawn at
+            ``/graph`` and used to label the joints; None: no graph.
+        transforms: Whether to record the bodies' poses over ``sim_time`` (a 3D replay), when
+            ``result`` has them (``body_pos``/``body_quat``, from
+            ``EvaluationTask(record_bodies=True)``); else the robot is drawn in its start
+            pose.
+        fsync: Whether to also fsync the file (a killed writer never leaves a partial file
+            either way; fsync costs ~2 ms a file and only matters for a power cut).
+
+    Returns:
+        ``path``, as a `Path`.
     """
     from rerun.chunk import Chunk
 
@@ -699,16 +709,28 @@ def write_run_recording(
     properties: Mapping[str, Any] | None = None,
     fsync: bool = True,
 ) -> Path:
-    """Write the run-level ``run.rrd`` on a ``generation`` timeline; returns its path.
+    """Write the run-level ``run.rrd`` on a ``generation`` timeline.
 
-    ``generations_df``: one row per generation (a DataFrame or a dict of columns) with
-    ``generation`` and any of the `RUN_SERIES` columns (``best_fitness``, ``mean_fitness``,
-    ``median_fitness``, ``diversity``, ``distinct_morphologies``), each a scalar series.
-    ``best_bodies``: the best body of each generation, as a mapping generation -> body or as
-    rows with a ``generation`` key; a body has ``body_id``, ``fitness`` and ``graph``
-    (node-link JSON): logged at ``/best/graph`` (its morphology) and ``/best/body`` (text).
-    ``archives``: a MAP-Elites run's grid of fitness per cell (NaN: empty) per generation,
-    logged at ``/archive`` as a tensor, so the viewer plays the archive over the generations.
+    Args:
+        path: The ``.rrd`` file to write, whole under a temporary name and renamed; an
+            existing one is replaced.
+        generations_df: One row per generation (a DataFrame or a dict of columns) with
+            ``generation`` and any of the `RUN_SERIES` columns (``best_fitness``,
+            ``mean_fitness``, ``median_fitness``, ``diversity``, ``distinct_morphologies``),
+            each a scalar series.
+        best_bodies: The best body of each generation, as a mapping generation -> body or as
+            rows with a ``generation`` key; a body has ``body_id``, ``fitness`` and ``graph``
+            (node-link JSON): logged at ``/best/graph`` (its morphology) and ``/best/body``
+            (text).
+        archives: A MAP-Elites run's grid of fitness per cell (NaN: empty) per generation,
+            logged at ``/archive`` as a tensor, so the viewer plays the archive over the
+            generations; None: no archive.
+        run_id: The recording's id and name; ``""``: the name of ``path``'s folder.
+        properties: Plain values stored as recording properties; None: none.
+        fsync: Whether to also fsync the file (it is written whole and renamed either way).
+
+    Returns:
+        ``path``, as a `Path`.
     """
     path = Path(path)
     generation = np.asarray(generations_df["generation"], dtype=np.int64)
@@ -969,10 +991,23 @@ def write_blueprint(
     fitness_unit: str | None = None,
     run_curves: bool = True,
 ) -> Path:
-    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``); the
-    options as for `blueprint` (``panels=False``: the side panels collapsed).
+    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``).
 
     Open it with the recordings: ``rerun blueprint.rbl run.rrd recordings/gen-000000/*.rrd``.
+
+    Args:
+        path: The blueprint file to write (whole, replacing an existing one), usually
+            ``blueprint.rbl`` beside the recordings.
+        panels: False collapses the side panels (the blueprint tree, the selection, the time
+            panel) for pictures of the views alone.
+        archive: Whether to add a view of a MAP-Elites run's archive (`ARCHIVE_ENTITY`).
+        fitness_unit: The fitness's unit (e.g. ``"m"``) for the fitness views' titles; None:
+            no unit.
+        run_curves: Whether the fitness and diversity views get a second tab of run.rrd's
+            curves on the ``generation`` timeline.
+
+    Returns:
+        ``path``, as a `Path`.
     """
     layout = blueprint(
         panels=panels, archive=archive, fitness_unit=fitness_unit, run_curves=run_curves

@@ -201,7 +201,14 @@ def _instead(path: Path) -> str:
 
 
 class RunFolder:
-    """Reads and writes one run folder."""
+    """Reads and writes one run folder.
+
+    Making one reads nothing: ``read_info`` reads run.json (`NotARunError` when the folder is
+    not a run), ``create`` makes a new run folder.
+
+    Args:
+        path: The run folder (it need not exist yet).
+    """
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)

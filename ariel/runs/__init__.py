@@ -10,7 +10,20 @@ Cheap to import: names are loaded from their modules on first access.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as type checkers and the API reference see them
+    from ariel.runs._campaign import (
+        CampaignResult as CampaignResult,
+        campaign_status as campaign_status,
+        resume_campaign as resume_campaign,
+        run_campaign as run_campaign,
+    )
+    from ariel.runs._experiment import (
+        RunResult as RunResult,
+        resume_experiment as resume_experiment,
+        run_experiment as run_experiment,
+    )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {

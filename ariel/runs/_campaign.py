@@ -42,11 +42,22 @@ __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign
 
 @dataclass
 class CampaignResult:
-    """What `run_campaign` and `resume_campaign` return. ``runs``: the runs driven by this
-    call (finished ones skipped on resume are not among them); ``busy_share``: the workers'
-    time spent in evaluations / (wall time x workers), over this call; ``damaged``: one line
-    per run a resume left alone because it cannot go on (a damaged run folder, a config that
-    does not validate), each naming the run."""
+    """What `run_campaign` and `resume_campaign` return.
+
+    Attributes:
+        path: The campaign folder.
+        campaign_id: The campaign's id (the folder's name).
+        status: How the call ended: ``"finished"``.
+        runs: The runs driven by this call, one `RunResult` each (finished ones skipped on
+            resume are not among them).
+        skipped: Runs that had finished before this call (always 0 for `run_campaign`).
+        wall_seconds: Wall-clock seconds this call spent driving the runs.
+        busy_share: The workers' time spent in evaluations / (wall time x workers), over
+            this call: 1.0 means every worker was busy throughout.
+        workers: The executor's worker count (its capacity).
+        damaged: One line per run a resume left alone because it cannot go on (a damaged run
+            folder, a config that does not validate), each naming the run.
+    """
 
     path: Path
     campaign_id: str
@@ -105,12 +116,51 @@ def run_campaign(
 ) -> CampaignResult:
     """Run every condition x seed of the campaign ``file`` into a new campaign folder.
 
-    ``out``: the folder (default ``data/campaigns/<name>-<time>``); it must not exist (or be
-    empty). ``overrides``: ``key=value`` applied to the base experiment. ``progress``: one
-    line per run and generation; True, False or None (the default: where someone watches, a
-    terminal or a Jupyter notebook; see `run_experiment`). Everything is validated before
-    anything is written. Ctrl-C (or SIGTERM) raises `KeyboardInterrupt` with ``campaign_dir``
-    set to the folder to pass to `resume_campaign`.
+    Everything is validated before anything is written. Ctrl-C (or SIGTERM) raises
+    `KeyboardInterrupt` with ``campaign_dir`` set to the folder to pass to `resume_campaign`.
+
+    Args:
+        file: The campaign TOML file (its base experiment, seeds and conditions;
+            docs/campaigns.md).
+        out: The campaign folder; None (the default): ``data/campaigns/<name>-<time>``. It
+            must not exist (or be empty); its name becomes the campaign id.
+        executor: The executor kind every run shares (``"serial"``, ``"local"``, ``"dask"``,
+            ``"gpu"``); None: the base experiment's ``executor.kind``.
+        workers: Worker processes; None: the base experiment's ``executor.workers``.
+        scheduler: A running Dask scheduler's address; None: the base experiment's.
+        progress: One line per run and generation; True, False or None (the default: where
+            someone watches, a terminal or a Jupyter notebook; see `run_experiment`).
+        overrides: ``key=value`` strings with dotted keys, applied to the base experiment.
+
+    Returns:
+        The campaign's summary; ``CampaignResult.load()`` reads its records.
+
+    Raises:
+        ConfigError: For a bad campaign file, override, config or executor setting.
+        FileExistsError: When ``out`` exists and is not an empty folder.
+        RunStorageError: When the campaign folder cannot be written.
+
+    Example:
+        A tiny campaign on the serial executor, from the repository's root:
+
+        ```python
+        from ariel.runs import campaign_status, run_campaign
+
+        if __name__ == "__main__":  # needed: the local executor's workers import this script
+            result = run_campaign(
+                "experiments/campaigns/inheritance.toml",
+                executor="serial",
+                progress=False,
+                overrides=[
+                    "generations=2",
+                    "body.population=2",
+                    "body.offspring=2",
+                    "brain.iterations=1",
+                ],
+            )
+            for row in campaign_status(result.path):
+                print(row["condition"], row["seed"], row["status"], row["best_fitness"])
+        ```
     """
     from ariel.recording._campaign import run_path, write_campaign_info
     from ariel.recording._lock import RunLock
@@ -165,15 +215,33 @@ def resume_campaign(
     progress: bool | None = None,
 ) -> CampaignResult:
     """Continue every unfinished run of a campaign (finished runs are skipped) on one
-    executor; refuses a finished campaign and a campaign in use (`RunInUseError`).
+    executor.
 
     A run that cannot go on (a damaged run folder, an unreadable checkpoint or config) does
-    not hold up the others: they go on, and the result's ``damaged`` names it in one line;
-    when no run can go on, the first such line is the error (`DamagedRunError`).
+    not hold up the others: they go on, and the result's ``damaged`` names it in one line.
+    An interrupt: as `run_campaign`.
 
-    The executor: ``executor`` / ``workers`` / ``scheduler``, else the kind the campaign ran
-    on, never a Dask scheduler address from campaign.json (see `resume_experiment`).
-    ``progress`` and an interrupt: as `run_campaign`."""
+    Args:
+        campaign_dir: The campaign folder to continue.
+        executor: The executor kind; None (the default): the kind the campaign ran on.
+        workers: Worker processes; None: as in `resume_experiment`.
+        scheduler: A running Dask scheduler's address; never taken from campaign.json (see
+            `resume_experiment`).
+        progress: Whether to show progress, as in `run_campaign` (None: where someone
+            watches).
+
+    Returns:
+        The summary of this call: the runs it drove, how many had finished before
+        (``skipped``), and the runs it could not resume (``damaged``).
+
+    Raises:
+        NotACampaignError: When ``campaign_dir`` is not a campaign folder.
+        ValueError: When every run has finished already.
+        DamagedRunError: When no run can go on; the first run's line is the message.
+        RunInUseError: When another process runs the campaign, or one of its runs.
+        ConfigError: When the campaign's stored config cannot be read, or for a bad executor
+            setting.
+    """
     from ariel.errors import DamagedRunError
     from ariel.recording._campaign import CAMPAIGN_JSON, read_campaign_info
     from ariel.recording._lock import RunLock
@@ -368,7 +436,20 @@ def _busy_share(runs: list[_Run], wall: float, workers: int) -> float:
 
 def campaign_status(campaign_dir: str | Path) -> list[dict[str, Any]]:
     """One row per run: condition, seed, path, status, generations done / total, evaluations,
-    best fitness (`ariel.recording.Campaign.status`)."""
+    best fitness (`ariel.recording.Campaign.status`).
+
+    Args:
+        campaign_dir: The campaign folder.
+
+    Returns:
+        One dict per run of campaign.json, in its order, with keys ``condition``, ``seed``,
+        ``path``, ``status`` (run.json's; ``"stopped (killed?)"`` for a killed run, ``"not
+        started"``, or ``"damaged"`` for a folder that does not load), ``generations_done``,
+        ``generations``, ``evaluations`` and ``best_fitness`` (NaN when none yet).
+
+    Raises:
+        NotACampaignError: When ``campaign_dir`` is not a campaign folder.
+    """
     from ariel.recording._campaign import load_campaign
 
     return load_campaign(campaign_dir).status()

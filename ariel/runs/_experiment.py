@@ -46,7 +46,20 @@ __all__ = [
 
 @dataclass
 class RunResult:
-    """What `run_experiment` returns."""
+    """What `run_experiment` returns.
+
+    Attributes:
+        run_dir: The run folder.
+        run_id: The run's id (the folder's name when ``out`` was given, else
+            ``<name>-<YYYYmmdd-HHMMSS>-s<seed>``).
+        status: How the run ended: ``"finished"``.
+        generations: The generations of the run (the config's ``generations``).
+        evaluations: Rows in the evaluations table.
+        best_fitness: The fitness of the run's best body.
+        best_body_id: The id of the run's best body, e.g. ``"b000012"``.
+        best_eval_id: The id of that body's best evaluation, e.g. ``"b000012-i003-c005"``.
+        wall_seconds: Wall-clock seconds the run took (over all its sessions).
+    """
 
     run_dir: Path
     run_id: str
@@ -224,17 +237,57 @@ def run_experiment(
 ) -> RunResult:
     """Run one experiment into a new run folder and return its summary.
 
-    ``config``: a config object, a TOML path, a dict, or None for the default experiment.
-    ``out``: the run folder (default ``data/runs/<run-id>``); an existing one needs
-    ``overwrite``. ``executor`` / ``workers`` / ``scheduler`` override the config's executor.
-    ``progress``: True shows it (live bars on a terminal, else a line per generation), False
-    prints nothing, None (the default) shows it where someone watches: when stdout or stderr
-    is a terminal, or in a Jupyter notebook. Everything is validated before anything is written.
+    Everything is validated before anything is written.
 
     Ctrl-C (or SIGTERM) raises `KeyboardInterrupt` with ``run_dir`` set to the folder to pass
     to `resume_experiment`. A script that calls this at its top level without
     ``if __name__ == "__main__":``, on the local executor: its workers say so on stderr, and the
     script ends (`SystemExit`, code 2) leaving no run folder.
+
+    Args:
+        config: A config object, a TOML path, a dict, or None for the default experiment (as
+            `load_config` reads them).
+        out: The run folder; None (the default): ``data/runs/<run-id>``. An existing,
+            non-empty one needs ``overwrite``, and its name becomes the run id.
+        overwrite: Whether an existing run folder at ``out`` may be replaced (a folder that is
+            not a run folder never is).
+        executor: The executor kind (``"serial"``, ``"local"``, ``"dask"``, ``"gpu"``),
+            overriding ``executor.kind``; None: the config's.
+        workers: Worker processes, overriding ``executor.workers``; None: the config's.
+        scheduler: A running Dask scheduler's address, overriding ``executor.scheduler``;
+            None: the config's.
+        progress: True shows it (live bars on a terminal, else a line per generation), False
+            prints nothing, None (the default) shows it where someone watches: when stdout or
+            stderr is a terminal, or in a Jupyter notebook.
+        overrides: ``key=value`` strings with dotted keys (``--set``), applied to ``config``.
+
+    Returns:
+        The run's summary; ``RunResult.load()`` reads its records.
+
+    Raises:
+        ConfigError: For a bad config, override, executor setting or plugin option.
+        FileExistsError: When ``out`` exists and is not a folder, or is a non-empty folder
+            and ``overwrite`` is False or it is not a run folder.
+        RunInUseError: When another process runs in ``out``.
+        RunStorageError: When the run folder cannot be written (disk full, read-only); the
+            finished generations are kept for `resume_experiment`.
+
+    Example:
+        A short brain-only run on the serial executor, from the repository's root:
+
+        ```python
+        import ariel
+
+        if __name__ == "__main__":  # needed: the local executor's workers import this script
+            result = ariel.run_experiment(
+                "experiments/gecko_gait.toml",
+                executor="serial",
+                progress=False,
+                overrides=["generations=2", "brain.popsize=4", "brain.iterations=1"],
+            )
+            print(result.status, result.best_fitness, result.run_dir)
+            run = result.load()  # pandas: run.evaluations, run.bodies, run.generations, ...
+        ```
     """
     from ariel.evaluation.executors import planned_workers
     from ariel.evolution._checks import check_resources, refuse_in_spawned_child
@@ -327,11 +380,30 @@ def resume_experiment(
     """Continue a killed or interrupted run from its last finished generation.
 
     Refuses a folder that is not a run, a finished run, a run whose config was edited, and a
-    run that another process is running (`RunInUseError`), before writing anything.
-    ``executor`` / ``workers`` / ``scheduler``: where it goes on; by default the kind of
-    executor (and worker count) it last ran on, but never a Dask scheduler address taken from
-    the folder: a Dask run without ``scheduler`` goes on on a local Dask cluster, and says so.
-    ``progress`` and an interrupt: as `run_experiment`.
+    run that another process is running, before writing anything. An interrupt: as
+    `run_experiment`.
+
+    Args:
+        run_dir: The run folder to continue.
+        executor: The executor kind it goes on on; None (the default): the kind (and worker
+            count) it last ran on.
+        workers: Worker processes; None: the count it last ran with when it goes on on the
+            same kind of worker pool and this machine has that many CPUs, else all CPUs.
+        scheduler: A running Dask scheduler's address. Never taken from the folder: a Dask
+            run without ``scheduler`` goes on on a local Dask cluster, and says so.
+        progress: Whether to show progress, as in `run_experiment` (None: where someone
+            watches).
+
+    Returns:
+        The finished run's summary.
+
+    Raises:
+        NotARunError: When ``run_dir`` is not a run folder or its checkpoint cannot be read;
+            `DamagedRunError` (a `NotARunError`) when its records differ from its manifests.
+        ValueError: When the run is already finished, or its config cannot be read or was
+            edited after the run started.
+        RunInUseError: When another process runs (or resumes) the run.
+        ConfigError: For a bad executor setting.
     """
     from ariel.evolution._checks import check_plugins
     from ariel.recording._lock import RunLock

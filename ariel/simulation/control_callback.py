@@ -19,6 +19,25 @@ def control_callback_unset() -> Iterator[None]:
     ``mujoco.rollout`` steps without the GIL, where a Python callback must never run. The
     callback is process-global: don't use this while another thread steps a simulation that
     relies on it.
+
+    Yields:
+        None; inside the ``with`` block no control callback is set (the previous one, if any,
+        is restored on leaving, also on an exception).
+
+    Example:
+        ```python
+        import mujoco
+
+        from ariel.simulation.control_callback import control_callback_unset
+
+        spec = mujoco.MjSpec()
+        spec.worldbody.add_geom(size=[0.1, 0.1, 0.1])
+        mujoco.set_mjcb_control(lambda model, data: None)
+        with control_callback_unset():
+            model = spec.compile()  # would fail with the Python callback set
+        assert mujoco.get_mjcb_control() is not None  # put back
+        mujoco.set_mjcb_control(None)
+        ```
     """
     callback = mujoco.get_mjcb_control()
     if callback is None:

@@ -30,7 +30,18 @@ class SettleError(RuntimeError):
 
 
 def settle_steps(model: mujoco.MjModel, seconds: float) -> int:
-    """Physics steps of a settle of ``seconds``: ``round(seconds / timestep)``."""
+    """Physics steps of a settle of ``seconds``: ``round(seconds / timestep)``.
+
+    Args:
+        model: the compiled model; its ``opt.timestep`` is used.
+        seconds: the settle's duration in simulated seconds (finite, >= 0).
+
+    Returns:
+        The number of ``mj_step`` calls (0 for 0 seconds).
+
+    Raises:
+        ValueError: ``seconds`` is negative, NaN or infinite.
+    """
     if not (math.isfinite(seconds) and seconds >= 0):
         raise ValueError(f"settle must be a finite number of seconds >= 0, not {seconds!r}")
     return round(seconds / model.opt.timestep)
@@ -39,8 +50,20 @@ def settle_steps(model: mujoco.MjModel, seconds: float) -> int:
 def settle_model(model: mujoco.MjModel, seconds: float) -> mujoco.MjModel:
     """Make the pose ``model`` reaches after ``seconds`` held at zero controls its reset pose.
 
-    Changes ``model.qpos0`` in place (and returns ``model``); 0 seconds changes nothing.
-    Raises `SettleError` when the state stops being finite.
+    Changes ``model.qpos0`` in place; a settle of 0 steps (see `settle_steps`) changes
+    nothing. MuJoCo's global control callback is unset while the robot settles.
+
+    Args:
+        model: the compiled model of the robot in its world, edited in place.
+        seconds: how long to hold the robot at zero controls, in simulated seconds (finite,
+            >= 0; rounded to whole physics steps).
+
+    Returns:
+        ``model`` itself.
+
+    Raises:
+        ValueError: ``seconds`` is negative, NaN or infinite.
+        SettleError: the positions or velocities stop being finite while the robot settles.
     """
     nstep = settle_steps(model, seconds)
     if nstep == 0:

@@ -59,9 +59,17 @@ class Stopped(KeyboardInterrupt):
 
 
 def exit_status(exc: KeyboardInterrupt) -> tuple[int, str]:
-    """The exit code for a run ``exc`` stopped (128 + the signal's number: 130 for Ctrl-C;
-    `STOPPED_EXIT` for `Stopped`) and what to add to the word "interrupted" ("" for Ctrl-C,
-    " (SIGTERM)", ": <reason>")."""
+    """The exit code of a stopped run and what to add to the word "interrupted".
+
+    Args:
+        exc: The interrupt that stopped the run: an `Interrupted`, a `Stopped`, or a plain
+            `KeyboardInterrupt` (taken as Ctrl-C).
+
+    Returns:
+        ``(code, suffix)``: the code is 128 + the signal's number (130 for Ctrl-C) or
+        `STOPPED_EXIT` for `Stopped`; the suffix is "" for Ctrl-C, e.g. " (SIGTERM)" for
+        another signal, and ": <reason>" for `Stopped`.
+    """
     if isinstance(exc, Stopped):
         return STOPPED_EXIT, f": {exc.reason}"
     signum = int(exc.signum) if isinstance(exc, Interrupted) else int(signal.SIGINT)
@@ -88,7 +96,18 @@ def _signals() -> list[signal.Signals]:
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[None]:
     """Within: SIGINT, SIGTERM and SIGHUP raise `Interrupted` and stay noted until the block
-    is left (see the module docstring). Outside the main thread, nothing changes."""
+    is left (see the module docstring). Outside the main thread, nothing changes.
+
+    SIGINT is taken only where Python's default Ctrl-C handler is installed (not, e.g., in a
+    Jupyter kernel); SIGHUP only where the platform has it. The previous handlers are put back
+    on leaving.
+
+    Yields:
+        None, once the handlers are installed.
+
+    Raises:
+        Interrupted: Inside the block, when one of the signals arrives.
+    """
     global _pending
     if threading.current_thread() is not threading.main_thread():
         yield  # signal dispositions can only be changed from the main thread

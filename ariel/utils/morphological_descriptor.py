@@ -49,7 +49,30 @@ _PLANAR_ROTATIONS = {ModuleRotationsIdx.DEG_0, ModuleRotationsIdx.DEG_90}
 
 
 class MorphologicalMeasures:
-    """Measures of the body described by ``robot_graph`` (a tree rooted at the core, node 0)."""
+    """Measures of the body described by ``robot_graph`` (a tree rooted at the core, node 0).
+
+    The graph is validated, and its lattice and counts are worked out, when the object is
+    made; the measures are read as properties (``B``, ``L``, ``E``, ``C``, ``J``, ``S``, ``P``
+    and the counts they are built from).
+
+    Args:
+        robot_graph: The robot graph (the format ``construct_mjspec_from_graph`` takes); kept
+            as ``graph``.
+
+    Raises:
+        ValueError: If ``robot_graph`` is not a ``networkx.DiGraph``, has no nodes, or is not
+            a valid robot tree (see `validate_robot_graph`).
+        TypeError: If ``robot_graph`` is a multigraph.
+
+    Example:
+        ```python
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots.spider import spider_graph
+        from ariel.utils.morphological_descriptor import MorphologicalMeasures
+
+        measures = MorphologicalMeasures(spider_graph())
+        print(measures.num_modules, measures.B, measures.S)  # modules, branching, symmetry
+        ```
+    """
 
     def __init__(self, robot_graph: nx.DiGraph) -> None:
         if not isinstance(robot_graph, nx.DiGraph) or robot_graph.number_of_nodes() == 0:

@@ -114,8 +114,50 @@ def single_frame_renderer(
 ) -> Image.Image:
     """Reset ``data``, step ``steps`` times and return one ``width`` x ``height`` image.
 
-    ``save=True`` writes a PNG to ``save_path`` (default ``./img_<UTC time>.png``); ``show``
-    displays it with matplotlib.
+    Args:
+        model: The compiled model (with an "ortho-cam" camera, or the free camera is used).
+        data: The model's data; it is reset, then stepped.
+        steps: Physics steps to take after the reset (0: the initial state, after
+            ``mj_forward``).
+        width: Image width in pixels.
+        height: Image height in pixels.
+        cam_fovy: Vertical field of view of "ortho-cam" for this call (degrees for a
+            perspective camera, metres for an orthographic one); None keeps the model's.
+        cam_pos: Position ``(x, y, z)`` of "ortho-cam" for this call; None keeps the model's.
+        cam_quat: Orientation ``(w, x, y, z)`` of "ortho-cam" for this call (normalised);
+            None keeps the model's.
+        show: Display the image with matplotlib.
+        save: Write the image as a PNG (its folder is created if needed).
+        save_path: Where ``save=True`` writes the PNG; None: ``./img_<UTC time>.png``. Ignored
+            without ``save``.
+
+    Returns:
+        The rendered RGB image.
+
+    Raises:
+        ValueError: If ``steps`` is negative, the image size is not positive, a camera override
+            is malformed, or an override is given and the model has no "ortho-cam".
+        ariel.errors.GLBackendError: A ``RuntimeError``, when no OpenGL backend works.
+
+    Example:
+        ```python
+        import os
+
+        os.environ.setdefault("MUJOCO_GL", "egl")  # headless; set before mujoco is first imported
+
+        import mujoco
+
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
+        from ariel.simulation.environments import SimpleFlatWorld
+        from ariel.utils.renderers import single_frame_renderer
+
+        world = SimpleFlatWorld()
+        world.spawn(gecko().spec, position=[0, 0, 0])
+        model = world.spec.compile()
+        data = mujoco.MjData(model)
+        image = single_frame_renderer(model, data, steps=10, width=320, height=240)
+        print(image.size)  # (320, 240)
+        ```
     """
     if steps < 0:
         raise ValueError(f"steps must be >= 0, got {steps}")
@@ -186,8 +228,50 @@ def video_renderer(
 ) -> None:
     """Reset ``data``, simulate ``duration`` seconds and record a real-time video.
 
-    ``video_recorder`` defaults to ``VideoRecorder()`` (``./video_<UTC time>.mp4``, 640 x 480,
-    30 fps); it is released at the end. Its path is ``video_recorder.path``.
+    Frame ``i`` (from 1) shows simulated time ``i / fps``, so the video has
+    ``round(duration * fps)`` frames (at least one) and plays at real time. Whatever control
+    callback is registered drives the robot.
+
+    Args:
+        model: The compiled model (with an "ortho-cam" camera, or the free camera is used).
+        data: The model's data; it is reset, then stepped.
+        duration: Simulated seconds to record (> 0).
+        video_recorder: Where the frames go; its ``width``, ``height`` and ``fps`` set the
+            video's. None: a ``VideoRecorder()`` (``./video_<UTC time>.mp4``, 640 x 480,
+            30 fps). It is released at the end; the file is at ``video_recorder.path``.
+        cam_fovy: Vertical field of view of "ortho-cam" for this call (degrees for a
+            perspective camera, metres for an orthographic one); None keeps the model's.
+        cam_pos: Position ``(x, y, z)`` of "ortho-cam" for this call; None keeps the model's.
+        cam_quat: Orientation ``(w, x, y, z)`` of "ortho-cam" for this call (normalised);
+            None keeps the model's.
+
+    Raises:
+        ValueError: If ``duration`` is not positive, a camera override is malformed, or an
+            override is given and the model has no "ortho-cam".
+        ariel.errors.GLBackendError: A ``RuntimeError``, when no OpenGL backend works.
+
+    Example:
+        ```python
+        import os
+        import tempfile
+
+        os.environ.setdefault("MUJOCO_GL", "egl")  # headless; set before mujoco is first imported
+
+        import mujoco
+
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
+        from ariel.simulation.environments import SimpleFlatWorld
+        from ariel.utils.renderers import video_renderer
+        from ariel.utils.video_recorder import VideoRecorder
+
+        world = SimpleFlatWorld()
+        world.spawn(gecko().spec, position=[0, 0, 0])
+        model = world.spec.compile()
+        data = mujoco.MjData(model)
+        recorder = VideoRecorder("gecko", output_folder=tempfile.mkdtemp(), width=320, height=240)
+        video_renderer(model, data, duration=1.0, video_recorder=recorder)
+        print(recorder.path, recorder.frame_count)  # .../gecko_<UTC time>.mp4 30
+        ```
     """
     recorder = video_recorder if video_recorder is not None else VideoRecorder()
     mujoco.mj_resetData(model, data)
@@ -218,9 +302,26 @@ def tracking_video_renderer(
 ) -> None:
     """Like :func:`video_renderer`, with a camera that follows the robot's core body.
 
-    Tracks the body named ``geom_to_track``, else the first body whose name contains
-    ``"core"`` (e.g. ``robot1_core``), from ``tracking_distance`` metres at the given azimuth
-    and elevation (degrees).
+    The camera starts on the centre of mass of the tracked body's subtree (the whole robot
+    when that is its core) and moves with it. The model's cameras are not used.
+
+    Args:
+        model: The compiled model.
+        data: The model's data; it is reset, then stepped.
+        duration: Simulated seconds to record (> 0).
+        video_recorder: Where the frames go (see :func:`video_renderer`); None: a
+            ``VideoRecorder()``. It is released at the end.
+        geom_to_track: Name of the BODY to follow (despite the parameter's upstream name);
+            if there is none, the first body whose name contains ``"core"`` (e.g.
+            ``robot1_core``) is followed.
+        tracking_distance: Distance from the camera to the tracked point, in metres.
+        tracking_azimuth: Camera azimuth, in degrees.
+        tracking_elevation: Camera elevation, in degrees (negative looks down).
+
+    Raises:
+        ValueError: If no body has that name and no body name contains ``"core"``, or
+            ``duration`` is not positive.
+        ariel.errors.GLBackendError: A ``RuntimeError``, when no OpenGL backend works.
     """
     body_id = _tracked_body_id(model, geom_to_track)
     recorder = video_recorder if video_recorder is not None else VideoRecorder()

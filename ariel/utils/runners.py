@@ -21,7 +21,19 @@ class _SupportsSetControl(Protocol):
 
 
 def num_steps(model: mujoco.MjModel, duration: float) -> int:
-    """``round(duration / model.opt.timestep)``, with one-line errors for bad input."""
+    """``round(duration / model.opt.timestep)``, with one-line errors for bad input.
+
+    Args:
+        model: The compiled model (its ``opt.timestep`` is used).
+        duration: Simulated time in seconds (finite, >= 0).
+
+    Returns:
+        The number of physics steps that simulate ``duration`` seconds.
+
+    Raises:
+        ValueError: If ``duration`` is NaN, negative or infinite, or the timestep is not
+            positive.
+    """
     duration = float(duration)
     if math.isnan(duration) or duration < 0:
         raise ValueError(f"duration must be a number >= 0 seconds; got {duration}")
@@ -40,7 +52,20 @@ def simple_runner(
     steps_per_loop: int = 100,
 ) -> None:
     """Reset ``data`` (time 0, ``qpos0``, ``ctrl`` 0) and step ``round(duration / timestep)``
-    steps, ``steps_per_loop`` at a time (the last chunk may be shorter)."""
+    steps, ``steps_per_loop`` at a time (the last chunk may be shorter).
+
+    Whatever control callback is registered (``mujoco.set_mjcb_control``) drives the robot.
+
+    Args:
+        model: The compiled model.
+        data: The model's data; it is reset, then stepped in place.
+        duration: Simulated time in seconds (finite, >= 0).
+        steps_per_loop: Physics steps per ``mj_step`` call (an int >= 1); the trajectory does
+            not depend on it.
+
+    Raises:
+        ValueError: If ``duration`` or ``steps_per_loop`` is out of range (see `num_steps`).
+    """
     total = num_steps(model, duration)
     if (
         isinstance(steps_per_loop, bool)
@@ -69,6 +94,16 @@ def thread_safe_runner(
     ``mj_step2``), so the controller sees exactly what the global callback would see and the
     trajectory is the same as ``simple_runner`` with ``set_mjcb_control`` (after a reset).
     Leave the global callback unset, or it runs as well.
+
+    Args:
+        model: The compiled model.
+        data: The model's data, stepped in place from its current state.
+        controller: Any object with a ``set_control(model, data)`` method that writes
+            ``data.ctrl`` (e.g. a `Controller`).
+        duration: Simulated time in seconds (finite, >= 0).
+
+    Raises:
+        ValueError: If ``duration`` is out of range (see `num_steps`).
     """
     total = num_steps(model, duration)
     split = model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4

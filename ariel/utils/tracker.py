@@ -27,6 +27,17 @@ class Tracker:
 
     ``history[attribute][index]`` is a list with one copy of the attribute per ``update``,
     ``index`` numbering the bound objects in spec traversal order.
+
+    Args:
+        mujoco_obj_to_find: Type of object to bind (e.g. ``mujoco.mjtObj.mjOBJ_GEOM``). If it
+            or ``name_to_bind`` is None, both default: geoms whose name contains "core".
+        name_to_bind: Substring of the names of the objects to bind (see above for None).
+        observable_attributes: Names of the bound objects' attributes to record (e.g.
+            ``["xpos"]``, the default when None); a list, not one string.
+        quiet: Do not log the note that the default geoms/"core" are tracked.
+
+    Raises:
+        TypeError: If ``observable_attributes`` is a single string.
     """
 
     def __init__(

@@ -24,6 +24,18 @@ class VideoRecorder:
     Frames are RGB ``uint8`` arrays of shape ``(height, width, 3)``. The ffmpeg process starts
     on the first :meth:`write`, so a recorder that never receives a frame leaves no file.
     Use it as a context manager or call :meth:`release` to finish the file.
+
+    Args:
+        file_name: Stem of the file name, a plain name without folders (a suffix such as
+            ".mp4" is dropped). If the stamped name exists, ``_1``, ``_2``... is appended.
+        output_folder: Folder of the file, created if needed; None: the current directory.
+        width: Frame width in pixels (positive and even, as H.264/yuv420p needs).
+        height: Frame height in pixels (positive and even).
+        fps: Frames per second of the video (> 0).
+
+    Raises:
+        ValueError: If a size is not a positive even int, ``fps`` is not positive, or
+            ``file_name`` is empty or has folders.
     """
 
     def __init__(

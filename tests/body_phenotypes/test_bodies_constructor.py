@@ -25,8 +25,8 @@ from ariel.body_phenotypes.robogen_lite.constructor import (
 )
 from ariel.body_phenotypes.robogen_lite.graph_io import (
     load_graph_from_json as load_from_graph_io,
+    robot_graph as _graph,
 )
-from ariel.body_phenotypes.robogen_lite.graph_io import robot_graph as _graph
 from ariel.body_phenotypes.robogen_lite.modules.core import CoreModule
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko_graph
 

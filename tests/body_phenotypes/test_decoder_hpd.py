@@ -20,8 +20,8 @@ from ariel.body_phenotypes.robogen_lite.config import (
     ModuleRotationsIdx,
     ModuleType,
 )
-from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
 from ariel.body_phenotypes.robogen_lite.decoders import (
+    HighProbabilityDecoder,
     hi_prob_decoding as hpd_module,
 )
 from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding

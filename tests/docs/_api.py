@@ -1,35 +1,23 @@
-"""The public API as the docs site documents it: every name in a public module's ``__all__``.
-
-A public module is `ariel` or one whose dotted path has no part starting with an underscore
-(`ariel.cli` is documented by the CLI reference instead). Shared by the docstring tests and the
-site's API-reference test, and by ``docs/hooks.py`` through the same rule.
-"""
+"""The public API as the docs site documents it: the rule lives with the site's generator
+(docs/_hooks/api_pages.py), loaded here by path so the tests and the site cannot disagree."""
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
+import importlib.util
+from pathlib import Path
 from types import ModuleType
 
-import ariel
+_SOURCE = Path(__file__).resolve().parents[2] / "docs" / "_hooks" / "api_pages.py"
 
-EXCLUDED = ("ariel.cli",)
+
+def _api_pages() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("_ariel_docs_api_pages", _SOURCE)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def public_modules() -> list[ModuleType]:
     """`ariel` and its public submodules that define ``__all__``, in dotted-name order."""
-    names = ["ariel"]
-    for info in pkgutil.walk_packages(ariel.__path__, "ariel."):
-        parts = info.name.split(".")
-        if any(part.startswith("_") for part in parts[1:]):
-            continue
-        if any(info.name == e or info.name.startswith(e + ".") for e in EXCLUDED):
-            continue
-        names.append(info.name)
-    modules = [importlib.import_module(name) for name in sorted(names)]
-    return [module for module in modules if hasattr(module, "__all__")]
-
-
-def public_names() -> dict[str, list[str]]:
-    """Module name -> the names in its ``__all__``."""
-    return {module.__name__: list(module.__all__) for module in public_modules()}
+    return _api_pages().public_modules()

@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
-from ariel.ec.genotypes.tree import TreeGenome
-from ariel.ec.genotypes.tree import operators as ops
+from ariel.ec.genotypes.tree import TreeGenome, operators as ops
 from ariel.ec.genotypes.tree.io import genome_to_networkx_dict, load_genome, save_genome
 from ariel.ec.genotypes.tree.validation import is_single_connected_tree, validate_genome_dict
 

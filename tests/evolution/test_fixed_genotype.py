@@ -131,8 +131,7 @@ def test_a_toml_genotype_path_is_relative_to_the_toml_and_set_to_the_working_dir
 
 
 def test_an_inline_genotype_is_checked_too_and_equals_the_file(runs: dict[str, Path]) -> None:
-    from ariel.runs._experiment import _read_genotype_file
-    from ariel.runs._experiment import resolve_plugins as _resolve
+    from ariel.runs._experiment import _read_genotype_file, resolve_plugins as _resolve
 
     genotype = _genotype()
     inline = load_config(

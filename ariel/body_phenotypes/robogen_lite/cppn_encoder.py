@@ -37,7 +37,21 @@ _MAX_TRIES = 10  # draws before forcing a weight change (a no-op mutation is nev
 
 
 def structural_id(kind: str, a: int, b: int) -> int:
-    """A stable id for a structural gene: ``kind`` "link" (a -> b) or "split" (of link a)."""
+    """A stable id for a structural gene: ``kind`` "link" (a -> b) or "split" (of link a).
+
+    The id is a hash of the three arguments, so the same structural change always gets the
+    same id, in any genome, worker or run.
+
+    Args:
+        kind: "link" for a connection ``a -> b``, "split" for the node that splits link ``a``
+            (any other string is hashed the same way).
+        a: For "link", the source node id; for "split", the innovation id of the split link.
+        b: For "link", the target node id; for "split", 0 (as the encoder calls it).
+
+    Returns:
+        The id, in ``[2**20, 2**20 + 2**40)``: above the ids of the fixed layout and exact
+        in JSON.
+    """
     digest = hashlib.blake2b(f"{kind}:{a}:{b}".encode(), digest_size=8).digest()
     return _HASHED_BASE + int.from_bytes(digest, "little") % (1 << 40)
 
@@ -45,9 +59,21 @@ def structural_id(kind: str, a: int, b: int) -> int:
 class CPPNEncoder:
     """A body as a CPPN-NEAT genome dict, decoded best-first on a lattice.
 
-    Options: ``max_modules`` (20), ``initial_mutations`` (3 structural mutations on a fresh
-    genome, as upstream's example), ``add_node_rate`` (0.2), ``add_connection_rate`` (0.3),
-    ``weight_rate`` (0.5: chance that each weight/bias is perturbed), ``weight_std`` (0.5).
+    Args:
+        max_modules: Most modules in a decoded body, the core included (>= 1).
+        initial_mutations: Structural mutation rounds applied to a fresh random genome (as
+            upstream's example; >= 0). Each round adds a link and splits a link, each with
+            its rate.
+        add_node_rate: Chance, per structural round, of splitting a link into two through a
+            new hidden node (NEAT's add-node), in [0, 1].
+        add_connection_rate: Chance, per structural round, of linking two unlinked nodes, in
+            [0, 1].
+        weight_rate: Chance that each weight and bias is perturbed by a mutation, in [0, 1].
+        weight_std: Standard deviation of the Gaussian noise added to a perturbed weight or
+            bias (> 0).
+
+    Raises:
+        ValueError: If an option is out of the range given above.
     """
 
     name = "cppn"

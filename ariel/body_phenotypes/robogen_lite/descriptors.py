@@ -159,10 +159,9 @@ def _pair_symmetry(tree: RobotTree, face_a: ModuleFaces, face_b: ModuleFaces) ->
 
 
 def morphology_descriptors(graph: nx.DiGraph | RobotTree) -> dict[str, float | int]:
-    """Describe the body of a robot graph (validated like ``construct_mjspec_from_graph``; a
-    `RobotTree` from `validate_robot_graph` is accepted as it is).
+    """Describe the body of a robot graph with plain numbers.
 
-    Returns plain Python numbers, keys in ``DESCRIPTOR_NAMES`` order:
+    The descriptors, in ``DESCRIPTOR_NAMES`` order:
 
     - ``num_modules``: modules, core included.
     - ``num_hinges``, ``num_bricks``: modules of each type.
@@ -180,6 +179,18 @@ def morphology_descriptors(graph: nx.DiGraph | RobotTree) -> dict[str, float | i
     - ``extent_x``, ``extent_y``, ``extent_z``: size in metres of the axis-aligned box around
       all module geoms at rest (joints at zero), in the core's frame (+y: the core's FRONT,
       +z: up).
+
+    Args:
+        graph: The robot graph (validated like ``construct_mjspec_from_graph``), or a
+            `RobotTree` from `validate_robot_graph` (used as it is).
+
+    Returns:
+        The descriptors above as plain Python ints and floats, keys in ``DESCRIPTOR_NAMES``
+        order.
+
+    Raises:
+        TypeError: If ``graph`` is neither a ``RobotTree`` nor a ``networkx.DiGraph``.
+        ValueError: If the graph is not a valid robot tree (see `validate_robot_graph`).
     """
     tree = graph if isinstance(graph, RobotTree) else validate_robot_graph(graph)
     types = list(tree.types.values())

@@ -43,7 +43,27 @@ def robot_graph(
 ) -> nx.DiGraph:
     """A robot graph from ``{node: (type, rotation)}`` and ``(parent, child, face)`` triples.
 
-    Values may be enum members or their names; nodes are added in the given order.
+    Values may be enum members or their names; they are stored as given (not validated) and
+    nodes are added in the given order.
+
+    Args:
+        nodes: ``{node id: (type, rotation)}``: each module's ``ModuleType`` and
+            ``ModuleRotationsIdx`` (members or names, e.g. ``("HINGE", "DEG_90")``).
+        edges: ``(parent id, child id, face)`` triples: the parent's ``ModuleFaces`` face
+            (member or name) the child is attached to.
+
+    Returns:
+        A directed graph with node attributes ``type`` and ``rotation`` and edge attribute
+        ``face``.
+
+    Example:
+        ```python
+        from ariel.body_phenotypes.robogen_lite.graph_io import graph_key, robot_graph
+
+        a = robot_graph({0: ("CORE", "DEG_0"), 1: ("HINGE", "DEG_90")}, [(0, 1, "LEFT")])
+        b = robot_graph({0: ("CORE", "DEG_0"), 7: ("HINGE", "DEG_90")}, [(0, 7, "LEFT")])
+        print(graph_key(a) == graph_key(b))  # True: same body, other node numbers
+        ```
     """
     graph = nx.DiGraph()
     for node, (module_type, rotation) in nodes.items():
@@ -54,7 +74,17 @@ def robot_graph(
 
 
 def graph_to_plain(graph: nx.DiGraph) -> nx.DiGraph:
-    """A copy of ``graph`` with enum attribute values as names and numpy numbers as Python ones."""
+    """A copy of ``graph`` with enum attribute values as names and numpy numbers as Python ones.
+
+    Node ids and the graph's own attributes are converted the same way; other values are
+    kept as they are.
+
+    Args:
+        graph: The graph to convert (left unchanged).
+
+    Returns:
+        A new graph of the same class, ready for JSON.
+    """
     plain = type(graph)()
     plain.graph.update({key: _plain(value) for key, value in graph.graph.items()})
     for node, attrs in graph.nodes(data=True):
@@ -69,7 +99,12 @@ def graph_to_plain(graph: nx.DiGraph) -> nx.DiGraph:
 def save_graph_as_json(graph: nx.DiGraph, save_file: str | Path | None = None) -> None:
     """Write ``graph`` as node-link JSON (edges under the key "edges", indent 4).
 
-    Does nothing when ``save_file`` is None (as upstream).
+    Attribute values are written as in `graph_to_plain` (enum members as names).
+
+    Args:
+        graph: The robot graph to save.
+        save_file: The JSON file to write (overwritten if it exists); when None nothing is
+            written (as upstream).
     """
     if save_file is None:
         return
@@ -81,6 +116,15 @@ def load_graph_from_json(load_file: str | Path) -> nx.DiGraph:
     """Read a graph written by :func:`save_graph_as_json` (directed, not a multigraph).
 
     Files from older networkx versions that keep edges under "links" load too.
+
+    Args:
+        load_file: The node-link JSON file to read.
+
+    Returns:
+        The graph, with the attribute values as saved (names, e.g. "HINGE").
+
+    Raises:
+        ValueError: If the file is not JSON, or not a node-link graph (no "nodes" key).
     """
     data = json.loads(Path(load_file).read_text(encoding="utf-8"))
     if not isinstance(data, dict) or "nodes" not in data:
@@ -95,10 +139,17 @@ def graph_key(graph: nx.DiGraph | str) -> str:
     """A key of the robot graph's structure: equal for two graphs exactly when they are the
     same body (module types and rotations, attachment faces), whatever their node numbers.
 
-    ``graph`` is a robot graph or its node-link JSON (the bodies table's ``graph`` column).
     A robot graph is a tree grown from the core, so the key hashes its canonical form: each
     node's attributes, then its children's (face, subtree) pairs in sorted order (AHU 1974).
     A graph that is no forest (not a robot graph) gets networkx's Weisfeiler-Lehman hash.
+
+    Args:
+        graph: A robot graph, or its node-link JSON text (the bodies table's ``graph``
+            column).
+
+    Returns:
+        16 hex digits for a robot graph; ``"wl-"`` and the Weisfeiler-Lehman hash for a graph
+        that is no forest.
     """
     if isinstance(graph, str):
         return _key_of_json(graph)

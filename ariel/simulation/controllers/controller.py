@@ -46,6 +46,16 @@ def blend_and_clip(
 
     The one formula for smoothing controls; works on ``(nu,)`` and batched ``(B, nu)`` arrays
     with identical per-element results.
+
+    Args:
+        old: The current controls.
+        target: The controls the controller asks for.
+        alpha: Weight of ``target``, in [0, 1] (1: take the target as is; 0: keep ``old``).
+        low: Lower bounds (e.g. from `actuator_bounds`).
+        high: Upper bounds.
+
+    Returns:
+        The new controls, float64, in a new array (``old`` is not changed).
     """
     old = np.asarray(old, dtype=np.float64)
     target = np.asarray(target, dtype=np.float64)
@@ -55,7 +65,14 @@ def blend_and_clip(
 
 
 def actuator_bounds(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
-    """Per-actuator ``(low, high)``: ctrlrange where ctrllimited, else ``±π/2``."""
+    """Per-actuator ``(low, high)``: ctrlrange where ctrllimited, else ``±π/2``.
+
+    Args:
+        model: The compiled model.
+
+    Returns:
+        Two float64 arrays of shape ``(nu,)``: the lower and the upper bounds.
+    """
     limited = np.asarray(model.actuator_ctrllimited, dtype=bool)
     ranges = np.asarray(model.actuator_ctrlrange, dtype=np.float64).reshape(-1, 2)
     low = np.where(limited, ranges[:, 0], -DEFAULT_CTRL_BOUND)
@@ -86,7 +103,54 @@ def _as_controls(out: Any, nu: int) -> np.ndarray:
 class Controller:
     """Calls ``controller_callback_function(model, data)`` every ``time_steps_per_ctrl_step``
     physics steps, blends its output into ``data.ctrl`` with ``alpha`` and clips it to the
-    actuator ranges; updates ``tracker`` every ``time_steps_per_save`` steps."""
+    actuator ranges; updates ``tracker`` every ``time_steps_per_save`` steps.
+
+    Register ``set_control`` with ``mujoco.set_mjcb_control``, or pass the controller to
+    ``thread_safe_runner`` (see the module docstring for the step counting).
+
+    Attributes:
+        controller_callback_function: The brain, called as ``f(model, data)`` (plus any extra
+            arguments ``set_control`` receives); returns ``nu`` control values (a list, numpy
+            array or torch tensor), all finite.
+        time_steps_per_ctrl_step: Physics steps between two calls of the brain (an int >= 1).
+        time_steps_per_save: Physics steps between two ``tracker.update`` calls (an int >= 1).
+        alpha: Weight of the brain's output in the new controls, in [0, 1] (1: use it as is;
+            smaller values smooth the controls).
+        tracker: Records object attributes over the run; updated only once it is set up.
+            Default: a new ``Tracker()`` (geoms whose name contains "core", ``xpos``).
+
+    Raises:
+        TypeError: If ``controller_callback_function`` is not callable.
+        ValueError: If a step count is not an int >= 1, or ``alpha`` is not in [0, 1].
+
+    Example:
+        ```python
+        import mujoco
+        import numpy as np
+
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
+        from ariel.simulation.controllers.controller import Controller
+        from ariel.simulation.environments import SimpleFlatWorld
+        from ariel.utils.runners import thread_safe_runner
+        from ariel.utils.tracker import Tracker
+
+        world = SimpleFlatWorld()
+        world.spawn(gecko().spec, position=[0, 0, 0])
+        model = world.spec.compile()
+        data = mujoco.MjData(model)
+
+
+        def wave(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+            return np.full(model.nu, np.sin(2 * np.pi * data.time))
+
+
+        tracker = Tracker(mujoco.mjtObj.mjOBJ_GEOM, "core", ["xpos"])
+        tracker.setup(world.spec, data)
+        controller = Controller(wave, time_steps_per_ctrl_step=10, tracker=tracker)
+        thread_safe_runner(model, data, controller, duration=2.0)
+        print(len(tracker.history["xpos"][0]))  # 2 s / 0.002 s / 500 steps per save = 2 samples
+        ```
+    """
 
     controller_callback_function: Callable[..., Any]
     time_steps_per_ctrl_step: int = 50

@@ -102,7 +102,13 @@ DEFAULT_HARD_BOUNDS = (-math.pi / 2, math.pi / 2)
 
 
 class CPGState(NamedTuple):
-    """Oscillator state: ``xy`` and ``xy_dot_old``, each ``(n, 2)`` or batched ``(B, n, 2)``."""
+    """Oscillator state: ``xy`` and ``xy_dot_old``, each ``(n, 2)`` or batched ``(B, n, 2)``.
+
+    Attributes:
+        xy: Each node's ``(x, y)``; ``y`` drives the joint target.
+        xy_dot_old: Despite its (upstream) name, each node's previous ``(x, y)`` (see the
+            module docstring).
+    """
 
     xy: np.ndarray
     xy_dot_old: np.ndarray
@@ -112,7 +118,17 @@ class CPGState(NamedTuple):
 # Small helpers
 # --------------------------------------------------------------------------------------------
 def fully_connected_adjacency_matrix(n: int) -> np.ndarray:
-    """Every node coupled to every other node, no self-coupling: ``(n, n)`` of 0/1 floats."""
+    """Every node coupled to every other node, no self-coupling: ``(n, n)`` of 0/1 floats.
+
+    Args:
+        n: Number of oscillator nodes (>= 0).
+
+    Returns:
+        ``1 - eye(n)``, float64.
+
+    Raises:
+        ValueError: If ``n`` is negative.
+    """
     if n < 0:
         raise ValueError(f"number of nodes must be >= 0, got {n}")
     return 1.0 - np.eye(n)
@@ -123,10 +139,20 @@ def adjacency_matrix(
 ) -> np.ndarray:
     """Coupling weights ``A`` (``A[i, j]``: how often node ``i`` receives from node ``j``).
 
-    ``adjacency`` is a dict ``{i: [j, ...]}`` (keys ``0 .. n-1``, as
-    ``create_fully_connected_adjacency`` makes; a neighbour listed twice couples twice, as in
-    upstream's loop), an ``(n, n)`` array of weights (booleans work), or ``None`` for fully
-    connected (then ``n`` is required). Returns an ``(n, n)`` float64 array.
+    Args:
+        adjacency: A dict ``{i: [j, ...]}`` (keys ``0 .. n-1``, as
+            ``create_fully_connected_adjacency`` makes; a neighbour listed twice couples
+            twice, as in upstream's loop), an ``(n, n)`` array of weights (booleans work), or
+            None for fully connected (then ``n`` is required).
+        n: The expected number of nodes, checked against ``adjacency``; None: taken from it.
+
+    Returns:
+        An ``(n, n)`` float64 array.
+
+    Raises:
+        ValueError: If ``adjacency`` is None without ``n``, its size is not ``n``, a dict's
+            keys are not ``0 .. n-1`` or it lists an unknown node, or an array is not square
+            or holds NaN or inf.
     """
     if adjacency is None:
         if n is None:
@@ -158,7 +184,18 @@ def adjacency_matrix(
 
 
 def split_parameters(params: ArrayLike) -> dict[str, np.ndarray]:
-    """Views of the five groups of a flat ``(..., 5n)`` parameter array, by group name."""
+    """Views of the five groups of a flat ``(..., 5n)`` parameter array, by group name.
+
+    Args:
+        params: Flat parameters, last axis ``5n`` (see the module docstring).
+
+    Returns:
+        ``{"phase", "w", "amplitudes", "ha", "b"}`` -> ``(..., n)`` float64 arrays, views of
+        ``params`` when it already is a float64 array.
+
+    Raises:
+        ValueError: If the last axis is not a multiple of 5.
+    """
     flat = np.asarray(params, dtype=np.float64)
     if flat.shape[-1] % NUM_PARAMETER_GROUPS:
         raise ValueError(f"a flat NA-CPG parameter vector has 5*n entries; got {flat.shape[-1]}")
@@ -173,7 +210,14 @@ def random_parameters(
 
     ``phase``, ``w``, ``amplitudes`` ~ U(-2π, 2π); ``ha`` ~ N(0, 1); ``b`` (an output offset in
     radians, unused upstream) ~ U(-0.1, 0.1), a small offset so a random network stays centred.
-    ``rng``: a ``numpy.random.Generator``, a seed, or ``None`` (fresh OS entropy).
+
+    Args:
+        n: Number of oscillator nodes (one per actuator).
+        rng: A ``numpy.random.Generator``, a seed, or None (fresh OS entropy).
+        size: Number of parameter vectors (a batch); None for a single ``(5n,)`` vector.
+
+    Returns:
+        Float64 parameters, ``(5n,)`` or ``(size, 5n)``, groups in ``PARAMETER_GROUPS`` order.
     """
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     shape = (n,) if size is None else (size, n)
@@ -187,13 +231,32 @@ def random_parameters(
 
 
 def random_state(n: int, rng: np.random.Generator | int | None = None) -> CPGState:
-    """Random initial state: ``xy`` and ``xy_dot_old`` ~ N(0, 1), each ``(n, 2)``."""
+    """Random initial state: ``xy`` and ``xy_dot_old`` ~ N(0, 1), each ``(n, 2)``.
+
+    Args:
+        n: Number of oscillator nodes.
+        rng: A ``numpy.random.Generator``, a seed, or None (fresh OS entropy).
+
+    Returns:
+        The state (unbatched: give it to a kernel to start every network of a batch there).
+    """
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     return CPGState(gen.standard_normal((n, 2)), gen.standard_normal((n, 2)))
 
 
 def cpg_steps(times: ArrayLike, dt: float) -> np.ndarray:
-    """Number of internal steps for simulated time(s): ``floor(t / dt + 1e-9)`` as int64."""
+    """Number of internal steps for simulated time(s): ``floor(t / dt + 1e-9)`` as int64.
+
+    Args:
+        times: Simulated time(s) in seconds (finite, >= 0), any shape.
+        dt: The CPG's internal step, in seconds.
+
+    Returns:
+        The step counts, int64, with the shape of ``times``.
+
+    Raises:
+        ValueError: If a time is NaN, infinite or negative.
+    """
     t = np.asarray(times, dtype=np.float64)
     if not np.all(np.isfinite(t)):
         raise ValueError("CPG sample times must be finite (got NaN or inf)")
@@ -210,8 +273,17 @@ def angles(
 ) -> np.ndarray:
     """Joint targets ``clip(amplitudes * y + b, lo, hi)``.
 
-    ``params`` ``(..., 5n)`` and states ``xy`` ``(..., n, 2)`` (or a ``CPGState``) broadcast
-    against each other; ``hard_bounds=None`` skips the clip.
+    Args:
+        params: Flat parameters ``(..., 5n)``; they broadcast against the states.
+        xy: States ``(..., n, 2)``, or a ``CPGState`` (its ``xy`` is used).
+        hard_bounds: ``(lo, hi)`` in radians; None skips the clip.
+
+    Returns:
+        The joint targets in radians, ``(..., n)`` float64.
+
+    Raises:
+        ValueError: If ``params`` is not ``5n`` long, or ``hard_bounds`` is not a pair with
+            ``lo <= hi``.
     """
     if isinstance(xy, CPGState):
         xy = xy.xy
@@ -269,6 +341,31 @@ class NaCPGKernel:
     ``angles(...)``. ``advance(a)`` then ``advance(b)`` gives bit-for-bit the same state as
     ``advance(a + b)``, and row ``r`` of a batch is bit-for-bit what a batch holding only that
     row would compute.
+
+    Args:
+        params: Flat parameters, ``(5n,)`` (a batch of one) or ``(B, 5n)``, all finite.
+        adjacency: Which nodes are coupled, in any form `adjacency_matrix` takes; None:
+            fully connected.
+        alpha: Convergence rate of each oscillator to its limit cycle (finite).
+        dt: Internal integration step, in seconds (finite, > 0).
+
+    Raises:
+        ValueError: If ``params`` has the wrong shape or holds NaN or inf, ``dt`` or ``alpha``
+            is out of range, or ``adjacency`` is invalid for ``n`` nodes.
+
+    Example:
+        ```python
+        from ariel.simulation.controllers.cpg_kernel import (
+            NaCPGKernel,
+            random_parameters,
+            random_state,
+        )
+
+        kernel = NaCPGKernel(random_parameters(8, rng=0, size=4), alpha=0.1, dt=0.01)
+        kernel.set_state(*random_state(8, rng=1))  # the same start for all 4 networks
+        kernel.advance(100)  # 1 s of CPG time
+        print(kernel.angles().shape)  # (4, 8)
+        ```
     """
 
     def __init__(
@@ -514,8 +611,22 @@ def integrate(
 ) -> CPGState:
     """State after ``n_steps`` internal steps; batch-first ``(B, n, 2)`` arrays.
 
-    ``params``: ``(B, 5n)`` (or ``(5n,)``, then the batch axis is dropped from the result);
-    ``state``: ``(xy, xy_dot_old)``, each ``(n, 2)`` or ``(B, n, 2)``.
+    Args:
+        params: Flat parameters ``(B, 5n)``, or ``(5n,)`` (then the batch axis is dropped
+            from the result).
+        state: ``(xy, xy_dot_old)``, each ``(n, 2)`` (the same for every network) or
+            ``(B, n, 2)``.
+        n_steps: Internal steps of ``dt`` to take (>= 0).
+        alpha: Convergence rate of each oscillator to its limit cycle.
+        dt: Internal integration step, in seconds (> 0).
+        adjacency: Which nodes are coupled (see `adjacency_matrix`); None: fully connected.
+
+    Returns:
+        The new state, ``(B, n, 2)`` arrays (``(n, 2)`` for unbatched ``params``).
+
+    Raises:
+        ValueError: If an argument has the wrong shape or value (see `NaCPGKernel`), or
+            ``n_steps`` is negative.
     """
     kernel = NaCPGKernel(params, adjacency, alpha=alpha, dt=dt)
     kernel.set_state(*state)
@@ -546,6 +657,39 @@ def cpg_targets(
     float32 and back, as ``forward`` does, and smooth it with ``controller.blend_and_clip``.
     NaN (possible only through float overflow with extreme parameters) is returned as is,
     where ``NaCPG.forward`` raises.
+
+    Args:
+        params: Flat parameters ``(B, 5n)``, or ``(5n,)`` for one network.
+        initial_state: ``(xy, xy_dot_old)`` at time 0, each ``(n, 2)`` (the same for every
+            network) or ``(B, n, 2)``.
+        sample_times: 1-D simulated times in seconds (finite, >= 0).
+        alpha: Convergence rate of each oscillator to its limit cycle.
+        dt: Internal integration step, in seconds (> 0).
+        adjacency: Which nodes are coupled (see `adjacency_matrix`); None: fully connected.
+        hard_bounds: ``(lo, hi)`` the targets are clipped to, in radians; None: no clip.
+
+    Returns:
+        The joint targets in radians, ``(B, T, n)`` float64 (``(T, n)`` for ``(5n,)``
+        params), ``T`` being the number of sample times.
+
+    Raises:
+        ValueError: If an argument has the wrong shape or value (see `NaCPGKernel` and
+            `cpg_steps`), ``sample_times`` is not 1-D, or ``hard_bounds`` is invalid.
+
+    Example:
+        ```python
+        import numpy as np
+
+        from ariel.simulation.controllers.cpg_kernel import (
+            cpg_targets,
+            random_parameters,
+            random_state,
+        )
+
+        params = random_parameters(8, rng=0, size=4)  # 4 candidate brains for 8 joints
+        targets = cpg_targets(params, random_state(8, rng=1), np.linspace(0.0, 2.0, 21))
+        print(targets.shape)  # (4, 21, 8): candidate, sample time, joint
+        ```
     """
     kernel = NaCPGKernel(params, adjacency, alpha=alpha, dt=dt)
     kernel.set_state(*initial_state)

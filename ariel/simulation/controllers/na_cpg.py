@@ -50,7 +50,18 @@ _B_INIT_RANGE = 0.1  # b ~ U(-0.1, 0.1) rad: a small offset, so a random network
 
 
 def create_fully_connected_adjacency(num_nodes: int) -> dict[int, list[int]]:
-    """``{i: [every j != i, ascending]}`` for ``i`` in ``0 .. num_nodes-1`` (``{}`` for 0)."""
+    """``{i: [every j != i, ascending]}`` for ``i`` in ``0 .. num_nodes-1`` (``{}`` for 0).
+
+    Args:
+        num_nodes: Number of oscillator nodes (one per actuator, >= 0).
+
+    Returns:
+        The adjacency dict that `NaCPG` and `SimpleCPG` take: every node coupled to every
+        other node.
+
+    Raises:
+        ValueError: If ``num_nodes`` is negative.
+    """
     if num_nodes < 0:
         raise ValueError(f"num_nodes must be >= 0; got {num_nodes}")
     return {i: [j for j in range(num_nodes) if j != i] for i in range(num_nodes)}
@@ -80,6 +91,35 @@ class NaCPG(nn.Module):
     Parameters: ``phase``, ``w``, ``amplitudes``, ``ha``, ``b`` (each ``(n,)``, float64
     ``nn.Parameter`` with ``requires_grad=False``). Output of node ``i``:
     ``clip(amplitudes_i * y_i + b_i, *hard_bounds)``.
+
+    The parameters and the initial state are drawn at random (as `random_parameters` and
+    `random_state` in `cpg_kernel` describe, through torch); set them with
+    ``set_flat_params`` / ``set_initial_state``.
+
+    Args:
+        adjacency_dict: ``{node: [neighbours]}`` with keys ``0 .. n-1``, one node per
+            actuator (e.g. ``create_fully_connected_adjacency(n)``).
+        alpha: Convergence rate of each oscillator to its limit cycle (finite).
+        dt: Internal integration step, in seconds (finite, > 0).
+        hard_bounds: ``(low, high)`` the joint targets are clipped to, in radians; None: no
+            clip.
+        angle_tracking: Append every output of ``forward`` to ``angle_history``.
+        seed: Seed of a private torch generator for the initial draws; None: torch's global
+            RNG (so ``torch.manual_seed`` makes it reproducible).
+
+    Raises:
+        TypeError: If ``adjacency_dict`` is not a mapping.
+        ValueError: If ``adjacency_dict`` has keys other than ``0 .. n-1`` or lists an
+            unknown node, ``dt`` or ``alpha`` is out of range, or ``hard_bounds`` is not a pair
+            with ``low <= high``.
+
+    Example:
+        ```python
+        from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
+
+        cpg = NaCPG(create_fully_connected_adjacency(8), seed=42)
+        print(cpg(0.5).shape)  # torch.Size([8]): joint targets at 0.5 s, radians
+        ```
     """
 
     def __init__(

@@ -15,8 +15,17 @@ __all__ = ["hinge_observation"]
 def hinge_observation(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     """Closed-loop input: actuated joint angles and velocities, gravity in the robot's frame.
 
-    Reads only ``qpos``/``qvel`` (current at every control call, no kinematics pass needed):
-    ``[q (nu), qdot (nu), g_body (3)]``, the gravity direction from the free joint's quaternion.
+    Reads only ``qpos``/``qvel`` (current at every control call, no kinematics pass needed).
+    Each actuator's joint is its transmission target (``model.actuator_trnid``).
+
+    Args:
+        model: The compiled model.
+        data: The model's current data.
+
+    Returns:
+        ``[q (nu), qdot (nu), g_body (3)]``: the actuated joints' angles and velocities, then
+        the world's down direction in the body frame of the free joint that comes first
+        (``(0, 0, -1)`` when the first joint is not free).
     """
     joints = model.actuator_trnid[:, 0]
     q = data.qpos[model.jnt_qposadr[joints]]

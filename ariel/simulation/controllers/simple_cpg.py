@@ -34,7 +34,29 @@ _GROUPS = ("phase", "w", "amplitudes", "ha", "b")
 
 
 class SimpleCPG(nn.Module):
-    """One Hopf oscillator per joint; ``forward(time)`` returns joint targets (radians)."""
+    """One Hopf oscillator per joint; ``forward(time)`` returns joint targets (radians).
+
+    The parameters (``phase``, ``w``, ``amplitudes``, ``ha``, ``b``, each ``(n,)`` float64
+    ``nn.Parameter``) and the initial ``x``, ``y`` are drawn at random; set the parameters
+    with ``set_flat_params`` or ``set_params_by_group``.
+
+    Args:
+        adjacency_dict: ``{node: [neighbours]}`` with keys ``0 .. n-1``, one node per
+            actuator, no node its own neighbour (e.g. ``create_fully_connected_adjacency(n)``).
+        mu: Squared radius of the oscillators' limit cycle (the ``mu`` of the equations
+            above).
+        dt: Euler integration step, in seconds (finite, > 0).
+        hard_bounds: ``(low, high)`` the joint targets are clipped to, in radians; None: no
+            clip.
+        angle_tracking: Append every output of ``forward`` to ``angle_history``.
+        seed: Seed of a private torch generator for the initial draws; None: torch's global
+            RNG.
+
+    Raises:
+        TypeError: If ``adjacency_dict`` is not a mapping.
+        ValueError: If ``adjacency_dict`` has keys other than ``0 .. n-1`` or lists an
+            unknown node or the node itself, or ``dt`` is out of range.
+    """
 
     def __init__(
         self,

@@ -17,7 +17,37 @@ class AmphitheatreTerrainWorld(CompoundWorld):
     """Flat for r <= `inner_radius`, rising linearly to a plateau at `outer_radius` (r in unit
     heightmap coordinates from the centre), plus `height_of_noise` x Perlin noise. The slope
     height is floor_size[2] before MuJoCo's rescaling; the surface tops out at floor_size[2] / 2.
-    Upstream's ``ring_inner_radius`` / ``ring_outer_radius`` name the same two radii.
+    The map is `amphitheatre_heightmap`'s.
+
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives ``"amphitheatre-world"``.
+        floor_size: ``(width, length, depth)`` in metres: the terrain covers width x length
+            and its surface spans z in [0, depth / 2] (default (10, 10, 2): 1 m of relief).
+        floor_tilt: Euler angles in DEGREES (in ``floor_rot_sequence``) that tilt the whole
+            terrain about the origin; the floor must stay below 90 degrees from level.
+        floor_rot_sequence: the Euler sequence: 3 letters from ``xyzXYZ`` (MuJoCo's
+            convention: lower case rotates about the tilted axes, upper case about fixed ones).
+        checker_floor: a checkered floor instead of the plain ``terrain_color``.
+        dims: the heightmap's ``(rows, cols)``, each >= 2 (rows run along y).
+        inner_radius: the flat arena's radius, as a fraction of the terrain's size (>= 0).
+        outer_radius: where the slope reaches the plateau (> ``inner_radius``).
+        height_of_noise: the weight of the Perlin noise added to the shape (same units as the
+            shape's height before MuJoCo rescales the map).
+        scale_of_noise: the Perlin noise's feature size, in heightmap pixels per lattice cell
+            (larger: broader hills).
+        normalize: how the raw noise (about +-0.7) is scaled: ``"none"``, ``"linear"``
+            (``v * 0.5 + 0.5``) or ``"clip"`` (clipped to [0, 1]).
+        seed: the terrain's noise seed (same seed, same terrain); ``None`` draws a fresh one.
+        terrain_color: the floor's RGBA colour (4 numbers in [0, 1]) without the checker.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+        ring_inner_radius: upstream's name for ``inner_radius``.
+        ring_outer_radius: upstream's name for ``outer_radius``.
+
+    Raises:
+        ValueError: a radius is given under both names, or an option's value is not allowed
+            (see `amphitheatre_heightmap` and `CompoundWorld`).
     """
 
     name = "amphitheatre-world"

@@ -351,13 +351,43 @@ def _collision_clearance(
 class BaseWorld:
     """A MuJoCo world: an ``MjSpec`` with lights, cameras and settings, and ``spawn()``.
 
-    Options are keyword-only. ``timestep`` (default 0.002 s) is always set explicitly and the
-    integrator is implicitfast. ``mujoco_config`` (a mapping, dataclass or object whose fields
-    are ``spec.option`` fields, e.g. ``{"timestep": 0.001, "integrator": "RK4"}``) is stored in
-    ``self.mujoco_config`` and applied after everything else. ``load_precompiled`` is accepted
-    for compatibility with upstream ARIEL and ignored: worlds are always generated (cheaply).
+    Options are keyword-only, in every world. The integrator is implicitfast.
 
     The base world has no floor; its ground is the plane z = 0, which ``spawn()`` uses.
+
+    Args:
+        name: the world's name (a non-empty string, also the spec's model name, title-cased);
+            ``None`` gives the class's ``name``.
+        timestep: the physics step in seconds (> 0), always set explicitly; ``None`` gives
+            0.002 s (MuJoCo's default).
+        mujoco_config: a mapping, dataclass or object whose fields are ``spec.option`` fields,
+            e.g. ``{"timestep": 0.001, "integrator": "RK4"}`` (enum fields take their names as
+            strings). Stored in ``self.mujoco_config`` and applied after everything else; a
+            timestep given here must agree with ``timestep``.
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored: worlds
+            are always generated (cheaply).
+
+    Raises:
+        TypeError: a positional argument or an option the world does not take, or a
+            ``mujoco_config`` that is neither a mapping nor an object with attributes.
+        ValueError: an option's value is not allowed (the message says what is), e.g. an
+            unknown ``mujoco_config`` field or two different timesteps.
+
+    Example:
+        ```python
+        import mujoco
+
+        from ariel.simulation.environments import SimpleFlatWorld
+
+        world = SimpleFlatWorld(timestep=0.001, mujoco_config={"integrator": "RK4"})
+        robot = mujoco.MjSpec()  # a stand-in robot: one 10 cm box
+        core = robot.worldbody.add_body(name="core")
+        core.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.05, 0.05])
+        model = world.spawn(robot, position=(0.0, 0.0, 0.0)).compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        print(model.opt.timestep, round(float(data.qpos[2]), 3))  # 0.001 0.06: 1 cm up
+        ```
     """
 
     name: str = "base-world"

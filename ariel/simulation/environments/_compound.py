@@ -27,11 +27,33 @@ TERRAIN_COLOR = (0.460, 0.362, 0.216, 1.0)
 class CompoundWorld(BaseWorld):
     """A heightfield floor: hfield "floor" and an HFIELD geom "floor" on the world body.
 
-    `floor_size` = (width, length, depth): the heightfield covers width x length, its surface
-    spans z in [0, depth / 2] above the geom origin (MuJoCo rescales the heightmap to [0, 1],
-    so only its shape matters) and its base is depth / 10 thick. `floor_heightmap` is a 2-D
-    array of shape (rows, cols) (rows along y); default: flat zeros of shape `dims` (default
-    (100, 100)). `floor_tilt` (Euler DEGREES) tilts the whole heightfield about the origin.
+    MuJoCo rescales the heightmap to [0, 1], so only its shape matters; ``floor_size`` sets
+    the real height.
+
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives ``"compound-world"``.
+        floor_size: ``(width, length, depth)`` in metres, all > 0: the heightfield covers
+            width x length, its surface spans z in [0, depth / 2] above the geom origin and its
+            base is depth / 10 thick.
+        floor_tilt: Euler angles in DEGREES (in ``floor_rot_sequence``) that tilt the whole
+            heightfield about the origin; the floor must stay below 90 degrees from level.
+        floor_rot_sequence: the Euler sequence: 3 letters from ``xyzXYZ`` (MuJoCo's
+            convention: lower case rotates about the tilted axes, upper case about fixed ones).
+        dims: ``(rows, cols)``, each >= 2, of the flat map made when ``floor_heightmap`` is
+            ``None`` (default (100, 100)); with a heightmap it must match its shape.
+        floor_heightmap: a finite 2-D array of shape ``(rows, cols)``, at least 2 x 2 (rows run
+            along y, columns along x); ``None`` gives a flat floor.
+        terrain_color: the floor's RGBA colour (4 numbers in [0, 1]) when ``checker_floor`` is
+            ``False``.
+        checker_floor: a checkered floor (``True``) or one in ``terrain_color``.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+
+    Raises:
+        ValueError: an option's value is not allowed, e.g. a heightmap that is not 2-D and
+            finite, ``dims`` that disagree with it, or a tilt of 90 degrees or more (and see
+            `BaseWorld`).
     """
 
     name = "compound-world"

@@ -15,7 +15,39 @@ __all__ = ["CraterTerrainWorld"]
 
 class CraterTerrainWorld(CompoundWorld):
     """A central crater: height rises linearly from the centre (about 0) to the corners
-    (floor_size[2] / 2 = 1 m by default), plus Perlin noise."""
+    (floor_size[2] / 2 = 1 m by default), plus Perlin noise.
+
+    The map is `crater_heightmap`'s.
+
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives ``"crater-world"``.
+        floor_size: ``(width, length, depth)`` in metres: the terrain covers width x length
+            and its surface spans z in [0, depth / 2] (default (10, 10, 2): 1 m of relief).
+        floor_tilt: Euler angles in DEGREES (in ``floor_rot_sequence``) that tilt the whole
+            terrain about the origin; the floor must stay below 90 degrees from level.
+        floor_rot_sequence: the Euler sequence: 3 letters from ``xyzXYZ`` (MuJoCo's
+            convention: lower case rotates about the tilted axes, upper case about fixed ones).
+        checker_floor: a checkered floor instead of the plain ``terrain_color``.
+        dims: the heightmap's ``(rows, cols)``, each >= 2 (rows run along y).
+        height_of_noise: the weight of the Perlin noise added to the shape (same units as the
+            shape's height before MuJoCo rescales the map).
+        scale_of_noise: the Perlin noise's feature size, in heightmap pixels per lattice cell
+            (larger: broader hills).
+        normalize: how the raw noise (about +-0.7) is scaled: ``"none"``, ``"linear"``
+            (``v * 0.5 + 0.5``) or ``"clip"`` (clipped to [0, 1]).
+        crater_depth: the slope of the cone: its height per ``crater_radius`` of distance from
+            the centre (>= 0).
+        crater_radius: the cone's radius unit, as a fraction of the terrain's size (> 0).
+        seed: the terrain's noise seed (same seed, same terrain); ``None`` draws a fresh one.
+        terrain_color: the floor's RGBA colour (4 numbers in [0, 1]) without the checker.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+
+    Raises:
+        ValueError: an option's value is not allowed (see `crater_heightmap` and
+            `CompoundWorld`).
+    """
 
     name = "crater-world"
 

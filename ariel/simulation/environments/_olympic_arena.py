@@ -50,11 +50,38 @@ class OlympicArena(BaseWorld):
     * platform: box "finish_platform" of `platform_length`; the target (a see-through red ball
       that nothing collides with) stands at its centre, ``self.target_position``.
 
-    Upstream's ``section_length`` (half-length of the rugged and incline sections; sets both
-    lengths) and ``incline_axis`` (only "y") are accepted too.
-
     Walls `wall_height` high (above the floor beside them) run along both sides and both ends.
     Deterministic by default (seed 42); ``seed=None`` draws fresh hills.
+
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives ``"olympic_arena"``.
+        arena_width: the track's width along y, in metres (> 0).
+        flat_length: the flat section's length along x, in metres (> 0).
+        rugged_length: the rugged section's length along x, in metres (> 0).
+        incline_length: the incline's length along its slope, in metres (> 0).
+        incline_degrees: the incline's slope in degrees, within (-45, 45); negative slopes
+            downhill.
+        platform_length: the finish platform's length along x, in metres (> 0).
+        wall_height: the walls' height above the floor beside them, in metres (> 0).
+        rugged_resolution: the rugged heightfield's rows and columns (>= 2).
+        rugged_scale: the Perlin noise's feature size, in heightfield pixels per lattice cell
+            (> 0).
+        rugged_height: the total height of the rugged hills, in metres (> 0).
+        seed: the hills' noise seed (same seed, same hills); ``None`` draws a fresh one.
+        checker_floor: checkered floors (``True``) or plain-coloured ones.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+        section_length: upstream's half-length of the rugged and incline sections: sets both
+            lengths to twice this value (> 0); ``None`` leaves them to ``rugged_length`` and
+            ``incline_length``.
+        incline_axis: upstream's axis of the incline; only ``"y"`` (the default) fits the
+            track along +x.
+
+    Raises:
+        ValueError: an option's value is not allowed, ``incline_axis`` is not ``"y"``, or
+            ``section_length`` is given with non-default ``rugged_length`` /
+            ``incline_length`` (and see `BaseWorld`).
     """
 
     name = "olympic_arena"

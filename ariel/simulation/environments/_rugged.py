@@ -19,8 +19,33 @@ class RuggedTerrainWorld(CompoundWorld):
     """Heightmap = Perlin noise (`scale_of_noise` pixels per lattice cell) x a smooth edge mask.
 
     With the default floor_size (10, 10, 1) the hills span 0.5 m. Deterministic by default
-    (seed 42); ``seed=None`` draws a fresh terrain each time. ``floor_tilt`` (Euler degrees,
-    default none) tilts the whole terrain.
+    (seed 42); ``seed=None`` draws a fresh terrain each time.
+
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives ``"rugged-world"``.
+        floor_size: ``(width, length, depth)`` in metres: the terrain covers width x length
+            and its surface spans z in [0, depth / 2] (default (10, 10, 1): 0.5 m of relief).
+        floor_tilt: Euler angles in DEGREES (in ``floor_rot_sequence``) that tilt the whole
+            terrain about the origin; ``None`` gives the class's ``default_floor_tilt`` (no tilt
+            here, 15 degrees about x in `RuggedTiltedWorld`).
+        floor_rot_sequence: the Euler sequence: 3 letters from ``xyzXYZ`` (MuJoCo's
+            convention: lower case rotates about the tilted axes, upper case about fixed ones).
+        checker_floor: a checkered floor instead of the plain ``terrain_color``.
+        dims: the heightmap's ``(rows, cols)``, each >= 2 (rows run along y).
+        scale_of_noise: the Perlin noise's feature size, in heightmap pixels per lattice cell
+            (larger: broader hills).
+        normalize: how the raw noise (about +-0.7) is scaled: ``"none"``, ``"linear"``
+            (``v * 0.5 + 0.5``) or ``"clip"`` (clipped to [0, 1]).
+        edge_width: the width of the border over which the hills fade to 0, as a fraction of
+            the terrain's size (see `smooth_edges_heightmap`).
+        seed: the terrain's noise seed (same seed, same terrain); ``None`` draws a fresh one.
+        terrain_color: the floor's RGBA colour (4 numbers in [0, 1]) without the checker.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+
+    Raises:
+        ValueError: an option's value is not allowed (see `CompoundWorld`).
     """
 
     name = "rugged-world"

@@ -21,8 +21,19 @@ __all__ = ["SimpleFlatWorld"]
 class SimpleFlatWorld(BaseWorld):
     """A flat floor: body "floor" holding a plane geom "floor" at z = 0.
 
-    `floor_size` is (width, length, depth) in metres (the plane is width x length; the third
-    value sets the plane's render grid). `checker_floor=False` gives a plain-coloured floor.
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives ``"simple-flat-world"``.
+        floor_size: ``(width, length, depth)`` in metres, all > 0: the plane is width x length
+            (drawn; for collisions MuJoCo planes are infinite) and the third value sets the
+            plane's render grid.
+        checker_floor: a checkered floor (``True``) or a plain-coloured one.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+
+    Raises:
+        ValueError: ``floor_size`` is not three positive numbers, or ``checker_floor`` is not a
+            bool (and see `BaseWorld`).
     """
 
     name = "simple-flat-world"

@@ -15,7 +15,22 @@ __all__ = ["SimpleFlatWorldWithTarget"]
 
 class SimpleFlatWorldWithTarget(SimpleFlatWorld):
     """Flat world with body "target_marker" (a see-through red cube that nothing collides with)
-    at `target_position` (default (5, 0, 0.5), upstream's)."""
+    at `target_position` (default (5, 0, 0.5), upstream's).
+
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives
+            ``"simple-flat-world-with-target"``.
+        floor_size: ``(width, length, depth)`` in metres, as in `SimpleFlatWorld`.
+        checker_floor: a checkered floor (``True``) or a plain-coloured one.
+        target_position: the centre of the 0.2 m target cube, ``(x, y, z)`` in metres.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+
+    Raises:
+        ValueError: ``target_position`` is not three finite numbers (and see
+            `SimpleFlatWorld`).
+    """
 
     name = "simple-flat-world-with-target"
 

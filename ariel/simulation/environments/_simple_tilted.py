@@ -23,6 +23,23 @@ class SimpleTiltedWorld(SimpleFlatWorld):
 
     The default (15, 0, 0) is a 15 degree slope about the x axis: the floor rises toward +y,
     z = tan(15 deg) * y.
+
+    Args:
+        name: the world's name (a non-empty string); ``None`` gives ``"simple-tilted-world"``.
+        floor_size: ``(width, length, depth)`` in metres, as in `SimpleFlatWorld`.
+        floor_tilt: Euler angles in DEGREES (in ``floor_rot_sequence``) that tilt the plane
+            about the origin; the floor must stay below 90 degrees from level.
+        floor_rot_sequence: the Euler sequence: 3 letters from ``xyzXYZ`` (MuJoCo's
+            convention: lower case rotates about the tilted axes, upper case about fixed ones).
+        checker_floor: a checkered floor (``True``) or a plain-coloured one.
+        timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
+        mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).
+        load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
+
+    Raises:
+        ValueError: ``floor_tilt`` is not three finite numbers or leaves the floor vertical or
+            upside down, or ``floor_rot_sequence`` is not a valid sequence (and see
+            `SimpleFlatWorld`).
     """
 
     name = "simple-tilted-world"

@@ -67,7 +67,17 @@ def _noise(
 
 
 def flat_heightmap(dims: tuple[int, int]) -> np.ndarray:
-    """All zeros."""
+    """All zeros.
+
+    Args:
+        dims: ``(rows, cols)``, each an integer >= 2 (rows run along y).
+
+    Returns:
+        A float64 array of shape ``dims``.
+
+    Raises:
+        ValueError: ``dims`` is not two integers >= 2.
+    """
     return np.zeros(as_dims(dims), dtype=np.float64)
 
 
@@ -80,15 +90,50 @@ def rugged_heightmap(
 ) -> np.ndarray:
     """Perlin noise; pixel (col, row) samples the noise at (col, row) / scale_of_noise.
 
-    ``normalize``: "none" (or None) for raw values, "linear" or "clip"."""
+    Args:
+        dims: ``(rows, cols)``, each an integer >= 2 (rows run along y).
+        scale_of_noise: the noise's feature size, in pixels per lattice cell (> 0).
+        normalize: ``"none"`` (or ``None``) for raw values (about +-0.7), ``"linear"``
+            (``v * 0.5 + 0.5``) or ``"clip"`` (clipped to [0, 1]).
+        seed: the noise seed (same seed, same map); ``None`` draws a fresh one.
+
+    Returns:
+        A float64 array of shape ``dims``.
+
+    Raises:
+        ValueError: ``dims``, ``scale_of_noise`` or ``normalize`` is not allowed.
+
+    Example:
+        ```python
+        from ariel.simulation.environments.heightmaps import (
+            rugged_heightmap,
+            smooth_edges_heightmap,
+        )
+
+        dims = (50, 80)
+        hills = rugged_heightmap(dims, 4.0, seed=42) * smooth_edges_heightmap(dims, 0.2)
+        print(hills.shape, hills[0].max())  # (50, 80) 0.0: flat along the border
+        ```
+    """
     return _noise(as_dims(dims), scale_of_noise, normalize, seed)
 
 
 def smooth_edges_heightmap(dims: tuple[int, int], edge_width: float = 0.2) -> np.ndarray:
     """A mask that is 0 on the border, rises smoothly (3t^2 - 2t^3) and is 1 further in.
 
-    t = d / edge_width with d the distance to the nearest border in unit coordinates
-    (edge_width <= 0: a hard step, 0 on the border and 1 inside).
+    t = d / edge_width with d the distance to the nearest border in unit coordinates.
+
+    Args:
+        dims: ``(rows, cols)``, each an integer >= 2 (rows run along y).
+        edge_width: the width of the rising band, as a fraction of the map's size (unit
+            coordinates); <= 0 gives a hard step, 0 on the border and 1 inside.
+
+    Returns:
+        A float64 array of shape ``dims`` with values in [0, 1], to multiply a heightmap by.
+
+    Raises:
+        ValueError: ``dims`` is not two integers >= 2, or ``edge_width`` is not a finite
+            number.
     """
     dims = as_dims(dims)
     width = _number(edge_width, "edge_width")
@@ -112,6 +157,23 @@ def crater_heightmap(
 
     height = crater_depth * r + height_of_noise * noise, r = distance from the centre in units
     of crater_radius (unit coordinates).
+
+    Args:
+        dims: ``(rows, cols)``, each an integer >= 2 (rows run along y).
+        crater_depth: the cone's height per ``crater_radius`` of distance (>= 0).
+        crater_radius: the radius unit, as a fraction of the map's size (> 0).
+        height_of_noise: the weight of the Perlin noise added to the shape (>= 0).
+        scale_of_noise: the noise's feature size, in pixels per lattice cell (> 0).
+        normalize: ``"none"`` (raw noise, about +-0.7), ``"linear"`` (``v * 0.5 + 0.5``) or
+            ``"clip"`` (clipped to [0, 1]).
+        seed: the noise seed (same seed, same map); ``None`` draws a fresh one.
+
+    Returns:
+        A float64 array of shape ``dims``.
+
+    Raises:
+        ValueError: a number is negative (``crater_radius``: not positive) or not finite, or
+            ``dims``, ``scale_of_noise`` or ``normalize`` is not allowed.
     """
     dims = as_dims(dims)
     depth = _non_negative(crater_depth, "crater_depth")
@@ -137,6 +199,25 @@ def amphitheatre_heightmap(
 ) -> np.ndarray:
     """A flat arena (r <= inner_radius), a linear slope up to cone_height at outer_radius and a
     plateau beyond (r from the centre in unit coordinates), plus height_of_noise * Perlin noise.
+
+    Args:
+        dims: ``(rows, cols)``, each an integer >= 2 (rows run along y).
+        inner_radius: the flat arena's radius, as a fraction of the map's size (>= 0).
+        outer_radius: where the slope reaches the plateau (> ``inner_radius``).
+        cone_height: the plateau's height above the arena (>= 0).
+        height_of_noise: the weight of the Perlin noise added to the shape (>= 0).
+        scale_of_noise: the noise's feature size, in pixels per lattice cell (> 0).
+        normalize: ``"none"`` (raw noise, about +-0.7), ``"linear"`` (``v * 0.5 + 0.5``) or
+            ``"clip"`` (clipped to [0, 1]).
+        seed: the noise seed (same seed, same map); ``None`` draws a fresh one.
+
+    Returns:
+        A float64 array of shape ``dims``.
+
+    Raises:
+        ValueError: the radii are not ``0 <= inner_radius < outer_radius``, a height is
+            negative or not finite, or ``dims``, ``scale_of_noise`` or ``normalize`` is not
+            allowed.
     """
     dims = as_dims(dims)
     inner = _number(inner_radius, "inner_radius")
@@ -165,7 +246,25 @@ def amphitheater_heightmap(
     seed: int | None = None,
 ) -> np.ndarray:
     """Upstream's name and keywords (``ring_inner_radius``, ``ring_outer_radius``) for
-    `amphitheatre_heightmap`: the same map."""
+    `amphitheatre_heightmap`: the same map.
+
+    Args:
+        dims: ``(rows, cols)``, each an integer >= 2 (rows run along y).
+        ring_inner_radius: the flat arena's radius, as a fraction of the map's size (>= 0).
+        ring_outer_radius: where the slope reaches the plateau (> ``ring_inner_radius``).
+        cone_height: the plateau's height above the arena (>= 0).
+        height_of_noise: the weight of the Perlin noise added to the shape (>= 0).
+        scale_of_noise: the noise's feature size, in pixels per lattice cell (> 0).
+        normalize: ``"none"`` (raw noise, about +-0.7), ``"linear"`` (``v * 0.5 + 0.5``) or
+            ``"clip"`` (clipped to [0, 1]).
+        seed: the noise seed (same seed, same map); ``None`` draws a fresh one.
+
+    Returns:
+        A float64 array of shape ``dims``.
+
+    Raises:
+        ValueError: as `amphitheatre_heightmap`.
+    """
     return amphitheatre_heightmap(
         dims,
         ring_inner_radius,

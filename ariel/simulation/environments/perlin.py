@@ -24,7 +24,12 @@ def _fade(t: np.ndarray) -> np.ndarray:
 
 
 class PerlinNoise:
-    """Seeded 2-D Perlin noise; same seed, same noise (``seed=None``: fresh entropy)."""
+    """Seeded 2-D Perlin noise; same seed, same noise (``seed=None``: fresh entropy).
+
+    Args:
+        seed: seeds the noise's own ``np.random.default_rng`` (the global RNGs are left alone);
+            ``None`` draws fresh entropy.
+    """
 
     def __init__(self, seed: int | None = None) -> None:
         self.seed = seed

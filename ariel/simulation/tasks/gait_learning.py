@@ -17,19 +17,54 @@ def _planar(point: ArrayLike, name: str) -> np.ndarray:
 
 
 def xy_displacement(xy1: ArrayLike, xy2: ArrayLike) -> float:
-    """Euclidean distance between two positions in the xy-plane (z is ignored)."""
+    """Euclidean distance between two positions in the xy-plane (z is ignored).
+
+    Args:
+        xy1: the first position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        xy2: the second position, in the same form.
+
+    Returns:
+        The planar distance in metres (>= 0).
+
+    Raises:
+        ValueError: a position has fewer than two values.
+    """
     return float(np.linalg.norm(_planar(xy2, "xy2") - _planar(xy1, "xy1")))
 
 
 def x_speed(xy1: ArrayLike, xy2: ArrayLike, dt: float) -> float:
-    """``|x2 - x1| / dt``; 0.0 when ``dt <= 0``."""
+    """``|x2 - x1| / dt``; 0.0 when ``dt <= 0``.
+
+    Args:
+        xy1: the earlier position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        xy2: the later position, in the same form.
+        dt: the time between the two positions, in seconds.
+
+    Returns:
+        The absolute speed along x in m/s.
+
+    Raises:
+        ValueError: a position has fewer than two values (checked only when ``dt > 0``).
+    """
     if dt <= 0:
         return 0.0
     return float(abs(_planar(xy2, "xy2")[0] - _planar(xy1, "xy1")[0]) / dt)
 
 
 def y_speed(xy1: ArrayLike, xy2: ArrayLike, dt: float) -> float:
-    """``|y2 - y1| / dt``; 0.0 when ``dt <= 0``."""
+    """``|y2 - y1| / dt``; 0.0 when ``dt <= 0``.
+
+    Args:
+        xy1: the earlier position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        xy2: the later position, in the same form.
+        dt: the time between the two positions, in seconds.
+
+    Returns:
+        The absolute speed along y in m/s.
+
+    Raises:
+        ValueError: a position has fewer than two values (checked only when ``dt > 0``).
+    """
     if dt <= 0:
         return 0.0
     return float(abs(_planar(xy2, "xy2")[1] - _planar(xy1, "xy1")[1]) / dt)
@@ -38,13 +73,36 @@ def y_speed(xy1: ArrayLike, xy2: ArrayLike, dt: float) -> float:
 def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0) -> float:
     """Planar displacement at the path's typical pace: robust to one late fall or lunge.
 
-    The path ``xy`` ``(T, 2+)`` sampled at ascending ``times`` is cut into consecutive windows
-    of ``window`` seconds (positions at the window edges interpolated between samples); each
-    window's progress is its displacement along the net direction (first to last position).
-    The result is the median window's progress scaled to the whole span (times span / window):
-    a steady gait scores its `xy_displacement`; a body that tips over once scores
-    what it does in its other windows. Never negative (a typical window going nowhere or
-    backwards scores 0); a span shorter than one window scores its `xy_displacement`.
+    The path is cut into consecutive windows of ``window`` seconds (positions at the window
+    edges interpolated between samples); each window's progress is its displacement along the
+    net direction (first to last position). The result is the median window's progress scaled
+    to the whole span (times span / window): a steady gait scores its `xy_displacement`; a
+    body that tips over once scores what it does in its other windows.
+
+    Args:
+        times: the ``T`` sample times in seconds, ascending.
+        xy: the path, ``(T, 2+)`` positions in metres (columns past x and y are ignored).
+        window: the window length in seconds (> 0).
+
+    Returns:
+        The displacement in metres. Never negative (a typical window going nowhere or
+            backwards scores 0); a span shorter than one window scores its `xy_displacement`,
+            and an empty path 0.0.
+
+    Raises:
+        ValueError: ``xy`` is not ``(T, 2+)`` with ``T = len(times)``, or ``window <= 0``.
+
+    Example:
+        ```python
+        import numpy as np
+
+        from ariel.simulation.tasks.gait_learning import sustained_displacement
+
+        times = np.linspace(0.0, 10.0, 101)
+        xy = np.stack([0.1 * times, np.zeros_like(times)], axis=1)  # steady 0.1 m/s along x
+        xy[-10:, 0] += 0.5  # a lunge in the last second
+        print(round(sustained_displacement(times, xy), 3))  # 1.0: the lunge is ignored
+        ```
     """
     t = np.asarray(times, dtype=np.float64).reshape(-1)
     path = np.asarray(xy, dtype=np.float64)

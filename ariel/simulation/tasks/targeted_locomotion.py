@@ -42,8 +42,18 @@ SURVIVAL_PENALTY = 10.0
     initial_position="final_position", final_pos="final_position", target_pos="target_position"
 )
 def distance_to_target(final_position: ArrayLike, target_position: ArrayLike) -> float:
-    """Planar distance from the final position to the target (upstream names the first
-    argument ``initial_position``; that keyword is accepted too)."""
+    """Planar distance from the final position to the target.
+
+    Upstream names the first argument ``initial_position``; that keyword (and ``final_pos`` /
+    ``target_pos``) is accepted too.
+
+    Args:
+        final_position: the robot's position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        target_position: the target's position, in the same form.
+
+    Returns:
+        The distance in metres (lower is better).
+    """
     return xy_displacement(final_position, target_position)
 
 
@@ -51,7 +61,18 @@ def distance_to_target(final_position: ArrayLike, target_position: ArrayLike) ->
 def fitness_delta_distance(
     initial_position: ArrayLike, final_position: ArrayLike, target_position: ArrayLike
 ) -> float:
-    """Final minus initial distance to the target (negative = progress)."""
+    """Final minus initial distance to the target (negative = progress).
+
+    Upstream's keywords ``initial_pos`` / ``final_pos`` / ``target_pos`` are accepted too.
+
+    Args:
+        initial_position: the robot's start position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        final_position: the robot's end position, in the same form.
+        target_position: the target's position, in the same form.
+
+    Returns:
+        The change of distance in metres (lower is better).
+    """
     return distance_to_target(final_position, target_position) - distance_to_target(
         initial_position, target_position
     )
@@ -64,7 +85,20 @@ def fitness_distance_and_efficiency(
     target_position: ArrayLike,
     total_control_effort: float,
 ) -> float:
-    """``fitness_delta_distance + 0.001 * total_control_effort``."""
+    """``fitness_delta_distance + 0.001 * total_control_effort``.
+
+    Upstream's keywords ``initial_pos`` / ``final_pos`` / ``target_pos`` are accepted too.
+
+    Args:
+        initial_position: the robot's start position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        final_position: the robot's end position, in the same form.
+        target_position: the target's position, in the same form.
+        total_control_effort: the controller's effort over the run, however the caller
+            measures it (e.g. the sum of absolute controls).
+
+    Returns:
+        The penalised change of distance (lower is better).
+    """
     delta = fitness_delta_distance(initial_position, final_position, target_position)
     return delta + 0.001 * float(total_control_effort)
 
@@ -76,7 +110,20 @@ def fitness_survival_and_locomotion(
     target_position: ArrayLike,
     min_z_height: float,
 ) -> float:
-    """``10.0`` if the core ever went below 0.05 m (fell), else ``fitness_delta_distance``."""
+    """``10.0`` if the core ever went below 0.05 m (fell), else ``fitness_delta_distance``.
+
+    The threshold and the penalty are `SURVIVAL_MIN_HEIGHT` and `SURVIVAL_PENALTY`. Upstream's
+    keywords ``initial_pos`` / ``final_pos`` / ``target_pos`` are accepted too.
+
+    Args:
+        initial_position: the robot's start position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        final_position: the robot's end position, in the same form.
+        target_position: the target's position, in the same form.
+        min_z_height: the lowest height of the core during the run, in metres.
+
+    Returns:
+        ``SURVIVAL_PENALTY`` or the change of distance in metres (lower is better).
+    """
     if min_z_height < SURVIVAL_MIN_HEIGHT:
         return SURVIVAL_PENALTY
     return fitness_delta_distance(initial_position, final_position, target_position)
@@ -89,7 +136,19 @@ def fitness_direct_path(
     target_position: ArrayLike,
     total_path_length: float,
 ) -> float:
-    """``fitness_delta_distance + 0.5 * (path length - straight-line displacement)``."""
+    """``fitness_delta_distance + 0.5 * (path length - straight-line displacement)``.
+
+    Upstream's keywords ``initial_pos`` / ``final_pos`` / ``target_pos`` are accepted too.
+
+    Args:
+        initial_position: the robot's start position, ``(x, y)`` or ``(x, y, z)``, in metres.
+        final_position: the robot's end position, in the same form.
+        target_position: the target's position, in the same form.
+        total_path_length: the length of the path the robot travelled, in metres.
+
+    Returns:
+        The change of distance plus the detour penalty (lower is better).
+    """
     delta = fitness_delta_distance(initial_position, final_position, target_position)
     detour = float(total_path_length) - xy_displacement(initial_position, final_position)
     return delta + 0.5 * detour
@@ -99,7 +158,20 @@ def fitness_speed_to_target(
     time_to_target: float | None, duration: float, min_distance_to_target: float
 ) -> float:
     """``clip(time_to_target / duration, 0, 1)`` if the target was reached, else
-    ``1 + min_distance_to_target``. ``time_to_target=None`` (or inf/NaN) means not reached."""
+    ``1 + min_distance_to_target``.
+
+    Args:
+        time_to_target: seconds until the target was reached; ``None`` (or inf / NaN) means
+            it was not reached.
+        duration: the run's length in seconds (> 0).
+        min_distance_to_target: the closest the robot came to the target, in metres.
+
+    Returns:
+        A value in [0, 1] if the target was reached, else above 1 (lower is better).
+
+    Raises:
+        ValueError: ``duration`` is not > 0.
+    """
     if not duration > 0:
         raise ValueError(f"duration must be > 0 seconds; got {duration}")
     if time_to_target is None or not math.isfinite(time_to_target):

@@ -12,8 +12,18 @@ def turning_in_place(xy_history: ArrayLike) -> float:
     """Total absolute change of heading of successive displacements, divided by
     ``1 + |end - start|`` (planar); 0.0 for fewer than two points.
 
-    ``xy_history``: ``(T, 2)`` or ``(T, 3)`` positions (z ignored). Headings are unwrapped, so
-    a full circle counts 2π; zero-length displacements have heading 0 (``atan2(0, 0)``).
+    Headings are unwrapped, so a full circle counts 2π; zero-length displacements have heading
+    0 (``atan2(0, 0)``).
+
+    Args:
+        xy_history: ``(T, 2)`` or ``(T, 3)`` positions in metres (z ignored).
+
+    Returns:
+        The turn in radians per (1 + metre of drift) (higher is better); 0.0 for an empty
+            history.
+
+    Raises:
+        ValueError: ``xy_history`` is not empty and not two-dimensional with >= 2 columns.
     """
     points = np.asarray(xy_history, dtype=np.float64)
     if points.size == 0:

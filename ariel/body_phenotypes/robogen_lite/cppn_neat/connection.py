@@ -9,8 +9,16 @@ __all__ = ["Connection"]
 
 @dataclass
 class Connection:
-    """A weighted link ``in_id -> out_id``; ``innov_id`` is its innovation number (the key that
-    lines genes up in crossover)."""
+    """A weighted link ``in_id -> out_id`` of a CPPN-NEAT genome.
+
+    Attributes:
+        in_id: Id of the source node.
+        out_id: Id of the target node.
+        weight: Weight the source's output is multiplied by.
+        enabled: Whether the link is expressed (a link split by an add-node mutation is
+            disabled, not removed).
+        innov_id: Innovation number (the key that lines genes up in crossover).
+    """
 
     in_id: int
     out_id: int

@@ -41,8 +41,16 @@ def _rng(rng: RngLike) -> np.random.Generator:
 
 
 class Genome:
-    """A CPPN: ``nodes`` ``{id: Node}``, ``connections`` ``{innov_id: Connection}``, ``fitness``
-    (crossover favours the fitter parent's genes)."""
+    """A CPPN as NEAT genes: node genes and connection genes.
+
+    The dicts are kept as given (not copied); `copy` makes an independent genome.
+
+    Args:
+        nodes: Node genes, ``{node id: Node}``.
+        connections: Connection genes, ``{innovation id: Connection}``.
+        fitness: The genome's fitness; `crossover` favours the fitter parent's genes.
+        serialized: Stored as ``serialized`` and otherwise unused (upstream's signature).
+    """
 
     def __init__(
         self,

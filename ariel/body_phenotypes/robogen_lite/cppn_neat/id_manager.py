@@ -14,6 +14,18 @@ class IdManager:
     With both ``node_start`` and ``innov_start`` given, it starts from them in memory (the file
     is only written by `save`). Otherwise it reads ``save_path`` if that file exists (upstream's
     persistent mode) and starts from 0 if not. Nothing is printed.
+
+    Args:
+        save_path: JSON file the counters are read from (unless both starts are given) and
+            written to by `save`.
+        node_start: Last node id used; the next one handed out is ``node_start + 1``. Used
+            only together with ``innov_start``.
+        innov_start: Last innovation id used; the next one handed out is
+            ``innov_start + 1``. Used only together with ``node_start``.
+
+    Raises:
+        ValueError: If the counters are read from ``save_path`` and it is not a valid state
+            file.
     """
 
     def __init__(

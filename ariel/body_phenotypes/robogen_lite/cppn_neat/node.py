@@ -11,8 +11,15 @@ NODE_TYPES = ("input", "hidden", "output")
 
 @dataclass
 class Node:
-    """Node ``_id`` of type ``typ`` ("input", "hidden" or "output"), with an activation NAME
-    (a key of ``ACTIVATION_FUNCTIONS``; None for inputs) and a bias."""
+    """A node gene of a CPPN-NEAT genome.
+
+    Attributes:
+        _id: The node id.
+        typ: "input", "hidden" or "output".
+        activation: Name of the activation function (a key of ``ACTIVATION_FUNCTIONS``);
+            None for inputs.
+        bias: Bias added to the node's weighted input sum.
+    """
 
     _id: int
     typ: str

@@ -23,6 +23,13 @@ class Blueprint:
     A decoder fills ``nodes`` (module indices), ``edges`` (``(parent, child, face)``),
     ``type_dict`` and ``rot_dict`` (index -> ``ModuleType`` / ``ModuleRotationsIdx``);
     `generate_networkx_graph` then adds them to ``graph``.
+
+    Args:
+        num_modules: Most modules the decoder may place (an int >= 1); kept as
+            ``num_modules``.
+
+    Raises:
+        ValueError: If ``num_modules`` is a bool or less than 1.
     """
 
     def __init__(self, num_modules: int) -> None:
@@ -62,8 +69,22 @@ def draw_graph(
     seed: int = 42,
     dpi: int = 300,
 ) -> None:
-    """Draw a robot graph (spectral layout refined by a seeded spring layout; edges labelled by
-    face). Saved to ``save_file`` when given, else shown (``plt.show()``)."""
+    """Draw a robot graph with matplotlib.
+
+    Nodes are placed by a spectral layout refined by a seeded spring layout, labelled with
+    their id and type; edges are labelled by face.
+
+    Args:
+        graph: The robot graph to draw (at least one node).
+        title: Title of the plot.
+        save_file: Image file to save the drawing to (format from its suffix); when None the
+            figure is shown with ``plt.show()`` instead.
+        seed: Seed of the spring layout (the same seed gives the same picture).
+        dpi: Resolution of the saved image, in dots per inch.
+
+    Raises:
+        ValueError: If ``graph`` has no nodes.
+    """
     import matplotlib.pyplot as plt
 
     if graph.number_of_nodes() == 0:

@@ -92,13 +92,43 @@ _ROT_NAMES = [r.name for r in _ROTS]
 
 
 def softmax(raw_scores: np.ndarray) -> np.ndarray:
-    """Softmax along the last axis (shifted by the maximum, so it never overflows)."""
+    """Softmax along the last axis (shifted by the maximum, so it never overflows).
+
+    Args:
+        raw_scores: Scores of any shape; each slice along the last axis is normalised.
+
+    Returns:
+        Probabilities of the same shape, each last-axis slice summing to 1.
+    """
     shifted = np.exp(raw_scores - np.max(raw_scores, axis=-1, keepdims=True))
     return shifted / shifted.sum(axis=-1, keepdims=True)
 
 
 class MorphologyDecoderBestFirst:
-    """``MorphologyDecoderBestFirst(cppn_genome, max_modules=20).decode()`` -> robot graph."""
+    """Decodes a CPPN genome best-first into a robot graph (see the module docstring).
+
+    Args:
+        cppn_genome: The CPPN: 6 inputs and at least 8 outputs (`CPPN_INPUTS`,
+            `CPPN_OUTPUTS`), checked by `decode`.
+        max_modules: Most modules in the graph, the core included (an int >= 1).
+
+    Raises:
+        ValueError: If ``max_modules`` is a bool or less than 1.
+
+    Example:
+        ```python
+        from ariel.body_phenotypes.robogen_lite.cppn_neat.genome import Genome
+        from ariel.body_phenotypes.robogen_lite.decoders.cppn_best_first import (
+            CPPN_INPUTS,
+            CPPN_OUTPUTS,
+            MorphologyDecoderBestFirst,
+        )
+
+        genome = Genome.random(CPPN_INPUTS, CPPN_OUTPUTS, rng=0)
+        graph = MorphologyDecoderBestFirst(genome, max_modules=10).decode()
+        print(graph.number_of_nodes())  # 10 at most, the core (node 0) included
+        ```
+    """
 
     def __init__(self, cppn_genome: Genome, max_modules: int = 20) -> None:
         if isinstance(max_modules, bool) or int(max_modules) < 1:

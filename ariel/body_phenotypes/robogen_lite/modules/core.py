@@ -45,7 +45,16 @@ CORE_SITES: dict[ModuleFaces, tuple[str, tuple[float, ...], tuple[float, ...]]] 
 
 
 class CoreModule(Module):
-    """The core: body and geom "core", six sites, a camera "core_mycamera". Index must be 0."""
+    """The core: body and geom "core", six sites, a camera "core_mycamera". Index must be 0.
+
+    Args:
+        index: The module index (node id in the robot graph); only 0 (``IDX_OF_CORE``) is
+            accepted.
+
+    Raises:
+        TypeError: If ``index`` is not an int (a bool is refused too).
+        ValueError: If ``index`` is not 0.
+    """
 
     module_type = ModuleType.CORE
 

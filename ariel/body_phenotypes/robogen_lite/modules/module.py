@@ -28,6 +28,10 @@ class ModuleSites(dict[ModuleFaces, mujoco.MjsSite]):
 
     Only the faces the module physically has are present; looking up another one raises
     :class:`FaceNotAvailableError` naming the module type and the faces it has.
+
+    Args:
+        module_type: Type of the module the sites belong to (named in the error message).
+        sites: ``(face, site)`` pairs of the faces the module has.
     """
 
     def __init__(
@@ -47,12 +51,29 @@ class ModuleSites(dict[ModuleFaces, mujoco.MjsSite]):
 
 
 def rgba(red: int, green: int, blue: int, alpha: float = 1.0) -> list[float]:
-    """RGBA in 0..1 from 0..255 colour components."""
+    """RGBA in 0..1 from 0..255 colour components.
+
+    Args:
+        red: Red component, 0..255.
+        green: Green component, 0..255.
+        blue: Blue component, 0..255.
+        alpha: Opacity, already in 0..1 (1 is opaque); passed through unchanged.
+
+    Returns:
+        ``[red, green, blue, alpha]``, each in 0..1, as MuJoCo's ``rgba`` expects.
+    """
     return [red / 255.0, green / 255.0, blue / 255.0, alpha]
 
 
 def growth_axis_quat(degrees: float) -> list[float]:
-    """Quaternion (w, x, y, z) of a rotation by ``degrees`` about the local +y (growth) axis."""
+    """Quaternion (w, x, y, z) of a rotation by ``degrees`` about the local +y (growth) axis.
+
+    Args:
+        degrees: Rotation angle in degrees (right-hand rule about +y).
+
+    Returns:
+        The unit quaternion ``[cos(a/2), 0, sin(a/2), 0]`` for the angle ``a`` in radians.
+    """
     half = math.radians(degrees) / 2.0
     return [math.cos(half), 0.0, math.sin(half), 0.0]
 
@@ -70,6 +91,14 @@ class Module(ABC):
     """A robogen-lite module: ``.spec``, ``.body``, ``.sites``, ``.index``, ``.module_type``.
 
     Subclasses set the class attribute ``module_type`` and build their spec in ``_build``.
+    The root body is named after the type in lower case (e.g. "hinge").
+
+    Args:
+        index: The module index (its node id in the robot graph), kept as ``.index``.
+
+    Raises:
+        NotImplementedError: If the subclass does not define ``module_type``.
+        TypeError: If ``index`` is not an int (a bool is refused too).
     """
 
     module_type: ClassVar[ModuleType]

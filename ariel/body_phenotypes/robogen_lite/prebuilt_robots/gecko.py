@@ -18,7 +18,20 @@ __all__ = ["gecko", "gecko_graph"]
 
 
 def gecko() -> CoreModule:
-    """Build the gecko (32 bodies incl. world when compiled alone, 8 actuators, 1.81 kg)."""
+    """Build the gecko (32 bodies incl. world when compiled alone, 8 actuators, 1.81 kg).
+
+    Returns:
+        The gecko's core module, every other module attached; its ``.spec`` is the body's
+        ``mujoco.MjSpec``.
+
+    Example:
+        ```python
+        from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
+
+        model = gecko().spec.compile()
+        print(model.nu)  # 8 actuators
+        ```
+    """
     core = CoreModule(index=0)
 
     neck = HingeModule(index=1)
@@ -71,6 +84,9 @@ def gecko_graph() -> nx.DiGraph:
     Node ids are the gecko's module indices. Graph rotations can only be 0/45/90 degrees, so
     the right legs' -90 and -45 become 90 and 45: same shape and mass, but those two joint
     axes are not mirrored as in ``gecko()``.
+
+    Returns:
+        A new robot graph of the gecko (15 modules; names as attribute values).
     """
     nodes = {
         0: ("CORE", "DEG_0"),

@@ -19,6 +19,9 @@ def baby_a() -> CoreModule:
     """A three-limbed crawler: a yaw hinge + brick head in front, pitch-hinge + brick arms.
 
     3 actuators: headservo, left_armservo, right_armservo.
+
+    Returns:
+        The body's core module; its ``.spec`` is the body's ``mujoco.MjSpec``.
     """
     core = CoreModule(index=0)
     head_joint = HingeModule(index=1)
@@ -44,6 +47,9 @@ def baby_b() -> CoreModule:
 
     The tail alternates yaw/pitch/yaw hinges and ends in a brick; each side leg is a pitch
     hinge, a brick and a yaw hinge (toe). 7 actuators.
+
+    Returns:
+        The body's core module; its ``.spec`` is the body's ``mujoco.MjSpec``.
     """
     core = CoreModule(index=0)
     tail1 = HingeModule(index=1)

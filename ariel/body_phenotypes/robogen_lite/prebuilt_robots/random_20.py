@@ -23,9 +23,15 @@ def random_spider20(seed: int | None = 1337) -> CoreModule:
 
     Open sites start as the core's FRONT, LEFT, BACK, RIGHT. Each new module takes a random
     open site (removing it), is a hinge with probability 0.6 (rotation 0/45/90 uniformly) or
-    else a brick, gets the prefix ``m{index}`` and opens all of its own sites. Uses its own
-    ``random.Random(seed)``: the same seed gives the same body. With ``None`` its seed is drawn
-    from Python's global ``random`` generator (so ``random.seed(...)`` makes it reproducible).
+    else a brick, gets the prefix ``m{index}`` and opens all of its own sites.
+
+    Args:
+        seed: Seed of the body's own ``random.Random(seed)``: the same seed gives the same
+            body. With None the seed is drawn from Python's global ``random`` generator (so
+            ``random.seed(...)`` makes it reproducible).
+
+    Returns:
+        The body's core module; its ``.spec`` is the body's ``mujoco.MjSpec``.
     """
     rng = random.Random(random.getrandbits(64) if seed is None else seed)
     core = CoreModule(index=0)

@@ -24,6 +24,9 @@ def spider() -> CoreModule:
     """Build the spider: per leg a yaw hinge, a pitch hinge (90 deg) and a brick foot.
 
     Actuators: l1_1servo, l1_2servo, l2_1servo, ..., l4_2servo.
+
+    Returns:
+        The spider's core module; its ``.spec`` is the body's ``mujoco.MjSpec``.
     """
     core = CoreModule(index=0)
     index = 1
@@ -40,7 +43,11 @@ def spider() -> CoreModule:
 
 
 def spider_graph() -> nx.DiGraph:
-    """The spider as a robot graph (same tree and module indices as ``spider()``)."""
+    """The spider as a robot graph (same tree and module indices as ``spider()``).
+
+    Returns:
+        A new robot graph of the spider (13 modules; names as attribute values).
+    """
     graph = nx.DiGraph()
     graph.add_node(0, type="CORE", rotation="DEG_0")
     index = 1

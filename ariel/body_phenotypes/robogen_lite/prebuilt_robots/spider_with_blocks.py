@@ -24,6 +24,9 @@ def body_spider() -> CoreModule:
 
     Prefixes spell the path from the core: "C-FH-", "C-FH-B-", "C-FH-B-H-", "C-FH-B-H-B-".
     8 actuators.
+
+    Returns:
+        The spider's core module; its ``.spec`` is the body's ``mujoco.MjSpec``.
     """
     core = CoreModule(index=0)
     index = 1
@@ -44,7 +47,11 @@ def body_spider() -> CoreModule:
 
 
 def body_spider45() -> CoreModule:
-    """``body_spider()`` with the core yawed by 45 degrees (legs on the diagonals)."""
+    """``body_spider()`` with the core yawed by 45 degrees (legs on the diagonals).
+
+    Returns:
+        The spider's core module, its root body turned 45 degrees about the vertical axis.
+    """
     core = body_spider()
     half = math.radians(45.0) / 2.0
     # The core's rotate() only allows 0 (growth-axis rotations make no sense for the root);

@@ -38,9 +38,21 @@ def _nde_weights(number_of_modules: int, genotype_size: int, nde_seed: int) -> d
 class NDEEncoder:
     """Three float chromosomes -> NDE (fixed weights from ``nde_seed``) -> greedy decoder -> graph.
 
-    Options: ``number_of_modules`` (20), ``genotype_size`` (64), ``nde_seed`` (0: the NDE's
-    weights, fixed for a whole run), ``mutation_std`` (0.1), ``mutation_rate`` (1.0: fraction of
-    genes perturbed). Genes start uniform in [0, 1) as in the tutorials.
+    Genes start uniform in [0, 1) as in the tutorials.
+
+    Args:
+        number_of_modules: the most modules a decoded body can have (>= 2).
+        genotype_size: genes per chromosome (>= 1); a genotype has shape
+            ``(3, genotype_size)``.
+        nde_seed: seeds the NDE's weights, which stay fixed for a whole run; only the genotype
+            evolves.
+        mutation_std: standard deviation of the Gaussian noise `mutate` adds.
+        mutation_rate: the chance, in [0, 1], that `mutate` perturbs each gene (1.0: all of
+            them; the expected fraction perturbed).
+
+    Raises:
+        ValueError: ``number_of_modules`` < 2, ``genotype_size`` < 1, or ``mutation_rate``
+            outside [0, 1].
     """
 
     name = "nde"

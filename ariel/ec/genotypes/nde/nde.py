@@ -56,6 +56,17 @@ class NeuralDevelopmentalEncoding(nn.Module):
     sigmoid: chromosome 0 -> types (N, 4), 1 -> connections (N, N, 6), 2 -> rotations (N, 3).
     With `seed=None` the weights come from torch's global RNG (so `torch.manual_seed` makes
     them reproducible); with a seed they come from a private generator, bit for bit.
+
+    Args:
+        number_of_modules: N, the number of modules the output matrices describe (>= 1).
+        genotype_size: G, the genes per chromosome (>= 1).
+        seed: ``None`` (weights from torch's global RNG) or an integer >= 0 (a private
+            generator; the global RNG is left untouched).
+
+    Raises:
+        TypeError: ``number_of_modules`` or ``genotype_size`` is not an integer.
+        ValueError: ``number_of_modules`` or ``genotype_size`` is < 1, or ``seed`` is neither
+            ``None`` nor an integer >= 0.
     """
 
     def __init__(

@@ -45,8 +45,18 @@ def _to_numpy(value: Any) -> Any:
 def validate_genotype(genotype: Any, genotype_size: int) -> np.ndarray:
     """Check a genotype and return it as a float32 array of shape (3, genotype_size).
 
-    Accepts a list/tuple of three 1-D arrays, lists or tensors, or a (3, G) array or tensor.
-    Raises a one-line ValueError naming what is wrong otherwise.
+    Args:
+        genotype: a list/tuple of three 1-D arrays, lists or tensors, or a (3, G) array or
+            tensor, with finite numeric values.
+        genotype_size: G, the required length of each chromosome.
+
+    Returns:
+        A new float32 array of shape ``(3, genotype_size)``.
+
+    Raises:
+        ValueError: a one-line message naming what is wrong: not three chromosomes, a
+            chromosome of the wrong length or not numeric, or a NaN / inf value (including one
+            beyond the float32 range).
     """
     genotype = _to_numpy(genotype)
     if isinstance(genotype, np.ndarray):
@@ -105,8 +115,32 @@ def _sigmoid(x: np.ndarray) -> np.ndarray:
 def nde_forward_numpy(weights: Mapping[str, np.ndarray], genotype: Any) -> list[np.ndarray]:
     """Map a genotype to the (N, 4), (N, N, 6), (N, 3) float32 probability matrices.
 
-    `weights` is the dict returned by `NeuralDevelopmentalEncoding.to_numpy_weights()` (the
-    state_dict as float32 arrays, Linear weights shaped (out, in)).
+    N and the genotype size G are read from the shapes of ``weights``.
+
+    Args:
+        weights: the dict returned by `NeuralDevelopmentalEncoding.to_numpy_weights()` (the
+            state_dict as float32 arrays, Linear weights shaped (out, in)).
+        genotype: three chromosomes of length G, in any form `validate_genotype` accepts.
+
+    Returns:
+        ``[types, connections, rotations]``: float32 arrays of shapes (N, 4), (N, N, 6) and
+            (N, 3), with values in (0, 1) (independent sigmoids, not normalised).
+
+    Raises:
+        ValueError: ``weights`` lacks one of the expected keys, or ``genotype`` is invalid.
+
+    Example:
+        ```python
+        import numpy as np
+
+        from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
+        from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
+
+        weights = NeuralDevelopmentalEncoding(20, 64, seed=0).to_numpy_weights()
+        genotype = np.random.default_rng(1).random((3, 64))
+        types, connections, rotations = nde_forward_numpy(weights, genotype)
+        print(types.shape, connections.shape, rotations.shape)  # (20, 4) (20, 20, 6) (20, 3)
+        ```
     """
     missing = [name for name in WEIGHT_NAMES if name not in weights]
     if missing:

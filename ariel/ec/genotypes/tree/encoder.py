@@ -35,8 +35,15 @@ _MAX_TRIES = 10  # draws before falling back to growing (a no-op mutation is nev
 class TreeEncoder:
     """A body as a `TreeGenome` dict (``{"nodes": {...}, "edges": [...]}``).
 
-    Options: ``max_modules`` (20: the most modules a body has, core included), ``min_modules``
-    (2: the fewest a random body has; random bodies have a uniform size in between).
+    Args:
+        max_modules: the most modules a body has, core included (>= 1); mutation and crossover
+            trim their children to it.
+        min_modules: the fewest modules a random body has, in [1, ``max_modules``]; random
+            bodies have a size drawn uniformly in between.
+
+    Raises:
+        ValueError: ``max_modules`` < 1, or ``min_modules`` outside [1, ``max_modules``]
+            (booleans are refused for both).
     """
 
     name = "tree"

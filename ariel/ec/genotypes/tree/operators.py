@@ -91,7 +91,15 @@ def _next_id(genome: TreeGenome) -> int:
 
 
 def free_faces(genome: TreeGenome, nodes: list[int] | None = None) -> list[tuple[int, str]]:
-    """``(node, face)`` pairs where a child could attach, in node-id then face order."""
+    """``(node, face)`` pairs where a child could attach, in node-id then face order.
+
+    Args:
+        genome: the genome to inspect.
+        nodes: the node ids to look at, in this order; ``None`` means every node, by id.
+
+    Returns:
+        ``(node id, face name)`` for each face the node's type allows that has no child yet.
+    """
     result = []
     for node in sorted(genome.nodes) if nodes is None else nodes:
         used = {e["face"] for e in _children(genome, node)}
@@ -103,13 +111,29 @@ def free_faces(genome: TreeGenome, nodes: list[int] | None = None) -> list[tuple
 def add_node(
     genome: TreeGenome, parent: int, face: str, node_id: int, mtype: str, rotation: str
 ) -> None:
-    """Add module ``node_id`` on ``parent``'s ``face`` (the caller checks the face is free)."""
+    """Add module ``node_id`` on ``parent``'s ``face`` (the caller checks the face is free).
+
+    Nothing is validated: an existing node ``node_id`` is overwritten.
+
+    Args:
+        genome: the genome to edit in place.
+        parent: the id of the module to attach to.
+        face: the `ModuleFaces` name of ``parent``'s face, e.g. ``"FRONT"``.
+        node_id: the new module's id (`TreeGenome`'s ids are ints; the core is 0).
+        mtype: the new module's `ModuleType` name, e.g. ``"HINGE"``.
+        rotation: the new module's `ModuleRotationsIdx` name, e.g. ``"DEG_90"``.
+    """
     genome.nodes[node_id] = {"type": mtype, "rotation": rotation}
     genome.edges.append({"parent": parent, "child": node_id, "face": face})
 
 
 def remove_subtree(genome: TreeGenome, node_id: int) -> None:
-    """Remove ``node_id``, its descendants and every edge touching them (no-op if absent)."""
+    """Remove ``node_id``, its descendants and every edge touching them (no-op if absent).
+
+    Args:
+        genome: the genome to edit in place.
+        node_id: the root of the subtree to remove.
+    """
     if node_id not in genome.nodes:
         return
     gone = set(_subtree(genome, node_id))
@@ -119,7 +143,15 @@ def remove_subtree(genome: TreeGenome, node_id: int) -> None:
 
 
 def get_top_ancestor(genome: TreeGenome, node_id: int) -> int:
-    """The ancestor of ``node_id`` that hangs directly on the core (``node_id`` if it does)."""
+    """The ancestor of ``node_id`` that hangs directly on the core (``node_id`` if it does).
+
+    Args:
+        genome: the genome to inspect.
+        node_id: the module whose ancestor is wanted.
+
+    Returns:
+        The id of that ancestor; ``node_id`` itself if it has no parent edge (the core).
+    """
     current = node_id
     while (edge := _parent_edge(genome, current)) is not None and edge["parent"] != IDX_OF_CORE:
         current = edge["parent"]
@@ -151,6 +183,27 @@ def random_tree(max_modules: int, *, rng: RngLike = None) -> TreeGenome:
     From the core alone, each step adds a random module (BRICK or HINGE, a rotation its type
     allows) on a random free face. (Upstream's loop adds ``max_modules`` modules besides the
     core, one more than its docstring promises; docs/decisions.md.)
+
+    Args:
+        max_modules: the number of modules, core included (>= 1); fewer only if no free face
+            is left.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+
+    Returns:
+        A new `TreeGenome`.
+
+    Raises:
+        ValueError: ``max_modules`` < 1 (or a bool).
+
+    Example:
+        ```python
+        from ariel.ec.genotypes.tree.operators import mutate_add_node, random_tree
+
+        genome = random_tree(8, rng=42)
+        mutate_add_node(genome, rng=1)  # operators edit the genome in place
+        print(len(genome))  # 9
+        ```
     """
     if isinstance(max_modules, bool) or int(max_modules) < 1:
         raise ValueError(f"max_modules must be an int >= 1 (the core counts), not {max_modules!r}")
@@ -166,7 +219,14 @@ def random_tree(max_modules: int, *, rng: RngLike = None) -> TreeGenome:
 
 
 def get_tree_depth(genome: TreeGenome) -> int:
-    """Edges on the longest path from the core to a leaf (0 for a lone core or no nodes)."""
+    """Edges on the longest path from the core to a leaf (0 for a lone core or no nodes).
+
+    Args:
+        genome: the genome to measure.
+
+    Returns:
+        The depth, counted in edges.
+    """
     if IDX_OF_CORE not in genome.nodes:
         return 0
     depth = {IDX_OF_CORE: 0}
@@ -177,7 +237,15 @@ def get_tree_depth(genome: TreeGenome) -> int:
 
 
 def validate_tree_depth(genome: TreeGenome, max_depth: int) -> bool:
-    """Whether the tree's depth is at most ``max_depth``."""
+    """Whether the tree's depth is at most ``max_depth``.
+
+    Args:
+        genome: the genome to check.
+        max_depth: the largest allowed depth, in edges from the core (see `get_tree_depth`).
+
+    Returns:
+        ``True`` if ``get_tree_depth(genome) <= max_depth``.
+    """
     return get_tree_depth(genome) <= max_depth
 
 
@@ -232,6 +300,15 @@ def subtree_swap(a: TreeGenome, b: TreeGenome, a_node: int, b_node: int) -> None
     """Swap the subtrees at ``a_node`` (in ``a``) and ``b_node`` (in ``b``), in place.
 
     Each subtree takes the other's place (same parent, same face), renumbered to free ids.
+
+    Args:
+        a: the first genome, edited in place.
+        b: the second genome, edited in place.
+        a_node: the root of the subtree taken from ``a`` (not the core).
+        b_node: the root of the subtree taken from ``b`` (not the core).
+
+    Raises:
+        ValueError: either node has no parent (the core, or a node not in its genome).
     """
     a_edge, b_edge = _parent_edge(a, a_node), _parent_edge(b, b_node)
     if a_edge is None or b_edge is None:
@@ -251,6 +328,15 @@ def crossover_subtree(
     """GP subtree crossover: swap a random non-core subtree of each parent; two children.
 
     The parents are left unchanged; a parent with only its core gives plain copies.
+
+    Args:
+        a: the first parent.
+        b: the second parent.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+
+    Returns:
+        ``(child1, child2)``: new genomes, ``a`` and ``b`` with their chosen subtrees swapped.
     """
     gen = _rng(rng)
     child1, child2 = a.copy(), b.copy()
@@ -264,7 +350,16 @@ def crossover_subtree(
 def crossover_one_point(
     a: TreeGenome, b: TreeGenome, *, rng: RngLike = None
 ) -> tuple[TreeGenome, TreeGenome]:
-    """Deprecated upstream: `crossover_subtree` under its old name."""
+    """Deprecated upstream: `crossover_subtree` under its old name (warns DeprecationWarning).
+
+    Args:
+        a: the first parent.
+        b: the second parent.
+        rng: as in `crossover_subtree`.
+
+    Returns:
+        The two children `crossover_subtree` returns.
+    """
     warnings.warn(
         "crossover_one_point() is deprecated; use crossover_subtree()",
         DeprecationWarning,
@@ -275,7 +370,15 @@ def crossover_one_point(
 
 def mutate_replace_node(genome: TreeGenome, *, rng: RngLike = None) -> None:
     """Point mutation: a random non-core module becomes the other type, with a random allowed
-    rotation; children on faces the new type lacks are removed with their subtrees."""
+    rotation; children on faces the new type lacks are removed with their subtrees.
+
+    A genome with only its core is left unchanged.
+
+    Args:
+        genome: the genome to edit in place.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+    """
     gen = _rng(rng)
     candidates = _non_core(genome)
     if not candidates:
@@ -305,7 +408,16 @@ def mutate_subtree_replacement(
     genome: TreeGenome, max_modules: int = 10, *, rng: RngLike = None
 ) -> None:
     """Subtree mutation: a random non-core subtree is replaced by a new random subtree of
-    1 to ``min(3, max_modules)`` modules, grown from the same face."""
+    1 to ``min(3, max_modules)`` modules, grown from the same face.
+
+    A genome with only its core is left unchanged.
+
+    Args:
+        genome: the genome to edit in place.
+        max_modules: caps the new subtree's size (not the body's); values below 1 count as 1.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+    """
     gen = _rng(rng)
     cut = _cut_random_subtree(genome, gen)
     if cut is None:
@@ -317,7 +429,15 @@ def mutate_subtree_replacement(
 
 
 def mutate_shrink(genome: TreeGenome, *, rng: RngLike = None) -> None:
-    """Shrink mutation: a random non-core subtree is replaced by one new random leaf module."""
+    """Shrink mutation: a random non-core subtree is replaced by one new random leaf module.
+
+    A genome with only its core is left unchanged.
+
+    Args:
+        genome: the genome to edit in place.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+    """
     gen = _rng(rng)
     cut = _cut_random_subtree(genome, gen)
     if cut is None:
@@ -329,7 +449,15 @@ def mutate_shrink(genome: TreeGenome, *, rng: RngLike = None) -> None:
 
 def mutate_hoist(genome: TreeGenome, *, rng: RngLike = None) -> None:
     """Hoist mutation: a random non-core module with children is replaced by one of its
-    children (the module's other subtrees are dropped)."""
+    children (the module's other subtrees are dropped).
+
+    A genome without such a module is left unchanged.
+
+    Args:
+        genome: the genome to edit in place.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+    """
     gen = _rng(rng)
     candidates = sorted({e["parent"] for e in genome.edges} - {IDX_OF_CORE})
     if not candidates:
@@ -347,7 +475,15 @@ def mutate_hoist(genome: TreeGenome, *, rng: RngLike = None) -> None:
 
 
 def mutate_add_node(genome: TreeGenome, *, rng: RngLike = None) -> None:
-    """Grow mutation (ours): one random module on a random free face."""
+    """Grow mutation (ours): one random module on a random free face.
+
+    A genome without a free face is left unchanged.
+
+    Args:
+        genome: the genome to edit in place.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+    """
     gen = _rng(rng)
     spots = free_faces(genome)
     if spots:
@@ -357,7 +493,15 @@ def mutate_add_node(genome: TreeGenome, *, rng: RngLike = None) -> None:
 
 def mutate_rotation(genome: TreeGenome, *, rng: RngLike = None) -> None:
     """Rotation mutation (upstream's examples inline it): a random non-core module takes
-    another rotation its type allows."""
+    another rotation its type allows.
+
+    A genome with only its core is left unchanged.
+
+    Args:
+        genome: the genome to edit in place.
+        rng: a ``numpy.random.Generator`` (used as is), an int seed, or ``None`` (a seed drawn
+            from Python's ``random`` module).
+    """
     gen = _rng(rng)
     candidates = _non_core(genome)
     if not candidates:

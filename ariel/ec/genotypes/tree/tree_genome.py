@@ -39,6 +39,13 @@ class TreeGenome:
 
     ``TreeGenome()`` holds just the core. The operators in
     `ariel.ec.genotypes.tree.operators` edit ``nodes`` and ``edges`` in place.
+
+    Args:
+        nodes: node id -> ``{"type": <ModuleType name>, "rotation": <ModuleRotationsIdx
+            name>}``, kept as given (not copied); ``None`` gives just the core,
+            ``{0: {"type": "CORE", "rotation": "DEG_0"}}``.
+        edges: ``{"parent": id, "child": id, "face": <ModuleFaces name>}`` dicts, kept as
+            given; ``None`` gives no edges.
     """
 
     def __init__(

@@ -31,7 +31,16 @@ def _nodes(genome: dict[str, Any]) -> dict[int, dict[str, Any]]:
 
 
 def is_single_connected_tree(genome: dict[str, Any]) -> bool:
-    """Whether every node is reached from the core, exactly once, through the edges."""
+    """Whether every node is reached from the core, exactly once, through the edges.
+
+    Args:
+        genome: a genome dict (``TreeGenome.to_dict()`` form; node ids may be strings or ints).
+
+    Returns:
+        ``True`` for a single tree rooted at node 0 (or an empty genome, as upstream);
+            ``False`` if the core is missing or has a parent, an edge names a missing node, a node
+            has two parents, or a node is unreachable or reached twice.
+    """
     nodes = _nodes(genome)
     if not nodes:
         return True  # upstream: an empty genome is trivially connected
@@ -59,7 +68,17 @@ def is_single_connected_tree(genome: dict[str, Any]) -> bool:
 
 
 def validate_genome_dict(genome: dict[str, Any]) -> None:
-    """Raise ``ValueError`` unless ``genome`` (a ``to_dict()`` form) is a buildable robot tree."""
+    """Raise ``ValueError`` unless ``genome`` (a ``to_dict()`` form) is a buildable robot tree.
+
+    Args:
+        genome: a genome dict (``TreeGenome.to_dict()`` form; node ids may be strings or ints).
+
+    Raises:
+        ValueError: a one-line message naming the first problem: not a dict, no core at node
+            0, an unknown or second CORE type, a rotation or face the module type does not
+            allow, an edge to a missing node, two children on one face, or not a single
+            connected tree.
+    """
     if not isinstance(genome, dict):
         raise ValueError(f"a tree genome dict is needed, got {type(genome).__name__}")
     nodes = _nodes(genome)

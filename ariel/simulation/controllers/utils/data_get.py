@@ -9,11 +9,20 @@ __all__ = ["get_state_from_data"]
 
 
 def get_state_from_data(data: mujoco.MjData) -> np.ndarray:
-    """``[qx, qy, qz, hinge angles...]``: the imaginary part of the free joint's quaternion
-    (negated first when ``w < 0``, so each orientation has one sign) and ``qpos[7:]``.
+    """A robot's orientation and joint angles, without its position.
 
     Assumes the robot's free joint comes first in ``qpos`` (one robot spawned in a world), as
     upstream does.
+
+    Args:
+        data: The simulation data.
+
+    Returns:
+        ``[qx, qy, qz, hinge angles...]``: the imaginary part of the free joint's quaternion
+        (negated first when ``w < 0``, so each orientation has one sign) and ``qpos[7:]``.
+
+    Raises:
+        ValueError: If ``qpos`` has fewer than 7 values.
     """
     if data.qpos.shape[0] < 7:
         raise ValueError(
