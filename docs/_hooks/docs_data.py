@@ -7,6 +7,7 @@ tutorials is one the code draws today.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 from dataclasses import dataclass
@@ -42,11 +43,19 @@ def _finished(folder: Path, info: str) -> bool:
 
 
 def prepare(cache: Path) -> DocsData:
-    """Make the run and the campaign under ``cache`` unless they are there and finished."""
+    """Make the run and the campaign under ``cache`` unless they are there and finished.
+
+    Their folders are named by a hash of what makes them (the campaign file, the run's
+    overrides), so a change makes new ones; `make clean` removes the old.
+    """
     from ariel.runs import run_campaign, run_experiment
 
     cache.mkdir(parents=True, exist_ok=True)
-    data = DocsData(cache / "run", cache / "campaign")
+    # Named by what made them, so that a changed file or setting makes them afresh.
+    key = hashlib.sha256((CAMPAIGN_FILE.read_text(encoding="utf-8") + repr(RUN_OVERRIDES)).encode())
+    data = DocsData(
+        cache / f"run-{key.hexdigest()[:10]}", cache / f"campaign-{key.hexdigest()[:10]}"
+    )
     if not _finished(data.run, "run.json"):
         print(f"docs: making the site's example run in {data.run}", flush=True)
         run_experiment(None, out=data.run, overwrite=True, overrides=RUN_OVERRIDES)

@@ -61,9 +61,10 @@ def on_config(config):
 
 
 def readme_markdown() -> str:
-    """The README as the site's first page: links into docs/ become links within the site."""
+    """The README as the site's first page: links into docs/ become links within the site,
+    and its link to the built site (site/index.html) a link to this page."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    return re.sub(r"\]\(docs/", "](", text)
+    return re.sub(r"\]\(docs/", "](", text).replace("](site/index.html)", "](index.md)")
 
 
 def on_files(files: Files, config) -> Files:
