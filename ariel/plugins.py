@@ -72,19 +72,6 @@ if TYPE_CHECKING:
     import networkx as nx
     import numpy as np
 
-    # The checkers, loaded on first access (they run the engine, a layer above): as type
-    # checkers and the API reference see them.
-    from ariel.evaluation._checks import (
-        check_body_encoder as check_body_encoder,
-        check_controller as check_controller,
-        check_fitness as check_fitness,
-        check_world as check_world,
-    )
-    from ariel.evolution._optimizer_checks import (
-        check_all as check_all,
-        check_body_optimizer as check_body_optimizer,
-        check_brain_optimizer as check_brain_optimizer,
-    )
 
 __all__ = [
     "BUILTIN_PLUGINS",
@@ -798,17 +785,15 @@ def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | Non
 
 # The checkers' home is `ariel.evaluation` (they run the engine, a layer above this one); the
 # names here keep ``from ariel.plugins import check_all`` working, imported on first use.
-_CHECKS = {
-    "check_body_encoder": "ariel.evaluation._checks",
-    "check_controller": "ariel.evaluation._checks",
-    "check_fitness": "ariel.evaluation._checks",
-    "check_world": "ariel.evaluation._checks",
-    # Body and brain optimizers are checked in ariel.evolution (a layer above the engine), and
-    # so is the whole set, which includes them.
-    "check_body_optimizer": "ariel.evolution._optimizer_checks",
-    "check_brain_optimizer": "ariel.evolution._optimizer_checks",
-    "check_all": "ariel.evolution._optimizer_checks",
-}
+# Body and brain optimizers are checked in ariel.evolution (a layer above the engine), and so
+# is the whole set, which includes them.
+_CHECKS = dict.fromkeys(
+    ("check_body_encoder", "check_controller", "check_fitness", "check_world"),
+    "ariel.evaluation._checks",
+) | dict.fromkeys(
+    ("check_body_optimizer", "check_brain_optimizer", "check_all"),
+    "ariel.evolution._optimizer_checks",
+)
 
 
 def __getattr__(name: str) -> Any:
