@@ -44,7 +44,6 @@ FUNCTIONS_OVER = {
     "cli/__init__.py:build_parser": 158,
     "evaluation/_engine.py:_pipelined_single": 73,
     "evaluation/executors.py:_make_dask": 74,
-    "recording/_campaign_rerun.py:write_campaign_blueprint": 61,
     "recording/_compare.py:compare": 65,
     "recording/_rerun.py:_build_scene": 135,
     "recording/_rerun.py:write_evaluation_recording": 70,

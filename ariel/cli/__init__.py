@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from ariel import __version__
+from ariel.cli._options import add_executor_options as _add_executor_options
 from ariel.cli._types import integer_at_least, positive_int
 from ariel.errors import ArielError, ConfigError
 
@@ -112,12 +113,15 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from ariel.cli._live import LiveView
     from ariel.runs import run_experiment
+
+    live = LiveView(args)  # --live: the watcher on the folder, beside the run
 
     def start() -> object:
         return run_experiment(
             args.config,
-            out=args.out,
+            out=live.run_folder(args.out, args.config, args.set),
             overwrite=args.overwrite,
             executor=args.executor,
             workers=args.workers,
@@ -126,13 +130,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
             overrides=args.set,
         )
 
-    return _run_guarded(start, None)  # the run's folder: from the interrupt, once it exists
+    # the run's folder: from the interrupt, once it exists
+    return live.finish(_run_guarded(live.guard(start), None))
 
 
 def _cmd_resume(args: argparse.Namespace) -> int:
+    from ariel.cli._live import LiveView
     from ariel.runs import resume_experiment
 
+    live = LiveView(args)
+
     def start() -> object:
+        live.start(args.run_dir)
         try:
             return resume_experiment(
                 args.run_dir,
@@ -146,7 +155,7 @@ def _cmd_resume(args: argparse.Namespace) -> int:
                 raise
             raise ConfigError(str(exc)) from None
 
-    return _run_guarded(start, args.run_dir)
+    return live.finish(_run_guarded(live.guard(start), args.run_dir))
 
 
 def _cmd_runs(args: argparse.Namespace) -> int:
@@ -396,22 +405,6 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     return EXIT_DAMAGED if result.problems else 0
 
 
-def _add_executor_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--executor",
-        metavar="KIND",
-        help="where evaluations run: local, dask, serial, gpu or a registered executor kind "
-        "(default: the config's executor.kind)",
-    )
-    p.add_argument("--workers", type=positive_int, help="worker processes (default: all CPUs)")
-    p.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="a running Dask scheduler, e.g. tcp://host:8786 (with --executor dask)",
-    )
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="ariel", description="ARIEL workbench: evolve modular robots in MuJoCo.")
     parser.add_argument("--version", action="version", version=f"ariel {__version__}")
@@ -554,12 +547,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_view)
 
     from ariel.cli._campaign import add_campaign_commands
+    from ariel.cli._config import add_config_commands
+    from ariel.cli._watch import add_watch_command
 
     add_campaign_commands(sub, _add_executor_options)
-
-    from ariel.cli._config import add_config_commands
-
     add_config_commands(sub)
+    add_watch_command(sub)
 
     # Every option (--seed, --duration, --out, ..., --help) is the script's: main() hands them on.
     p = sub.add_parser(

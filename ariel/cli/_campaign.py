@@ -88,15 +88,17 @@ def _show_campaign(result: Any) -> None:
 
 
 def _cmd_campaign_run(args: argparse.Namespace) -> int:
+    from ariel.cli._live import LiveView
     from ariel.runs import run_campaign
 
     if args.dry_run:
         return _guarded(lambda: _plan(args), lambda lines: print("\n".join(lines)), None)
+    live = LiveView(args, "campaign.json")  # --live: the watcher on the folder, beside it
 
     def start() -> Any:
         return run_campaign(
             args.file,
-            out=args.out,
+            out=live.campaign_folder(args.out, args.file, args.set),
             executor=args.executor,
             workers=args.workers,
             scheduler=args.scheduler,
@@ -104,7 +106,8 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
             overrides=args.set,
         )
 
-    return _guarded(start, _show_campaign, None)  # the folder: from the interrupt, once made
+    # the folder: from the interrupt, once made
+    return live.finish(_guarded(live.guard(start), _show_campaign, None))
 
 
 def _plan(args: argparse.Namespace) -> list[str]:
@@ -123,9 +126,13 @@ def _plan(args: argparse.Namespace) -> list[str]:
 
 
 def _cmd_campaign_resume(args: argparse.Namespace) -> int:
+    from ariel.cli._live import LiveView
     from ariel.runs import resume_campaign
 
+    live = LiveView(args, "campaign.json")
+
     def start() -> Any:
+        live.start(args.campaign_dir)
         return resume_campaign(
             args.campaign_dir,
             executor=args.executor,
@@ -140,7 +147,7 @@ def _cmd_campaign_resume(args: argparse.Namespace) -> int:
         resumed.append(result)
         _show_campaign(result)
 
-    code = _guarded(start, show, args.campaign_dir)
+    code = live.finish(_guarded(live.guard(start), show, args.campaign_dir))
     if code == 0 and resumed and resumed[0].damaged:
         from ariel.recording._escape import terminal_text
 

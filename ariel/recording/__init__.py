@@ -1,8 +1,9 @@
 """Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay`,
 campaigns (`load_campaign`, `compare`, `write_campaign_recording`), `make_report`,
 `joint_labels` (joint names for people), `load_exported` (an `ariel export` folder's robot),
-and the Rerun writers (`write_evaluation_recording`, `write_generation_recording`,
-`write_run_recording`, `write_blueprint`).
+`watch` (a live view of a running run or campaign), and the Rerun writers
+(`write_evaluation_recording`, `write_generation_recording`, `write_run_recording`,
+`write_blueprint`).
 
 Cheap to import: names are loaded from their modules on first access.
 """
@@ -75,6 +76,10 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         RunFolder as RunFolder,
         RunStorageError as RunStorageError,
     )
+    from ariel.recording._watch import (
+        Watcher as Watcher,
+        watch as watch,
+    )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
@@ -106,6 +111,8 @@ _LAZY: dict[str, str] = {
     "write_blueprint": "ariel.recording._rerun",
     "write_generation_recording": "ariel.recording._generation_rrd",
     "load_exported": "ariel.recording._exported",
+    "watch": "ariel.recording._watch",
+    "Watcher": "ariel.recording._watch",
     "ExportedRobot": "ariel.recording._exported",
     # The figures' conventions (units in labels, whole-number ticks), for notebooks.
     "DESCRIPTORS": "ariel.recording._axes",

@@ -13,6 +13,7 @@ Written whole (chunks, no `RecordingStream`), like `write_run_recording`; applic
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +24,14 @@ from ariel.recording._curves import best_so_far
 from ariel.recording._files import atomic_write, require_free_space
 from ariel.recording._rerun import APPLICATION_ID, _rr, _static, _write_chunks
 
-__all__ = ["CAMPAIGN_BLUEPRINT", "write_campaign_blueprint", "write_campaign_recording"]
+__all__ = [
+    "CAMPAIGN_BLUEPRINT",
+    "campaign_views",
+    "condition_colours",
+    "curve_chunks",
+    "write_campaign_blueprint",
+    "write_campaign_recording",
+]
 
 CAMPAIGN_BLUEPRINT = "campaign.rbl"
 # Distinct colours per condition (matplotlib's tab10), one shade for all seeds of a condition.
@@ -58,23 +66,12 @@ def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
     Raises:
         NotACampaignError: When ``campaign_dir`` is not a campaign folder.
     """
-    from rerun.chunk import Chunk
-
-    rr = _rr()
     campaign = load_campaign(campaign_dir)
-    colours = {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(campaign.conditions)}
+    colours = condition_colours(campaign.conditions)
     chunks = []
     for (condition, seed), run in campaign.runs.items():
         x, best = best_so_far(run.evaluations, campaign.maximise)
-        keep = np.isfinite(best)
-        if not keep.any():
-            continue
-        entity = f"/condition/{condition}/seed/{seed}"
-        # Named after the condition only: the legend then lists each condition once.
-        style = rr.SeriesLines(names=[condition], colors=[colours[condition]])
-        chunks.append(_static(entity, style))
-        index = [rr.TimeColumn("evaluations", sequence=x[keep])]
-        chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=best[keep])))
+        chunks += curve_chunks(condition, seed, x, best, colours[condition])
     path = Path(campaign.path) / CAMPAIGN_RRD
     _write_chunks(path, str(campaign.info.get("campaign_id", "campaign")), chunks, fsync=True)
     write_campaign_blueprint(
@@ -84,6 +81,40 @@ def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
         maximise=campaign.maximise,
     )
     return path
+
+
+def condition_colours(conditions: Sequence[str]) -> dict[str, tuple[int, int, int]]:
+    """Each condition's colour (one shade for all its seeds), in the conditions' order."""
+    return {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(conditions)}
+
+
+def curve_chunks(
+    condition: str,
+    seed: int,
+    x: np.ndarray,
+    best: np.ndarray,
+    colour: tuple[int, int, int],
+    *,
+    style: bool = True,
+) -> list[Any]:
+    """The chunks of one run's best-so-far curve (``x``: evaluations, ``best``: the fitness
+    so far, NaN before the first) at ``/condition/<condition>/seed/<seed>``: its style (with
+    ``style``) and its points with a finite value; none when it has no such point."""
+    from rerun.chunk import Chunk
+
+    rr = _rr()
+    keep = np.isfinite(best)
+    if not keep.any():
+        return []
+    entity = f"/condition/{condition}/seed/{seed}"
+    chunks = []
+    if style:
+        # Named after the condition only: the legend then lists each condition once.
+        lines = rr.SeriesLines(names=[condition], colors=[colour])
+        chunks.append(_static(entity, lines))
+    index = [rr.TimeColumn("evaluations", sequence=x[keep])]
+    chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=best[keep])))
+    return chunks
 
 
 def _fitness_unit(campaign: Any) -> str | None:
@@ -118,16 +149,7 @@ def write_campaign_blueprint(
         fitness_unit = _fitness_unit(campaign) if fitness_unit is None else fitness_unit
         maximise = campaign.maximise if maximise is None else maximise
     rrb = _rr().blueprint
-    axes = f"best fitness so far{f' ({fitness_unit})' if fitness_unit else ''} over evaluations"
-    views = [
-        rrb.TimeSeriesView(
-            name=f"{name}: {axes}",
-            origin=f"/condition/{name}",
-            plot_legend=rrb.PlotLegend(visible=False),
-        )
-        for name in conditions
-    ]
-    corner = rrb.Corner2D.LeftTop if maximise else rrb.Corner2D.LeftBottom
+    every, views = campaign_views(conditions, fitness_unit=fitness_unit, maximise=maximise)
     side = (
         []
         if panels
@@ -139,11 +161,7 @@ def write_campaign_blueprint(
     )
     layout = rrb.Blueprint(
         rrb.Vertical(
-            rrb.TimeSeriesView(
-                name=f"every run: {axes}",
-                origin="/condition",
-                plot_legend=rrb.PlotLegend(corner=corner),
-            ),
+            every,
             rrb.Grid(*views),
             row_shares=[1, 1],
         ),
@@ -163,3 +181,28 @@ def write_campaign_blueprint(
 
     atomic_write(path, write)
     return path
+
+
+def campaign_views(
+    conditions: Sequence[str], *, fitness_unit: str | None, maximise: bool
+) -> tuple[Any, list[Any]]:
+    """The campaign's curve views: every run's in one (a legend of the conditions in the
+    corner the curves leave empty: top left where fitness is maximised, bottom left where
+    minimised), and one per condition, without legend; each titled with its axes."""
+    rrb = _rr().blueprint
+    axes = f"best fitness so far{f' ({fitness_unit})' if fitness_unit else ''} over evaluations"
+    views = [
+        rrb.TimeSeriesView(
+            name=f"{name}: {axes}",
+            origin=f"/condition/{name}",
+            plot_legend=rrb.PlotLegend(visible=False),
+        )
+        for name in conditions
+    ]
+    corner = rrb.Corner2D.LeftTop if maximise else rrb.Corner2D.LeftBottom
+    every = rrb.TimeSeriesView(
+        name=f"every run: {axes}",
+        origin="/condition",
+        plot_legend=rrb.PlotLegend(corner=corner),
+    )
+    return every, views

@@ -1,0 +1,44 @@
+"""Options several commands share: where evaluations run, and the live view."""
+
+from __future__ import annotations
+
+import argparse
+
+from ariel.cli._types import positive_int
+
+__all__ = ["add_executor_options", "add_live_options"]
+
+
+def add_executor_options(p: argparse.ArgumentParser) -> None:
+    """``--executor``, ``--workers``, ``--scheduler``, ``--quiet``, and the live view's
+    ``--live`` and ``--web`` (the commands that run evolution take both)."""
+    p.add_argument(
+        "--executor",
+        metavar="KIND",
+        help="where evaluations run: local, dask, serial, gpu or a registered executor kind "
+        "(default: the config's executor.kind)",
+    )
+    p.add_argument("--workers", type=positive_int, help="worker processes (default: all CPUs)")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a running Dask scheduler, e.g. tcp://host:8786 (with --executor dask)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    add_live_options(p)
+
+
+def add_live_options(p: argparse.ArgumentParser) -> None:
+    """``--live`` and ``--web`` (`ariel.cli._live.LiveView`)."""
+    p.add_argument(
+        "--live",
+        action="store_true",
+        help="watch it live: start `ariel watch` on the folder beside the run (a Rerun viewer "
+        "that only reads the folder; the run never waits for it)",
+    )
+    p.add_argument(
+        "--web",
+        action="store_true",
+        help="the live view in the web viewer, served on 127.0.0.1 (implies --live; its "
+        "address and an SSH tunnel line are printed)",
+    )

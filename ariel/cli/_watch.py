@@ -1,0 +1,137 @@
+"""``ariel watch DIR``: a live view of a running (or finished) run or campaign in the Rerun
+viewer (`ariel.recording.watch`), read from its folder alone.
+
+Like `ariel.cli`, the command imports what it needs only when it runs. Bad input (a folder
+that is not a run, a busy port, no display for the native viewer) is one line and exit code
+2, through `ariel.cli.main`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from typing import Any
+
+__all__ = ["add_watch_command"]
+
+EXIT_USAGE = 2
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds, not {text!r}") from None
+    if not 0.05 <= value <= 3600:
+        raise argparse.ArgumentTypeError(f"must be 0.05 to 3600 seconds, not {text}")
+    return value
+
+
+def add_watch_command(sub: Any) -> None:
+    """Add ``ariel watch`` to the sub-command parsers ``sub``."""
+    from ariel.cli import _port
+
+    p = sub.add_parser(
+        "watch",
+        help="a live view of a running (or finished) run or campaign in the Rerun viewer "
+        "(--web: serve it for an SSH tunnel)",
+        description="Follow a run or campaign folder while it runs, reading it only (from "
+        "another terminal, or another machine over a shared file system): fitness, diversity "
+        "and morphology per generation, progress, the best body so far walking in 3D, the "
+        "lineage, a MAP-Elites archive. Every server binds 127.0.0.1 only.",
+    )
+    p.add_argument("folder", metavar="DIR", help="a run or campaign folder")
+    p.add_argument(
+        "--web",
+        action="store_true",
+        help="serve the web viewer on 127.0.0.1 (no browser is opened; prints the SSH tunnel)",
+    )
+    p.add_argument(
+        "--port", type=_port, metavar="PORT", help="web viewer port (default 9090; 0: any free)"
+    )
+    p.add_argument(
+        "--grpc-port",
+        type=_port,
+        metavar="PORT",
+        help="port of the viewer's gRPC server the live data is streamed to "
+        "(default 9876; 0: any free)",
+    )
+    p.add_argument("--save", metavar="FILE.rrd", help="also write the live recording to FILE.rrd")
+    p.add_argument(
+        "--no-viewer", action="store_true", help="start no viewer (with --save: a file only)"
+    )
+    p.add_argument(
+        "--poll",
+        type=_seconds,
+        default=0.5,
+        metavar="S",
+        help="seconds between looks at the folder (default 0.5)",
+    )
+    p.add_argument(
+        "--until-finished",
+        action="store_true",
+        help="exit once the run or campaign has ended and all of it is shown (else: until "
+        "Ctrl-C, or the native viewer's window is closed)",
+    )
+    p.set_defaults(func=_cmd_watch)
+
+
+def _announce(watcher: Any, args: argparse.Namespace) -> None:
+    from ariel.recording._view import LOCALHOST, tunnel_command
+
+    folder = watcher.source.path
+    saving = f", saving it to {args.save}" if args.save else ""
+    if "web" in watcher.urls:
+        print(
+            f"Rerun web viewer: live view of {folder}{saving}\n"
+            f"  open  {watcher.urls['web']}\n"
+            "From another computer (this one being a cluster node), tunnel both ports first:\n"
+            f"  {tunnel_command(watcher.ports)}\n"
+            "  (add -J user@login-node when this node is reached through a login node)\n"
+            f"The server listens on {LOCALHOST} only. Ctrl-C stops it.",
+            flush=True,
+        )
+    elif watcher.urls:
+        print(
+            f"Rerun viewer: live view of {folder}{saving} (Ctrl-C, or closing its window, "
+            "stops it)",
+            flush=True,
+        )
+    else:
+        print(f"watching {folder}{saving} (Ctrl-C stops it)", flush=True)
+
+
+def _cmd_watch(args: argparse.Namespace) -> int:
+    from ariel.recording._view import _raise_stopped, _Stopped
+    from ariel.recording._watch import watch
+
+    if args.no_viewer and (args.web or args.port is not None or args.grpc_port is not None):
+        print("ariel: error: --no-viewer starts no viewer: no --web or ports", file=sys.stderr)
+        return EXIT_USAGE
+    viewer = "none" if args.no_viewer else "web" if args.web else "native"
+    handled = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
+    previous = {s: signal.signal(s, _raise_stopped) for s in handled}
+    try:
+        watcher = watch(
+            args.folder,
+            viewer=viewer,
+            port=args.port,
+            grpc_port=args.grpc_port,
+            save=args.save,
+            poll_s=args.poll,
+        )
+        with watcher:
+            _announce(watcher, args)
+            why = watcher.follow(until_finished=args.until_finished)
+        ended = "it has ended and all of it is shown" if why == "finished" else "the viewer closed"
+        print(f"stopped watching {watcher.source.path}: {ended}", flush=True)
+        return 0
+    except KeyboardInterrupt:
+        print("\nstopped watching", file=sys.stderr)
+        return 0
+    except _Stopped as stop:
+        return 128 + stop.signum
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)

@@ -1,0 +1,328 @@
+"""`ariel watch`: a live view of a run read from its folder alone. What the watcher's stream
+holds (read back from its ``--save`` file) while it follows a run started in the background,
+a run killed mid-generation, nothing written in the run folder, the web viewer bound to
+127.0.0.1 and stopped by Ctrl-C, and one-line bad input."""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import queue
+import re
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+import psutil
+import pytest
+import rerun as rr
+
+from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+from ariel.cli import main
+from ariel.recording import load_run, watch
+from ariel.recording._manifest import manifest_file
+from ariel.recording._recorder import archive_grid
+from ariel.recording._rerun import RUN_SERIES
+from ariel.recording._view import best_evaluations, recording_path
+
+# Like TINY in tests/analysis/test_notebooks.py: 3 + 3 bodies, a generation in well under 1 s.
+TINY = """
+name = "watchtiny"
+seed = 5
+generations = 4
+[body]
+options = { number_of_modules = 6 }
+population = 3
+offspring = 3
+[brain]
+popsize = 4
+iterations = 2
+[task]
+duration = 1.0
+[executor]
+kind = "serial"
+[record]
+rerun = false
+"""
+QD = TINY.replace(
+    "[brain]",
+    'optimizer = "map_elites"\noptimizer_options = { measures = ["num_limbs", "joints_ratio"], '
+    "bins = [4, 4], ranges = [[0, 8], [0, 1]] }\n[brain]",
+)
+TIMEOUT_S = 180.0
+
+
+def _start_run(folder: Path, toml: str, *sets: str) -> tuple[subprocess.Popen[bytes], Path]:
+    """``ariel run`` of ``toml`` in a background process; returns it and its run folder, once
+    run.json is there."""
+    config = folder / "config.toml"
+    config.write_text(toml)
+    out = folder / "run"
+    overrides = [word for item in sets for word in ("--set", item)]
+    command = [sys.executable, "-m", "ariel.cli", "run", str(config), "--out", str(out)]
+    proc = subprocess.Popen(
+        [*command, "--quiet", *overrides], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    _until(lambda: (out / "run.json").is_file() or proc.poll() is not None)
+    assert (out / "run.json").is_file(), f"the run ended with {proc.returncode} before starting"
+    return proc, out
+
+
+def _until(condition, timeout: float = TIMEOUT_S) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.05)
+
+
+def _follow(run: Path, save: Path) -> tuple[list[float], bool]:
+    """Watch ``run`` (no viewer, saving to ``save``) until it is finished, as
+    ``follow(until_finished=True)`` does; returns, per generation, the seconds from its
+    manifest being written to the watcher having logged it, and whether the scratch folder of
+    3D replays was removed on closing."""
+    latencies = []
+    with watch(run, viewer="none", save=save) as watcher:
+        source = watcher.source
+        deadline = time.monotonic() + TIMEOUT_S
+        while True:
+            started, before = time.monotonic(), source.shown
+            watcher.poll()
+            now = time.time()
+            latencies += [
+                now - manifest_file(run, g).stat().st_mtime for g in range(before, source.shown)
+            ]
+            if source.finished():
+                break
+            assert time.monotonic() < deadline, "the watcher never saw the run finish"
+            time.sleep(max(0.0, watcher.poll_s - (time.monotonic() - started)))
+    return latencies, source.best._scratch is None
+
+
+def _chunks(path: Path) -> dict[tuple[str, bool], list]:
+    """(entity, static) -> its chunks' record batches, in the order they were written."""
+    found: dict[tuple[str, bool], list] = defaultdict(list)
+    for chunk in rr.chunk.RrdReader(path).stream().to_chunks():
+        found[(chunk.entity_path, chunk.is_static)].append(chunk.to_record_batch())
+    return found
+
+
+def _series(chunks: dict, entity: str) -> tuple[list[int], np.ndarray]:
+    """The generations and values (a row each) of a scalar entity on the generation
+    timeline."""
+    rows = [
+        (g, v)
+        for batch in chunks[(entity, False)]
+        for g, v in zip(
+            batch.column("generation").to_pylist(), batch.column("Scalars:scalars").to_pylist()
+        )
+    ]
+    rows.sort(key=lambda row: row[0])
+    return [g for g, _ in rows], np.array([v for _, v in rows], dtype=float)
+
+
+def _last(chunks: dict, entity: str, column: str, static: bool = False):
+    return chunks[(entity, static)][-1].column(column).to_pylist()[-1]
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A co-evolution run with recordings (the best body's own .rrd) started in the background
+    and watched live until it finished."""
+    folder = tmp_path_factory.mktemp("watch")
+    proc, run = _start_run(folder, TINY, "record.rerun=true")
+    try:
+        latencies, _ = _follow(run, folder / "live.rrd")
+    finally:
+        proc.wait(timeout=TIMEOUT_S)
+    median = statistics.median(latencies)
+    print(f"\nmanifest -> logged: median {median:.3f} s over {len(latencies)} generations")
+    return {"run": run, "rrd": folder / "live.rrd", "latencies": latencies, "code": proc.returncode}
+
+
+@pytest.fixture(scope="module")
+def qd(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A tiny MAP-Elites run without recordings (its best body is replayed on demand), started
+    in the background and watched live until it finished."""
+    folder = tmp_path_factory.mktemp("watchqd")
+    proc, run = _start_run(folder, QD)
+    try:
+        _, cleaned = _follow(run, folder / "live.rrd")
+    finally:
+        proc.wait(timeout=TIMEOUT_S)
+    return {"run": run, "rrd": folder / "live.rrd", "cleaned": cleaned, "code": proc.returncode}
+
+
+def test_the_stream_holds_every_generation_the_best_body_and_the_lineage(live: dict) -> None:
+    assert live["code"] == 0
+    run = load_run(live["run"])
+    table = run.generations
+    chunks = _chunks(live["rrd"])
+    for column, entity in RUN_SERIES.items():
+        generations, values = _series(chunks, entity)
+        assert generations == list(range(len(table))) == list(table["generation"])
+        if column in table:
+            np.testing.assert_allclose(values[:, 0], table[column], equal_nan=True)
+    generations, values = _series(chunks, "/morphology")
+    means = table[[f"mean_{name}" for name in DESCRIPTOR_NAMES]].to_numpy(dtype=float)
+    assert generations == list(table["generation"])
+    np.testing.assert_allclose(values, means, equal_nan=True)
+    # The best body so far: the run's best evaluation, its own recording's poses.
+    best = best_evaluations(run.evaluations, 1, maximise=run.maximise).iloc[0]
+    own = _chunks(recording_path(run.path, int(best["generation"]), best["eval_id"]))
+    assert chunks[("/best/world/robot", False)][-1].column("Boxes3D:centers").to_pylist() == (
+        own[("/world/robot", False)][0].column("Boxes3D:centers").to_pylist()
+    )
+    info = _last(chunks, "/best/info", "TextDocument:text", static=True)
+    assert f"evaluation {best['eval_id']} " in info[0] and "its own recording" in info[0]
+    # The lineage: every body, an edge from each parent.
+    bodies = run.bodies.drop_duplicates("body_id")
+    edges = {(str(p), b) for b, ps in zip(bodies["body_id"], bodies["parent_ids"]) for p in ps}
+    assert len(_last(chunks, "/lineage", "GraphNodes:node_ids")) == len(bodies)
+    assert set(_last(chunks, "/lineage", "GraphNodes:node_ids")) == set(bodies["body_id"])
+    drawn = _last(chunks, "/lineage", "GraphEdges:edges")
+    assert {(e["first"], e["second"]) for e in drawn} == edges
+    assert len(_last(chunks, "/lineage", "GraphEdges:edges")) == len(edges) > 0
+    progress = _last(chunks, "/progress", "TextDocument:text", static=True)[0]
+    assert "**finished**" in progress and f"evaluations {len(run.evaluations)}" in progress
+    # A new generation is shown within 2 s of its manifest (polling every 0.5 s).
+    assert len(live["latencies"]) == len(table)
+    assert statistics.median(live["latencies"]) < 2.0
+
+
+def test_a_map_elites_run_s_archive_is_there_per_generation(qd: dict) -> None:
+    assert qd["code"] == 0
+    run = load_run(qd["run"])
+    chunks = _chunks(qd["rrd"])
+    grids = [
+        (g, np.asarray(b.column("Tensor:data").to_pylist()[k][0]["buffer"], dtype=float))
+        for b in chunks[("/archive", False)]
+        for k, g in enumerate(b.column("generation").to_pylist())
+    ]
+    assert [g for g, _ in grids] == list(range(len(run.generations)))
+    for generation, grid in grids:
+        rows = run.archive[run.archive["generation"] == generation].to_dict("records")
+        np.testing.assert_array_equal(grid, archive_grid(rows).ravel())
+    _, coverage = _series(chunks, "/qd/coverage")
+    np.testing.assert_allclose(coverage[:, 0], run.generations["coverage"])
+    # No recording of its own: the best body is a 3D replay made in a scratch folder.
+    assert chunks[("/best/world/robot", False)][-1].num_rows > 1
+    info = _last(chunks, "/best/info", "TextDocument:text", static=True)[0]
+    assert "3D replay" in info and qd["cleaned"]
+
+
+def _snapshot(folder: Path) -> dict[str, tuple]:
+    """Every entry under ``folder`` (hidden ones too): its size, mtime and SHA-256."""
+    found = {}
+    for path in sorted(folder.rglob("*")):
+        stat = path.lstat()
+        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
+        found[str(path.relative_to(folder))] = (stat.st_size, stat.st_mtime_ns, digest)
+    return found
+
+
+def test_the_watcher_writes_nothing_in_the_run_folder(qd: dict, tmp_path: Path) -> None:
+    before = _snapshot(qd["run"])
+    _follow(qd["run"], tmp_path / "again.rrd")  # its best body replayed again
+    assert _snapshot(qd["run"]) == before
+
+
+def test_a_run_killed_mid_generation_shows_its_last_complete_generation(tmp_path: Path) -> None:
+    proc, run = _start_run(tmp_path, TINY, "generations=30")
+    try:
+        _until(lambda: manifest_file(run, 1).is_file() or proc.poll() is not None)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    complete = len(list((run / "manifests").glob("gen-*.json")))
+    assert 2 <= complete < 30
+    _follow(run, tmp_path / "killed.rrd")  # ends: the run's process is gone
+    generations, values = _series(_chunks(tmp_path / "killed.rrd"), "/fitness/best")
+    assert generations == list(range(complete)) and np.isfinite(values).all()
+
+
+class _Watching:
+    """``ariel watch RUN --web`` running: its printed address and tunnel, its rerun child."""
+
+    def __init__(self, run: Path) -> None:
+        command = [sys.executable, "-m", "ariel.cli", "watch", str(run), "--web"]
+        self.proc = subprocess.Popen(
+            [*command, "--port", "0", "--grpc-port", "0"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(
+            target=lambda: [lines.put(x) for x in self.proc.stdout], daemon=True
+        ).start()
+        self.text = ""
+        deadline = time.monotonic() + 60
+        while "Ctrl-C stops it" not in self.text:
+            if self.proc.poll() is not None or time.monotonic() > deadline:
+                raise AssertionError(self.text + self.proc.stderr.read())
+            with contextlib.suppress(queue.Empty):
+                self.text += lines.get(timeout=0.2)
+        self.url = re.search(r"open\s+(http://\S+)", self.text).group(1)
+        self.tunnel = re.search(r"^\s*(ssh .*)$", self.text, re.MULTILINE).group(1)
+        (self.rerun,) = psutil.Process(self.proc.pid).children(recursive=True)
+
+
+def _non_loopback_address() -> str | None:
+    """An address of this machine other than 127.0.0.1 (None: none known)."""
+    with contextlib.suppress(OSError), socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.connect(("10.255.255.255", 1))  # no packet is sent: it picks the outgoing interface
+        address = s.getsockname()[0]
+        return None if address.startswith("127.") else address
+    return None
+
+
+def test_web_listens_on_localhost_only_and_ctrl_c_ends_it_cleanly(live: dict) -> None:
+    watching = _Watching(live["run"])
+    try:
+        listening = [
+            c for c in watching.rerun.net_connections("inet") if c.status == psutil.CONN_LISTEN
+        ]
+        ports = {c.laddr.port for c in listening}
+        assert {c.laddr.ip for c in listening} == {"127.0.0.1"} and len(ports) == 2
+        web, grpc = (
+            int(p) for p in re.search(r":(\d+)/\?url=.*%3A(\d+)%2Fproxy$", watching.url).groups()
+        )
+        assert ports == {web, grpc}
+        assert sorted(re.findall(r"-L (\d+):127\.0\.0\.1:(\d+)", watching.tunnel)) == sorted(
+            (str(p), str(p)) for p in ports
+        )
+        ours = psutil.Process(watching.proc.pid).net_connections("inet")
+        assert not [c for c in ours if c.status == psutil.CONN_LISTEN]  # no server of ours
+        address = _non_loopback_address()
+        for port in ports if address else ():
+            with socket.socket() as s:
+                assert s.connect_ex((address, port)) != 0
+        cmdline = watching.rerun.cmdline()
+        assert "--serve-web" in cmdline and cmdline[cmdline.index("--bind") + 1] == "127.0.0.1"
+    finally:
+        watching.proc.send_signal(signal.SIGINT)
+        assert watching.proc.wait(timeout=30) == 0
+    _until(lambda: not psutil.pid_exists(watching.rerun.pid), timeout=10)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["{tmp}"], "is not an ariel run or campaign folder"),
+        (["{tmp}/missing"], "does not exist"),
+        (["{run}", "--no-viewer"], "--save"),
+        (["{run}", "--no-viewer", "--save", "{run}/live.rrd"], "in the watched folder"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(live: dict, tmp_path: Path, capsys, args, message) -> None:
+    words = [a.format(tmp=tmp_path, run=live["run"]) for a in args]
+    assert main(["watch", *words]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and err.startswith("ariel: error:")
