@@ -20,6 +20,8 @@ import time
 from collections.abc import Mapping
 from typing import Any, TextIO
 
+from ariel.utils._notebook import in_notebook_kernel
+
 __all__ = [
     "Progress",
     "auto_progress",
@@ -45,18 +47,7 @@ def auto_progress() -> bool:
                 return True
         except (AttributeError, ValueError):  # a stand-in stream without isatty, or closed
             continue
-    return _in_notebook_kernel()
-
-
-def _in_notebook_kernel() -> bool:
-    """An IPython shell with a kernel runs this (Jupyter, VS Code, Colab); IPython is never
-    imported here, only looked up when the process already has it."""
-    get_ipython = getattr(sys.modules.get("IPython"), "get_ipython", None)
-    try:
-        shell = get_ipython() if callable(get_ipython) else None
-    except Exception:  # a half-imported or odd IPython: not a notebook
-        return False
-    return getattr(shell, "kernel", None) is not None
+    return in_notebook_kernel()
 
 
 def live_bars(stream: TextIO, label: str, *texts: str) -> Any:

@@ -5,7 +5,9 @@ campaign) every ``poll_s`` seconds and logs what is new to its own `rerun.Record
 (application id ``ariel``, recording id and name from the folder). That stream's sinks
 (`RecordingStream.set_sinks`) are a `rerun.GrpcSink` to a ``rerun`` child process the watcher
 starts bound to 127.0.0.1 only (the native viewer, or with ``viewer="web"`` the web viewer and
-its gRPC proxy, ``--serve-web``: no browser is opened) and, with ``save``, a `rerun.FileSink`.
+its gRPC proxy, ``--serve-web``: no browser is opened; with ``viewer="notebook"`` a gRPC
+server only, ``--serve-grpc``, which Rerun's notebook widget shows) and, with ``save``, a
+`rerun.FileSink`.
 There is no server of ours. The child runs in its own session and dies with the watcher
 (`_view._die_with_parent`); the web server keeps what it serves within its memory limit
 (dropping the oldest), so a browser that is slow, closed or never opened holds nothing back.
@@ -20,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import os
 import subprocess
+import threading
 import time
 from pathlib import Path
 from typing import Any, Protocol
@@ -28,7 +31,7 @@ from ariel.errors import NotARunError, ViewError
 
 __all__ = ["VIEWERS", "Source", "Watcher", "source_for", "watch"]
 
-VIEWERS = ("native", "web", "none")
+VIEWERS = ("native", "web", "notebook", "none")
 #: How long a poll waits for its data to reach the sinks (a slow viewer: it goes on later).
 FLUSH_TIMEOUT_S = 1.0
 #: How long closing waits for the last data to reach the sinks (the saved file above all).
@@ -101,7 +104,7 @@ class Watcher:
 
     Args:
         source: What to follow (`source_for`).
-        viewer: ``"native"``, ``"web"`` or ``"none"`` (see `watch`).
+        viewer: ``"native"``, ``"web"``, ``"notebook"`` or ``"none"`` (see `watch`).
         port: The web viewer's port; None: 9090, or a free one when busy; 0: any free one.
         grpc_port: The viewer's gRPC port; None: 9876, or a free one when busy; 0: any.
         save: An ``.rrd`` file (outside the watched folder) to also write the stream to.
@@ -132,6 +135,9 @@ class Watcher:
         self.ports: list[int] = []
         self._child: subprocess.Popen[bytes] | None = None
         self._closed = False
+        self._thread: threading.Thread | None = None
+        #: With ``viewer="notebook"``: Rerun's notebook widget, connected to the stream.
+        self.widget: Any = None
         name = Path(source.path).resolve().name or "run"
         self.rec: Any = None
         try:
@@ -146,6 +152,8 @@ class Watcher:
             self.rec.set_sinks(*sinks)
             rr.send_recording_name(f"live: {name}", recording=self.rec)
             self.rec.send_blueprint(source.blueprint(), make_active=True, make_default=True)
+            if viewer == "notebook":
+                self.widget = _notebook_widget(self.urls["grpc"])
         except BaseException:
             self.close()
             raise
@@ -167,6 +175,9 @@ class Watcher:
             web = _choose_port(port, DEFAULT_WEB_PORT, "--port", set())
             grpc = _choose_port(grpc_port, DEFAULT_GRPC_PORT, "--grpc-port", {web})
             command = [binary, "--serve-web", "--bind", LOCALHOST, "--web-viewer-port", str(web)]
+        elif viewer == "notebook":  # a gRPC server only: the notebook's widget is the viewer
+            web = grpc = _choose_port(grpc_port, DEFAULT_GRPC_PORT, "--grpc-port", set())
+            command = [binary, "--serve-grpc", "--bind", LOCALHOST]
         else:
             web = grpc = _choose_port(grpc_port, DEFAULT_GRPC_PORT, "--grpc-port", set())
             command = [binary, "--bind", LOCALHOST, "--expect-data-soon"]
@@ -194,8 +205,9 @@ class Watcher:
     def follow(self, until_finished: bool = False) -> str:
         """Poll every ``poll_s`` seconds until the viewer ends (its window closed), or with
         ``until_finished`` until the source is finished; Ctrl-C raises `KeyboardInterrupt`.
-        Returns why it stopped: ``"finished"`` or ``"viewer closed"``."""
-        while True:
+        Returns why it stopped: ``"finished"``, ``"viewer closed"`` or ``"closed"`` (`close`
+        was called, from another thread)."""
+        while not self._closed:
             started = time.monotonic()
             self.poll()
             if until_finished and self.source.finished():
@@ -203,6 +215,20 @@ class Watcher:
             if not self.viewer_running():
                 return "viewer closed"
             time.sleep(max(0.0, self.poll_s - (time.monotonic() - started)))
+        return "closed"
+
+    def follow_in_background(self, until_finished: bool = True) -> threading.Thread:
+        """`follow` in a daemon thread, so a notebook's kernel stays free while the view
+        updates (`watch` starts it for ``viewer="notebook"``); `close` stops it."""
+        if self._thread is None or not self._thread.is_alive():
+
+            def follow() -> None:
+                with contextlib.suppress(Exception):  # closed under it: nothing to report
+                    self.follow(until_finished=until_finished)
+
+            self._thread = threading.Thread(target=follow, name="ariel-watch", daemon=True)
+            self._thread.start()
+        return self._thread
 
     def _flush(self, timeout: float) -> None:
         with contextlib.suppress(Exception):  # a slow viewer: the rest goes on in the background
@@ -216,6 +242,8 @@ class Watcher:
         self._closed = True
         from ariel.recording._view import _terminate
 
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=self.poll_s + FLUSH_TIMEOUT_S + 5.0)
         try:
             if self.rec is not None:
                 self._flush(CLOSE_TIMEOUT_S)
@@ -232,6 +260,24 @@ class Watcher:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _notebook_widget(url: str) -> Any:
+    """Rerun's notebook viewer, connected to the gRPC server at ``url`` (rerun-sdk[notebook])."""
+    try:
+        from rerun.notebook import Viewer
+    except ImportError:
+        raise ViewError(
+            "the notebook viewer needs rerun-sdk's notebook extra: pip install "
+            "'rerun-sdk[notebook]' (make setup installs it)"
+        ) from None
+    try:
+        return Viewer(url=url, width="auto", height=720, use_global_recording=False)
+    except ImportError:  # rerun-notebook missing: the Viewer says so when made
+        raise ViewError(
+            "the notebook viewer needs rerun-sdk's notebook extra: pip install "
+            "'rerun-sdk[notebook]' (make setup installs it)"
+        ) from None
 
 
 def _check(source: Source, viewer: str, save: Any, poll_s: float) -> None:
@@ -262,7 +308,7 @@ def _check(source: Source, viewer: str, save: Any, poll_s: float) -> None:
 def watch(
     path: str | os.PathLike[str],
     *,
-    viewer: str = "native",
+    viewer: str | None = None,
     port: int | None = None,
     grpc_port: int | None = None,
     save: str | os.PathLike[str] | None = None,
@@ -273,7 +319,10 @@ def watch(
     Args:
         path: A run folder or a campaign folder, running or finished; only read.
         viewer: ``"native"`` (a window; needs a display), ``"web"`` (the web viewer served on
-            127.0.0.1: open ``watcher.urls["web"]``) or ``"none"`` (with ``save`` only).
+            127.0.0.1: open ``watcher.urls["web"]``), ``"notebook"`` (Rerun's notebook widget,
+            shown at once in Jupyter; needs ``rerun-sdk[notebook]``) or ``"none"`` (with
+            ``save`` only). None (the default): ``"notebook"`` in a Jupyter kernel, else
+            ``"native"``.
         port: The web viewer's port (default 9090; busy: a free one; 0: any free one).
         grpc_port: The viewer's gRPC port the data is streamed to (default 9876, likewise).
         save: Also write the live recording to this ``.rrd`` file (outside ``path``).
@@ -282,7 +331,8 @@ def watch(
     Returns:
         The started `Watcher`: call ``follow()`` (until Ctrl-C or the viewer's window is
         closed; ``follow(until_finished=True)``: until the run has ended and is all shown),
-        or ``poll()`` yourself; ``close()`` (or leave its ``with`` block) at the end.
+        or ``poll()`` yourself; ``close()`` (or leave its ``with`` block) at the end. With the
+        notebook viewer it already follows in the background, until the run has ended.
 
     Raises:
         NotARunError: For a folder that is not a run or campaign.
@@ -296,7 +346,19 @@ def watch(
             print(watcher.urls["web"])
             watcher.follow()
         ```
+
+        In a Jupyter notebook, ``watch("data/runs/my-run")`` shows the live view below the cell
+        and keeps it updating while the kernel runs other cells.
     """
-    return Watcher(
+    from ariel.utils._notebook import in_notebook_kernel
+
+    if viewer is None:
+        viewer = "notebook" if in_notebook_kernel() else "native"
+    watcher = Watcher(
         source_for(path), viewer=viewer, port=port, grpc_port=grpc_port, save=save, poll_s=poll_s
     )
+    if viewer == "notebook":
+        watcher.follow_in_background(until_finished=True)
+        if in_notebook_kernel():
+            watcher.widget.display()
+    return watcher

@@ -65,7 +65,7 @@ def test_the_default_setup_is_cpu_only_with_the_notebook_tools(tmp_path: Path) -
     assert _installs(out) == [
         "--upgrade pip",
         '"torch==2.13.0"',
-        '-e ".[dev,distributed,analysis]"',
+        '-e ".[dev,distributed,analysis,docs]"',
     ]
     assert "the GPU extra: make gpu" in out.splitlines()[0]
     assert ".stamp-gpu" not in out
@@ -74,7 +74,7 @@ def test_the_default_setup_is_cpu_only_with_the_notebook_tools(tmp_path: Path) -
     ]
     assert any(req.startswith("nbconvert") for req in extras["analysis"])
     assert not any(
-        "warp" in req for name in ("dev", "distributed", "analysis") for req in extras[name]
+        "warp" in req for name in ("dev", "distributed", "analysis", "docs") for req in extras[name]
     )
 
 

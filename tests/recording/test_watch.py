@@ -326,3 +326,30 @@ def test_bad_input_is_one_line_exit_2(live: dict, tmp_path: Path, capsys, args, 
     assert main(["watch", *words]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err and err.startswith("ariel: error:")
+
+
+def test_the_notebook_viewer_follows_in_the_background(live: dict, tmp_path: Path) -> None:
+    pytest.importorskip("rerun_notebook", reason="rerun-sdk[notebook] is not installed")
+    import psutil
+
+    from ariel.recording import watch
+
+    saved = tmp_path / "notebook.rrd"
+    watcher = watch(live["run"], viewer="notebook", grpc_port=0, save=saved, poll_s=0.2)
+    try:
+        assert watcher.widget is not None and watcher._thread is not None
+        # The widget's data comes from a gRPC server of Rerun's own, on 127.0.0.1 only.
+        assert watcher.urls["grpc"] == f"rerun+http://127.0.0.1:{watcher.ports[0]}/proxy"
+        listening = {
+            c.laddr
+            for c in psutil.Process(watcher._child.pid).net_connections()
+            if c.status == psutil.CONN_LISTEN
+        }
+        assert listening and {address.ip for address in listening} == {"127.0.0.1"}
+        watcher._thread.join(timeout=TIMEOUT_S)  # the run has finished: it stops by itself
+        assert not watcher._thread.is_alive()
+    finally:
+        watcher.close()
+    generations, best = _series(_chunks(saved), "/fitness/best")
+    assert generations == list(range(len(load_run(live["run"]).generations)))
+    assert len(best) == len(generations)

@@ -1,0 +1,60 @@
+"""The README's picture of the live view: a default co-evolution run, watched while it runs.
+
+    python experiments/screenshots/watch.py [OUT.png] [--after N]
+
+Starts the default experiment (`experiments/coevolve_flat.toml`, with recordings) in a
+temporary folder, watches it with the web viewer on free ports of 127.0.0.1, and once N
+generations (default 4) are shown draws the page in a headless Chromium and saves the PNG
+(default docs/images/watch.png). Then it stops the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from ariel.recording import load_run, watch
+from ariel.recording._browser import HeadlessChromium, find_chromium
+from ariel.recording._files import atomic_write_bytes
+from ariel.recording._view import wait_for_drawing
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", nargs="?", default="docs/images/watch.png", type=Path)
+    parser.add_argument("--after", type=int, default=4, help="generations shown first")
+    args = parser.parse_args()
+    scratch = Path(tempfile.mkdtemp(prefix="ariel-watch-shot-"))
+    run = scratch / "run"
+    command = [sys.executable, "-m", "ariel.cli", "run", "--out", str(run), "--quiet"]
+    proc = subprocess.Popen(command)
+    try:
+        while not (run / "run.json").is_file():
+            time.sleep(0.2)
+        with watch(run, viewer="web", port=0, grpc_port=0) as watcher:
+            while True:
+                watcher.poll()
+                try:
+                    if load_run(run).generations_done >= args.after:
+                        break
+                except Exception:  # the run folder is still being made
+                    pass
+                time.sleep(0.5)
+            watcher.poll()
+            with HeadlessChromium(
+                scratch / "profile", size=(1600, 900), binary=find_chromium()
+            ) as browser:
+                browser.open(watcher.urls["web"])
+                atomic_write_bytes(args.out, wait_for_drawing(browser, 8.0))
+        print(f"wrote {args.out}")
+    finally:
+        proc.terminate()
+        proc.wait(timeout=60)
+
+
+if __name__ == "__main__":
+    main()
