@@ -123,25 +123,28 @@ def _watch_args(saved: Path, *more: str) -> dict[str, str]:
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """The tiny run (3 generations) with and without --live, in folders of the same name."""
     root = tmp_path_factory.mktemp("live")
-    found = {}
-    for kind in ("plain", "live"):
+    found, procs = {}, []
+    saved = root / "watch.rrd"
+    for kind in ("plain", "live"):  # side by side: the watcher only reads its own folder
         out = root / kind / "tiny"
         live = ["--live"] if kind == "live" else []
-        saved = root / "watch.rrd"
-        proc = _ariel(
-            "run",
-            str(RUN),
-            "--set",
-            "generations=3",
-            "--out",
-            str(out),
-            "--quiet",
-            *live,
-            env=_watch_args(saved, "--until-finished"),
+        procs.append(
+            _ariel(
+                "run",
+                str(RUN),
+                "--set",
+                "generations=3",
+                "--out",
+                str(out),
+                "--quiet",
+                *live,
+                env=_watch_args(saved, "--until-finished"),
+            )
         )
+        found[kind] = out
+    for proc in procs:
         _, err = proc.communicate(timeout=300)
         assert proc.returncode == 0, err
-        found[kind] = out
     found["saved"] = saved
     return found
 
