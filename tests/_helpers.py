@@ -187,3 +187,55 @@ def count_warp_module_loads(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
 
     monkeypatch.setattr(context.Module, "load", load)
     return fresh
+
+
+class ServedWebViewer:
+    """``ariel COMMAND... --port 0 --grpc-port 0 EXTRA...`` serving Rerun's web viewer (`ariel
+    view --web`, `ariel watch --web`): its printed address and tunnel line, its rerun child."""
+
+    def __init__(self, command: list[str], *extra: str) -> None:
+        import queue
+        import threading
+        import time
+
+        import psutil
+
+        self.proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "ariel.cli",
+                *command,
+                "--port",
+                "0",
+                "--grpc-port",
+                "0",
+                *extra,
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(
+            target=lambda: [lines.put(x) for x in self.proc.stdout], daemon=True
+        ).start()
+        self.text = ""
+        deadline = time.monotonic() + 60
+        while "Ctrl-C stops it" not in self.text:
+            if self.proc.poll() is not None or time.monotonic() > deadline:
+                raise AssertionError(self.text + self.proc.stderr.read())
+            with contextlib.suppress(queue.Empty):
+                self.text += lines.get(timeout=0.2)
+        self.url = re.search(r"open\s+(http://\S+)", self.text).group(1)
+        self.tunnel = re.search(r"^\s*(ssh .*)$", self.text, re.MULTILINE).group(1)
+        (self.rerun,) = psutil.Process(self.proc.pid).children(recursive=True)
+
+    def listening(self) -> list:
+        import psutil
+
+        return [c for c in self.rerun.net_connections("inet") if c.status == psutil.CONN_LISTEN]
+
+    def stop(self, signum: int) -> int:
+        self.proc.send_signal(signum)
+        return self.proc.wait(timeout=30)

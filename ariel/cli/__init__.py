@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from ariel import __version__
-from ariel.cli._options import add_executor_options as _add_executor_options
+from ariel.cli._options import add_executor_options as _add_executor_options, add_web_viewer_options
 from ariel.cli._types import integer_at_least, positive_int
 from ariel.errors import ArielError, ConfigError
 
@@ -210,16 +210,6 @@ class _IntermixedParser(_Parser):
             return self.parse_known_intermixed_args(args, namespace)
         finally:
             self._inner = False
-
-
-def _port(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {text!r}") from None
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {value}")
-    return value
 
 
 def _png_path(text: str) -> Path:
@@ -516,21 +506,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="G",
         help="every evaluation of generation G (its evaluations.rrd)",
     )
-    p.add_argument(
-        "--web",
-        action="store_true",
-        help="serve the web viewer on 127.0.0.1 (no browser is opened; prints the SSH tunnel)",
-    )
-    p.add_argument(
-        "--port", type=_port, metavar="PORT", help="web viewer port (default 9090; 0: any free)"
-    )
-    p.add_argument(
-        "--grpc-port",
-        type=_port,
-        metavar="PORT",
-        help="port of the gRPC proxy the web viewer reads the recordings from "
-        "(default 9876; 0: any free)",
-    )
+    add_web_viewer_options(p, "the gRPC proxy the web viewer reads the recordings from")
     p.add_argument(
         "--screenshot",
         type=_png_path,

@@ -6,7 +6,7 @@ import argparse
 
 from ariel.cli._types import positive_int
 
-__all__ = ["add_executor_options", "add_live_options"]
+__all__ = ["add_executor_options", "add_live_options", "add_web_viewer_options", "port"]
 
 
 def add_executor_options(p: argparse.ArgumentParser) -> None:
@@ -41,4 +41,34 @@ def add_live_options(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="the live view in the web viewer, served on 127.0.0.1 (implies --live; its "
         "address and an SSH tunnel line are printed)",
+    )
+
+
+def port(text: str) -> int:
+    """A TCP port for argparse: 0..65535 (0: any free one)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {text!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {value}")
+    return value
+
+
+def add_web_viewer_options(p: argparse.ArgumentParser, grpc_help: str) -> None:
+    """``--web``, ``--port`` and ``--grpc-port`` of the commands that serve Rerun's web viewer
+    (`ariel view`, `ariel watch`); ``grpc_help`` says what the gRPC server carries."""
+    p.add_argument(
+        "--web",
+        action="store_true",
+        help="serve the web viewer on 127.0.0.1 (no browser is opened; prints the SSH tunnel)",
+    )
+    p.add_argument(
+        "--port", type=port, metavar="PORT", help="web viewer port (default 9090; 0: any free)"
+    )
+    p.add_argument(
+        "--grpc-port",
+        type=port,
+        metavar="PORT",
+        help=f"port of {grpc_help} (default 9876; 0: any free)",
     )

@@ -30,7 +30,7 @@ def _seconds(text: str) -> float:
 
 def add_watch_command(sub: Any) -> None:
     """Add ``ariel watch`` to the sub-command parsers ``sub``."""
-    from ariel.cli import _port
+    from ariel.cli._options import add_web_viewer_options
 
     p = sub.add_parser(
         "watch",
@@ -42,21 +42,7 @@ def add_watch_command(sub: Any) -> None:
         "lineage, a MAP-Elites archive. Every server binds 127.0.0.1 only.",
     )
     p.add_argument("folder", metavar="DIR", help="a run or campaign folder")
-    p.add_argument(
-        "--web",
-        action="store_true",
-        help="serve the web viewer on 127.0.0.1 (no browser is opened; prints the SSH tunnel)",
-    )
-    p.add_argument(
-        "--port", type=_port, metavar="PORT", help="web viewer port (default 9090; 0: any free)"
-    )
-    p.add_argument(
-        "--grpc-port",
-        type=_port,
-        metavar="PORT",
-        help="port of the viewer's gRPC server the live data is streamed to "
-        "(default 9876; 0: any free)",
-    )
+    add_web_viewer_options(p, "the viewer's gRPC server the live data is streamed to")
     p.add_argument("--save", metavar="FILE.rrd", help="also write the live recording to FILE.rrd")
     p.add_argument(
         "--no-viewer", action="store_true", help="start no viewer (with --save: a file only)"

@@ -8,7 +8,6 @@ import contextlib
 import io
 import json
 import os
-import queue
 import re
 import shutil
 import signal
@@ -16,7 +15,6 @@ import socket
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -37,6 +35,7 @@ from ariel.recording._view import (
     select_recordings,
     web_url,
 )
+from tests._helpers import ServedWebViewer
 
 CHROMIUM = Path("/usr/bin/chromium")
 # A small co-evolution run (like TINY in tests/evolution/test_loop.py): 3 generations, no
@@ -334,34 +333,6 @@ def test_a_terminated_native_viewer_command_leaves_no_viewer(recorded_run, tmp_p
 # --- the web viewer: the real rerun server ---------------------------------------------------
 
 
-class _Served:
-    """``ariel view ... --web`` running: its printed address and tunnel, its rerun child."""
-
-    def __init__(self, run_dir: Path, *extra: str) -> None:
-        self.proc = _ariel("view", str(run_dir), "--web", "--port", "0", "--grpc-port", "0", *extra)
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(
-            target=lambda: [lines.put(x) for x in self.proc.stdout], daemon=True
-        ).start()
-        self.text = ""
-        deadline = time.monotonic() + 60
-        while "Ctrl-C stops it" not in self.text:
-            if self.proc.poll() is not None or time.monotonic() > deadline:
-                raise AssertionError(self.text + self.proc.stderr.read())
-            with contextlib.suppress(queue.Empty):
-                self.text += lines.get(timeout=0.2)
-        self.url = re.search(r"open\s+(http://\S+)", self.text).group(1)
-        self.tunnel = re.search(r"^\s*(ssh .*)$", self.text, re.MULTILINE).group(1)
-        (self.rerun,) = psutil.Process(self.proc.pid).children(recursive=True)
-
-    def listening(self) -> list:
-        return [c for c in self.rerun.net_connections("inet") if c.status == psutil.CONN_LISTEN]
-
-    def stop(self, signum: int) -> int:
-        self.proc.send_signal(signum)
-        return self.proc.wait(timeout=30)
-
-
 def _ports(url: str) -> tuple[int, int]:
     """The web viewer's port and the gRPC proxy's, from the printed address."""
     web, grpc = re.search(r":(\d+)/\?url=.*%3A(\d+)%2Fproxy$", url).groups()
@@ -386,7 +357,7 @@ def _ports_closed(ports: set[int]) -> bool:
     ],
 )
 def test_web_serves_on_localhost_only_and_leaves_nothing_behind(recorded_run, signum, code):
-    served = _Served(recorded_run)
+    served = ServedWebViewer(["view", str(recorded_run), "--web"])
     try:
         listening = served.listening()
         ports = {c.laddr.port for c in listening}
@@ -449,7 +420,9 @@ def _tinted(image: np.ndarray, colour: tuple[int, int, int]) -> float:
 @pytest.mark.skipif(not CHROMIUM.exists(), reason=f"{CHROMIUM} missing (apt-get install chromium)")
 def test_a_headless_browser_loads_the_recording_from_the_served_viewer(recorded_run, tmp_path):
     best = select_recordings(recorded_run, best=1).recordings[0].stem
-    served = _Served(recorded_run, best)  # EVAL_ID after the options
+    served = ServedWebViewer(
+        ["view", str(recorded_run), "--web"], best
+    )  # EVAL_ID after the options
     browser = HeadlessChromium(tmp_path / "profile", binary=CHROMIUM)
     try:
         browser.open(served.url)

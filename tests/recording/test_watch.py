@@ -7,14 +7,12 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import queue
 import re
 import signal
 import socket
 import statistics
 import subprocess
 import sys
-import threading
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -31,6 +29,7 @@ from ariel.recording._manifest import manifest_file
 from ariel.recording._recorder import archive_grid
 from ariel.recording._rerun import RUN_SERIES
 from ariel.recording._view import best_evaluations, recording_path
+from tests._helpers import ServedWebViewer
 
 # Like TINY in tests/analysis/test_notebooks.py: 3 + 3 bodies, a generation in well under 1 s.
 TINY = """
@@ -247,33 +246,6 @@ def test_a_run_killed_mid_generation_shows_its_last_complete_generation(tmp_path
     assert generations == list(range(complete)) and np.isfinite(values).all()
 
 
-class _Watching:
-    """``ariel watch RUN --web`` running: its printed address and tunnel, its rerun child."""
-
-    def __init__(self, run: Path) -> None:
-        command = [sys.executable, "-m", "ariel.cli", "watch", str(run), "--web"]
-        self.proc = subprocess.Popen(
-            [*command, "--port", "0", "--grpc-port", "0"],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(
-            target=lambda: [lines.put(x) for x in self.proc.stdout], daemon=True
-        ).start()
-        self.text = ""
-        deadline = time.monotonic() + 60
-        while "Ctrl-C stops it" not in self.text:
-            if self.proc.poll() is not None or time.monotonic() > deadline:
-                raise AssertionError(self.text + self.proc.stderr.read())
-            with contextlib.suppress(queue.Empty):
-                self.text += lines.get(timeout=0.2)
-        self.url = re.search(r"open\s+(http://\S+)", self.text).group(1)
-        self.tunnel = re.search(r"^\s*(ssh .*)$", self.text, re.MULTILINE).group(1)
-        (self.rerun,) = psutil.Process(self.proc.pid).children(recursive=True)
-
-
 def _non_loopback_address() -> str | None:
     """An address of this machine other than 127.0.0.1 (None: none known)."""
     with contextlib.suppress(OSError), socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
@@ -284,11 +256,9 @@ def _non_loopback_address() -> str | None:
 
 
 def test_web_listens_on_localhost_only_and_ctrl_c_ends_it_cleanly(live: dict) -> None:
-    watching = _Watching(live["run"])
+    watching = ServedWebViewer(["watch", str(live["run"]), "--web"])
     try:
-        listening = [
-            c for c in watching.rerun.net_connections("inet") if c.status == psutil.CONN_LISTEN
-        ]
+        listening = watching.listening()
         ports = {c.laddr.port for c in listening}
         assert {c.laddr.ip for c in listening} == {"127.0.0.1"} and len(ports) == 2
         web, grpc = (
