@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from ariel.cli._types import positive_int
+from ariel.cli._types import port, positive_int
 
-__all__ = ["add_executor_options", "add_live_options", "add_web_viewer_options", "port"]
+__all__ = ["add_executor_options", "add_live_options", "add_web_viewer_options"]
 
 
 def add_executor_options(p: argparse.ArgumentParser) -> None:
@@ -42,17 +42,6 @@ def add_live_options(p: argparse.ArgumentParser) -> None:
         help="the live view in the web viewer, served on 127.0.0.1 (implies --live; its "
         "address and an SSH tunnel line are printed)",
     )
-
-
-def port(text: str) -> int:
-    """A TCP port for argparse: 0..65535 (0: any free one)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {text!r}") from None
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"must be a port 0..65535, not {value}")
-    return value
 
 
 def add_web_viewer_options(p: argparse.ArgumentParser, grpc_help: str) -> None:

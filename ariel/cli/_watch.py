@@ -18,19 +18,10 @@ __all__ = ["add_watch_command"]
 EXIT_USAGE = 2
 
 
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds, not {text!r}") from None
-    if not 0.05 <= value <= 3600:
-        raise argparse.ArgumentTypeError(f"must be 0.05 to 3600 seconds, not {text}")
-    return value
-
-
 def add_watch_command(sub: Any) -> None:
     """Add ``ariel watch`` to the sub-command parsers ``sub``."""
     from ariel.cli._options import add_web_viewer_options
+    from ariel.cli._types import poll_seconds
 
     p = sub.add_parser(
         "watch",
@@ -49,7 +40,7 @@ def add_watch_command(sub: Any) -> None:
     )
     p.add_argument(
         "--poll",
-        type=_seconds,
+        type=poll_seconds,
         default=0.5,
         metavar="S",
         help="seconds between looks at the folder (default 0.5)",

@@ -36,6 +36,7 @@ __all__ = [
     "RunInUseError",
     "RunLock",
     "ensure_open_files",
+    "holder_gone",
     "in_use_error",
     "lock_holder",
     "lock_is_free",
@@ -132,6 +133,29 @@ def lock_holder(run_dir: str | Path) -> str | None:
     this file system cannot tell). Reads only: nothing is created."""
     state, holder = _probe(run_dir)
     return holder if state == "held" else None
+
+
+def holder_gone(run_dir: str | Path) -> bool:
+    """Whether the process that ran the folder is surely gone, read from ``.lock`` without
+    touching the lock (no probe, so a run starting meanwhile is never refused): no file (a
+    run holds one while it runs), or one naming a process of this host that no longer exists.
+    Another host's process, or an unreadable file: False (nothing known from here)."""
+    try:
+        words = (Path(run_dir) / LOCK_NAME).read_text(encoding="utf-8").split()
+    except FileNotFoundError:
+        return True
+    except (OSError, UnicodeDecodeError):
+        return False
+    # as `RunLock.acquire` writes it: "pid N on host H"
+    if len(words) < 5 or words[0] != "pid" or words[-1] != socket.gethostname():
+        return False
+    try:
+        os.kill(int(words[1]), 0)
+    except ProcessLookupError:
+        return True
+    except (OSError, ValueError):
+        return False
+    return False
 
 
 def lock_is_free(run_dir: str | Path) -> bool:

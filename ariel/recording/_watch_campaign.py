@@ -33,8 +33,9 @@ from ariel.recording._campaign import CAMPAIGN_JSON, read_campaign_info
 from ariel.recording._campaign_rerun import campaign_views, condition_colours, curve_chunks
 from ariel.recording._curves import best_so_far
 from ariel.recording._load import STOPPED
+from ariel.recording._lock import holder_gone
 from ariel.recording._run_folder import NotARunError, RunFolder
-from ariel.recording._watch_run import FINAL, _holder_gone, _read_generation
+from ariel.recording._watch_run import FINAL, _read_generation
 
 __all__ = ["CampaignSource"]
 
@@ -181,7 +182,7 @@ class CampaignSource:
                 self._info = read_campaign_info(self.path)
                 self._info_stat = stat
         status = self._info.get("status")
-        return status in FINAL or _holder_gone(self.path)
+        return status in FINAL or holder_gone(self.path)
 
     def _read_info(self, run: _Run) -> None:
         """The run's status from its run.json (read again only when it changed)."""
@@ -200,7 +201,7 @@ class CampaignSource:
             run.sign = 1.0 if _maximise(run.info) else -1.0
             run.checked = manifests_expected(run.path, run.info)[0]
         run.status = str(run.info.get("status", "?"))
-        if run.status in ("running", "created") and _holder_gone(run.path):
+        if run.status in ("running", "created") and holder_gone(run.path):
             with contextlib.suppress(NotARunError):  # it may have just ended, saying how
                 run.info = RunFolder(run.path).read_info()
             run.stat = _stat(run.path / "run.json")

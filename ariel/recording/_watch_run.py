@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 import os
-import socket
 from datetime import datetime
 from pathlib import Path
 from types import SimpleNamespace
@@ -37,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.recording._lock import holder_gone
 from ariel.recording._rerun import (
     ARCHIVE_ENTITY,
     RUN_SERIES,
@@ -130,29 +130,6 @@ def _duration(seconds: float) -> str:
     return f"{hours} h {rest // 60:02d} min" if hours else f"{rest // 60} min {rest % 60:02d} s"
 
 
-def _holder_gone(folder: Path) -> bool:
-    """Whether the process that ran the folder is surely gone: no ``.lock`` file (a run holds
-    one while it runs), or one naming a process of this host that no longer exists. Reads the
-    file only; the lock is never taken."""
-    from ariel.recording._lock import LOCK_NAME
-
-    try:
-        words = (folder / LOCK_NAME).read_text(encoding="utf-8").split()
-    except FileNotFoundError:
-        return True
-    except (OSError, UnicodeDecodeError):
-        return False
-    if len(words) < 5 or words[0] != "pid" or words[-1] != socket.gethostname():
-        return False  # another host's run: nothing known from here
-    try:
-        os.kill(int(words[1]), 0)
-    except ProcessLookupError:
-        return True
-    except (OSError, ValueError):
-        return False
-    return False
-
-
 class RunSource:
     """A run folder as the live view shows it (the module docstring lists what)."""
 
@@ -219,7 +196,7 @@ class RunSource:
 
     def _ended(self) -> bool:
         status = self.info.get("status")
-        return status in FINAL or (status == "running" and _holder_gone(self.path))
+        return status in FINAL or (status == "running" and holder_gone(self.path))
 
     def close(self) -> None:
         """Remove the scratch folder of 3D replays."""
