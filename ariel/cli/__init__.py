@@ -93,7 +93,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
     -> one line and exit 2; Ctrl-C -> how to resume: the folder the interrupt names (its
     ``run_dir``, `ariel.runs`), else ``path_hint``, else none (nothing was written yet)."""
-    from ariel.utils.interrupts import exit_status, stop_on_signals
+    from ariel.utils.interrupts import stop_on_signals
 
     try:
         with stop_on_signals():
@@ -101,13 +101,9 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
         return _fail_with(exc)
     except KeyboardInterrupt as exc:
-        from ariel.utils._commands import ariel_line
+        from ariel.utils._commands import report_interrupted
 
-        folder = getattr(exc, "run_dir", None) or path_hint
-        hint = f"; continue it with: {ariel_line('resume', folder)}" if folder else ""
-        code, how = exit_status(exc)
-        print(f"\ninterrupted{how}{hint}", file=sys.stderr)
-        return code
+        return report_interrupted(exc, getattr(exc, "run_dir", None) or path_hint, "resume")
     _print_result(result)
     return 0
 

@@ -32,7 +32,7 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str | 
     from ariel.evolution import ConfigError
     from ariel.plugins import DuplicatePluginError, PluginLoadError
     from ariel.recording import NotARunError, RunInUseError, RunStorageError
-    from ariel.utils.interrupts import exit_status, stop_on_signals
+    from ariel.utils.interrupts import stop_on_signals
 
     try:
         with stop_on_signals():
@@ -49,13 +49,10 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str | 
     ) as exc:
         return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
     except KeyboardInterrupt as exc:
-        from ariel.utils._commands import ariel_line
+        from ariel.utils._commands import report_interrupted
 
         folder = getattr(exc, "campaign_dir", None) or hint
-        resume = f"; continue it with: {ariel_line('campaign', 'resume', folder)}" if folder else ""
-        code, how = exit_status(exc)
-        print(f"\ninterrupted{how}{resume}", file=sys.stderr)
-        return code
+        return report_interrupted(exc, folder, "campaign", "resume")
     show(result)
     return 0
 

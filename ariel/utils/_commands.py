@@ -19,7 +19,13 @@ import shutil
 import sys
 from pathlib import Path
 
-__all__ = ["ariel_command", "ariel_line", "load_run_command", "python_command"]
+__all__ = [
+    "ariel_command",
+    "ariel_line",
+    "load_run_command",
+    "python_command",
+    "report_interrupted",
+]
 
 
 def ariel_line(*words: object) -> str:
@@ -92,3 +98,24 @@ def load_run_command(path: Path | str, *, loader: str = "load_run", what: str = 
     literal = json.dumps(str(path))  # a Python string literal, with double quotes
     code = f"from ariel.recording import {loader}; r = {loader}({literal}); print({what or 'r'})"
     return f"{python_command()} -c {shlex.quote(code)}"
+
+
+def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> int:
+    """Say on stderr that a command was interrupted and, where ``folder`` is known, the
+    command that continues it (``ariel *resume folder``); returns the exit code to end with.
+
+    Args:
+        exc: The interrupt (Ctrl-C, another signal, or a `Stopped`).
+        folder: The run or campaign folder to continue; None or "" when nothing was written.
+        *resume: The ``ariel`` words before the folder, e.g. ``"resume"`` or
+            ``"campaign", "resume"``.
+
+    Returns:
+        The exit code (`ariel.utils.interrupts.exit_status`).
+    """
+    from ariel.utils.interrupts import exit_status
+
+    hint = f"; continue it with: {ariel_line(*resume, folder)}" if folder else ""
+    code, how = exit_status(exc)
+    print(f"\ninterrupted{how}{hint}", file=sys.stderr)
+    return code
