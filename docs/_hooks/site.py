@@ -68,12 +68,13 @@ def readme_markdown() -> str:
 
 
 def on_files(files: Files, config) -> Files:
+    modules = _modules()
     generated = {
         "index.md": readme_markdown(),
         "cli.md": cli_page.markdown(),
-        "reference/index.md": api_pages.index(_modules()),
+        "reference/index.md": api_pages.index(modules),
     }
-    for module in _modules():
+    for module in modules:
         generated[api_pages.page_path(module.__name__)] = api_pages.page(module)
     for path, content in generated.items():
         files.append(File.generated(config, path, content=content))
