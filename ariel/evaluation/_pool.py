@@ -407,11 +407,15 @@ class _Driver:
                 with self.lock:
                     self.pending.appendleft(call)
                 raise
+            with self.lock:
+                killed = self.killing
+            if killed:  # the pool was killed while the worker started: no call goes out now
+                self._requeue(call)
+                return
             try:
                 worker.conn.send_bytes(call.payload)
             except OSError:  # the worker died while idle: the call never reached it
-                with self.lock:
-                    self.pending.appendleft(call)
+                self._requeue(call)
                 self._lost(worker)
                 continue
             worker.call = call
@@ -521,12 +525,7 @@ class _Driver:
             return
         if orphaned and call.orphaned < _MAX_ORPHANED:  # not the call's fault: not a death
             call.orphaned += 1
-            with self.lock:
-                if not self.killing:
-                    self.pending.appendleft(call)
-                    return
-            if not call.future.done():
-                call.future.set_exception(BrokenProcessPool("the pool was closed during the call"))
+            self._requeue(call)
             return
         call.deaths += 1
         how = _ended_how(worker.process.exitcode)
@@ -536,9 +535,14 @@ class _Driver:
                 WorkerLostError(f"worker process died {times} running this call (last: {how})")
             )
             return
+        self._requeue(call)  # next in line, on a fresh worker
+
+    def _requeue(self, call: _Call) -> None:
+        """Put a call back at the head of the line, or fail it when the pool is being killed
+        (a killed pool starts no worker, so a call left in line would wait forever)."""
         with self.lock:
             if not self.killing:
-                self.pending.appendleft(call)  # next in line, on a fresh worker
+                self.pending.appendleft(call)
                 return
         if not call.future.done():
             call.future.set_exception(BrokenProcessPool("the pool was closed during the call"))
