@@ -9,7 +9,7 @@ TORCH_SPEC ?= torch==2.13.0
 # Headless rendering backend on Linux (EGL); other systems keep MuJoCo's default.
 GL_ENV := $(if $(filter Linux,$(shell uname -s)),MUJOCO_GL=$${MUJOCO_GL:-egl},)
 
-.PHONY: run test setup gpu lab lint format clean gl docs docs-serve
+.PHONY: test-soak run test setup gpu lab lint format clean gl docs docs-serve
 
 # The GPU extra (MuJoCo Warp, ~0.4 GB: `--executor gpu`, docs/gpu.md) is installed only where
 # it can be used or is asked for: GPU=1 (make setup GPU=1, or make gpu), or by default where
@@ -65,6 +65,11 @@ run: setup gl
 
 test: setup gl
 	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q
+
+# The soak tests `make test` leaves out (pytest's "soak" marker: runs killed again and again,
+# the benchmarks' smoke runs); CI runs them after `make test`.
+test-soak: setup gl
+	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q -m soak
 
 # The docs site (mkdocs.yml) into site/, warnings as errors (a broken link, a missing reference
 # or an API name mkdocstrings cannot resolve fails it). It runs the tutorials and the analysis

@@ -407,9 +407,7 @@ class _Driver:
                 with self.lock:
                     self.pending.appendleft(call)
                 raise
-            with self.lock:
-                killed = self.killing
-            if killed:  # the pool was killed while the worker started: no call goes out now
+            if self.killing:  # killed while the worker started: `_requeue` fails the call
                 self._requeue(call)
                 return
             try:

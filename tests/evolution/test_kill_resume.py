@@ -392,6 +392,7 @@ def test_killed_before_the_first_generation_then_after_a_checkpoint(
     _resume_and_check(run_dir, reference)
 
 
+@pytest.mark.soak
 def test_killed_while_writing_again_and_again(configs, reference, tmp_path: Path) -> None:
     """Each kill leaves one file half written under its temporary name; each resume is killed
     again at the next kind of write, until the last one finishes the run."""
@@ -422,7 +423,7 @@ def test_killed_while_writing_again_and_again(configs, reference, tmp_path: Path
     _resume_and_check(run_dir, reference)
 
 
-@pytest.mark.slow
+@pytest.mark.soak
 def test_killed_at_random_moments_many_times(configs, reference, tmp_path: Path) -> None:
     """SIGKILL after a random delay, again and again (the delays drawn from a seeded
     generator, so a failure reproduces): every kill leaves a run that loads and resumes, and

@@ -22,6 +22,7 @@ KEYS = (
 )
 
 
+@pytest.mark.soak
 def test_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     result = run_benchmark(
         "evaluation.py", "--repeats", "1", "--duration", "0.5", "--batch", "2", cwd=tmp_path
@@ -51,6 +52,7 @@ COEVOLUTION_KEYS = (
 )
 
 
+@pytest.mark.soak
 def test_coevolution_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     result = run_benchmark("coevolution.py", "--quick", cwd=tmp_path)
     summary, table = benchmark_summary(result, COEVOLUTION_KEYS)
@@ -76,6 +78,7 @@ def test_coevolution_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
 RECORDING_KEYS = ("recording_overhead_ratio", "rrd_bytes_per_eval", "parquet_bytes_per_eval")
 
 
+@pytest.mark.soak
 def test_recording_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     result = run_benchmark("recording.py", "--quick", cwd=tmp_path)
     summary, table = benchmark_summary(result, RECORDING_KEYS)
@@ -104,6 +107,7 @@ SOAK_KEYS = (
 )
 
 
+@pytest.mark.soak
 def test_soak_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     result = run_benchmark("soak.py", "--quick", cwd=tmp_path)
     summary, table = benchmark_summary(result, SOAK_KEYS)
@@ -141,6 +145,7 @@ def test_soak_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
 CAMPAIGN_KEYS = ("campaign_vs_raw_ratio", "busy_share", "campaign_evals_per_s", "raw_evals_per_s")
 
 
+@pytest.mark.soak
 def test_campaign_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
     result = run_benchmark("campaign.py", "--quick", cwd=tmp_path)
     summary, table = benchmark_summary(result, CAMPAIGN_KEYS)
@@ -158,6 +163,7 @@ def test_campaign_benchmark_rejects_bad_arguments(tmp_path: Path) -> None:
     assert "--popsize must be an integer >= 2" in result.stderr
 
 
+@pytest.mark.soak
 def test_science_benchmark_measures_a_run_and_prints_json_last(tmp_path: Path) -> None:
     tiny = [
         "generations=2",

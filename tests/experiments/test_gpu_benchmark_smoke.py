@@ -11,7 +11,7 @@ import pytest
 from _helpers import run_benchmark
 
 pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
-pytestmark = pytest.mark.warp
+pytestmark = [pytest.mark.warp, pytest.mark.soak]  # make test-soak
 
 
 def test_gpu_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
