@@ -47,6 +47,7 @@ BUILTIN_PLUGINS: dict[str, dict[str, str]] = {
         # Above the registry's layer (ariel.evolution), hence named by string.
         "ga": "ariel.evolution._ga:GeneticAlgorithm",
         "map_elites": "ariel.evolution._map_elites:MapElites",
+        "novelty": "ariel.evolution._novelty:NoveltySearch",
         "random": "ariel.evolution._random_search:RandomSearch",
     },
     "brain_optimizer": {

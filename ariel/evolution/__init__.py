@@ -40,6 +40,9 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from ariel.evolution._nevergrad import (
         Nevergrad as Nevergrad,
     )
+    from ariel.evolution._novelty import (
+        NoveltySearch as NoveltySearch,
+    )
     from ariel.evolution._optimizer import (
         BodyOptimizer as BodyOptimizer,
         Proposal as Proposal,
@@ -83,6 +86,7 @@ _LAZY: dict[str, str] = {
     "Proposal": "ariel.evolution._optimizer",
     "GeneticAlgorithm": "ariel.evolution._ga",
     "MapElites": "ariel.evolution._map_elites",
+    "NoveltySearch": "ariel.evolution._novelty",
     "RandomSearch": "ariel.evolution._random_search",
     # The entry points live a layer up (`ariel.runs`: they tie a run folder to the driver);
     # these names stay here for the scripts that import them from ariel.evolution.

@@ -68,10 +68,11 @@ class BodyConfig(_Section):
     Attributes:
         encoder: The body encoder plugin (``ariel plugins`` lists them), ``"nde"`` by default.
         options: The encoder's options, e.g. ``{"number_of_modules": 12}``.
-        optimizer: A registered body optimizer: ``"ga"`` (the default), ``"map_elites"`` or
-            ``"random"``.
+        optimizer: A registered body optimizer: ``"ga"`` (the default), ``"map_elites"``,
+            ``"novelty"`` or ``"random"``.
         optimizer_options: The body optimizer's options (``map_elites``: ``measures``,
-            ``bins``, ``ranges``, ``qd_offset``).
+            ``bins``, ``ranges``, ``qd_offset``; ``novelty``: those and ``k``,
+            ``novelty_threshold``, ``local_competition``, ``selection``).
         genotype: A fixed body, which makes the run brain-only: a prebuilt name ("gecko" for
             encoder "prebuilt"), a genotype, or a ``.json`` / ``.npy`` file holding one (a path
             in a TOML file is relative to that file). A run stores the genotype, not the path.

@@ -5,7 +5,9 @@ with evaluations/s and its ETA, and the whole run's. Elsewhere (a pipe, a log fi
 printed per finished generation. The generation's line also says, in a co-evolution run, how
 many distinct bodies the population after selection holds (``morphs 5/8``: distinct robot
 graphs / bodies), and in a MAP-Elites run the archive's coverage, QD-score and normalised
-QD-score (``ariel.evolution._map_elites``), the numbers ``load_run(...).generations`` has.
+QD-score (``ariel.evolution._map_elites``), the numbers ``load_run(...).generations`` has (a
+novelty search run: those of its result archive, and its novelty archive's size and the
+population's mean novelty, ``ariel.evolution._novelty``).
 Its ``mean`` is the population's mean fitness after selection; in a brain-only run, whose
 population is the one fixed body, it is the mean of the generation's CMA-ES candidates
 (``mean of candidates``, the finite fitnesses of the generation's evaluations), as `ariel
@@ -238,7 +240,7 @@ class Progress:
 
 def population_text(morphs: tuple[int, int] | None, archive: Mapping[str, float] | None) -> str:
     """``, morphs 5/8, coverage 22% (14/64), qd_score 3.41, norm_qd_score 0.0533`` (the parts
-    given)."""
+    given; novelty search adds ``, novelty archive 37, mean novelty 0.214``)."""
     text = ""
     if morphs is not None:
         text += f", morphs {morphs[0]}/{morphs[1]}"
@@ -252,4 +254,9 @@ def population_text(morphs: tuple[int, int] | None, archive: Mapping[str, float]
             f"qd_score {fmt_value(archive.get('qd_score', math.nan))}, "
             f"norm_qd_score {fmt_value(archive.get('norm_qd_score', math.nan))}"
         )
+        if "novelty_archive" in archive:  # novelty search: its novelty archive, too
+            text += (
+                f", novelty archive {archive['novelty_archive']:.0f}, "
+                f"mean novelty {fmt_value(archive.get('mean_novelty', math.nan))}"
+            )
     return text
