@@ -375,7 +375,7 @@ def test_replay_exits_1_when_the_stored_fitness_is_not_reproduced(
     index = table.schema.get_field_index("fitness")
     table = table.set_column(index, "fitness", pa.array(fitness, pa.float64()))
     pq.write_table(table, path)
-    from ariel.recording._manifest import write_manifest
+    from ariel.recording.store._manifest import write_manifest
 
     write_manifest(copy, 0)  # a deliberate edit, not damage: its manifest follows it
     info = json.loads((copy / "run.json").read_text())
@@ -394,7 +394,7 @@ def test_replay_exits_1_when_the_stored_fitness_is_not_reproduced(
 def test_replay_writes_a_recording_and_a_video(
     finished_run, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    pytest.importorskip("ariel.recording._rerun", reason="Rerun recordings not in this tree")
+    pytest.importorskip("ariel.recording.rerun._rerun", reason="Rerun recordings not in this tree")
     import mujoco
 
     from ariel.utils._gl import create_renderer

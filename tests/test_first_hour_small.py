@@ -117,7 +117,7 @@ def test_prune_leaves_a_running_run_alone(
 def test_prune_run_refuses_links_finished_runs_and_folders_elsewhere(
     runs: dict[str, Path],
 ) -> None:
-    from ariel.recording._prune import PruneError, prune_run
+    from ariel.recording.store._prune import PruneError, prune_run
 
     root = runs["root"]
     for path, message in (

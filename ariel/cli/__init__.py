@@ -53,7 +53,7 @@ GENERATIONS_SHOWN = (
 def _how_to_look(path: Path) -> str:
     """The commands to look at a finished run, each working when pasted into a new shell here
     (the environment's ``ariel`` and python named by path: `ariel.utils._commands`)."""
-    from ariel.utils._commands import ariel_command, load_run_command
+    from ariel.utils import ariel_command, load_run_command
 
     ariel = ariel_command()
     quoted = shlex.quote(str(path))
@@ -101,7 +101,7 @@ def _run_guarded(start: object, path_hint: str | None) -> int:
     except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
         return _fail_with(exc)
     except KeyboardInterrupt as exc:
-        from ariel.utils._commands import report_interrupted
+        from ariel.utils import report_interrupted
 
         return report_interrupted(exc, getattr(exc, "run_dir", None) or path_hint, "resume")
     _print_result(result)
@@ -167,7 +167,7 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         from ariel.cli._prune import prune_runs
 
         return prune_runs(folder, yes=args.yes)
-    from ariel.recording._escape import terminal_text
+    from ariel.recording.store import terminal_text
 
     runs = list_runs(folder)
     if not runs:
@@ -228,7 +228,7 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    from ariel.recording._view import view
+    from ariel.recording.viewer import view
 
     return view(
         args.run_dir,
@@ -279,15 +279,15 @@ def _headless_unless_display(without: str) -> None:
     """Render off-screen (EGL) where no window can open. Only for commands that render, and
     before mujoco is imported: a command that draws nothing must not load a GL library (EGL
     missing would fail its ``import mujoco``). ``without``: how to run without rendering."""
-    from ariel.utils._gl import ensure_headless_gl, has_display
+    from ariel.utils import ensure_headless_gl, has_display
 
     if not has_display():
         ensure_headless_gl(without=without)
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from ariel.recording._export import export
-    from ariel.utils._commands import python_command
+    from ariel.recording.resim import export
+    from ariel.utils import python_command
 
     out = export(args.run_dir, args.eval_id, args.out)
     python = python_command()
@@ -300,7 +300,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
-    from ariel.utils._gl import has_display
+    from ariel.utils import has_display
 
     if args.viewer and not has_display():
         return _fail(
@@ -309,7 +309,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         )
     if args.video:  # replay() imports mujoco to re-simulate: the backend is chosen first
         _headless_unless_display("run without --video")
-    from ariel.recording._replay import replay
+    from ariel.recording.resim import replay
 
     replayed = replay(args.run_dir, args.eval_id)
     row = replayed.row
@@ -344,7 +344,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     except (ValueError, RuntimeError, ImportError) as exc:
         return _fail(str(exc).splitlines()[0])
     except OSError as exc:  # --rrd / --video onto a full disk, a read-only file system, ...
-        from ariel.recording._files import cannot_write
+        from ariel.recording.store import cannot_write
 
         return _fail(cannot_write(exc))
     close = not replayed.exact and replayed.status == replayed.stored_status
@@ -354,7 +354,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     if not args.no_render:  # loading the run imports mujoco (body descriptors) before it renders
         _headless_unless_display("run with --no-render")
-    from ariel.recording._report import make_report, print_report
+    from ariel.recording.analysis import make_report, print_report
 
     report = make_report(args.run_dir, render=not args.no_render)
     print_report(report)
@@ -366,13 +366,13 @@ EXIT_DAMAGED = 1
 
 def _cmd_verify(args: argparse.Namespace) -> int:
     from ariel.recording import NotARunError
-    from ariel.recording._manifest import verify_run
+    from ariel.recording.store import verify_run
 
     try:
         result = verify_run(args.run_dir)
     except NotARunError as exc:
         return _fail(str(exc))
-    from ariel.recording._escape import terminal_text
+    from ariel.recording.store import terminal_text
 
     for problem in result.problems:
         print(f"damaged: {terminal_text(problem)}")
@@ -552,7 +552,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line
         return _fail_with(exc)
     except Exception as exc:  # `import mujoco` failing in its OpenGL backend (MUJOCO_GL): one line
-        from ariel.utils._gl import gl_backend_error
+        from ariel.utils import gl_backend_error
 
         error = gl_backend_error(exc)
         if error is None:

@@ -49,7 +49,7 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str | 
     ) as exc:
         return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
     except KeyboardInterrupt as exc:
-        from ariel.utils._commands import report_interrupted
+        from ariel.utils import report_interrupted
 
         folder = getattr(exc, "campaign_dir", None) or hint
         return report_interrupted(exc, folder, "campaign", "resume")
@@ -68,7 +68,7 @@ def _show_campaign(result: Any) -> None:
         f"worker{'' if result.workers == 1 else 's'})"
     )
     print(f"campaign folder: {result.path}")
-    from ariel.utils._commands import ariel_command, load_run_command
+    from ariel.utils import ariel_command, load_run_command
 
     ariel = ariel_command()
     # the last generation's best fitness, condition x seed
@@ -109,8 +109,8 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
 
 def _plan(args: argparse.Namespace) -> list[str]:
     """`--dry-run`: the campaign's conditions x seeds x evaluations and a timed estimate."""
-    from ariel.recording._escape import terminal_text
-    from ariel.runs._campaign_plan import campaign_plan, plan_text
+    from ariel.recording.store import terminal_text
+    from ariel.runs import campaign_plan, plan_text
 
     def timing() -> None:
         if not args.quiet:
@@ -146,7 +146,7 @@ def _cmd_campaign_resume(args: argparse.Namespace) -> int:
 
     code = live.finish(_guarded(live.guard(start), show, args.campaign_dir))
     if code == 0 and resumed and resumed[0].damaged:
-        from ariel.recording._escape import terminal_text
+        from ariel.recording.store import terminal_text
 
         for line in resumed[0].damaged:  # the others went on: say which did not, and why
             print(f"ariel: error: {terminal_text(line)}", file=sys.stderr)
@@ -164,7 +164,7 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
     from rich.text import Text
 
     from ariel.recording import NotARunError
-    from ariel.recording._escape import terminal_text
+    from ariel.recording.store import terminal_text
     from ariel.runs import campaign_status
 
     def shown(value: object) -> Text:  # from the folder: no rich markup, no control sequence
@@ -205,7 +205,7 @@ def _print_frame(frame: Any, title: str) -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from ariel.recording._escape import terminal_text
+    from ariel.recording.store import terminal_text
 
     table = Table(title=Text(terminal_text(title)))
     for heading in frame.columns:
@@ -225,8 +225,8 @@ def _label(text: str) -> tuple[str, str]:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from ariel.recording import NotARunError
-    from ariel.recording._compare import CompareError, compare, shown_path
-    from ariel.recording._escape import terminal_text as shown
+    from ariel.recording.analysis import CompareError, compare, shown_path
+    from ariel.recording.store import terminal_text as shown
 
     labels: dict[str, str] = {}
     for name, folder in args.label:

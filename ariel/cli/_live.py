@@ -72,9 +72,9 @@ class LiveView:
             return out
         if out is None:
             from ariel.cli import DEFAULT_RUNS
-            from ariel.runs._experiment import _new_run_id, load_config
+            from ariel.runs import load_config, new_run_id
 
-            out = str(Path(DEFAULT_RUNS) / _new_run_id(load_config(config, overrides)))
+            out = str(Path(DEFAULT_RUNS) / new_run_id(load_config(config, overrides)))
         self.start(out)
         return out
 
@@ -85,11 +85,10 @@ class LiveView:
         if not self.enabled:
             return out
         if out is None:
-            from ariel.runs._campaign import _new_campaign_id
-            from ariel.runs._campaign_file import load_campaign_file
+            from ariel.runs import load_campaign_file, new_campaign_id
 
             spec = load_campaign_file(file, tuple(overrides))
-            out = str(Path("data") / "campaigns" / _new_campaign_id(spec.name))
+            out = str(Path("data") / "campaigns" / new_campaign_id(spec.name))
         self.start(out)
         return out
 
@@ -100,13 +99,13 @@ class LiveView:
         live."""
         if not self.enabled or self.proc is not None:
             return
-        from ariel.recording._view import _die_with_parent
+        from ariel.recording.viewer import die_with_parent
 
         self._check_display()
         self.folder = Path(folder)
         since = time.time() - 0.05  # file times may lag the clock a little
         waiter = [sys.executable, "-m", "ariel.cli._live", str(folder), self.marker, str(since)]
-        die = _die_with_parent()
+        die = die_with_parent()
 
         def preexec() -> None:  # started before the run: no busy threads yet
             # Ctrl-C is this process's to handle: it stops the watcher then, with SIGTERM
@@ -125,7 +124,7 @@ class LiveView:
     def _check_display(self) -> None:
         """The native viewer needs a display: without one, say so before the run starts."""
         from ariel.errors import ConfigError
-        from ariel.utils._gl import has_display
+        from ariel.utils import has_display
 
         headless = "--no-viewer" in shlex.split(os.environ.get(WATCH_ARGS_ENV, ""))
         if not (self.web or headless or has_display()):

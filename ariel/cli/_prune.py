@@ -1,5 +1,5 @@
 """``ariel runs [DIR] --prune [--yes]``: delete the run folders that failed or were interrupted
-before their first generation finished (`ariel.recording._prune` decides which), after a y/N
+before their first generation finished (`ariel.recording.store._prune` decides which), after a y/N
 question on stdin that ``--yes`` skips."""
 
 from __future__ import annotations
@@ -13,8 +13,7 @@ __all__ = ["prune_runs"]
 def prune_runs(folder: Path, *, yes: bool) -> int:
     """List the prunable runs under ``folder``, ask, delete them; exit status (2: one or
     more could not be deleted, each said in one line on stderr)."""
-    from ariel.recording._escape import one_line
-    from ariel.recording._prune import PruneError, prunable_runs, prune_run
+    from ariel.recording.store import PruneError, one_line, prunable_runs, prune_run
 
     found, links = prunable_runs(folder)
     for path, why in links:

@@ -55,7 +55,7 @@ def add_watch_command(sub: Any) -> None:
 
 
 def _announce(watcher: Any, args: argparse.Namespace) -> None:
-    from ariel.recording._view import LOCALHOST, tunnel_command
+    from ariel.recording.viewer import LOCALHOST, tunnel_command
 
     folder = watcher.source.path
     saving = f", saving it to {args.save}" if args.save else ""
@@ -80,15 +80,14 @@ def _announce(watcher: Any, args: argparse.Namespace) -> None:
 
 
 def _cmd_watch(args: argparse.Namespace) -> int:
-    from ariel.recording._view import _raise_stopped, _Stopped
-    from ariel.recording._watch import watch
+    from ariel.recording.viewer import Stopped, raise_stopped, watch
 
     if args.no_viewer and (args.web or args.port is not None or args.grpc_port is not None):
         print("ariel: error: --no-viewer starts no viewer: no --web or ports", file=sys.stderr)
         return EXIT_USAGE
     viewer = "none" if args.no_viewer else "web" if args.web else "native"
     handled = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
-    previous = {s: signal.signal(s, _raise_stopped) for s in handled}
+    previous = {s: signal.signal(s, raise_stopped) for s in handled}
     try:
         watcher = watch(
             args.folder,
@@ -107,7 +106,7 @@ def _cmd_watch(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print("\nstopped watching", file=sys.stderr)
         return 0
-    except _Stopped as stop:
+    except Stopped as stop:
         return 128 + stop.signum
     finally:
         for s, handler in previous.items():

@@ -6,8 +6,9 @@ Cheap to import: names are loaded from their modules on first access.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from ariel.evaluation._checks import (
@@ -41,6 +42,30 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         map_ordered as map_ordered,
     )
 
+if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.evaluation._checks import (
+        CHECK_SEED as CHECK_SEED,
+        Checker as Checker,
+        call_text as call_text,
+    )
+    from ariel.evaluation._engine import (
+        SPAWN_PREFIX as SPAWN_PREFIX,
+        frame_steps as frame_steps,
+        make_plugin as make_plugin,
+        robot_module as robot_module,
+        worst_fitness as worst_fitness,
+    )
+    from ariel.evaluation._pool import (
+        WORKER_CANNOT_START as WORKER_CANNOT_START,
+        WorkerCannotStartError as WorkerCannotStartError,
+    )
+    from ariel.evaluation._threads import (
+        default_workers as default_workers,
+    )
+    from ariel.evaluation._warp import (
+        WarpUnavailableError as WarpUnavailableError,
+    )
+
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
     "BodyBuildError": "ariel.evaluation._engine",
@@ -70,14 +95,20 @@ _LAZY: dict[str, str] = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'ariel.evaluation' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # cache: __getattr__ runs once per name
-    return value
+# name -> module that defines it: for ARIEL's other packages, not part of the API
+_INTERNAL: dict[str, str] = {
+    "CHECK_SEED": "ariel.evaluation._checks",
+    "Checker": "ariel.evaluation._checks",
+    "SPAWN_PREFIX": "ariel.evaluation._engine",
+    "WORKER_CANNOT_START": "ariel.evaluation._pool",
+    "WarpUnavailableError": "ariel.evaluation._warp",
+    "WorkerCannotStartError": "ariel.evaluation._pool",
+    "call_text": "ariel.evaluation._checks",
+    "default_workers": "ariel.evaluation._threads",
+    "frame_steps": "ariel.evaluation._engine",
+    "make_plugin": "ariel.evaluation._engine",
+    "robot_module": "ariel.evaluation._engine",
+    "worst_fitness": "ariel.evaluation._engine",
+}
 
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_face(__name__, _LAZY, _INTERNAL)

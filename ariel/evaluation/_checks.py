@@ -53,7 +53,7 @@ CHECK_SEED = 12345
 CHECK_CANDIDATES = 3
 
 
-class _Checker:
+class Checker:
     """Failure messages that all start with the plugin, e.g. ``controller 'sine': ...``."""
 
     def __init__(self, label: str, name: str) -> None:
@@ -77,7 +77,7 @@ class _Checker:
             raise PluginCheckError(f"{self.prefix}: {what} raised {_one_line(exc)}") from exc
 
 
-def _make_call(options: dict[str, Any]) -> str:
+def call_text(options: dict[str, Any]) -> str:
     return f"make(**{options})" if options else "make()"
 
 
@@ -90,7 +90,7 @@ def _same(a: Any, b: Any) -> bool:
     return bool(_plain(a) == _plain(b))
 
 
-def _plain_round_trip(check: _Checker, genotype: Any, what: str) -> Any:
+def _plain_round_trip(check: Checker, genotype: Any, what: str) -> Any:
     """``genotype`` as the plain data stored in Parquet and sent to workers (via JSON)."""
     with check.step(f"storing the {what} genotype as plain data (JSON)"):
         plain = _plain(genotype)
@@ -99,7 +99,7 @@ def _plain_round_trip(check: _Checker, genotype: Any, what: str) -> Any:
     return back
 
 
-def _decoded(check: _Checker, encoder: Any, genotype: Any, what: str) -> nx.DiGraph:
+def _decoded(check: Checker, encoder: Any, genotype: Any, what: str) -> nx.DiGraph:
     from ariel.body_phenotypes.robogen_lite.constructor import validate_robot_graph
 
     with check.step(f"decode({what})"):
@@ -113,12 +113,12 @@ def _decoded(check: _Checker, encoder: Any, genotype: Any, what: str) -> nx.DiGr
     return graph
 
 
-def _expect_methods(check: _Checker, plugin: Any, names: tuple[str, ...]) -> None:
+def _expect_methods(check: Checker, plugin: Any, names: tuple[str, ...]) -> None:
     for method in names:
         check.expect(callable(getattr(plugin, method, None)), f"has no method {method}()")
 
 
-def _expect_bool(check: _Checker, plugin: Any, attribute: str, hint: str = "") -> None:
+def _expect_bool(check: Checker, plugin: Any, attribute: str, hint: str = "") -> None:
     value = getattr(plugin, attribute, None)
     check.expect(
         isinstance(value, bool), f"needs a bool attribute {attribute!r}, not {value!r}{hint}"
@@ -126,7 +126,7 @@ def _expect_bool(check: _Checker, plugin: Any, attribute: str, hint: str = "") -
 
 
 def _expect_same_results(
-    check: _Checker, first: list[EvaluationResult], again: list[EvaluationResult]
+    check: Checker, first: list[EvaluationResult], again: list[EvaluationResult]
 ) -> None:
     for a, b in zip(first, again):
         check.expect(a.status == "ok", f"the gecko's evaluation ended {a.status!r}: {a.error}")
@@ -179,8 +179,8 @@ def check_body_encoder(name: str, **options: Any) -> None:
         PluginCheckError: The first broken part of the contract, in one line naming the plugin
             (an exception raised by the encoder itself, or an unknown ``name``, included).
     """
-    check = _Checker("body encoder", name)
-    with check.step(_make_call(options)):
+    check = Checker("body encoder", name)
+    with check.step(call_text(options)):
         encoder = body_encoders.make(name, **options)
     check.expect(isinstance(getattr(encoder, "name", None), str), "needs a str attribute 'name'")
     _expect_bool(check, encoder, "evolvable")
@@ -214,7 +214,7 @@ def check_body_encoder(name: str, **options: Any) -> None:
         _check_refuses_variation(check, encoder, genotype)
 
 
-def _check_variation(check: _Checker, encoder: Any, genotype: Any, plain: Any) -> None:
+def _check_variation(check: Checker, encoder: Any, genotype: Any, plain: Any) -> None:
     before = copy.deepcopy(genotype)
     with check.step("mutate(genotype, rng)"):
         child = encoder.mutate(genotype, _rng())
@@ -244,7 +244,7 @@ def _check_variation(check: _Checker, encoder: Any, genotype: Any, plain: Any) -
     _decoded(check, encoder, child, "a crossover child")
 
 
-def _check_refuses_variation(check: _Checker, encoder: Any, genotype: Any) -> None:
+def _check_refuses_variation(check: Checker, encoder: Any, genotype: Any) -> None:
     calls: dict[str, Callable[[], Any]] = {
         "mutate": lambda: encoder.mutate(genotype, _rng()),
         "crossover": lambda: encoder.crossover(genotype, genotype, _rng()),
@@ -294,10 +294,10 @@ def check_world(name: str, **options: Any) -> None:
     """
     from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
 
-    check = _Checker("world", name)
+    check = Checker("world", name)
     models = []
     for _ in range(2):
-        with check.step(_make_call(options)):
+        with check.step(call_text(options)):
             world = worlds.make(name, **options)
         check.expect(
             isinstance(getattr(world, "spec", None), mujoco.MjSpec),
@@ -357,8 +357,8 @@ def check_controller(name: str, **options: Any) -> None:
         PluginCheckError: The first broken part of the contract, in one line naming the plugin
             (an exception raised by the controller itself, or an unknown ``name``, included).
     """
-    check = _Checker("controller", name)
-    with check.step(_make_call(options)):
+    check = Checker("controller", name)
+    with check.step(call_text(options)):
         controller = controllers.make(name, **options)
     _expect_bool(check, controller, "open_loop")
     open_loop = controller.open_loop
@@ -407,7 +407,7 @@ def check_controller(name: str, **options: Any) -> None:
 
 
 def _check_targets(
-    check: _Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
+    check: Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
 ) -> None:
     task = EvaluationTask(body=CHECK_BODY, duration=CHECK_DURATION)
     times = np.arange(0, num_steps(task, model), task.control_period) * model.opt.timestep
@@ -442,7 +442,7 @@ def _check_targets(
 
 
 def _check_policy(
-    check: _Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
+    check: Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
 ) -> None:
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -484,7 +484,7 @@ def check_fitness(name: str, **options: Any) -> None:
         PluginCheckError: The first broken part of the contract, in one line naming the plugin
             (an exception raised by the function itself, or an unknown ``name``, included).
     """
-    check = _Checker("fitness function", name)
+    check = Checker("fitness function", name)
     with check.step("get()"):
         fitness = fitness_functions.get(name)
     check.expect(callable(fitness), "is not callable as fn(record) -> float")

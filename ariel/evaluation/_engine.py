@@ -130,7 +130,7 @@ def _build_key(task: EvaluationTask) -> str:
     )
 
 
-def _plugin(registry: Any, name: str, options: dict[str, Any]) -> Any:
+def make_plugin(registry: Any, name: str, options: dict[str, Any]) -> Any:
     """``registry.make(name, **options)``; options it rejects raise naming the plugin."""
     from ariel.plugins import DuplicatePluginError, UnknownPluginError
 
@@ -143,7 +143,7 @@ def _plugin(registry: Any, name: str, options: dict[str, Any]) -> Any:
         raise kind(f"{registry.label} {name!r} rejected options {options}: {exc}") from exc
 
 
-def _robot_module(encoder: Any, genotype: Any) -> tuple[Any, dict[str, float]]:
+def robot_module(encoder: Any, genotype: Any) -> tuple[Any, dict[str, float]]:
     """The robot's root module (a CoreModule) and its morphology descriptors."""
     from ariel.body_phenotypes.robogen_lite.constructor import (
         construct_mjspec_from_graph,
@@ -196,10 +196,10 @@ def build(task: EvaluationTask) -> BuiltBody:
     from ariel.plugins import body_encoders, worlds
 
     start = _time.perf_counter()
-    encoder = _plugin(body_encoders, task.body.encoder, task.body.options)
-    world = _plugin(worlds, task.world, task.world_options)
+    encoder = make_plugin(body_encoders, task.body.encoder, task.body.options)
+    world = make_plugin(worlds, task.world, task.world_options)
     try:
-        core, descriptors = _robot_module(encoder, task.body.genotype)
+        core, descriptors = robot_module(encoder, task.body.genotype)
         world.spawn(core.spec, position=task.spawn_position, rotation=task.spawn_rotation)
         with control_callback_unset():
             model = world.spec.compile()
@@ -795,7 +795,7 @@ def prepare_groups(
     for indices in groups.values():
         group = [tasks[i] for i in indices]
         head = group[0]
-        controller = _plugin(controllers, head.controller, head.controller_options)
+        controller = make_plugin(controllers, head.controller, head.controller_options)
         fitness_fn = fitness_functions.get(head.fitness)
         _check_fitness_options(head.fitness, fitness_fn, head.fitness_options)
         try:

@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from ariel.errors import BodyBuildError
-from ariel.evaluation._engine import SPAWN_PREFIX, BuiltBody, _plugin, _robot_module, build
+from ariel.evaluation._engine import SPAWN_PREFIX, BuiltBody, build, make_plugin, robot_module
 from ariel.evaluation._task import EvaluationTask
 from ariel.simulation.control_callback import control_callback_unset
 
@@ -131,7 +131,7 @@ def _world_reason(key: str) -> str | None:
     from ariel.plugins import worlds
 
     name, options = json.loads(key)
-    world = _plugin(worlds, name, options)
+    world = make_plugin(worlds, name, options)
     with control_callback_unset():
         model = world.spec.compile()
     shared = {"joints (movable objects every robot would share)": model.njnt, "actuators": model.nu}
@@ -267,7 +267,7 @@ def _packed_model(
     from ariel.plugins import body_encoders, worlds
 
     head = tasks[0]
-    world = _plugin(worlds, head.world, head.world_options)
+    world = make_plugin(worlds, head.world, head.world_options)
     every = 0
     for k in range(len(tasks)):
         every |= _bit(k)
@@ -275,8 +275,8 @@ def _packed_model(
         _recolour(geom, every)
     prefixes = []
     for k, task in enumerate(tasks):
-        encoder = _plugin(body_encoders, task.body.encoder, task.body.options)
-        core, _ = _robot_module(encoder, task.body.genotype)
+        encoder = make_plugin(body_encoders, task.body.encoder, task.body.options)
+        core, _ = robot_module(encoder, task.body.genotype)
         offset = _lone_offset(task, core.spec)
         for geom in core.spec.geoms:
             _recolour(geom, _bit(k))
@@ -321,7 +321,7 @@ def _lone_offset(task: EvaluationTask, robot_spec: mujoco.MjSpec) -> list[float]
     into the packed world would lift each robot by compiling all robots spawned before it."""
     from ariel.plugins import worlds
 
-    world = _plugin(worlds, task.world, task.world_options)
+    world = make_plugin(worlds, task.world, task.world_options)
     world.spawn(robot_spec, position=task.spawn_position, rotation=task.spawn_rotation)
     prefix = f"{world.spawn_prefix}{world.spawns}_"
     return list(world.spec.body(prefix + robot_spec.worldbody.name).pos)

@@ -6,8 +6,9 @@ Cheap to import: names are loaded from their modules on first access.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from ariel.evolution._brain import (
@@ -57,10 +58,75 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from ariel.evolution._state import (
         Body as Body,
     )
-    from ariel.runs._experiment import (
+    from ariel.runs import (
         RunResult as RunResult,
         resume_experiment as resume_experiment,
         run_experiment as run_experiment,
+    )
+
+if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.evolution._bodies import (
+        BodyFactory as BodyFactory,
+    )
+    from ariel.evolution._brain import (
+        fitness_rank as fitness_rank,
+    )
+    from ariel.evolution._checks import (
+        ERROR_LOG as ERROR_LOG,
+        check_plugins as check_plugins,
+        check_resources as check_resources,
+        no_main_guard_line as no_main_guard_line,
+        plugin_named as plugin_named,
+        refuse_in_spawned_child as refuse_in_spawned_child,
+    )
+    from ariel.evolution._config import (
+        TOML_KIND as TOML_KIND,
+        TYPE_ERRORS as TYPE_ERRORS,
+        Int as Int,
+        apply_overrides as apply_overrides,
+        check_key as check_key,
+        config_hash as config_hash,
+        set_value as set_value,
+    )
+    from ariel.evolution._driver import (
+        Plugins as Plugins,
+        RunDriver as RunDriver,
+        budget as budget,
+        fixed_genotype as fixed_genotype,
+        is_brain_only as is_brain_only,
+    )
+    from ariel.evolution._genotype import (
+        check_genotype as check_genotype,
+        describe as describe,
+        is_genotype_file as is_genotype_file,
+        read_genotype_file as read_genotype_file,
+    )
+    from ariel.evolution._map_elites import (
+        DEFAULT_RANGES as DEFAULT_RANGES,
+        archive_quality as archive_quality,
+    )
+    from ariel.evolution._progress import (
+        Progress as Progress,
+        eta_text as eta_text,
+        fmt_value as fmt_value,
+        live_bars as live_bars,
+        shows_progress as shows_progress,
+    )
+    from ariel.evolution._scheduler import (
+        run_groups as run_groups,
+    )
+    from ariel.evolution._state import (
+        LoopState as LoopState,
+        state_from_plain as state_from_plain,
+    )
+    from ariel.evolution._tasks import (
+        body_spec as body_spec,
+        evaluation_task as evaluation_task,
+        record_steps as record_steps,
+        shipped_body as shipped_body,
+    )
+    from ariel.evolution._toml import (
+        read_toml_file as read_toml_file,
     )
 
 # public name -> module that defines it
@@ -100,14 +166,47 @@ _LAZY: dict[str, str] = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'ariel.evolution' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+# name -> module that defines it: for ARIEL's other packages, not part of the API
+_INTERNAL: dict[str, str] = {
+    "BodyFactory": "ariel.evolution._bodies",
+    "DEFAULT_RANGES": "ariel.evolution._map_elites",
+    "ERROR_LOG": "ariel.evolution._checks",
+    "Int": "ariel.evolution._config",
+    "LoopState": "ariel.evolution._state",
+    "Plugins": "ariel.evolution._driver",
+    "Progress": "ariel.evolution._progress",
+    "RunDriver": "ariel.evolution._driver",
+    "TOML_KIND": "ariel.evolution._config",
+    "TYPE_ERRORS": "ariel.evolution._config",
+    "apply_overrides": "ariel.evolution._config",
+    "archive_quality": "ariel.evolution._map_elites",
+    "body_spec": "ariel.evolution._tasks",
+    "budget": "ariel.evolution._driver",
+    "check_genotype": "ariel.evolution._genotype",
+    "check_key": "ariel.evolution._config",
+    "check_plugins": "ariel.evolution._checks",
+    "check_resources": "ariel.evolution._checks",
+    "config_hash": "ariel.evolution._config",
+    "describe": "ariel.evolution._genotype",
+    "eta_text": "ariel.evolution._progress",
+    "evaluation_task": "ariel.evolution._tasks",
+    "fitness_rank": "ariel.evolution._brain",
+    "fixed_genotype": "ariel.evolution._driver",
+    "fmt_value": "ariel.evolution._progress",
+    "is_brain_only": "ariel.evolution._driver",
+    "is_genotype_file": "ariel.evolution._genotype",
+    "live_bars": "ariel.evolution._progress",
+    "no_main_guard_line": "ariel.evolution._checks",
+    "plugin_named": "ariel.evolution._checks",
+    "read_genotype_file": "ariel.evolution._genotype",
+    "read_toml_file": "ariel.evolution._toml",
+    "record_steps": "ariel.evolution._tasks",
+    "refuse_in_spawned_child": "ariel.evolution._checks",
+    "run_groups": "ariel.evolution._scheduler",
+    "set_value": "ariel.evolution._config",
+    "shipped_body": "ariel.evolution._tasks",
+    "shows_progress": "ariel.evolution._progress",
+    "state_from_plain": "ariel.evolution._state",
+}
 
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_face(__name__, _LAZY, _INTERNAL)

@@ -48,7 +48,7 @@ def refuse_in_spawned_child() -> None:
     # (multiprocessing.parent_process() is still None while a child re-imports the script.)
     if not _importing_main_again():
         return  # a child that calls run_experiment from a function it was given is fine
-    from ariel.evaluation._pool import WORKER_CANNOT_START
+    from ariel.evaluation import WORKER_CANNOT_START
 
     line = (no_main_guard_line() + "\n").encode(errors="replace")
     try:  # one write: the workers' lines never interleave (print writes the newline apart)
@@ -225,7 +225,7 @@ def _largest_key(config: ExperimentConfig) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-def _plugin_named(config: ExperimentConfig, text: str) -> str:
+def plugin_named(config: ExperimentConfig, text: str) -> str:
     labels = (
         f"fitness function {config.task.fitness!r}",
         f"controller {config.brain.controller!r}",

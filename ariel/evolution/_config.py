@@ -324,14 +324,14 @@ def _one_line(error: ValidationError) -> str:
             message = ("must be " if prefix == "Input should be " else "") + message[len(prefix) :]
     given = first.get("input")
     shown = "" if isinstance(given, dict) else f" (got {given!r})"
-    if first["type"] in _TYPE_ERRORS and not isinstance(given, dict | list):
+    if first["type"] in TYPE_ERRORS and not isinstance(given, dict | list):
         # Strict types: say what the value was, e.g. a quoted "3" is a string in TOML.
-        shown = f" (got {given!r}, {_TOML_KIND.get(type(given), type(given).__name__)})"
+        shown = f" (got {given!r}, {TOML_KIND.get(type(given), type(given).__name__)})"
     return f"{key}: {message}{shown}"
 
 
-_TYPE_ERRORS = {"int_type", "float_type", "bool_type", "string_type"}
-_TOML_KIND = {bool: "a boolean", str: "a string", float: "a float", int: "an integer"}
+TYPE_ERRORS = {"int_type", "float_type", "bool_type", "string_type"}
+TOML_KIND = {bool: "a boolean", str: "a string", float: "a float", int: "an integer"}
 
 
 def _validate(data: Mapping[str, Any]) -> ExperimentConfig:

@@ -50,7 +50,7 @@ class Plugins:
     @property
     def worst(self) -> float:
         """The fitness of an evaluation that failed (as the engine gives it)."""
-        from ariel.evaluation._engine import worst_fitness
+        from ariel.evaluation import worst_fitness
 
         return worst_fitness(self.maximise)
 

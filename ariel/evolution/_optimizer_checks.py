@@ -21,10 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from ariel.evaluation._checks import (
+from ariel.evaluation import (
     CHECK_SEED,
-    _Checker,
-    _make_call,
+    Checker,
+    call_text,
     check_all as _check_engine_plugins,
 )
 from ariel.evolution._state import Body
@@ -67,12 +67,12 @@ def _body(number: int, proposal: Any, generation: int) -> Body:
     return body
 
 
-def _make(check: _Checker, factory: Any, options: dict[str, Any]) -> Any:
+def _make(check: Checker, factory: Any, options: dict[str, Any]) -> Any:
     from ariel.evolution._config import BodyConfig
     from ariel.evolution._optimizer import BodyOptimizer
 
     settings = BodyConfig(population=_SIZE, offspring=_SIZE, tournament=2)
-    with check.step(f"making it ({_make_call(options)})"):
+    with check.step(f"making it ({call_text(options)})"):
         optimizer = factory(
             encoder=_VectorEncoder(), seed=CHECK_SEED, maximise=True, settings=settings, **options
         )
@@ -83,7 +83,7 @@ def _make(check: _Checker, factory: Any, options: dict[str, Any]) -> Any:
     return optimizer
 
 
-def _generation(check: _Checker, optimizer: Any, generation: int, told: dict[str, Body]) -> list:
+def _generation(check: Checker, optimizer: Any, generation: int, told: dict[str, Body]) -> list:
     """One ask/tell round; returns the genotypes asked for (as JSON text)."""
     kept = {b.body_id for b in optimizer.population}
     with check.step(f"ask({_SIZE}) in generation {generation}"):
@@ -112,7 +112,7 @@ def check_body_optimizer(name: str, **options: Any) -> None:
     """Check body optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
     from ariel.plugins import body_optimizers
 
-    check = _Checker("body optimizer", name)
+    check = Checker("body optimizer", name)
     with check.step("loading it"):
         factory = body_optimizers.get(name)
     runs = []
@@ -143,12 +143,12 @@ def _brain_fitness(params: np.ndarray, iteration: int) -> np.ndarray:
     return fitness
 
 
-def _learn(check: _Checker, factory: Any, options: dict[str, Any], seed: int) -> tuple:
+def _learn(check: Checker, factory: Any, options: dict[str, Any], seed: int) -> tuple:
     """A learner made and run for `_ITERATIONS` iterations: (learner, its asks as bytes)."""
     from ariel.evolution._brain import BrainOptimizer
 
     x0 = np.linspace(-0.5, 0.5, 5)
-    with check.step(f"making it ({_make_call(options)})"):
+    with check.step(f"making it ({call_text(options)})"):
         learner = factory(x0=x0, seed=seed, **_BRAIN, **options)
     check.expect(
         isinstance(learner, BrainOptimizer),
@@ -175,7 +175,7 @@ def check_brain_optimizer(name: str, **options: Any) -> None:
     from ariel.evolution._state import from_json_safe, to_json_safe
     from ariel.plugins import brain_optimizers
 
-    check = _Checker("brain optimizer", name)
+    check = Checker("brain optimizer", name)
     with check.step("loading it"):
         factory = brain_optimizers.get(name)
     learner, asked = _learn(check, factory, options, CHECK_SEED)
@@ -187,7 +187,7 @@ def check_brain_optimizer(name: str, **options: Any) -> None:
         state = from_json_safe(
             json.loads(json.dumps(to_json_safe(learner.state()), allow_nan=False))
         )
-    with check.step(f"making it ({_make_call(options)})"):
+    with check.step(f"making it ({call_text(options)})"):
         restored = factory(x0=np.linspace(-0.5, 0.5, 5), seed=CHECK_SEED, **_BRAIN, **options)
     with check.step("restore(state)"):
         restored.restore(state)

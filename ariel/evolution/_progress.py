@@ -22,7 +22,7 @@ import time
 from collections.abc import Mapping
 from typing import Any, TextIO
 
-from ariel.utils._notebook import in_notebook_kernel
+from ariel.utils import in_notebook_kernel
 
 __all__ = [
     "Progress",

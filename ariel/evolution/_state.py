@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 from ariel.evolution._brain import BrainRun
-from ariel.utils._json import replace_non_finite
+from ariel.utils import replace_non_finite
 
 __all__ = [
     "Body",

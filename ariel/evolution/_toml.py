@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ariel.errors import ConfigError
-from ariel.utils._json import nests_deeper_than
+from ariel.utils import nests_deeper_than
 
 __all__ = ["MAX_TOML_DEPTH", "read_toml_file"]
 

@@ -10,127 +10,96 @@ Cheap to import: names are loaded from their modules on first access.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
-    from ariel.recording._axes import (
-        DESCRIPTORS as DESCRIPTORS,
-        fitness_label as fitness_label,
-        integer_ticks as integer_ticks,
-    )
-    from ariel.recording._campaign import (
-        Campaign as Campaign,
-        load_campaign as load_campaign,
-    )
-    from ariel.recording._campaign_rerun import (
-        write_campaign_recording as write_campaign_recording,
-    )
-    from ariel.recording._compare import (
+    from ariel.recording.analysis import (
         Comparison as Comparison,
-        compare as compare,
-    )
-    from ariel.recording._exported import (
-        ExportedRobot as ExportedRobot,
-        load_exported as load_exported,
-    )
-    from ariel.recording._files import (
-        UnsafePathError as UnsafePathError,
-    )
-    from ariel.recording._generation_rrd import (
-        write_generation_recording as write_generation_recording,
-    )
-    from ariel.recording._joint_names import (
-        joint_labels as joint_labels,
-    )
-    from ariel.recording._load import (
-        Run as Run,
-        list_runs as list_runs,
-        load_run as load_run,
-        population_after_selection as population_after_selection,
-    )
-    from ariel.recording._lock import (
-        RunInUseError as RunInUseError,
-        RunLock as RunLock,
-    )
-    from ariel.recording._manifest import (
-        verify_run as verify_run,
-    )
-    from ariel.recording._replay import (
-        ReplayResult as ReplayResult,
-        UnknownEvaluationError as UnknownEvaluationError,
-        replay as replay,
-    )
-    from ariel.recording._report import (
         Report as Report,
+        compare as compare,
         make_report as make_report,
     )
-    from ariel.recording._rerun import (
+    from ariel.recording.rerun import (
+        joint_labels as joint_labels,
         write_blueprint as write_blueprint,
+        write_campaign_recording as write_campaign_recording,
         write_evaluation_recording as write_evaluation_recording,
+        write_generation_recording as write_generation_recording,
         write_run_recording as write_run_recording,
     )
-    from ariel.recording._run_folder import (
+    from ariel.recording.resim import (
+        ExportedRobot as ExportedRobot,
+        ReplayResult as ReplayResult,
+        UnknownEvaluationError as UnknownEvaluationError,
+        load_exported as load_exported,
+        replay as replay,
+    )
+    from ariel.recording.store import (
+        DESCRIPTORS as DESCRIPTORS,
+        Campaign as Campaign,
         DamagedRunError as DamagedRunError,
         NotARunError as NotARunError,
+        Run as Run,
         RunFolder as RunFolder,
+        RunInUseError as RunInUseError,
+        RunLock as RunLock,
         RunStorageError as RunStorageError,
+        UnsafePathError as UnsafePathError,
+        fitness_label as fitness_label,
+        integer_ticks as integer_ticks,
+        list_runs as list_runs,
+        load_campaign as load_campaign,
+        load_run as load_run,
+        population_after_selection as population_after_selection,
+        verify_run as verify_run,
     )
-    from ariel.recording._watch import (
+    from ariel.recording.viewer import (
         Watcher as Watcher,
         watch as watch,
     )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
-    "Campaign": "ariel.recording._campaign",
-    "load_campaign": "ariel.recording._campaign",
-    "Comparison": "ariel.recording._compare",
-    "compare": "ariel.recording._compare",
-    "write_campaign_recording": "ariel.recording._campaign_rerun",
-    "Run": "ariel.recording._load",
-    "load_run": "ariel.recording._load",
-    "list_runs": "ariel.recording._load",
-    "population_after_selection": "ariel.recording._load",
-    "joint_labels": "ariel.recording._joint_names",
-    "NotARunError": "ariel.recording._run_folder",
-    "DamagedRunError": "ariel.recording._run_folder",
-    "UnsafePathError": "ariel.recording._files",
-    "verify_run": "ariel.recording._manifest",
-    "RunFolder": "ariel.recording._run_folder",
-    "RunStorageError": "ariel.recording._run_folder",
-    "RunInUseError": "ariel.recording._lock",
-    "RunLock": "ariel.recording._lock",
-    "ReplayResult": "ariel.recording._replay",
-    "UnknownEvaluationError": "ariel.recording._replay",
-    "replay": "ariel.recording._replay",
-    "Report": "ariel.recording._report",
-    "make_report": "ariel.recording._report",
-    "write_evaluation_recording": "ariel.recording._rerun",
-    "write_run_recording": "ariel.recording._rerun",
-    "write_blueprint": "ariel.recording._rerun",
-    "write_generation_recording": "ariel.recording._generation_rrd",
-    "load_exported": "ariel.recording._exported",
-    "watch": "ariel.recording._watch",
-    "Watcher": "ariel.recording._watch",
-    "ExportedRobot": "ariel.recording._exported",
+    "Campaign": "ariel.recording.store",
+    "load_campaign": "ariel.recording.store",
+    "Comparison": "ariel.recording.analysis",
+    "compare": "ariel.recording.analysis",
+    "write_campaign_recording": "ariel.recording.rerun",
+    "Run": "ariel.recording.store",
+    "load_run": "ariel.recording.store",
+    "list_runs": "ariel.recording.store",
+    "population_after_selection": "ariel.recording.store",
+    "joint_labels": "ariel.recording.rerun",
+    "NotARunError": "ariel.recording.store",
+    "DamagedRunError": "ariel.recording.store",
+    "UnsafePathError": "ariel.recording.store",
+    "verify_run": "ariel.recording.store",
+    "RunFolder": "ariel.recording.store",
+    "RunStorageError": "ariel.recording.store",
+    "RunInUseError": "ariel.recording.store",
+    "RunLock": "ariel.recording.store",
+    "ReplayResult": "ariel.recording.resim",
+    "UnknownEvaluationError": "ariel.recording.resim",
+    "replay": "ariel.recording.resim",
+    "Report": "ariel.recording.analysis",
+    "make_report": "ariel.recording.analysis",
+    "write_evaluation_recording": "ariel.recording.rerun",
+    "write_run_recording": "ariel.recording.rerun",
+    "write_blueprint": "ariel.recording.rerun",
+    "write_generation_recording": "ariel.recording.rerun",
+    "load_exported": "ariel.recording.resim",
+    "watch": "ariel.recording.viewer",
+    "Watcher": "ariel.recording.viewer",
+    "ExportedRobot": "ariel.recording.resim",
     # The figures' conventions (units in labels, whole-number ticks), for notebooks.
-    "DESCRIPTORS": "ariel.recording._axes",
-    "fitness_label": "ariel.recording._axes",
-    "integer_ticks": "ariel.recording._axes",
+    "DESCRIPTORS": "ariel.recording.store",
+    "fitness_label": "ariel.recording.store",
+    "integer_ticks": "ariel.recording.store",
 }
 
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'ariel.recording' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_face(__name__, _LAZY)

@@ -9,8 +9,9 @@ Cheap to import: names are loaded from their modules on first access.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from ariel.runs._campaign import (
@@ -23,6 +24,22 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         RunResult as RunResult,
         resume_experiment as resume_experiment,
         run_experiment as run_experiment,
+    )
+
+if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.runs._campaign import (
+        new_campaign_id as new_campaign_id,
+    )
+    from ariel.runs._campaign_file import (
+        load_campaign_file as load_campaign_file,
+    )
+    from ariel.runs._campaign_plan import (
+        campaign_plan as campaign_plan,
+        plan_text as plan_text,
+    )
+    from ariel.runs._experiment import (
+        load_config as load_config,
+        new_run_id as new_run_id,
     )
 
 # public name -> module that defines it
@@ -39,14 +56,14 @@ _LAZY: dict[str, str] = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'ariel.runs' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+# name -> module that defines it: for ARIEL's other packages, not part of the API
+_INTERNAL: dict[str, str] = {
+    "campaign_plan": "ariel.runs._campaign_plan",
+    "load_campaign_file": "ariel.runs._campaign_file",
+    "load_config": "ariel.runs._experiment",
+    "new_campaign_id": "ariel.runs._campaign",
+    "new_run_id": "ariel.runs._experiment",
+    "plan_text": "ariel.runs._campaign_plan",
+}
 
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_face(__name__, _LAZY, _INTERNAL)

@@ -17,10 +17,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ariel.evolution._config import ConfigError, ExperimentConfig
-from ariel.evolution._driver import Plugins, RunDriver
-from ariel.evolution._progress import shows_progress
-from ariel.evolution._state import LoopState
+from ariel.evolution import (
+    ConfigError,
+    ExperimentConfig,
+    LoopState,
+    Plugins,
+    RunDriver,
+    shows_progress,
+)
 from ariel.runs._campaign_info import campaign_info
 from ariel.runs._campaign_progress import CampaignProgress, RunProgress
 from ariel.runs._experiment import (
@@ -35,7 +39,7 @@ from ariel.runs._experiment import (
     start_driver,
 )
 from ariel.runs._prepare import executor_settings, prepare_run, resolve_plugins, resume_settings
-from ariel.utils._commands import ariel_line
+from ariel.utils import ariel_line
 
 __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign"]
 
@@ -71,7 +75,7 @@ class CampaignResult:
 
     def load(self) -> Any:
         """The campaign's records (`ariel.recording.load_campaign`)."""
-        from ariel.recording._campaign import load_campaign
+        from ariel.recording.store import load_campaign
 
         return load_campaign(self.path)
 
@@ -90,7 +94,7 @@ class _Run:
     first_generation: int = 0
 
 
-def _new_campaign_id(name: str) -> str:
+def new_campaign_id(name: str) -> str:
     import datetime as _dt
 
     return f"{name}-{_dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
@@ -162,16 +166,20 @@ def run_campaign(
                 print(row["condition"], row["seed"], row["status"], row["best_fitness"])
         ```
     """
-    from ariel.recording._campaign import run_path, write_campaign_info
-    from ariel.recording._lock import RunLock
-    from ariel.recording._run_folder import RunFolder, storage_errors
+    from ariel.recording.store import (
+        RunFolder,
+        RunLock,
+        run_path,
+        storage_errors,
+        write_campaign_info,
+    )
     from ariel.runs._campaign_file import load_campaign_file
 
     spec = load_campaign_file(file, tuple(overrides))
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers, scheduler=scheduler)
     _check_open_files(len(spec.configs), settings)
-    campaign_id = _new_campaign_id(spec.name)
+    campaign_id = new_campaign_id(spec.name)
     path = Path(out) if out is not None else Path("data") / "campaigns" / campaign_id
     campaign_id = path.name or campaign_id
     runs = []
@@ -201,7 +209,7 @@ def _check_open_files(runs: int, settings: Any) -> None:
     limit on open files must allow them all (`ensure_open_files`), checked before anything is
     written or locked."""
     from ariel.evaluation.executors import planned_workers
-    from ariel.recording._lock import ensure_open_files
+    from ariel.recording.store import ensure_open_files
 
     ensure_open_files(runs, planned_workers(settings)[0])
 
@@ -243,9 +251,7 @@ def resume_campaign(
             setting.
     """
     from ariel.errors import DamagedRunError
-    from ariel.recording._campaign import CAMPAIGN_JSON, read_campaign_info
-    from ariel.recording._lock import RunLock
-    from ariel.recording._run_folder import storage_errors
+    from ariel.recording.store import CAMPAIGN_JSON, RunLock, read_campaign_info, storage_errors
 
     path = Path(campaign_dir)
     info = read_campaign_info(path)
@@ -282,8 +288,7 @@ def _unfinished_runs(
     """The campaign's runs left to do, each locked (by ``locks``) and made ready to go on;
     how many finished before; and one line per run that cannot go on (left alone, unlocked).
     First, that the limit on open files allows a lock for each (`_check_open_files`)."""
-    from ariel.recording._escape import one_line
-    from ariel.recording._run_folder import NotARunError
+    from ariel.recording.store import NotARunError, one_line
 
     _check_open_files(_left_to_do(path, info), settings)
     runs, skipped, damaged = [], 0, []
@@ -306,7 +311,7 @@ def _unfinished_runs(
 
 def _left_to_do(path: Path, info: dict[str, Any]) -> int:
     """How many of the campaign's runs are not finished (reads each run.json only)."""
-    from ariel.recording._run_folder import NotARunError, RunFolder
+    from ariel.recording.store import NotARunError, RunFolder
 
     left = 0
     for entry in info["runs"]:
@@ -321,8 +326,7 @@ def _left_to_do(path: Path, info: dict[str, Any]) -> int:
 def _unfinished_run(path: Path, entry: dict[str, Any], locks: contextlib.ExitStack) -> _Run | None:
     """campaign.json's run ``entry`` locked (by ``locks``) and made ready to go on; None when it
     is finished."""
-    from ariel.recording._lock import RunLock
-    from ariel.recording._run_folder import RunFolder
+    from ariel.recording.store import RunFolder, RunLock
 
     folder = RunFolder(path / entry["path"])
     condition, seed = entry["condition"], int(entry["seed"])
@@ -357,9 +361,8 @@ def _drive_campaign(
     """Drive ``runs`` (locked, ready) side by side on one executor; campaign.json and every
     run.json say how it ended, however it ends."""
     show_progress = shows_progress(show_progress)
-    from ariel.evolution._scheduler import run_groups
-    from ariel.recording._campaign import read_campaign_info, write_campaign_info
-    from ariel.recording._run_folder import now
+    from ariel.evolution import run_groups
+    from ariel.recording.store import now, read_campaign_info, write_campaign_info
 
     campaign = CampaignProgress(runs=len(runs), total=0, enabled=show_progress)
     for run in runs:
@@ -377,7 +380,7 @@ def _drive_campaign(
     info.pop("format")
     write_campaign_info(path, {**info, "status": "running"})
     if show_progress:
-        from ariel.recording._escape import terminal_text  # names from the folder: as text
+        from ariel.recording.store import terminal_text  # names from the folder: as text
 
         shown = terminal_text(f"campaign {info['campaign_id']}: {path}")
         print(f"{shown} ({len(runs)} runs to go)", flush=True)
@@ -412,7 +415,7 @@ def _drive_campaign(
 
 def _write_recording(path: Path, *, quiet: bool) -> None:
     """campaign.rrd; after an interruption, a failure to write it is not the error to tell."""
-    from ariel.recording._campaign_rerun import write_campaign_recording
+    from ariel.recording.rerun import write_campaign_recording
 
     try:
         write_campaign_recording(path)
@@ -424,7 +427,7 @@ def _write_recording(path: Path, *, quiet: bool) -> None:
 def _busy_share(runs: list[_Run], wall: float, workers: int) -> float:
     """The workers' time in evaluations (the evaluations' ``wall_seconds``: each a share of
     its batch's time on its worker) over ``wall`` x ``workers``, for this call's generations."""
-    from ariel.recording._load import load_run
+    from ariel.recording.store import load_run
 
     busy = 0.0
     for run in runs:
@@ -450,6 +453,6 @@ def campaign_status(campaign_dir: str | Path) -> list[dict[str, Any]]:
     Raises:
         NotACampaignError: When ``campaign_dir`` is not a campaign folder.
     """
-    from ariel.recording._campaign import load_campaign
+    from ariel.recording.store import load_campaign
 
     return load_campaign(campaign_dir).status()

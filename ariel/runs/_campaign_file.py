@@ -51,17 +51,17 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from ariel.evolution._config import (
-    _TOML_KIND,
-    _TYPE_ERRORS,
+from ariel.evolution import (
+    TOML_KIND,
+    TYPE_ERRORS,
     ConfigError,
     ExperimentConfig,
     Int,
     check_key,
     load_config,
+    read_toml_file,
     set_value,
 )
-from ariel.evolution._toml import read_toml_file
 
 __all__ = [
     "MAX_CAMPAIGN_NAME",
@@ -76,8 +76,8 @@ __all__ = [
 
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 #: A file name's limit (bytes; a name here is ASCII), less ``condition=`` for a condition's
-#: folder (as `ariel.recording._campaign` checks campaign.json) and less ``-<date>-<time>`` for
-#: a campaign's default folder.
+#: folder (as `ariel.recording.store._campaign` checks campaign.json) and less
+#: ``-<date>-<time>`` for a campaign's default folder.
 _NAME_MAX = 255
 MAX_CONDITION_NAME = _NAME_MAX - len("condition=")
 MAX_CAMPAIGN_NAME = _NAME_MAX - len("-20261124-101500")
@@ -162,9 +162,9 @@ def _one_line(error: ValidationError) -> str:
     message = message.replace("Input should be ", "must be ", 1)
     given = first.get("input")
     shown = "" if isinstance(given, dict | list) else f" (got {given!r})"
-    if first["type"] in _TYPE_ERRORS and not isinstance(given, dict | list):
+    if first["type"] in TYPE_ERRORS and not isinstance(given, dict | list):
         # Strict types, as the experiment's: a quoted "3" is a string in TOML, 2.0 a float.
-        shown = f" (got {given!r}, {_TOML_KIND.get(type(given), type(given).__name__)})"
+        shown = f" (got {given!r}, {TOML_KIND.get(type(given), type(given).__name__)})"
     return f"{key}: {message}{shown}"
 
 
@@ -311,7 +311,7 @@ def campaign_spec(
     """Validate a campaign's raw data (``beside``: the folder of its file, for ``base``);
     ``overrides``: ``key=value`` strings applied to the base (``--set``); ``max_runs``: the
     most runs (conditions x seeds) allowed, checked before any is made."""
-    from ariel.evolution._config import apply_overrides
+    from ariel.evolution import apply_overrides
 
     try:
         model = _CampaignModel.model_validate(dict(data))

@@ -14,8 +14,7 @@ def campaign_info(
     """campaign.json of a new campaign: what resume and the readers need, no absolute path.
     ``spec``: the campaign file's `CampaignSpec`; ``runs``: its runs (``condition``, ``seed``,
     ``run_id``, ``config``); ``settings``: the executor's."""
-    from ariel.recording._campaign import run_path
-    from ariel.recording._run_folder import now
+    from ariel.recording.store import now, run_path
 
     return {
         "campaign_id": campaign_id,

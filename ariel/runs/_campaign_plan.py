@@ -67,7 +67,7 @@ def campaign_plan(
     evaluations, each condition timed here unless ``timed`` is False (``on_timing`` is called
     before the timing starts). Raises what `run_campaign` would for a bad file, before timing
     anything."""
-    from ariel.evolution._driver import budget, is_brain_only
+    from ariel.evolution import budget, is_brain_only
     from ariel.runs._campaign_file import load_campaign_file
     from ariel.runs._prepare import executor_settings, prepare_run
 
@@ -104,8 +104,7 @@ def _seconds_per_evaluation(config: Any, plugins: Any, brain_only: bool) -> floa
     thread (as a worker process of the local pool runs it; CPU time, so that other work on the
     machine does not inflate it)."""
     from ariel.evaluation import BodyBuildError, build, evaluate_batch
-    from ariel.evolution._driver import fixed_genotype
-    from ariel.evolution._tasks import body_spec, evaluation_task
+    from ariel.evolution import body_spec, evaluation_task, fixed_genotype
 
     rng = np.random.default_rng(0)
     seconds, count = 0.0, 0

@@ -16,7 +16,7 @@ import sys
 import time
 from typing import Any, TextIO
 
-from ariel.evolution._progress import Progress, eta_text, fmt_value, live_bars
+from ariel.evolution import Progress, eta_text, fmt_value, live_bars
 
 __all__ = ["CampaignProgress", "RunProgress"]
 

@@ -14,11 +14,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ariel.evolution._config import ConfigError, ExperimentConfig, config_hash, load_config
-from ariel.evolution._driver import Plugins, RunDriver, budget
-from ariel.evolution._progress import Progress, shows_progress
-from ariel.evolution._scheduler import run_groups
-from ariel.evolution._state import LoopState, state_from_plain
+from ariel.evolution import (
+    ConfigError,
+    ExperimentConfig,
+    LoopState,
+    Plugins,
+    Progress,
+    RunDriver,
+    budget,
+    config_hash,
+    load_config,
+    run_groups,
+    shows_progress,
+    state_from_plain,
+)
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
     _read_genotype_file,
     executor_settings,
@@ -93,7 +102,7 @@ def new_progress(
 ) -> Progress:
     """The run's progress display (``kind``: a `Progress` class; ``extra``: its keywords);
     ``show_progress``: see `shows_progress` (None: only where someone watches)."""
-    from ariel.evolution._driver import is_brain_only
+    from ariel.evolution import is_brain_only
 
     return kind(
         total=budget(config, is_brain_only(config, plugins.encoder)),
@@ -113,9 +122,19 @@ def start_driver(
     progress: Progress,
 ) -> RunDriver:
     """The run's driver, writing into ``folder`` (locked by the caller), marked running."""
-    from ariel.recording._rows import RunWriter
+    from ariel.recording.rerun import RerunRecorder
+    from ariel.recording.store import RunWriter
 
-    writer = RunWriter(folder, config, run_id, maximise=plugins.maximise)
+    recorder = None
+    if config.record.rerun:
+        recorder = RerunRecorder(
+            folder.path,
+            run_id=run_id,
+            bodies=config.record.bodies,
+            maximise=plugins.maximise,
+            config=config,
+        )
+    writer = RunWriter(folder, config, run_id, recorder=recorder)
     driver = RunDriver(config, plugins, writer, progress, state)
     folder.update_info(
         status="running",
@@ -132,7 +151,7 @@ def start_driver(
 
 def end_run(folder: Any, driver: RunDriver, status: str) -> None:
     """Record how the run ended (``finished``, ``interrupted``, ``failed``) in run.json."""
-    from ariel.recording._run_folder import now
+    from ariel.recording.store import now
 
     # On a full disk this write fails too: then the first error is the one to tell.
     with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
@@ -180,7 +199,7 @@ def _drive(
     return run_result(driver, folder, run_id, status)
 
 
-def _new_run_id(config: ExperimentConfig) -> str:
+def new_run_id(config: ExperimentConfig) -> str:
     import datetime as _dt
 
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -190,10 +209,9 @@ def _new_run_id(config: ExperimentConfig) -> str:
 def run_info(config: ExperimentConfig, run_id: str, plugins: Plugins) -> dict[str, Any]:
     """A new run's run.json: config, hash, software, plugin provenance, and what readers need
     without the run's plugins (fitness direction, brain-only)."""
-    from ariel.evolution._driver import is_brain_only
+    from ariel.evolution import is_brain_only
     from ariel.plugins import plugin_provenance
-    from ariel.recording._manifest import MANIFEST_FORMAT
-    from ariel.recording._run_folder import git_commit, now, software_versions
+    from ariel.recording.store import MANIFEST_FORMAT, git_commit, now, software_versions
 
     provenance = plugin_provenance(
         {
@@ -290,10 +308,8 @@ def run_experiment(
         ```
     """
     from ariel.evaluation.executors import planned_workers
-    from ariel.evolution._checks import check_resources, refuse_in_spawned_child
-    from ariel.evolution._driver import is_brain_only
-    from ariel.recording._lock import RunLock
-    from ariel.recording._run_folder import RunFolder, storage_errors
+    from ariel.evolution import check_resources, is_brain_only, refuse_in_spawned_child
+    from ariel.recording.store import RunFolder, RunLock, storage_errors
 
     refuse_in_spawned_child()  # a script without a __main__ guard, re-run by a pool worker
     config = load_config(config, overrides)
@@ -307,7 +323,7 @@ def run_experiment(
         capacity=capacity,
         local_workers=local_workers,
     )
-    run_id = _new_run_id(config)
+    run_id = new_run_id(config)
     path = Path(out) if out is not None else Path("data") / "runs" / run_id
     if out is not None:
         run_id = path.name or run_id
@@ -334,7 +350,7 @@ def _end_script_without_main_guard(path: Path, progress: bool | None) -> NoRetur
     import shutil
     import sys
 
-    from ariel.evolution._checks import no_main_guard_line
+    from ariel.evolution import no_main_guard_line
 
     shutil.rmtree(path, ignore_errors=True)
     isatty = getattr(sys.stdout, "isatty", None)
@@ -358,7 +374,7 @@ def noted_on_interrupt(name: str, folder: Path) -> Iterator[None]:
 def _worker_cannot_start(exc: BaseException | None) -> bool:
     """Whether ``exc`` (or one it was raised from or during) is the local pool saying that a
     worker could not start (`WorkerCannotStartError`)."""
-    from ariel.evaluation._pool import WorkerCannotStartError
+    from ariel.evaluation import WorkerCannotStartError
 
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
@@ -405,9 +421,8 @@ def resume_experiment(
         RunInUseError: When another process runs (or resumes) the run.
         ConfigError: For a bad executor setting.
     """
-    from ariel.evolution._checks import check_plugins
-    from ariel.recording._lock import RunLock
-    from ariel.recording._run_folder import RunFolder, storage_errors
+    from ariel.evolution import check_plugins
+    from ariel.recording.store import RunFolder, RunLock, storage_errors
 
     folder = RunFolder(run_dir)
     info, config, _ = resumable(folder)
@@ -434,7 +449,7 @@ def resume_experiment(
 def reopen(folder: Any, state: LoopState | None) -> None:
     """Under the run's lock, before it goes on: manifests for the kept generations (a run
     made before manifests), later generations' files removed, this resume's software noted."""
-    from ariel.recording._manifest import adopt_manifests
+    from ariel.recording.store import adopt_manifests
 
     adopt_manifests(folder, state.generation + 1 if state is not None else 0)
     folder.discard_after(state.generation if state is not None else -1)
@@ -443,7 +458,7 @@ def reopen(folder: Any, state: LoopState | None) -> None:
 
 def resumable(folder: Any) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:
     """run.json, config and checkpoint of a run that may be resumed; `ValueError` else."""
-    from ariel.recording._run_folder import NotARunError
+    from ariel.recording.store import NotARunError
 
     info = folder.read_info()
     if info.get("status") == "finished":

@@ -8,10 +8,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from ariel.evolution._config import ConfigError, ExperimentConfig
-from ariel.evolution._driver import Plugins, fixed_genotype
-from ariel.evolution._genotype import check_genotype, describe, is_genotype_file
-from ariel.recording._escape import short_ascii
+from ariel.evolution import (
+    ConfigError,
+    ExperimentConfig,
+    Plugins,
+    check_genotype,
+    describe,
+    fixed_genotype,
+    is_genotype_file,
+)
+from ariel.recording.store import short_ascii
 
 __all__ = ["executor_settings", "prepare_run", "resolve_plugins", "resume_settings"]
 
@@ -126,7 +132,7 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
 
 def _read_genotype_file(config: ExperimentConfig, encoder: Any) -> ExperimentConfig:
     """The config holding the genotype itself when ``body.genotype`` names a file (checked)."""
-    from ariel.evolution._genotype import read_genotype_file
+    from ariel.evolution import read_genotype_file
 
     if not is_genotype_file(config.body.genotype):
         return config
@@ -139,7 +145,7 @@ def _read_genotype_file(config: ExperimentConfig, encoder: Any) -> ExperimentCon
 
 def _check_fixed_body(config: ExperimentConfig, plugins: Plugins) -> None:
     """A brain-only run's body must build: a bad ``body.genotype`` is a config error."""
-    from ariel.evolution._bodies import BodyFactory
+    from ariel.evolution import BodyFactory
 
     factory = BodyFactory(config, plugins.encoder, plugins.controller, plugins.maximise)
     body = factory.new_body(0, fixed_genotype(config, plugins.encoder), [], 0)
@@ -167,7 +173,7 @@ def _checked(settings: Any) -> Any:
 def _stored_workers(value: Any) -> int | None:
     """A worker count a folder recorded, if it is one this machine can honour (at most the
     CPUs this process may use); None (the default) otherwise."""
-    from ariel.evaluation._threads import default_workers
+    from ariel.evaluation import default_workers
 
     if type(value) is int and 1 <= value <= default_workers():
         return value
@@ -192,7 +198,7 @@ def resume_settings(
     import sys
 
     from ariel.evaluation.executors import executor_kind, executor_kinds
-    from ariel.utils._commands import ariel_line
+    from ariel.utils import ariel_line
 
     stored = stored if isinstance(stored, dict) else {}
     stored_kind = stored.get("kind")
@@ -223,8 +229,7 @@ def resume_settings(
 
 def prepare_run(config: ExperimentConfig) -> tuple[ExperimentConfig, Plugins]:
     """The config (a genotype file read into it) and its plugins, all checked: `ConfigError`."""
-    from ariel.evolution._checks import check_plugins
-    from ariel.evolution._driver import is_brain_only
+    from ariel.evolution import check_plugins, is_brain_only
 
     plugins = resolve_plugins(config)
     config = _read_genotype_file(config, plugins.encoder)

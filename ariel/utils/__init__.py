@@ -1,1 +1,53 @@
-"""ARIEL subpackage."""
+"""ARIEL's utilities: upstream's modules (renderers, runners, tracker, video_recorder,
+morphological_descriptor) and the helpers ARIEL's packages share
+
+Cheap to import: names are loaded from their modules on first use (`lazy`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ariel.utils.lazy import lazy_face
+
+if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.utils._commands import (
+        ariel_command as ariel_command,
+        ariel_line as ariel_line,
+        load_run_command as load_run_command,
+        python_command as python_command,
+        report_interrupted as report_interrupted,
+    )
+    from ariel.utils._gl import (
+        ensure_headless_gl as ensure_headless_gl,
+        gl_backend_error as gl_backend_error,
+        has_display as has_display,
+    )
+    from ariel.utils._json import (
+        nests_deeper_than as nests_deeper_than,
+        replace_non_finite as replace_non_finite,
+    )
+    from ariel.utils._keywords import (
+        accept_aliases as accept_aliases,
+    )
+    from ariel.utils._notebook import (
+        in_notebook_kernel as in_notebook_kernel,
+    )
+
+# name -> module that defines it: for ARIEL's other packages, not part of the API
+_INTERNAL: dict[str, str] = {
+    "accept_aliases": "ariel.utils._keywords",
+    "ariel_command": "ariel.utils._commands",
+    "ariel_line": "ariel.utils._commands",
+    "ensure_headless_gl": "ariel.utils._gl",
+    "gl_backend_error": "ariel.utils._gl",
+    "has_display": "ariel.utils._gl",
+    "in_notebook_kernel": "ariel.utils._notebook",
+    "load_run_command": "ariel.utils._commands",
+    "nests_deeper_than": "ariel.utils._json",
+    "python_command": "ariel.utils._commands",
+    "replace_non_finite": "ariel.utils._json",
+    "report_interrupted": "ariel.utils._commands",
+}
+
+__getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -73,12 +73,12 @@ from unittest import mock  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-import ariel.recording._generation_rrd as generation_rrd  # noqa: E402
+import ariel.recording.rerun._generation_rrd as generation_rrd  # noqa: E402
 from ariel.evaluation.executors import default_workers  # noqa: E402
 from ariel.evolution import ExperimentConfig, load_config, run_experiment  # noqa: E402
 from ariel.recording import load_run  # noqa: E402
-from ariel.recording._recorder import RerunRecorder  # noqa: E402
-from ariel.recording._tables import GENERATION_RECORDING  # noqa: E402
+from ariel.recording.rerun._recorder import RerunRecorder  # noqa: E402
+from ariel.recording.store._tables import GENERATION_RECORDING  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / "coevolve_flat.toml"
 DEFAULT_EVALUATIONS = 3840  # the default experiment's budget

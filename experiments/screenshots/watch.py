@@ -18,9 +18,9 @@ import time
 from pathlib import Path
 
 from ariel.recording import load_run, watch
-from ariel.recording._browser import HeadlessChromium, find_chromium
-from ariel.recording._files import atomic_write_bytes
-from ariel.recording._view import wait_for_drawing
+from ariel.recording.store._files import atomic_write_bytes
+from ariel.recording.viewer._browser import HeadlessChromium, find_chromium
+from ariel.recording.viewer._view import wait_for_drawing
 
 
 def main() -> None:

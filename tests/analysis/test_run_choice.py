@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from ariel.recording._run_folder import RUN_FORMAT
+from ariel.recording.store._run_folder import RUN_FORMAT
 
 ANALYSIS = Path(__file__).resolve().parents[2] / "analysis"
 

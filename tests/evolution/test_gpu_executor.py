@@ -60,7 +60,7 @@ def test_brain_batches_run_on_warp_and_records_name_the_backend(gpu_run, tmp_pat
 def test_replay_of_a_warp_evaluation_resimulates_on_warp_and_reports_the_difference(
     gpu_run, capsys
 ) -> None:
-    from ariel.recording._replay import replay
+    from ariel.recording.resim._replay import replay
 
     replayed = replay(gpu_run.run_dir, "best")
     assert replayed.stored_backend == replayed.backend == "mujoco-warp:cpu"
@@ -77,7 +77,7 @@ def test_a_cuda_evaluation_replays_on_the_cpu_engine_without_cuda() -> None:
     if cuda_available():
         pytest.skip("this machine has CUDA: the stored device is available")
     from ariel.evaluation import BodySpec, EvaluationTask
-    from ariel.recording._replay import _evaluate_as_stored
+    from ariel.recording.resim._replay import _evaluate_as_stored
 
     task = EvaluationTask(body=BodySpec("prebuilt", "gecko"), params=[0.1] * 40, duration=0.1)
     assert _evaluate_as_stored(task, "mujoco-warp:cuda").backend == "mujoco"

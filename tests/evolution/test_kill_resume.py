@@ -30,7 +30,7 @@ from _helpers import plain_rows, repo_env
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run
-from ariel.recording._tables import TABLES as ALL_TABLES
+from ariel.recording.store._tables import TABLES as ALL_TABLES
 
 TABLES = tuple(t for t in ALL_TABLES if t != "archive")  # MAP-Elites only; these runs are GA
 
@@ -94,9 +94,9 @@ PAUSING_LAUNCHER = textwrap.dedent(
     import sys, time
     from pathlib import Path
 
-    import ariel.recording._files as files
-    import ariel.recording._rerun as rerun_files
-    import ariel.recording._tables as tables
+    import ariel.recording.store._files as files
+    import ariel.recording.rerun._rerun as rerun_files
+    import ariel.recording.store._tables as tables
 
     target, checkpoints_before, marker = sys.argv[1], int(sys.argv[2]), Path(sys.argv[3])
     original = files.atomic_write

@@ -17,7 +17,7 @@ from ariel.evolution import BodyConfig, ConfigError, MapElites
 from ariel.evolution._progress import Progress
 from ariel.evolution._state import Body
 from ariel.recording import load_run
-from ariel.recording._load import Run, archive_quality_table
+from ariel.recording.store._load import Run, archive_quality_table
 from ariel.runs import resume_experiment, run_experiment
 
 MEASURES = ["num_limbs", "joints_ratio"]

@@ -25,7 +25,7 @@ from ariel.evolution._driver import RunDriver
 from ariel.evolution._tasks import body_spec, evaluation_task, shipped_body
 from ariel.plugins import body_encoders
 from ariel.recording import load_run
-from ariel.recording._tables import trajectory_columns, trajectory_schema
+from ariel.recording.store._tables import trajectory_columns, trajectory_schema
 
 CONFIG = {
     "name": "workermemory",

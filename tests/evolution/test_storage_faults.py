@@ -88,9 +88,9 @@ def _assert_resumes_to_reference(out: Path, reference: Path, capsys) -> None:
 def _disk_full_from(target: Callable[[Path], bool]) -> Iterator[None]:
     """Every atomic write fails with ENOSPC once one whose path matches ``target`` starts:
     half the file written, then the error, as a full disk does."""
-    import ariel.recording._files as files
-    import ariel.recording._rerun as rerun_files
-    import ariel.recording._tables as tables
+    import ariel.recording.rerun._rerun as rerun_files
+    import ariel.recording.store._files as files
+    import ariel.recording.store._tables as tables
 
     original = files.atomic_write
     full = False
@@ -306,7 +306,7 @@ def test_a_full_tmpfs_refuses_a_blueprint_instead_of_cutting_it(
 
 
 def test_atomic_write_names_the_file_of_nameless_and_rerun_errors(tmp_path: Path) -> None:
-    from ariel.recording._files import atomic_write
+    from ariel.recording.store._files import atomic_write
 
     def pyarrow_like(temporary: Path) -> None:
         raise OSError(errno.ENOSPC, "Error writing bytes to file")
@@ -354,7 +354,7 @@ def test_storage_errors_converts_only_failed_writes_in_the_run_folder(
     tmp_path: Path, error: OSError, ours: bool
 ) -> None:
     from ariel.recording import RunStorageError
-    from ariel.recording._run_folder import storage_errors
+    from ariel.recording.store._run_folder import storage_errors
 
     run = tmp_path / "runs" / "r"
     if error.filename:

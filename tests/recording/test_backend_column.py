@@ -7,7 +7,12 @@ from __future__ import annotations
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from ariel.recording._tables import evaluation_schema, generation_file, read_table, write_table
+from ariel.recording.store._tables import (
+    evaluation_schema,
+    generation_file,
+    read_table,
+    write_table,
+)
 
 
 def _rows(schema: pa.Schema, backend: str | None) -> dict[str, list]:

@@ -19,11 +19,11 @@ from _helpers import exit_code, one_error_line, snapshot
 
 from ariel.cli import main
 from ariel.recording import load_run
-from ariel.recording._compare import RunCurve, compare_runs
-from ariel.recording._compare_design import CompareError, check_comparable
-from ariel.recording._compare_stats import NOT_DETECTABLE, a12, holm, pairwise_table
-from ariel.recording._curves import best_so_far
-from ariel.recording._files import UnsafePathError
+from ariel.recording.analysis._compare import RunCurve, compare_runs
+from ariel.recording.analysis._compare_design import CompareError, check_comparable
+from ariel.recording.analysis._compare_stats import NOT_DETECTABLE, a12, holm, pairwise_table
+from ariel.recording.store._curves import best_so_far
+from ariel.recording.store._files import UnsafePathError
 
 
 def synthetic_run(
@@ -131,7 +131,7 @@ def test_identical_conditions_show_no_difference(tmp_path: Path) -> None:
 def test_the_page_embeds_every_figure_and_the_tables_are_written(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from ariel.recording import _compare_plots
+    from ariel.recording.analysis import _compare_plots
 
     drawn = {}
     save = _compare_plots._save
@@ -545,7 +545,7 @@ def test_the_default_output_of_run_folders_is_a_new_folder_here(
 
 
 def test_a_folder_given_twice_counts_once(tmp_path: Path) -> None:
-    from ariel.recording._compare import unique_folders
+    from ariel.recording.analysis._compare import unique_folders
 
     a, b = tmp_path / "a", tmp_path / "b"
     a.mkdir()
@@ -653,7 +653,7 @@ def test_a_label_without_a_folder_is_a_usage_error(
 
 
 def test_automatic_names_stay_short_and_distinct() -> None:
-    from ariel.recording._compare import NAME_LIMIT, condition_names
+    from ariel.recording.analysis._compare import NAME_LIMIT, condition_names
 
     assert condition_names(["brain.inherit"], [{"brain.inherit": "false"}]) == [
         "brain.inherit=false"
@@ -769,7 +769,7 @@ def test_an_output_folder_that_cannot_be_made_is_one_line_exit_2(
 def test_many_conditions_are_announced_before_the_statistics(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    from ariel.recording import _compare
+    from ariel.recording.analysis import _compare
 
     events: list[str] = []
 
@@ -796,7 +796,7 @@ def test_the_command_announces_many_conditions_on_stderr(
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    from ariel.recording import _compare
+    from ariel.recording.analysis import _compare
 
     monkeypatch.setattr(_compare, "MANY_CONDITIONS", 1)  # long and short: 2 conditions
     long, short = two_runs

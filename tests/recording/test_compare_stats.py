@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from ariel.recording._compare_stats import (
+from ariel.recording.analysis._compare_stats import (
     NOT_DETECTABLE,
     Design,
     Sample,

@@ -110,7 +110,7 @@ def test_replay_script_holds_no_data_of_the_run(run_dir: Path, tmp_path: Path) -
     when it runs, so no id can close a string and become code."""
     import string
 
-    from ariel.recording._export import _SCRIPT, export
+    from ariel.recording.resim._export import _SCRIPT, export
 
     fields = {name for _, name, _, _ in string.Formatter().parse(_SCRIPT) if name}
     assert fields == {"core"}  # our constant, the core geom's name: nothing of the run
@@ -146,7 +146,7 @@ def test_a_crafted_eval_id_is_refused_in_one_line(
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from ariel.recording._manifest import write_manifest
+    from ariel.recording.store._manifest import write_manifest
 
     copy = tmp_path / "run"
     shutil.copytree(run_dir, copy)
@@ -168,7 +168,7 @@ def test_a_crafted_eval_id_is_refused_in_one_line(
 def test_a_crafted_id_in_an_exported_folder_runs_nothing(run_dir: Path, tmp_path: Path) -> None:
     """An exported folder mailed on with its controller.json edited: replay.py reads the id
     as data, refuses it, and runs none of it."""
-    from ariel.recording._export import export
+    from ariel.recording.resim._export import export
 
     out = export(run_dir, "best", tmp_path / "x")
     brain = json.loads((out / "controller.json").read_text())
@@ -192,7 +192,7 @@ def test_replayed_fitness_needs_the_whole_simulation_and_the_exported_frame_rate
     import math
 
     from ariel.recording import load_exported
-    from ariel.recording._export import export
+    from ariel.recording.resim._export import export
 
     out = export(run_dir, "best", tmp_path / "x")
     robot = load_exported(out)

@@ -1,5 +1,5 @@
-"""Joint names for people (`ariel.recording._joint_names.joint_labels`): the branch of the core
-and the hinge's number in it, from the names the robogen-lite constructor gives."""
+"""Joint names for people (`ariel.recording.rerun._joint_names.joint_labels`): the branch of the
+core and the hinge's number in it, from the names the robogen-lite constructor gives."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain, robot_graph
 from ariel.ec.genotypes.tree.encoder import TreeEncoder
-from ariel.recording._joint_names import joint_labels
+from ariel.recording.rerun._joint_names import joint_labels
 
 LABEL = re.compile(r"(front|back|right|left) branch, hinge (\d+)")
 

@@ -14,7 +14,7 @@ from _helpers import tiny_run_toml
 
 import ariel
 from ariel.recording import load_run
-from ariel.recording._lineage import (
+from ariel.recording.store._lineage import (
     LINEAGE_COLUMNS,
     ancestors,
     format_ancestor_list,
@@ -218,7 +218,7 @@ def test_a_parent_that_is_no_body_of_the_run_is_a_damaged_run(run) -> None:
 def test_a_campaigns_lineages_are_keyed_by_run_id(run, frame) -> None:
     from types import SimpleNamespace
 
-    from ariel.recording._lineage import campaign_lineages
+    from ariel.recording.store._lineage import campaign_lineages
 
     lineages = campaign_lineages(SimpleNamespace(runs={("default", 3): run}))
     assert list(lineages) == [run.info["run_id"]]

@@ -24,7 +24,7 @@ from _helpers import one_error_line, repo_env, snapshot, tiny_run_toml
 
 from ariel.cli import main
 from ariel.recording import RunInUseError, RunLock, list_runs
-from ariel.recording._lock import LOCK_NAME, lock_holder
+from ariel.recording.store._lock import LOCK_NAME, lock_holder
 
 pytestmark = pytest.mark.skipif(
     not hasattr(os, "killpg") or sys.platform == "win32", reason="needs POSIX flock and killpg"
@@ -117,7 +117,7 @@ def test_a_killed_holder_leaves_no_stuck_lock(tmp_path: Path) -> None:
         """
         import sys, time
         from pathlib import Path
-        from ariel.recording._lock import RunLock
+        from ariel.recording.store._lock import RunLock
 
         lock = RunLock(sys.argv[1]).acquire()
         Path(sys.argv[2]).touch()
@@ -202,7 +202,7 @@ def test_two_runs_on_one_folder_the_second_refuses_and_a_kill_leaves_it_resumabl
 def test_runs_calls_a_run_stopped_only_when_its_lock_is_surely_free(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import ariel.recording._lock as lock_module
+    import ariel.recording.store._lock as lock_module
     from ariel.recording import RunFolder
 
     RunFolder.create(tmp_path / "r", {"run_id": "r", "status": "running"}, overwrite=False)

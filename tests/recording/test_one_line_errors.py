@@ -46,7 +46,7 @@ def _craft(run: Path, table: str, column: str, value: Any) -> dict[str, Any]:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from ariel.recording._manifest import write_manifest
+    from ariel.recording.store._manifest import write_manifest
 
     best = _best(run)
     generation = int(best["generation"])
@@ -152,9 +152,9 @@ def test_export_onto_a_read_only_file_system_is_one_line_and_exports_nothing(
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    from ariel.recording import _files
+    import ariel.recording.store as store  # `ariel export` takes it from the package's face
 
-    write = _files.atomic_write
+    write = store.atomic_write
     written: list[str] = []
 
     def read_only_after_two(path: Path, *args: Any, **kwargs: Any) -> None:
@@ -163,7 +163,7 @@ def test_export_onto_a_read_only_file_system_is_one_line_and_exports_nothing(
         write(path, *args, **kwargs)
         written.append(path.name)
 
-    monkeypatch.setattr(_files, "atomic_write", read_only_after_two)
+    monkeypatch.setattr(store, "atomic_write", read_only_after_two)
     out = tmp_path / "x"
     assert exit_code(["export", str(run_dir), "best", str(out)]) == 2
     line = one_error_line(capsys)
@@ -188,7 +188,7 @@ def test_replay_and_export_of_parameters_of_the_wrong_length_are_one_line(
 
     # `ariel view RUN EVAL_ID` re-simulates an evaluation without its own recording so: the
     # same error, a ValueError, which view reports in one line
-    from ariel.recording._replay import on_demand_recording
+    from ariel.recording.resim._replay import on_demand_recording
 
     with pytest.raises(DamagedRunError, match=f"needs {needed} "):
         on_demand_recording(copy, best["eval_id"])
@@ -222,9 +222,9 @@ def test_a_genotype_cell_nested_out_of_stack_is_one_line(
 
 
 def test_a_graph_nested_out_of_stack_is_refused(copy: Path) -> None:
-    from ariel.recording._joint_names import joint_labels
-    from ariel.recording._replay import on_demand_recording, replay
-    from ariel.recording._rerun import _graph_parts
+    from ariel.recording.rerun._joint_names import joint_labels
+    from ariel.recording.rerun._rerun import _graph_parts
+    from ariel.recording.resim._replay import on_demand_recording, replay
 
     best = _best(copy)
     replayed = replay(copy, best["eval_id"])  # before: the graph is not needed to replay
@@ -245,7 +245,7 @@ def test_a_graph_nested_out_of_stack_is_refused(copy: Path) -> None:
 
 def test_an_export_folder_nested_out_of_stack_is_one_line(run_dir: Path, tmp_path: Path) -> None:
     from ariel.recording import load_exported
-    from ariel.recording._export import export
+    from ariel.recording.resim._export import export
 
     out = export(run_dir, "best", tmp_path / "x")
     for name, text in (("controller.json", DEEP), ("genotype.json", "[1]")):
@@ -297,8 +297,8 @@ def test_runs_and_report_print_names_with_control_sequences_and_markup_as_text(
 
 
 def test_a_crafted_eval_id_never_names_a_file_outside_the_run(copy: Path) -> None:
-    from ariel.recording._replay import replay_recording_path
-    from ariel.recording._view import select_recordings
+    from ariel.recording.resim._replay import replay_recording_path
+    from ariel.recording.viewer._view import select_recordings
 
     _craft(copy, "evaluations", "eval_id", "../../../../outside")
     recordings = copy / "recordings" / "gen-000000"

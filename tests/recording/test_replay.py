@@ -15,7 +15,7 @@ import pytest
 
 from ariel.evolution import run_experiment
 from ariel.recording import UnknownEvaluationError, load_run, replay
-from ariel.recording._replay import replay_task
+from ariel.recording.resim._replay import replay_task
 
 CONFIG = {
     "name": "replaytiny",
@@ -209,7 +209,7 @@ def test_the_replay_controls_drive_a_plain_simulation_to_the_same_state(coevolut
 
 
 def test_a_replay_writes_a_rerun_recording(coevolution, tmp_path: Path) -> None:
-    pytest.importorskip("ariel.recording._rerun", reason="Rerun recordings not in this tree")
+    pytest.importorskip("ariel.recording.rerun._rerun", reason="Rerun recordings not in this tree")
     run_dir, _ = coevolution
     replayed = replay(run_dir, "best")
     path = replayed.write_rrd(tmp_path / "sub" / "best.rrd")
@@ -273,7 +273,7 @@ def test_an_error_row_has_no_body_to_show(coevolution, tmp_path: Path) -> None:
         index = table.schema.get_field_index(name)
         table = table.set_column(index, name, pa.array(values, table.schema.field(name).type))
     pq.write_table(table, path)
-    from ariel.recording._manifest import write_manifest
+    from ariel.recording.store._manifest import write_manifest
 
     write_manifest(copy, 0)  # a deliberate edit, not damage: its manifest follows it
     replayed = replay(copy, table.column("eval_id")[0].as_py())
@@ -288,7 +288,7 @@ def test_the_viewer_plays_the_evaluated_motion(
     """No display here: a stand-in for MuJoCo's passive viewer records what it is shown."""
     import mujoco.viewer
 
-    import ariel.recording._replay as replay_module
+    import ariel.recording.resim._replay as replay_module
 
     shown: list[np.ndarray] = []
 

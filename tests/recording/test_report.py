@@ -15,8 +15,8 @@ from PIL import Image
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run, make_report
-from ariel.recording._joint_names import joint_labels
-from ariel.recording._report import TABLE_COLUMNS, print_report
+from ariel.recording.analysis._report import TABLE_COLUMNS, print_report
+from ariel.recording.rerun._joint_names import joint_labels
 
 CONFIG = {
     "name": "reporttiny",

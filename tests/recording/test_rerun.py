@@ -17,7 +17,7 @@ rr = pytest.importorskip("rerun")
 
 from ariel.evolution import ConfigError, load_config, resume_experiment, run_experiment  # noqa: E402
 from ariel.recording import load_run  # noqa: E402
-from ariel.recording._joint_names import joint_labels  # noqa: E402
+from ariel.recording.rerun._joint_names import joint_labels  # noqa: E402
 
 SMALL = {
     "name": "rrd",
@@ -313,7 +313,7 @@ def test_record_bodies_must_be_all_elites_or_none() -> None:
 def test_a_killed_writers_temporary_rrd_does_not_block_resume(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import ariel.recording._rerun as rerun_files
+    import ariel.recording.rerun._rerun as rerun_files
 
     out = tmp_path / "killed"
     original = rerun_files.atomic_write
@@ -353,7 +353,7 @@ def test_write_evaluation_recording_draws_terrain_near_the_path_and_a_still_robo
 ) -> None:
     from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate
     from ariel.plugins import controllers
-    from ariel.recording._rerun import TERRAIN_MAX_SIDE, write_evaluation_recording
+    from ariel.recording.rerun._rerun import TERRAIN_MAX_SIDE, write_evaluation_recording
 
     def gecko_task(params: Any = ()) -> EvaluationTask:
         return EvaluationTask(
@@ -414,8 +414,8 @@ def test_discard_after_drops_the_recordings_of_unfinished_generations(tmp_path: 
 def test_a_non_elite_s_3d_replay_on_demand_equals_the_all_recording(tmp_path: Path) -> None:
     """`ariel view RUN EVAL_ID` of an evaluation recorded without poses re-simulates it: the
     poses equal, bit for bit, those of the same evaluation in a run recording them all."""
-    from ariel.recording._replay import has_body_poses, on_demand_recording
-    from ariel.recording._view import select_recordings
+    from ariel.recording.resim._replay import has_body_poses, on_demand_recording
+    from ariel.recording.viewer._view import select_recordings
 
     everything = run_experiment(small(), out=tmp_path / "all").run_dir
     elites = run_experiment(small(bodies="elites"), out=tmp_path / "elites").run_dir

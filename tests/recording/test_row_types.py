@@ -1,7 +1,7 @@
-"""Typed rows: each table's row is declared once (`ariel.recording._row_types`), its Arrow schema
-derived from it exactly as the schemas were written by hand before, and a row or a table with a
-key too many or too few is an internal error naming the table and the key, never a column of
-nulls."""
+"""Typed rows: each table's row is declared once (`ariel.recording.store._row_types`), its Arrow
+schema derived from it exactly as the schemas were written by hand before, and a row or a table
+with a key too many or too few is an internal error naming the table and the key, never a column
+of nulls."""
 
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ from typing import Any
 import pyarrow as pa
 import pytest
 
-from ariel.recording._row_types import ArchiveRow, EvaluationRow, RowError
-from ariel.recording._rows import RunWriter
-from ariel.recording._tables import (
+from ariel.recording.store._row_types import ArchiveRow, EvaluationRow, RowError
+from ariel.recording.store._rows import RunWriter
+from ariel.recording.store._tables import (
     archive_schema,
     body_schema,
     evaluation_schema,
@@ -143,7 +143,7 @@ def test_a_row_with_a_missing_key_names_the_table_and_the_key() -> None:
 
 def _writer(path: Path) -> RunWriter:
     config = SimpleNamespace(record=SimpleNamespace(rerun=False, trajectories=False))
-    return RunWriter(SimpleNamespace(path=str(path)), config, "run", maximise=True)
+    return RunWriter(SimpleNamespace(path=str(path)), config, "run")
 
 
 def test_writing_a_generation_with_a_misspelt_archive_key_fails(tmp_path: Path) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from ariel.recording import RunFolder
-from ariel.recording._files import atomic_write_bytes, remove_temporaries
+from ariel.recording.store._files import atomic_write_bytes, remove_temporaries
 
 
 def test_a_folder_killed_while_being_created_may_be_reused(tmp_path: Path) -> None:

@@ -29,8 +29,8 @@ from _helpers import REPO, ariel_run, exit_code, one_error_line, repo_env, tiny_
 
 from ariel.errors import ConfigError, DamagedRunError
 from ariel.recording import load_run
-from ariel.recording._manifest import verify_run, write_manifest
-from ariel.recording._tables import ROW_MARGIN, TABLES, row_limit
+from ariel.recording.store._manifest import verify_run, write_manifest
+from ariel.recording.store._tables import ROW_MARGIN, TABLES, row_limit
 from ariel.runs._campaign_file import MAX_RUNS, campaign_spec
 
 TINY_CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
@@ -245,7 +245,7 @@ def test_a_campaign_resume_that_needs_more_open_files_is_refused_before_it_write
     tmp_path: Path,
 ) -> None:
     """campaign.json of 118 runs killed before their folders were made (resume makes them)."""
-    from ariel.recording._campaign import run_path, write_campaign_info
+    from ariel.recording.store._campaign import run_path, write_campaign_info
 
     spec = campaign_spec(json.loads(json.dumps(_toml(_many_seeds(tmp_path)))), beside=REPO)
     folder = tmp_path / "campaign"
@@ -298,7 +298,7 @@ def _toml(path: Path) -> dict:
 def test_the_soft_limit_is_raised_where_the_hard_one_allows() -> None:
     done = _under_limit(
         """
-        from ariel.recording._lock import ensure_open_files
+        from ariel.recording.store._lock import ensure_open_files
         ensure_open_files(118, 2)
         print(resource.getrlimit(resource.RLIMIT_NOFILE)[0])
         """,

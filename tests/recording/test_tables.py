@@ -15,7 +15,7 @@ from _helpers import ariel_run, tiny_run_toml
 
 from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 from ariel.recording import load_run
-from ariel.recording._tables import (
+from ariel.recording.store._tables import (
     COUNT_DESCRIPTORS,
     body_schema,
     generation_file,
@@ -95,7 +95,7 @@ class _Frames:
 
 
 def test_joint_lists_are_fixed_size_where_every_row_has_as_many_joints(tmp_path: Path) -> None:
-    from ariel.recording._tables import trajectory_columns
+    from ariel.recording.store._tables import trajectory_columns
 
     write_table(tmp_path, "trajectories", 0, trajectory_columns(0, [("a", _Frames(3, 2))] * 2))
     write_table(tmp_path, "trajectories", 1, trajectory_columns(1, [("b", _Frames(2, 2))]))

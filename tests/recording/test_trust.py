@@ -14,9 +14,9 @@ from _helpers import ariel_run, exit_code, one_error_line, snapshot, tiny_run_to
 
 from ariel.cli import main
 from ariel.recording import DamagedRunError, load_run, verify_run
-from ariel.recording._files import UnsafePathError, atomic_write_json
-from ariel.recording._load import UNREADABLE, list_runs
-from ariel.recording._lock import RunLock
+from ariel.recording.store._files import UnsafePathError, atomic_write_json
+from ariel.recording.store._load import UNREADABLE, list_runs
+from ariel.recording.store._lock import RunLock
 
 
 @pytest.fixture(scope="module")
@@ -248,7 +248,7 @@ def test_run_json_records_what_readers_need_and_is_strict_json(finished: Path) -
 def test_readers_work_without_the_runs_plugins(
     finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from ariel.recording._view import select_recordings
+    from ariel.recording.viewer._view import select_recordings
 
     copy = _copy(finished, tmp_path)
     info = json.loads((copy / "run.json").read_text())
@@ -261,7 +261,7 @@ def test_readers_work_without_the_runs_plugins(
     assert main(["report", str(copy), "--no-render"]) == 0
     assert main(["runs", str(tmp_path)]) == 0
     capsys.readouterr()
-    from ariel.recording._view import ViewError
+    from ariel.recording.viewer._view import ViewError
 
     with pytest.raises(ViewError, match="no Rerun recordings"):  # not an UnknownPluginError
         select_recordings(copy)
@@ -286,7 +286,7 @@ def test_one_bad_run_json_shows_as_unreadable(
 
 
 def test_a_resume_records_the_software_that_ran_it(finished: Path, tmp_path: Path) -> None:
-    from ariel.recording._run_folder import software_versions
+    from ariel.recording.store._run_folder import software_versions
 
     copy = _copy(finished, tmp_path, status="interrupted")
     info = json.loads((copy / "run.json").read_text())

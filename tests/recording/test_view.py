@@ -26,9 +26,9 @@ import rerun.blueprint as rrb
 
 from ariel.evolution import run_experiment
 from ariel.recording import load_run
-from ariel.recording._browser import HeadlessChromium
-from ariel.recording._rerun import SUMMARY_SERIES, module_colours
-from ariel.recording._view import (
+from ariel.recording.rerun._rerun import SUMMARY_SERIES, module_colours
+from ariel.recording.viewer._browser import HeadlessChromium
+from ariel.recording.viewer._view import (
     ViewError,
     best_evaluations,
     recording_path,
@@ -201,7 +201,7 @@ def test_an_evaluation_without_its_own_recording_is_replayed_on_demand(
 ) -> None:
     """As a non-elite evaluation of the loop (recorded in its generation's evaluations.rrd
     only): its 3D replay is re-simulated, and without its plugins that is one line."""
-    from ariel.recording._replay import has_body_poses
+    from ariel.recording.resim._replay import has_body_poses
 
     run = tmp_path / "run"
     shutil.copytree(recorded_run, run)
@@ -516,7 +516,7 @@ def test_the_view_recording_is_the_best_evaluation_with_the_run_beside(tmp_path:
     """`ariel view RUN` opens one recording holding the best evaluation's robot, joints and
     graph (on sim_time) and the run's fitness and diversity per generation (static charts):
     alone, since given run.rrd too the viewer opens on that."""
-    from ariel.recording._view import _prepared
+    from ariel.recording.viewer._view import _prepared
 
     result = run_experiment({**TINY, "record": {"rerun": True}}, out=tmp_path / "run")
     chosen = select_recordings(result.run_dir)

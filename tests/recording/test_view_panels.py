@@ -23,9 +23,8 @@ from test_joint_names import _two_branches  # noqa: E402 - the same robot graph
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain  # noqa: E402
 from ariel.evolution import run_experiment  # noqa: E402
 from ariel.recording import load_run  # noqa: E402
-from ariel.recording._axes import fitness_unit  # noqa: E402
-from ariel.recording._joint_names import module_labels  # noqa: E402
-from ariel.recording._rerun import (  # noqa: E402
+from ariel.recording.rerun._joint_names import module_labels  # noqa: E402
+from ariel.recording.rerun._rerun import (  # noqa: E402
     ARCHIVE_ENTITY,
     GRAPH_STEP,
     SUMMARY_SERIES,
@@ -33,7 +32,8 @@ from ariel.recording._rerun import (  # noqa: E402
     tree_positions,
     write_blueprint,
 )
-from ariel.recording._view import _archive_beside, _prepared, select_recordings  # noqa: E402
+from ariel.recording.store._axes import fitness_unit  # noqa: E402
+from ariel.recording.viewer._view import _archive_beside, _prepared, select_recordings  # noqa: E402
 
 # A MAP-Elites run of a few seconds: one generation, a 4 x 4 archive, recordings on.
 TINY_QD = {
@@ -286,7 +286,7 @@ def test_the_archive_axes_come_from_the_config_or_the_defaults() -> None:
 
 def _campaign(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, maximise: bool) -> Path:
     """A campaign folder of two conditions x two seeds, its runs stood in for."""
-    import ariel.recording._campaign_rerun as campaign_rerun
+    import ariel.recording.rerun._campaign_rerun as campaign_rerun
 
     folder = tmp_path / "campaign"
     folder.mkdir()
@@ -331,7 +331,7 @@ def _campaign(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, maximise: bool) -
 def test_the_campaign_view_titles_its_axes_and_keeps_its_legend_small_and_aside(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, maximise: bool, corner: int
 ) -> None:
-    from ariel.recording._campaign_rerun import CAMPAIGN_BLUEPRINT, write_campaign_recording
+    from ariel.recording.rerun._campaign_rerun import CAMPAIGN_BLUEPRINT, write_campaign_recording
 
     folder = _campaign(tmp_path, monkeypatch, maximise)
     recording = write_campaign_recording(folder)

@@ -25,10 +25,10 @@ import rerun as rr
 from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 from ariel.cli import main
 from ariel.recording import load_run, watch
-from ariel.recording._manifest import manifest_file
-from ariel.recording._recorder import archive_grid
-from ariel.recording._rerun import RUN_SERIES
-from ariel.recording._view import best_evaluations, recording_path
+from ariel.recording.rerun._recorder import archive_grid
+from ariel.recording.rerun._rerun import RUN_SERIES
+from ariel.recording.store._manifest import manifest_file
+from ariel.recording.viewer._view import best_evaluations, recording_path
 from tests._helpers import ServedWebViewer
 
 # Like TINY in tests/analysis/test_notebooks.py: 3 + 3 bodies, a generation in well under 1 s.

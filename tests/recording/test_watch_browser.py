@@ -17,7 +17,7 @@ import pytest
 
 psutil = pytest.importorskip("psutil")
 
-from ariel.recording._browser import BrowserError, HeadlessChromium, find_chromium  # noqa: E402
+from ariel.recording.viewer._browser import BrowserError, HeadlessChromium, find_chromium  # noqa: E402
 
 RUN = Path(__file__).resolve().parents[1] / "data" / "run_tiny.toml"
 

@@ -17,8 +17,8 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 
-from ariel.recording._campaign import load_campaign  # noqa: E402
-from ariel.recording._watch_campaign import STATUS_ENTITY, CampaignSource  # noqa: E402
+from ariel.recording.store._campaign import load_campaign  # noqa: E402
+from ariel.recording.viewer._watch_campaign import STATUS_ENTITY, CampaignSource  # noqa: E402
 
 CAMPAIGN = Path(__file__).resolve().parents[1] / "data" / "campaign_tiny.toml"
 RUNS = [(c, s) for c in ("fresh", "inherit") for s in (1, 2)]

@@ -145,8 +145,8 @@ def test_status_prints_a_table_of_condition_seed_status_generations_best(
 
 def test_campaign_rrd_holds_every_run_s_best_so_far_and_view_opens_it(campaign: Path) -> None:
     rr = pytest.importorskip("rerun")
-    from ariel.recording._curves import best_so_far
-    from ariel.recording._view import select_recordings
+    from ariel.recording.store._curves import best_so_far
+    from ariel.recording.viewer._view import select_recordings
 
     store = rr.chunk.RrdReader(campaign / "campaign.rrd").stream().collect()
     series = {}

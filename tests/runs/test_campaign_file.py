@@ -177,7 +177,7 @@ def test_independent_seeding_gives_every_condition_its_own_seeds(
 def test_campaign_json_records_the_seeding_and_old_ones_read_as_shared(tmp_path: Path) -> None:
     from types import SimpleNamespace
 
-    from ariel.recording._campaign import Campaign
+    from ariel.recording.store._campaign import Campaign
     from ariel.runs._campaign_info import campaign_info
 
     spec = campaign_spec(_two_conditions(seed_count=2, seeding="independent"))

@@ -21,7 +21,7 @@ from _helpers import REPO, StoppedError, edit_json, exit_code, one_error_line, s
 
 from ariel.evolution import ConfigError
 from ariel.recording import load_campaign
-from ariel.recording._campaign import NotACampaignError
+from ariel.recording.store._campaign import NotACampaignError
 from ariel.runs import resume_campaign, resume_experiment
 from ariel.runs._campaign_file import load_campaign_file
 

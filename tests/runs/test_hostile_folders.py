@@ -29,9 +29,9 @@ from _helpers import REPO, edit_json, exit_code, one_error_line, snapshot
 from ariel.evolution import ConfigError, ExperimentConfig
 from ariel.evolution._config import config_hash
 from ariel.recording import DamagedRunError, NotARunError, load_campaign, load_run, verify_run
-from ariel.recording._campaign import NotACampaignError
-from ariel.recording._manifest import write_manifest
-from ariel.recording._run_folder import MAX_JSON_DEPTH, RunFolder, json_data
+from ariel.recording.store._campaign import NotACampaignError
+from ariel.recording.store._manifest import write_manifest
+from ariel.recording.store._run_folder import MAX_JSON_DEPTH, RunFolder, json_data
 from ariel.runs import resume_campaign
 from ariel.runs._campaign_file import MAX_CONDITION_NAME, load_campaign_file
 

@@ -7,7 +7,7 @@ import json
 import math
 
 from ariel.evolution._state import from_json_safe, to_json_safe
-from ariel.recording._files import json_text
+from ariel.recording.store._files import json_text
 
 DATA = {"best": math.inf, "scores": (1.5, math.nan, -math.inf), "nested": [{"x": 0.1}]}
 

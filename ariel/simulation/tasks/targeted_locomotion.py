@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ariel.simulation.tasks.gait_learning import xy_displacement
-from ariel.utils._keywords import accept_aliases
+from ariel.utils import accept_aliases
 
 __all__ = [
     "SURVIVAL_MIN_HEIGHT",

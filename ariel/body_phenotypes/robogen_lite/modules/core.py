@@ -10,7 +10,7 @@ import mujoco
 
 from ariel.body_phenotypes.robogen_lite.config import IDX_OF_CORE, ModuleFaces, ModuleType
 from ariel.body_phenotypes.robogen_lite.modules.module import Module, rgba
-from ariel.utils._keywords import accept_aliases
+from ariel.utils import accept_aliases
 
 __all__ = [
     "CORE_CAMERA_POS",

@@ -18,7 +18,7 @@ import mujoco
 
 from ariel.body_phenotypes.robogen_lite.config import ModuleFaces, ModuleType
 from ariel.errors import FaceNotAvailableError
-from ariel.utils._keywords import accept_aliases
+from ariel.utils import accept_aliases
 
 __all__ = ["FaceNotAvailableError", "Module", "ModuleSites", "growth_axis_quat", "rgba"]
 

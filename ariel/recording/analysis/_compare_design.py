@@ -1,0 +1,267 @@
+"""What `ariel compare` compares, checked and said.
+
+- Runs measured differently are not compared: `check_comparable` refuses, in one line naming
+  the first difference, runs of other fitness functions (``task.fitness`` and its options),
+  episode lengths (``task.duration``), settling times (``task.settle``; a run made before it
+  existed reads as 0) or worlds (``world.name`` and its options).
+- One budget for all: each run is compared at the same number of evaluations, the smallest
+  any run made (or ``--at-evaluations N``): its best fitness so far after its first N
+  evaluations, in the order the loop made them (`evaluation_order`). `common_budget` says so
+  where the runs made different numbers.
+- `describe` writes down what was compared (runs, conditions and their overrides, base
+  config, budget, seeds, tests, software, commit) for ``compare.html`` and its README.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = [
+    "MEASURED_BY",
+    "MEASURES",
+    "QD_COLUMNS",
+    "CompareError",
+    "Source",
+    "check_comparable",
+    "common_budget",
+    "condition_settings",
+    "describe",
+    "evaluation_order",
+    "first_evaluations",
+    "shared_settings",
+]
+
+#: Measure name -> its column in `Comparison.runs`.
+MEASURES = {"final best": "final_best", "AUC": "auc"}
+#: Quality-diversity columns of `Run.generations` shown per condition where runs have them.
+QD_COLUMNS = ("qd_score", "norm_qd_score", "coverage")
+
+
+class CompareError(ValueError):
+    """Runs that cannot be compared (none, different fitness functions, ...): one line."""
+
+
+#: The config keys that decide what a fitness value means, with the value a run.json config
+#: without the key had (``task.settle`` came later: older runs did not settle).
+MEASURED_BY: tuple[tuple[str, Any], ...] = (
+    ("task.fitness", "xy_displacement"),
+    ("task.options", {}),
+    ("task.duration", None),
+    ("task.settle", 0.0),
+    ("world.name", "flat"),
+    ("world.options", {}),
+)
+
+
+def _value(config: Mapping[str, Any], dotted: str, default: Any) -> Any:
+    value: Any = config
+    for part in dotted.split("."):
+        if not isinstance(value, Mapping) or part not in value:
+            return default
+        value = value[part]
+    return value
+
+
+def _shown(value: Any) -> str:
+    return json.dumps(value, sort_keys=True, default=str)
+
+
+def check_comparable(configs: Sequence[tuple[str, Mapping[str, Any]]]) -> None:
+    """Refuse (`CompareError`, one line) runs whose ``(label, config)`` differ in a key of
+    `MEASURED_BY`: the first such key, with the first run that differs from the first run."""
+    if not configs:
+        return
+    first_label, first = configs[0]
+    for key, default in MEASURED_BY:
+        expected = _value(first, key, default)
+        for label, config in configs[1:]:
+            found = _value(config, key, default)
+            if found != expected:
+                raise CompareError(
+                    f"the runs differ in {key}: {_shown(expected)} in {first_label}, "
+                    f"{_shown(found)} in {label}; only runs measured the same way (fitness, "
+                    "duration, settle, world) can be compared"
+                )
+
+
+# --------------------------------------------------------------------------------------------
+# The budget
+# --------------------------------------------------------------------------------------------
+
+
+def evaluation_order(evaluations: Any) -> Any:
+    """The evaluations in the order the loop made them: by generation, then eval id (body,
+    iteration, candidate), as the best-so-far curves count them (`ariel.recording.store._curves`)."""
+    return evaluations.sort_values(["generation", "eval_id"], kind="stable")
+
+
+def first_evaluations(evaluations: Any, budget: int) -> Any:
+    """The run's first ``budget`` evaluations, in `evaluation_order`."""
+    return evaluation_order(evaluations).head(budget).reset_index(drop=True)
+
+
+def common_budget(
+    totals: Mapping[str, int], at_evaluations: int | None = None
+) -> tuple[int, str | None]:
+    """(the evaluations every run is compared at, a warning where the runs' ``totals`` differ).
+
+    The smallest total, or ``at_evaluations`` (`CompareError` where it is below 1 or beyond a
+    run's total)."""
+    if not totals:
+        raise CompareError("no run with a finished generation to compare")
+    label, smallest = min(totals.items(), key=lambda item: item[1])
+    largest = max(totals.values())
+    if at_evaluations is not None:
+        if at_evaluations < 1:
+            raise CompareError(f"--at-evaluations must be at least 1, not {at_evaluations}")
+        if at_evaluations > smallest:
+            raise CompareError(
+                f"--at-evaluations {at_evaluations:,} exceeds the {smallest:,} evaluations of "
+                f"{label}; choose at most {smallest:,}"
+            )
+    budget = smallest if at_evaluations is None else at_evaluations
+    if smallest == largest:
+        return budget, None
+    how = (
+        "chosen with --at-evaluations"
+        if at_evaluations is not None
+        else ("the smallest common budget; choose another with --at-evaluations N")
+    )
+    return budget, (
+        f"the runs made {smallest:,} to {largest:,} evaluations: compared at {budget:,} "
+        f"evaluations per run ({how})"
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# What was compared
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Source:
+    """Where the runs came from (`compare` fills it in; `compare_runs` without it says less).
+
+    ``what``: the campaign or the run list; ``overrides``: condition -> its settings (a
+    campaign condition's ``set``; a condition not in it is named by its settings);
+    ``base``: the base config's path or name."""
+
+    what: str = ""
+    overrides: dict[str, str] = field(default_factory=dict)
+    base: str = ""
+
+
+def _flat(config: Mapping[str, Any], prefix: str = "") -> dict[str, str]:
+    flat: dict[str, str] = {}
+    for key, value in config.items():
+        if isinstance(value, Mapping) and not key.endswith("options"):
+            flat.update(_flat(value, f"{prefix}{key}."))
+        else:
+            flat[f"{prefix}{key}"] = _shown(value)
+    return flat
+
+
+def condition_settings(config: Mapping[str, Any]) -> dict[str, str]:
+    """A run config as dotted key -> JSON value (a plugin's ``options`` as one value), less
+    what does not make a condition: seed, name, description and the executor."""
+    return {
+        k: v
+        for k, v in _flat(config).items()
+        if k not in ("seed", "name", "description") and not k.startswith("executor.")
+    }
+
+
+def shared_settings(configs: Sequence[Mapping[str, Any]]) -> dict[str, str]:
+    """The `condition_settings` every run shares (the base config's resolved values)."""
+    flats = [condition_settings(c) for c in configs]
+    if not flats:
+        return {}
+    return {k: v for k, v in flats[0].items() if all(f.get(k) == v for f in flats[1:])}
+
+
+def _seed_list(seeds: Sequence[int]) -> str:
+    seeds = sorted(seeds)
+    if len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1)):
+        return f"{seeds[0]}-{seeds[-1]}"
+    return ", ".join(str(s) for s in seeds) or "none"
+
+
+def _seeds_text(seeds: Mapping[str, Sequence[int]], paired: bool) -> str:
+    sets = {tuple(sorted(s)) for s in seeds.values()}
+    if len(sets) == 1:
+        listed = f"{_seed_list(next(iter(sets)))} in every condition"
+    else:
+        listed = "; ".join(f"{name} {_seed_list(s)}" for name, s in seeds.items())
+    if paired:
+        return (
+            f"shared, common random numbers (generation 0 is the same in every condition): "
+            f"{listed}; runs paired by seed"
+        )
+    return f"not paired: {listed}"
+
+
+def _budget_text(totals: Mapping[str, Sequence[int]], budget: int) -> str:
+    parts = []
+    for name, counts in totals.items():
+        low, high = min(counts), max(counts)
+        parts.append(f"{name} {low:,}" if low == high else f"{name} {low:,}-{high:,}")
+    return f"evaluations per run: {', '.join(parts)}; compared at {budget:,} evaluations per run"
+
+
+def _software(infos: Sequence[Mapping[str, Any]]) -> tuple[str, str]:
+    """(the distinct software versions of the runs, their distinct git commits), each with
+    its segments' (a resumed run's later software)."""
+    versions: dict[str, int] = {}
+    commits: dict[str, int] = {}
+    for info in infos:
+        parts = [info, *[s for s in info.get("segments") or [] if isinstance(s, Mapping)]]
+        seen_versions = {
+            ", ".join(f"{k} {v}" for k, v in (p.get("versions") or {}).items() if v)
+            for p in parts
+            if p.get("versions")
+        }
+        for text in seen_versions or {"not recorded"}:
+            versions[text] = versions.get(text, 0) + 1
+        seen_commits = {str(p["git_commit"]) for p in parts if p.get("git_commit")}
+        for text in seen_commits or {"not recorded"}:
+            commits[text] = commits.get(text, 0) + 1
+
+    def joined(found: dict[str, int]) -> str:
+        if len(found) == 1:
+            return next(iter(found))
+        return " | ".join(f"{text} ({n} runs)" for text, n in found.items())
+
+    return joined(versions), joined(commits)
+
+
+def describe(
+    source: Source,
+    *,
+    seeds: Mapping[str, Sequence[int]],
+    totals: Mapping[str, Sequence[int]],
+    budget: int,
+    tests: str,
+    paired: bool,
+    infos: Sequence[Mapping[str, Any]],
+) -> list[tuple[str, str]]:
+    """What was compared, as (label, text) lines: the runs, each condition's overrides, the
+    base config, budget, seeds, tests, software versions and git commit."""
+    lines = [("compared", source.what or f"{sum(len(s) for s in seeds.values())} runs")]
+    conditions = "; ".join(
+        f"{name}: {source.overrides[name] or 'no overrides'}" if name in source.overrides else name
+        for name in seeds
+    )
+    lines.append(("conditions", conditions))
+    if source.base:
+        lines.append(("base config", source.base))
+    lines += [
+        ("budget", _budget_text(totals, budget)),
+        ("seeds", _seeds_text(seeds, paired)),
+        ("tests", tests),
+    ]
+    versions, commits = _software(infos)
+    lines += [("software", versions), ("git commit", commits)]
+    return lines

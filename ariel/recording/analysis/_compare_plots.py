@@ -1,0 +1,148 @@
+"""The figures of `ariel compare`: best so far against evaluations (median and 95 % bootstrap
+band per condition, each band in the legend; the y axis spans the data, not from 0), final
+best per condition (box plot with every seed's point), and the bodies' morphology descriptors
+over evaluations per condition. Matplotlib (Agg), PNG files, each written whole and never
+through a link (`_files.atomic_write`); condition names are drawn as text (`figure_label`:
+one line, no mathtext).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.recording.store import DESCRIPTORS, integer_ticks
+from ariel.recording.store import figure_label
+
+__all__ = [
+    "MORPHOLOGY",
+    "best_so_far_figure",
+    "data_limits",
+    "final_best_figure",
+    "morphology_figure",
+]
+
+#: Descriptors drawn over evaluations (those a reader of a co-evolution paper looks for).
+MORPHOLOGY = ("num_modules", "num_limbs", "joints_ratio", "symmetry")
+_DPI = 110
+_BAND_ALPHA = 0.2
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _colours(names: Sequence[str]) -> dict[str, Any]:
+    cycle = _pyplot().rcParams["axes.prop_cycle"].by_key()["color"]
+    return {name: cycle[i % len(cycle)] for i, name in enumerate(names)}
+
+
+def _save(figure: Any, path: Path) -> Path:
+    from ariel.recording.store import atomic_write
+
+    figure.tight_layout()
+    try:  # never through a link planted in the output folder (``compare/final_best.png -> ~/x``)
+        atomic_write(path, lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"))
+    finally:
+        _pyplot().close(figure)
+    return path
+
+
+def best_so_far_figure(
+    curves: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+    path: Path,
+    *,
+    ylabel: str,
+) -> Path:
+    """``curves``: condition -> (evaluations grid, median, band low, band high)."""
+    from matplotlib.patches import Patch
+
+    plt = _pyplot()
+    figure, axes = plt.subplots(figsize=(7.5, 4.5))
+    colours = _colours(list(curves))
+    handles = []
+    for name, (grid, median, low, high) in curves.items():
+        label = figure_label(name)
+        (line,) = axes.plot(grid, median, color=colours[name], label=label, linewidth=1.8)
+        axes.fill_between(grid, low, high, color=colours[name], alpha=_BAND_ALPHA, linewidth=0)
+        band = Patch(facecolor=colours[name], alpha=_BAND_ALPHA, label=f"{label}: 95 % CI")
+        handles += [line, band]
+    limits = data_limits([v for _, *lines in curves.values() for v in lines])
+    if limits is not None:
+        axes.set_ylim(*limits)
+    axes.set_xlabel("evaluations")
+    integer_ticks(axes.xaxis)
+    axes.set_ylabel(ylabel)
+    axes.set_title("best so far: median of the seeds, 95 % bootstrap band")
+    axes.grid(alpha=0.3)
+    axes.legend(handles=handles, loc="best", fontsize="small")
+    return _save(figure, path)
+
+
+def data_limits(series: Sequence[np.ndarray], margin: float = 0.05) -> tuple[float, float] | None:
+    """The y range of the finite values of ``series``, widened by ``margin`` of it on each
+    side (an axis that starts where the data starts, not at 0); None without a value."""
+    values = np.concatenate([np.asarray(s, dtype=np.float64).ravel() for s in series] or [[]])
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return None
+    low, high = float(values.min()), float(values.max())
+    pad = margin * (high - low) or margin * max(abs(high), 1e-9)
+    return low - pad, high + pad
+
+
+def final_best_figure(finals: Mapping[str, np.ndarray], path: Path, *, ylabel: str) -> Path:
+    """``finals``: condition -> every seed's final best fitness."""
+    plt = _pyplot()
+    names = list(finals)
+    figure, axes = plt.subplots(figsize=(max(4.5, 1.4 * len(names) + 2), 4.5))
+    colours = _colours(names)
+    data = [np.asarray(finals[n], float) for n in names]
+    axes.boxplot(data, showfliers=False, widths=0.5)
+    jitter = np.random.default_rng(0)  # fixed: the same runs draw the same figure
+    for position, (name, values) in enumerate(zip(names, data), start=1):
+        x = position + jitter.uniform(-0.12, 0.12, size=len(values))
+        axes.scatter(x, values, color=colours[name], zorder=3, s=22, edgecolor="black")
+    labels = [figure_label(n) for n in names]
+    axes.set_xticks(range(1, len(names) + 1), labels, rotation=20 if len(names) > 3 else 0)
+    axes.set_ylabel(ylabel)
+    axes.set_title("final best per run (one point per seed)")
+    axes.grid(alpha=0.3, axis="y")
+    return _save(figure, path)
+
+
+def morphology_figure(
+    series: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]],
+    path: Path,
+) -> Path:
+    """``series``: descriptor -> condition -> (evaluations, median, 25th, 75th percentile) of
+    the runs' mean descriptor per bin of evaluations."""
+    plt = _pyplot()
+    names = list(series)
+    columns = min(2, len(names))
+    rows = int(np.ceil(len(names) / columns))
+    figure, grid = plt.subplots(rows, columns, figsize=(5.2 * columns, 3.2 * rows), squeeze=False)
+    conditions = list(next(iter(series.values()), {}))
+    colours = _colours(conditions)
+    for axes, descriptor in zip(grid.flat, names):
+        for condition, (x, median, low, high) in series[descriptor].items():
+            axes.plot(x, median, color=colours[condition], label=figure_label(condition))
+            axes.fill_between(x, low, high, color=colours[condition], alpha=0.15, linewidth=0)
+        axes.set_title(descriptor)
+        axes.set_xlabel("evaluations")
+        axes.set_ylabel(DESCRIPTORS.get(descriptor, ("", False))[0])
+        integer_ticks(axes.xaxis)
+        axes.grid(alpha=0.3)
+    for axes in list(grid.flat)[len(names) :]:
+        axes.set_visible(False)
+    grid.flat[0].legend(fontsize="small")
+    figure.suptitle("morphology of the evaluated bodies: median of the seeds (band: 25-75 %)")
+    return _save(figure, path)

@@ -1,0 +1,494 @@
+"""`ariel report`: a per-generation table and PNG figures of a run, from its run folder alone.
+
+Figures go to ``RUN_DIR/report/``: ``fitness.png`` (best / mean / median of the population
+after selection per generation, every evaluation as a dot; a brain-only run: the best so far
+and the mean of each generation's CMA-ES candidates), ``morphology.png`` (the morphology
+descriptors of the population after selection, `Run.population`, per generation; co-evolution
+only), ``trajectory.png`` and ``joints.png`` (the best evaluation's core path and every joint's
+target and angle, from the trajectories table; joints named by `joint_labels`) and
+``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing);
+``archive.png`` for a MAP-Elites run (`_report_archive`). Axes carry their units and counts
+whole-number ticks (`_axes`); titles wrap to fit.
+Only finished generations are reported, so a running or killed run reports what it has.
+
+matplotlib is imported here only, and drawn through the Agg canvas without pyplot, so making a
+report never changes the caller's matplotlib backend.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.errors import DamagedRunError, RunStorageError
+from ariel.recording.store import DESCRIPTORS, fitness_label, fitted, integer_ticks
+from ariel.recording.rerun import three_quarter_view
+from ariel.recording.store import one_line
+from ariel.recording.store import QD_COLUMNS, Run, load_run, population_after_selection
+from ariel.recording.store import evaluation_trajectory
+from ariel.recording.analysis._report_archive import archive_figure
+
+__all__ = ["Report", "make_report", "print_report"]
+
+#: The table's columns: ``Run.generations`` column -> heading.
+TABLE_COLUMNS = {
+    "generation": "generation",
+    "evaluations": "evaluations",
+    "best_fitness": "best",
+    "mean_fitness": "mean",
+    "median_fitness": "median",
+    "errors": "errors",
+    "unstable": "unstable",
+    "invalid": "invalid",
+}
+_DPI = 110
+#: The population `morphology.png` shows (the notebooks' morphology figure says the same).
+MORPHOLOGY_TITLE = "morphology of the population after selection, per generation"
+
+
+@dataclass
+class Report:
+    """What `make_report` found and wrote.
+
+    Attributes:
+        run: the loaded run.
+        table: one row per finished generation (``TABLE_COLUMNS``; a MAP-Elites run also
+            ``coverage``, ``qd_score``, ``norm_qd_score``, printed as a second table).
+        best: the best evaluation's row (a dict), or None before any finite fitness.
+        written: the PNG files written, in order.
+        notes: one line per figure left out, and why.
+        figures: file name (``fitness.png``) -> its matplotlib `Figure`, to show or restyle.
+    """
+
+    run: Run
+    table: Any
+    best: dict[str, Any] | None
+    written: list[Path] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    figures: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def folder(self) -> Path:
+        return self.run.path / "report"
+
+
+def _best_row(run: Run, maximise: bool) -> dict[str, Any] | None:
+    evals = run.evaluations
+    ok = evals[evals["fitness"].map(math.isfinite)]
+    if not len(ok):
+        return None
+    index = ok["fitness"].idxmax() if maximise else ok["fitness"].idxmin()
+    return evals.loc[index].to_dict()
+
+
+def _figure(width: float, height: float) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), dpi=_DPI, layout="constrained")
+
+
+def _cannot_write(exc: OSError, path: Path, report: Report) -> RunStorageError:
+    """A failed write (disk full, read-only, no permission) of the report: one line naming the
+    file and why. `atomic_write` leaves no part of the file; the figures written before it
+    are whole."""
+    from ariel.recording.store import cannot_write
+    from ariel.utils import ariel_line
+
+    return RunStorageError(
+        f"{cannot_write(exc, path)}; the report is not finished (the run is unchanged): make "
+        f"room (or fix the folder), then run {ariel_line('report', report.run.path)} again"
+    )
+
+
+def _save(figure: Any, path: Path, report: Report) -> None:
+    from ariel.recording.store import atomic_write
+
+    # Never through a link planted in a copied run folder (``report/fitness.png -> ~/x``).
+    try:
+        atomic_write(
+            path,
+            lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"),
+            root=report.run.path,
+        )
+    except OSError as exc:
+        raise _cannot_write(exc, path, report) from exc
+    report.written.append(path)
+    report.figures[path.name] = figure
+
+
+def _run_title(run: Run) -> str:
+    """The run's id (from run.json: any text) as one line, no control character in it."""
+    return one_line(run.info.get("run_id") or run.path.name)
+
+
+# --------------------------------------------------------------------------------------------
+# Figures
+# --------------------------------------------------------------------------------------------
+
+
+def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) -> None:
+    """A title (of axes ``on``, or ``suptitle`` of figure ``on``) wrapped to fit the width it
+    has (`fitted`), so it is never clipped at the figure's edge. A ``$`` in it (a run id is
+    any text) is a dollar sign, not mathtext, which could fail to draw."""
+    text = text.replace("$", r"\$")
+    if suptitle:
+        on.suptitle(fitted(text, on.get_figwidth(), fontsize), fontsize=fontsize)
+        return
+    spec = on.get_subplotspec()  # the axes' share of the figure's width
+    share = len(spec.colspan) / spec.get_gridspec().ncols
+    on.set_title(fitted(text, on.figure.get_figwidth() * share, fontsize), fontsize=fontsize)
+
+
+def _fitness_figure(report: Report, maximise: bool) -> None:
+    run, table = report.run, report.table
+    fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
+    figure = _figure(8, 4.8)
+    axes = figure.add_subplot()
+    evals = run.evaluations
+    finite = evals[evals["fitness"].map(math.isfinite)]
+    if len(finite):
+        rng = np.random.default_rng(0)  # jitter only, for legibility
+        x = finite["generation"].to_numpy() + rng.uniform(-0.15, 0.15, len(finite))
+        axes.scatter(x, finite["fitness"], s=6, color="0.7", label="evaluations", zorder=1)
+    gens = table["generation"].to_numpy()
+    if run.brain_only:
+        # One body: the population's best, mean and median are all its best brain so far. The
+        # search is in the CMA-ES candidates: their mean per generation.
+        candidates = finite.groupby("generation")["fitness"].mean().reindex(gens)
+        lines = [
+            (candidates.to_numpy(dtype=float), "mean of the generation's CMA-ES candidates", "-s"),
+            (table["best_fitness"].to_numpy(dtype=float), "best so far", "-oC2"),
+        ]
+        title = "fitness of the fixed body's brains (CMA-ES)"
+    else:
+        lines = [
+            (table["mean_fitness"].to_numpy(dtype=float), "mean", "-s"),
+            (table["median_fitness"].to_numpy(dtype=float), "median", "--^"),
+            # drawn last: on top where the lines meet
+            (table["best_fitness"].to_numpy(dtype=float), "best", "-oC2"),
+        ]
+        title = "fitness of the population after selection"
+        if len(run.archive):
+            title += " (the archive's elites)"
+    for values, label, style in lines:
+        axes.plot(gens, values, style, label=label, zorder=2)
+    axes.set_xlabel("generation")
+    integer_ticks(axes.xaxis)
+    axes.set_ylabel(fitness_label(fitness_fn, maximise))
+    _title(axes, f"{_run_title(run)}: {title}")
+    axes.grid(alpha=0.3)
+    axes.legend(loc="best")
+    _save(figure, report.folder / "fitness.png", report)
+
+
+def _morphology_figure(report: Report) -> None:
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    run = report.run
+    if run.brain_only:
+        report.notes.append("morphology.png: left out (brain-only run: one fixed body)")
+        return
+    population = population_after_selection(run.bodies)
+    names = [n for n in DESCRIPTOR_NAMES if n in population and population[n].notna().any()]
+    if not len(population) or not names:
+        report.notes.append("morphology.png: left out (no body with morphology descriptors)")
+        return
+    gens = sorted(population["generation"].unique())
+    cols = 4
+    rows = math.ceil(len(names) / cols)
+    figure = _figure(4 * cols, 2.9 * rows)
+    _title(figure, f"{_run_title(run)}: {MORPHOLOGY_TITLE}", suptitle=True)
+    rng = np.random.default_rng(0)
+    for i, name in enumerate(names):
+        axes = figure.add_subplot(rows, cols, i + 1)
+        values = [
+            population.loc[population["generation"] == g, name].dropna().to_numpy(dtype=float)
+            for g in gens
+        ]
+        axes.boxplot(values, positions=gens, widths=0.6, showfliers=False, manage_ticks=False)
+        for g, v in zip(gens, values):
+            axes.scatter(g + rng.uniform(-0.12, 0.12, v.size), v, s=8, alpha=0.6, color="C0")
+        unit, whole = DESCRIPTORS.get(name, ("", False))
+        axes.set_title(name)
+        axes.set_xlabel("generation")
+        axes.set_ylabel(unit)
+        axes.set_xlim(min(gens) - 0.6, max(gens) + 0.6)
+        integer_ticks(axes.xaxis)
+        if whole:
+            integer_ticks(axes.yaxis)
+        axes.grid(alpha=0.3)
+    _save(figure, report.folder / "morphology.png", report)
+
+
+def _trajectory_figures(report: Report, frames: Any) -> None:
+    from ariel.recording.rerun import joint_labels
+
+    run, best = report.run, report.best
+    assert best is not None
+    label = f"{best['eval_id']} (fitness {best['fitness']:.6g})"
+    t = frames["t"].to_numpy()
+    x, y = frames["core_x"].to_numpy(), frames["core_y"].to_numpy()
+
+    figure = _figure(6.4, 6)
+    axes = figure.add_subplot()
+    axes.plot(x, y, color="0.6", lw=1, zorder=1)
+    points = axes.scatter(x, y, c=t, cmap="viridis", s=14, zorder=2)
+    axes.plot(x[0], y[0], "o", ms=10, mfc="none", mec="green", mew=2, label="start")
+    axes.plot(x[-1], y[-1], "X", ms=10, color="red", label="end")
+    figure.colorbar(points, ax=axes, label="time (s)")
+    axes.set_aspect("equal", adjustable="datalim")
+    axes.set_xlabel("core x (m)")
+    axes.set_ylabel("core y (m)")
+    _title(axes, f"{_run_title(run)}: core path\nbest evaluation {label}")
+    axes.grid(alpha=0.3)
+    axes.legend(loc="best")
+    _save(figure, report.folder / "trajectory.png", report)
+
+    names = [str(n) for n in best.get("joint_names", [])]
+    if not names:
+        report.notes.append("joints.png: left out (the best body has no joints)")
+        return
+    labels = joint_labels(names, _graph_of(run, str(best["body_id"])))
+    target = np.array(frames["joint_target"].tolist(), dtype=float)
+    angle = np.array(frames["joint_angle"].tolist(), dtype=float)
+    cols = min(3, len(names))
+    rows = math.ceil(len(names) / cols)
+    figure = _figure(4.2 * cols, 2.4 * rows + 0.8)
+    _title(figure, f"{_run_title(run)}: best evaluation {label}: joints", suptitle=True)
+    for j, name in enumerate(labels):
+        axes = figure.add_subplot(rows, cols, j + 1)
+        axes.plot(t, target[:, j], "--", lw=1.2, label="target")
+        axes.plot(t, angle[:, j], lw=1.2, label="angle")
+        _title(axes, name, fontsize=9)
+        axes.set_xlabel("time (s)")
+        axes.set_ylabel("angle (rad)")
+        axes.grid(alpha=0.3)
+        if j == 0:
+            axes.legend(loc="best", fontsize=8)
+    _save(figure, report.folder / "joints.png", report)
+
+
+def _graph_of(run: Run, body_id: str) -> Any:
+    """The robot graph (node-link JSON) of ``body_id`` from the bodies table, or None."""
+    bodies = run.bodies
+    if "graph" not in bodies:
+        return None
+    graphs = bodies.loc[bodies["body_id"] == body_id, "graph"]
+    return graphs.iloc[0] if len(graphs) and graphs.iloc[0] else None
+
+
+def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
+    # Reading the run's tables imported mujoco, with the GL backend MUJOCO_GL named then
+    # (`ariel report` sets egl first where no display is set, unless --no-render); a backend
+    # that fails leaves the image out, with create_renderer's one-line reason as the note.
+    import mujoco
+
+    from ariel.evaluation import build
+    from ariel.recording.resim import replay_task
+    from ariel.utils.renderers import single_frame_renderer
+
+    best = report.best
+    assert best is not None
+    try:
+        built = build(replay_task(report.run, best))
+    except DamagedRunError as exc:  # a changed table: the rest of the report stands
+        report.notes.append(f"best_body.png: left out ({exc})")
+        return
+    model = built.model
+    size = max(float(best.get(k) or 0.0) for k in ("extent_x", "extent_y", "extent_z"))
+    try:
+        try:
+            view = three_quarter_view(built, size or 1.0)
+            image = single_frame_renderer(
+                model, mujoco.MjData(model), steps=0, width=width, height=height, **view
+            )
+        except ValueError:  # a model without "ortho-cam": the free camera frames everything
+            image = single_frame_renderer(
+                model, mujoco.MjData(model), steps=0, width=width, height=height
+            )
+    except RuntimeError as exc:  # no OpenGL backend here
+        report.notes.append(f"best_body.png: left out ({exc})")
+        return
+    figure = _figure(width / _DPI, height / _DPI + 0.5)
+    axes = figure.add_subplot()
+    axes.imshow(np.asarray(image))
+    axes.set_axis_off()
+    modules = best.get("num_modules")
+    shape = (
+        f"{int(modules)} modules, {int(best.get('num_hinges') or 0)} hinges"
+        if modules is not None and math.isfinite(modules)
+        else f"{int(best.get('n_joints') or 0)} joints"
+    )
+    _title(
+        axes,
+        f"{_run_title(report.run)}: best body {best['body_id']} ({shape}), "
+        f"evaluation {best['eval_id']}",
+        fontsize=10,
+    )
+    _save(figure, report.folder / "best_body.png", report)
+
+
+# --------------------------------------------------------------------------------------------
+# Entry points
+# --------------------------------------------------------------------------------------------
+
+
+def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
+    """Write the report figures of the run in ``run_dir`` to ``RUN_DIR/report/``.
+
+    A run without a finished generation gets no figures (a note says so); a figure that
+    cannot be drawn (no trajectories recorded, no successful evaluation) is left out with a
+    note.
+
+    Args:
+        run_dir: The run folder.
+        render: False leaves out the rendered image of the best body (no OpenGL needed).
+
+    Returns:
+        What was found and written: the per-generation table, the best evaluation's row,
+        the PNG files written, the figures themselves, and a note per figure left out.
+
+    Raises:
+        NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
+            were changed).
+        UnsafePathError: When a folder on the way to ``report/`` is a symbolic link.
+        RunStorageError: When a figure cannot be written (disk full, read-only).
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, make_report
+
+        report = make_report(list_runs()[-1]["path"], render=False)  # a run under data/runs
+        print(report.table)
+        print([path.name for path in report.written], report.notes)
+        ```
+    """
+    run = load_run(run_dir)
+    generations = run.generations
+    quality = [c for c in QD_COLUMNS if c in generations.columns]  # a MAP-Elites run
+    table = generations[[*TABLE_COLUMNS, *quality]]
+    maximise = run.maximise if len(run.evaluations) else True
+    report = Report(run=run, table=table, best=_best_row(run, maximise))
+    if not len(table):
+        report.notes.append("no finished generation yet: no figures")
+        return report
+    from ariel.recording.store import refuse_symlinks
+
+    refuse_symlinks(report.folder / "fitness.png", run.path)
+    try:
+        report.folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _cannot_write(exc, report.folder, report) from exc
+    _fitness_figure(report, maximise)
+    _morphology_figure(report)
+    archive_figure(report, maximise, render=render, figure=_figure, save=_save)
+    if report.best is None:
+        report.notes.append("trajectory.png, joints.png, best_body.png: no evaluation succeeded")
+        return report
+    frames = evaluation_trajectory(run, report.best)
+    if frames is None or not len(frames):
+        report.notes.append(
+            "trajectory.png, joints.png: left out (the run kept no trajectories: "
+            "record.trajectories = false)"
+        )
+    else:
+        _trajectory_figures(report, frames)
+    if render:
+        _body_image(report)
+    else:
+        report.notes.append("best_body.png: left out (rendering off)")
+    return report
+
+
+def _table(table_class: Any, box: Any, title: str) -> Any:
+    return table_class(
+        title=title,
+        box=box.SIMPLE_HEAD,
+        show_edge=False,
+        pad_edge=False,
+        padding=(0, 1, 0, 0),  # fits 80 columns
+    )
+
+
+def _print_archive_table(report: Report, console: Any, table_class: Any, box: Any) -> None:
+    """Per generation: the archive's coverage, QD-score and normalised QD-score."""
+    offset = report.run.qd_offset
+    table = _table(table_class, box, "MAP-Elites archive after each generation")
+    for column in ("generation", *QD_COLUMNS):
+        table.add_column(column, justify="right", no_wrap=True, min_width=10)
+    for row in report.table[["generation", *QD_COLUMNS]].itertuples(index=False):
+        generation, coverage, score, norm = row
+        table.add_row(
+            str(int(generation)),
+            f"{coverage:.1%}",
+            *(f"{v:.6g}" if math.isfinite(v) else "-" for v in (score, norm)),
+        )
+    console.print(table)
+    if offset is None:
+        console.print(
+            "qd_score: none (a run of a minimised fitness made before run.json recorded its "
+            "qd_offset)",
+            highlight=False,
+        )
+    else:
+        console.print(
+            f"qd_score: the elites' fitness beyond qd_offset {offset:g} (each at least 0), "
+            "summed; norm_qd_score: qd_score / cells",
+            highlight=False,
+        )
+
+
+def print_report(report: Report, console: Any = None) -> None:
+    """The per-generation table, the best evaluation, the files written and the notes."""
+    from rich import box
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    if console is None:
+        console = Console()
+        if not console.is_terminal:  # a file or a pipe: no need to fit 80 columns
+            console = Console(width=120)
+    run = report.run
+    status = run.info.get("status", "?")
+    done, total = run.generations_done, run.config.get("generations", "?")
+    title = f"{_run_title(run)}: {one_line(status)}, {done}/{total} generations"
+    table = _table(Table, box, Text(title))  # Text: a run id's [bold] is no markup
+    for heading in TABLE_COLUMNS.values():
+        wide = 10 if heading in ("best", "mean", "median") else len(heading)  # -0.0123456
+        table.add_column(heading, justify="right", no_wrap=True, min_width=wide)
+    for row in report.table[list(TABLE_COLUMNS)].itertuples(index=False):
+        cells = []
+        for column, value in zip(TABLE_COLUMNS, row):
+            if column.endswith("_fitness"):
+                cells.append(f"{value:.6g}" if math.isfinite(value) else "-")
+            else:
+                cells.append(str(int(value)))
+        table.add_row(*cells)
+    console.print(table)
+    if run.brain_only:
+        console.print(
+            "best = mean = median: the fixed body's best so far (brain-only); fitness.png "
+            "also draws the mean of each generation's CMA-ES candidates"
+        )
+    else:
+        console.print("best, mean, median: fitness of the population after selection")
+    if QD_COLUMNS[0] in report.table.columns:  # a MAP-Elites run: its archive, a second table
+        _print_archive_table(report, console, Table, box)
+    if report.best is not None:
+        best = report.best
+        console.print(
+            Text(
+                f"best evaluation: {one_line(best['eval_id'])} (generation "
+                f"{int(best['generation'])}, fitness {float(best['fitness'])!r})"
+            ),
+            highlight=False,
+        )
+    for path in report.written:  # Text: no markup in a folder's name or a note
+        console.print(Text(f"wrote {one_line(path)}"), highlight=False, soft_wrap=True)
+    for note in report.notes:
+        console.print(Text(one_line(note)), highlight=False, soft_wrap=True)

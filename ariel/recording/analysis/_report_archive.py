@@ -1,0 +1,108 @@
+"""The report's MAP-Elites figure, ``archive.png``: the final archive as a heatmap of fitness
+per cell (over the first two measures; more are folded by their best), and the bodies of the
+best cells rendered in a grid of thumbnails (left out where OpenGL is missing)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ariel.recording.store import DESCRIPTORS, descriptor_label, fitness_label, integer_ticks
+
+__all__ = ["archive_figure"]
+
+THUMBNAILS = 6  # the best cells whose bodies are drawn
+
+
+def _grid(archive: Any, maximise: bool) -> np.ndarray:
+    """Fitness per cell as a 2D array (measure 0 down, measure 1 across); NaN: empty."""
+    from ariel.recording.rerun import archive_grid
+
+    grid = archive_grid(archive.to_dict("records"))
+    best = np.fmax if maximise else np.fmin
+    while grid.ndim > 2:  # fold the measures beyond the second by their best cell
+        grid = best.reduce(grid, axis=-1)
+    return grid.reshape(grid.shape[0], -1)
+
+
+def _thumbnail(run: Any, body_id: str) -> Any:
+    """The rendered start pose of ``body_id``'s best evaluation."""
+    import mujoco
+
+    from ariel.evaluation import build
+    from ariel.recording.rerun import three_quarter_view
+    from ariel.recording.resim import replay_task
+    from ariel.utils.renderers import single_frame_renderer
+
+    body = run.bodies[run.bodies["body_id"] == body_id].iloc[-1]
+    evals = run.evaluations
+    row = evals[evals["eval_id"] == body["best_eval_id"]].iloc[0].to_dict()
+    built = build(replay_task(run, row))
+    size = max(float(body.get(k) or 0.0) for k in ("extent_x", "extent_y", "extent_z")) or 1.0
+    data = mujoco.MjData(built.model)
+    try:
+        view = three_quarter_view(built, size)
+        return single_frame_renderer(built.model, data, steps=0, width=240, height=180, **view)
+    except ValueError:  # no orthographic camera: the free camera
+        return single_frame_renderer(built.model, data, steps=0, width=240, height=180)
+
+
+def _ranges(options: dict[str, Any], measures: list[str]) -> list[tuple[float, float]]:
+    from ariel.evolution import DEFAULT_RANGES
+
+    given = options.get("ranges")
+    if given:
+        return [(float(low), float(high)) for low, high in given]
+    return [DEFAULT_RANGES.get(m, (0.0, 1.0)) for m in measures]
+
+
+def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, save: Any) -> None:
+    """Write ``archive.png`` for a MAP-Elites run (nothing for any other run)."""
+    run = report.run
+    if not len(run.archive):
+        return
+    last = int(run.archive["generation"].max())
+    archive = run.archive[run.archive["generation"] == last]
+    options = run.config.get("body", {}).get("optimizer_options", {})
+    measures = list(options.get("measures") or ["num_limbs", "joints_ratio"])
+    ranked = archive.sort_values("fitness", ascending=not maximise).head(THUMBNAILS)
+    images, note = [], ""
+    if render:
+        try:
+            images = [
+                (row.body_id, row.fitness, _thumbnail(run, row.body_id))
+                for row in ranked.itertuples()
+            ]
+        except RuntimeError as exc:  # no OpenGL backend here
+            note = f"archive.png: body thumbnails left out ({exc})"
+    make_figure = figure
+    figure = make_figure(11.0, 4.8 if images else 4.2)
+    rows = 2 if images else 1
+    columns = max(3, math.ceil(len(images) / 2)) if images else 1
+    spec = figure.add_gridspec(rows, 1 + columns, width_ratios=[2.2] + [1] * columns)
+    axes = figure.add_subplot(spec[:, 0])
+    grid = _grid(archive, maximise)
+    ranges = _ranges(options, measures)
+    across = ranges[1] if len(ranges) > 1 else (0.0, 1.0)
+    extent = (across[0], across[1], ranges[0][0], ranges[0][1])
+    shown = axes.imshow(grid, origin="lower", aspect="auto", cmap="viridis", extent=extent)
+    fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
+    figure.colorbar(shown, ax=axes, label=fitness_label(fitness_fn, what="elite's fitness"))
+    across_name = measures[1] if len(measures) > 1 else ""
+    axes.set_ylabel(descriptor_label(measures[0]))
+    axes.set_xlabel(descriptor_label(across_name) if across_name else "")
+    for axis, measure in ((axes.yaxis, measures[0]), (axes.xaxis, across_name)):
+        if DESCRIPTORS.get(measure, ("", False))[1]:  # a count: whole-number ticks
+            integer_ticks(axis)
+    coverage = len(archive) / int(np.prod(archive["grid"].iloc[0]))
+    axes.set_title(f"archive after generation {last}: {len(archive)} cells ({coverage:.0%})")
+    for k, (body_id, fitness, image) in enumerate(images):
+        thumb = figure.add_subplot(spec[k // columns, 1 + k % columns])
+        thumb.imshow(np.asarray(image))
+        thumb.set_axis_off()
+        thumb.set_title(f"{body_id}: {fitness:.3g}", fontsize=8)
+    if note:
+        report.notes.append(note)
+    save(figure, report.folder / "archive.png", report)

@@ -1,0 +1,83 @@
+"""Rerun recordings: an evaluation's, a generation's, the run's and a campaign's, the scene
+and camera they share, and joint names for people.
+
+Cheap to import: names are loaded from their modules on first use (`ariel.utils.lazy`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ariel.utils.lazy import lazy_face
+
+if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.recording.rerun._camera import (
+        three_quarter_view as three_quarter_view,
+    )
+    from ariel.recording.rerun._campaign_rerun import (
+        CAMPAIGN_BLUEPRINT as CAMPAIGN_BLUEPRINT,
+        campaign_views as campaign_views,
+        condition_colours as condition_colours,
+        curve_chunks as curve_chunks,
+        write_campaign_blueprint as write_campaign_blueprint,
+        write_campaign_recording as write_campaign_recording,
+    )
+    from ariel.recording.rerun._generation_rrd import (
+        write_generation_blueprint as write_generation_blueprint,
+        write_generation_recording as write_generation_recording,
+    )
+    from ariel.recording.rerun._joint_names import (
+        joint_labels as joint_labels,
+    )
+    from ariel.recording.rerun._recorder import (
+        RerunRecorder as RerunRecorder,
+        archive_grid as archive_grid,
+        generation_summary as generation_summary,
+    )
+    from ariel.recording.rerun._rerun import (
+        APPLICATION_ID as APPLICATION_ID,
+        ARCHIVE_ENTITY as ARCHIVE_ENTITY,
+        RUN_SERIES as RUN_SERIES,
+        SUMMARY_SERIES as SUMMARY_SERIES,
+        archive_chunks as archive_chunks,
+        graph_archetypes as graph_archetypes,
+        rerun_module as rerun_module,
+        run_summary_chunks as run_summary_chunks,
+        static_chunk as static_chunk,
+        write_blueprint as write_blueprint,
+        write_evaluation_recording as write_evaluation_recording,
+        write_run_recording as write_run_recording,
+        write_view_recording as write_view_recording,
+    )
+
+# name -> module that defines it: for ARIEL's other packages, not part of the API
+_INTERNAL: dict[str, str] = {
+    "APPLICATION_ID": "ariel.recording.rerun._rerun",
+    "ARCHIVE_ENTITY": "ariel.recording.rerun._rerun",
+    "CAMPAIGN_BLUEPRINT": "ariel.recording.rerun._campaign_rerun",
+    "RUN_SERIES": "ariel.recording.rerun._rerun",
+    "RerunRecorder": "ariel.recording.rerun._recorder",
+    "SUMMARY_SERIES": "ariel.recording.rerun._rerun",
+    "archive_chunks": "ariel.recording.rerun._rerun",
+    "archive_grid": "ariel.recording.rerun._recorder",
+    "campaign_views": "ariel.recording.rerun._campaign_rerun",
+    "condition_colours": "ariel.recording.rerun._campaign_rerun",
+    "curve_chunks": "ariel.recording.rerun._campaign_rerun",
+    "generation_summary": "ariel.recording.rerun._recorder",
+    "graph_archetypes": "ariel.recording.rerun._rerun",
+    "joint_labels": "ariel.recording.rerun._joint_names",
+    "rerun_module": "ariel.recording.rerun._rerun",
+    "run_summary_chunks": "ariel.recording.rerun._rerun",
+    "static_chunk": "ariel.recording.rerun._rerun",
+    "three_quarter_view": "ariel.recording.rerun._camera",
+    "write_blueprint": "ariel.recording.rerun._rerun",
+    "write_campaign_blueprint": "ariel.recording.rerun._campaign_rerun",
+    "write_campaign_recording": "ariel.recording.rerun._campaign_rerun",
+    "write_evaluation_recording": "ariel.recording.rerun._rerun",
+    "write_generation_blueprint": "ariel.recording.rerun._generation_rrd",
+    "write_generation_recording": "ariel.recording.rerun._generation_rrd",
+    "write_run_recording": "ariel.recording.rerun._rerun",
+    "write_view_recording": "ariel.recording.rerun._rerun",
+}
+
+__getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -1,0 +1,212 @@
+"""``campaign.rrd``: every run's best-so-far fitness on an ``evaluations`` timeline, at
+``/condition/<name>/seed/<n>``, and ``campaign.rbl``: one time series view per condition.
+
+Rerun's time series views have no axis titles, so each view's title says what its axes are
+("best fitness so far (m) over evaluations"). Every series of a condition is named after the
+condition, so a legend lists each condition once (the viewer merges series of one name); it
+sits in the corner the best-so-far curves leave empty, and views of one condition have none.
+
+Written whole (chunks, no `RecordingStream`), like `write_run_recording`; application id
+``ariel``, recording id the campaign id.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.recording.rerun._rerun import APPLICATION_ID, _write_chunks, rerun_module, static_chunk
+from ariel.recording.store import (
+    CAMPAIGN_RRD,
+    atomic_write,
+    best_so_far,
+    load_campaign,
+    require_free_space,
+)
+
+__all__ = [
+    "CAMPAIGN_BLUEPRINT",
+    "campaign_views",
+    "condition_colours",
+    "curve_chunks",
+    "write_campaign_blueprint",
+    "write_campaign_recording",
+]
+
+CAMPAIGN_BLUEPRINT = "campaign.rbl"
+# Distinct colours per condition (matplotlib's tab10), one shade for all seeds of a condition.
+_COLOURS = [
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+]
+
+
+def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
+    """Write ``campaign.rrd`` and ``campaign.rbl`` of the campaign in ``campaign_dir`` from
+    its runs' finished generations.
+
+    The recording holds every run's best-so-far fitness over its evaluations, one line per
+    run at ``/condition/<name>/seed/<n>``, coloured by condition; the blueprint lays it out.
+
+    Args:
+        campaign_dir: The campaign folder; both files are written into it, replacing any
+            earlier ones.
+
+    Returns:
+        The path of ``campaign.rrd``.
+
+    Raises:
+        NotACampaignError: When ``campaign_dir`` is not a campaign folder.
+    """
+    campaign = load_campaign(campaign_dir)
+    colours = condition_colours(campaign.conditions)
+    chunks = []
+    for (condition, seed), run in campaign.runs.items():
+        x, best = best_so_far(run.evaluations, campaign.maximise)
+        chunks += curve_chunks(condition, seed, x, best, colours[condition])
+    path = Path(campaign.path) / CAMPAIGN_RRD
+    _write_chunks(path, str(campaign.info.get("campaign_id", "campaign")), chunks, fsync=True)
+    write_campaign_blueprint(
+        Path(campaign.path) / CAMPAIGN_BLUEPRINT,
+        campaign.path,
+        fitness_unit=_fitness_unit(campaign),
+        maximise=campaign.maximise,
+    )
+    return path
+
+
+def condition_colours(conditions: Sequence[str]) -> dict[str, tuple[int, int, int]]:
+    """Each condition's colour (one shade for all its seeds), in the conditions' order."""
+    return {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(conditions)}
+
+
+def curve_chunks(
+    condition: str,
+    seed: int,
+    x: np.ndarray,
+    best: np.ndarray,
+    colour: tuple[int, int, int],
+    *,
+    style: bool = True,
+) -> list[Any]:
+    """The chunks of one run's best-so-far curve (``x``: evaluations, ``best``: the fitness
+    so far, NaN before the first) at ``/condition/<condition>/seed/<seed>``: its style (with
+    ``style``) and its points with a finite value; none when it has no such point."""
+    from rerun.chunk import Chunk
+
+    rr = rerun_module()
+    keep = np.isfinite(best)
+    if not keep.any():
+        return []
+    entity = f"/condition/{condition}/seed/{seed}"
+    chunks = []
+    if style:
+        # Named after the condition only: the legend then lists each condition once.
+        lines = rr.SeriesLines(names=[condition], colors=[colour])
+        chunks.append(static_chunk(entity, lines))
+    index = [rr.TimeColumn("evaluations", sequence=x[keep])]
+    chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=best[keep])))
+    return chunks
+
+
+def _fitness_unit(campaign: Any) -> str | None:
+    """The unit of the campaign's fitness function (its first run's), None where unknown."""
+    from ariel.recording.store import fitness_unit
+
+    for run in campaign.runs.values():
+        name = run.config.get("task", {}).get("fitness")
+        return fitness_unit(name) if isinstance(name, str) and name else None
+    return None
+
+
+def write_campaign_blueprint(
+    path: Path,
+    campaign_dir: str | os.PathLike[str],
+    *,
+    panels: bool = True,
+    fitness_unit: str | None = None,
+    maximise: bool | None = None,
+) -> Path:
+    """The campaign's layout: every run's curve in one view, with a legend of the conditions
+    in the corner its curves leave empty (top left where fitness is maximised, bottom left
+    where minimised), then one view per condition, without legend; each view's title names
+    its axes, with the fitness function's unit. ``fitness_unit`` and ``maximise``: read from
+    the campaign's runs when not given. ``panels=False``: the side panels collapsed, for
+    pictures."""
+    from ariel.recording.store import load_campaign, read_campaign_info
+
+    conditions = [c["name"] for c in read_campaign_info(campaign_dir).get("conditions", [])]
+    if fitness_unit is None or maximise is None:
+        campaign = load_campaign(campaign_dir)
+        fitness_unit = _fitness_unit(campaign) if fitness_unit is None else fitness_unit
+        maximise = campaign.maximise if maximise is None else maximise
+    rrb = rerun_module().blueprint
+    every, views = campaign_views(conditions, fitness_unit=fitness_unit, maximise=maximise)
+    side = (
+        []
+        if panels
+        else [
+            rrb.BlueprintPanel(state="collapsed"),
+            rrb.SelectionPanel(state="collapsed"),
+            rrb.TimePanel(state="collapsed"),
+        ]
+    )
+    layout = rrb.Blueprint(
+        rrb.Vertical(
+            every,
+            rrb.Grid(*views),
+            row_shares=[1, 1],
+        ),
+        *side,
+        collapse_panels=False,
+    )
+
+    def write(temporary: Path) -> None:
+        require_free_space(temporary.parent, 1 << 20)
+        staging = temporary.with_name(temporary.name + ".rbl")  # rerun wants a .rbl name
+        try:
+            layout.save(APPLICATION_ID, str(staging))
+            os.replace(staging, temporary)
+        finally:
+            if staging.exists():
+                staging.unlink()
+
+    atomic_write(path, write)
+    return path
+
+
+def campaign_views(
+    conditions: Sequence[str], *, fitness_unit: str | None, maximise: bool
+) -> tuple[Any, list[Any]]:
+    """The campaign's curve views: every run's in one (a legend of the conditions in the
+    corner the curves leave empty: top left where fitness is maximised, bottom left where
+    minimised), and one per condition, without legend; each titled with its axes."""
+    rrb = rerun_module().blueprint
+    axes = f"best fitness so far{f' ({fitness_unit})' if fitness_unit else ''} over evaluations"
+    views = [
+        rrb.TimeSeriesView(
+            name=f"{name}: {axes}",
+            origin=f"/condition/{name}",
+            plot_legend=rrb.PlotLegend(visible=False),
+        )
+        for name in conditions
+    ]
+    corner = rrb.Corner2D.LeftTop if maximise else rrb.Corner2D.LeftBottom
+    every = rrb.TimeSeriesView(
+        name=f"every run: {axes}",
+        origin="/condition",
+        plot_legend=rrb.PlotLegend(corner=corner),
+    )
+    return every, views

@@ -1,0 +1,259 @@
+"""What the loop records in Rerun (``record.rerun``): each generation's evaluations in one
+recording, elites' 3D replays, ``run.rrd`` and the layouts, in the run folder.
+
+* ``recordings/gen-NNNNNN/evaluations.rrd``: every evaluation of the generation, one step
+  each of an ``evaluation`` timeline (`write_generation_recording`): its card, fitness, core
+  path, joints and graph. The driver keeps them as batches return and writes the file after
+  the generation's tables.
+* ``recordings/gen-NNNNNN/<eval_id>.rrd``: an evaluation's own recording with the bodies'
+  poses over time (a 3D replay, `write_evaluation_recording`), written by the driver as its
+  batch returns (so writing overlaps the workers' physics), after CMA-ES was told the
+  batch's fitness. ``record.bodies`` decides which get one: ``all``; ``elites``, the
+  evaluations that were their body's best so far when their batch returned (each improvement
+  of its brain run, hence always its final best; in a brain-only run, each new best of the
+  one brain run); ``none``. `ariel view RUN EVAL_ID` makes any other's 3D replay on demand,
+  re-simulating it exactly (``recordings/gen-NNNNNN/replays/<eval_id>.rrd``). A body that
+  cannot be built has no recording.
+* ``run.rrd``: per generation the best, mean and median fitness of the population after
+  selection (as ``Run.generations`` computes them), two diversity measures of that population
+  (``diversity``: the mean pairwise Euclidean distance between the bodies' morphology
+  descriptor vectors, the 12 descriptors as stored; ``distinct_morphologies``: the number of
+  distinct robot graphs, compared by structure, ``graph_io.graph_key``) and the best body's
+  graph; rewritten whole after every generation.
+* ``blueprint.rbl`` and ``generation.rbl``: the viewer layouts, written once.
+
+Files are written whole under a temporary name and renamed, so a killed run leaves no
+unreadable recording; recordings are not fsynced one by one (that costs ~2 ms each; Parquet,
+fsynced, is the canonical record), so after a power cut the last generations' recordings may
+be empty files. Resume deletes the recordings of unfinished generations (`RunFolder
+.discard_after`) and redoes them.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ariel.evolution import fitness_rank
+from ariel.recording.store import (
+    GENERATION_BLUEPRINT,
+    generation_recording_path,
+    recording_path,
+)
+
+if TYPE_CHECKING:
+    from ariel.recording.store import EvaluationRow
+
+__all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
+
+
+def generation_summary(
+    generation: int, body_rows: Sequence[Mapping[str, Any]], maximise: bool
+) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """One generation's ``run.rrd`` row and its best body, from its rows of the bodies table.
+
+    The population is the bodies ``selected`` into the next generation. Returns the row
+    (generation, best/mean/median fitness of its finite fitnesses, ``diversity`` and
+    ``distinct_morphologies``, see the module docstring) and the best body (``body_id``,
+    ``fitness``, ``graph``; None when no body has a finite fitness).
+    """
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
+
+    population = [row for row in body_rows if row.get("selected")]
+    fitness = np.array([float(row["fitness"]) for row in population], dtype=np.float64)
+    finite = fitness[np.isfinite(fitness)]
+    best = float((finite.max() if maximise else finite.min()) if finite.size else math.nan)
+    built = [row for row in population if row.get("status", "ok") == "ok"]
+    vectors = np.array(
+        [[float(row.get(name) or 0.0) for name in DESCRIPTOR_NAMES] for row in built],
+        dtype=np.float64,
+    ).reshape(len(built), len(DESCRIPTOR_NAMES))
+    pairs = list(itertools.combinations(range(len(built)), 2))
+    diversity = (
+        float(np.mean([np.linalg.norm(vectors[i] - vectors[j]) for i, j in pairs]))
+        if pairs
+        else 0.0
+    )
+    row = {
+        "generation": int(generation),
+        "best_fitness": best,
+        "mean_fitness": float(finite.mean()) if finite.size else math.nan,
+        "median_fitness": float(np.median(finite)) if finite.size else math.nan,
+        "diversity": diversity,
+        "distinct_morphologies": float(
+            len({graph_key(r["graph"]) if r.get("graph") else r["body_id"] for r in built})
+        ),
+    }
+    ranked = sorted(
+        population, key=lambda r: (fitness_rank(float(r["fitness"]), maximise), r["body_id"])
+    )
+    top = ranked[0] if ranked and math.isfinite(float(ranked[0]["fitness"])) else None
+    best_body = (
+        None
+        if top is None
+        else {
+            "generation": int(generation),
+            "body_id": top["body_id"],
+            "fitness": float(top["fitness"]),
+            "graph": top.get("graph") or "",
+        }
+    )
+    return row, best_body
+
+
+def archive_grid(rows: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """A MAP-Elites archive's rows as its grid of fitness (NaN in empty cells)."""
+    grid = [int(n) for n in rows[0]["grid"]] if rows else [0]
+    values = np.full(int(np.prod(grid)), np.nan)
+    for row in rows:
+        values[int(row["cell"])] = float(row["fitness"])
+    return values.reshape(grid)
+
+
+class RerunRecorder:
+    """Writes a run's Rerun files (see the module docstring); one per run, in the driver."""
+
+    def __init__(
+        self, run_dir: str | Path, *, run_id: str, bodies: str, maximise: bool, config: Any
+    ) -> None:
+        if bodies not in ("all", "elites", "none"):
+            raise ValueError(f"record.bodies must be all, elites or none, not {bodies!r}")
+        self.run_dir = Path(run_dir)
+        self.run_id = run_id
+        self.bodies = bodies
+        self.maximise = maximise
+        self.config = config
+        self._rows: dict[int, dict[str, Any]] = {}
+        self._best: dict[int, dict[str, Any]] = {}
+        self._archives: dict[int, np.ndarray] = {}  # MAP-Elites: fitness per cell
+        self._traces: dict[int, list[Any]] = {}  # per generation: its evaluations' traces
+        self._blueprint = False
+
+    @property
+    def record_bodies(self) -> bool:
+        """Whether evaluations must return body poses (``EvaluationTask.record_bodies``)."""
+        return self.bodies != "none"
+
+    def evaluation(
+        self, *, model: Any, body: Any, task: Any, result: Any, row: EvaluationRow, new_best: bool
+    ) -> Path | None:
+        """Keep the evaluation (``row``: its `EvaluationRow`) for its generation's recording, and
+        write its own recording (a 3D replay) when ``record.bodies`` asks for it; ``new_best``:
+        it improved its body's best. Returns the path of its own recording, if one was written.
+        """
+        from ariel.recording.rerun._generation_rrd import trace_of
+        from ariel.recording.rerun._rerun import write_evaluation_recording
+
+        if not self._blueprint:
+            self.write_blueprint()
+        generation = row.generation
+        properties = {
+            **row.card(),  # the row's fields marked for the card, in column order
+            "new_best": bool(new_best),
+            "body_genotype_sha1": task.body.key,
+            "n_params": len(row.controller_params),
+            # One text property, not twelve: each property is a column of ~300 bytes.
+            "morphology": json.dumps(
+                {name: float(value) for name, value in row.descriptors.items()}
+            ),
+        }
+        graph = body.graph or None
+        self._traces.setdefault(generation, []).append(trace_of(properties, result, graph))
+        if not (self.bodies == "all" or (self.bodies == "elites" and new_best)):
+            return None  # in the generation's recording only
+        return write_evaluation_recording(
+            recording_path(self.run_dir, generation, task.eval_id),
+            model=model,
+            body_names=result.body_names,
+            result=result,
+            properties=properties,
+            graph_json=graph,
+        )
+
+    def generation(
+        self,
+        generation: int,
+        body_rows: Sequence[Mapping[str, Any]],
+        archive: Sequence[Mapping[str, Any]] | None = None,
+    ) -> Path:
+        """After a generation's tables: write its evaluations' recording
+        (``recordings/gen-NNNNNN/evaluations.rrd``), add its summary (and its MAP-Elites
+        archive) and rewrite ``run.rrd``."""
+        from ariel.recording.rerun._generation_rrd import write_generation_recording
+        from ariel.recording.rerun._rerun import write_run_recording
+
+        if not self._blueprint:
+            self.write_blueprint()
+        write_generation_recording(
+            generation_recording_path(self.run_dir, generation),
+            self._traces.pop(generation, []),
+            run_id=self.run_id,
+            generation=generation,
+        )
+        self._load_earlier(generation)
+        row, best = generation_summary(generation, body_rows, self.maximise)
+        self._rows[generation] = row
+        if best is not None:
+            self._best[generation] = best
+        if archive is not None:
+            self._archives[generation] = archive_grid(archive)
+        gens = sorted(g for g in self._rows if g <= generation)
+        columns = {key: [self._rows[g][key] for g in gens] for key in row}
+        c = self.config
+        return write_run_recording(
+            self.run_dir / "run.rrd",
+            columns,
+            {g: b for g, b in self._best.items() if g <= generation},
+            archives={g: a for g, a in self._archives.items() if g <= generation},
+            run_id=self.run_id,
+            properties={
+                "run_id": self.run_id,
+                "name": c.name,
+                "seed": c.seed,
+                "generations": c.generations,
+                "generations_done": generation + 1,
+                "body_encoder": c.body.encoder,
+                "controller": c.brain.controller,
+                "world": c.world.name,
+                "fitness_fn": c.task.fitness,
+                "config": json.dumps(c.to_plain(), sort_keys=True),
+            },
+        )
+
+    def _load_earlier(self, generation: int) -> None:
+        """A resumed run: summarise the finished generations from the bodies table, once."""
+        missing = [g for g in range(generation) if g not in self._rows]
+        if not missing:
+            return
+        from ariel.recording.store import read_table
+
+        rows = read_table(self.run_dir, "bodies", up_to=generation - 1).to_pylist()
+        cells = read_table(self.run_dir, "archive", up_to=generation - 1).to_pylist()
+        for g in missing:
+            archive = [row for row in cells if row["generation"] == g]
+            if archive:
+                self._archives[g] = archive_grid(archive)
+            row, best = generation_summary(
+                g, [r for r in rows if r["generation"] == g], self.maximise
+            )
+            self._rows[g] = row
+            if best is not None:
+                self._best[g] = best
+
+    def write_blueprint(self) -> Path:
+        """Write the layouts: ``blueprint.rbl`` (evaluations, run.rrd) and ``generation.rbl``
+        (the generations' ``evaluations.rrd``)."""
+        from ariel.recording.rerun._generation_rrd import write_generation_blueprint
+        from ariel.recording.rerun._rerun import write_blueprint
+
+        path = write_blueprint(self.run_dir / "blueprint.rbl")
+        write_generation_blueprint(self.run_dir / GENERATION_BLUEPRINT)
+        self._blueprint = True
+        return path

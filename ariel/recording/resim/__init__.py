@@ -1,0 +1,43 @@
+"""Re-simulation: `replay` of a recorded evaluation, and `ariel export` of a body (its
+MJCF, genotype and brain) with `load_exported` that reads it back.
+
+Cheap to import: names are loaded from their modules on first use (`ariel.utils.lazy`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ariel.utils.lazy import lazy_face
+
+if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.recording.resim._export import (
+        export as export,
+    )
+    from ariel.recording.resim._exported import (
+        ExportedRobot as ExportedRobot,
+        load_exported as load_exported,
+    )
+    from ariel.recording.resim._replay import (
+        ReplayResult as ReplayResult,
+        UnknownEvaluationError as UnknownEvaluationError,
+        has_body_poses as has_body_poses,
+        on_demand_recording as on_demand_recording,
+        replay as replay,
+        replay_task as replay_task,
+    )
+
+# name -> module that defines it: for ARIEL's other packages, not part of the API
+_INTERNAL: dict[str, str] = {
+    "ExportedRobot": "ariel.recording.resim._exported",
+    "ReplayResult": "ariel.recording.resim._replay",
+    "UnknownEvaluationError": "ariel.recording.resim._replay",
+    "export": "ariel.recording.resim._export",
+    "has_body_poses": "ariel.recording.resim._replay",
+    "load_exported": "ariel.recording.resim._exported",
+    "on_demand_recording": "ariel.recording.resim._replay",
+    "replay": "ariel.recording.resim._replay",
+    "replay_task": "ariel.recording.resim._replay",
+}
+
+__getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -1,0 +1,199 @@
+"""Export one evaluation of a run for use outside the workbench (`ariel export`).
+
+The folder it writes holds the body in its world as MJCF (``body.xml``, MuJoCo's own viewer
+opens it: ``python -m mujoco.viewer --mjcf body.xml``), the genotype (``genotype.json``), the
+controller and its exact parameters (``controller.json``), and ``replay.py``: a short
+script of the tutorial API that rebuilds the robot (`load_exported`: the registries, the
+constructor, ``world.spawn``, `Controller`), drives it (``mjcb_control``, `simple_runner`)
+and prints where the core ends up, beside where the run recorded it (the same: the tutorial
+path equals the engine's), and the fitness of the replay (the run's fitness function on the
+frames the run recorded, `ExportedRobot.replayed_fitness`) beside the recorded one. (MJCF
+rounds numbers to 6 digits, so a simulation of ``body.xml`` drifts from the recorded path;
+it is for looking at.)
+
+A run folder is data, and so is what is exported from it: ``replay.py`` is the same text for
+every export (it reads the ids and values from ``controller.json`` when it runs), and the run
+id and evaluation id are checked against their shapes (`_ids`) before anything is written, so
+a crafted id is refused in one line instead of becoming code. Every file is written whole and
+never through a link (`_files.atomic_write`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from ariel.errors import ArielError
+
+__all__ = ["ExportError", "export"]
+
+#: The files `export` writes into its folder.
+FILES = ("body.xml", "genotype.json", "controller.json", "replay.py")
+
+#: ``replay.py``: no data of the run in it (the ids and the recorded values are read from
+#: controller.json when it runs); ``{core}`` is the core geom's name, a constant of ours.
+_SCRIPT = '''\
+"""Replay the evaluation exported to this folder with ARIEL's tutorial API: python replay.py
+
+Which evaluation of which run, and what it recorded: controller.json. The replayed fitness is
+the run's fitness function on the frames the run recorded (robot.set_control keeps them).
+"""
+
+from pathlib import Path
+
+import mujoco
+
+from ariel.recording import load_exported
+from ariel.utils.runners import simple_runner
+
+robot = load_exported(Path(__file__).resolve().parent)  # genotype.json, controller.json
+mujoco.set_mjcb_control(robot.set_control)  # robot.controller, and the fitness's frames
+simple_runner(robot.model, robot.data, duration=robot.duration)
+mujoco.mj_kinematics(robot.model, robot.data)  # the final state's positions
+print("core at", robot.data.geom("{core}").xpos.tolist())
+print("recorded core at", robot.recorded_core)  # the run's record of the same path
+unit = " " + robot.fitness_unit if robot.fitness_unit else ""
+print(
+    f"replayed fitness {{robot.replayed_fitness()!r}}{{unit}} "
+    f"(recorded {{robot.fitness!r}}{{unit}}; {{robot.fitness_fn}})"
+)
+print("evaluation", robot.eval_id, "of run", robot.run_id)
+'''
+
+
+class ExportError(ArielError, ValueError):
+    """An export that cannot be made (its folder is not empty, its body cannot be built)."""
+
+
+def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
+    """Write evaluation ``eval_id`` (or ``"best"``) of the run in ``run_dir`` to the folder
+    ``out`` (created; an existing one must be empty): `FILES`. Returns ``out``.
+
+    Raises `UnknownEvaluationError` for an id not in the run's finished generations,
+    `ExportError` for a non-empty ``out`` or a body that could not be built, and
+    `MissingPluginError` when a plugin the body or world needs is not installed here.
+    """
+    from ariel.evaluation import SPAWN_PREFIX
+    from ariel.recording.resim._replay import _find_row, _require_plugins, cell_json, replay_task
+    from ariel.recording.store import check_eval_id, check_run_id, load_run
+
+    out = Path(out)
+    if out.is_symlink():
+        raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
+    _check_way(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ExportError(f"{out}: exists and is not an empty folder; name a new one")
+    run = load_run(run_dir)
+    run_id = check_run_id(run.info.get("run_id"), run.path)
+    row = _find_row(run, eval_id)
+    check_eval_id(row["eval_id"], run.path)
+    if row["status"] == "error":
+        raise ExportError(
+            f"evaluation {row['eval_id']!r} has no body to export: its genotype cannot be "
+            f"built ({row.get('error') or 'build error'})"
+        )
+    _require_plugins(run)
+    task = replay_task(run, row, check_params=True)
+    xml = _world_spec(task).to_xml()
+    genotype = {  # as the run's encoder sees it (the task may ship the decoded graph instead)
+        "body_encoder": str(row["body_encoder"]),
+        "options": run.config.get("body", {}).get("options", {}),
+        "genotype": cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"]),
+    }
+    brain = {
+        "run_id": run_id,
+        "eval_id": str(row["eval_id"]),
+        "controller": task.controller,
+        "options": task.controller_options,
+        "params": [float(v) for v in task.params],
+        "seed": int(task.seed),
+        "duration": float(task.duration),
+        "settle": float(task.settle),
+        "control_period": int(task.control_period),
+        "smoothing": float(task.smoothing),
+        "world": task.world,
+        "world_options": task.world_options,
+        "spawn_position": list(task.spawn_position),
+        "spawn_rotation": list(task.spawn_rotation),
+        "fitness_fn": task.fitness,
+        "fitness_options": task.fitness_options,
+        "record_every": int(task.record_every),
+        "fitness": float(row["fitness"]),
+        "core_end": _recorded_core(run, row),
+    }
+    script = _SCRIPT.format(core=SPAWN_PREFIX + "core")  # the same for every export
+    texts = {
+        "body.xml": xml,
+        "genotype.json": json.dumps(genotype, indent=1) + "\n",
+        "controller.json": json.dumps(brain, indent=1) + "\n",
+        "replay.py": script,
+    }
+    _write(out, texts)
+    return out
+
+
+def _check_way(out: Path) -> None:
+    """`ExportError` where a folder on the way to ``out`` cannot be one: a symbolic link that
+    leads nowhere (dangling, or a loop), or a file."""
+    for folder in [*reversed(out.parents), out]:
+        if folder.is_symlink() and not folder.exists():
+            raise ExportError(
+                f"cannot make the folder {str(out)!r}: {str(folder)!r} is a symbolic link to "
+                f"{os.readlink(folder)!r}, which is no folder; name another folder"
+            )
+        if folder != out and folder.exists() and not folder.is_dir():
+            raise ExportError(
+                f"cannot make the folder {str(out)!r}: {str(folder)!r} is not a folder"
+            )
+
+
+def _write(out: Path, texts: dict[str, str]) -> None:
+    """Make ``out`` and write ``texts`` (file name -> text) into it, each whole; on a failed
+    write (disk full, read-only, no permission) the files written are removed again (and
+    ``out``, when made here), and `ExportError` names the file and why."""
+    from ariel.recording.store import atomic_write, cannot_write
+
+    made = not out.exists()
+    written: list[Path] = []
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for name, text in texts.items():
+            data = text.encode("utf-8")
+            path = out / name
+            atomic_write(path, lambda temporary, data=data: temporary.write_bytes(data), root=out)
+            written.append(path)
+    except OSError as exc:
+        for path in written:  # no half export: all its files or none
+            with contextlib.suppress(OSError):
+                path.unlink()
+        if made:
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise ExportError(f"{cannot_write(exc, out)}; nothing was exported") from exc
+
+
+def _recorded_core(run: Any, row: dict[str, Any]) -> list[float] | None:
+    """Where the run recorded the core at the evaluation's end (its last trajectory frame);
+    None where the run kept no trajectories."""
+    from ariel.recording.store import evaluation_trajectory
+
+    frames = evaluation_trajectory(run, row)
+    if frames is None or not len(frames):
+        return None
+    last = frames.iloc[-1]  # sorted by time
+    return [float(last["core_x"]), float(last["core_y"]), float(last["core_z"])]
+
+
+def _world_spec(task: Any) -> Any:
+    """``task``'s body spawned in its world: the `mujoco.MjSpec` that `build` compiles."""
+    from ariel.evaluation import make_plugin, robot_module
+    from ariel.plugins import body_encoders, worlds
+
+    encoder = make_plugin(body_encoders, task.body.encoder, task.body.options)
+    world = make_plugin(worlds, task.world, task.world_options)
+    core, _ = robot_module(encoder, task.body.genotype)
+    world.spawn(core.spec, position=task.spawn_position, rotation=task.spawn_rotation)
+    return world.spec

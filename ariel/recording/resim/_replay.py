@@ -1,0 +1,641 @@
+"""Replay one evaluation of a run from its run folder alone, reproducing its stored fitness.
+
+The run folder holds everything an evaluation depends on: the resolved config in ``run.json``
+(plugins, options, duration, control, spawn, record rate) and the evaluation's row (genotype,
+controller parameters as float64, seed). `replay` rebuilds the very task the loop built (both
+call `ariel.evolution._tasks.evaluation_task`), evaluates it, and compares the fitness bit for
+bit. Same software versions => the same fitness; `ReplayResult.version_differences` names the
+versions that differ from those the run recorded.
+
+Fitness functions see the recorded frames, so the stored fitness is reproduced at the run's own
+``record.rate_hz``; `ReplayResult.full_rate` re-simulates the same evaluation recording every
+physics step and every body's pose (for a Rerun recording, a video or the viewer). Recording
+does not change the physics: the full-rate trajectory passes through the same states.
+
+An evaluation run on MuJoCo Warp (``backend`` ``mujoco-warp:<device>``, executor ``gpu``) is
+re-simulated on MuJoCo Warp again where its device is available here (else on the CPU engine),
+as a batch of one world: float32 physics whose summation order depends on the batch, so the
+replayed fitness is close to the stored one but not expected to equal it;
+`ReplayResult.difference` says by how much.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import tempfile
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.errors import DamagedRunError, MissingPluginError, UnknownEvaluationError
+from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record_steps, shipped_body
+from ariel.plugins import REGISTRIES, body_encoders, controllers
+from ariel.recording.store import (
+    Run,
+    check_eval_id,
+    git_commit,
+    json_data,
+    load_run,
+    recording_path,
+    refuse_symlinks,
+    short_ascii,
+    software_versions,
+)
+from ariel.utils import has_display, load_run_command
+
+__all__ = [
+    "MissingPluginError",
+    "ReplayResult",
+    "UnknownEvaluationError",
+    "has_body_poses",
+    "on_demand_recording",
+    "replay",
+]
+
+#: `replay(run, BEST)` replays the run's best evaluation.
+BEST = "best"
+
+#: Where `on_demand_recording` keeps the 3D replays it makes, inside the generation's folder
+#: of recordings (so a resume that discards the generation discards them too).
+REPLAYS = "replays"
+
+# Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
+_DECISIVE = ("mujoco", "numpy", "torch", "ariel")
+
+
+#: The plugins a replay needs: run.json's ``plugins`` kind -> config key.
+_PLUGIN_KEYS = {
+    "body_encoder": ("body", "encoder"),
+    "controller": ("brain", "controller"),
+    "world": ("world", "name"),
+    "fitness": ("task", "fitness"),
+}
+
+
+def _require_plugins(run: Run) -> None:
+    """`MissingPluginError`, one line, for the first of the run's plugins not installed here
+    (reading a run needs none of them; re-simulating it needs all)."""
+    for kind, (section, key) in _PLUGIN_KEYS.items():
+        name = run.config.get(section, {}).get(key)
+        if not isinstance(name, str):
+            continue
+        registry = REGISTRIES[kind]
+        try:
+            registry.get(name)
+        except (KeyError, ValueError, ImportError):
+            served = (run.info.get("plugins") or {}).get(kind) or {}
+            source = served.get("distribution") if isinstance(served, dict) else None
+            hint = f"install {source}" if source else "install the package that provides it"
+            raise MissingPluginError(
+                f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
+                f"({section}.{key}) is not installed here; {hint} (report, load_run and view "
+                "need no plugins)"
+            ) from None
+
+
+def _fitness_bits(value: float) -> bytes:
+    return np.float64(value).tobytes()
+
+
+def _same_bits(a: float, b: float) -> bool:
+    """Bit-identical float64 values (so 0.0 and -0.0 differ, and NaN equals the same NaN)."""
+    return _fitness_bits(a) == _fitness_bits(b)
+
+
+@dataclass
+class ReplayResult:
+    """One evaluation re-simulated from its run folder.
+
+    Attributes:
+        run: the loaded run (`ariel.recording.Run`).
+        row: the evaluation's row of the evaluations table (a dict).
+        task: the rebuilt `EvaluationTask` (the loop's task, bit for bit).
+        result: the `EvaluationResult` of evaluating it again.
+        stored_fitness / fitness: the fitness in the table and the replayed one.
+        identical: the two are the same float64, bit for bit (and so are the statuses).
+        stored_backend / backend: the simulator of the stored and of the replayed fitness.
+        exact: whether a bit-for-bit match is expected (both on the CPU engine).
+        difference: replayed minus stored fitness.
+        version_differences: ``{package: (recorded, now)}`` for versions that decide results.
+    """
+
+    run: Run
+    row: dict[str, Any]
+    task: Any
+    result: Any
+    version_differences: dict[str, tuple[Any, Any]] = field(default_factory=dict)
+    _full_rate: Any = field(default=None, repr=False)
+
+    @property
+    def eval_id(self) -> str:
+        return str(self.row["eval_id"])
+
+    @property
+    def stored_fitness(self) -> float:
+        return float(self.row["fitness"])
+
+    @property
+    def fitness(self) -> float:
+        return float(self.result.fitness)
+
+    @property
+    def stored_status(self) -> str:
+        return str(self.row["status"])
+
+    @property
+    def status(self) -> str:
+        return str(self.result.status)
+
+    @property
+    def stored_backend(self) -> str:
+        backend = self.row.get("backend")
+        return backend if isinstance(backend, str) and backend else "mujoco"
+
+    @property
+    def backend(self) -> str:
+        return str(self.result.backend)
+
+    @property
+    def exact(self) -> bool:
+        return self.stored_backend == "mujoco" and self.backend == "mujoco"
+
+    @property
+    def difference(self) -> float:
+        return self.fitness - self.stored_fitness
+
+    @property
+    def identical(self) -> bool:
+        return _same_bits(self.fitness, self.stored_fitness) and self.status == self.stored_status
+
+    @property
+    def model(self) -> Any:
+        """The compiled body in its world (`ariel.evaluation.build`); raises for an error body."""
+        from ariel.evaluation import build  # MuJoCo: after the GL backend is chosen (see cli)
+
+        return build(self.task).model
+
+    # -- full-rate re-simulation ---------------------------------------------------------------
+
+    def full_rate(self) -> Any:
+        """The same evaluation with a frame every physics step and every body's pose.
+
+        Its ``fitness`` is the fitness function on these dense frames, which may differ from
+        the stored one (computed on the run's ``record.rate_hz`` frames) for functions that
+        look at more than the first and last frame.
+        """
+        if self._full_rate is None:
+            from ariel.evaluation import evaluate
+
+            dense = replace(self.task, record_every=1, record_bodies=True)
+            self._full_rate = evaluate(dense)
+        return self._full_rate
+
+    def controls(self) -> np.ndarray:
+        """The control in force during each physics step, ``(nstep, nu)``."""
+        dense = self.full_rate()
+        return np.asarray(dense.joint_target[:-1])
+
+    def properties(self) -> dict[str, Any]:
+        """What a recording of this replay stores about it (plain values)."""
+        row = self.row
+        dense = self.full_rate()
+        return {
+            "run_id": str(row.get("run_id", "")),
+            "eval_id": self.eval_id,
+            "generation": int(row["generation"]),
+            "body_id": str(row["body_id"]),
+            "body_encoder": str(row["body_encoder"]),
+            "body_genotype": str(row["body_genotype"]),
+            "controller": str(row["controller"]),
+            "controller_params": [float(v) for v in row["controller_params"]],
+            "world": str(row["world"]),
+            "fitness_fn": str(row["fitness_fn"]),
+            "seed": int(row["seed"]),
+            "fitness": self.stored_fitness,
+            "replayed_fitness": self.fitness,
+            "identical": self.identical,
+            "full_rate_fitness": float(dense.fitness),
+            "record_every": 1,
+            "status": self.status,
+        }
+
+    def graph_json(self) -> str | None:
+        """The body's morphology graph (networkx node-link JSON) from the bodies table;
+        `DamagedRunError` for one that is not a JSON object (a changed table)."""
+        bodies = self.run.bodies
+        mine = bodies[bodies["body_id"] == self.row["body_id"]]
+        graphs = [g for g in mine["graph"] if isinstance(g, str) and g]
+        if not graphs:
+            return None
+        if not isinstance(cell_json(self.run, self.row, "bodies", "graph", graphs[0]), dict):
+            raise _changed(self.run, self.row, "bodies", "its body's graph is not a JSON object")
+        return graphs[0]
+
+    def write_rrd(self, path: str | Path) -> Path:
+        """A Rerun recording of the full-rate replay (3D bodies over time, joints, graph)."""
+        from ariel.recording.rerun import write_evaluation_recording
+
+        self._need_body("a recording")
+        dense = self.full_rate()
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return write_evaluation_recording(
+            path,
+            model=self.model,
+            body_names=dense.body_names,
+            result=dense,
+            properties=self.properties(),
+            graph_json=self.graph_json(),
+            transforms=True,
+        )
+
+    def write_video(
+        self, path: str | Path, *, width: int = 640, height: int = 480, fps: int = 30
+    ) -> Path:
+        """An MP4 of the replay, filmed by a camera that tracks the robot's core."""
+        # mujoco is imported already (the replay simulated), so it renders with the backend
+        # MUJOCO_GL named then (`ariel replay --video` sets egl first where no display is set;
+        # setting it now would be ignored); one that fails is create_renderer's one line.
+        import mujoco
+
+        from ariel.evaluation import SPAWN_PREFIX
+        from ariel.utils.renderers import tracking_video_renderer
+        from ariel.utils.video_recorder import VideoRecorder
+
+        self._need_body("a video")
+        model = self.model
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".replay-") as scratch:
+            recorder = VideoRecorder(
+                "replay", output_folder=scratch, width=width, height=height, fps=fps
+            )
+            with self.driven(model):
+                tracking_video_renderer(
+                    model,
+                    mujoco.MjData(model),
+                    duration=self.task.duration,
+                    video_recorder=recorder,
+                    geom_to_track=f"{SPAWN_PREFIX}core",
+                )
+            os.replace(recorder.path, path)  # the recorder stamps its names; keep the asked one
+        return path
+
+    def view(self, *, loop: bool = True) -> None:
+        """Play the replay in MuJoCo's interactive viewer, in real time (needs a display)."""
+        import mujoco
+        import mujoco.viewer
+
+        if not has_display():
+            raise RuntimeError("no display: the viewer needs a desktop session (DISPLAY unset)")
+        self._need_body("the viewer")
+        model = self.model
+        controls = self.controls()
+        data = mujoco.MjData(model)
+        dt = float(model.opt.timestep)
+        with mujoco.viewer.launch_passive(model, data) as viewer:
+            while viewer.is_running():
+                mujoco.mj_resetData(model, data)
+                start = time.perf_counter()
+                for k in range(controls.shape[0]):
+                    if not viewer.is_running():
+                        return
+                    data.ctrl[:] = controls[k]
+                    mujoco.mj_step(model, data)
+                    viewer.sync()
+                    ahead = (k + 1) * dt - (time.perf_counter() - start)
+                    if ahead > 0:
+                        time.sleep(ahead)
+                if not loop:
+                    return
+
+    @contextlib.contextmanager
+    def driven(self, model: Any) -> Iterator[None]:
+        """While inside, every ``mj_step`` of ``model`` applies this replay's controls.
+
+        Sets the process-wide ``mjcb_control`` (what the tutorial renderers step with) to set
+        ``ctrl`` to the control of the current physics step, and restores the previous one.
+        """
+        import mujoco
+
+        controls = self.controls()
+        dt = float(model.opt.timestep)
+        last = controls.shape[0] - 1
+
+        def apply(m: Any, d: Any) -> None:
+            if m.nu:
+                d.ctrl[:] = controls[min(max(0, round(d.time / dt)), last)]
+
+        previous = mujoco.get_mjcb_control()
+        mujoco.set_mjcb_control(apply)
+        try:
+            yield
+        finally:
+            mujoco.set_mjcb_control(previous)
+
+    def _need_body(self, what: str) -> None:
+        if self.stored_status == "error":
+            raise ValueError(
+                f"evaluation {self.eval_id!r} has no body to show in {what}: its genotype "
+                f"cannot be built ({self.row.get('error') or 'build error'})"
+            )
+
+
+def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
+    evals = run.evaluations
+    if eval_id == BEST:
+        ok = evals[evals["fitness"].map(math.isfinite)]
+        if len(ok):
+            index = ok["fitness"].idxmax() if run.maximise else ok["fitness"].idxmin()
+            return evals.loc[index].to_dict()
+    else:
+        found = evals[evals["eval_id"] == eval_id]
+        if len(found):
+            return found.iloc[0].to_dict()
+
+    quoted = str(run.path)
+    where = (
+        f"no finished generation in run {quoted!r} yet"
+        if not len(evals)
+        else f"no evaluation {eval_id!r} in the finished generations of run {quoted!r}"
+    )
+    listing = 'r.evaluations[["generation", "eval_id", "fitness"]].to_string(index=False)'
+    raise UnknownEvaluationError(
+        f"{where}; ids look like b000012-i003-c005 ('best' for the best one); list them with "
+        f"{load_run_command(run.path, what=listing)}"
+    )
+
+
+def _recorded_software(run: Run, generation: int) -> tuple[dict[str, Any], Any]:
+    """Versions and commit of the software that ran ``generation``: the last of run.json's
+    ``segments`` (one per run or resume) that started at or before it; else the run's own."""
+    versions, commit = run.info.get("versions") or {}, run.info.get("git_commit")
+    segments = run.info.get("segments")
+    for segment in segments if isinstance(segments, list) else []:
+        start = segment.get("from_generation") if isinstance(segment, dict) else None
+        if isinstance(start, int) and start <= generation:
+            versions = segment.get("versions") or {}
+            commit = segment.get("git_commit")
+    return (versions if isinstance(versions, dict) else {}), commit
+
+
+def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[Any, Any]]:
+    recorded, commit_then = _recorded_software(run, generation)
+    now = software_versions()
+    differences = {
+        name: (recorded.get(name), now.get(name))
+        for name in _DECISIVE
+        if name in recorded and recorded.get(name) != now.get(name)
+    }
+    commit = git_commit()
+    if commit_then and commit and commit_then != commit:
+        differences["git_commit"] = (commit_then, commit)
+    return differences
+
+
+def cell_json(run: Run, row: dict[str, Any], table: str, column: str, text: Any) -> Any:
+    """The JSON in the cell ``column`` of ``table`` (``text``) for evaluation ``row`` of
+    ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
+    that is not JSON is a changed table: `DamagedRunError`, one line."""
+    try:
+        return json_data(text)
+    except (TypeError, ValueError) as exc:
+        raise _changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
+
+
+def _changed(run: Run, row: dict[str, Any], table: str, problem: str) -> DamagedRunError:
+    return DamagedRunError(
+        f"evaluation {short_ascii(row.get('eval_id'))} of run {str(run.path)!r}: {problem}; "
+        f"the {table} table was changed or damaged"
+    )
+
+
+def _row_params(row: dict[str, Any]) -> np.ndarray | None:
+    """The row's controller parameters, float64; None where they are not a list of finite
+    numbers (a changed table)."""
+    try:
+        params = np.asarray(row["controller_params"], dtype=np.float64)
+    except (KeyError, TypeError, ValueError):
+        return None
+    return params if params.ndim == 1 and np.all(np.isfinite(params)) else None
+
+
+def _check_params(
+    run: Run, row: dict[str, Any], task: Any, model: Any, params: np.ndarray | None
+) -> None:
+    """`DamagedRunError` naming the evaluation, the number of parameters its row holds and the
+    number its body's controller needs, where the two differ (a changed table)."""
+
+    from ariel.evaluation import make_plugin
+
+    controller = make_plugin(controllers, task.controller, task.controller_options)
+    needed = controller.num_parameters(model)
+    if params is not None and len(params) == needed:
+        return
+    found = (
+        f"{len(params)} controller parameters"
+        if params is not None
+        else "controller parameters that are not a list of finite numbers"
+    )
+    raise _changed(
+        run,
+        row,
+        "evaluations",
+        f"its row holds {found}, but its body's controller {task.controller!r} needs {needed} "
+        f"({model.nu} actuators)",
+    )
+
+
+def replay_task(
+    run: Run, row: dict[str, Any], *, graph: str | None = None, check_params: bool = False
+) -> Any:
+    """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``.
+
+    ``graph``: the body's decoded robot graph (the bodies table's ``graph``), the form the
+    loop's tasks carry (`shipped_body`) for an encoder that decodes to a graph: used as it is
+    instead of decoding the genotype again (the NDE's decoding imports torch, ~2 s).
+    ``check_params`` (to re-simulate): `DamagedRunError` where the row's controller parameters
+    are not as many finite numbers as its body's controller needs (a changed table); without
+    it (to draw the body), parameters that are not a list of finite numbers are left out.
+    A genotype or graph cell that is not JSON is `DamagedRunError` either way.
+    """
+
+    from ariel.evaluation import BodyBuildError, BodySpec, build
+
+    config = ExperimentConfig.from_plain(run.config)
+    encoder = config.body.encoder
+    if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
+        spec = BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
+    else:
+        genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
+        spec = shipped_body(config, body_spec(config, genotype))
+    fields: dict[str, Any] = {
+        "seed": int(row["seed"]),
+        "eval_id": str(row["eval_id"]),
+    }
+    params = _row_params(row)
+    # An error row's body cannot be built: evaluating its task gives the same error again.
+    with contextlib.suppress(BodyBuildError):
+        shape = evaluation_task(config, spec)
+        model = build(shape).model
+        fields["record_every"] = record_steps(config, model.opt.timestep)
+        if check_params:
+            _check_params(run, row, shape, model, params)
+    return evaluation_task(config, spec, () if params is None else params, **fields)
+
+
+def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
+    """Re-simulate evaluation ``eval_id`` (or ``"best"``) of the run in ``run_dir``.
+
+    The task is rebuilt from the run's records as the loop built it, and evaluated on the
+    simulator the row names where it is installed here (else the CPU engine).
+
+    Args:
+        run_dir: The run folder.
+        eval_id: An evaluation id of its finished generations (e.g. ``"b000012-i003-c005"``),
+            or ``"best"``: the run's best evaluation.
+
+    Returns:
+        The evaluation re-simulated: the stored and the replayed fitness, whether they are
+        identical (bit for bit), and the versions of packages that decide results where
+        they differ from the run's.
+
+    Raises:
+        UnknownEvaluationError: For an id not in the run's finished generations.
+        MissingPluginError: When a plugin of the run is not installed here.
+        NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
+            were changed).
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, replay
+
+        again = replay(list_runs()[-1]["path"], "best")  # a run folder under data/runs
+        print(again.eval_id, again.stored_fitness, again.fitness, again.identical)
+        ```
+    """
+    run = load_run(run_dir)
+    row = _find_row(run, eval_id)
+    _require_plugins(run)
+    task = replay_task(run, row, check_params=True)
+    result = _evaluate_as_stored(task, row.get("backend"))
+    return ReplayResult(
+        run=run,
+        row=row,
+        task=task,
+        result=result,
+        version_differences=_version_differences(run, int(row["generation"])),
+    )
+
+
+def _evaluate_as_stored(task: Any, backend: Any) -> Any:
+    """Evaluate ``task`` on the simulator the row names where it is here, else the CPU engine."""
+    from ariel.evaluation import evaluate
+
+    prefix = "mujoco-warp:"
+    if isinstance(backend, str) and backend.startswith(prefix):
+        from ariel.evaluation import WarpEvaluator, WarpUnavailableError
+
+        try:
+            evaluator = WarpEvaluator(backend[len(prefix) :])
+        except (WarpUnavailableError, ValueError):  # not installed, no such device, unknown
+            return evaluate(task)
+        return evaluator.evaluate_batch([task])[0]
+    return evaluate(task)
+
+
+def has_body_poses(path: str | Path) -> bool:
+    """Whether the ``.rrd`` at ``path`` holds the robot's body poses over time (a 3D replay)."""
+    from rerun.chunk import RrdReader
+
+    store = RrdReader(Path(path)).stream().collect()
+    return any(
+        chunk.entity_path == "/world/robot" and not chunk.is_static
+        for chunk in store.stream().to_chunks()
+    )
+
+
+def replay_recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
+    """``recordings/gen-NNNNNN/replays/<eval_id>.rrd``: an on-demand 3D replay's cache file;
+    an ``eval_id`` that is not one (a crafted table's ``../../x``) is refused in one line
+    (`DamagedRunError`), never a path outside the run folder."""
+    check_eval_id(eval_id, run_dir)
+    return recording_path(run_dir, generation, eval_id).parent / REPLAYS / f"{eval_id}.rrd"
+
+
+def on_demand_recording(run_dir: str | Path, eval_id: str) -> Path:
+    """The 3D replay of evaluation ``eval_id`` as the loop records an elite (``record.bodies =
+    "all"``): its recording with the bodies' poses at the run's ``record.rate_hz``, made by
+    re-simulating it exactly (`replay`), written atomically to `replay_recording_path` and
+    reused from there. The poses equal, bit for bit, those an ``all`` run records (recording
+    them never changes the physics). Raises as `replay` does.
+    """
+    from ariel.recording.rerun import write_evaluation_recording
+
+    run = load_run(run_dir)
+    row = _find_row(run, eval_id)
+    path = replay_recording_path(run.path, int(row["generation"]), str(row["eval_id"]))
+    if path.is_file():
+        return path
+    _require_plugins(run)
+    replayed = ReplayResult(run=run, row=row, task=None, result=None)
+    replayed._need_body("a 3D replay")
+    graph = replayed.graph_json()
+    # Poses are computed from the recorded frames after the physics: the same physics.
+    task = replace(replay_task(run, row, graph=graph, check_params=True), record_bodies=True)
+    replayed.task = task
+    result = _evaluate_as_stored(task, row.get("backend"))
+    replayed.result = result
+    refuse_symlinks(path, run.path)
+    return write_evaluation_recording(
+        path,
+        model=replayed.model,
+        body_names=result.body_names,
+        result=result,
+        properties=_recorder_properties(run, row, task, result),
+        graph_json=graph,
+        transforms=True,
+    )
+
+
+def _recorder_properties(run: Run, row: dict[str, Any], task: Any, result: Any) -> dict[str, Any]:
+    """The properties the loop's recorder gives an evaluation's recording, from its row, and
+    the replayed fitness (``replayed_fitness``, ``identical``)."""
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    config = run.config
+    stored = float(row["fitness"])
+    parents = row.get("parent_ids")
+    return {
+        "eval_id": str(row["eval_id"]),
+        "run_id": str(row.get("run_id", "")),
+        "generation": int(row["generation"]),
+        "body_id": str(row["body_id"]),
+        "iteration": int(row["iteration"]),
+        "candidate": int(row["candidate"]),
+        "parent_ids": [str(p) for p in ([] if parents is None else parents)],
+        "fitness": stored,
+        "status": str(row["status"]),
+        "error": row.get("error"),
+        "seed": int(row["seed"]),
+        "body_encoder": str(row["body_encoder"]),
+        "body_genotype_sha1": task.body.key,
+        "controller": str(row["controller"]),
+        "n_params": len(task.params),
+        "world": str(row["world"]),
+        "fitness_fn": str(row["fitness_fn"]),
+        "morphology": json.dumps(
+            {name: float(row[name]) for name in DESCRIPTOR_NAMES if name in row}
+        ),
+        "replayed": True,
+        "replayed_fitness": float(result.fitness),
+        "identical": _same_bits(float(result.fitness), stored),
+        "record_bodies": str(config.get("record", {}).get("bodies", "")),
+    }

@@ -1,0 +1,40 @@
+"""A plugin that raised during a run: the run stops with one line, the traceback in
+``RUN/error.log`` (written here: the run folder is this layer's)."""
+
+from __future__ import annotations
+
+import traceback
+from pathlib import Path
+from typing import Any
+
+from ariel.errors import PluginFailedError
+from ariel.evolution import ERROR_LOG, ExperimentConfig, plugin_named
+from ariel.utils import ariel_line
+
+__all__ = ["plugin_failure"]
+
+
+def plugin_failure(
+    run_dir: str | Path, config: ExperimentConfig, task: Any, exc: BaseException
+) -> PluginFailedError:
+    """The `PluginFailedError` for ``exc``, raised evaluating ``task``; writes the full
+    traceback (with the worker's, when it came from one) to ``RUN/error.log`` first."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from ariel.recording.store._files import atomic_write_bytes
+
+    if isinstance(exc, BrokenProcessPool):  # the pool, not an evaluation, failed
+        return PluginFailedError(f"the executor's workers failed: {exc}")
+    first = (f"{type(exc).__name__}: {exc}".splitlines() or [""])[0]
+    text = "".join(traceback.format_exception(exc))
+    log = Path(run_dir) / ERROR_LOG
+    where = f"; full traceback in {log}"
+    try:
+        atomic_write_bytes(log, f"evaluation {task.eval_id}\n{text}".encode(), root=run_dir)
+    except (OSError, ValueError):  # the folder cannot take it: the line alone must do
+        where = ""
+    return PluginFailedError(
+        f"{plugin_named(config, text)} failed in evaluation {task.eval_id}: {first}{where}; "
+        f"the run stopped, its finished generations are kept: fix the plugin, then "
+        f"{ariel_line('resume', run_dir)}"
+    )

@@ -1,0 +1,211 @@
+"""Crash-safe file writing: whole files under a temporary name, fsynced, then renamed.
+
+A reader (or a resumed run) therefore sees either the previous file or the complete new one,
+never a half-written file, whenever the writing process is killed.
+
+Nothing is written through a symbolic link: a run folder comes from anywhere (copied, mailed,
+unpacked), and a link planted in it (``report -> ~``, ``.run.json.tmp -> ~/.bashrc``) must not
+make the workbench write outside it. The temporary is created fresh (``O_EXCL | O_NOFOLLOW``,
+after removing whatever had its name) and renamed over the final name, which replaces a link
+rather than following it; a folder on the way that is a link is refused (`UnsafePathError`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import re
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+from ariel.errors import DamagedRunError, UnsafePathError
+from ariel.utils import ariel_line, replace_non_finite
+
+__all__ = [
+    "UnsafePathError",
+    "atomic_write",
+    "atomic_write_bytes",
+    "atomic_write_json",
+    "cannot_write",
+    "damaged",
+    "json_text",
+    "refuse_symlinks",
+    "remove_temporaries",
+    "require_free_space",
+    "within",
+    "written_path",
+]
+
+TEMP_SUFFIX = ".tmp"
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+
+
+def within(path: str | os.PathLike[str], root: str | os.PathLike[str]) -> bool:
+    """``path``, with every link resolved, lies in ``root`` (also resolved), or is it."""
+    path, root = Path(os.path.realpath(path)), Path(os.path.realpath(root))
+    return path == root or root in path.parents
+
+
+def refuse_symlinks(path: str | os.PathLike[str], root: str | os.PathLike[str] | None) -> None:
+    """Raise `UnsafePathError` when a folder between ``root`` (itself may be a link: the user
+    named it) and ``path`` is a symbolic link; without ``root``, only ``path``'s own folder is
+    checked. Folders that do not exist yet are made as real folders by the writer."""
+    path = Path(path)
+    if root is None:
+        parents = [path.parent]
+    else:
+        root = Path(root)
+        try:
+            inner = path.parent.relative_to(root)
+        except ValueError:
+            parents = [path.parent]
+        else:
+            parents = [root.joinpath(*inner.parts[: i + 1]) for i in range(len(inner.parts))]
+    for folder in parents:
+        if folder.is_symlink():
+            raise UnsafePathError(
+                f"refusing to write {str(path)!r}: {str(folder)!r} is a symbolic link (to "
+                f"{os.readlink(folder)!r}); a run folder's files are written only inside it: "
+                "remove the link"
+            )
+
+
+_OS_ERROR = re.compile(r"\(os error (\d+)\)")
+
+
+def _temporary(path: Path) -> Path:
+    # Hidden ("." prefix): Parquet dataset readers and globs for gen-*.parquet skip it.
+    return path.with_name(f".{path.name}{TEMP_SUFFIX}")
+
+
+def written_path(path: Path) -> Path | None:
+    """The file a temporary stands for (`_temporary`'s inverse); None for any other name."""
+    name = path.name
+    if name.startswith(".") and name.endswith(TEMP_SUFFIX) and len(name) > 1 + len(TEMP_SUFFIX):
+        return path.with_name(name[1 : -len(TEMP_SUFFIX)])
+    return None
+
+
+def _fsync_dir(folder: Path) -> None:
+    with contextlib.suppress(OSError):  # not every file system lets a directory be opened
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _fresh(temporary: Path) -> None:
+    """Create ``temporary`` empty and new: whatever had its name (a killed writer's leftover, or
+    a planted link) is removed, not followed, so ``write`` writes into a file of ours."""
+    with contextlib.suppress(FileNotFoundError):
+        temporary.unlink()
+    fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o644)
+    os.close(fd)
+
+
+def atomic_write(
+    path: Path,
+    write: Callable[[Path], Any],
+    *,
+    fsync: bool = True,
+    root: str | os.PathLike[str] | None = None,
+) -> None:
+    """Call ``write(temporary_path)``, fsync the result and rename it to ``path``.
+
+    ``fsync=False`` skips both fsyncs (the rename still makes the file appear whole to any
+    reader and to a killed writer's resume; durability across a power cut is then the
+    caller's business, e.g. one ``os.sync()`` for many files). ``root``: the run folder
+    ``path`` lies in; a folder between the two that is a symbolic link is refused
+    (`UnsafePathError`), as is ``path``'s own folder without ``root``.
+    """
+    path = Path(path)
+    refuse_symlinks(path, root)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = _temporary(path)
+    try:
+        _fresh(temporary)
+        write(temporary)
+        if fsync:
+            with open(temporary, "rb+") as file:
+                os.fsync(file.fileno())
+        os.replace(temporary, path)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            temporary.unlink()
+        if isinstance(exc, OSError) and exc.filename is None:
+            exc.filename = str(path)  # e.g. pyarrow's errors name no file: say which one
+        found = _OS_ERROR.search(str(exc)) if isinstance(exc, RuntimeError) else None
+        if found:  # Rerun's writers report a failed write as RuntimeError("... (os error 28)")
+            number = int(found.group(1))
+            raise OSError(number, os.strerror(number), str(path)) from exc
+        raise
+    if fsync:
+        _fsync_dir(path.parent)
+
+
+def cannot_write(exc: OSError, path: str | os.PathLike[str] | None = None) -> str:
+    """``cannot write 'FILE': REASON``, one line, for a write that failed with ``exc`` (disk
+    full, read-only file system, no permission, ...): the file the error names (for a
+    temporary, the file it stands for), else ``path``; the reason from its errno."""
+    name = exc.filename if exc.filename is not None else path
+    if name is None:
+        return f"cannot write: {exc.strerror or exc}"
+    shown = Path(os.fsdecode(name))
+    shown = written_path(shown) or shown
+    reason = os.strerror(exc.errno) if exc.errno else (exc.strerror or type(exc).__name__)
+    return f"cannot write {str(shown)!r}: {reason}"
+
+
+def require_free_space(folder: Path, needed: int) -> None:
+    """Raise ``OSError(ENOSPC)`` when ``folder``'s file system has less than ``needed`` bytes
+    free, for writers that report a full disk only in a log (Rerun's blueprint writer)."""
+    try:
+        stats = os.statvfs(folder)
+    except (OSError, AttributeError):  # unknown: let the write itself find out
+        return
+    if stats.f_bavail * stats.f_frsize < needed:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(folder))
+
+
+def atomic_write_bytes(
+    path: Path, data: bytes, *, root: str | os.PathLike[str] | None = None
+) -> None:
+    atomic_write(path, lambda temporary: temporary.write_bytes(data), root=root)
+
+
+def json_text(data: Any) -> str:
+    """Strict JSON of ``data`` (non-finite floats as null: Python's ``NaN`` / ``Infinity``
+    tokens are not JSON, and other readers refuse them), indented, ending in a newline."""
+    plain = replace_non_finite(data, lambda x: None)
+    return json.dumps(plain, indent=2, sort_keys=False, allow_nan=False) + "\n"
+
+
+def atomic_write_json(path: Path, data: Any, *, root: str | os.PathLike[str] | None = None) -> None:
+    atomic_write_bytes(path, json_text(data).encode(), root=root)
+
+
+def remove_temporaries(folder: Path) -> Iterator[Path]:
+    """Delete leftover temporary files under ``folder`` (a killed writer's); yields each.
+
+    Walks real folders only: a linked folder may lead out of the run folder."""
+    for parent, folders, files in os.walk(folder, followlinks=False):
+        folders[:] = [name for name in folders if not os.path.islink(os.path.join(parent, name))]
+        for name in files:
+            temporary = Path(parent, name)
+            if written_path(temporary) is None:
+                continue
+            with contextlib.suppress(OSError):
+                temporary.unlink()
+                yield temporary
+
+
+def damaged(run_dir: str | Path, name: str, problem: str) -> DamagedRunError:
+    """The one line for a damaged file ``name`` (relative to ``run_dir``) of a run."""
+    return DamagedRunError(
+        f"run folder {str(run_dir)!r} is damaged: {name} {problem}; restore the folder from a "
+        f"copy ({ariel_line('verify', run_dir)} lists every damaged file)"
+    )

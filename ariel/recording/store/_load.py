@@ -1,0 +1,458 @@
+"""Load a run folder into pandas: `load_run(path)` and `list_runs(folder)`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.recording.store._escape import terminal_text
+from ariel.recording.store._run_folder import DamagedRunError, NotARunError, RunFolder
+from ariel.recording.store._tables import read_table, to_pandas
+
+#: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
+FAILED_STATUSES = ("error", "unstable", "invalid")
+
+__all__ = [
+    "QD_COLUMNS",
+    "Run",
+    "archive_quality_table",
+    "list_runs",
+    "load_run",
+    "population_after_selection",
+]
+
+
+@dataclass
+class Run:
+    """A run's records. Tables load on first access and hold finished generations only.
+
+    Attributes:
+        path: the run folder.
+        info: ``run.json`` (status, seed, versions, plugin provenance, times, ...).
+        config: the resolved experiment config as a dict.
+        manifest: what the finished generations' tables must be (a
+            `ariel.recording.store._manifest.Manifest`: each file's size and SHA-256), checked as
+            the tables are read; None reads them unchecked.
+    """
+
+    path: Path
+    info: dict[str, Any]
+    config: dict[str, Any] = field(init=False)
+    manifest: Any = field(default=None, repr=False)  # `_manifest.Manifest`: what is checked
+
+    def __post_init__(self) -> None:
+        config = self.info.get("config")
+        self.config = config if isinstance(config, dict) else {}
+
+    def __repr__(self) -> str:
+        """One line: ``<Run ID: STATUS, DONE/GENERATIONS generations, N evaluations, best
+        fitness F>``, from run.json (no table is read)."""
+        run_id = self.info.get("run_id")
+        run_id = run_id if isinstance(run_id, str) else self.path.name
+        total = self.config.get("generations")
+        done = f"{self.generations_done}/{total}" if isinstance(total, int) else "?"
+        evaluations = self.info.get("evaluations_done")
+        count = f"{evaluations:,}" if isinstance(evaluations, int) else "?"
+        best = self.info.get("best_fitness")
+        fitness = f"{best:.6g}" if isinstance(best, int | float) else "none"
+        return (
+            f"<Run {run_id}: {self.info.get('status', '?')}, {done} generations, "
+            f"{count} evaluations, best fitness {fitness}>"
+        )
+
+    @property
+    def generations_done(self) -> int:
+        done = self.info.get("generations_done", 0)
+        return done if isinstance(done, int) and done >= 0 else 0
+
+    @cached_property
+    def maximise(self) -> bool:
+        """Whether higher fitness is better: run.json's ``maximise``. A run made before run.json
+        recorded it asks its fitness function (which must then be installed here)."""
+        recorded = self.info.get("maximise")
+        if isinstance(recorded, bool):
+            return recorded
+        from ariel.plugins import fitness_functions
+
+        name = str(self.config.get("task", {}).get("fitness", "xy_displacement"))
+        try:
+            return bool(fitness_functions.get(name).maximise)
+        except (KeyError, ValueError, ImportError):
+            raise NotARunError(
+                f"{self.path / 'run.json'}: no fitness direction recorded (a run made before "
+                f"run.json held 'maximise') and fitness function {name!r} is not installed "
+                "here; install the plugin that provides it"
+            ) from None
+
+    @cached_property
+    def brain_only(self) -> bool:
+        """One fixed body (run.json's ``brain_only``). A run made before run.json recorded it:
+        ``body.genotype`` set, an encoder that cannot vary its genotypes, or one body."""
+        recorded = self.info.get("brain_only")
+        if isinstance(recorded, bool):
+            return recorded
+        body = self.config.get("body", {})
+        if body.get("genotype") is not None:
+            return True
+        from ariel.plugins import body_encoders
+
+        try:
+            encoder = body_encoders.get(body.get("encoder", "nde"))
+            return not bool(getattr(encoder, "evolvable", True))
+        except (KeyError, ValueError, ImportError, AttributeError):
+            return self.bodies["body_id"].nunique() == 1  # not installed: judge the records
+
+    def _table(self, name: str) -> Any:
+        up_to = self.generations_done - 1
+        return to_pandas(read_table(self.path, name, up_to=up_to, manifest=self.manifest))
+
+    @cached_property
+    def evaluations(self) -> Any:
+        """One row per evaluation (ids, genotype, controller params, fitness, status, ...)."""
+        return self._table("evaluations")
+
+    @cached_property
+    def bodies(self) -> Any:
+        """One row per body per generation (``selected``: it survived into the next one)."""
+        return self._table("bodies")
+
+    @cached_property
+    def trajectories(self) -> Any:
+        """One row per recorded frame: ``eval_id``, ``t``, core position, joint lists."""
+        return self._table("trajectories")
+
+    def joint_signals(self, eval_id: str) -> Any:
+        """Evaluation ``eval_id``'s joint signals: a DataFrame indexed by ``t`` (seconds), one
+        column per signal and joint, ``("target", joint)`` and ``("angle", joint)`` (radians),
+        joints named as in its ``joint_names``. Reads that evaluation's rows only.
+
+        Raises `UnknownEvaluationError` for an id not in the run's finished generations.
+        """
+        import pandas as pd
+
+        from ariel.errors import UnknownEvaluationError
+        from ariel.recording.store._tables import generation_file, read_file
+
+        evals = self.evaluations
+        found = evals[evals["eval_id"] == eval_id]
+        if not len(found):
+            raise UnknownEvaluationError(
+                f"no evaluation {eval_id!r} in the finished generations of run {str(self.path)!r}"
+            )
+        row = found.iloc[0]
+        joints = [str(name) for name in row["joint_names"]]
+        columns = pd.MultiIndex.from_product(
+            [["target", "angle"], joints], names=["signal", "joint"]
+        )
+        path = generation_file(self.path, "trajectories", int(row["generation"]))
+        if not path.is_file():  # record.trajectories = false
+            return pd.DataFrame(columns=columns, index=pd.Index([], name="t"), dtype=float)
+        frames = read_file(
+            self.path,
+            path,
+            "trajectories",
+            manifest=self.manifest,
+            filters=[("eval_id", "==", eval_id)],
+            columns=["eval_id", "t", "joint_target", "joint_angle"],
+        ).sort_by("t")
+        width = len(joints)
+
+        def signal(name: str) -> np.ndarray:
+            values = frames.column(name).combine_chunks().flatten().to_numpy()
+            return np.asarray(values, dtype=np.float64).reshape(frames.num_rows, width)
+
+        data = np.hstack([signal("joint_target"), signal("joint_angle")])
+        index = pd.Index(frames.column("t").to_numpy(), name="t")
+        return pd.DataFrame(data, index=index, columns=columns)
+
+    @cached_property
+    def archive(self) -> Any:
+        """MAP-Elites runs: one row per filled cell of the archive after each generation
+        (``cell``, the elite's ``body_id``, ``fitness``, ``measures``, ``grid``); empty else."""
+        return self._table("archive")
+
+    @cached_property
+    def population(self) -> Any:
+        """The bodies table's rows of the population after selection: per generation, the
+        bodies kept for the next one (``selected``) with a finite fitness; the bodies whose
+        fitness and morphology `generations` sums up (`population_after_selection`)."""
+        return population_after_selection(self.bodies)
+
+    @cached_property
+    def qd_offset(self) -> float | None:
+        """MAP-Elites runs: the fitness that counts as nothing in the QD-score (run.json's
+        ``qd_offset``, the ``map_elites`` option ``qd_offset``). A run made before run.json
+        recorded it: 0 for a maximised fitness (its QD-score then was the same sum), None for
+        a minimised one (no offset known: its QD-scores are NaN)."""
+        recorded = self.info.get("qd_offset")
+        if isinstance(recorded, int | float) and not isinstance(recorded, bool):
+            return float(recorded)
+        return 0.0 if self.maximise else None
+
+    @cached_property
+    def generations(self) -> Any:
+        """Per generation: evaluations, failures, and best / mean / median fitness of the
+        population after selection (a MAP-Elites run: its elites), and ``distinct_bodies``:
+        how many distinct robot graphs that population holds (by structure,
+        `ariel.body_phenotypes.robogen_lite.graph_io.graph_key`; a body without a graph counts
+        as its own; NaN for a table without graphs).
+
+        MAP-Elites runs also get the archive's QD metrics, as the run printed them
+        (`ariel.evolution._map_elites.archive_quality`): ``coverage`` (filled cells / cells),
+        ``qd_score`` (the sum over elites of how much better than `qd_offset` each is, never
+        below 0) and ``norm_qd_score`` (``qd_score`` / cells).
+
+        Then the population's mean morphology: ``mean_<descriptor>`` for each morphology
+        descriptor (``mean_num_modules``, ...): its mean over the bodies the fitness columns
+        describe (NaN where none has descriptors)."""
+        import pandas as pd
+
+        from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+        evaluations, bodies = self.evaluations, self.bodies
+        maximise = self.maximise if len(evaluations) else True
+        rows = []
+        for generation, group in bodies.groupby("generation", sort=True):
+            population = population_after_selection(group)
+            alive = population["fitness"]
+            evals = evaluations[evaluations["generation"] == generation]
+            morphology = {
+                f"mean_{name}": float(population[name].astype("Float64").mean())
+                if population[name].notna().any()
+                else math.nan
+                for name in DESCRIPTOR_NAMES
+            }
+            rows.append(
+                {
+                    "generation": int(generation),
+                    "evaluations": len(evals),
+                    "new_bodies": int(group["is_new"].sum()),
+                    "errors": int((evals["status"] == "error").sum()),
+                    "unstable": int((evals["status"] == "unstable").sum()),
+                    "invalid": int((evals["status"] == "invalid").sum()),
+                    "best_fitness": (alive.max() if maximise else alive.min())
+                    if len(alive)
+                    else math.nan,
+                    "mean_fitness": alive.mean() if len(alive) else math.nan,
+                    "median_fitness": alive.median() if len(alive) else math.nan,
+                    "distinct_bodies": _distinct_bodies(population),
+                    **morphology,
+                }
+            )
+        columns = [
+            "generation",
+            "evaluations",
+            "new_bodies",
+            "errors",
+            "unstable",
+            "invalid",
+            "best_fitness",
+            "mean_fitness",
+            "median_fitness",
+            "distinct_bodies",
+        ]
+        morphology_columns = [f"mean_{name}" for name in DESCRIPTOR_NAMES]
+        # the columns even before a generation ends
+        frame = pd.DataFrame(rows, columns=columns + morphology_columns)
+        archive = self.archive
+        if len(archive):
+            quality = archive_quality_table(archive, self.qd_offset, maximise)
+            frame = frame.join(quality, on="generation")
+            frame = frame[[*columns, *QD_COLUMNS, *morphology_columns]]
+        return frame
+
+
+#: The QD metrics `Run.generations` has for a MAP-Elites run.
+QD_COLUMNS = ("coverage", "qd_score", "norm_qd_score")
+
+
+def archive_quality_table(archive: Any, qd_offset: float | None, maximise: bool) -> Any:
+    """Per generation of an ``archive`` table (`Run.archive`): the `QD_COLUMNS`, as
+    `ariel.evolution._map_elites.archive_quality` computes them in the run (QD-scores NaN
+    when ``qd_offset`` is None: an old run of a minimised fitness)."""
+    import pandas as pd
+
+    from ariel.evolution import archive_quality
+
+    rows = {}
+    for generation, group in archive.groupby("generation", sort=True):
+        cells = int(np.prod(group["grid"].iloc[0]))
+        fitness = group["fitness"].astype(float).tolist()
+        if qd_offset is None:
+            rows[generation] = {
+                "coverage": len(fitness) / cells,
+                "qd_score": math.nan,
+                "norm_qd_score": math.nan,
+            }
+        else:
+            rows[generation] = archive_quality(fitness, cells, qd_offset, maximise)
+    frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(QD_COLUMNS))
+    frame.index.name = "generation"
+    return frame
+
+
+def _distinct_bodies(population: Any) -> int | float:
+    """Distinct robot graphs among ``population``'s rows (see `Run.generations`)."""
+    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
+
+    if "graph" not in population.columns:
+        return math.nan
+
+    def key(graph: Any, body_id: Any) -> Any:
+        if not (isinstance(graph, str) and graph):
+            return body_id
+        try:
+            return graph_key(graph)
+        except Exception as exc:  # RecursionError, JSON, networkx: a cell no run writes
+            raise DamagedRunError(
+                f"body {terminal_text(body_id)}: its graph cell is not a robot graph "
+                f"({type(exc).__name__}); the bodies table was changed or damaged"
+            ) from None
+
+    return len(
+        {key(graph, body_id) for graph, body_id in zip(population["graph"], population["body_id"])}
+    )
+
+
+def population_after_selection(bodies: Any) -> Any:
+    """The rows of a bodies table (``Run.bodies``) that form the population after selection:
+    ``selected`` (kept for the next generation; a MAP-Elites run: its elites) with a finite
+    fitness (a body that could not be built or never scored is left out).
+
+    Args:
+        bodies: A bodies table (a DataFrame with ``selected`` and ``fitness`` columns), of
+            one generation or of several.
+
+    Returns:
+        Those rows, a DataFrame with the same columns and index labels.
+    """
+    kept = bodies[bodies["selected"]]
+    return kept[kept["fitness"].map(math.isfinite)]
+
+
+def load_run(path: str | Path) -> Run:
+    """The records of the run in ``path`` (a folder made by `ariel run`).
+
+    Its finished generations' tables are checked against the run's manifest: a missing or
+    changed table raises `DamagedRunError` (a `NotARunError`), here for a missing file or one of
+    another size, when a table is first read for other bytes. Works without the run's plugins
+    installed (run.json records what readers need).
+
+    Args:
+        path: The run folder.
+
+    Returns:
+        The run's records: ``info`` (run.json) and ``config`` at once, and its tables as
+        pandas DataFrames (``evaluations``, ``bodies``, ``trajectories``, ``archive``, the
+        per-generation summary ``generations``) loaded on first access.
+
+    Raises:
+        NotARunError: When ``path`` has no readable run.json.
+        DamagedRunError: When a finished generation's table is missing or has another size
+            than its manifest says.
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, load_run
+
+        run = load_run(list_runs()[-1]["path"])  # a run folder under data/runs
+        print(run)  # <Run ID: STATUS, DONE/GENERATIONS generations, N evaluations, ...>
+        print(run.generations[["generation", "best_fitness", "mean_fitness"]])
+        best = run.evaluations.sort_values("fitness", ascending=not run.maximise).iloc[0]
+        print(best["eval_id"], best["fitness"])
+        ```
+    """
+    from ariel.recording.store._manifest import Manifest
+
+    folder = RunFolder(path)
+    info = folder.read_info()
+    return Run(path=folder.path, info=info, manifest=Manifest.load(folder.path, info))
+
+
+#: `list_runs` status of a run whose run.json says "running" but whose lock is free: its
+#: process ended without saying so (SIGKILL, power cut, out of memory); `ariel resume` it.
+STOPPED = "stopped (killed?)"
+
+
+def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
+    """One summary per run folder directly under ``root`` (folders that are not runs skipped).
+
+    ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
+
+    Args:
+        root: The folder holding run folders; ``data/runs`` by default.
+
+    Returns:
+        One dict per run folder, sorted by folder name, with keys ``path``, ``run_id``,
+        ``status``, ``generations_done``, ``generations``, ``evaluations``, ``best_fitness``
+        (None when none yet) and ``created``. A folder whose run.json cannot be read is
+        listed with status `UNREADABLE`. Empty when ``root`` is not a folder.
+    """
+    from ariel.recording.store._lock import lock_is_free
+
+    root = Path(root)
+    if not root.is_dir():
+        return []
+    found = []
+    for child in sorted(root.iterdir()):
+        if not child.is_dir():
+            continue
+        try:
+            info = RunFolder(child).read_info()
+            summary = _summary(child, info)
+        except (NotARunError, TypeError, ValueError, AttributeError):
+            if not (child / "run.json").exists():
+                continue  # not a run folder at all
+            summary = _unreadable(child)  # one bad run.json must not hide the others
+        if summary["status"] == "running" and lock_is_free(child):
+            summary["status"] = STOPPED
+        found.append(summary)
+    return found
+
+
+#: `list_runs` status of a folder whose run.json cannot be read or makes no sense.
+UNREADABLE = "unreadable"
+
+
+def _unreadable(child: Path) -> dict[str, Any]:
+    return {
+        "path": str(child),
+        "run_id": child.name,
+        "status": UNREADABLE,
+        "generations_done": 0,
+        "generations": None,
+        "evaluations": 0,
+        "best_fitness": None,
+        "created": None,
+    }
+
+
+def _count(value: Any) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        raise TypeError(f"not a count: {value!r}")
+    return value
+
+
+def _summary(child: Path, info: dict[str, Any]) -> dict[str, Any]:
+    """One row of `list_runs`; `TypeError` / `ValueError` for a run.json that makes no sense."""
+    config, run_id = info.get("config", {}), info.get("run_id", child.name)
+    status = info.get("status", "?")
+    if not isinstance(config, dict) or not isinstance(run_id, str) or not isinstance(status, str):
+        raise TypeError("config, run_id or status is not what a run.json holds")
+    best = info.get("best_fitness")
+    generations = config.get("generations")
+    return {
+        "path": str(child),
+        "run_id": run_id,
+        "status": status,
+        "generations_done": _count(info.get("generations_done", 0)),
+        "generations": _count(generations) if generations is not None else None,
+        "evaluations": _count(info.get("evaluations_done", 0)),
+        "best_fitness": float(best) if isinstance(best, int | float) else None,
+        "created": info.get("created"),
+    }

@@ -1,0 +1,104 @@
+"""`ariel runs --prune`: remove the run folders that hold nothing, failed or interrupted before
+their first generation finished.
+
+A folder is prunable when it is a run folder directly under the runs folder (itself, not a
+symbolic link to one), its run.json says ``failed`` or ``interrupted``, or ``running`` while
+no process holds its lock (`list_runs`' ``stopped (killed?)``), its ``generations_done`` is 0,
+and nothing of a finished generation is on disk: no checkpoint, no manifest and no table file
+of any generation. A finished run, a run with a finished generation, a running run and a
+folder whose run.json cannot be read are never prunable.
+
+`prune_run` checks all of that again while it holds the run's lock (`RunLock`), so a run that
+`ariel resume` starts meanwhile is refused instead of deleted, then deletes the folder with
+`shutil.rmtree`, which removes a symbolic link inside the folder, never what it points to.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+from ariel.errors import ArielError
+from ariel.recording.store._load import STOPPED, list_runs
+from ariel.recording.store._lock import RunLock
+from ariel.recording.store._run_folder import RunFolder
+from ariel.recording.store._tables import MANIFEST_DIR, TABLES, table_generations
+
+__all__ = ["PruneError", "prunable_runs", "prune_run"]
+
+#: `list_runs` statuses of a run that no process runs and that did not finish.
+PRUNABLE_STATUSES = ("failed", "interrupted", STOPPED)
+
+
+class PruneError(ArielError, OSError):
+    """A run folder that `prune_run` refuses or fails to delete (one line)."""
+
+
+def _finished_work(path: Path) -> str | None:
+    """What of a finished generation ``path`` holds (a checkpoint, a manifest, a table
+    file), or None."""
+    if RunFolder(path).checkpoint.exists():
+        return "a checkpoint"
+    manifests = path / MANIFEST_DIR
+    if manifests.is_dir() and any(manifests.glob("gen-*.json")):
+        return "a generation's manifest"
+    for table in TABLES:
+        if table_generations(path, table):
+            return f"a generation's {table} table"
+    return None
+
+
+def _why_not(summary: dict[str, Any]) -> str | None:
+    """Why the `list_runs` row ``summary`` is not prunable, or None when it is."""
+    path = Path(summary["path"])
+    if path.is_symlink():
+        return "it is a symbolic link (remove the link yourself)"
+    if summary["status"] not in PRUNABLE_STATUSES:
+        return f"its status is {summary['status']!r}"
+    if summary["generations_done"] != 0:
+        return f"run.json says {summary['generations_done']!r} generation(s) finished"
+    held = _finished_work(path)
+    return f"it holds {held}" if held else None
+
+
+def prunable_runs(root: str | Path) -> tuple[list[dict[str, Any]], list[tuple[str, str]]]:
+    """The `list_runs` rows of ``root`` that `prune_run` would remove, and ``(path, why)``
+    for each symbolic link to a run folder that looks prunable but is left alone."""
+    found, links = [], []
+    for summary in list_runs(root):
+        why = _why_not(summary)
+        if why is None:
+            found.append(summary)
+        elif Path(summary["path"]).is_symlink() and summary["status"] in PRUNABLE_STATUSES:
+            links.append((summary["path"], why))
+    return found, links
+
+
+def prune_run(root: str | Path, path: str | Path) -> None:
+    """Delete the run folder ``path`` directly under ``root`` when it is prunable (checked
+    again while holding its lock); `PruneError` (one line) otherwise, or when it cannot be
+    deleted."""
+    root, path = Path(root), Path(path)
+    if path.is_symlink() or not path.is_dir():
+        raise PruneError(f"{str(path)!r}: not a folder (a symbolic link is never followed)")
+    if path.resolve().parent != root.resolve():
+        raise PruneError(f"{str(path)!r} is not a folder directly under {str(root)!r}")
+    try:
+        with RunLock(path):
+            info = RunFolder(path).read_info()
+            status = info.get("status")
+            summary = {
+                "path": str(path),
+                # we hold the lock: a "running" run.json is a run no process runs
+                "status": STOPPED if status == "running" else status,
+                "generations_done": info.get("generations_done", 0),
+            }
+            why = _why_not(summary)
+            if why is not None:
+                raise PruneError(f"{str(path)!r} is left alone: {why}")
+            shutil.rmtree(path)
+    except (ArielError, OSError) as exc:
+        if isinstance(exc, PruneError):
+            raise
+        raise PruneError(f"{str(path)!r} is left alone: {exc}") from None

@@ -1,0 +1,238 @@
+"""Rows of a run's tables, built as their declarations say (`_row_types`), and the writer that
+collects one generation's rows and recordings and writes them when the generation ends.
+
+The run driver (`ariel.evolution`) hands the writer what happened (a batch of evaluations of a
+body, a body that could not be built, the end of a generation); the writer decides what the
+records look like. Rows are written in id order, so the order in which results arrived never
+shows in a table.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ariel.recording.store._load import FAILED_STATUSES
+from ariel.recording.store._manifest import write_manifest
+from ariel.recording.store._row_types import ArchiveRow, BodyRow, EvaluationRow, table_columns
+from ariel.recording.store._tables import trajectory_columns, write_table
+
+__all__ = ["RunWriter", "body_row", "error_row", "evaluation_row"]
+
+
+def _common(run_id: str, config: Any, body: Any, generation: int) -> dict[str, Any]:
+    return {
+        "run_id": run_id,
+        "generation": generation,
+        "body_id": body.body_id,
+        "parent_ids": list(body.parent_ids),
+        "body_encoder": config.body.encoder,
+        "body_genotype": json.dumps(body.genotype),
+    }
+
+
+def evaluation_row(
+    run_id: str,
+    config: Any,
+    body: Any,
+    task: Any,
+    result: Any,
+    generation: int,
+    iteration: int,
+    k: int,
+) -> EvaluationRow:
+    """Candidate ``k`` of iteration ``iteration`` of ``body``'s brain run."""
+    return EvaluationRow.of(
+        {
+            **_common(run_id, config, body, generation),
+            "eval_id": task.eval_id,
+            "iteration": iteration,
+            "candidate": k,
+            "controller": config.brain.controller,
+            "controller_params": list(task.params),
+            "world": config.world.name,
+            "fitness_fn": config.task.fitness,
+            "settle_seconds": float(config.task.settle),
+            "fitness": float(result.fitness),
+            "status": result.status,
+            "error": result.error,
+            "descriptors": body.descriptors,
+            "n_joints": body.n_joints,
+            "joint_names": list(body.joint_names),
+            "seed": task.seed,
+            "sim_seconds": float(result.sim_time),
+            "wall_seconds": float(result.wall_time),
+            "backend": result.backend,
+        }
+    )
+
+
+def error_row(run_id: str, config: Any, body: Any, generation: int, worst: float) -> EvaluationRow:
+    """An unbuildable body still appears in the evaluations table, with its error."""
+    return EvaluationRow.of(
+        {
+            **_common(run_id, config, body, generation),
+            "eval_id": f"{body.body_id}-build",
+            "iteration": 0,
+            "candidate": 0,
+            "controller": config.brain.controller,
+            "controller_params": [],
+            "world": config.world.name,
+            "fitness_fn": config.task.fitness,
+            "settle_seconds": float(config.task.settle),
+            "fitness": worst,
+            "status": "error",
+            "error": body.error,
+            "descriptors": {},  # no body: nulls
+            "n_joints": 0,
+            "joint_names": [],
+            "seed": 0,
+            "sim_seconds": 0.0,
+            "wall_seconds": 0.0,
+            "backend": None,  # no physics ran
+        }
+    )
+
+
+def body_row(
+    run_id: str, config: Any, body: Any, generation: int, is_new: bool, selected: bool
+) -> BodyRow:
+    """``body`` in generation ``generation``: new in it, kept after it (``selected``)."""
+    return BodyRow.of(
+        {
+            **_common(run_id, config, body, generation),
+            "born_generation": body.born,
+            "graph": body.graph,
+            "descriptors": body.descriptors,
+            "n_joints": body.n_joints,
+            "status": body.status,
+            "error": body.error,
+            "fitness": body.fitness,
+            "best_eval_id": body.best_eval_id,
+            "evaluations": body.evaluations,
+            "is_new": is_new,
+            "selected": selected,
+        }
+    )
+
+
+class RunWriter:
+    """Collects a generation's rows, frames and Rerun recordings; writes them at its end."""
+
+    def __init__(self, folder: Any, config: Any, run_id: str, *, recorder: Any = None) -> None:
+        """``recorder``: the run's Rerun recorder (`ariel.recording.rerun.RerunRecorder`, made
+        by the caller when ``record.rerun`` asks for one), told of each evaluation and
+        generation; None: no recordings."""
+        self.folder = folder
+        self.config = config
+        self.run_id = run_id
+        self._rows: dict[tuple[int, int, int], EvaluationRow] = {}
+        self._frames: dict[tuple[int, int, int], Any] = {}
+        self._recordings: list[dict[str, Any]] = []  # evaluations waiting for their recording
+        self.recorder = recorder
+
+    @property
+    def path(self) -> Path:
+        return Path(self.folder.path)
+
+    @property
+    def record_bodies(self) -> bool:
+        """Whether evaluations must return the bodies' poses (for the recordings)."""
+        return self.recorder is not None and self.recorder.record_bodies
+
+    def evaluated(
+        self,
+        body: Any,
+        model: Any,
+        tasks: Sequence[Any],
+        results: Sequence[Any],
+        *,
+        generation: int,
+        iteration: int,
+        improved: int | None,
+    ) -> None:
+        """A batch of ``body``'s brain run came back (``improved``: the candidate that became
+        the body's best, if any)."""
+        for k, (task, result) in enumerate(zip(tasks, results)):
+            key = (body.number, iteration, k)
+            row = evaluation_row(
+                self.run_id, self.config, body, task, result, generation, iteration, k
+            )
+            self._rows[key] = row
+            if self.recorder is not None and result.time.size:
+                self._recordings.append(
+                    dict(
+                        model=model,
+                        body=body,
+                        task=task,
+                        result=result,
+                        row=row,
+                        new_best=k == improved,
+                    )
+                )
+            if self.config.record.trajectories and result.time.size:
+                self._frames[key] = (task.eval_id, result)
+
+    def body_failed(self, body: Any, generation: int, worst: float) -> None:
+        """``body`` could not be built: its one row, with the error."""
+        self._rows[(body.number, 0, 0)] = error_row(
+            self.run_id, self.config, body, generation, worst
+        )
+
+    def flush(self) -> None:
+        """Write the Rerun recordings of the evaluations finished since the last call."""
+        while self._recordings:
+            evaluation = self._recordings.pop(0)
+            self.recorder.evaluation(**evaluation)  # type: ignore[union-attr]
+            result = evaluation["result"]
+            result.body_pos = result.body_quat = None  # recorded; not kept till the tables
+
+    def write_generation(
+        self,
+        generation: int,
+        bodies: Sequence[tuple[Any, bool, bool]],
+        archive: Sequence[dict[str, Any]] | None = None,
+    ) -> dict[str, int]:
+        """Write the generation's tables (``bodies``: (body, is_new, selected); ``archive``:
+        a MAP-Elites archive's rows, see `ArchiveRow`) and run.rrd.
+
+        Returns the counts of evaluations rows written, by status (``rows``: all of them).
+        """
+        rows = [self._rows[key] for key in sorted(self._rows)]
+        counts = {"rows": len(rows)}
+        counts.update({s: sum(row.status == s for row in rows) for s in FAILED_STATUSES})
+        write_table(self.path, "evaluations", generation, table_columns(EvaluationRow, rows))
+        if self.config.record.trajectories:
+            frames = [self._frames[key] for key in sorted(self._frames)]
+            write_table(
+                self.path, "trajectories", generation, trajectory_columns(generation, frames)
+            )
+        body_rows = [
+            body_row(self.run_id, self.config, body, generation, is_new, selected)
+            for body, is_new, selected in bodies
+        ]
+        body_rows.sort(key=lambda row: row.body_id)
+        write_table(self.path, "bodies", generation, table_columns(BodyRow, body_rows))
+        if archive is not None:
+            cells = [ArchiveRow.of({"generation": generation, **row}) for row in archive]
+            write_table(self.path, "archive", generation, table_columns(ArchiveRow, cells))
+        if self.recorder is not None:
+            self.recorder.generation(generation, [row.record() for row in body_rows], archive)
+        write_manifest(self.path, generation)  # the tables' sizes and hashes; before the checkpoint
+        self._rows.clear()
+        self._frames.clear()
+        return counts
+
+    def plugin_failed(self, task: Any, exc: BaseException) -> BaseException:
+        """The one-line error that stops the run (the traceback goes to RUN/error.log)."""
+        from ariel.recording.store._failures import plugin_failure
+
+        return plugin_failure(self.path, self.config, task, exc)
+
+    def save_checkpoint(self, state: Any) -> None:
+        self.folder.save_checkpoint(state)
+
+    def update_info(self, **changes: Any) -> None:
+        self.folder.update_info(**changes)

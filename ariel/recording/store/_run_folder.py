@@ -1,0 +1,375 @@
+"""One run = one folder: ``run.json``, Parquet tables per generation, checkpoints.
+
+``run.json`` holds the resolved config, its hash, the seed, versions, the git commit,
+plugin provenance, status and times; it never holds an absolute path of this machine, so a
+run folder copied elsewhere still loads. The checkpoint (``checkpoints/state.json``) holds
+exactly what resume needs, as plain JSON data (never a pickle: loading a run folder runs no
+code from it); it is replaced atomically after every generation's tables.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import errno
+import importlib.metadata
+import json
+import os
+import platform
+import re
+import shutil
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from ariel.errors import DamagedRunError, NotARunError, RunStorageError
+from ariel.recording.store._files import (
+    atomic_write_bytes,
+    atomic_write_json,
+    damaged,
+    remove_temporaries,
+    written_path,
+)
+from ariel.recording.store._lock import LOCK_NAME, in_use_error, lock_holder
+from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
+from ariel.utils import ariel_line, nests_deeper_than
+
+__all__ = [
+    "CHECKPOINT_FORMAT",
+    "RUN_FORMAT",
+    "DamagedRunError",
+    "NotARunError",
+    "RunFolder",
+    "RunStorageError",
+    "damaged",
+    "json_data",
+    "now",
+    "software_versions",
+    "storage_errors",
+]
+
+RUN_FORMAT = 1
+CHECKPOINT_FORMAT = 2  # 1: a pickle (no longer loaded)
+_VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
+#: How deep the JSON of a folder's file may nest (run.json, a manifest, the checkpoint,
+#: campaign.json): what ariel writes nests a few levels; no reader then recurses out of stack.
+MAX_JSON_DEPTH = 100
+
+
+def json_data(raw: str | bytes) -> Any:
+    """The data of a folder's JSON file (``raw``: its text or bytes); `ValueError` (one line)
+    for one that is not JSON, or that nests deeper than `MAX_JSON_DEPTH` (``[[[[...]]]]``
+    100,000 deep would be a `RecursionError` here, or in whatever walks it later)."""
+    try:
+        data = json.loads(raw)
+    except RecursionError:
+        raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep") from None
+    if nests_deeper_than(data, MAX_JSON_DEPTH):
+        raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep")
+    return data
+
+
+def _is_temporary(path: Path) -> bool:
+    return path.is_file() and written_path(path) is not None
+
+
+def _is_leftover(path: Path) -> bool:
+    """A killed writer's temporary, or the (free) lock file of a killed run."""
+    return _is_temporary(path) or (path.name == LOCK_NAME and path.is_file())
+
+
+# Problems of the storage itself, not of the run: these become a `RunStorageError`.
+_STORAGE_ERRNOS = {
+    errno.ENOSPC,
+    errno.EDQUOT,
+    errno.EFBIG,
+    errno.EROFS,
+    errno.EACCES,
+    errno.EPERM,
+    errno.ENOTDIR,
+    errno.EIO,
+}
+_SPACE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG}
+
+
+def _within(name: str, run_dir: Path) -> bool:
+    """``name`` lies in ``run_dir`` (or is it, or one of the folders it is made in)."""
+    path, run_dir = Path(os.path.abspath(name)), Path(os.path.abspath(run_dir))
+    return path == run_dir or run_dir in path.parents or path in run_dir.parents
+
+
+def _storage_message(exc: OSError, run_dir: Path) -> str | None:
+    if exc.errno not in _STORAGE_ERRNOS:
+        return None
+    name = exc.filename
+    if name is None and exc.errno not in _SPACE_ERRNOS:
+        return None  # a permission error from elsewhere (a plugin, a socket) is not ours
+    if name is not None and not _within(os.fsdecode(name), run_dir):
+        return None
+    shown = Path(os.fsdecode(name)) if name is not None else run_dir
+    shown = written_path(shown) or shown  # a temporary's name: say the real file
+    problem = f"cannot write {str(shown)!r}: {os.strerror(exc.errno)}"
+    try:
+        info = RunFolder(run_dir).read_info()
+    except NotARunError:
+        return f"{problem}; the run did not start"
+    done = int(info.get("generations_done", 0))
+    return (
+        f"{problem}; the run stopped, its {done} finished generation(s) are kept: "
+        f"make room (or fix the folder), then continue with: {ariel_line('resume', run_dir)}"
+    )
+
+
+@contextlib.contextmanager
+def storage_errors(run_dir: str | Path) -> Iterator[None]:
+    """Turn a failed write in ``run_dir`` (disk full, read-only, ...) into `RunStorageError`.
+
+    Other errors pass unchanged.
+    """
+    try:
+        yield
+    except OSError as exc:
+        message = _storage_message(exc, Path(run_dir))
+        if message is None:
+            raise
+        raise RunStorageError(message) from exc
+
+
+def now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+
+
+def software_versions() -> dict[str, str | None]:
+    """Installed versions of what decides results (read from metadata; nothing imported)."""
+    versions: dict[str, str | None] = {"python": platform.python_version()}
+    for name in _VERSIONED:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            versions[name] = None
+    return versions
+
+
+def software_segment(kind: str, *, generation: Any = 0) -> dict[str, Any]:
+    """One entry of run.json's ``segments``: who ran the run from ``generation`` on."""
+    return {
+        "kind": kind,
+        "from_generation": generation,
+        "started": now(),
+        "versions": software_versions(),
+        "git_commit": git_commit(),
+    }
+
+
+def git_commit() -> str | None:
+    """The commit of the ariel source checkout, when running from one (else None)."""
+    source = Path(__file__).resolve().parents[3]  # ariel/recording/store/ -> the checkout
+    if not (source / ".git").exists():
+        return None
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(source), "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
+        )
+        dirty = subprocess.run(
+            ["git", "-C", str(source), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
+
+
+def _instead(path: Path) -> str:
+    """What to do about an existing folder at ``path``: replace or continue a run, or choose
+    another folder (the command to paste where there is one)."""
+    try:
+        status = RunFolder(path).read_info().get("status")
+    except NotARunError:
+        return "choose another --out (it is not an ariel run folder: --overwrite leaves it alone)"
+    if status == "finished":
+        return "pass --overwrite to replace it, or choose another --out"
+    return f"pass --overwrite to replace it, or continue it with: {ariel_line('resume', path)}"
+
+
+class RunFolder:
+    """Reads and writes one run folder.
+
+    Making one reads nothing: ``read_info`` reads run.json (`NotARunError` when the folder is
+    not a run), ``create`` makes a new run folder.
+
+    Args:
+        path: The run folder (it need not exist yet).
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+
+    # -- paths ---------------------------------------------------------------------------------
+
+    @property
+    def run_json(self) -> Path:
+        return self.path / "run.json"
+
+    @property
+    def checkpoint(self) -> Path:
+        return self.path / "checkpoints" / "state.json"
+
+    # -- creation ------------------------------------------------------------------------------
+
+    @staticmethod
+    def check_new(path: str | Path, *, overwrite: bool, locked: bool = False) -> None:
+        """Raise `FileExistsError` unless ``path`` may become a new run folder.
+
+        An existing non-empty folder needs ``overwrite``, and is only ever replaced when it
+        is a run folder (never an arbitrary directory). A folder that another process runs
+        in raises `RunInUseError` (``locked``: this process holds its lock).
+        """
+        path = Path(path)
+        if path.exists() and not path.is_dir():
+            raise FileExistsError(f"output {str(path)!r} exists and is not a folder")
+        holder = None if locked or not path.is_dir() else lock_holder(path)
+        if holder is not None:
+            raise in_use_error(path, holder)
+        # A folder holding only a killed writer's temporaries (killed while being created)
+        # counts as empty.
+        if not path.is_dir() or all(_is_leftover(p) for p in path.iterdir()):
+            return
+        if not overwrite:
+            raise FileExistsError(f"output folder {str(path)!r} already exists; {_instead(path)}")
+        if not (path / "run.json").is_file():
+            raise FileExistsError(
+                f"refusing to overwrite {str(path)!r}: it is not an ariel run folder (no run.json)"
+            )
+
+    @classmethod
+    def create(
+        cls, path: str | Path, info: dict[str, Any], *, overwrite: bool, locked: bool = False
+    ) -> RunFolder:
+        cls.check_new(path, overwrite=overwrite, locked=locked)
+        path = Path(path)
+        if path.is_dir():  # a run folder (check_new refuses anything else) or leftovers
+            for child in path.iterdir():
+                if child.name == LOCK_NAME and locked:
+                    continue  # the lock this process holds
+                if child.is_dir() and not child.is_symlink():
+                    shutil.rmtree(child)
+                else:
+                    child.unlink()
+        path.mkdir(parents=True, exist_ok=True)
+        folder = cls(path)
+        folder.write_info({"format": RUN_FORMAT, **info})
+        return folder
+
+    # -- run.json ------------------------------------------------------------------------------
+
+    def read_info(self) -> dict[str, Any]:
+        try:
+            info = json_data(self.run_json.read_text(encoding="utf-8"))
+        except (FileNotFoundError, NotADirectoryError):
+            why = "no run.json" if self.path.is_dir() else "no such folder"
+            if self.path.exists() and not self.path.is_dir():
+                why = "a file, not a folder"
+            raise NotARunError(f"{str(self.path)!r} is not an ariel run folder ({why})") from None
+        except (OSError, ValueError) as exc:
+            raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
+        if not isinstance(info, dict) or info.get("format") != RUN_FORMAT:
+            raise NotARunError(f"{self.run_json}: not a run.json of format {RUN_FORMAT}")
+        return info
+
+    def write_info(self, info: dict[str, Any]) -> None:
+        atomic_write_json(self.run_json, info, root=self.path)
+
+    def start_segment(self, kind: str) -> dict[str, Any]:
+        """Record in run.json the software of this process, which now runs the run: ``kind``
+        "run" (the first segment) or "resume" (each resume adds one). Versions and commit are
+        read here, never carried over from run.json (which anyone may have edited)."""
+        info = self.read_info()
+        segments = info.get("segments")
+        segments = list(segments) if isinstance(segments, list) else []
+        segments.append(software_segment(kind, generation=info.get("generations_done", 0)))
+        info["segments"] = segments
+        self.write_info(info)
+        return info
+
+    def update_info(self, **changes: Any) -> dict[str, Any]:
+        info = self.read_info()
+        info.update(changes)
+        self.write_info(info)
+        return info
+
+    # -- checkpoints ---------------------------------------------------------------------------
+
+    def save_checkpoint(self, state: dict[str, Any]) -> None:
+        """Replace the checkpoint with ``state`` (JSON-able plain data, no NaN)."""
+        payload = {"format": CHECKPOINT_FORMAT, "state": state}
+        text = json.dumps(payload, allow_nan=False, separators=(",", ":"))
+        atomic_write_bytes(self.checkpoint, text.encode(), root=self.path)
+
+    def load_checkpoint(self) -> dict[str, Any] | None:
+        """The last saved state (plain data), or None when no generation finished yet."""
+        legacy = self.checkpoint.with_name("state.pkl")
+        if not self.checkpoint.is_file() and legacy.is_file():
+            raise NotARunError(
+                f"{legacy}: a pickle checkpoint of an older ariel, not loaded (unpickling runs "
+                "code from the file); the run's tables load, but it cannot be resumed"
+            )
+        if not self.checkpoint.is_file():
+            return None
+        try:
+            payload = json_data(self.checkpoint.read_bytes())
+        except (OSError, ValueError) as exc:  # written atomically: only outside damage
+            first = (str(exc).splitlines() or [""])[0]
+            raise NotARunError(
+                f"{self.checkpoint}: unreadable checkpoint ({type(exc).__name__}: {first})"
+            ) from None
+        if not isinstance(payload, dict) or payload.get("format") != CHECKPOINT_FORMAT:
+            found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+            raise NotARunError(f"{self.checkpoint}: checkpoint format {found}")
+        return payload["state"]
+
+    # -- tables --------------------------------------------------------------------------------
+
+    def generations_on_disk(self, table: str = "evaluations") -> list[int]:
+        return table_generations(self.path, table)
+
+    def discard_after(self, generation: int) -> list[Path]:
+        """Delete table files, manifests and Rerun recordings of generations after
+        ``generation``, and temporaries (resume)."""
+
+        removed = list(remove_temporaries(self.path))
+        manifests = self.path / MANIFEST_DIR
+        if manifests.is_dir() and not manifests.is_symlink():
+            for path in sorted(manifests.iterdir()):
+                found = re.fullmatch(r"gen-(\d{6})\.json", path.name)
+                if found and int(found.group(1)) > generation:
+                    with contextlib.suppress(FileNotFoundError):
+                        path.unlink()
+                    removed.append(path)
+        for table in TABLES:
+            if (self.path / table).is_symlink():  # deleting through it would delete elsewhere
+                continue
+            for gen in table_generations(self.path, table):
+                if gen > generation:
+                    path = generation_file(self.path, table, gen)
+                    with contextlib.suppress(FileNotFoundError):
+                        path.unlink()
+                    removed.append(path)
+        recordings = self.path / "recordings"
+        if recordings.is_dir() and not recordings.is_symlink():  # a link may lead elsewhere
+            for folder in sorted(recordings.iterdir()):
+                found = re.fullmatch(r"gen-(\d{6})", folder.name)
+                if found and int(found.group(1)) > generation and folder.is_symlink():
+                    folder.unlink()
+                    removed.append(folder)
+                elif found and int(found.group(1)) > generation and folder.is_dir():
+                    shutil.rmtree(folder, ignore_errors=True)
+                    removed.append(folder)
+        return removed

@@ -1,0 +1,451 @@
+"""The run's Parquet tables: one file per table per generation, written whole.
+
+``evaluations/gen-NNNNNN.parquet``: one row per evaluation. ``bodies/gen-NNNNNN.parquet``: one
+row per body taking part in the generation (its parents and its offspring).
+``trajectories/gen-NNNNNN.parquet``: one row per recorded frame of every evaluation.
+``archive/gen-NNNNNN.parquet`` (MAP-Elites runs only): one row per filled cell of the archive
+after the generation. Each table's columns are declared once, by its row's class in
+`_row_types`; the schemas here are derived from them.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from ariel.recording.store._files import atomic_write
+from ariel.recording.store._row_types import (
+    COUNT_DESCRIPTORS,
+    ArchiveRow,
+    BodyRow,
+    EvaluationRow,
+    TrajectoryRow,
+    check_columns,
+    row_schema,
+)
+
+__all__ = [
+    "COUNT_DESCRIPTORS",
+    "GENERATION_BLUEPRINT",
+    "GENERATION_RECORDING",
+    "TABLES",
+    "archive_schema",
+    "body_schema",
+    "evaluation_schema",
+    "evaluation_trajectory",
+    "generation_file",
+    "generation_recording_path",
+    "read_file",
+    "read_table",
+    "recording_path",
+    "row_limit",
+    "rows_problem",
+    "table_generations",
+    "to_pandas",
+    "trajectory_columns",
+    "trajectory_schema",
+    "write_table",
+]
+
+#: Table name -> folder in the run folder.
+TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories", "archive")
+#: Where each finished generation's manifest (its tables' sizes and SHA-256) lives.
+MANIFEST_DIR = "manifests"
+_GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
+
+
+def evaluation_schema() -> pa.Schema:
+    return row_schema(EvaluationRow)
+
+
+#: Columns added after runs were recorded, and what an older file's rows read as.
+_ADDED_COLUMNS: dict[str, dict[str, Any]] = {
+    "evaluations": {"backend": "mujoco", "settle_seconds": 0.0}
+}
+
+
+def body_schema() -> pa.Schema:
+    return row_schema(BodyRow)
+
+
+def trajectory_schema() -> pa.Schema:
+    return row_schema(TrajectoryRow)
+
+
+def archive_schema() -> pa.Schema:
+    """A MAP-Elites archive after a generation: one row per filled cell."""
+    return row_schema(ArchiveRow)
+
+
+def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> dict[str, Any]:
+    """The ``trajectories`` columns of one generation, from ``(eval_id, result)`` pairs.
+
+    Arrow arrays made from the results' numpy arrays directly: as Python lists (an object per
+    number, about a million a generation) they left the driver's heap larger after every
+    generation (soak benchmark).
+    """
+    import numpy as np
+
+    counts = [int(result.time.size) for _, result in frames]
+    rows = np.repeat(np.arange(len(frames), dtype=np.int64), counts)
+
+    def numbers(values: list[Any]) -> Any:
+        flat = [np.asarray(v, dtype=np.float64).ravel() for v in values]
+        return pa.array(np.concatenate(flat) if flat else np.zeros(0), pa.float64())
+
+    def lists(name: str) -> Any:
+        blocks = [np.asarray(getattr(result, name), dtype=np.float64) for _, result in frames]
+        sizes = {block.shape[1] for block in blocks}
+        if len(sizes) == 1 and 0 not in sizes:  # every row as wide: a fixed-size list column
+            return pa.FixedSizeListArray.from_arrays(numbers(blocks), sizes.pop())
+        widths = np.repeat([block.shape[1] for block in blocks], counts).astype(np.int64)
+        offsets = pa.array(np.concatenate([[0], np.cumsum(widths)]).astype(np.int32))
+        return pa.ListArray.from_arrays(offsets, numbers(blocks))
+
+    columns = {
+        "generation": pa.array(np.full(rows.size, generation, dtype=np.int32)),
+        "eval_id": pa.array([eval_id for eval_id, _ in frames], pa.string()).take(rows),
+        "t": numbers([result.time for _, result in frames]),
+    }
+    for axis, name in enumerate(("core_x", "core_y", "core_z")):
+        columns[name] = numbers([np.asarray(result.core_pos)[:, axis] for _, result in frames])
+    columns["joint_target"] = lists("joint_target")
+    columns["joint_angle"] = lists("joint_angle")
+    return columns
+
+
+_SCHEMAS = {
+    "evaluations": evaluation_schema,
+    "bodies": body_schema,
+    "trajectories": trajectory_schema,
+    "archive": archive_schema,
+}
+
+
+def recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:
+    """Where an evaluation's Rerun recording lives: ``recordings/gen-NNNNNN/<eval_id>.rrd``."""
+    return Path(run_dir) / "recordings" / f"gen-{int(generation):06d}" / f"{eval_id}.rrd"
+
+
+#: A generation's recording of all its evaluations (`write_generation_recording`); no eval id
+#: can clash with it (ids look like b000012-i003-c005).
+GENERATION_RECORDING = "evaluations.rrd"
+#: The layout of the generations' recordings (application id ``ariel-generation``), in the
+#: run folder beside ``blueprint.rbl``.
+GENERATION_BLUEPRINT = "generation.rbl"
+
+
+def generation_recording_path(run_dir: str | Path, generation: int) -> Path:
+    """``recordings/gen-NNNNNN/evaluations.rrd``: every evaluation of the generation."""
+    return recording_path(run_dir, generation, GENERATION_RECORDING[: -len(".rrd")])
+
+
+def generation_file(run_dir: Path, table: str, generation: int) -> Path:
+    return Path(run_dir) / table / f"gen-{generation:06d}.parquet"
+
+
+def write_table(
+    run_dir: Path, table: str, generation: int, columns: Mapping[str, Sequence[Any]]
+) -> Path:
+    """Write one generation's rows (as columns) of ``table``, atomically; returns the path.
+    A column too many or too few is a `RowError` naming it."""
+    check_columns(table, columns)
+    written = pa.schema([_written_field(f, columns[f.name]) for f in _SCHEMAS[table]()])
+    arrow = pa.Table.from_pydict({f.name: columns[f.name] for f in written}, schema=written)
+    path = generation_file(run_dir, table, generation)
+    floats = _float_columns(written)
+
+    def write(temporary: Path) -> None:
+        pq.write_table(
+            arrow,
+            temporary,
+            compression="zstd",
+            use_dictionary=[f.name for f in written if f.name not in floats],
+            use_byte_stream_split=floats or False,
+        )
+
+    atomic_write(path, write, root=run_dir)
+    return path
+
+
+def _float_columns(schema: pa.Schema) -> list[str]:
+    """Parquet paths of the float columns (lists' values too). They are written byte stream
+    split, not dictionary encoded: the trajectories table (the bulk of a run's Parquet) is
+    30 % smaller for it, and the values are the same."""
+    paths = []
+    for f in schema:
+        kind = (
+            f.type.value_type
+            if pa.types.is_list(f.type) or pa.types.is_fixed_size_list(f.type)
+            else f.type
+        )
+        if pa.types.is_floating(kind):
+            paths.append(f"{f.name}.list.element" if kind is not f.type else f.name)
+    return paths
+
+
+def _written_field(field: pa.Field, column: Any) -> pa.Field:
+    """``field``, or a fixed-size list of its values where ``column`` is one (every row of the
+    file as long: the joint signals of one body's evaluations)."""
+    if isinstance(column, pa.FixedSizeListArray) and pa.types.is_list(field.type):
+        return pa.field(field.name, pa.list_(field.type.value_type, column.type.list_size))
+    return field
+
+
+def _read_field(field: pa.Field, stored: pa.Field | None) -> pa.Field:
+    """How a file's column is read: as in today's schema, but a fixed-size list stays one."""
+    if (
+        stored is not None
+        and pa.types.is_fixed_size_list(stored.type)
+        and pa.types.is_list(field.type)
+        and stored.type.value_type == field.type.value_type
+    ):
+        return pa.field(field.name, stored.type)
+    return field
+
+
+def to_pandas(table: pa.Table) -> Any:
+    """``table`` as a pandas DataFrame; a count column with nulls (a body that could not be
+    built) as the nullable ``Int32`` rather than floats."""
+    frame = table.to_pandas()
+    for name in COUNT_DESCRIPTORS:
+        if name in frame.columns and table.column(name).null_count:
+            frame[name] = frame[name].astype("Int32")
+    return frame
+
+
+def table_generations(run_dir: Path, table: str) -> list[int]:
+    """Generations with a finished file of ``table``, ascending."""
+    folder = Path(run_dir) / table
+    if not folder.is_dir():
+        return []
+    found = (_GEN_FILE.match(p.name) for p in folder.iterdir())
+    return sorted(int(m.group(1)) for m in found if m)
+
+
+#: The row counts `row_limit` works out are the most the writers make; a file is refused only
+#: past this many times that, so a miscount here never refuses a run's own records.
+ROW_MARGIN = 2
+
+
+@cache
+def _config_defaults() -> dict[str, Any]:
+    from ariel.evolution import ExperimentConfig
+
+    return ExperimentConfig().to_plain()
+
+
+def _config_number(config: Mapping[str, Any], key: str, *, whole: bool) -> int | float:
+    """``section.key`` of a run's config (run.json's, plain data), its default when missing;
+    `ValueError` for a value no ariel writes (a count below 1, a duration or rate that is not a
+    positive finite number)."""
+    import math
+
+    section, name = key.split(".")
+    part = config.get(section, {})
+    if not isinstance(part, Mapping):
+        raise ValueError(f"has {section} {_shown(part)} in its config, not a section (a table)")
+    value = part.get(name, _config_defaults()[section][name])
+    kinds = (int,) if whole else (int, float)
+    good = isinstance(value, kinds) and not isinstance(value, bool)
+    if not good or not (value >= 1 if whole else math.isfinite(value) and value > 0):
+        what = "a whole number >= 1" if whole else "a positive finite number"
+        raise ValueError(f"has {key} {_shown(value)} in its config, not {what}")
+    return value
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:37]}..."
+
+
+def row_limit(config: Mapping[str, Any] | None, table: str, generation: int) -> int:
+    """The most rows ``table``'s file of ``generation`` holds in a run of ``config`` (run.json's
+    config, plain data; a missing key counts as its default), as the run driver makes them:
+
+    - ``evaluations``: every body of the generation runs CMA-ES for ``brain.iterations``
+      iterations of ``brain.popsize`` (a body that cannot be built or has no parameters: fewer),
+      and a generation makes ``body.population`` (generation 0) or ``body.offspring`` bodies
+      (a brain-only run: one);
+    - ``bodies`` and ``archive``: the bodies of the generation and the parents it keeps (the
+      elites), each once: at most every body made so far;
+    - ``trajectories``: a frame every ``round(1 / (record.rate_hz x timestep))`` physics steps
+      of ``task.duration``, plus the first and last (`ariel.evaluation._engine.frame_steps`):
+      at most 3 x duration x rate_hz + 4 per evaluation, whatever the world's timestep.
+
+    `ValueError` (``has KEY VALUE in its config, ...``) for a config value no ariel writes.
+    """
+    import math
+
+    config = config if isinstance(config, Mapping) else {}
+    bodies = max(
+        _config_number(config, "body.population", whole=True),
+        _config_number(config, "body.offspring", whole=True),
+    )
+    per_body = _config_number(config, "brain.popsize", whole=True) * _config_number(
+        config, "brain.iterations", whole=True
+    )
+    evaluations = int(bodies * per_body)
+    if table == "evaluations":
+        return evaluations
+    if table in ("bodies", "archive"):
+        return int(bodies) * (max(generation, 0) + 1)
+    duration = _config_number(config, "task.duration", whole=False)
+    rate = _config_number(config, "record.rate_hz", whole=False)
+    return evaluations * (math.ceil(3 * duration * rate) + 4)
+
+
+def rows_problem(config: Mapping[str, Any] | None, path: Path, metadata: Any) -> str | None:
+    """What is wrong with the row count of the table file ``path`` (``TABLE/gen-NNNNNN.parquet``,
+    its Parquet footer ``metadata``) for a run of ``config``: ``has N rows; ...`` when it holds
+    more than `ROW_MARGIN` x `row_limit`, ``run.json has ...`` for a config no ariel writes;
+    None when it is fine. Reads the footer only: a crafted file of a few bytes a row (2,000,000
+    dictionary-encoded rows in 1 MB) is refused before gigabytes are decoded."""
+    found = _GEN_FILE.match(path.name)
+    table = path.parent.name
+    if found is None or table not in _SCHEMAS:
+        return None
+    generation = int(found.group(1))
+    rows = max(
+        metadata.num_rows,
+        sum(metadata.row_group(i).num_rows for i in range(metadata.num_row_groups)),
+    )
+    try:
+        most = row_limit(config, table, generation)
+    except ValueError as exc:
+        return f"run.json {exc}: damaged or crafted, no table of it is loaded"
+    if rows <= ROW_MARGIN * most:
+        return None
+    return (
+        f"has {rows} rows; generation {generation} of this run's config makes at most {most}: "
+        "damaged or crafted, not loaded"
+    )
+
+
+def _check_rows(run_dir: Path, path: Path, metadata: Any, config: Any) -> None:
+    from ariel.recording.store._files import damaged
+
+    problem = rows_problem(config, path, metadata)
+    if problem is None:
+        return
+    if problem.startswith("run.json "):
+        raise damaged(run_dir, *problem.split(" ", 1))
+    raise _unreadable(run_dir, path, problem)
+
+
+def read_table(
+    run_dir: Path,
+    table: str,
+    up_to: int | None = None,
+    manifest: Any = None,
+    columns: Sequence[str] | None = None,
+) -> pa.Table:
+    """All generations of ``table`` (those <= ``up_to`` when given) as one Arrow table.
+
+    ``manifest`` (`ariel.recording.store._manifest.Manifest`): read the files it lists, each checked
+    against it (a missing or changed file raises `DamagedRunError`) and against the rows its
+    run's config can make (`row_limit`); without it, the files found. A file that cannot be
+    decoded raises `DamagedRunError` too, one line naming it. ``columns``: decode only these.
+    """
+    schema = _SCHEMAS[table]()
+    if columns is not None:
+        schema = pa.schema([schema.field(name) for name in columns])
+    if manifest is not None:
+        paths = [path for _, path in manifest.table_files(table, up_to)]
+    else:
+        gens = [g for g in table_generations(run_dir, table) if up_to is None or g <= up_to]
+        paths = [generation_file(run_dir, table, g) for g in gens]
+    parts = [read_file(run_dir, path, table, manifest=manifest, columns=columns) for path in paths]
+    if any(part.schema != parts[0].schema for part in parts):
+        parts = [part.cast(schema) for part in parts]  # fixed-size lists of other sizes: lists
+    return pa.concat_tables(parts) if parts else schema.empty_table()
+
+
+def _unreadable(run_dir: Path, path: Path, problem: str) -> Exception:
+    from ariel.recording.store._files import damaged
+
+    name = path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else str(path)
+    return damaged(run_dir, name, problem)
+
+
+def _not_parquet(run_dir: Path, path: Path, exc: Exception) -> Exception:
+    first = (str(exc).splitlines() or [""])[0]
+    problem = f"is not a readable Parquet table ({type(exc).__name__}: {first})"
+    return _unreadable(run_dir, path, problem)
+
+
+def read_file(
+    run_dir: Path,
+    path: Path,
+    table: str,
+    *,
+    manifest: Any = None,
+    filters: Any = None,
+    columns: Sequence[str] | None = None,
+) -> pa.Table:
+    """One file of ``table`` in today's schema (columns it predates get the value they meant
+    then), checked against ``manifest`` when given: its bytes, and before anything is decoded,
+    its row count against what its run's config can make in a generation (`row_limit`). A link
+    out of the run folder is refused: the folder's records are its own files, and a reader must
+    not be pointed elsewhere. ``columns``: decode only these (``filters`` may name only them)."""
+    from ariel.recording.store._files import within
+
+    run_dir, path = Path(run_dir), Path(path)
+    if path.is_symlink() and not within(path, run_dir):
+        raise _unreadable(run_dir, path, "is a symbolic link out of the run folder")
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise _unreadable(run_dir, path, "is missing") from None
+    except OSError as exc:
+        raise _unreadable(run_dir, path, f"is unreadable ({exc.strerror})") from None
+    if manifest is not None:
+        manifest.check_bytes(path, data)
+    try:
+        parquet = pq.ParquetFile(pa.BufferReader(data))  # reads the footer only
+        metadata, stored_schema = parquet.metadata, parquet.schema_arrow
+        stored = set(stored_schema.names)
+        wanted = set(columns) if columns is not None else None
+        fields = [
+            _read_field(f, stored_schema.field(f.name) if f.name in stored else None)
+            for f in _SCHEMAS[table]()
+            if wanted is None or f.name in wanted
+        ]
+        schema = pa.schema(fields)
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        raise _not_parquet(run_dir, path, exc) from None
+    if manifest is not None:
+        _check_rows(run_dir, path, metadata, getattr(manifest, "config", None))
+    try:
+        part = pq.read_table(pa.BufferReader(data), schema=schema, filters=filters)
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        raise _not_parquet(run_dir, path, exc) from None
+    for name, value in _ADDED_COLUMNS.get(table, {}).items():
+        if name not in stored and name in schema.names:
+            index = part.schema.get_field_index(name)
+            column = pa.array([value] * part.num_rows, type=schema.field(name).type)
+            part = part.set_column(index, schema.field(name), column)
+    return part
+
+
+def evaluation_trajectory(run: Any, row: Mapping[str, Any]) -> Any:
+    """The trajectories rows of one evaluation (``row``: its evaluations row), read from its
+    generation's file only, as a DataFrame in time order; None when that generation recorded
+    no trajectories. ``run``: a `Run` (its path and manifest)."""
+    path = generation_file(run.path, "trajectories", int(row["generation"]))
+    if not path.is_file():
+        return None
+    table = read_file(
+        run.path,
+        path,
+        "trajectories",
+        manifest=run.manifest,
+        filters=[("eval_id", "==", row["eval_id"])],
+    )
+    return table.to_pandas().sort_values("t")

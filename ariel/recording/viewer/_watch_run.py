@@ -1,0 +1,425 @@
+"""What the live view of a run shows (`RunSource`), read from the run folder alone.
+
+A generation is shown once its manifest (``manifests/gen-NNNNNN.json``, written after its
+tables) is there and its tables are what it lists; until then it is skipped, silently, and a
+later poll finds it. Only the new generation's tables are read (evaluations and bodies, a
+MAP-Elites run's archive), never the whole run's. Nothing is written in or beside the folder
+and its lock is never taken: a 3D replay made on demand goes to a `tempfile` folder.
+
+Entities (``generation``: the generation timeline; ``sim_time``: the best body's clock):
+
+* ``/fitness/*``, ``/diversity/*`` (`RUN_SERIES`, on ``generation``): as ``run.rrd`` has them;
+  ``/morphology``: the population's mean morphology descriptors; ``/qd/*`` (MAP-Elites):
+  coverage and QD-scores, as ``load_run(...).generations`` has them.
+* ``/run/*``: the same per generation as static bar charts (`run_summary_chunks`) and a
+  MAP-Elites run's last archive (`archive_chunks`), seen whatever the timeline; ``/archive``:
+  the archive of each generation (on ``generation``, as ``run.rrd`` has it), to scrub.
+* ``/progress``: evaluations done and total, evaluations/s and ETA, a text (static) and
+  scalars (``/progress/*`` on ``generation``).
+* ``/lineage``: every body as a graph node coloured by fitness (bright: better), larger while
+  in the population, with directed edges from its parents; logged whole each generation, at
+  that generation and at ``sim_time`` 0 (so it shows on either timeline).
+* ``/best``: the best evaluation so far, walking (``/best/world``, its joints ``/best/joints``
+  and morphology ``/best/graph``, from its own recording or a replay made on demand) and
+  ``/best/info``; cleared (``Clear(recursive=True)``) and logged again when a better one
+  appears.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from datetime import datetime
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from ariel.recording.rerun import (
+    ARCHIVE_ENTITY,
+    RUN_SERIES,
+    SUMMARY_SERIES,
+    archive_chunks,
+    rerun_module,
+    run_summary_chunks,
+)
+from ariel.recording.store import NotARunError, RunFolder, holder_gone
+from ariel.recording.viewer._watch_body import BestBody
+
+__all__ = ["RunSource", "run_blueprint"]
+
+#: run.json statuses of a run that has ended.
+FINAL = ("finished", "failed", "interrupted")
+QD_ENTITIES = {"coverage": "/qd/coverage", "qd_score": "/qd/qd_score"}
+_BODY_COLUMNS = ("generation", "body_id", "parent_ids", "born_generation", "graph", "status")
+_EVALUATION_COLUMNS = ["generation", "eval_id", "body_id", "fitness", "status"]
+LINEAGE_STEP = (40.0, 40.0)  # scene units between generations (across), between bodies (down)
+# viridis at 0, 1/4, 1/2, 3/4, 1 (dark: worst, bright yellow: best)
+_VIRIDIS = np.array([[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]])
+
+
+def _fitness_colours(fitness: np.ndarray, maximise: bool) -> np.ndarray:
+    """RGB per fitness: viridis from the worst (dark) to the best (yellow); grey for NaN."""
+    finite = np.isfinite(fitness)
+    colours = np.full((len(fitness), 3), 160, dtype=np.uint8)
+    if finite.any():
+        low, high = float(fitness[finite].min()), float(fitness[finite].max())
+        share = (fitness[finite] - low) / (high - low) if high > low else np.ones(finite.sum())
+        share = share if maximise else 1.0 - share
+        anchors = np.linspace(0.0, 1.0, len(_VIRIDIS))
+        rgb = [np.interp(share, anchors, _VIRIDIS[:, c]) for c in range(3)]
+        colours[finite] = np.stack(rgb, axis=1).round().astype(np.uint8)
+    return colours
+
+
+def _read_generation(folder: Path, generation: int, config: Any, checked: bool) -> Any:
+    """Generation ``generation``'s tables (``evaluations``, ``bodies``, a MAP-Elites run's
+    ``archive``) as DataFrames, checked against its manifest; None while it is not complete
+    (no manifest yet, or its files are not what the manifest lists)."""
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+    from ariel.recording.store import (
+        Manifest,
+        generation_file,
+        manifest_entries,
+        read_file,
+        to_pandas,
+    )
+
+    columns = {
+        "evaluations": _EVALUATION_COLUMNS,
+        "bodies": [*_BODY_COLUMNS, "fitness", "selected", *DESCRIPTOR_NAMES],
+        "archive": None,
+    }
+    try:
+        files = manifest_entries(folder, generation, checked)
+        manifest = Manifest(folder, generation + 1, checked, files, config)
+        for name, entry in files.items():
+            manifest.check_present(name, entry)
+        listed = {folder / name for name in files}
+        tables = {}
+        for table, wanted in columns.items():
+            path = generation_file(folder, table, generation)
+            if table == "archive" and path not in listed and not (not checked and path.exists()):
+                continue
+            part = read_file(folder, path, table, manifest=manifest, columns=wanted)
+            tables[table] = to_pandas(part)
+    except (NotARunError, OSError):
+        return None
+    return tables
+
+
+def _total_evaluations(config: dict[str, Any], brain_only: bool) -> int | None:
+    """The evaluations the run will make (`budget`), None where its config cannot say."""
+    try:
+        from ariel.evolution import ExperimentConfig, budget
+
+        return int(budget(ExperimentConfig.from_plain(config), brain_only))
+    except Exception:  # a config of another version, a plugin not installed here
+        return None
+
+
+def _seconds(text: Any) -> float | None:
+    """A run.json time (ISO 8601) as seconds since the epoch; None where it is not one."""
+    try:
+        return datetime.fromisoformat(str(text)).timestamp()
+    except ValueError:
+        return None
+
+
+def _duration(seconds: float) -> str:
+    seconds = max(0, round(seconds))
+    hours, rest = divmod(seconds, 3600)
+    return f"{hours} h {rest // 60:02d} min" if hours else f"{rest // 60} min {rest % 60:02d} s"
+
+
+class RunSource:
+    """A run folder as the live view shows it (the module docstring lists what)."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        from ariel.recording.store import Run, manifests_expected
+
+        self.path = Path(path)
+        self.info = RunFolder(self.path).read_info()
+        self.run = Run(path=self.path, info=self.info)  # maximise, qd_offset: no table read
+        self.config = self.run.config
+        self.run_id = str(self.info.get("run_id") or self.path.name)
+        self.checked = manifests_expected(self.path, self.info)[0]
+        self.map_elites = self.config.get("body", {}).get("optimizer") == "map_elites"
+        self.shown = 0  # generations logged
+        self._rows: dict[int, int] = {}  # generation -> its evaluations (for the rate)
+        self._summary: dict[str, list[float]] = {c: [] for c in ("generation", *SUMMARY_SERIES)}
+        self._nodes: dict[str, list[Any]] = {}  # body id -> [x, y, fitness]
+        self._edges: dict[tuple[str, str], None] = {}
+        self._born: dict[int, int] = {}  # generation -> bodies born in it so far
+        self._alive: set[str] = set()
+        self.best = BestBody(self.path, self.run.maximise)
+        self._total = _total_evaluations(self.config, bool(self.info.get("brain_only")))
+        self._started = False
+        self._progress = ""
+
+    # -- the Source protocol ---------------------------------------------------------------
+
+    def blueprint(self) -> Any:
+        from ariel.recording.store import fitness_unit
+
+        name = self.config.get("task", {}).get("fitness")
+        unit = fitness_unit(name) if isinstance(name, str) and name else None
+        return run_blueprint(archive=self.map_elites, fitness_unit=unit)
+
+    def poll(self, rec: Any) -> bool:
+        """Log what is new in the folder; True when anything was."""
+        try:
+            self.info = RunFolder(self.path).read_info()
+        except NotARunError:
+            return False  # rewritten just now, or gone: the next poll sees
+        logged = False
+        if not self._started:
+            self._log_static(rec)
+            self._started = logged = True
+        before = self.shown
+        while self._ready(self.shown):
+            tables = _read_generation(self.path, self.shown, self.config, self.checked)
+            if tables is None:
+                break
+            self._log_generation(rec, self.shown, tables)
+            self.shown += 1
+        if self.shown > before:  # the bar charts once for all the new generations
+            rec.send_chunks(run_summary_chunks(self._summary))
+            logged = True
+        logged = self.best.update(rec, ended=self._ended()) or logged
+        return self._log_progress(rec, new=self.shown > before) or logged
+
+    def finished(self) -> bool:
+        """The run has ended (a final status, or its process is gone) and every generation it
+        finished, and its best body, are logged."""
+        done = int(self.info.get("generations_done", 0) or 0)
+        return self._ended() and self.shown >= done and self.best.settled
+
+    def _ended(self) -> bool:
+        status = self.info.get("status")
+        return status in FINAL or (status == "running" and holder_gone(self.path))
+
+    def close(self) -> None:
+        """Remove the scratch folder of 3D replays."""
+        self.best.close()
+
+    # -- generations -----------------------------------------------------------------------
+
+    def _ready(self, generation: int) -> bool:
+        if not self.checked:  # a run made before manifests: its run.json counts
+            return generation < int(self.info.get("generations_done", 0) or 0)
+        from ariel.recording.store import manifest_file
+
+        return manifest_file(self.path, generation).is_file()
+
+    def _log_static(self, rec: Any) -> None:
+        from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+        rr = rerun_module()
+        for column, entity in RUN_SERIES.items():
+            rec.log(entity, rr.SeriesLines(names=[column.replace("_", " ")]), static=True)
+        rec.log("/morphology", rr.SeriesLines(names=list(DESCRIPTOR_NAMES)), static=True)
+        for column, entity in QD_ENTITIES.items() if self.map_elites else ():
+            rec.log(entity, rr.SeriesLines(names=[column.replace("_", " ")]), static=True)
+        rec.log("/progress/evaluations", rr.SeriesLines(names=["done", "total"]), static=True)
+        rec.log("/best/info", rr.TextDocument("no finished generation yet"), static=True)
+
+    def _log_generation(self, rec: Any, generation: int, tables: dict[str, Any]) -> None:
+        from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+        from ariel.recording.rerun import generation_summary
+        from ariel.recording.store import population_after_selection
+
+        rr = rerun_module()
+        bodies, evaluations = tables["bodies"], tables["evaluations"]
+        row, _ = generation_summary(generation, bodies.to_dict("records"), self.run.maximise)
+        _at(rec, generation)
+        for column, entity in RUN_SERIES.items():
+            rec.log(entity, rr.Scalars(row[column]))
+        population = population_after_selection(bodies)[list(DESCRIPTOR_NAMES)]
+        means = population.astype("Float64").mean().to_numpy(dtype=float, na_value=math.nan)
+        rec.log("/morphology", rr.Scalars(means))
+        for column in self._summary:
+            self._summary[column].append(row[column])
+        self._rows[generation] = len(evaluations)
+        if "archive" in tables:
+            self._log_archive(rec, generation, tables["archive"])
+        self._grow_lineage(bodies, generation)
+        _at(rec, generation, sim_time=True)
+        rec.log("/lineage", *self._lineage())
+        self.best.offer(evaluations, generation)
+
+    def _log_archive(self, rec: Any, generation: int, archive: Any) -> None:
+        from ariel.recording.store import archive_quality_table
+        from ariel.recording.viewer._view import _archive_beside
+
+        rr = rerun_module()
+        beside = _archive_beside(SimpleNamespace(archive=archive, config=self.config))
+        if beside is None:
+            return
+        grid, dimensions = beside
+        rec.log("/archive", rr.Tensor(grid, dim_names=dimensions))
+        rec.send_chunks(archive_chunks(grid, dimensions))
+        quality = archive_quality_table(archive, self.run.qd_offset, self.run.maximise)
+        for column, entity in QD_ENTITIES.items():
+            rec.log(entity, rr.Scalars(float(quality[column].iloc[-1])))
+
+    # -- the lineage -----------------------------------------------------------------------
+
+    def _grow_lineage(self, bodies: Any, generation: int) -> None:
+        step_x, step_y = LINEAGE_STEP
+        for body in bodies.to_dict("records"):
+            body_id = str(body["body_id"])
+            node = self._nodes.get(body_id)
+            if node is None:
+                born = int(body.get("born_generation", generation))
+                k = self._born.get(born, 0)
+                self._born[born] = k + 1
+                node = self._nodes[body_id] = [step_x * born, step_y * k, math.nan]
+                parents = body.get("parent_ids")
+                for parent in [] if parents is None else list(parents):
+                    self._edges[(str(parent), body_id)] = None
+            node[2] = float(body["fitness"])
+        self._alive = {str(b) for b in bodies.loc[bodies["selected"], "body_id"]}
+
+    def _lineage(self) -> list[Any]:
+        rr = rerun_module()
+        ids = list(self._nodes)
+        nodes = np.array(list(self._nodes.values()), dtype=np.float64).reshape(-1, 3)
+        return [
+            rr.GraphNodes(
+                ids,
+                positions=nodes[:, :2],
+                colors=_fitness_colours(nodes[:, 2], self.run.maximise),
+                labels=[f"{i}: {f:.4g}" for i, f in zip(ids, nodes[:, 2])],
+                radii=[6.0 if i in self._alive else 3.0 for i in ids],
+                show_labels=False,
+            ),
+            rr.GraphEdges([e for e in self._edges if e[0] in self._nodes], graph_type="directed"),
+        ]
+
+    # -- progress --------------------------------------------------------------------------
+
+    def _log_progress(self, rec: Any, *, new: bool) -> bool:
+        """The progress text when a generation or the status changed (its ETA: as of the
+        newest generation's end), and its scalars at each new generation."""
+        rr = rerun_module()
+        done, total = sum(self._rows.values()), self._total
+        status = str(self.info.get("status", "?"))
+        rate, eta = self._rate(done)
+        parts = [f"**{status}**", f"generation {self.shown} of {self.config.get('generations')}"]
+        share = f" of {total:,} ({100 * done / total:.0f} %)" if total else ""
+        parts.append(f"evaluations {done:,}{share}")
+        if rate:
+            parts.append(f"{rate:.3g} evaluations/s")
+        if eta is not None and status not in FINAL:
+            parts.append(f"ETA {_duration(eta)} after generation {self.shown - 1}")
+        text = f"run {self.run_id}: " + " · ".join(parts)
+        if text == self._progress:
+            return False
+        self._progress = text
+        rec.log("/progress", rr.TextDocument(text, media_type="text/markdown"), static=True)
+        if new:
+            _at(rec, self.shown - 1)
+            rec.log("/progress/evaluations", rr.Scalars([done, total or math.nan]))
+            rec.log("/progress/evaluations_per_s", rr.Scalars(rate or math.nan))
+            rec.log("/progress/eta_s", rr.Scalars(math.nan if eta is None else eta))
+        return True
+
+    def _rate(self, done: int) -> tuple[float | None, float | None]:
+        """Evaluations per second of the run's current segment (since it started or last
+        resumed, up to its newest manifest), and the seconds left at that rate."""
+        from ariel.recording.store import manifest_file
+
+        info = self.info
+        if info.get("status") in FINAL and info.get("wall_seconds"):
+            return done / float(info["wall_seconds"]), 0.0
+        segments = info.get("segments") or [{}]
+        segment = segments[-1] if isinstance(segments[-1], dict) else {}
+        started = _seconds(segment.get("started", info.get("created")))
+        first = int(segment.get("from_generation", 0) or 0)
+        if not self.shown or started is None:
+            return None, None
+        try:
+            last = manifest_file(self.path, self.shown - 1).stat().st_mtime
+        except OSError:
+            return None, None
+        made = sum(n for g, n in self._rows.items() if g >= first)
+        if last <= started or not made:
+            return None, None
+        rate = made / (last - started)
+        return rate, (max(0, self._total - done) / rate if self._total else None)
+
+
+def _at(rec: Any, generation: int, *, sim_time: bool = False) -> None:
+    """Log what follows at ``generation`` (and at ``sim_time`` 0, to show on that timeline)."""
+    rec.reset_time()
+    rec.set_time("generation", sequence=generation)
+    if sim_time:
+        rec.set_time("sim_time", duration=0.0)
+
+
+def run_blueprint(*, archive: bool = False, fitness_unit: str | None = None) -> Any:
+    """The live view's layout: the best body walking, its morphology and the lineage, the
+    progress (and a MAP-Elites archive) above; its joints and the run's fitness, diversity
+    and morphology per generation below (bar charts, seen on any timeline, and curves on the
+    ``generation`` timeline). The time panel plays ``sim_time`` in a loop: the body walks."""
+    rrb = rerun_module().blueprint
+    unit = f" ({fitness_unit})" if fitness_unit else ""
+    hidden = rrb.PlotLegend(visible=False)
+
+    def bars(column: str) -> Any:
+        entity, name, _ = SUMMARY_SERIES[column]
+        title = f"{name}{unit if 'fitness' in column else ''} per generation"
+        return rrb.BarChartView(name=title, origin=entity, plot_legend=hidden)
+
+    def curves(origin: str, title: str) -> Any:
+        return rrb.TimeSeriesView(name=f"{title} (generation timeline)", origin=origin)
+
+    top = [
+        rrb.Spatial3DView(
+            name="best body so far",
+            origin="/best/world",
+            eye_controls=rrb.EyeControls3D(  # as `ariel view`'s: 1.5 m from the start
+                kind=rrb.components.Eye3DKind.Orbital,
+                position=(0.8, -1.2, 0.7),
+                look_target=(0.1, 0.0, 0.0),
+                eye_up=(0.0, 0.0, 1.0),
+            ),
+        ),
+        rrb.Tabs(
+            rrb.GraphView(name="lineage (bright: fitter)", origin="/lineage"),
+            rrb.GraphView(name="best body's morphology", origin="/best/graph"),
+        ),
+    ]
+    if archive:
+        top.append(
+            rrb.Tabs(
+                rrb.TensorView(name=f"archive: fitness{unit}, dark: empty", origin=ARCHIVE_ENTITY),
+                rrb.TensorView(name="archive per generation", origin="/archive"),
+                curves("/qd", "coverage and QD-score"),
+            )
+        )
+    top.append(
+        rrb.Vertical(
+            rrb.TextDocumentView(name="progress", origin="/progress"),
+            rrb.TextDocumentView(name="best so far", origin="/best/info"),
+            curves("/progress", "progress"),
+        )
+    )
+    bottom = [
+        rrb.TimeSeriesView(name="joint targets (rad)", origin="/best/joints/target"),
+        rrb.TimeSeriesView(name="joint angles (rad)", origin="/best/joints/angle"),
+        rrb.Tabs(bars("best_fitness"), bars("mean_fitness"), curves("/fitness", "fitness")),
+        rrb.Tabs(
+            bars("diversity"),
+            bars("distinct_morphologies"),
+            curves("/diversity", "diversity"),
+            curves("/morphology", "mean morphology"),
+        ),
+    ]
+    return rrb.Blueprint(
+        rrb.Vertical(rrb.Horizontal(*top), rrb.Horizontal(*bottom), row_shares=[3, 2]),
+        rrb.TimePanel(timeline="sim_time", play_state="playing", loop_mode="all"),
+        collapse_panels=False,
+    )
