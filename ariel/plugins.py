@@ -33,9 +33,10 @@ Rules:
   names.
 
 The plugin checkers (``check_body_encoder``, ``check_world``, ``check_controller``,
-``check_fitness``, ``check_all``) run the engine, so they live a layer up, in
-`ariel.evaluation`; ``ariel.plugins.check_*`` still gives them, imported on first use (and
-``check_body_optimizer`` / ``check_brain_optimizer``, from `ariel.evolution`).
+``check_fitness``) run the engine, so they live a layer up, in `ariel.evaluation`;
+``ariel.plugins.check_*`` still gives them, imported on first use (and, from
+`ariel.evolution`, ``check_body_optimizer`` / ``check_brain_optimizer`` and ``check_all``,
+which checks every registered plugin of every kind).
 """
 
 from __future__ import annotations
@@ -784,15 +785,15 @@ def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | Non
 
 
 # The checkers' home is `ariel.evaluation` (they run the engine, a layer above this one); the
-# names here keep ``from ariel.plugins import check_all`` working, imported on first use.
-# Body and brain optimizers are checked in ariel.evolution (a layer above the engine), and so
-# is the whole set, which includes them.
+# names here keep ``from ariel.plugins import check_all`` working, imported on first use from
+# those packages' faces. Body and brain optimizers are checked in ariel.evolution (a layer
+# above the engine), and so is the whole set, `check_all`, which includes them.
 _CHECKS = dict.fromkeys(
     ("check_body_encoder", "check_controller", "check_fitness", "check_world"),
-    "ariel.evaluation._checks",
+    "ariel.evaluation",
 ) | dict.fromkeys(
     ("check_body_optimizer", "check_brain_optimizer", "check_all"),
-    "ariel.evolution._optimizer_checks",
+    "ariel.evolution",
 )
 
 

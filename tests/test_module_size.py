@@ -22,7 +22,7 @@ MAX_LINES, MAX_FUNCTION = 400, 60
 # path -> its code lines when listed; "path:function" -> the function's code lines when listed.
 MODULES_OVER = {
     "cli/__init__.py": 577,
-    "evaluation/_checks.py": 459,
+    "evaluation/_checks.py": 430,
     "evaluation/_engine.py": 681,
     "evaluation/_pool.py": 678,
     "evaluation/_warp.py": 740,

@@ -274,6 +274,31 @@ def test_broken_worlds_are_caught(register, factory: Callable, pattern: str) -> 
     assert_fails(check_world, "test_broken_world", pattern)
 
 
+def test_one_check_all_and_one_helper_for_its_rows() -> None:
+    import ariel.evaluation
+    import ariel.evolution
+    from ariel.evaluation import check_rows
+
+    # check_all is ariel.evolution's (optimizers included); the engine's own has its own name
+    assert check_all is ariel.evolution.check_all
+    assert not hasattr(ariel.evaluation, "check_all")
+    assert callable(ariel.evaluation.check_engine_plugins)
+
+    def checker(name: str) -> None:
+        if name == "bad":
+            raise PluginCheckError("thing 'bad': broken")
+        if name == "odd":
+            raise RuntimeError("first line\nsecond line")
+
+    names = staticmethod(lambda: ["bad", "ok", "odd"])
+    registry = type("Registry", (), {"label": "thing", "names": names})
+    assert check_rows([("thing", registry, checker)]) == [
+        ("thing", "bad", "thing 'bad': broken"),
+        ("thing", "ok", None),
+        ("thing", "odd", "thing 'odd': RuntimeError: first line"),
+    ]
+
+
 def test_check_all_reports_broken_plugins_without_raising(register) -> None:
     register(controllers, "test_broken_ctrl", WrongShapeSine)
     rows = {(kind, name): error for kind, name, error in check_all()}

@@ -121,7 +121,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             overwrite=args.overwrite,
             executor=args.executor,
             workers=args.workers,
-            scheduler=args.scheduler,
+            address=args.address,
             progress=not args.quiet,
             overrides=args.set,
         )
@@ -143,7 +143,7 @@ def _cmd_resume(args: argparse.Namespace) -> int:
                 args.run_dir,
                 executor=args.executor,
                 workers=args.workers,
-                scheduler=args.scheduler,
+                address=args.address,
                 progress=not args.quiet,
             )
         except ValueError as exc:
@@ -283,20 +283,6 @@ def _headless_unless_display(without: str) -> None:
 
     if not has_display():
         ensure_headless_gl(without=without)
-
-
-def _cmd_export(args: argparse.Namespace) -> int:
-    from ariel.recording.resim import export
-    from ariel.utils import python_command
-
-    out = export(args.run_dir, args.eval_id, args.out)
-    python = python_command()
-    body, replay = (shlex.quote(str(out / name)) for name in ("body.xml", "replay.py"))
-    print(
-        f"wrote {out}: body.xml ({python} -m mujoco.viewer --mjcf {body}), "
-        f"genotype.json, controller.json, replay.py ({python} {replay})"
-    )
-    return 0
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
@@ -449,14 +435,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--viewer", action="store_true", help="play it in the MuJoCo viewer")
     p.set_defaults(func=_cmd_replay)
 
-    p = sub.add_parser(
-        "export",
-        help="write one evaluation as MJCF, genotype and controller JSON, and a replay script",
-    )
-    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
-    p.add_argument("eval_id", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'")
-    p.add_argument("out", metavar="DIR", help="a new or empty folder")
-    p.set_defaults(func=_cmd_export)
+    from ariel.cli._export import add_export_command
+
+    add_export_command(sub)
 
     p = sub.add_parser(
         "report", help="per-generation table and figures of a run (PNGs in RUN_DIR/report/)"
@@ -520,11 +501,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     from ariel.cli._campaign import add_campaign_commands
     from ariel.cli._config import add_config_commands
+    from ariel.cli._gallery import add_gallery_command
     from ariel.cli._watch import add_watch_command
 
     add_campaign_commands(sub, _add_executor_options)
     add_config_commands(sub)
     add_watch_command(sub)
+    add_gallery_command(sub)
 
     # Every option (--seed, --duration, --out, ..., --help) is the script's: main() hands them on.
     p = sub.add_parser(

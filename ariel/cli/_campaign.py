@@ -98,7 +98,7 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
             out=live.campaign_folder(args.out, args.file, args.set),
             executor=args.executor,
             workers=args.workers,
-            scheduler=args.scheduler,
+            address=args.address,
             progress=not args.quiet,
             overrides=args.set,
         )
@@ -134,7 +134,7 @@ def _cmd_campaign_resume(args: argparse.Namespace) -> int:
             args.campaign_dir,
             executor=args.executor,
             workers=args.workers,
-            scheduler=args.scheduler,
+            address=args.address,
             progress=not args.quiet,
         )
 

@@ -10,7 +10,7 @@ __all__ = ["add_executor_options", "add_live_options", "add_web_viewer_options"]
 
 
 def add_executor_options(p: argparse.ArgumentParser) -> None:
-    """``--executor``, ``--workers``, ``--scheduler``, ``--quiet``, and the live view's
+    """``--executor``, ``--workers``, ``--address``, ``--quiet``, and the live view's
     ``--live`` and ``--web`` (the commands that run evolution take both)."""
     p.add_argument(
         "--executor",
@@ -20,9 +20,12 @@ def add_executor_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--workers", type=positive_int, help="worker processes (default: all CPUs)")
     p.add_argument(
-        "--scheduler",
+        "--address",
+        "--scheduler",  # its old name, still accepted
+        dest="address",
         metavar="ADDRESS",
-        help="a running Dask scheduler, e.g. tcp://host:8786 (with --executor dask)",
+        help="the address of a running Dask scheduler, e.g. tcp://host:8786 (with --executor "
+        "dask; --scheduler is its old name)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     add_live_options(p)

@@ -11,8 +11,10 @@ from typing import TYPE_CHECKING
 from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
+    from ariel.evaluation._check_registered import (
+        check_engine_plugins as check_engine_plugins,
+    )
     from ariel.evaluation._checks import (
-        check_all as check_all,
         check_body_encoder as check_body_encoder,
         check_controller as check_controller,
         check_fitness as check_fitness,
@@ -43,6 +45,9 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     )
 
 if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.evaluation._check_registered import (
+        check_rows as check_rows,
+    )
     from ariel.evaluation._checks import (
         CHECK_SEED as CHECK_SEED,
         Checker as Checker,
@@ -76,10 +81,11 @@ _LAZY: dict[str, str] = {
     "build": "ariel.evaluation._engine",
     "evaluate": "ariel.evaluation._engine",
     "evaluate_batch": "ariel.evaluation._engine",
-    # Plugin checkers (Gymnasium's check_env): they run the engine, so they live here.
-    "check_all": "ariel.evaluation._checks",
+    # Plugin checkers (Gymnasium's check_env): they run the engine, so they live here
+    # (`ariel.evolution.check_all`, which adds the optimizers, a layer up).
     "check_body_encoder": "ariel.evaluation._checks",
     "check_controller": "ariel.evaluation._checks",
+    "check_engine_plugins": "ariel.evaluation._check_registered",
     "check_fitness": "ariel.evaluation._checks",
     "check_world": "ariel.evaluation._checks",
     "EXECUTOR_KINDS": "ariel.evaluation.executors",
@@ -104,6 +110,7 @@ _INTERNAL: dict[str, str] = {
     "WarpUnavailableError": "ariel.evaluation._warp",
     "WorkerCannotStartError": "ariel.evaluation._pool",
     "call_text": "ariel.evaluation._checks",
+    "check_rows": "ariel.evaluation._check_registered",
     "default_workers": "ariel.evaluation._threads",
     "frame_steps": "ariel.evaluation._engine",
     "make_plugin": "ariel.evaluation._engine",

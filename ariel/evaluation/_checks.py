@@ -5,7 +5,8 @@ types), determinism for a seed, shapes, and plain-data round trips, then runs a 
 evaluation of the gecko (``BodySpec("prebuilt", "gecko")``, flat world, 0.5 simulated
 seconds). The first problem raises `PluginCheckError` with one line naming the plugin and what
 failed. Exposed as ``ariel.evaluation.check_*`` (and, as before, ``ariel.plugins.check_*``),
-both imported on first use: this module needs MuJoCo.
+both imported on first use: this module needs MuJoCo. Every registered name of these kinds:
+`ariel.evaluation._check_registered.check_engine_plugins`.
 
 Worlds and fitness functions are checked with the gecko driven by `NaCPGController` itself,
 scored by `xy_displacement` itself, not by whatever the registries now hold under "na_cpg" and
@@ -39,11 +40,11 @@ from ariel.evaluation._engine import (
 )
 from ariel.evaluation._task import BodySpec, EvaluationResult, EvaluationTask, _plain
 from ariel.evaluation.builtin_plugins import NaCPGController, xy_displacement
-from ariel.plugins import REGISTRIES, body_encoders, controllers, fitness_functions, worlds
+from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
 from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.observations import hinge_observation
 
-__all__ = ["check_all", "check_body_encoder", "check_controller", "check_fitness", "check_world"]
+__all__ = ["check_body_encoder", "check_controller", "check_fitness", "check_world"]
 
 #: The body every world, controller and fitness check runs (8 hinges, flat world).
 CHECK_BODY = BodySpec("prebuilt", "gecko")
@@ -519,42 +520,3 @@ def check_fitness(name: str, **options: Any) -> None:
         float(value) == result.fitness,
         f"fn(record) gave {value}, the evaluation {result.fitness}, for the same run",
     )
-
-
-# --------------------------------------------------------------------------------------------
-# Everything registered
-# --------------------------------------------------------------------------------------------
-
-_CHECKERS: dict[str, Callable[[str], None]] = {
-    "body_encoder": check_body_encoder,
-    "world": check_world,
-    "controller": check_controller,
-    "fitness": check_fitness,
-}
-
-
-def check_all() -> list[tuple[str, str, str | None]]:
-    """Check every registered name of every kind, entry points included, with default options.
-
-    Body encoders, worlds, controllers and fitness functions are checked (body and brain
-    optimizers are not). Nothing is raised for a broken plugin: an entry point that fails to
-    load, or clashes with another provider, is reported as its row's error.
-
-    Returns:
-        One ``(kind, name, error or None)`` row per name, kinds in `REGISTRIES` order and
-        names sorted; ``error`` is the one-line failure message, None for a plugin that passed.
-    """
-    report: list[tuple[str, str, str | None]] = []
-    for kind, registry in REGISTRIES.items():
-        if kind not in _CHECKERS:  # body and brain optimizers: checked a layer up
-            continue
-        for name in registry.names():
-            error: str | None = None
-            try:
-                _CHECKERS[kind](name)
-            except PluginCheckError as exc:
-                error = str(exc)
-            except Exception as exc:  # not expected (checkers wrap what they call): still a row
-                error = f"{registry.label} {name!r}: {_one_line(exc)}"
-            report.append((kind, name, error))
-    return report

@@ -40,6 +40,7 @@ from ariel.evaluation._threads import (
     evaluation_threads,
 )
 from ariel.plugins import Registry
+from ariel.utils import accept_aliases
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -559,7 +560,7 @@ class DaskExecutor(BatchExecutor, cf.Executor):
 
     def __repr__(self) -> str:
         address = getattr(self.client.scheduler, "address", None)
-        return f"DaskExecutor(scheduler={address!r}, closed={self._closed})"
+        return f"DaskExecutor(address={address!r}, closed={self._closed})"
 
 
 def _duration(seconds: float) -> str:
@@ -614,7 +615,7 @@ def _workers_ignore_sigint() -> Iterator[None]:
 
 def _make_dask(
     workers: int | None,
-    scheduler: Any,
+    address: Any,
     *,
     max_retries: int | None = None,
     blas_threads: int = 1,
@@ -625,7 +626,7 @@ def _make_dask(
         from distributed import Client, LocalCluster
     except ImportError as exc:
         raise ImportError(_DASK_MISSING) from exc
-    if scheduler is None:
+    if address is None:
         n_workers = cluster_options.pop("n_workers", None) or workers or default_workers()
         per_worker = cluster_options.pop("threads_per_worker", None) or 1
         # Every Dask thread may run an evaluation batch: they share the CPUs.
@@ -672,20 +673,20 @@ def _make_dask(
         return DaskExecutor(client, cluster=cluster, no_worker_timeout=limit)
     if workers is not None:
         raise ValueError(
-            "workers= sizes a LocalCluster; with scheduler= the cluster's own workers are used "
+            "workers= sizes a LocalCluster; with address= the cluster's own workers are used "
             "(scale the cluster instead)"
         )
     if cluster_options or max_retries is not None:
         given = sorted(cluster_options) + (["max_retries"] if max_retries is not None else [])
         raise TypeError(
-            f"options {given} are for a LocalCluster; they cannot be used with scheduler= "
+            f"options {given} are for a LocalCluster; they cannot be used with address= "
             "(a scheduler's retries are its distributed.scheduler.allowed-failures setting)"
         )
     limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_SCHEDULER)
-    if isinstance(scheduler, Client):  # the caller owns it
-        return DaskExecutor(scheduler, close_client=False, no_worker_timeout=limit)
+    if isinstance(address, Client):  # the caller owns it
+        return DaskExecutor(address, close_client=False, no_worker_timeout=limit)
     # An address such as "tcp://host:8786", or a cluster object (e.g. a SLURMCluster).
-    return DaskExecutor(Client(scheduler), no_worker_timeout=limit)
+    return DaskExecutor(Client(address), no_worker_timeout=limit)
 
 
 # --------------------------------------------------------------------------------------------
@@ -711,8 +712,8 @@ class ExecutorKind:
 
     #: Why ``executor.workers`` must be 1 (the kind runs batches in this process), or None.
     one_worker: str | None = None
-    #: Whether the kind connects to a Dask scheduler (``executor.scheduler``).
-    takes_scheduler: bool = False
+    #: Whether the kind connects to a running Dask scheduler (``executor.address``).
+    takes_address: bool = False
 
     def check(self, settings: Any) -> None:
         """Checks of this kind's own settings, before anything runs (`ExecutorSettingsError`)."""
@@ -731,7 +732,7 @@ class ExecutorKind:
         self,
         *,
         workers: int | None = None,
-        scheduler: Any = None,
+        address: Any = None,
         max_retries: int | None = None,
         **options: Any,
     ) -> cf.Executor:
@@ -744,7 +745,7 @@ class SerialKind(ExecutorKind):
 
     one_worker = "the serial executor has 1 worker"
 
-    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+    def make(self, *, workers=None, address=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
         if workers not in (None, 1):
             raise ValueError(
                 f"the serial executor runs in this process; workers must be 1, got {workers}"
@@ -761,33 +762,33 @@ class LocalKind(ExecutorKind):
     def options(self, settings: Any) -> dict[str, Any]:
         return {"workers": settings.workers, "max_retries": settings.max_retries}
 
-    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+    def make(self, *, workers=None, address=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
         return _make_local(workers, max_retries=max_retries, **options)
 
 
 class DaskKind(ExecutorKind):
-    """``dask``: a Dask ``LocalCluster``, or a scheduler you run."""
+    """``dask``: a Dask ``LocalCluster``, or a scheduler you run (at ``executor.address``)."""
 
-    takes_scheduler = True
+    takes_address = True
 
     def check(self, settings: Any) -> None:
-        if settings.scheduler is not None and settings.workers is not None:
+        if settings.address is not None and settings.workers is not None:
             raise ExecutorSettingsError(
-                "executor.workers: sizes a local cluster; with executor.scheduler the "
+                "executor.workers: sizes a local cluster; with executor.address the "
                 "cluster's own workers are used (scale the cluster instead)"
             )
 
     def planned_workers(self, settings: Any) -> tuple[int, bool]:
-        return settings.workers or default_workers(), settings.scheduler is None
+        return settings.workers or default_workers(), settings.address is None
 
     def options(self, settings: Any) -> dict[str, Any]:
-        options = {"workers": settings.workers, "scheduler": settings.scheduler}
-        if settings.scheduler is None:
+        options = {"workers": settings.workers, "address": settings.address}
+        if settings.address is None:
             options["max_retries"] = settings.max_retries
         return options
 
-    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
-        return _make_dask(workers, scheduler, max_retries=max_retries, **options)
+    def make(self, *, workers=None, address=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+        return _make_dask(workers, address, max_retries=max_retries, **options)
 
 
 class GpuKind(ExecutorKind):
@@ -813,7 +814,7 @@ class GpuKind(ExecutorKind):
     def options(self, settings: Any) -> dict[str, Any]:
         return {"workers": settings.workers, "device": settings.device}
 
-    def make(self, *, workers=None, scheduler=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
+    def make(self, *, workers=None, address=None, max_retries=None, **options):  # type: ignore[no-untyped-def]
         if workers not in (None, 1):
             raise ValueError(
                 f"the gpu executor runs in this process on one device; no workers (got {workers})"
@@ -879,7 +880,7 @@ def check_settings(settings: Any) -> None:
         ExecutorSettingsError: The first bad setting; the message starts with its key
             (``executor.workers: ...``).
     """
-    kind_name, workers, scheduler = settings.kind, settings.workers, settings.scheduler
+    kind_name, workers, address = settings.kind, settings.workers, settings.address
     try:
         kind = executor_kind(kind_name)
     except ValueError:
@@ -890,9 +891,9 @@ def check_settings(settings: Any) -> None:
         raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
     if kind.one_worker is not None and workers not in (None, 1):
         raise ExecutorSettingsError(f"executor.workers: {kind.one_worker} (got {workers})")
-    if scheduler is not None and not kind.takes_scheduler:
+    if address is not None and not kind.takes_address:
         raise ExecutorSettingsError(
-            f"executor.scheduler: only for the dask executor, not {kind_name!r}"
+            f"executor.address: only for the dask executor, not {kind_name!r}"
         )
     kind.check(settings)
 
@@ -908,8 +909,8 @@ def planned_workers(settings: Any) -> tuple[int, bool]:
     Returns:
         ``(batches, local)``: how many batches run at once (of the built-in kinds: 1 for
         ``serial`` and ``gpu``, ``workers`` or else one per usable CPU for ``local`` and
-        ``dask``), and whether they run on this machine (False for ``dask`` with a
-        ``scheduler``).
+        ``dask``), and whether they run on this machine (False for ``dask`` with an
+        ``address``).
 
     Raises:
         ValueError: ``settings.kind`` names no executor kind.
@@ -926,7 +927,7 @@ def settings_options(settings: Any) -> dict[str, Any]:
 
     Returns:
         The keyword arguments, ``kind`` not included (`ExecutorKind.options` of the kind):
-        ``workers`` always, and per kind ``max_retries``, ``scheduler`` or ``device``.
+        ``workers`` always, and per kind ``max_retries``, ``address`` or ``device``.
 
     Raises:
         ExecutorSettingsError: A bad setting (`check_settings`).
@@ -935,11 +936,12 @@ def settings_options(settings: Any) -> dict[str, Any]:
     return executor_kind(settings.kind).options(settings)
 
 
+@accept_aliases(scheduler="address")
 def make_executor(
     kind: Any = "local",
     *,
     workers: int | None = None,
-    scheduler: Any = None,
+    address: Any = None,
     max_retries: int | None = None,
     **options: Any,
 ) -> cf.Executor:
@@ -950,13 +952,14 @@ def make_executor(
         kind: ``"serial"``, ``"local"``, ``"dask"`` or ``"gpu"`` (options ``device``:
             ``"cuda"`` or ``"cpu"``, and ``max_worlds``; see `WarpExecutor`), or a kind
             registered in `executor_kinds`; or an experiment config's ``[executor]`` section
-            (``kind``, ``workers``, ``scheduler``, ``device``, ``max_retries``; checked with
+            (``kind``, ``workers``, ``address``, ``device``, ``max_retries``; checked with
             `check_settings`).
         workers: processes for ``local`` and for a Dask ``LocalCluster`` (default: one per
             usable CPU); ``serial`` accepts only 1.
-        scheduler: ``dask`` only: an address like ``"tcp://host:8786"``, a cluster object
-            (e.g. dask-jobqueue's ``SLURMCluster``) or a ``distributed.Client``. Without it a
-            ``LocalCluster`` is started, and closed again on shutdown.
+        address: ``dask`` only: a running Dask scheduler's address like
+            ``"tcp://host:8786"``, a cluster object (e.g. dask-jobqueue's ``SLURMCluster``)
+            or a ``distributed.Client``. Without it a ``LocalCluster`` is started, and closed
+            again on shutdown. ``scheduler=`` is its old name, still accepted.
         max_retries: ``local`` and a Dask ``LocalCluster``: how many times a call is tried
             again after the worker process running it died (default `DEFAULT_MAX_RETRIES`
             for ``local``, Dask's ``allowed-failures`` setting for Dask); then its future
@@ -973,8 +976,8 @@ def make_executor(
 
     Raises:
         ValueError: An unknown ``kind``, ``workers`` that is not an integer >= 1 (or not 1
-            for ``serial`` and ``gpu``), or ``scheduler`` for a kind other than ``dask``.
-        TypeError: Options the kind does not take.
+            for ``serial`` and ``gpu``), or ``address`` for a kind other than ``dask``.
+        TypeError: Options the kind does not take, or both ``address`` and ``scheduler``.
         ExecutorSettingsError: A bad setting in a config's ``[executor]`` section.
         ImportError: ``dask`` without the ``distributed`` extra installed.
 
@@ -996,13 +999,11 @@ def make_executor(
     if not isinstance(kind, str):  # a config's [executor] section
         return make_executor(kind.kind, **settings_options(kind))
     executor = executor_kind(kind)
-    if workers is not None and (
-        not isinstance(workers, int) or isinstance(workers, bool) or workers < 1
-    ):
+    if workers is not None and not _is_count(workers):
         raise ValueError(f"workers must be an integer >= 1 or None, got {workers!r}")
-    if scheduler is not None and not executor.takes_scheduler:
-        raise ValueError(f"scheduler= is only for the dask executor, not {kind!r}")
-    return executor.make(workers=workers, scheduler=scheduler, max_retries=max_retries, **options)
+    if address is not None and not executor.takes_address:
+        raise ValueError(f"address= is only for the dask executor, not {kind!r}")
+    return executor.make(workers=workers, address=address, max_retries=max_retries, **options)
 
 
 def submit_with_timeout(

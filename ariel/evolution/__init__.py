@@ -48,6 +48,9 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         BodyOptimizer as BodyOptimizer,
         Proposal as Proposal,
     )
+    from ariel.evolution._optimizer_checks import (
+        check_all as check_all,
+    )
     from ariel.evolution._random_search import (
         RandomSearch as RandomSearch,
     )
@@ -105,6 +108,10 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         DEFAULT_RANGES as DEFAULT_RANGES,
         archive_quality as archive_quality,
     )
+    from ariel.evolution._optimizer_checks import (
+        check_body_optimizer as check_body_optimizer,
+        check_brain_optimizer as check_brain_optimizer,
+    )
     from ariel.evolution._progress import (
         Progress as Progress,
         eta_text as eta_text,
@@ -150,6 +157,8 @@ _LAZY: dict[str, str] = {
     "Body": "ariel.evolution._state",
     "BodyOptimizer": "ariel.evolution._optimizer",
     "Proposal": "ariel.evolution._optimizer",
+    # Every plugin checked, optimizers included (`ariel plugins --check`, ariel.plugins.check_all)
+    "check_all": "ariel.evolution._optimizer_checks",
     "GeneticAlgorithm": "ariel.evolution._ga",
     "MapElites": "ariel.evolution._map_elites",
     "NoveltySearch": "ariel.evolution._novelty",
@@ -182,6 +191,8 @@ _INTERNAL: dict[str, str] = {
     "archive_quality": "ariel.evolution._map_elites",
     "body_spec": "ariel.evolution._tasks",
     "budget": "ariel.evolution._driver",
+    "check_body_optimizer": "ariel.evolution._optimizer_checks",
+    "check_brain_optimizer": "ariel.evolution._optimizer_checks",
     "check_genotype": "ariel.evolution._genotype",
     "check_key": "ariel.evolution._config",
     "check_plugins": "ariel.evolution._checks",

@@ -16,7 +16,16 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Strict, ValidationError
+from pydantic import (
+    AfterValidator,
+    AliasChoices,
+    BaseModel,
+    ConfigDict,
+    Field,
+    Strict,
+    ValidationError,
+    model_validator,
+)
 
 from ariel.errors import ConfigError
 from ariel.evolution._toml import read_toml_file
@@ -205,7 +214,8 @@ class ExecutorConfig(_Section):
         kind: The executor: ``"serial"``, ``"local"`` (a process pool; the default),
             ``"dask"``, ``"gpu"`` (MuJoCo Warp) or another registered kind.
         workers: Worker processes, >= 1; None (the default): all CPUs.
-        scheduler: The address of a running Dask scheduler; None: none.
+        address: The address of a running Dask scheduler (``dask`` only), e.g.
+            ``"tcp://host:8786"``; None: none. ``scheduler`` is its old name, still read.
         device: ``gpu`` only: MuJoCo Warp's device, ``"cuda"`` (the default) or ``"cpu"``
             (Warp's CPU device; slow, for tests). Unlike the other kinds, ``gpu`` does change
             results: float32 physics (docs/gpu.md).
@@ -219,12 +229,20 @@ class ExecutorConfig(_Section):
     # A name in `ariel.evaluation.executors.executor_kinds` (built-in or registered).
     kind: Annotated[Str, AfterValidator(_known_executor_kind)] = "local"
     workers: Int | None = Field(None, ge=1)
-    scheduler: Str | None = None
+    # Read under its old name ``scheduler`` too (a TOML file, ``--set``, an older run's config).
+    address: Str | None = Field(None, validation_alias=AliasChoices("address", "scheduler"))
     # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).
     # Unlike the other kinds, ``gpu`` does change results: float32 physics (docs/gpu.md).
     device: Literal["cuda", "cpu"] = "cuda"
     timeout: Seconds = 600.0
     max_retries: Int = Field(2, ge=0)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _one_address(cls, data: Any) -> Any:
+        if isinstance(data, Mapping) and "address" in data and "scheduler" in data:
+            raise ValueError("give address or its old name scheduler, not both")
+        return data
 
 
 class ExperimentConfig(_Section):
@@ -369,26 +387,45 @@ def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[s
     return result
 
 
+def _spellings(model: type[BaseModel], part: str) -> list[str]:
+    """The keys of ``model`` that set what ``part`` sets: a field's name and the old names it
+    is still read under (``address``, ``scheduler``); [] where ``part`` sets nothing."""
+    for name, field in model.model_fields.items():
+        alias = field.validation_alias
+        names = [name, *alias.choices] if isinstance(alias, AliasChoices) else [name]
+        if part in names:
+            return [str(n) for n in dict.fromkeys(names)]
+    return []
+
+
 def check_key(key: str, label: str) -> None:
     """Raise `ConfigError` (``label: ...``) unless dotted ``key`` names a config value."""
+    _table_of(key, label)
+
+
+def _table_of(key: str, label: str) -> type[BaseModel] | None:
+    """The section (model) the last part of the checked dotted ``key`` is a key of; None
+    inside a free ``options`` table."""
     parts = key.split(".")
     model: type[BaseModel] | None = ExperimentConfig
     for depth, part in enumerate(parts):
         if model is None:  # inside a free `options` table
             break
-        if part not in model.model_fields:
+        spellings = _spellings(model, part)
+        if not spellings:
             names = sorted(model.model_fields)
             where = ".".join(parts[:depth]) or "the top level"
             hint = _did_you_mean(parts, depth, names)
             raise ConfigError(f"{label}: no such key; keys under {where}: {', '.join(names)}{hint}")
         if depth < len(parts) - 1:
-            annotation = model.model_fields[part].annotation
+            annotation = model.model_fields[spellings[0]].annotation
             if isinstance(annotation, type) and issubclass(annotation, BaseModel):
                 model = annotation
             elif part == "options":
                 model = None
             else:
                 raise ConfigError(f"{label}: '{part}' is a value, not a table")
+    return model
 
 
 def _did_you_mean(parts: list[str], depth: int, names: list[str]) -> str:
@@ -410,13 +447,15 @@ def _did_you_mean(parts: list[str], depth: int, names: list[str]) -> str:
 
 def set_value(data: dict[str, Any], key: str, value: Any, label: str) -> None:
     """Set dotted ``key`` of raw config ``data`` (in place) to ``value``; errors name ``label``."""
-    check_key(key, label)
+    table = _table_of(key, label)
     parts = key.split(".")
     node = data
     for part in parts[:-1]:
         node = node.setdefault(part, {})
         if not isinstance(node, dict):
             raise ConfigError(f"{label}: '{part}' is a value, not a table")
+    for spelling in _spellings(table, parts[-1]) if table is not None else ():
+        node.pop(spelling, None)  # the value under another name (an old one) is replaced too
     node[parts[-1]] = value
 
 

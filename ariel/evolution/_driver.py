@@ -172,6 +172,9 @@ class RunDriver:
             )
             if state is not None:
                 self.optimizer.restore(state.optimizer, state.population)
+            describe = getattr(self.optimizer, "archive_description", None)  # a QD archive
+            if describe is not None:  # before its first rows: readers and run.rrd draw from it
+                records.update_info(archive=describe())
         self._jobs: list[BrainJob] = []
         self._bodies: tuple[list[Body], list[Body]] = (
             [],

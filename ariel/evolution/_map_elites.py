@@ -13,6 +13,15 @@ Options (``body.optimizer_options``): ``measures`` (default ``["num_limbs", "joi
 value outside is put in the edge cell; defaults for the descriptors below) and ``qd_offset``
 (see below). Bodies that failed (no finite fitness) never enter the archive.
 
+``archive = "cvt"`` (default ``"grid"``) makes it CVT-MAP-Elites (Vassiliades et al. 2018): a
+pyribs ``CVTArchive`` of ``cells`` cells (default 64; ``bins`` is then an error), each the
+region nearest to a centroid, made from the run seed (`ariel.evolution._cvt`). A cell's index
+is its centroid's; the ``archive`` table's ``grid`` column is then ``[cells]``.
+
+The archive describes itself (`MapElites.archive_description`: its kind, measures, ranges, and
+a grid's bins or a CVT's centroids); the driver records that in run.json (``archive``), and
+readers draw the archive from it.
+
 QD metrics (`archive_quality`), as pyribs' archive statistics: ``coverage`` (filled cells /
 cells), ``qd_score`` (the sum over elites of how much better than ``qd_offset`` each is,
 pyribs' ``qd_score_offset``) and ``norm_qd_score`` (``qd_score`` / cells). ``qd_offset`` is a
@@ -40,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.evolution._cvt import check_archive, in_measure_units, scaled, unit_centroids
 from ariel.evolution._ga import breed, random_proposals
 from ariel.evolution._optimizer import Proposal
 from ariel.evolution._seeds import derive_rng
@@ -168,12 +178,17 @@ class MapElites:
         qd_offset: The fitness that counts as nothing in the QD-score (pyribs'
             ``qd_score_offset``, in the fitness's unit); None: 0 for a maximised fitness. It
             must be given for a minimised one.
+        archive: ``"grid"`` (a ``GridArchive`` of ``bins``) or ``"cvt"`` (a ``CVTArchive``
+            of ``cells`` centroids made from ``seed``, `ariel.evolution._cvt`).
+        cells: A CVT's number of cells, an integer >= 1; None: 64. Only with ``"cvt"``.
 
     Raises:
         ValueError: For an unknown or empty list of measures, ``bins`` or ``ranges`` that do
             not give one valid entry per measure, a measure without a default range when
             ``ranges`` is None, or a ``qd_offset`` that is not a finite number (or is missing
-            for a minimised fitness).
+            for a minimised fitness); an ``archive`` other than ``"grid"`` or ``"cvt"``,
+            ``cells`` that is not an integer >= 1, or ``bins`` with a CVT (``cells`` with a
+            grid).
     """
 
     def __init__(
@@ -187,21 +202,49 @@ class MapElites:
         bins: Sequence[int] | None = None,
         ranges: Sequence[Sequence[float]] | None = None,
         qd_offset: float | None = None,
+        archive: str = "grid",
+        cells: int | None = None,
     ) -> None:
         from ribs.archives import GridArchive
 
+        cvt_cells = check_archive(archive, bins, cells)
         self.measures, self.bins, self.ranges = _check_options(list(measures), bins, ranges)
         self.qd_offset = resolve_qd_offset(qd_offset, maximise)
         self.encoder, self.seed, self.maximise, self.settings = encoder, seed, maximise, settings
-        self.archive = GridArchive(
-            solution_dim=1,
-            dims=self.bins,
-            ranges=self.ranges,
-            qd_score_offset=self.qd_offset if maximise else -self.qd_offset,  # objective units
-            dtype=np.float64,
-        )
+        self.kind = archive
+        # cells per measure of a grid, [cells] of a CVT: the archive table's grid column
+        self.shape = self.bins if cvt_cells is None else [cvt_cells]
+        self.centroids: np.ndarray | None = None  # a CVT's, in the unit cube
+        if cvt_cells is None:
+            self.archive = GridArchive(
+                solution_dim=1,
+                dims=self.bins,
+                ranges=self.ranges,
+                qd_score_offset=self._score_offset,
+                dtype=np.float64,
+            )
+        else:
+            self._make_cvt(unit_centroids(seed, cvt_cells, len(self.measures)))
         self.generation = 0  # the generation the next `ask` breeds
         self._bodies: dict[int, Body] = {}  # the elites, by body number
+
+    @property
+    def _score_offset(self) -> float:
+        """pyribs' ``qd_score_offset``: `qd_offset` in objective units."""
+        return self.qd_offset if self.maximise else -self.qd_offset
+
+    def _make_cvt(self, centroids: np.ndarray) -> None:
+        """A CVT archive of ``centroids`` (in the unit cube), empty."""
+        from ribs.archives import CVTArchive
+
+        self.centroids = np.array(centroids, dtype=np.float64)
+        self.archive = CVTArchive(
+            solution_dim=1,
+            centroids=self.centroids,
+            ranges=[(0.0, 1.0)] * len(self.measures),
+            qd_score_offset=self._score_offset,
+            dtype=np.float64,
+        )
 
     @property
     def population(self) -> list[Body]:
@@ -245,6 +288,8 @@ class MapElites:
         measures = np.array([body_measures(body, self.measures)])
         if not np.isfinite(measures).all():
             return
+        if self.centroids is not None:  # a CVT's cells are in the scaled measures
+            measures = scaled(measures, self.ranges)
         info = self.archive.add(np.array([[float(body.number)]]), np.array([objective]), measures)
         if int(info["status"][0]) > 0:  # new cell or improved: the body is an elite now
             self._bodies[body.number] = body
@@ -260,7 +305,7 @@ class MapElites:
                 "fitness": float(body.fitness),
                 "objective": float(body.fitness if self.maximise else -body.fitness),
                 "measures": body_measures(body, self.measures),
-                "grid": list(self.bins),
+                "grid": list(self.shape),
             }
             for index, body in self.cells()
         ]
@@ -269,15 +314,34 @@ class MapElites:
         """``coverage``, ``qd_score``, ``norm_qd_score`` (`archive_quality`), ``cells`` and
         ``filled``."""
         fitness = [body.fitness for _, body in self.cells()]
-        cells = int(np.prod(self.bins))
+        cells = int(np.prod(self.shape))
         quality = archive_quality(fitness, cells, self.qd_offset, self.maximise)
         return {**quality, "cells": cells, "filled": len(fitness)}
 
+    def archive_description(self) -> dict[str, Any]:
+        """The archive as readers draw it (plain JSON): ``kind`` (``"grid"`` or ``"cvt"``),
+        ``measures``, ``ranges`` and a grid's ``bins`` or a CVT's ``cells`` and ``centroids``
+        (one list of measure values per cell, in cell order, in the measures' units; a
+        body's cell is the nearest centroid in the measures scaled to [0, 1] by ``ranges``)."""
+        described: dict[str, Any] = {
+            "kind": self.kind,
+            "measures": list(self.measures),
+            "ranges": [[low, high] for low, high in self.ranges],
+        }
+        if self.centroids is None:
+            return {**described, "bins": list(self.bins)}
+        centroids = in_measure_units(self.centroids, self.ranges)
+        return {**described, "cells": len(centroids), "centroids": centroids}
+
     def state(self) -> dict[str, Any]:
-        return {"generation": self.generation}
+        if self.centroids is None:
+            return {"generation": self.generation}
+        return {"generation": self.generation, "centroids": self.centroids.tolist()}
 
     def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
         self.generation = int(state["generation"])
+        if self.centroids is not None and "centroids" in state:  # the run's own, exactly
+            self._make_cvt(np.array(state["centroids"], dtype=np.float64))
         self.archive.clear()
         self._bodies = {}
         for body in sorted(population, key=lambda b: b.number):

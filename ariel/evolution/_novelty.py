@@ -359,6 +359,10 @@ class NoveltySearch:
         """The result archive as rows of the ``archive`` table (`MapElites.archive_rows`)."""
         return self.result.archive_rows()
 
+    def archive_description(self) -> dict[str, Any]:
+        """The result archive's description (`MapElites.archive_description`: a grid)."""
+        return self.result.archive_description()
+
     def stats(self) -> dict[str, float]:
         """The result archive's `MapElites.stats`, with ``novelty_archive`` (members of the
         novelty archive) and ``mean_novelty`` (of the population's bodies that did not fail,

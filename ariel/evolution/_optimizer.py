@@ -14,6 +14,11 @@ random draw derives from it), ``maximise`` the fitness direction, ``settings`` t
 ``[body]`` section (population, offspring, tournament, crossover_rate, survivors), and
 ``options`` the config's ``body.optimizer_options``. Its state is plain data (`state` /
 `restore`), stored in the checkpoint; its bodies are stored by the driver.
+
+A quality-diversity optimizer (`ArchiveOptimizer`: ``map_elites``, ``novelty``) also keeps an
+archive of elites, which the driver records after every generation: its rows (the ``archive``
+table), its description (run.json's ``archive``: a grid's bins or a CVT's centroids, what
+readers draw it from), its QD metrics (the progress line) and ``qd_offset``.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 if TYPE_CHECKING:
     from ariel.evolution._state import Body
 
-__all__ = ["BodyOptimizer", "Proposal", "ranked"]
+__all__ = ["ArchiveOptimizer", "BodyOptimizer", "Proposal", "ranked"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +70,27 @@ class BodyOptimizer(Protocol):
 
     def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
         """Continue from `state` and the population kept when it was taken."""
+        ...
+
+
+@runtime_checkable
+class ArchiveOptimizer(BodyOptimizer, Protocol):
+    """A `BodyOptimizer` with an archive of elites; see the module docstring."""
+
+    qd_offset: float  # the fitness that counts as nothing in the QD-score
+
+    def archive_rows(self) -> list[dict[str, Any]]:
+        """One row of the ``archive`` table per filled cell (``cell``, ``body_id``,
+        ``fitness``, ``objective``, ``measures``, ``grid``), in cell order."""
+        ...
+
+    def archive_description(self) -> dict[str, Any]:
+        """Plain JSON: ``kind`` (``"grid"`` or ``"cvt"``), ``measures``, ``ranges``, and a
+        grid's ``bins`` or a CVT's ``cells`` and ``centroids`` (in the measures' units)."""
+        ...
+
+    def stats(self) -> dict[str, float]:
+        """``coverage``, ``qd_score``, ``norm_qd_score``, ``cells``, ``filled`` (and more)."""
         ...
 
 

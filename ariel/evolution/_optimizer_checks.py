@@ -1,5 +1,6 @@
 """`check_body_optimizer` and `check_brain_optimizer`: the optimizers' contracts, tested without
-physics; and `check_all` over every plugin kind (`ariel plugins --check`).
+physics; and `check_all` over every plugin kind (`ariel plugins --check`): the engine's
+plugins (`ariel.evaluation.check_engine_plugins`), then the optimizers.
 
 The check drives the optimizer for three generations on made-up bodies (genotypes are short
 vectors from a checker encoder; a body's fitness and descriptors are functions of its
@@ -21,12 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ariel.evaluation import (
-    CHECK_SEED,
-    Checker,
-    call_text,
-    check_all as _check_engine_plugins,
-)
+from ariel.evaluation import CHECK_SEED, Checker, call_text, check_engine_plugins, check_rows
 from ariel.evolution._state import Body
 
 __all__ = ["check_all", "check_body_optimizer", "check_brain_optimizer"]
@@ -108,6 +104,25 @@ def _generation(check: Checker, optimizer: Any, generation: int, told: dict[str,
     return asked
 
 
+def _check_description(check: Checker, optimizer: Any) -> None:
+    """The archive's description: plain data (JSON) of a known kind, a cell per row's cell."""
+    with check.step("archive_description() as plain data (JSON)"):
+        described = json.loads(json.dumps(optimizer.archive_description(), allow_nan=False))
+    kind = described.get("kind") if isinstance(described, dict) else None
+    check.expect(kind in ("grid", "cvt"), f"archive_description() has kind {kind!r}")
+    key = "bins" if kind == "grid" else "centroids"
+    check.expect(
+        {"measures", "ranges", key} <= set(described),
+        f"archive_description() of a {kind} lacks measures, ranges or {key}",
+    )
+    cells = np.prod(described["bins"]) if kind == "grid" else len(described["centroids"])
+    rows = optimizer.archive_rows()
+    check.expect(
+        all(0 <= row["cell"] < cells for row in rows),
+        f"archive_rows() has a cell outside the {cells} cells described",
+    )
+
+
 def check_body_optimizer(name: str, **options: Any) -> None:
     """Check body optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
     from ariel.plugins import body_optimizers
@@ -120,6 +135,8 @@ def check_body_optimizer(name: str, **options: Any) -> None:
         optimizer, told = _make(check, factory, options), {}
         runs.append([_generation(check, optimizer, g, told) for g in range(_GENERATIONS)])
     check.expect(runs[0] == runs[1], "asks for different genotypes with the same seed")
+    if hasattr(optimizer, "archive_description"):  # a quality-diversity archive
+        _check_description(check, optimizer)
     with check.step("state()"):
         state = json.loads(json.dumps(optimizer.state(), allow_nan=False))
     restored = _make(check, factory, options)
@@ -198,24 +215,24 @@ def check_brain_optimizer(name: str, **options: Any) -> None:
 
 
 def check_all() -> list[tuple[str, str, str | None]]:
-    """Every registered plugin of every kind checked (see `ariel.evaluation.check_all`), body
-    and brain optimizers included: ``(kind, name, error or None)`` rows."""
-    from ariel.errors import PluginCheckError
+    """Check every registered name of every plugin kind, entry points included, with default
+    options: body encoders, worlds, controllers and fitness functions
+    (`ariel.evaluation.check_engine_plugins`), then body and brain optimizers. What
+    ``ariel plugins --check`` prints; also ``ariel.plugins.check_all``.
+
+    Nothing is raised for a broken plugin: an entry point that fails to load, or clashes with
+    another provider, is reported as its row's error.
+
+    Returns:
+        One ``(kind, name, error or None)`` row per name, kinds in `ariel.plugins.REGISTRIES`
+        order and names sorted; ``error`` is the one-line failure message, None for a plugin
+        that passed.
+    """
     from ariel.plugins import body_optimizers, brain_optimizers
 
-    report = _check_engine_plugins()
-    optimizers = (
-        ("body_optimizer", body_optimizers, check_body_optimizer),
-        ("brain_optimizer", brain_optimizers, check_brain_optimizer),
+    return check_engine_plugins() + check_rows(
+        (
+            ("body_optimizer", body_optimizers, check_body_optimizer),
+            ("brain_optimizer", brain_optimizers, check_brain_optimizer),
+        )
     )
-    for kind, registry, checker in optimizers:
-        for name in registry.names():
-            error = None
-            try:
-                checker(name)
-            except PluginCheckError as exc:
-                error = str(exc)
-            except Exception as exc:  # a broken entry point: still a row
-                error = f"{registry.label} {name!r}: {type(exc).__name__}: {exc}"
-            report.append((kind, name, error))
-    return report

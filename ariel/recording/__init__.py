@@ -1,6 +1,9 @@
 """Run records: the run folder, its Parquet tables and checkpoints, `load_run`, `replay`,
 campaigns (`load_campaign`, `compare`, `write_campaign_recording`), `make_report`,
-`joint_labels` (joint names for people), `load_exported` (an `ariel export` folder's robot),
+`make_gallery` (a run's bodies side by side: a PNG contact sheet and an HTML page),
+`joint_labels` (joint names for people), the lineage in the ALife phylogeny format (`lineage`,
+`write_lineage_csv`, `lineage_statistics`, `lineage_statistics_by_run`, `ancestors`),
+`load_exported` (an `ariel export` folder's robot),
 `watch` (a live view of a running run or campaign), and the Rerun writers
 (`write_evaluation_recording`, `write_generation_recording`, `write_run_recording`,
 `write_blueprint`).
@@ -17,8 +20,11 @@ from ariel.utils.lazy import lazy_face
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from ariel.recording.analysis import (
         Comparison as Comparison,
+        Gallery as Gallery,
+        GalleryBody as GalleryBody,
         Report as Report,
         compare as compare,
+        make_gallery as make_gallery,
         make_report as make_report,
     )
     from ariel.recording.rerun import (
@@ -47,13 +53,18 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         RunLock as RunLock,
         RunStorageError as RunStorageError,
         UnsafePathError as UnsafePathError,
+        ancestors as ancestors,
         fitness_label as fitness_label,
         integer_ticks as integer_ticks,
+        lineage as lineage,
+        lineage_statistics as lineage_statistics,
+        lineage_statistics_by_run as lineage_statistics_by_run,
         list_runs as list_runs,
         load_campaign as load_campaign,
         load_run as load_run,
         population_after_selection as population_after_selection,
         verify_run as verify_run,
+        write_lineage_csv as write_lineage_csv,
     )
     from ariel.recording.viewer import (
         Watcher as Watcher,
@@ -85,6 +96,9 @@ _LAZY: dict[str, str] = {
     "replay": "ariel.recording.resim",
     "Report": "ariel.recording.analysis",
     "make_report": "ariel.recording.analysis",
+    "Gallery": "ariel.recording.analysis",
+    "GalleryBody": "ariel.recording.analysis",
+    "make_gallery": "ariel.recording.analysis",
     "write_evaluation_recording": "ariel.recording.rerun",
     "write_run_recording": "ariel.recording.rerun",
     "write_blueprint": "ariel.recording.rerun",
@@ -93,6 +107,12 @@ _LAZY: dict[str, str] = {
     "watch": "ariel.recording.viewer",
     "Watcher": "ariel.recording.viewer",
     "ExportedRobot": "ariel.recording.resim",
+    # The lineage in the ALife data standard's phylogeny format, and its statistics.
+    "lineage": "ariel.recording.store",
+    "write_lineage_csv": "ariel.recording.store",
+    "lineage_statistics": "ariel.recording.store",
+    "lineage_statistics_by_run": "ariel.recording.store",
+    "ancestors": "ariel.recording.store",
     # The figures' conventions (units in labels, whole-number ticks), for notebooks.
     "DESCRIPTORS": "ariel.recording.store",
     "fitness_label": "ariel.recording.store",

@@ -39,7 +39,7 @@ from ariel.runs._experiment import (
     start_driver,
 )
 from ariel.runs._prepare import executor_settings, prepare_run, resolve_plugins, resume_settings
-from ariel.utils import ariel_line
+from ariel.utils import accept_aliases, ariel_line
 
 __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign"]
 
@@ -108,13 +108,14 @@ def _check_new_folder(path: Path) -> None:
         )
 
 
+@accept_aliases(scheduler="address")
 def run_campaign(
     file: str | Path,
     *,
     out: str | Path | None = None,
     executor: str | None = None,
     workers: int | None = None,
-    scheduler: str | None = None,
+    address: str | None = None,
     progress: bool | None = None,
     overrides: Sequence[str] = (),
 ) -> CampaignResult:
@@ -131,7 +132,8 @@ def run_campaign(
         executor: The executor kind every run shares (``"serial"``, ``"local"``, ``"dask"``,
             ``"gpu"``); None: the base experiment's ``executor.kind``.
         workers: Worker processes; None: the base experiment's ``executor.workers``.
-        scheduler: A running Dask scheduler's address; None: the base experiment's.
+        address: A running Dask scheduler's address; None: the base experiment's
+            (``executor.address``). ``scheduler=`` is its old name, still accepted.
         progress: One line per run and generation; True, False or None (the default: where
             someone watches, a terminal or a Jupyter notebook; see `run_experiment`).
         overrides: ``key=value`` strings with dotted keys, applied to the base experiment.
@@ -177,7 +179,7 @@ def run_campaign(
 
     spec = load_campaign_file(file, tuple(overrides))
     first = next(iter(spec.configs.values()))
-    settings = executor_settings(first, kind=executor, workers=workers, scheduler=scheduler)
+    settings = executor_settings(first, kind=executor, workers=workers, address=address)
     _check_open_files(len(spec.configs), settings)
     campaign_id = new_campaign_id(spec.name)
     path = Path(out) if out is not None else Path("data") / "campaigns" / campaign_id
@@ -214,12 +216,13 @@ def _check_open_files(runs: int, settings: Any) -> None:
     ensure_open_files(runs, planned_workers(settings)[0])
 
 
+@accept_aliases(scheduler="address")
 def resume_campaign(
     campaign_dir: str | Path,
     *,
     executor: str | None = None,
     workers: int | None = None,
-    scheduler: str | None = None,
+    address: str | None = None,
     progress: bool | None = None,
 ) -> CampaignResult:
     """Continue every unfinished run of a campaign (finished runs are skipped) on one
@@ -233,8 +236,8 @@ def resume_campaign(
         campaign_dir: The campaign folder to continue.
         executor: The executor kind; None (the default): the kind the campaign ran on.
         workers: Worker processes; None: as in `resume_experiment`.
-        scheduler: A running Dask scheduler's address; never taken from campaign.json (see
-            `resume_experiment`).
+        address: A running Dask scheduler's address; never taken from campaign.json (see
+            `resume_experiment`). ``scheduler=`` is its old name, still accepted.
         progress: Whether to show progress, as in `run_campaign` (None: where someone
             watches).
 
@@ -265,7 +268,7 @@ def resume_campaign(
         info.get("executor"),
         kind=executor,
         workers=workers,
-        scheduler=scheduler,
+        address=address,
         command=("campaign", "resume", campaign_dir),
     )
     with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:

@@ -46,7 +46,7 @@ def campaign_info(
         "executor": {
             "kind": settings.kind,
             "workers": settings.workers,
-            "scheduler": settings.scheduler,
+            "address": settings.address,
         },
         "status": "created",
         "created": now(),

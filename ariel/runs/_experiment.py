@@ -35,6 +35,7 @@ from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_geno
     resolve_plugins,
     resume_settings,
 )
+from ariel.utils import accept_aliases
 
 __all__ = [
     "RunResult",
@@ -141,7 +142,7 @@ def start_driver(
         executor={
             "kind": settings.kind,
             "workers": settings.workers,
-            "scheduler": settings.scheduler,
+            "address": settings.address,
         },
         # What the checkpoint holds: run.json may lag behind it when a kill came between them.
         generations_done=driver.first_generation,
@@ -242,6 +243,7 @@ def run_info(config: ExperimentConfig, run_id: str, plugins: Plugins) -> dict[st
     }
 
 
+@accept_aliases(scheduler="address")
 def run_experiment(
     config: ExperimentConfig | str | Path | dict[str, Any] | None = None,
     *,
@@ -249,7 +251,7 @@ def run_experiment(
     overwrite: bool = False,
     executor: str | None = None,
     workers: int | None = None,
-    scheduler: str | None = None,
+    address: str | None = None,
     progress: bool | None = None,
     overrides: Sequence[str] = (),
 ) -> RunResult:
@@ -272,8 +274,8 @@ def run_experiment(
         executor: The executor kind (``"serial"``, ``"local"``, ``"dask"``, ``"gpu"``),
             overriding ``executor.kind``; None: the config's.
         workers: Worker processes, overriding ``executor.workers``; None: the config's.
-        scheduler: A running Dask scheduler's address, overriding ``executor.scheduler``;
-            None: the config's.
+        address: A running Dask scheduler's address, overriding ``executor.address``;
+            None: the config's. ``scheduler=`` is its old name, still accepted.
         progress: True shows it (live bars on a terminal, else a line per generation), False
             prints nothing, None (the default) shows it where someone watches: when stdout or
             stderr is a terminal, or in a Jupyter notebook.
@@ -313,7 +315,7 @@ def run_experiment(
 
     refuse_in_spawned_child()  # a script without a __main__ guard, re-run by a pool worker
     config = load_config(config, overrides)
-    settings = executor_settings(config, kind=executor, workers=workers, scheduler=scheduler)
+    settings = executor_settings(config, kind=executor, workers=workers, address=address)
     config, plugins = prepare_run(config)
     capacity, local_workers = planned_workers(settings)
     check_resources(
@@ -385,12 +387,13 @@ def _worker_cannot_start(exc: BaseException | None) -> bool:
     return False
 
 
+@accept_aliases(scheduler="address")
 def resume_experiment(
     run_dir: str | Path,
     *,
     executor: str | None = None,
     workers: int | None = None,
-    scheduler: str | None = None,
+    address: str | None = None,
     progress: bool | None = None,
 ) -> RunResult:
     """Continue a killed or interrupted run from its last finished generation.
@@ -405,8 +408,9 @@ def resume_experiment(
             count) it last ran on.
         workers: Worker processes; None: the count it last ran with when it goes on on the
             same kind of worker pool and this machine has that many CPUs, else all CPUs.
-        scheduler: A running Dask scheduler's address. Never taken from the folder: a Dask
-            run without ``scheduler`` goes on on a local Dask cluster, and says so.
+        address: A running Dask scheduler's address. Never taken from the folder: a Dask
+            run without ``address`` goes on on a local Dask cluster, and says so.
+            ``scheduler=`` is its old name, still accepted.
         progress: Whether to show progress, as in `run_experiment` (None: where someone
             watches).
 
@@ -433,7 +437,7 @@ def resume_experiment(
         info.get("executor"),
         kind=executor,
         workers=workers,
-        scheduler=scheduler,
+        address=address,
         command=("resume", run_dir),
     )
     plugins = resolve_plugins(config)

@@ -186,10 +186,10 @@ def resume_settings(
     *,
     kind: str | None,
     workers: int | None,
-    scheduler: str | None,
+    address: str | None,
     command: Sequence[object],
 ) -> Any:
-    """The executor of a resume: the caller's ``kind`` / ``workers`` / ``scheduler``, else what
+    """The executor of a resume: the caller's ``kind`` / ``workers`` / ``address``, else what
     the folder recorded (``stored``: run.json's or campaign.json's ``executor``, and the stored
     config's section) for the kind and the worker count, but never a scheduler address: a
     folder is data, and a Dask scheduler it names could be anyone's (Dask moves results as
@@ -204,22 +204,23 @@ def resume_settings(
     stored_kind = stored.get("kind")
     if stored_kind not in executor_kinds:  # absent, or not a kind: the stored config's
         stored_kind = config.executor.kind
-    address = stored.get("scheduler") or config.executor.scheduler
+    # ``scheduler``: the old name of ``address``, in folders written before the rename.
+    named = stored.get("address") or stored.get("scheduler") or config.executor.address
     if kind is None:
-        kind = "dask" if scheduler is not None else stored_kind
+        kind = "dask" if address is not None else stored_kind
     # The same kind of worker pool: its stored worker count carries over.
     same_pool = (
         kind == stored_kind and kind in executor_kinds and executor_kind(kind).one_worker is None
     )
-    if workers is None and scheduler is None and same_pool:
+    if workers is None and address is None and same_pool:
         workers = _stored_workers(stored.get("workers", config.executor.workers))
-    changes = {"kind": kind, "workers": workers, "scheduler": scheduler}
+    changes = {"kind": kind, "workers": workers, "address": address}
     settings = _checked(config.executor.model_copy(update=changes))
-    if address and scheduler is None and kind == "dask":
+    if named and address is None and kind == "dask":
         print(
-            f"note: not connecting to the Dask scheduler {short_ascii(address)} that the folder "
+            f"note: not connecting to the Dask scheduler {short_ascii(named)} that the folder "
             "names (an address is never taken from a folder); resuming on a local Dask "
-            f"cluster. To use a scheduler you trust: {ariel_line(*command)} --scheduler "
+            f"cluster. To use a scheduler you trust: {ariel_line(*command)} --address "
             "ADDRESS",
             file=sys.stderr,
             flush=True,

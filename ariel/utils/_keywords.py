@@ -1,4 +1,5 @@
-"""`accept_aliases`: let a function take upstream ARIEL's keyword names beside ours."""
+"""`accept_aliases`: let a function take upstream ARIEL's keyword names, or our own old ones,
+beside ours."""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 def accept_aliases(**aliases: str) -> Callable[[F], F]:
     """``@accept_aliases(initial_pos="initial_position")``: a call may name the parameter
-    ``initial_position`` by its alias ``initial_pos`` (upstream's name); giving both is a
+    ``initial_position`` by its alias ``initial_pos`` (upstream's name, or an old name of
+    ours: ``@accept_aliases(scheduler="address")``); giving both is a
     ``TypeError``. The signature shown (``help``, ``inspect``) stays ours."""
 
     def decorate(function: F) -> F:

@@ -238,8 +238,8 @@ def report(tiny_run: Path, tmp_path_factory: pytest.TempPathFactory):
 def test_fitness_and_diversity_draws_as_the_report_does(executed: dict, report) -> None:
     """The notebook's figures follow `ariel report`'s: the same labels with units, whole
     generations on the x axis, the same colour for each line."""
-    from ariel.recording.store._axes import DESCRIPTORS, fitness_label
     from ariel.recording.analysis._report import MORPHOLOGY_TITLE
+    from ariel.recording.store._axes import DESCRIPTORS, fitness_label
 
     notebook = executed["fitness_and_diversity"]
     (fitness,) = _drawn(_cell_with(notebook, "ax.scatter(ok"))
@@ -442,8 +442,8 @@ def test_compare_conditions_draws_as_compare_does(compared, tiny_campaign: Path)
     from matplotlib.colors import to_hex
 
     from ariel.recording import compare
-    from ariel.recording.store._axes import DESCRIPTORS, fitness_label
     from ariel.recording.analysis._compare_plots import _colours
+    from ariel.recording.store._axes import DESCRIPTORS, fitness_label
 
     notebook = compared
     comparison = compare([tiny_campaign], write=False)

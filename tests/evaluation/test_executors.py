@@ -168,7 +168,10 @@ def test_unknown_kind_lists_the_kinds() -> None:
         ({"kind": "local", "workers": 1.5}, ValueError, "workers must be an integer >= 1"),
         ({"kind": "serial", "workers": 2}, ValueError, "workers must be 1"),
         ({"kind": "serial", "blas_threads": 1}, TypeError, "takes no options"),
-        ({"kind": "local", "scheduler": "tcp://x:8786"}, ValueError, "only for the dask"),
+        ({"kind": "local", "address": "tcp://x:8786"}, ValueError, "address= is only for the dask"),
+        # scheduler= is the old name of address=: still accepted, but not beside it
+        ({"kind": "local", "scheduler": "tcp://x:8786"}, ValueError, "address= is only for"),
+        ({"kind": "dask", "address": "a", "scheduler": "a"}, TypeError, "both 'address' and"),
         ({"kind": "local", "blas_threads": 0}, ValueError, "blas_threads must be"),
     ],
 )
@@ -242,8 +245,8 @@ def test_dask_on_an_existing_scheduler() -> None:
         scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
     ) as cluster:
         with pytest.raises(ValueError, match="scale the cluster"):
-            make_executor("dask", workers=2, scheduler=cluster.scheduler_address)
-        ex = make_executor("dask", scheduler=cluster.scheduler_address)
+            make_executor("dask", workers=2, address=cluster.scheduler_address)
+        ex = make_executor("dask", address=cluster.scheduler_address)
         with ex:
             task = functools.partial(_selftest.seeded_sum, n=N_DRAWS)
             assert [r.hex() for r in map_ordered(ex, task, SEEDS)] == expected_bits()
@@ -292,7 +295,7 @@ def test_a_third_party_executor_from_an_entry_point_runs_an_experiment(
             class CountingKind(ExecutorKind):
                 one_worker = "the counting executor runs here"
 
-                def make(self, *, workers=None, scheduler=None, max_retries=None, **options):
+                def make(self, *, workers=None, address=None, max_retries=None, **options):
                     return Counting()
         """,
         entry_points={"ariel.executors": {"counting": "ariel_counting_executor:CountingKind"}},
@@ -314,6 +317,6 @@ def test_a_third_party_executor_from_an_entry_point_runs_an_experiment(
         assert ariel_counting_executor.CALLS == [2, 2]  # every brain batch went through it
         assert len(run.evaluations) == 4 and (run.evaluations.status == "ok").all()
         with pytest.raises(ValueError, match="counting executor runs here"):
-            check_settings(type("S", (), {"kind": "counting", "workers": 3, "scheduler": None})())
+            check_settings(type("S", (), {"kind": "counting", "workers": 3, "address": None})())
     finally:
         executor_kinds.refresh()

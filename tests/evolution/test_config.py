@@ -131,6 +131,21 @@ def test_config_hash_ignores_the_executor_but_not_what_decides_results() -> None
     assert ExperimentConfig.from_plain(base.to_plain()) == base
 
 
+def test_executor_scheduler_is_the_old_name_of_executor_address(tmp_path: Path) -> None:
+    old = tmp_path / "old.toml"
+    old.write_text('[executor]\nkind = "dask"\nscheduler = "tcp://h:1"\n')
+    config = load_config(old)
+    assert config.executor.address == "tcp://h:1"
+    assert config.to_plain()["executor"]["address"] == "tcp://h:1"  # written: the new name
+    assert "scheduler" not in config.to_plain()["executor"]
+    assert config_hash(config) == config_hash(load_config({}, ["executor.kind=dask"]))
+    assert load_config({}, ["executor.scheduler='tcp://h:2'"]).executor.address == "tcp://h:2"
+    # --set either name replaces the value the file gave under the other one
+    assert load_config(old, ["executor.address='tcp://h:3'"]).executor.address == "tcp://h:3"
+    with pytest.raises(ConfigError, match=r"^executor: give address or its old name sched"):
+        load_config({"executor": {"address": "tcp://h:1", "scheduler": "tcp://h:1"}})
+
+
 def test_a_stored_config_from_before_settle_reads_as_settle_zero_with_its_old_hash() -> None:
     old = load_config({}, ["task.settle=0.0"]).to_plain()
     del old["task"]["settle"]  # as run.json held it before the key existed

@@ -90,7 +90,7 @@ def test_every_executor_gives_the_serial_run(serial, kind: str, tmp_path: Path) 
     assert load_run(result.run_dir).info["executor"] == {
         "kind": kind,
         "workers": 2,
-        "scheduler": None,
+        "address": None,
     }
     records = _records(result.run_dir)
     for table, rows in serial.items():

@@ -350,7 +350,7 @@ def test_waiting_for_the_workers_of_your_scheduler_says_so_then_stops(capsys) ->
 
     with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
         address = cluster.scheduler_address
-        with make_executor("dask", scheduler=address, no_worker_timeout=3) as executor:
+        with make_executor("dask", address=address, no_worker_timeout=3) as executor:
             executor.note_every = 1.0
             assert executor.watch_seconds == pytest.approx(0.1)
             started = time.monotonic()

@@ -477,7 +477,7 @@ def test_killed_local_executor_run_with_its_workers(configs, reference, tmp_path
         lambda: _run_info(run_dir).get("generations_done", 0) >= 1, "generation 0's checkpoint"
     )
     process.kill()  # the whole group: the pool's workers (and its forkserver) too
-    assert _run_info(run_dir)["executor"] == {"kind": "local", "workers": 2, "scheduler": None}
+    assert _run_info(run_dir)["executor"] == {"kind": "local", "workers": 2, "address": None}
     assert _assert_killed_run_loads(run_dir, reference) >= 1
     _resume_and_check(run_dir, reference, 3, "--workers", "2")  # the local executor again
 

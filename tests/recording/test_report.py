@@ -27,7 +27,9 @@ CONFIG = {
     "task": {"duration": 0.5},
     "executor": {"kind": "serial"},
 }
-FIGURES = ["fitness.png", "morphology.png", "trajectory.png", "joints.png"]
+FIGURES = ["fitness.png", "morphology.png", "lineage.png", "trajectory.png", "joints.png"]
+# The final population's gallery (`ariel gallery`), written after the lineage figure.
+WRITTEN = [*FIGURES[:3], "gallery.png", "gallery.html", *FIGURES[3:]]
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +70,10 @@ def test_the_report_writes_every_figure_as_a_readable_png(run_dir: Path, report)
     assert sorted(p.name for p in folder.iterdir()) == sorted(FIGURES)
     for path in report.written:
         _check_png(path)
-    assert report.notes == ["best_body.png: left out (rendering off)"]
+    assert report.notes == [
+        "gallery.png, gallery.html: left out (rendering off)",
+        "best_body.png: left out (rendering off)",
+    ]
 
 
 def test_the_table_lists_every_generation(run_dir: Path, report) -> None:
@@ -258,10 +263,11 @@ def test_without_opengl_the_body_image_is_left_out_with_a_note(
     copy = tmp_path / "nogl"
     shutil.copytree(run_dir, copy)
     report = make_report(copy)
-    assert [p.name for p in report.written] == FIGURES
-    assert report.notes == [
+    assert [p.name for p in report.written] == WRITTEN  # the gallery without its pictures
+    assert len(report.notes) == 2 and "OpenGL" in report.notes[0]
+    assert report.notes[1] == (
         "best_body.png: left out (no OpenGL backend available for headless rendering (test))"
-    ]
+    )
 
 
 @pytest.fixture
@@ -283,6 +289,11 @@ def test_the_best_body_is_rendered(run_dir: Path, tmp_path: Path) -> None:
     shutil.copytree(run_dir, copy)
     report = make_report(copy)
     assert report.notes == []
+    assert [p.name for p in report.written] == [*WRITTEN, "best_body.png"]
+    gallery = (copy / "report" / "gallery.html").read_text()
+    population = load_run(copy).population  # the final one: a picture per body
+    final = population[population["generation"] == population["generation"].max()]
+    assert gallery.count("data:image/png;base64,") == len(final) > 0
     assert report.written[-1] == copy / "report" / "best_body.png"
     pixels = _check_png(report.written[-1])
     # The core module is yellow: the body is in the picture.

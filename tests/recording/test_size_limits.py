@@ -271,7 +271,7 @@ def test_a_campaign_resume_that_needs_more_open_files_is_refused_before_it_write
         "seeding": "shared",
         "conditions": conditions,
         "runs": runs,
-        "executor": {"kind": "serial", "workers": None, "scheduler": None},
+        "executor": {"kind": "serial", "workers": None, "address": None},
         "status": "interrupted",
     }
     write_campaign_info(folder, info)

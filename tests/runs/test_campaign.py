@@ -315,7 +315,7 @@ def test_a_campaign_runs_on_a_dask_cluster_through_its_address(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:
         result = run_campaign(
-            TINY, out=tmp_path / "tiny", executor="dask", scheduler=cluster.scheduler_address
+            TINY, out=tmp_path / "tiny", executor="dask", address=cluster.scheduler_address
         )
     assert result.status == "finished" and result.workers == 2
     assert campaign_digests(tmp_path / "tiny") == campaign_digests(campaign)

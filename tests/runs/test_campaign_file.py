@@ -181,7 +181,7 @@ def test_campaign_json_records_the_seeding_and_old_ones_read_as_shared(tmp_path:
     from ariel.runs._campaign_info import campaign_info
 
     spec = campaign_spec(_two_conditions(seed_count=2, seeding="independent"))
-    settings = SimpleNamespace(kind="serial", workers=1, scheduler=None)
+    settings = SimpleNamespace(kind="serial", workers=1, address=None)
     info = campaign_info(spec, [], settings, "c-1", "c.toml")
     assert info["seeding"] == "independent" and info["seeds"] == [1, 2]
     assert info["base"] == "inline"

@@ -29,12 +29,18 @@ TINY = REPO / "tests" / "data" / "campaign_tiny.toml"
 ROGUE = "tcp://10.0.0.1:8786"
 
 
-def _name_the_rogue_scheduler(info: dict[str, Any]) -> None:
-    """A folder that ran (or claims it ran) on the Dask scheduler ROGUE."""
-    info["executor"] = {"kind": "dask", "workers": None, "scheduler": ROGUE}
+def _name_the_rogue_scheduler(info: dict[str, Any], key: str = "address") -> None:
+    """A folder that ran (or claims it ran) on the Dask scheduler ROGUE; ``key="scheduler"``:
+    as folders written before ``address`` had its name."""
+    info["executor"] = {"kind": "dask", "workers": None, key: ROGUE}
     for config in [info.get("config")] + [r["config"] for r in info.get("runs", [])]:
         if config is not None:
-            config["executor"].update(kind="dask", workers=None, scheduler=ROGUE)
+            config["executor"].pop("address")
+            config["executor"].update({"kind": "dask", "workers": None, key: ROGUE})
+
+
+def _name_the_rogue_scheduler_the_old_way(info: dict[str, Any]) -> None:
+    _name_the_rogue_scheduler(info, "scheduler")
 
 
 def _tree(root: Path) -> dict[str, tuple[int, int]]:
@@ -50,43 +56,81 @@ def _tree(root: Path) -> dict[str, tuple[int, int]]:
 # --- item 3: a scheduler address is never taken from a folder ---------------------------------
 
 
+@pytest.mark.parametrize(
+    "name_it", [_name_the_rogue_scheduler, _name_the_rogue_scheduler_the_old_way]
+)
 def test_resume_never_connects_to_the_scheduler_a_run_json_names(
-    campaign: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    campaign: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    name_it: Any,
 ) -> None:
     run_dir = campaign / "runs/condition=fresh/seed=1"
-    edit_json(run_dir / "run.json", _name_the_rogue_scheduler)
+    edit_json(run_dir / "run.json", name_it)
     given = stop_at_executor(monkeypatch)
     with pytest.raises(StoppedError):
         exit_code(["resume", str(run_dir), "--quiet"])
     (settings,) = given
-    assert (settings.kind, settings.scheduler) == ("dask", None)  # a local Dask cluster
+    assert (settings.kind, settings.address) == ("dask", None)  # a local Dask cluster
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith(f"note: not connecting to the Dask scheduler '{ROGUE}'"), line
-    assert re.search(rf"\S*ariel resume {re.escape(str(run_dir))} --scheduler ADDRESS$", line)
-    # A scheduler passed here is used (and implies --executor dask), without the note.
+    assert re.search(rf"\S*ariel resume {re.escape(str(run_dir))} --address ADDRESS$", line)
+    # An address passed here is used (and implies --executor dask), without the note.
     with pytest.raises(StoppedError):
-        resume_experiment(run_dir, scheduler="tcp://127.0.0.1:8786")
-    assert (given[1].kind, given[1].scheduler) == ("dask", "tcp://127.0.0.1:8786")
+        resume_experiment(run_dir, address="tcp://127.0.0.1:8786")
+    assert (given[1].kind, given[1].address) == ("dask", "tcp://127.0.0.1:8786")
     # Another executor asked for: the stored address is beside the point.
     with pytest.raises(StoppedError):
         resume_experiment(run_dir, executor="serial")
-    assert (given[2].kind, given[2].scheduler) == ("serial", None)
+    assert (given[2].kind, given[2].address) == ("serial", None)
     assert capsys.readouterr().err == ""
 
 
-def test_campaign_resume_never_connects_to_the_scheduler_campaign_json_names(
-    campaign: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+def test_the_old_name_scheduler_still_gives_the_address(
+    campaign: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    edit_json(campaign / "campaign.json", _name_the_rogue_scheduler)
+    from ariel.runs import run_campaign, run_experiment
+
+    run_dir = campaign / "runs/condition=fresh/seed=1"
+    given = stop_at_executor(monkeypatch)
+    with pytest.raises(StoppedError):
+        exit_code(["resume", str(run_dir), "--quiet", "--scheduler", "tcp://127.0.0.1:1"])
+    with pytest.raises(StoppedError):
+        resume_experiment(run_dir, scheduler="tcp://127.0.0.1:2")
+    assert [(s.kind, s.address) for s in given] == [
+        ("dask", "tcp://127.0.0.1:1"),
+        ("dask", "tcp://127.0.0.1:2"),
+    ]
+    both = r"got both 'address' and its alias 'scheduler'"
+    for entry, where in [
+        (run_experiment, None),
+        (resume_experiment, run_dir),
+        (run_campaign, TINY),
+        (resume_campaign, campaign),
+    ]:
+        with pytest.raises(TypeError, match=f"{entry.__name__}\\(\\) {both}"):
+            entry(where, address="tcp://127.0.0.1:1", scheduler="tcp://127.0.0.1:1")
+
+
+@pytest.mark.parametrize(
+    "name_it", [_name_the_rogue_scheduler, _name_the_rogue_scheduler_the_old_way]
+)
+def test_campaign_resume_never_connects_to_the_scheduler_campaign_json_names(
+    campaign: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    name_it: Any,
+) -> None:
+    edit_json(campaign / "campaign.json", name_it)
     for run_json in campaign.glob("runs/*/*/run.json"):
-        edit_json(run_json, _name_the_rogue_scheduler)
+        edit_json(run_json, name_it)
     given = stop_at_executor(monkeypatch)
     with pytest.raises(StoppedError):
         exit_code(["campaign", "resume", str(campaign), "--quiet"])
-    assert [(s.kind, s.scheduler) for s in given] == [("dask", None)]
+    assert [(s.kind, s.address) for s in given] == [("dask", None)]
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith(f"note: not connecting to the Dask scheduler '{ROGUE}'"), line
-    assert line.endswith(f"campaign resume {campaign} --scheduler ADDRESS")
+    assert line.endswith(f"campaign resume {campaign} --address ADDRESS")
 
 
 def test_a_stored_worker_count_is_kept_only_where_this_machine_has_the_cpus() -> None:
@@ -98,7 +142,7 @@ def test_a_stored_worker_count_is_kept_only_where_this_machine_has_the_cpus() ->
 
     def resumed(stored: Any) -> Any:
         return resume_settings(
-            config, stored, kind=None, workers=None, scheduler=None, command=("resume", "r")
+            config, stored, kind=None, workers=None, address=None, command=("resume", "r")
         )
 
     assert resumed({"kind": "local", "workers": 1}).workers == 1

@@ -1,5 +1,5 @@
-"""Analysis of finished runs: `ariel report` (`make_report`) and `ariel compare`
-(`compare`: statistics, figures, compare.html).
+"""Analysis of finished runs: `ariel report` (`make_report`), `ariel compare` (`compare`:
+statistics, figures, compare.html) and `ariel gallery` (`make_gallery`: bodies side by side).
 
 Cheap to import: names are loaded from their modules on first use (`ariel.utils.lazy`).
 """
@@ -17,6 +17,13 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         compare as compare,
         shown_path as shown_path,
     )
+    from ariel.recording.analysis._gallery import (
+        Gallery as Gallery,
+        GalleryBody as GalleryBody,
+        GalleryError as GalleryError,
+        make_gallery as make_gallery,
+        report_gallery as report_gallery,
+    )
     from ariel.recording.analysis._report import (
         Report as Report,
         make_report as make_report,
@@ -27,10 +34,15 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
 _INTERNAL: dict[str, str] = {
     "CompareError": "ariel.recording.analysis._compare",
     "Comparison": "ariel.recording.analysis._compare",
+    "Gallery": "ariel.recording.analysis._gallery",
+    "GalleryBody": "ariel.recording.analysis._gallery",
+    "GalleryError": "ariel.recording.analysis._gallery",
     "Report": "ariel.recording.analysis._report",
     "compare": "ariel.recording.analysis._compare",
+    "make_gallery": "ariel.recording.analysis._gallery",
     "make_report": "ariel.recording.analysis._report",
     "print_report": "ariel.recording.analysis._report",
+    "report_gallery": "ariel.recording.analysis._gallery",
     "shown_path": "ariel.recording.analysis._compare",
 }
 

@@ -8,15 +8,16 @@ Automatic names of plain run folders' conditions are at most `NAME_LIMIT` charac
 Every run is compared at one budget of evaluations (the smallest any run made, or
 ``at_evaluations``), on two measures: its best fitness after that many evaluations (``final
 best``) and the mean of its best-so-far fitness over evaluations 1..N (``AUC``, the area under
-the best-so-far curve / N, in the fitness's unit: an anytime measure). The tests follow the
+the best-so-far curve / N, in the fitness's unit: an anytime measure); co-evolution runs also on
+their lineage (``surviving lineages``, ``best depth``: `_compare_lineage`). The tests follow the
 design (`_compare_stats`); runs measured differently are refused (`_compare_design`).
 
-``compare/`` holds ``best_so_far.png``, ``final_best.png``, ``morphology.png`` (co-evolution
-runs), ``stats.csv`` (one row per measure and pair of conditions), ``summary.csv`` (one row per
-condition), ``omnibus.csv`` (more than two conditions), ``runs.csv`` (each run's values),
-``stats.md`` (the tables), ``README.md`` (what was compared, the warnings, the tables) and
-``compare.html``, one self-contained page with the figures embedded. The fitness direction
-comes from the runs' records.
+``compare/`` holds ``best_so_far.png``, ``final_best.png``, ``morphology.png`` and
+``lineages.png`` (co-evolution runs), ``stats.csv`` (one row per measure and pair of
+conditions), ``summary.csv`` (one row per condition), ``omnibus.csv`` (more than two
+conditions), ``runs.csv`` (each run's values), ``stats.md`` (the tables), ``README.md`` (what
+was compared, the warnings, the tables) and ``compare.html``, one self-contained page with the
+figures embedded. The fitness direction comes from the runs' records.
 
 Where it writes: ``out``, or by default ``CAMPAIGN_DIR/compare`` for one campaign and a new
 folder ``compare-<date>-<time>`` in the current directory for pooled campaigns and plain run
@@ -37,7 +38,6 @@ import json
 import math
 import os
 import re
-import warnings
 from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from ariel.recording.store import fitness_maximise, is_campaign, load_campaign
+from ariel.recording.analysis import _compare_lineage as lineages
 from ariel.recording.analysis._compare_design import (
     MEASURES,
     QD_COLUMNS,
@@ -57,6 +57,7 @@ from ariel.recording.analysis._compare_design import (
     describe,
     first_evaluations,
     shared_settings,
+    whole_generations,
 )
 from ariel.recording.analysis._compare_stats import (
     Design,
@@ -68,10 +69,19 @@ from ariel.recording.analysis._compare_stats import (
     pairwise_table,
     small_n_warning,
 )
-from ariel.recording.store import best_so_far, on_grid
-from ariel.recording.store import csv_safe, short_ascii
-from ariel.recording.store import UnsafePathError, written_path
-from ariel.recording.store import Run, load_run
+from ariel.recording.store import (
+    Run,
+    UnsafePathError,
+    best_so_far,
+    csv_safe,
+    fitness_maximise,
+    is_campaign,
+    load_campaign,
+    load_run,
+    on_grid,
+    short_ascii,
+    written_path,
+)
 
 __all__ = [
     "MEASURES",
@@ -84,7 +94,6 @@ __all__ = [
 ]
 
 GRID_POINTS = 200
-MORPHOLOGY_BINS = 20
 #: The longest automatic condition name of plain run folders (`condition_names`).
 NAME_LIMIT = 60
 #: A ``--label``: 1 to 64 ASCII letters, digits, ``_``, ``.`` or ``-``.
@@ -97,6 +106,7 @@ FILES = (
     "best_so_far.png",
     "final_best.png",
     "morphology.png",
+    "lineages.png",
     "stats.csv",
     "summary.csv",
     "omnibus.csv",
@@ -112,7 +122,8 @@ class RunCurve:
     """One run's part of a comparison: its condition, seed, and evaluations table (``fitness``,
     ``status``, ``generation``, ``eval_id``, descriptor columns); ``info``: its run.json (for
     software and commit); ``generations``: its per-generation QD columns (``generation`` and
-    any of `QD_COLUMNS`), or None."""
+    any of `QD_COLUMNS`), or None; ``lineage``: its per-generation lineage measures
+    (`_compare_lineage.run_lineage`), or None (a brain-only run)."""
 
     condition: str
     seed: int
@@ -120,6 +131,7 @@ class RunCurve:
     path: str = ""
     info: dict[str, Any] = field(default_factory=dict)
     generations: Any = None
+    lineage: Any = None
 
 
 @dataclass
@@ -138,14 +150,15 @@ class Comparison:
         conditions: The conditions' names, in the order their first run came.
         runs: One row per run (a DataFrame): ``condition``, ``seed``, ``evaluations``,
             ``compared_at``, the measures ``final_best`` and ``auc``, the QD columns where the
-            runs have them, and ``path``.
+            runs have them, ``surviving_lineages`` and ``best_depth`` where a run has a
+            lineage (co-evolution; NaN for a brain-only run), and ``path``.
         stats: One row per measure and pair of conditions (a DataFrame;
             `_compare_stats.pairwise_table`).
-        figures: Figure name (``best_so_far``, ``final_best``, ``morphology``) -> its PNG
-            file; empty when nothing was written.
+        figures: Figure name (``best_so_far``, ``final_best``, ``morphology``,
+            ``lineages``) -> its PNG file; empty when nothing was written.
         html: The path of ``compare.html``; None when nothing was written.
         summary: One row per condition (a DataFrame): runs, median / mean / sd of each
-            measure, QD medians.
+            measure, QD medians, median / mean / sd of each lineage measure.
         omnibus: One row per measure for more than two conditions (a DataFrame; no rows
             otherwise).
         budget: The evaluations every run was compared at.
@@ -211,7 +224,8 @@ def _qd_generations(run: Run) -> Any:
 
 
 def _curve(condition: str, seed: int, run: Run) -> RunCurve:
-    return RunCurve(condition, seed, run.evaluations, str(run.path), run.info, _qd_generations(run))
+    found = (run.evaluations, str(run.path), run.info, _qd_generations(run))
+    return RunCurve(condition, seed, *found, lineages.run_lineage(run))
 
 
 def _overrides(changes: dict[str, Any]) -> str:
@@ -502,9 +516,7 @@ def _qd_at_budget(curve: RunCurve, budget: int) -> dict[str, float]:
     evaluations (empty without QD columns or such a generation)."""
     if curve.generations is None or not len(curve.generations):
         return {}
-    counts = curve.evaluations["generation"].value_counts()
-    within = first_evaluations(curve.evaluations, budget)["generation"].value_counts()
-    whole = [g for g, n in within.items() if counts.get(g) == n]
+    whole = whole_generations(curve.evaluations, budget)
     rows = curve.generations[curve.generations["generation"].isin(whole)]
     if not len(rows):
         return {}
@@ -523,6 +535,7 @@ def _run_rows(
             "compared_at": budget,
             **_measures(cut, maximise, budget),
             **_qd_at_budget(whole, budget),
+            **lineages.at_budget(whole, budget),
             "path": whole.path,
         }
         for whole, cut in zip(curves, truncated)
@@ -549,6 +562,7 @@ def _summary(runs: Any) -> Any:
         for column in QD_COLUMNS:
             if column in group:
                 row[f"{column}_median"] = float(group[column].median())
+        row.update(lineages.summary(group))
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -558,12 +572,14 @@ def _statistics(
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[str]]:
     """(pairwise rows of every measure, omnibus rows, notes on small n and missing pairs)."""
     rows, omnibus = [], []
-    for measure, column in MEASURES.items():
+    for measure, column in {**MEASURES, **lineages.measures(runs)}.items():
         samples = _samples(runs, column)
-        rows += pairwise_table(samples, maximise=maximise, paired=choice.paired, measure=measure)
+        higher = maximise if measure in MEASURES else True  # a lineage measure: A12 = P(higher)
+        rows += pairwise_table(samples, maximise=higher, paired=choice.paired, measure=measure)
         found = omnibus_test(samples, paired=choice.paired, measure=measure)
         if found is not None:
             omnibus.append(found)
+    lineages.relabel(rows)
     first = [r for r in rows if r["measure"] == "final best"]
     sizes = runs.groupby("condition", sort=False).size().to_dict()
     notes = [
@@ -571,43 +587,6 @@ def _statistics(
         *pairing_notes(first),
     ]
     return rows, omnibus, [n for n in notes if n]
-
-
-def _morphology(grouped: dict[str, list[RunCurve]]) -> dict[str, dict[str, tuple]]:
-    """descriptor -> condition -> (bin centres, median, 25 %, 75 %) of per-run bin means."""
-    from ariel.recording.analysis._compare_plots import MORPHOLOGY
-
-    series: dict[str, dict[str, tuple]] = {}
-    for descriptor in MORPHOLOGY:
-        per_condition = {}
-        for name, runs in grouped.items():
-            if not all(descriptor in r.evaluations.columns for r in runs):
-                continue
-            longest = max(len(r.evaluations) for r in runs)
-            edges = np.linspace(0, longest, max(1, min(MORPHOLOGY_BINS, longest)) + 1)
-            means = np.array([_bin_means(r.evaluations, descriptor, edges) for r in runs])
-            if not np.isfinite(means).any():
-                continue
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN bin: NaN
-                low, median, high = np.nanpercentile(means, [25, 50, 75], axis=0)
-            per_condition[name] = ((edges[:-1] + edges[1:]) / 2, median, low, high)
-        if per_condition:
-            series[descriptor] = per_condition
-    return series
-
-
-def _bin_means(evaluations: Any, descriptor: str, edges: np.ndarray) -> np.ndarray:
-    ordered = evaluations.sort_values(["generation", "eval_id"], kind="stable")
-    values = ordered[descriptor].to_numpy(dtype=np.float64, na_value=np.nan)
-    position = np.arange(len(values))
-    bins = np.digitize(position, edges[1:-1])
-    means = np.full(len(edges) - 1, np.nan)
-    for b in range(len(means)):
-        inside = values[bins == b]
-        if np.isfinite(inside).any():
-            means[b] = np.nanmean(inside)
-    return means
 
 
 # --------------------------------------------------------------------------------------------
@@ -676,9 +655,8 @@ def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path
     import pandas as pd
 
     from ariel.recording.analysis import _compare_plots as plots
-    from ariel.recording.store import fitness_label
     from ariel.recording.analysis._compare_html import write_html, write_markdown, write_readme
-    from ariel.recording.store import atomic_write
+    from ariel.recording.store import atomic_write, fitness_label
 
     comparison.replaced = prepare_folder(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -693,11 +671,12 @@ def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path
         "best_so_far": plots.best_so_far_figure(best, out / "best_so_far.png", ylabel=ylabel),
         "final_best": plots.final_best_figure(finals, out / "final_best.png", ylabel=ylabel),
     }
-    morphology = _morphology(grouped)
+    morphology = plots.morphology_series(grouped)
     if morphology:
         comparison.figures["morphology"] = plots.morphology_figure(
             morphology, out / "morphology.png"
         )
+    comparison.figures.update(lineages.figure(grouped, comparison.budget, out))
     csv(comparison.stats, "stats.csv")
     csv(comparison.summary, "summary.csv")
     if len(comparison.omnibus):
@@ -746,7 +725,7 @@ def compare_runs(
         raise CompareError("no run with a finished generation to compare")
     count = len({c.condition for c in curves})
     if announce is not None and count > MANY_CONDITIONS:
-        announce(many_conditions(count))
+        announce(many_conditions(count, any(c.lineage is not None for c in curves)))
     totals = {f"{c.condition} seed {c.seed}": len(c.evaluations) for c in curves}
     budget, budget_note = common_budget(totals, at_evaluations)
     truncated = [replace(c, evaluations=first_evaluations(c.evaluations, budget)) for c in curves]
@@ -786,12 +765,14 @@ def compare_runs(
     return comparison
 
 
-def many_conditions(count: int) -> str:
-    """The line `compare_runs` announces before comparing ``count`` conditions."""
+def many_conditions(count: int, lineage: bool = False) -> str:
+    """The line `compare_runs` announces before comparing ``count`` conditions (``lineage``:
+    on the lineage measures too)."""
     pairs = count * (count - 1) // 2
+    measures = len(MEASURES) + lineage * len(lineages.LINEAGE_MEASURES)
     return (
         f"{count} conditions: testing {pairs:,} pairs of conditions for each of "
-        f"{len(MEASURES)} measures, each with a bootstrap CI (the time grows with the square "
+        f"{measures} measures, each with a bootstrap CI (the time grows with the square "
         "of the number of conditions)"
     )
 

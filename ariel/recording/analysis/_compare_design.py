@@ -32,6 +32,7 @@ __all__ = [
     "evaluation_order",
     "first_evaluations",
     "shared_settings",
+    "whole_generations",
 ]
 
 #: Measure name -> its column in `Comparison.runs`.
@@ -94,13 +95,22 @@ def check_comparable(configs: Sequence[tuple[str, Mapping[str, Any]]]) -> None:
 
 def evaluation_order(evaluations: Any) -> Any:
     """The evaluations in the order the loop made them: by generation, then eval id (body,
-    iteration, candidate), as the best-so-far curves count them (`ariel.recording.store._curves`)."""
+    iteration, candidate), as the best-so-far curves count them
+    (`ariel.recording.store._curves`)."""
     return evaluations.sort_values(["generation", "eval_id"], kind="stable")
 
 
 def first_evaluations(evaluations: Any, budget: int) -> Any:
     """The run's first ``budget`` evaluations, in `evaluation_order`."""
     return evaluation_order(evaluations).head(budget).reset_index(drop=True)
+
+
+def whole_generations(evaluations: Any, budget: int) -> list[Any]:
+    """The generations all of whose evaluations are among the run's first ``budget``
+    (`first_evaluations`): those whose per-generation values (QD, lineage) count at it."""
+    counts = evaluations["generation"].value_counts()
+    within = first_evaluations(evaluations, budget)["generation"].value_counts()
+    return [g for g, n in within.items() if counts.get(g) == n]
 
 
 def common_budget(

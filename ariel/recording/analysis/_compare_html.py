@@ -118,28 +118,38 @@ def stats_frame(comparison: Any) -> Any:
     return pd.DataFrame(format_stats(comparison.stats, paired=paired), columns=_stats_head(paired))
 
 
+def _measure_rows(records: list[dict[str, Any]], measure: str, column: str) -> list[Any]:
+    """A measure's rows of the summary: its median, and its mean ± sd, per condition."""
+    return [
+        (f"{measure}: median", [_number(r[f"{column}_median"]) for r in records]),
+        (
+            f"{measure}: mean ± sd",
+            [f"{_number(r[f'{column}_mean'])} ± {_number(r[f'{column}_sd'])}" for r in records],
+        ),
+    ]
+
+
 def _summary_rows(summary: Any) -> list[tuple[str, list[str]]]:
     from ariel.recording.analysis._compare_design import MEASURES, QD_COLUMNS
+    from ariel.recording.analysis._compare_lineage import LINEAGE_MEASURES
 
     records = summary.to_dict("records")
     rows = [("runs", [str(r["runs"]) for r in records])]
     for measure, column in MEASURES.items():
-        rows.append((f"{measure}: median", [_number(r[f"{column}_median"]) for r in records]))
-        rows.append(
-            (
-                f"{measure}: mean ± sd",
-                [f"{_number(r[f'{column}_mean'])} ± {_number(r[f'{column}_sd'])}" for r in records],
-            )
-        )
+        rows += _measure_rows(records, measure, column)
     for column in QD_COLUMNS:
         if f"{column}_median" in summary:
             rows.append((f"{column}: median", [_number(r[f"{column}_median"]) for r in records]))
+    for measure, column in LINEAGE_MEASURES.items():
+        if f"{column}_median" in summary:
+            rows += _measure_rows(records, measure, column)
     return rows
 
 
 def summary_frame(comparison: Any) -> Any:
-    """Per condition (a column each): runs, median and mean ± sd of each measure, and the
-    median of the QD columns where the runs have them."""
+    """Per condition (a column each): runs, median and mean ± sd of each measure, the
+    median of the QD columns where the runs have them, and median and mean ± sd of each
+    lineage measure where a run has a lineage."""
     import pandas as pd
 
     names = comparison.summary["condition"].tolist()
@@ -184,7 +194,23 @@ def _note(comparison: Any, escape: Callable[[object], str] = str) -> str:
         f"{ALPHA:g}. An effect is labelled (small, medium, large) only where the test could "
         f"reach p (Holm) < {ALPHA:g} with these n. CIs: 95 % percentile bootstrap"
         + (", resampling seeds." if comparison.tests.paired else ".")
+        + (_LINEAGE_NOTE.format(n=n) if _has_lineage(comparison) else "")
     )
+
+
+_LINEAGE_NOTE = (
+    " Lineage (co-evolution runs), after the last generation within the {n} evaluations: "
+    "surviving lineages = the founders (bodies of a random genotype) with a descendant in "
+    "the population; best depth = parent steps from that population's best body back to a "
+    "founder. Neither direction is better: for these, A12 = P(a run of A has the higher "
+    "value), and better names the higher condition (higher: A)."
+)
+
+
+def _has_lineage(comparison: Any) -> bool:
+    from ariel.recording.analysis._compare_lineage import measures
+
+    return comparison.runs is not None and bool(measures(comparison.runs))
 
 
 # --------------------------------------------------------------------------------------------
@@ -233,6 +259,7 @@ _SECTIONS = {
     "best_so_far": "Best fitness so far against evaluations",
     "final_best": "Final best fitness per condition",
     "morphology": "Morphology over evaluations",
+    "lineages": "Lineages over evaluations",
 }
 
 

@@ -1,32 +1,37 @@
 """The figures of `ariel compare`: best so far against evaluations (median and 95 % bootstrap
 band per condition, each band in the legend; the y axis spans the data, not from 0), final
 best per condition (box plot with every seed's point), and the bodies' morphology descriptors
-over evaluations per condition. Matplotlib (Agg), PNG files, each written whole and never
+over evaluations per condition (`morphology_series`: the runs' mean per bin of evaluations),
+and the lineages (surviving lineages and the best body's ancestry depth over evaluations,
+`_compare_lineage`). Matplotlib (Agg), PNG files, each written whole and never
 through a link (`_files.atomic_write`); condition names are drawn as text (`figure_label`:
 one line, no mathtext).
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ariel.recording.store import DESCRIPTORS, integer_ticks
-from ariel.recording.store import figure_label
+from ariel.recording.store import DESCRIPTORS, figure_label, integer_ticks
 
 __all__ = [
     "MORPHOLOGY",
     "best_so_far_figure",
     "data_limits",
     "final_best_figure",
+    "lineages_figure",
     "morphology_figure",
+    "morphology_series",
 ]
 
 #: Descriptors drawn over evaluations (those a reader of a co-evolution paper looks for).
 MORPHOLOGY = ("num_modules", "num_limbs", "joints_ratio", "symmetry")
+MORPHOLOGY_BINS = 20
 _DPI = 110
 _BAND_ALPHA = 0.2
 
@@ -145,4 +150,79 @@ def morphology_figure(
         axes.set_visible(False)
     grid.flat[0].legend(fontsize="small")
     figure.suptitle("morphology of the evaluated bodies: median of the seeds (band: 25-75 %)")
+    return _save(figure, path)
+
+
+def morphology_series(grouped: Mapping[str, Sequence[Any]]) -> dict[str, dict[str, tuple]]:
+    """``grouped``: condition -> its runs (`_compare.RunCurve`, evaluations up to the budget).
+
+    Returns:
+        descriptor -> condition -> (bin centres, median, 25 %, 75 %) of per-run bin means.
+    """
+    series: dict[str, dict[str, tuple]] = {}
+    for descriptor in MORPHOLOGY:
+        per_condition = {}
+        for name, runs in grouped.items():
+            if not all(descriptor in r.evaluations.columns for r in runs):
+                continue
+            longest = max(len(r.evaluations) for r in runs)
+            edges = np.linspace(0, longest, max(1, min(MORPHOLOGY_BINS, longest)) + 1)
+            means = np.array([_bin_means(r.evaluations, descriptor, edges) for r in runs])
+            if not np.isfinite(means).any():
+                continue
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN bin: NaN
+                low, median, high = np.nanpercentile(means, [25, 50, 75], axis=0)
+            per_condition[name] = ((edges[:-1] + edges[1:]) / 2, median, low, high)
+        if per_condition:
+            series[descriptor] = per_condition
+    return series
+
+
+def _bin_means(evaluations: Any, descriptor: str, edges: np.ndarray) -> np.ndarray:
+    ordered = evaluations.sort_values(["generation", "eval_id"], kind="stable")
+    values = ordered[descriptor].to_numpy(dtype=np.float64, na_value=np.nan)
+    position = np.arange(len(values))
+    bins = np.digitize(position, edges[1:-1])
+    means = np.full(len(edges) - 1, np.nan)
+    for b in range(len(means)):
+        inside = values[bins == b]
+        if np.isfinite(inside).any():
+            means[b] = np.nanmean(inside)
+    return means
+
+
+#: The panels of ``lineages.png``: `Comparison.runs` column -> (title, y label).
+LINEAGE_PANELS = {
+    "surviving_lineages": ("surviving lineages", "lineages (founders with a living descendant)"),
+    "best_depth": ("depth of the best body's ancestry", "parent steps back to a founder"),
+}
+
+
+def lineages_figure(
+    series: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]],
+    path: Path,
+) -> Path:
+    """``series``: column (`LINEAGE_PANELS`) -> condition -> (evaluations grid, median, band
+    low, band high) of the runs' values after each generation, up to the budget; drawn as
+    steps (a value holds from the evaluation that ended its generation)."""
+    plt = _pyplot()
+    names = [column for column in LINEAGE_PANELS if column in series]
+    figure, grid = plt.subplots(1, len(names), figsize=(5.6 * len(names), 4.6), squeeze=False)
+    colours = _colours(list(dict.fromkeys(c for s in series.values() for c in s)))
+    for axes, column in zip(grid.flat, names):
+        for condition, (x, median, low, high) in series[column].items():
+            colour, label = colours[condition], figure_label(condition)
+            axes.plot(x, median, color=colour, label=label, linewidth=1.8, drawstyle="steps-post")
+            axes.fill_between(x, low, high, color=colour, alpha=_BAND_ALPHA, lw=0, step="post")
+        title, ylabel = LINEAGE_PANELS[column]
+        axes.set_title(title)
+        axes.set_xlabel("evaluations")
+        axes.set_ylabel(ylabel)
+        axes.set_ylim(bottom=0)
+        integer_ticks(axes.xaxis)
+        integer_ticks(axes.yaxis)
+        axes.grid(alpha=0.3)
+    grid.flat[0].legend(loc="best", fontsize="small")
+    figure.suptitle("lineages after each generation: median of the seeds (band: 95 % bootstrap CI)")
     return _save(figure, path)

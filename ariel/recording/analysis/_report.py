@@ -7,7 +7,9 @@ descriptors of the population after selection, `Run.population`, per generation;
 only), ``trajectory.png`` and ``joints.png`` (the best evaluation's core path and every joint's
 target and angle, from the trajectories table; joints named by `joint_labels`) and
 ``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing);
-``archive.png`` for a MAP-Elites run (`_report_archive`). Axes carry their units and counts
+``archive.png`` for a MAP-Elites run (`_report_archive`); ``lineage.png``, the ancestry of the
+final population as a tree over generations, the best body's ancestry highlighted
+(co-evolution only, `_report_lineage`). Axes carry their units and counts
 whole-number ticks (`_axes`); titles wrap to fit.
 Only finished generations are reported, so a running or killed run reports what it has.
 
@@ -25,12 +27,22 @@ from typing import Any
 import numpy as np
 
 from ariel.errors import DamagedRunError, RunStorageError
-from ariel.recording.store import DESCRIPTORS, fitness_label, fitted, integer_ticks
-from ariel.recording.rerun import three_quarter_view
-from ariel.recording.store import one_line
-from ariel.recording.store import QD_COLUMNS, Run, load_run, population_after_selection
-from ariel.recording.store import evaluation_trajectory
+from ariel.recording.analysis._gallery import add_report_gallery
 from ariel.recording.analysis._report_archive import archive_figure
+from ariel.recording.analysis._report_lineage import lineage_figure
+from ariel.recording.rerun import three_quarter_view
+from ariel.recording.store import (
+    DESCRIPTORS,
+    QD_COLUMNS,
+    Run,
+    evaluation_trajectory,
+    fitness_label,
+    fitted,
+    integer_ticks,
+    load_run,
+    one_line,
+    population_after_selection,
+)
 
 __all__ = ["Report", "make_report", "print_report"]
 
@@ -59,7 +71,8 @@ class Report:
         table: one row per finished generation (``TABLE_COLUMNS``; a MAP-Elites run also
             ``coverage``, ``qd_score``, ``norm_qd_score``, printed as a second table).
         best: the best evaluation's row (a dict), or None before any finite fitness.
-        written: the PNG files written, in order.
+        written: the files written, in order: the PNG figures, and the final population's
+            gallery (``gallery.png``, ``gallery.html``: `ariel gallery`).
         notes: one line per figure left out, and why.
         figures: file name (``fitness.png``) -> its matplotlib `Figure`, to show or restyle.
     """
@@ -386,6 +399,8 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     _fitness_figure(report, maximise)
     _morphology_figure(report)
     archive_figure(report, maximise, render=render, figure=_figure, save=_save)
+    lineage_figure(report, maximise, figure=_figure, save=_save)
+    add_report_gallery(report, render)
     if report.best is None:
         report.notes.append("trajectory.png, joints.png, best_body.png: no evaluation succeeded")
         return report

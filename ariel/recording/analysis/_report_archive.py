@@ -1,6 +1,8 @@
-"""The report's MAP-Elites figure, ``archive.png``: the final archive as a heatmap of fitness
-per cell (over the first two measures; more are folded by their best), and the bodies of the
-best cells rendered in a grid of thumbnails (left out where OpenGL is missing)."""
+"""The report's MAP-Elites figure, ``archive.png``: the final archive as its description says
+it is (`Run.archive_description`), a grid as a heatmap of fitness per cell (over the first two
+measures; more are folded by their best), a CVT as its cells coloured by their elite's fitness
+(`_cvt`), and the bodies of the best cells rendered in a grid of thumbnails (left out where
+OpenGL is missing)."""
 
 from __future__ import annotations
 
@@ -9,11 +11,18 @@ from typing import Any
 
 import numpy as np
 
-from ariel.recording.store import DESCRIPTORS, descriptor_label, fitness_label, integer_ticks
+from ariel.recording.store import (
+    DESCRIPTORS,
+    archive_cell_count,
+    descriptor_label,
+    fitness_label,
+    integer_ticks,
+)
 
 __all__ = ["archive_figure"]
 
 THUMBNAILS = 6  # the best cells whose bodies are drawn
+_PIXELS = 400  # a CVT's cells are drawn as an image this many pixels a side
 
 
 def _grid(archive: Any, maximise: bool) -> np.ndarray:
@@ -49,13 +58,46 @@ def _thumbnail(run: Any, body_id: str) -> Any:
         return single_frame_renderer(built.model, data, steps=0, width=240, height=180)
 
 
-def _ranges(options: dict[str, Any], measures: list[str]) -> list[tuple[float, float]]:
-    from ariel.evolution import DEFAULT_RANGES
+def _cvt(axes: Any, archive: Any, description: dict[str, Any]) -> Any:
+    """A CVT archive on ``axes`` (measure 0 up, measure 1 across): with one or two measures its
+    cells, the regions nearest to each centroid in the measures scaled to [0, 1] (as the run
+    placed bodies), coloured by their elite's fitness (blank: empty); with more, whose cells
+    do not lie flat, only its centroids, coloured (hollow: empty). Centroids are dots."""
+    from scipy.spatial import cKDTree
 
-    given = options.get("ranges")
-    if given:
-        return [(float(low), float(high)) for low, high in given]
-    return [DEFAULT_RANGES.get(m, (0.0, 1.0)) for m in measures]
+    from ariel.recording.rerun import archive_cells
+
+    cells = archive_cells(archive.to_dict("records"), description)
+    low, high = cells.ranges[:, 0], cells.ranges[:, 1]
+    unit = (cells.centroids - low) / (high - low)
+    count, flat = len(unit), unit.shape[1] <= 2
+    up = cells.centroids[:, 0]
+    across = cells.centroids[:, 1] if unit.shape[1] > 1 else np.full(count, 0.5)
+    span = (low[1], high[1]) if unit.shape[1] > 1 else (0.0, 1.0)
+    filled = np.isfinite(cells.fitness)
+    if flat:
+        steps = (np.arange(_PIXELS) + 0.5) / _PIXELS
+        rows, columns = np.meshgrid(steps, steps, indexing="ij")
+        pixels = np.column_stack([rows.ravel(), columns.ravel()])[:, : unit.shape[1]]
+        _, nearest = cKDTree(unit).query(pixels)
+        labels = nearest.reshape(_PIXELS, _PIXELS)
+        edges = np.zeros(labels.shape, dtype=bool)  # where a pixel's cell is not its neighbour's
+        edges[:, 1:] |= labels[:, 1:] != labels[:, :-1]
+        edges[1:, :] |= labels[1:, :] != labels[:-1, :]
+        extent = (span[0], span[1], low[0], high[0])
+        image = cells.fitness[labels]
+        shown = axes.imshow(image, origin="lower", aspect="auto", cmap="viridis", extent=extent)
+        lines = np.where(edges, 1.0, np.nan)  # light grey
+        axes.imshow(
+            lines, origin="lower", aspect="auto", cmap="Greys", vmin=0, vmax=3, extent=extent
+        )
+        axes.scatter(across, up, s=5, c="black", alpha=0.6, linewidths=0)
+        return shown
+    axes.scatter(across[~filled], up[~filled], s=30, facecolors="none", edgecolors="grey")
+    shown = axes.scatter(across[filled], up[filled], s=30, c=cells.fitness[filled], cmap="viridis")
+    axes.set_xlim(*span)
+    axes.set_ylim(low[0], high[0])
+    return shown
 
 
 def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, save: Any) -> None:
@@ -65,8 +107,8 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
         return
     last = int(run.archive["generation"].max())
     archive = run.archive[run.archive["generation"] == last]
-    options = run.config.get("body", {}).get("optimizer_options", {})
-    measures = list(options.get("measures") or ["num_limbs", "joints_ratio"])
+    description = run.archive_description
+    measures = list(description["measures"])
     ranked = archive.sort_values("fitness", ascending=not maximise).head(THUMBNAILS)
     images, note = [], ""
     if render:
@@ -83,11 +125,14 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
     columns = max(3, math.ceil(len(images) / 2)) if images else 1
     spec = figure.add_gridspec(rows, 1 + columns, width_ratios=[2.2] + [1] * columns)
     axes = figure.add_subplot(spec[:, 0])
-    grid = _grid(archive, maximise)
-    ranges = _ranges(options, measures)
-    across = ranges[1] if len(ranges) > 1 else (0.0, 1.0)
-    extent = (across[0], across[1], ranges[0][0], ranges[0][1])
-    shown = axes.imshow(grid, origin="lower", aspect="auto", cmap="viridis", extent=extent)
+    if description["kind"] == "cvt":
+        shown = _cvt(axes, archive, description)
+    else:
+        grid = _grid(archive, maximise)
+        ranges = description["ranges"]
+        across = ranges[1] if len(ranges) > 1 else (0.0, 1.0)
+        extent = (across[0], across[1], ranges[0][0], ranges[0][1])
+        shown = axes.imshow(grid, origin="lower", aspect="auto", cmap="viridis", extent=extent)
     fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
     figure.colorbar(shown, ax=axes, label=fitness_label(fitness_fn, what="elite's fitness"))
     across_name = measures[1] if len(measures) > 1 else ""
@@ -96,8 +141,9 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
     for axis, measure in ((axes.yaxis, measures[0]), (axes.xaxis, across_name)):
         if DESCRIPTORS.get(measure, ("", False))[1]:  # a count: whole-number ticks
             integer_ticks(axis)
-    coverage = len(archive) / int(np.prod(archive["grid"].iloc[0]))
-    axes.set_title(f"archive after generation {last}: {len(archive)} cells ({coverage:.0%})")
+    coverage = len(archive) / archive_cell_count(description)
+    kind = "CVT archive" if description["kind"] == "cvt" else "archive"
+    axes.set_title(f"{kind} after generation {last}: {len(archive)} cells ({coverage:.0%})")
     for k, (body_id, fitness, image) in enumerate(images):
         thumb = figure.add_subplot(spec[k // columns, 1 + k % columns])
         thumb.imshow(np.asarray(image))

@@ -11,6 +11,15 @@ from typing import TYPE_CHECKING
 from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.recording.rerun._archive import (
+        ARCHIVE_ENTITY as ARCHIVE_ENTITY,
+        CvtCells as CvtCells,
+        archive_cells as archive_cells,
+        archive_grid as archive_grid,
+        archive_image as archive_image,
+        archive_kind as archive_kind,
+        archive_view as archive_view,
+    )
     from ariel.recording.rerun._camera import (
         three_quarter_view as three_quarter_view,
     )
@@ -31,12 +40,10 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.recording.rerun._recorder import (
         RerunRecorder as RerunRecorder,
-        archive_grid as archive_grid,
         generation_summary as generation_summary,
     )
     from ariel.recording.rerun._rerun import (
         APPLICATION_ID as APPLICATION_ID,
-        ARCHIVE_ENTITY as ARCHIVE_ENTITY,
         RUN_SERIES as RUN_SERIES,
         SUMMARY_SERIES as SUMMARY_SERIES,
         archive_chunks as archive_chunks,
@@ -53,13 +60,18 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
     "APPLICATION_ID": "ariel.recording.rerun._rerun",
-    "ARCHIVE_ENTITY": "ariel.recording.rerun._rerun",
+    "ARCHIVE_ENTITY": "ariel.recording.rerun._archive",
     "CAMPAIGN_BLUEPRINT": "ariel.recording.rerun._campaign_rerun",
+    "CvtCells": "ariel.recording.rerun._archive",
     "RUN_SERIES": "ariel.recording.rerun._rerun",
     "RerunRecorder": "ariel.recording.rerun._recorder",
     "SUMMARY_SERIES": "ariel.recording.rerun._rerun",
     "archive_chunks": "ariel.recording.rerun._rerun",
-    "archive_grid": "ariel.recording.rerun._recorder",
+    "archive_cells": "ariel.recording.rerun._archive",
+    "archive_grid": "ariel.recording.rerun._archive",
+    "archive_image": "ariel.recording.rerun._archive",
+    "archive_kind": "ariel.recording.rerun._archive",
+    "archive_view": "ariel.recording.rerun._archive",
     "campaign_views": "ariel.recording.rerun._campaign_rerun",
     "condition_colours": "ariel.recording.rerun._campaign_rerun",
     "curve_chunks": "ariel.recording.rerun._campaign_rerun",

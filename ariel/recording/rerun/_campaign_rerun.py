@@ -70,7 +70,7 @@ def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
     Raises:
         NotACampaignError: When ``campaign_dir`` is not a campaign folder.
     """
-    campaign = load_campaign(campaign_dir)
+    campaign = load_campaign(Path(campaign_dir))
     colours = condition_colours(campaign.conditions)
     chunks = []
     for (condition, seed), run in campaign.runs.items():
@@ -147,9 +147,9 @@ def write_campaign_blueprint(
     pictures."""
     from ariel.recording.store import load_campaign, read_campaign_info
 
-    conditions = [c["name"] for c in read_campaign_info(campaign_dir).get("conditions", [])]
+    conditions = [c["name"] for c in read_campaign_info(Path(campaign_dir)).get("conditions", [])]
     if fitness_unit is None or maximise is None:
-        campaign = load_campaign(campaign_dir)
+        campaign = load_campaign(Path(campaign_dir))
         fitness_unit = _fitness_unit(campaign) if fitness_unit is None else fitness_unit
         maximise = campaign.maximise if maximise is None else maximise
     rrb = rerun_module().blueprint

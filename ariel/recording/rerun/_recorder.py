@@ -31,6 +31,7 @@ be empty files. Resume deletes the recordings of unfinished generations (`RunFol
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 import math
@@ -41,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ariel.evolution import fitness_rank
+from ariel.recording.rerun._archive import archive_cells, archive_grid
 from ariel.recording.store import (
     GENERATION_BLUEPRINT,
     generation_recording_path,
@@ -50,6 +52,7 @@ from ariel.recording.store import (
 if TYPE_CHECKING:
     from ariel.recording.store import EvaluationRow
 
+# archive_grid: defined in _archive, still importable from here
 __all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
 
 
@@ -108,15 +111,6 @@ def generation_summary(
     return row, best_body
 
 
-def archive_grid(rows: Sequence[Mapping[str, Any]]) -> np.ndarray:
-    """A MAP-Elites archive's rows as its grid of fitness (NaN in empty cells)."""
-    grid = [int(n) for n in rows[0]["grid"]] if rows else [0]
-    values = np.full(int(np.prod(grid)), np.nan)
-    for row in rows:
-        values[int(row["cell"])] = float(row["fitness"])
-    return values.reshape(grid)
-
-
 class RerunRecorder:
     """Writes a run's Rerun files (see the module docstring); one per run, in the driver."""
 
@@ -132,7 +126,8 @@ class RerunRecorder:
         self.config = config
         self._rows: dict[int, dict[str, Any]] = {}
         self._best: dict[int, dict[str, Any]] = {}
-        self._archives: dict[int, np.ndarray] = {}  # MAP-Elites: fitness per cell
+        self._archives: dict[int, Any] = {}  # MAP-Elites: fitness per cell (`archive_cells`)
+        self._described: dict[str, Any] | None = None  # run.json's archive description
         self._traces: dict[int, list[Any]] = {}  # per generation: its evaluations' traces
         self._blueprint = False
 
@@ -203,7 +198,7 @@ class RerunRecorder:
         if best is not None:
             self._best[generation] = best
         if archive is not None:
-            self._archives[generation] = archive_grid(archive)
+            self._archives[generation] = archive_cells(archive, self._description())
         gens = sorted(g for g in self._rows if g <= generation)
         columns = {key: [self._rows[g][key] for g in gens] for key in row}
         c = self.config
@@ -239,13 +234,23 @@ class RerunRecorder:
         for g in missing:
             archive = [row for row in cells if row["generation"] == g]
             if archive:
-                self._archives[g] = archive_grid(archive)
+                self._archives[g] = archive_cells(archive, self._description())
             row, best = generation_summary(
                 g, [r for r in rows if r["generation"] == g], self.maximise
             )
             self._rows[g] = row
             if best is not None:
                 self._best[g] = best
+
+    def _description(self) -> dict[str, Any] | None:
+        """run.json's ``archive`` (the driver writes it before the first generation); None: a
+        grid (a run made before it was recorded)."""
+        if self._described is None:
+            from ariel.recording.store import NotARunError, RunFolder, describe_archive
+
+            with contextlib.suppress(NotARunError):
+                self._described = describe_archive(RunFolder(self.run_dir).read_info(), None)
+        return self._described
 
     def write_blueprint(self) -> Path:
         """Write the layouts: ``blueprint.rbl`` (evaluations, run.rrd) and ``generation.rbl``

@@ -55,6 +55,12 @@ from typing import Any
 
 import numpy as np
 
+from ariel.recording.rerun._archive import (
+    ARCHIVE_ENTITY,
+    archive_image,
+    archive_shown,
+    archive_view,
+)
 from ariel.recording.rerun._joint_names import joint_labels, module_labels
 from ariel.recording.store import atomic_write, json_data, require_free_space
 
@@ -646,9 +652,8 @@ def write_evaluation_recording(
     )
     boxes = len(shared.geom_body)
     if moving and boxes:
-        centers, quats = _box_poses(
-            body_pos, body_quat, shared.geom_body, shared.geom_pos, shared.geom_quat
-        )
+        pos, quat = np.asarray(body_pos), np.asarray(body_quat)  # not None: `moving`
+        centers, quats = _box_poses(pos, quat, shared.geom_body, shared.geom_pos, shared.geom_quat)
         poses = rr.Boxes3D.columns(
             centers=centers.reshape(-1, 3), quaternions=quats.reshape(-1, 4)
         ).partition([boxes] * len(times))
@@ -720,8 +725,9 @@ def write_run_recording(
             rows with a ``generation`` key; a body has ``body_id``, ``fitness`` and ``graph``
             (node-link JSON): logged at ``/best/graph`` (its morphology) and ``/best/body``
             (text).
-        archives: A MAP-Elites run's grid of fitness per cell (NaN: empty) per generation,
-            logged at ``/archive`` as a tensor, so the viewer plays the archive over the
+        archives: A MAP-Elites run's archive per generation (`archive_cells`: a grid of
+            fitness per cell, NaN: empty, or a CVT's cells), logged at ``/archive``
+            (`archive_image`: a tensor, or points), so the viewer plays the archive over the
             generations; None: no archive.
         run_id: The recording's id and name; ``""``: the name of ``path``'s folder.
         properties: Plain values stored as recording properties; None: none.
@@ -764,7 +770,7 @@ def write_run_recording(
                 chunks.append(Chunk.from_columns("/best/graph", at, _one_row(*graph)))
     for gen, grid in sorted((archives or {}).items()):
         at = [rr.TimeColumn("generation", sequence=[int(gen)])]
-        chunks.append(Chunk.from_columns("/archive", at, _one_row(rr.Tensor(grid))))
+        chunks.append(Chunk.from_columns("/archive", at, _one_row(archive_image(grid))))
     return _write_chunks(path, name, chunks, fsync=fsync)
 
 
@@ -785,11 +791,6 @@ SUMMARY_SERIES: dict[str, tuple[str, str, tuple[int, int, int, int]]] = {
         (148, 103, 189, 255),
     ),
 }
-#: A MAP-Elites run's archive beside an evaluation (static, the last generation's).
-ARCHIVE_ENTITY = "/run/archive"
-#: Where empty archive cells are drawn: this share of the elites' fitness span below the
-#: worst elite, so they take the darkest colour and no elite looks empty.
-_EMPTY_BELOW = 0.5
 
 
 def run_summary_chunks(generations_df: Any) -> list[Any]:
@@ -815,23 +816,12 @@ def run_summary_chunks(generations_df: Any) -> list[Any]:
 
 
 def archive_chunks(grid: Any, dimensions: Sequence[str] | None = None) -> list[Any]:
-    """A MAP-Elites archive (fitness per cell, NaN where empty: `archive_grid`) as a static
-    tensor at `ARCHIVE_ENTITY`, its dimensions named (``dimensions``: the measures, e.g.
-    "num_limbs (0 to 8)"), for a tensor view beside an evaluation. The viewer draws NaN in
-    the brightest colour, so empty cells get a value below every elite's (`_EMPTY_BELOW`) and
-    the colour scale spans them to the best elite. Nothing for an archive without elites."""
-    rr = rerun_module()
-    values = np.asarray(grid, dtype=np.float64)
-    filled = values[np.isfinite(values)]
-    if not filled.size:
-        return []
-    low, high = float(filled.min()), float(filled.max())
-    empty = low - max(_EMPTY_BELOW * (high - low), 1e-9 + 1e-3 * abs(low))
-    shown = np.where(np.isfinite(values), values, empty)
-    names = list(dimensions or [])[: values.ndim]
-    names += [f"measure {d}" for d in range(len(names), values.ndim)]
-    tensor = rr.Tensor(shown, dim_names=names, value_range=[empty, high])
-    return [static_chunk(ARCHIVE_ENTITY, tensor)]
+    """A MAP-Elites archive (`archive_cells`: fitness per cell, NaN where empty, or a CVT's
+    cells) static at `ARCHIVE_ENTITY` (`archive_shown`: a tensor, its dimensions named by
+    ``dimensions``, e.g. "num_limbs (0 to 8)", or points), for a view beside an evaluation.
+    Nothing for an archive without elites."""
+    shown = archive_shown(grid, dimensions)
+    return [] if shown is None else [static_chunk(ARCHIVE_ENTITY, shown)]
 
 
 def write_view_recording(
@@ -851,7 +841,7 @@ def write_view_recording(
     its own drawing otherwise)."""
     from rerun.chunk import RrdReader
 
-    reader = RrdReader(evaluation)
+    reader = RrdReader(Path(evaluation))
     (store,) = reader.recordings()[:1] or [None]
     recording_id = store.recording_id if store is not None else Path(evaluation).stem
     graph = _graph_chunk(graph_json) if graph_json else None
@@ -875,13 +865,14 @@ def write_view_recording(
 def blueprint(
     *,
     panels: bool = True,
-    archive: bool = False,
+    archive: bool | str = False,
     fitness_unit: str | None = None,
     run_curves: bool = True,
 ) -> Any:
     """The default layout: the 3D replay and the morphology (and, with ``archive``, a MAP-Elites
-    run's archive, `ARCHIVE_ENTITY`) above, joints and the run's fitness and diversity per
-    generation below; the time panel on ``sim_time`` (the evaluation's clock).
+    run's archive, `ARCHIVE_ENTITY`: True or ``"grid"``, or ``"cvt"``, `archive_view`) above,
+    joints and the run's fitness and diversity per generation below; the time panel on
+    ``sim_time`` (the evaluation's clock).
 
     The morphology view shows an evaluation's ``/graph`` and run.rrd's best body of each
     generation (``/best/graph``). Fitness and diversity per generation are static bar charts
@@ -952,20 +943,8 @@ def blueprint(
         ),
         rrb.GraphView(name="morphology", origin="/", contents=["/graph/**", "/best/graph/**"]),
     ]
-    if archive:
-        top.append(
-            rrb.TensorView(
-                name=f"archive: fitness{unit}, dark: empty",
-                origin=ARCHIVE_ENTITY,
-                # measure 0 across, measure 1 up
-                slice_selection=rrb.TensorSliceSelection(
-                    width=rr.TensorDimensionSelection(dimension=0),
-                    height=rr.TensorDimensionSelection(dimension=1, invert=True),
-                ),
-                scalar_mapping=rrb.TensorScalarMapping(mag_filter="nearest", colormap="viridis"),
-                view_fit="FillKeepAspectRatio",
-            )
-        )
+    if archive:  # measure 0 across, measure 1 up
+        top.append(archive_view(archive, unit, sliced=True))
     return rrb.Blueprint(
         rrb.Vertical(
             rrb.Horizontal(*top, column_shares=[4, 2, 2] if archive else [3, 1]),
@@ -986,7 +965,7 @@ def write_blueprint(
     path: str | os.PathLike[str],
     *,
     panels: bool = True,
-    archive: bool = False,
+    archive: bool | str = False,
     fitness_unit: str | None = None,
     run_curves: bool = True,
 ) -> Path:
@@ -999,7 +978,8 @@ def write_blueprint(
             ``blueprint.rbl`` beside the recordings.
         panels: False collapses the side panels (the blueprint tree, the selection, the time
             panel) for pictures of the views alone.
-        archive: Whether to add a view of a MAP-Elites run's archive (`ARCHIVE_ENTITY`).
+        archive: Whether to add a view of a MAP-Elites run's archive (`ARCHIVE_ENTITY`):
+            False, True or ``"grid"`` (a tensor view), ``"cvt"`` (a 2D view of its points).
         fitness_unit: The fitness's unit (e.g. ``"m"``) for the fitness views' titles; None:
             no unit.
         run_curves: Whether the fitness and diversity views get a second tab of run.rrd's

@@ -11,6 +11,10 @@ from typing import TYPE_CHECKING
 from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.recording.store._archive import (
+        archive_cell_count as archive_cell_count,
+        describe_archive as describe_archive,
+    )
     from ariel.recording.store._axes import (
         DESCRIPTORS as DESCRIPTORS,
         descriptor_label as descriptor_label,
@@ -57,6 +61,14 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.recording.store._ids import (
         check_eval_id as check_eval_id,
         check_run_id as check_run_id,
+    )
+    from ariel.recording.store._lineage import (
+        ancestors as ancestors,
+        lineage as lineage,
+        lineage_statistics as lineage_statistics,
+        lineage_statistics_by_run as lineage_statistics_by_run,
+        parse_ancestor_list as parse_ancestor_list,
+        write_lineage_csv as write_lineage_csv,
     )
     from ariel.recording.store._load import (
         QD_COLUMNS as QD_COLUMNS,
@@ -138,6 +150,8 @@ _INTERNAL: dict[str, str] = {
     "STOPPED": "ariel.recording.store._load",
     "UnsafePathError": "ariel.recording.store._files",
     "adopt_manifests": "ariel.recording.store._manifest",
+    "ancestors": "ariel.recording.store._lineage",
+    "archive_cell_count": "ariel.recording.store._archive",
     "archive_quality_table": "ariel.recording.store._load",
     "atomic_write": "ariel.recording.store._files",
     "atomic_write_bytes": "ariel.recording.store._files",
@@ -146,6 +160,7 @@ _INTERNAL: dict[str, str] = {
     "check_eval_id": "ariel.recording.store._ids",
     "check_run_id": "ariel.recording.store._ids",
     "csv_safe": "ariel.recording.store._escape",
+    "describe_archive": "ariel.recording.store._archive",
     "descriptor_label": "ariel.recording.store._axes",
     "ensure_open_files": "ariel.recording.store._lock",
     "evaluation_trajectory": "ariel.recording.store._tables",
@@ -162,6 +177,9 @@ _INTERNAL: dict[str, str] = {
     "integer_ticks": "ariel.recording.store._axes",
     "is_campaign": "ariel.recording.store._campaign",
     "json_data": "ariel.recording.store._run_folder",
+    "lineage": "ariel.recording.store._lineage",
+    "lineage_statistics": "ariel.recording.store._lineage",
+    "lineage_statistics_by_run": "ariel.recording.store._lineage",
     "list_runs": "ariel.recording.store._load",
     "load_campaign": "ariel.recording.store._campaign",
     "load_run": "ariel.recording.store._load",
@@ -173,6 +191,7 @@ _INTERNAL: dict[str, str] = {
     "markdown_text": "ariel.recording.store._escape",
     "now": "ariel.recording.store._run_folder",
     "on_grid": "ariel.recording.store._curves",
+    "parse_ancestor_list": "ariel.recording.store._lineage",
     "one_line": "ariel.recording.store._escape",
     "population_after_selection": "ariel.recording.store._load",
     "prunable_runs": "ariel.recording.store._prune",
@@ -191,6 +210,7 @@ _INTERNAL: dict[str, str] = {
     "to_pandas": "ariel.recording.store._tables",
     "verify_run": "ariel.recording.store._manifest",
     "write_campaign_info": "ariel.recording.store._campaign",
+    "write_lineage_csv": "ariel.recording.store._lineage",
     "written_path": "ariel.recording.store._files",
 }
 

@@ -286,6 +286,24 @@ class Campaign:
         ``seed`` columns."""
         return self._joined("generations")
 
+    def lineages(self) -> dict[str, Any]:
+        """Every run's lineage in the ALife phylogeny format (`Run.lineage`), by run id.
+
+        `ariel.recording.lineage_statistics_by_run` turns them into one table of surviving
+        lineages and best-body ancestry depth per run and generation.
+
+        Returns:
+            Run id (run.json's ``run_id``, else the run folder's name) -> that run's lineage
+            (a DataFrame), in the campaign's order.
+
+        Raises:
+            DamagedRunError: When a run's bodies table holds a body id that is not one, or a
+                parent that is no body of the run.
+        """
+        from ariel.recording.store._lineage import campaign_lineages
+
+        return campaign_lineages(self)
+
     def status(self) -> list[dict[str, Any]]:
         """One row per run of campaign.json: condition, seed, status, generations, best.
         ``status``: run.json's, `STOPPED` for a killed run, ``"not started"`` for a run not

@@ -172,11 +172,10 @@ def lineage(run: Any) -> Any:
 
     Example:
         ```python
-        from ariel.recording import load_run
-        from ariel.recording.store._lineage import lineage, write_lineage_csv
+        from ariel.recording import lineage, load_run, write_lineage_csv
 
-        frame = lineage(load_run("data/runs/my-run"))
-        write_lineage_csv(frame, "my-run-phylogeny.csv")
+        frame = lineage(load_run("data/runs/my-run"))  # or: load_run(...).lineage()
+        write_lineage_csv(frame, "my-run-phylogeny.csv")  # or: ariel export RUN --lineage FILE
         ```
     """
     import pandas as pd
@@ -412,6 +411,14 @@ def lineage_statistics(
     Raises:
         ValueError: When ``maximise`` is None and ``frame`` does not record it, or the
             lineage has a cycle.
+
+    Example:
+        ```python
+        from ariel.recording import lineage_statistics, load_run
+
+        stats = lineage_statistics(load_run("data/runs/my-run").lineage())
+        print(stats[["generation", "surviving_lineages", "best_depth"]])
+        ```
     """
     import numpy as np
     import pandas as pd

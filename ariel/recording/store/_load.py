@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.recording.store._archive import archive_cell_count, describe_archive
 from ariel.recording.store._escape import terminal_text
 from ariel.recording.store._run_folder import DamagedRunError, NotARunError, RunFolder
 from ariel.recording.store._tables import read_table, to_pandas
@@ -126,6 +127,26 @@ class Run:
         """One row per recorded frame: ``eval_id``, ``t``, core position, joint lists."""
         return self._table("trajectories")
 
+    def lineage(self) -> Any:
+        """The run's lineage in the ALife data standard's phylogeny format: one row per body
+        ever evaluated (``id``, ``ancestor_list``, ``origin_time``, ``destruction_time``, ...;
+        every column defined in `ariel.recording.store._lineage`). Computed on each call.
+
+        `ariel.recording.write_lineage_csv` writes it as the standard's CSV (``ariel export
+        RUN --lineage FILE.csv``); `ariel.recording.lineage_statistics` counts the surviving
+        lineages and the best body's ancestry depth per generation.
+
+        Returns:
+            A DataFrame ordered by ``id`` (`ariel.recording.lineage`).
+
+        Raises:
+            DamagedRunError: When the bodies table holds a body id that is not one, or a
+                parent that is no body of the run.
+        """
+        from ariel.recording.store._lineage import lineage
+
+        return lineage(self)
+
     def joint_signals(self, eval_id: str) -> Any:
         """Evaluation ``eval_id``'s joint signals: a DataFrame indexed by ``t`` (seconds), one
         column per signal and joint, ``("target", joint)`` and ``("angle", joint)`` (radians),
@@ -175,6 +196,14 @@ class Run:
         """MAP-Elites runs: one row per filled cell of the archive after each generation
         (``cell``, the elite's ``body_id``, ``fitness``, ``measures``, ``grid``); empty else."""
         return self._table("archive")
+
+    @cached_property
+    def archive_description(self) -> dict[str, Any] | None:
+        """MAP-Elites and novelty runs: what the archive is (``kind``, ``"grid"`` or ``"cvt"``;
+        ``measures``; ``ranges``; a grid's ``bins`` or a CVT's ``cells`` and ``centroids``),
+        as run.json records it; a run made before that: its grid, from its config and the
+        ``archive`` table (`describe_archive`). None for a run without an archive."""
+        return describe_archive(self.info, self.archive)
 
     @cached_property
     def population(self) -> Any:
@@ -261,7 +290,9 @@ class Run:
         frame = pd.DataFrame(rows, columns=columns + morphology_columns)
         archive = self.archive
         if len(archive):
-            quality = archive_quality_table(archive, self.qd_offset, maximise)
+            quality = archive_quality_table(
+                archive, self.qd_offset, maximise, self.archive_description
+            )
             frame = frame.join(quality, on="generation")
             frame = frame[[*columns, *QD_COLUMNS, *morphology_columns]]
         return frame
@@ -271,17 +302,22 @@ class Run:
 QD_COLUMNS = ("coverage", "qd_score", "norm_qd_score")
 
 
-def archive_quality_table(archive: Any, qd_offset: float | None, maximise: bool) -> Any:
+def archive_quality_table(
+    archive: Any, qd_offset: float | None, maximise: bool, description: Any = None
+) -> Any:
     """Per generation of an ``archive`` table (`Run.archive`): the `QD_COLUMNS`, as
     `ariel.evolution._map_elites.archive_quality` computes them in the run (QD-scores NaN
-    when ``qd_offset`` is None: an old run of a minimised fitness)."""
+    when ``qd_offset`` is None: an old run of a minimised fitness), over the cells of
+    ``description`` (`Run.archive_description`; None: the product of the ``grid`` column)."""
     import pandas as pd
 
     from ariel.evolution import archive_quality
 
     rows = {}
     for generation, group in archive.groupby("generation", sort=True):
-        cells = int(np.prod(group["grid"].iloc[0]))
+        cells = (
+            archive_cell_count(description) if description else int(np.prod(group["grid"].iloc[0]))
+        )
         fitness = group["fitness"].astype(float).tolist()
         if qd_offset is None:
             rows[generation] = {

@@ -240,6 +240,7 @@ class RunLock:
 
     def _lock(self, fd: int) -> None:
         """Take the lock on ``fd``; raises (``fd`` closed) when the run is in use."""
+        assert fcntl is not None  # `acquire` refuses to lock without it
         for tries in range(_TRIES):
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -128,7 +128,7 @@ def _read_manifest(run_dir: Path, generation: int) -> dict[str, dict[str, Any]]:
             for v in files.values()
         )
     )
-    if not ok:
+    if not ok or not isinstance(files, dict):  # (the second for the type checker)
         raise damaged(run_dir, name, "is not a manifest of this generation")
     for listed in files:
         expected = {_relative(run_dir, generation_file(run_dir, t, generation)) for t in TABLES}

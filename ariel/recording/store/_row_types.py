@@ -278,16 +278,17 @@ class TrajectoryRow(Row):
 
 @dataclass(frozen=True, kw_only=True)
 class ArchiveRow(Row):
-    """A filled cell of a MAP-Elites archive after a generation."""
+    """A filled cell of a MAP-Elites archive after a generation (what the archive is, a grid or
+    a CVT: run.json's ``archive``, `Run.archive_description`)."""
 
     table: ClassVar[str] = "archive"
     generation: Int32
-    cell: Int32  # the cell's index in the grid (row-major over the measures)
+    cell: Int32  # the cell's index: a grid's row-major over the measures, a CVT's centroid's
     body_id: String  # the elite
     fitness: Float64
     objective: Float64  # what the archive maximises: fitness, or -fitness
     measures: Floats  # the elite's value of each measure
-    grid: Int32s  # cells per measure (coverage = rows / their product)
+    grid: Int32s  # cells per measure, a CVT's [cells] (coverage = rows / their product)
 
 
 #: Table name -> its row.

@@ -166,8 +166,9 @@ def write_table(
             arrow,
             temporary,
             compression="zstd",
-            use_dictionary=[f.name for f in written if f.name not in floats],
-            use_byte_stream_split=floats or False,
+            # pyarrow takes column lists here; its stubs say bool
+            use_dictionary=[f.name for f in written if f.name not in floats],  # pyright: ignore[reportArgumentType]
+            use_byte_stream_split=floats or False,  # pyright: ignore[reportArgumentType]
         )
 
     atomic_write(path, write, root=run_dir)

@@ -36,6 +36,7 @@ from ariel.recording.store import (
     generation_recording_path,
     recording_path,
 )
+from ariel.recording.viewer._archive_panel import archive_beside as _archive_beside
 from ariel.utils import ariel_line, has_display
 
 __all__ = [
@@ -233,35 +234,6 @@ def _run_series(run: Any) -> Any:
     return pd.DataFrame(rows) if rows else pd.DataFrame({"generation": []})
 
 
-def _archive_beside(run: Any) -> tuple[Any, list[str]] | None:
-    """A MAP-Elites run's archive after its last finished generation, as its grid of fitness
-    per cell (NaN: empty), and its dimensions' names ("num_limbs (0 to 8)"); None for a run
-    without an archive."""
-    import inspect
-
-    from ariel.evolution import DEFAULT_RANGES, MapElites
-    from ariel.recording.rerun import archive_grid
-
-    archive = run.archive
-    if not len(archive):
-        return None
-    last = archive[archive["generation"] == archive["generation"].max()]
-    grid = archive_grid(last.to_dict("records"))
-    options = run.config.get("body", {}).get("optimizer_options") or {}
-    measures = list(
-        options.get("measures") or inspect.signature(MapElites).parameters["measures"].default
-    )
-    ranges = options.get("ranges") or [DEFAULT_RANGES.get(m) for m in measures]
-    names = []
-    for d in range(grid.ndim):
-        name = str(measures[d]) if d < len(measures) else f"measure {d}"
-        span = ranges[d] if d < len(ranges) else None
-        if span is not None and len(span) == 2:
-            name += f" ({float(span[0]):g} to {float(span[1]):g})"
-        names.append(name)
-    return grid, names
-
-
 def _graph_of(run: Any, eval_id: str) -> str | None:
     """The morphology (node-link JSON, the bodies table's) of evaluation ``eval_id``'s body;
     None for another recording (run.rrd) or a body without one."""
@@ -303,7 +275,7 @@ def _prepared(selection: Selection, *, panels: bool = True) -> Iterator[Selectio
         return
     import tempfile
 
-    from ariel.recording.rerun import write_blueprint, write_view_recording
+    from ariel.recording.rerun import archive_kind, write_blueprint, write_view_recording
     from ariel.recording.store import load_run
 
     scratch = Path(tempfile.mkdtemp(prefix="ariel-view-"))
@@ -327,7 +299,7 @@ def _prepared(selection: Selection, *, panels: bool = True) -> Iterator[Selectio
         layout = write_blueprint(
             scratch / "views.rbl",
             panels=panels,
-            archive=grid is not None,
+            archive=archive_kind(grid),
             fitness_unit=_fitness_unit(run),
             run_curves=any(path.name == RUN_RECORDING for path in sources),
         )

@@ -45,14 +45,17 @@ class Source(Protocol):
 
     def blueprint(self) -> Any:
         """The `rerun.blueprint.Blueprint` laid out for it."""
+        ...
 
     def poll(self, rec: Any) -> bool:
         """Log to ``rec`` (a `rerun.RecordingStream`) whatever is new in the folder since the
         last poll; True when anything was logged. Reads only."""
+        ...
 
     def finished(self) -> bool:
         """The run or campaign has ended (any final status) and the last poll logged
         everything it wrote."""
+        ...
 
 
 def source_for(path: str | os.PathLike[str]) -> Source:

@@ -37,10 +37,11 @@ from typing import Any
 import numpy as np
 
 from ariel.recording.rerun import (
-    ARCHIVE_ENTITY,
     RUN_SERIES,
     SUMMARY_SERIES,
     archive_chunks,
+    archive_image,
+    archive_view,
     rerun_module,
     run_summary_chunks,
 )
@@ -165,7 +166,9 @@ class RunSource:
 
         name = self.config.get("task", {}).get("fitness")
         unit = fitness_unit(name) if isinstance(name, str) and name else None
-        return run_blueprint(archive=self.map_elites, fitness_unit=unit)
+        options = self.config.get("body", {}).get("optimizer_options") or {}
+        kind = self.map_elites and str(options.get("archive") or "grid")  # as the run's
+        return run_blueprint(archive=kind, fitness_unit=unit)
 
     def poll(self, rec: Any) -> bool:
         """Log what is new in the folder; True when anything was."""
@@ -251,14 +254,16 @@ class RunSource:
 
     def _log_archive(self, rec: Any, generation: int, archive: Any) -> None:
         from ariel.recording.store import archive_quality_table
-        from ariel.recording.viewer._view import _archive_beside
+        from ariel.recording.viewer._archive_panel import archive_beside
 
         rr = rerun_module()
-        beside = _archive_beside(SimpleNamespace(archive=archive, config=self.config))
+        shown = SimpleNamespace(archive=archive, config=self.config, info=self.info)
+        beside = archive_beside(shown)
         if beside is None:
             return
         grid, dimensions = beside
-        rec.log("/archive", rr.Tensor(grid, dim_names=dimensions))
+        named = isinstance(grid, np.ndarray)  # a grid's tensor, its measures named; a CVT's points
+        rec.log("/archive", rr.Tensor(grid, dim_names=dimensions) if named else archive_image(grid))
         rec.send_chunks(archive_chunks(grid, dimensions))
         quality = archive_quality_table(archive, self.run.qd_offset, self.run.maximise)
         for column, entity in QD_ENTITIES.items():
@@ -359,7 +364,7 @@ def _at(rec: Any, generation: int, *, sim_time: bool = False) -> None:
         rec.set_time("sim_time", duration=0.0)
 
 
-def run_blueprint(*, archive: bool = False, fitness_unit: str | None = None) -> Any:
+def run_blueprint(*, archive: bool | str = False, fitness_unit: str | None = None) -> Any:
     """The live view's layout: the best body walking, its morphology and the lineage, the
     progress (and a MAP-Elites archive) above; its joints and the run's fitness, diversity
     and morphology per generation below (bar charts, seen on any timeline, and curves on the
@@ -395,8 +400,8 @@ def run_blueprint(*, archive: bool = False, fitness_unit: str | None = None) -> 
     if archive:
         top.append(
             rrb.Tabs(
-                rrb.TensorView(name=f"archive: fitness{unit}, dark: empty", origin=ARCHIVE_ENTITY),
-                rrb.TensorView(name="archive per generation", origin="/archive"),
+                archive_view(archive, unit),
+                archive_view(archive, origin="/archive", name="archive per generation"),
                 curves("/qd", "coverage and QD-score"),
             )
         )

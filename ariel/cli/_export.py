@@ -1,0 +1,96 @@
+"""``ariel export``: one evaluation into a folder (`ariel.recording.resim.export`), the run's
+lineage as the ALife data standard's phylogeny CSV (``--lineage FILE.csv``), or both.
+
+Like `ariel.cli`, the command imports what it needs only when it runs; bad input is one line
+on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["add_export_command"]
+
+EXIT_USAGE = 2
+
+
+def _fail(message: str) -> int:
+    print(f"ariel: error: {message}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def add_export_command(sub: Any) -> None:
+    """The ``export`` sub-command, on the ``ariel`` parser's sub-parsers ``sub``."""
+    p = sub.add_parser(
+        "export",
+        help="write one evaluation as MJCF, genotype and controller JSON, and a replay script; "
+        "--lineage: the run's lineage as a CSV",
+        description="Write one evaluation (EVAL_ID into DIR), the run's lineage (--lineage "
+        "FILE.csv), or both. The lineage is the ALife data standard's phylogeny CSV: one row "
+        "per body ever evaluated, with its id, ancestor_list (its parents), origin_time and "
+        "destruction_time (generations; empty: still in the final population); "
+        "docs/records.md, 'Lineage'.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
+    p.add_argument(
+        "eval_id", nargs="?", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'"
+    )
+    p.add_argument("out", nargs="?", metavar="DIR", help="a new or empty folder")
+    p.add_argument(
+        "--lineage",
+        metavar="FILE.csv",
+        help="write the run's lineage to FILE.csv, a new file (an existing one is never "
+        "replaced); EVAL_ID and DIR are then optional",
+    )
+    p.set_defaults(func=_cmd_export)
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from ariel.recording.resim import export
+    from ariel.utils import python_command
+
+    if args.out is None and (args.lineage is None or args.eval_id is not None):
+        return _fail(
+            "export: give EVAL_ID and DIR (one evaluation), --lineage FILE.csv (the run's "
+            "lineage), or both (see ariel export --help)"
+        )
+    if args.lineage is not None and os.path.lexists(args.lineage):  # a dangling link too
+        return _fail(_exists(args.lineage))  # before anything is written
+    if args.out is not None:
+        out = export(args.run_dir, args.eval_id, args.out)
+        python = python_command()
+        body, replay = (shlex.quote(str(out / name)) for name in ("body.xml", "replay.py"))
+        print(
+            f"wrote {out}: body.xml ({python} -m mujoco.viewer --mjcf {body}), "
+            f"genotype.json, controller.json, replay.py ({python} {replay})"
+        )
+    return 0 if args.lineage is None else _export_lineage(args.run_dir, Path(args.lineage))
+
+
+def _exists(path: str | Path) -> str:
+    return f"{str(path)!r} already exists: remove it or name another file (it is never replaced)"
+
+
+def _export_lineage(run_dir: str, path: Path) -> int:
+    """The run's lineage (`ariel.recording.Run.lineage`) as the standard's CSV at ``path``."""
+    from ariel.recording import load_run, write_lineage_csv
+    from ariel.recording.store import cannot_write
+
+    frame = load_run(run_dir).lineage()
+    try:
+        write_lineage_csv(frame, path)
+    except FileExistsError:  # made since the check in _cmd_export
+        return _fail(_exists(path))
+    except OSError as exc:  # no permission, a full disk, a file where a folder goes
+        return _fail(cannot_write(exc, path))
+    alive = int(frame["destruction_time"].isna().sum())
+    print(
+        f"wrote {path}: the lineage of {len(frame):,} bodies ({alive:,} in the final "
+        "population), in the ALife data standard's phylogeny format"
+    )
+    return 0

@@ -1,0 +1,71 @@
+"""``ariel gallery RUN|CAMPAIGN``: the bodies of a run (or the best of each run of a campaign)
+side by side, a PNG contact sheet and a self-contained HTML page (`ariel.recording.make_gallery`).
+
+Like `ariel.cli`, the command imports what it needs only when it runs. Bad input (a folder that
+is not a run, ``--of archive`` of a run without an archive) is one line and exit code 2,
+through `ariel.cli.main`. Where nothing can be drawn (no OpenGL) the gallery is still written,
+without pictures, one line says why, and the exit code is 0, as `ariel report` does.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+__all__ = ["add_gallery_command"]
+
+#: What ``--of`` can show (`ariel.recording.analysis._gallery_select.OF`, without importing it).
+OF = ("final", "elites", "archive", "lineage-of-best")
+
+
+def add_gallery_command(sub: Any) -> None:
+    """Add ``ariel gallery`` to the sub-command parsers ``sub``."""
+    from ariel.cli._types import positive_int
+
+    p = sub.add_parser(
+        "gallery",
+        help="the bodies of a run side by side: a PNG contact sheet and an HTML page "
+        "(RUN/gallery/)",
+        description="Draw each body of a run (headless, the report's three-quarter view, "
+        "cached in RUN/gallery/thumbnails/) and write OF.png (a contact sheet: body id, "
+        "fitness, two key descriptors) and OF.html (the pictures embedded, each body's "
+        "descriptors and the `ariel view` command that opens it) to RUN/gallery/. A campaign: "
+        "the best body of each run's final population, in CAMPAIGN/gallery/.",
+    )
+    p.add_argument("folder", metavar="RUN|CAMPAIGN", help="a run or campaign folder")
+    p.add_argument(
+        "--of",
+        choices=OF,
+        default="final",
+        help="final: the population after the last generation (default); elites: a "
+        "MAP-Elites run's archive; archive: the same elites at their cells over the two "
+        "measures (an atlas); lineage-of-best: the best body and its ancestors",
+    )
+    p.add_argument(
+        "--out", metavar="DIR", help="where OF.png and OF.html go (default: FOLDER/gallery)"
+    )
+    p.add_argument(
+        "--workers",
+        type=positive_int,
+        metavar="N",
+        help="processes drawing the thumbnails (default: one per CPU)",
+    )
+    p.set_defaults(func=_cmd_gallery)
+
+
+def _cmd_gallery(args: argparse.Namespace) -> int:
+    from ariel.utils import ensure_headless_gl, has_display
+
+    if not has_display():  # before mujoco is imported: it draws off-screen (EGL)
+        ensure_headless_gl(without="MUJOCO_GL=disable to write the gallery without pictures")
+    from ariel.recording.analysis import make_gallery
+    from ariel.recording.store import terminal_text
+
+    gallery = make_gallery(args.folder, of=args.of, out=args.out, workers=args.workers)
+    drawn = f"thumbnails: {gallery.drawn} drawn, {gallery.reused} reused from before"
+    print(terminal_text(f"{gallery.title}; {drawn}"))
+    for note in gallery.notes:  # e.g. why the thumbnails are missing: one line each
+        print(terminal_text(note))
+    for path in (gallery.png, gallery.html):
+        print(terminal_text(f"wrote {path}"))
+    return 0

@@ -1,0 +1,128 @@
+"""The lineage measures of `ariel compare`, from each run's lineage in the ALife phylogeny
+standard (`ariel.recording.lineage_statistics`), at the budget compared:
+
+- ``surviving lineages``: the founders (bodies made from a random genotype: a GA's or
+  MAP-Elites' generation 0; every body of random search) with a descendant in the population
+  after the selection of the run's last generation wholly within the budget;
+- ``best depth``: parent steps on the longest chain from that population's best body back to
+  a founder: how many rounds of variation made it.
+
+They get the fitness measures' treatment (`_compare_stats`: the design's tests, Holm over the
+pairs, A12, the omnibus test; median, mean and sd per condition), but neither direction is
+better: A12 is the chance that a run of A has the higher value, and ``better`` names the
+higher condition as ``higher: A``. ``lineages.png`` draws both over evaluations per condition.
+A brain-only run (one fixed body) has no lineage: its values are NaN, left out of the tests as
+a missing value is; a comparison without a co-evolution run shows no lineage measure.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ariel.recording.analysis._compare_design import whole_generations
+from ariel.recording.analysis._compare_stats import location, median_band
+from ariel.recording.store import lineage, lineage_statistics, on_grid
+
+__all__ = [
+    "FIGURE",
+    "LINEAGE_MEASURES",
+    "at_budget",
+    "figure",
+    "measures",
+    "relabel",
+    "run_lineage",
+    "series",
+    "summary",
+]
+
+#: Measure name -> its column in `Comparison.runs` (and in `run_lineage`'s table).
+LINEAGE_MEASURES = {"surviving lineages": "surviving_lineages", "best depth": "best_depth"}
+#: The figure's file in ``compare/``.
+FIGURE = "lineages.png"
+GRID_POINTS = 200  # as best_so_far.png
+
+
+def run_lineage(run: Any) -> Any:
+    """Per finished generation of ``run``: ``generation``, ``evaluations`` (done by its end)
+    and the `LINEAGE_MEASURES` columns (floats, NaN for no best); None for a brain-only run
+    or one without a finished generation."""
+    if not run.generations_done or run.brain_only:
+        return None
+    stats = lineage_statistics(lineage(run))
+    counts = run.evaluations.groupby("generation").size()
+    done = counts.reindex(range(run.generations_done), fill_value=0).cumsum()
+    stats["evaluations"] = done.reindex(stats["generation"]).to_numpy()
+    for column in LINEAGE_MEASURES.values():
+        stats[column] = stats[column].to_numpy(dtype=np.float64, na_value=np.nan)
+    return stats[["generation", "evaluations", *LINEAGE_MEASURES.values()]]
+
+
+def at_budget(curve: Any, budget: int) -> dict[str, float]:
+    """A run's lineage measures after its last generation wholly within its first ``budget``
+    evaluations (NaN where there is none); empty for a run without a lineage."""
+    table = getattr(curve, "lineage", None)
+    if table is None:
+        return {}
+    rows = table[table["generation"].isin(whole_generations(curve.evaluations, budget))]
+    if not len(rows):
+        return dict.fromkeys(LINEAGE_MEASURES.values(), math.nan)
+    last = rows.sort_values("generation").iloc[-1]
+    return {column: float(last[column]) for column in LINEAGE_MEASURES.values()}
+
+
+def measures(runs: Any) -> dict[str, str]:
+    """The `LINEAGE_MEASURES` that ``runs`` (`Comparison.runs`) have: none where no run has
+    a lineage (synthetic curves, brain-only runs)."""
+    return {name: column for name, column in LINEAGE_MEASURES.items() if column in runs}
+
+
+def summary(group: Any) -> dict[str, float]:
+    """``<column>_median``, ``_mean`` and ``_sd`` of each lineage measure of one condition's
+    runs (`location`), as the fitness measures have them."""
+    return {
+        f"{column}_{key}": value
+        for column in measures(group).values()
+        for key, value in location(group[column].to_numpy(dtype=np.float64)).items()
+    }
+
+
+def relabel(rows: Sequence[dict[str, Any]]) -> None:
+    """``better`` of the lineage measures' pairs: ``higher: A`` (no direction is better)."""
+    for row in rows:
+        if row["measure"] in LINEAGE_MEASURES and row["better"] != "-":
+            row["better"] = f"higher: {row['better']}"
+
+
+def series(grouped: Mapping[str, Sequence[Any]], budget: int) -> dict[str, dict[str, tuple]]:
+    """Column -> condition -> (evaluations 1..budget on a grid, median, 95 % band low, high)
+    of the runs' lineage measures after each generation (a step curve: a generation's value
+    from the evaluation that ended it on); conditions without a lineage are left out."""
+    grid = np.unique(np.linspace(1, max(budget, 1), GRID_POINTS).round().astype(np.int64))
+    found: dict[str, dict[str, tuple]] = {}
+    for name, runs in grouped.items():
+        tables = [r.lineage for r in runs if getattr(r, "lineage", None) is not None]
+        if not tables:
+            continue
+        for column in LINEAGE_MEASURES.values():
+            values = np.array(
+                [
+                    on_grid(t["evaluations"].to_numpy(np.int64), t[column].to_numpy(float), grid)
+                    for t in tables
+                ]
+            )
+            found.setdefault(column, {})[name] = (grid, *median_band(values))
+    return found
+
+
+def figure(grouped: Mapping[str, Sequence[Any]], budget: int, out: Path) -> dict[str, Path]:
+    """``{"lineages": out / FIGURE}`` after drawing it (`_compare_plots.lineages_figure`);
+    empty, with nothing drawn, where no run has a lineage."""
+    from ariel.recording.analysis._compare_plots import lineages_figure
+
+    drawn = series(grouped, budget)
+    return {"lineages": lineages_figure(drawn, out / FIGURE)} if drawn else {}

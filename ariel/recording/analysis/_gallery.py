@@ -1,0 +1,400 @@
+"""`ariel gallery`: the bodies of a run (or a campaign) side by side, as a PNG contact sheet and
+a self-contained HTML page.
+
+What is shown (``of``, `_gallery_select`): the final population, a MAP-Elites run's elites or
+its archive as an atlas (each elite at its cell over the two measures), or the best body's
+lineage; for a campaign, the best body of each run. Each body is drawn once, headless, from the
+report's three-quarter camera, and cached in its run folder (`_gallery_render`); the sheet
+(`_gallery_sheet`) and the page (`_gallery_html`) go to ``RUN/gallery/`` (a campaign's to
+``CAMPAIGN/gallery/``) or to ``out``. Where nothing can be drawn (no OpenGL), both are written
+without pictures and a note says why.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ariel.recording.analysis._gallery_select import (
+    OF,
+    Atlas,
+    GalleryError,
+    Pick,
+    archive_atlas,
+    campaign_picks,
+    key_descriptors,
+    picks,
+)
+
+__all__ = [
+    "OF",
+    "Gallery",
+    "GalleryBody",
+    "GalleryError",
+    "add_report_gallery",
+    "make_gallery",
+    "report_gallery",
+]
+
+
+@dataclass(frozen=True)
+class GalleryBody:
+    """A body shown in a gallery.
+
+    Attributes:
+        run: its run folder.
+        body_id: its id (``b000012``).
+        eval_id: its best evaluation, the one ``command`` opens.
+        generation: the last finished generation it took part in.
+        fitness: its fitness (an archive's elite: the archive's).
+        descriptors: its morphology descriptors, name -> value (None where unknown).
+        caption: what it is here: ``best`` or ``born 3`` in a lineage, ``default, seed 21``
+            in a campaign's gallery; else empty.
+        command: the command that opens it: ``ariel view RUN EVAL_ID``
+            (``ariel replay RUN EVAL_ID`` for a run without Rerun recordings).
+        thumbnail: its PNG in the run folder (``gallery/thumbnails/``); None where it could
+            not be drawn.
+        cell: its (row, column) in the archive's atlas; None in any other gallery.
+    """
+
+    run: Path
+    body_id: str
+    eval_id: str
+    generation: int
+    fitness: float
+    descriptors: dict[str, float | None]
+    caption: str
+    command: str
+    thumbnail: Path | None
+    cell: tuple[int, int] | None = None
+
+
+@dataclass
+class Gallery:
+    """What `make_gallery` showed and wrote.
+
+    Attributes:
+        source: the run or campaign folder.
+        of: what it shows: ``final``, ``elites``, ``archive`` or ``lineage-of-best`` (a
+            campaign: ``final``, the best body of each run's final population).
+        title: its heading: the run and what is shown.
+        subtitle: the line under it: the fitness and what each label shows.
+        key_descriptors: the two descriptors on each label.
+        bodies: the bodies shown, in order.
+        png: the contact sheet written (for ``archive``: the atlas); None before writing.
+        html: the page written; None before writing.
+        drawn: thumbnails drawn by this call.
+        reused: thumbnails found already drawn, in the run folders.
+        notes: one line per thing left out, and why (no OpenGL here, a body that cannot be
+            built, ...).
+        atlas: where ``archive`` puts each elite; None in any other gallery.
+    """
+
+    source: Path
+    of: str
+    title: str
+    subtitle: str
+    key_descriptors: tuple[str, str]
+    bodies: list[GalleryBody] = field(default_factory=list)
+    png: Path | None = None
+    html: Path | None = None
+    drawn: int = 0
+    reused: int = 0
+    notes: list[str] = field(default_factory=list)
+    atlas: Atlas | None = None
+
+
+def _run_name(run: Any) -> str:
+    from ariel.recording.store import one_line
+
+    run_id = run.info.get("run_id")
+    return one_line(run_id if isinstance(run_id, str) and run_id else run.path.name)
+
+
+def _subtitle(run: Any, key: tuple[str, str]) -> str:
+    from ariel.recording.store import fitness_label
+
+    fitness = fitness_label(str(run.config.get("task", {}).get("fitness", "")), run.maximise)
+    return f"{fitness}; each label: body id, fitness, {key[0]}, {key[1]}"
+
+
+def _title(run: Any, of: str, chosen: list[Pick], atlas: Atlas | None) -> str:
+    generation = run.generations_done - 1
+    if generation < 0 or not chosen:
+        why = "no finished generation yet" if generation < 0 else "no body with a fitness"
+        return f"{_run_name(run)}: {why}"
+    if of == "final":
+        what = f"the population after generation {generation}, best first ({_bodies(chosen)})"
+    elif of == "elites":
+        what = f"the archive's elites after generation {generation}, best first "
+        what += f"({_bodies(chosen)})"
+    elif of == "archive" and atlas is not None:
+        share = f"{atlas.filled / atlas.cells:.0%}" if atlas.cells else "-"
+        what = f"the archive after generation {generation}: {atlas.filled} of {atlas.cells} "
+        what += f"cells ({share})" + (", placed by their measures" if atlas.binned else "")
+    elif of == "archive":
+        what = f"the archive's elites after generation {generation} ({_bodies(chosen)})"
+    else:
+        ancestors = len(chosen) - 1
+        what = (
+            f"the best body and its {ancestors} ancestor(s), oldest first"
+            if ancestors > 0
+            else "the best body (a founder: no ancestors)"
+        )
+    return f"{_run_name(run)}: {what}"
+
+
+def _bodies(chosen: list[Pick]) -> str:
+    return f"{len(chosen)} bod{'y' if len(chosen) == 1 else 'ies'}"
+
+
+def _command(run: Any, eval_id: str) -> str:
+    from ariel.utils import ariel_line
+
+    recorded = (run.path / "run.rrd").is_file() or (run.path / "recordings").is_dir()
+    return ariel_line("view" if recorded else "replay", run.path, eval_id)
+
+
+def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> GalleryBody:
+    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
+
+    body = pick.body
+    descriptors = {}
+    for name in DESCRIPTOR_NAMES:
+        value = body.get(name)
+        try:
+            descriptors[name] = float(value) if math.isfinite(float(value)) else None
+        except (TypeError, ValueError):  # <NA>: a body without descriptors
+            descriptors[name] = None
+    return GalleryBody(
+        run=Path(pick.run.path),
+        body_id=str(body["body_id"]),
+        eval_id=str(body["best_eval_id"]),
+        generation=int(body["generation"]),
+        fitness=pick.fitness,
+        descriptors=descriptors,
+        caption=pick.caption,
+        command=_command(pick.run, str(body["best_eval_id"])),
+        thumbnail=thumbnail,
+        cell=cell,
+    )
+
+
+def _thumbnails(
+    gallery: Gallery, chosen: list[Pick], *, workers: int | None, render: bool
+) -> list[Path | None]:
+    """Each pick's thumbnail (None: not drawn), drawing those not drawn before."""
+    from ariel.evaluation import default_workers
+    from ariel.recording.analysis._gallery_render import (
+        ThumbnailJob,
+        cached_thumbnail,
+        gl_problem,
+        render_thumbnails,
+        thumbnail_path,
+    )
+    from ariel.recording.store import refuse_symlinks
+
+    paths: list[Path | None] = []
+    jobs: dict[str, ThumbnailJob] = {}
+    for pick in chosen:
+        body_id = str(pick.body["body_id"])
+        path = thumbnail_path(pick.run.path, body_id)
+        refuse_symlinks(path, pick.run.path)  # never read or write through a linked folder
+        paths.append(path)
+        if cached_thumbnail(path) is None:
+            jobs[str(path)] = ThumbnailJob(str(pick.run.path), body_id, str(path))
+    gallery.reused = len({str(p) for p in paths} - set(jobs))
+    if not jobs:
+        return list(paths)
+    problem = gl_problem() if render else "rendering off"
+    if problem is not None:
+        gallery.notes.append(f"{len(jobs)} thumbnail(s) left out: {problem}")
+        return [None if str(path) in jobs else path for path in paths]
+    runs = {str(pick.run.path): pick.run for pick in chosen}
+    drawn = render_thumbnails(list(jobs.values()), workers=workers or default_workers(), runs=runs)
+    for path, why in drawn.items():
+        if why is not None:
+            gallery.notes.append(f"{jobs[path].body_id}: no thumbnail ({why})")
+    gallery.drawn = sum(why is None for why in drawn.values())
+    return [None if drawn.get(str(path), None) is not None else path for path in paths]
+
+
+def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:
+    """The sheet and the page, each written whole (`atomic_write`) inside ``root``."""
+    from ariel.errors import RunStorageError
+    from ariel.recording.analysis._gallery_html import gallery_html
+    from ariel.recording.analysis._gallery_render import THUMBNAIL_SIZE
+    from ariel.recording.analysis._gallery_sheet import atlas_sheet, contact_sheet
+    from ariel.recording.store import atomic_write, atomic_write_bytes, cannot_write
+
+    draw = atlas_sheet if gallery.atlas is not None else contact_sheet
+    sheet = draw(gallery, THUMBNAIL_SIZE)
+    png, html = folder / f"{stem}.png", folder / f"{stem}.html"
+    try:
+        atomic_write(png, lambda temporary: sheet.save(temporary, format="PNG"), root=root)
+        atomic_write_bytes(html, gallery_html(gallery).encode("utf-8"), root=root)
+    except OSError as exc:  # disk full, read-only: one line, the run itself is unchanged
+        raise RunStorageError(f"{cannot_write(exc)}; the gallery is not finished") from exc
+    gallery.png, gallery.html = png, html
+
+
+def _finish(
+    gallery: Gallery, chosen: list[Pick], where: tuple[Path, Path, str], **drawing: Any
+) -> Gallery:
+    """Draw (or find) the thumbnails, make the bodies, write the sheet and the page to
+    ``where`` (the folder, the folder nothing is written outside of, the files' stem)."""
+    thumbnails = _thumbnails(gallery, chosen, **drawing)
+    positions = gallery.atlas.positions if gallery.atlas is not None else None
+    hidden = 0
+    for pick, thumbnail in zip(chosen, thumbnails, strict=True):
+        body_id = str(pick.body["body_id"])
+        if positions is not None and body_id not in positions:
+            hidden += 1  # a better elite holds its place in the atlas
+            continue
+        cell = positions[body_id] if positions is not None else None
+        gallery.bodies.append(_body(pick, thumbnail, cell))
+    if hidden:
+        gallery.notes.append(f"{hidden} elite(s) share an atlas cell with a better one: not shown")
+    _write(gallery, *where)
+    return gallery
+
+
+def _run_gallery(run: Any, of: str) -> tuple[Gallery, list[Pick]]:
+    chosen = picks(run, of)
+    atlas = archive_atlas(run, run.maximise) if of == "archive" else None
+    key = key_descriptors(run)
+    gallery = Gallery(run.path, of, _title(run, of, chosen, atlas), _subtitle(run, key), key)
+    gallery.atlas = atlas
+    if of == "archive" and atlas is None:
+        gallery.notes.append("no atlas: the archive has fewer than two measures")
+    return gallery, chosen
+
+
+def _campaign_gallery(path: Path) -> tuple[Gallery, list[Pick]]:
+    from ariel.recording.store import load_campaign, one_line
+
+    campaign = load_campaign(path)
+    chosen = campaign_picks(campaign)
+    name = one_line(campaign.info.get("campaign_id") or path.name)
+    runs = list(campaign.runs.values())
+    key = key_descriptors(runs[0]) if runs else ("num_modules", "num_hinges")
+    subtitle = _subtitle(runs[0], key) if runs else ""
+    title = f"{name}: the best body of each run's final population ({len(chosen)} runs)"
+    gallery = Gallery(path, "final", title, subtitle, key)
+    if len(chosen) < len(runs):
+        gallery.notes.append(f"{len(runs) - len(chosen)} run(s) without a finished generation")
+    return gallery, chosen
+
+
+def make_gallery(
+    path: str | Path,
+    *,
+    of: str = "final",
+    out: str | Path | None = None,
+    workers: int | None = None,
+    render: bool = True,
+) -> Gallery:
+    """Draw the bodies of a run (or a campaign) side by side: a PNG and an HTML page.
+
+    Each body gets a thumbnail (its start pose from the report's three-quarter camera, 256
+    x 256 pixels), drawn headless once and cached in its run folder
+    (``gallery/thumbnails/``). The PNG is a contact sheet, each thumbnail labelled with the
+    body's id, fitness and two key descriptors (a MAP-Elites run: its measures); the HTML
+    page embeds the thumbnails and gives each body's descriptors and the ``ariel view``
+    command that opens it. Without OpenGL both are written without pictures, and
+    `Gallery.notes` says why.
+
+    Args:
+        path: A run folder, or a campaign folder: then the best body of each run's final
+            population, one thumbnail per run, captioned with its condition and seed.
+        of: What a run's gallery shows: ``"final"`` (the population after the last finished
+            generation's selection, best first), ``"elites"`` (a MAP-Elites run's archive,
+            best first), ``"archive"`` (the same elites, each at its cell in a grid of the
+            archive's two measures: the atlas) or ``"lineage-of-best"`` (the run's best body
+            and its ancestors, oldest first). A campaign's gallery takes ``"final"`` only.
+        out: The folder for ``OF.png`` and ``OF.html`` (made where missing); None: the
+            run's (or campaign's) ``gallery/`` folder. Thumbnails stay in the run folders.
+        workers: Processes that draw the thumbnails at most (None: one per CPU). Fewer than
+            8 thumbnails per process are drawn in this one: a process takes a second or two
+            to start.
+        render: False draws no thumbnail (those already drawn are still shown).
+
+    Returns:
+        What was shown and written: the bodies (with their thumbnails), the PNG and HTML
+        paths, how many thumbnails were drawn and reused, and a note per thing left out.
+
+    Raises:
+        GalleryError: For an unknown ``of``, ``elites`` or ``archive`` of a run without a
+            MAP-Elites archive, or another ``of`` than ``final`` for a campaign.
+        NotARunError: For a folder that is neither a run nor a campaign
+            (`DamagedRunError`: one whose tables were changed).
+        UnsafePathError: When a folder on the way to a file written is a symbolic link.
+        RunStorageError: When the PNG or the page cannot be written (disk full, read-only).
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, make_gallery
+
+        gallery = make_gallery(list_runs()[-1]["path"], of="lineage-of-best")
+        print(gallery.png, gallery.html, [body.body_id for body in gallery.bodies])
+        print(gallery.notes)  # e.g. why the thumbnails are missing
+        ```
+    """
+    from ariel.recording.store import is_campaign, load_run
+
+    if of not in OF:
+        raise GalleryError(f"a gallery shows one of {', '.join(OF)}, not {of!r}")
+    source = Path(path)
+    if is_campaign(source):
+        if of != "final":
+            raise GalleryError(
+                f"a campaign's gallery shows the best body of each run (--of final), not {of}; "
+                "for a run's elites, archive or lineage name the run's folder"
+            )
+        gallery, chosen = _campaign_gallery(source)
+    else:
+        gallery, chosen = _run_gallery(load_run(source), of)
+    root = Path(out) if out is not None else source
+    folder = Path(out) if out is not None else source / "gallery"
+    return _finish(gallery, chosen, (folder, root, of), workers=workers, render=render)
+
+
+def report_gallery(
+    run: Any, folder: str | Path, *, render: bool = True, workers: int | None = None
+) -> Gallery:
+    """The final population's gallery of ``run``, for `ariel report` to embed.
+
+    Writes ``folder/gallery.png`` (the contact sheet) and ``folder/gallery.html``, as
+    `make_gallery` writes ``final.png`` and ``final.html``; the thumbnails are cached in the
+    run folder as `make_gallery` caches them.
+
+    Args:
+        run: The loaded run (`Run`).
+        folder: The folder of the two files, inside the run folder (``RUN/report``): nothing
+            is written through a symbolic link between the two.
+        render: False draws no thumbnail (those already drawn are still shown).
+        workers: Processes that draw the thumbnails at most (None: one per CPU).
+
+    Returns:
+        The gallery: ``png`` for the report's written files, ``notes`` (one line per thing
+        left out, e.g. why there are no pictures) for its notes.
+    """
+    gallery, chosen = _run_gallery(run, "final")
+    where = (Path(folder), Path(run.path), "gallery")
+    return _finish(gallery, chosen, where, workers=workers, render=render)
+
+
+def add_report_gallery(report: Any, render: bool) -> None:
+    """`make_report`'s gallery of the final population (``gallery.png``, ``gallery.html``):
+    added to ``report`` (a `Report`)'s written files, with its notes; left out with a note for
+    a brain-only run (one body) and with rendering off."""
+    if report.run.brain_only:
+        report.notes.append("gallery.png: left out (a brain-only run has one body)")
+    elif not render:
+        report.notes.append("gallery.png, gallery.html: left out (rendering off)")
+    else:
+        gallery = report_gallery(report.run, report.folder)
+        report.written += [path for path in (gallery.png, gallery.html) if path is not None]
+        report.notes += gallery.notes

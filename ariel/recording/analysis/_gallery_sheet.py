@@ -1,0 +1,202 @@
+"""The gallery's PNG: a contact sheet (thumbnails in rows, each labelled with its body id,
+caption, fitness and two key descriptors) or, for an archive, its atlas (each elite's thumbnail
+at its cell in the grid of the two measures, the first measure growing upwards as in the
+report's heatmap). Drawn with Pillow; a body without a thumbnail gets a grey tile that says
+so."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from PIL import Image, ImageDraw, ImageFont
+
+__all__ = [
+    "atlas_sheet",
+    "bin_text",
+    "contact_sheet",
+    "descriptor_text",
+    "number_text",
+    "sheet_grid",
+]
+
+BACKGROUND, INK, FAINT, EMPTY = (255, 255, 255), (33, 37, 41), (108, 117, 125), (236, 238, 240)
+MARGIN, GAP, LINE = 16, 12, 18
+COLUMNS = 6  # a contact sheet's thumbnails per row at most
+
+
+def _font(size: int) -> Any:
+    try:
+        return ImageFont.load_default(size=size)
+    except (TypeError, OSError, ImportError):  # Pillow without FreeType: the bitmap font
+        return ImageFont.load_default()
+
+
+def number_text(value: Any) -> str:
+    """A fitness or descriptor value, short: ``0.4558``, ``10``, ``-`` for none."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return "-"
+    if not math.isfinite(number):
+        return "-"
+    return f"{number:.0f}" if number.is_integer() and abs(number) < 1e6 else f"{number:.4g}"
+
+
+def descriptor_text(body: Any, names: Sequence[str]) -> str:
+    """``num_modules 10 · num_hinges 4`` for ``body`` (a `GalleryBody`)."""
+    return " · ".join(f"{name} {number_text(body.descriptors.get(name))}" for name in names)
+
+
+def _fitted(draw: Any, text: str, font: Any, width: int) -> str:
+    """``text`` cut (with an ellipsis) to fit ``width`` pixels."""
+    if draw.textlength(text, font=font) <= width:
+        return text
+    while text and draw.textlength(text + "…", font=font) > width:
+        text = text[:-1]
+    return text + "…"
+
+
+def _thumbnail(body: Any, size: int) -> Any:
+    """``body``'s thumbnail at ``size`` pixels, or a grey tile saying it has none."""
+    if body.thumbnail is not None:
+        try:
+            with Image.open(body.thumbnail) as image:
+                return image.convert("RGB").resize((size, size), Image.Resampling.LANCZOS)
+        except (OSError, ValueError):  # damaged: drawn as missing
+            pass
+    tile = Image.new("RGB", (size, size), EMPTY)
+    draw = ImageDraw.Draw(tile)
+    draw.text((size / 2, size / 2), "no thumbnail", fill=FAINT, font=_font(13), anchor="mm")
+    return tile
+
+
+def _title(draw: Any, title: str, subtitle: str, width: int) -> int:
+    """The title and subtitle at the top; returns the height they take."""
+    draw.text((MARGIN, MARGIN), _fitted(draw, title, _font(20), width), fill=INK, font=_font(20))
+    draw.text(
+        (MARGIN, MARGIN + 28), _fitted(draw, subtitle, _font(14), width), fill=FAINT, font=_font(14)
+    )
+    return MARGIN + 28 + LINE + GAP
+
+
+def sheet_grid(count: int) -> tuple[int, int]:
+    """Columns and rows of a contact sheet of ``count`` thumbnails: rows of at most `COLUMNS`,
+    as even as they can be (8: two rows of 4, not 6 and 2)."""
+    rows = max(1, math.ceil(count / COLUMNS))
+    return max(1, math.ceil(count / rows)), rows
+
+
+def contact_sheet(gallery: Any, size: int) -> Any:
+    """Every body of ``gallery`` in rows of up to `COLUMNS`, labelled (see the module)."""
+    bodies = gallery.bodies
+    columns, rows = sheet_grid(len(bodies))
+    label = 3 * LINE + 6
+    width = max(2 * MARGIN + columns * size + (columns - 1) * GAP, 640)
+    top = MARGIN + 28 + LINE + GAP
+    height = top + rows * (size + label + GAP) + MARGIN
+    sheet = Image.new("RGB", (width, height), BACKGROUND)
+    draw = ImageDraw.Draw(sheet)
+    _title(draw, gallery.title, gallery.subtitle, width - 2 * MARGIN)
+    if not bodies:
+        draw.text((MARGIN, top), "no bodies to show", fill=FAINT, font=_font(14))
+    bold, small = _font(15), _font(13)
+    for k, body in enumerate(bodies):
+        x = MARGIN + (k % columns) * (size + GAP)
+        y = top + (k // columns) * (size + label + GAP)
+        sheet.paste(_thumbnail(body, size), (x, y))
+        heading = body.body_id + (f"  ({body.caption})" if body.caption else "")
+        lines = [
+            (_fitted(draw, heading, bold, size), bold, INK),
+            (f"fitness {number_text(body.fitness)}", small, INK),
+            (
+                _fitted(draw, descriptor_text(body, gallery.key_descriptors), small, size),
+                small,
+                FAINT,
+            ),
+        ]
+        for i, (text, font, colour) in enumerate(lines):
+            draw.text((x, y + size + 4 + i * LINE), text, fill=colour, font=font)
+    return sheet
+
+
+def bin_text(low: float, high: float, whole: bool) -> str:
+    """A bin's label: ``3`` for a bin of one whole number, else ``0.25 to 0.375``."""
+    if whole and math.ceil(low) >= math.ceil(high) - 1:
+        return f"{math.ceil(low)}"
+    return f"{low:.3g} to {high:.3g}"
+
+
+def _cell_size(atlas: Any, size: int) -> int:
+    """Pixels per cell: the thumbnail's, smaller for big grids (about 1600 pixels across)."""
+    return max(64, min(size, 1600 // max(atlas.rows, atlas.columns)))
+
+
+def _whole(measure: str) -> bool:
+    """Whether ``measure`` is a count (its bins then labelled by their whole number)."""
+    from ariel.recording.store import DESCRIPTORS
+
+    return bool(DESCRIPTORS.get(measure, ("", False))[1])
+
+
+def _atlas_axes(sheet: Any, atlas: Any, corner: tuple[int, int], cell: int) -> None:
+    """The empty cells, each row's and column's bin, and both measures' names."""
+    from ariel.recording.store import descriptor_label
+
+    draw, (left, top) = ImageDraw.Draw(sheet), corner
+    small = _font(12 if cell >= 100 else 10)
+    down, across = atlas.measures
+    for row in range(atlas.rows):  # the first measure grows upwards
+        y = top + (atlas.rows - 1 - row) * cell
+        text = bin_text(*atlas.row_edges[row : row + 2], _whole(down))
+        draw.text((left - 8, y + cell / 2), text, fill=FAINT, font=small, anchor="rm")
+        for x in range(left, left + atlas.columns * cell, cell):
+            draw.rectangle((x, y, x + cell - 2, y + cell - 2), fill=EMPTY)
+    bottom = top + atlas.rows * cell + 4
+    for column in range(atlas.columns):
+        text = bin_text(*atlas.column_edges[column : column + 2], _whole(across))
+        x = left + column * cell + cell / 2
+        draw.text((x, bottom), text, fill=FAINT, font=small, anchor="ma")
+    middle = (left + atlas.columns * cell / 2, bottom + LINE + 2)
+    draw.text(middle, descriptor_label(across), fill=INK, font=_font(14), anchor="ma")
+    _vertical_text(sheet, descriptor_label(down), (MARGIN, top + atlas.rows * cell / 2))
+
+
+def _atlas_bodies(sheet: Any, gallery: Any, corner: tuple[int, int], cell: int) -> None:
+    """Each elite's thumbnail at its cell, its id and fitness along the lower edge."""
+    draw, (left, top), rows = ImageDraw.Draw(sheet), corner, gallery.atlas.rows
+    small = _font(12 if cell >= 100 else 10)
+    for body in gallery.bodies:
+        row, column = body.cell
+        x, y = left + column * cell, top + (rows - 1 - row) * cell
+        sheet.paste(_thumbnail(body, cell - 2), (x, y))
+        if cell >= 100:  # room for a label on the picture
+            text = _fitted(draw, f"{body.body_id}  {number_text(body.fitness)}", small, cell - 8)
+            band = y + cell - 2 - LINE
+            draw.rectangle((x, band, x + cell - 3, y + cell - 3), fill=BACKGROUND)
+            draw.text((x + 4, band + 2), text, fill=INK, font=small)
+
+
+def atlas_sheet(gallery: Any, size: int) -> Any:
+    """``gallery``'s elites at their cells (``gallery.atlas``), with both measures' bins."""
+    atlas, cell = gallery.atlas, _cell_size(gallery.atlas, size)
+    top = MARGIN + 28 + LINE + GAP
+    left = MARGIN + LINE + 90  # the first measure's name, turned, then its bins
+    width = max(left + atlas.columns * cell + MARGIN, 640)
+    height = top + atlas.rows * cell + 2 * LINE + GAP + MARGIN
+    sheet = Image.new("RGB", (width, height), BACKGROUND)
+    _title(ImageDraw.Draw(sheet), gallery.title, gallery.subtitle, width - 2 * MARGIN)
+    _atlas_axes(sheet, atlas, (left, top), cell)
+    _atlas_bodies(sheet, gallery, (left, top), cell)
+    return sheet
+
+
+def _vertical_text(sheet: Any, text: str, at: tuple[float, float]) -> None:
+    """``text`` turned a quarter left, its middle at ``at``'s height, its left at ``at``'s x."""
+    font = _font(14)
+    width = int(ImageDraw.Draw(sheet).textlength(text, font=font)) + 4
+    label = Image.new("RGB", (width, LINE + 4), BACKGROUND)
+    ImageDraw.Draw(label).text((2, 2), text, fill=INK, font=font)
+    turned = label.rotate(90, expand=True)
+    sheet.paste(turned, (int(at[0]), int(at[1] - turned.height / 2)))

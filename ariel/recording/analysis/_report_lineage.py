@@ -1,0 +1,244 @@
+"""The report's lineage figure, ``lineage.png``: the ancestry of the final population (the
+bodies in it after the last finished generation's selection, and all their ancestors) as a
+tree over generations, from the run's lineage in the ALife phylogeny standard
+(`ariel.recording.lineage`).
+
+x is the generation: each body is a dot where it was made (its ``origin_time``), coloured by
+its fitness (bright: better), with a faint line while it stays in the population. One line per
+parent -> child edge, from the parent in the generation before the child's to the child (a
+crossover's second parent dotted). Rows follow the tree (a child's first parent), a parent
+between its descendants, as in a phylogeny: a straight run of dots is a chain of descent. The
+best body of the final population is a star, and its ancestry, back to its founders, is drawn
+in red. Left out for a brain-only run (one fixed body).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ariel.errors import DamagedRunError
+from ariel.recording.store import (
+    fitness_label,
+    fitted,
+    integer_ticks,
+    one_line,
+    parse_ancestor_list,
+)
+
+__all__ = ["LINEAGE_PNG", "ancestry_layout", "lineage_figure"]
+
+LINEAGE_PNG = "lineage.png"
+_CHAIN = "#d62728"  # the best body's ancestry
+_EDGE = "0.55"
+
+
+def _closure(alive: list[int], parents: dict[int, list[int]]) -> set[int]:
+    """``alive`` and every ancestor of theirs (each parent a taxon of the frame)."""
+    found, stack = set(alive), list(alive)
+    while stack:
+        for parent in parents.get(stack.pop(), []):
+            if parent in parents and parent not in found:
+                found.add(parent)
+                stack.append(parent)
+    return found
+
+
+def ancestry_layout(shown: set[int], parents: dict[int, list[int]]) -> dict[int, int]:
+    """A row (0, 1, ...: y) per body of ``shown``: the tree of each body's first parent in
+    ``shown``, walked depth first from the founders, each body's row right above its
+    children's, older children (lower ids) first. A chain of descent reads as a staircase."""
+    children: dict[int, list[int]] = {i: [] for i in shown}
+    roots: list[int] = []
+    for node in sorted(shown):
+        first = next((p for p in parents.get(node, []) if p in children), None)
+        (children[first] if first is not None else roots).append(node)
+    rows: dict[int, int] = {}
+    stack = list(reversed(roots))
+    while stack:
+        node = stack.pop()
+        rows[node] = len(rows)
+        stack.extend(reversed(children[node]))
+    return rows
+
+
+def _best(frame: Any, alive: list[int], maximise: bool) -> int | None:
+    """The final population's body of the best finite fitness (the lowest id on a tie)."""
+    fitness = dict(zip(frame["id"].astype(int), frame["fitness"].astype(float)))
+    scored = [i for i in alive if math.isfinite(fitness[i])]
+    if not scored:
+        return None
+    return min(scored, key=lambda i: (-fitness[i] if maximise else fitness[i], i))
+
+
+def lineage_figure(report: Any, maximise: bool, *, figure: Any, save: Any) -> None:
+    """Write ``lineage.png`` (the module's docstring) with ``figure(width, height)`` and
+    ``save(figure, path, report)``; a note instead for a brain-only run, or a lineage that
+    cannot be read."""
+    run = report.run
+    if run.brain_only:
+        report.notes.append(f"{LINEAGE_PNG}: left out (brain-only run: one fixed body)")
+        return
+    try:
+        frame = run.lineage()
+    except DamagedRunError as exc:  # a changed bodies table: the rest of the report stands
+        report.notes.append(f"{LINEAGE_PNG}: left out ({exc})")
+        return
+    alive = sorted(int(i) for i in frame.loc[frame["destruction_time"].isna(), "id"])
+    if not alive:
+        report.notes.append(f"{LINEAGE_PNG}: left out (no body in the final population)")
+        return
+    parents = {
+        int(i): parse_ancestor_list(text) for i, text in zip(frame["id"], frame["ancestor_list"])
+    }
+    shown = _closure(alive, parents)
+    rows = ancestry_layout(shown, parents)
+    drawn = figure(11.0, min(12.0, max(5.0, 2.6 + 0.1 * len(rows))))
+    _draw(drawn, frame, rows, alive, parents, maximise, _best(frame, alive, maximise), run)
+    save(drawn, report.folder / LINEAGE_PNG, report)
+
+
+def _spans(frame: Any, last: int) -> dict[int, tuple[int, int]]:
+    """id -> (the generation it was made in, the last it stayed in the population after;
+    ``last`` for the final population)."""
+    ends = frame["destruction_time"].astype("Float64").fillna(last + 1).astype("int64") - 1
+    return {
+        int(i): (int(origin), max(int(origin), int(end)))
+        for i, origin, end in zip(frame["id"], frame["origin_time"], ends)
+    }
+
+
+def _draw(
+    drawn: Any,
+    frame: Any,
+    rows: dict[int, int],
+    alive: list[int],
+    parents: dict[int, list[int]],
+    maximise: bool,
+    best: int | None,
+    run: Any,
+) -> None:
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+
+    last = run.generations_done - 1
+    spans = _spans(frame, last)
+    chain = {best, *_ancestors(best, parents)} if best is not None else set()
+    axes = drawn.add_subplot()
+    lives, edges, crossed, red = [], [], [], []
+    for node, y in rows.items():
+        origin, final = spans[node]
+        if final > origin:
+            lives.append([(origin, y), (final, y)])
+        for k, parent in enumerate(p for p in parents[node] if p in rows):
+            start = min(max(origin - 1, spans[parent][0]), spans[parent][1])
+            segment = [(start, rows[parent]), (origin, y)]
+            (edges if k == 0 else crossed).append(segment)
+            if node in chain and parent in chain:
+                red += [[(spans[parent][0], rows[parent]), (start, rows[parent])], segment]
+    axes.add_collection(LineCollection(lives, colors="0.8", linewidths=1.0, zorder=1))
+    axes.add_collection(LineCollection(edges, colors=_EDGE, linewidths=0.9, zorder=2))
+    axes.add_collection(
+        LineCollection(crossed, colors=_EDGE, linewidths=0.8, linestyles=":", zorder=2)
+    )
+    axes.add_collection(LineCollection(red, colors=_CHAIN, linewidths=2.4, zorder=3))
+    _nodes(drawn, axes, frame, rows, alive, maximise, best, run)
+    shown = [  # (whether the figure has it, its legend entry)
+        (edges, Line2D([], [], color=_EDGE, lw=0.9, label="parent -> child")),
+        (crossed, Line2D([], [], color=_EDGE, lw=0.8, ls=":", label="second parent")),
+        (lives, Line2D([], [], color="0.8", lw=1.0, label="in the population")),
+        (alive, Line2D([], [], marker="o", ls="", mfc="w", mec="k", label="final population")),
+        (red, Line2D([], [], color=_CHAIN, lw=2.4, label="best body's ancestry")),
+        (chain, Line2D([], [], marker="*", ls="", ms=13, mfc="w", mec=_CHAIN, label="best body")),
+    ]
+    handles = [handle for present, handle in shown if present]
+    drawn.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=8)
+    axes.set_xlim(-0.6, last + 0.6)
+    axes.set_ylim(max(rows.values()) + 0.8, -0.8)  # the first row on top
+    axes.set_xlabel("generation")
+    integer_ticks(axes.xaxis)
+    axes.set_yticks([])
+    axes.set_ylabel("bodies: the final population and its ancestors")
+    axes.grid(alpha=0.3, axis="x")
+    _title(drawn, axes, frame, alive, parents, best, run, last)
+
+
+def _ancestors(node: int, parents: dict[int, list[int]]) -> set[int]:
+    return _closure([node], parents) - {node}
+
+
+def _nodes(
+    drawn: Any,
+    axes: Any,
+    frame: Any,
+    rows: dict[int, int],
+    alive: list[int],
+    maximise: bool,
+    best: int | None,
+    run: Any,
+) -> None:
+    """The bodies as dots coloured by fitness (bright: better); a failed one grey."""
+    from matplotlib.colors import Normalize
+
+    fitness = dict(zip(frame["id"].astype(int), frame["fitness"].astype(float)))
+    origin = dict(zip(frame["id"].astype(int), frame["origin_time"].astype(int)))
+    ids = list(rows)
+    x = np.array([origin[i] for i in ids], dtype=float)
+    y = np.array([rows[i] for i in ids])
+    f = np.array([fitness[i] for i in ids])
+    ok = np.isfinite(f)
+    final = np.isin(ids, alive)
+    cmap = "viridis" if maximise else "viridis_r"
+    norm = Normalize(*(np.nanmin(f[ok]), np.nanmax(f[ok])) if ok.any() else (0, 1))
+    axes.scatter(x[~ok], y[~ok], marker="x", color="0.5", s=16, zorder=4)
+    for mask, size, edge in ((~final & ok, 20, "none"), (final & ok, 34, "black")):
+        points = axes.scatter(
+            x[mask], y[mask], c=f[mask], cmap=cmap, norm=norm, s=size, edgecolors=edge, zorder=5
+        )
+    if best is not None:
+        axes.scatter(
+            [origin[best]],
+            [rows[best]],
+            marker="*",
+            s=260,
+            c=[fitness[best]],
+            cmap=cmap,
+            norm=norm,
+            edgecolors=_CHAIN,
+            linewidths=1.6,
+            zorder=6,
+        )
+    fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
+    drawn.colorbar(points, ax=axes, label=fitness_label(fitness_fn, maximise))
+
+
+def _title(
+    drawn: Any,
+    axes: Any,
+    frame: Any,
+    alive: list[int],
+    parents: dict[int, list[int]],
+    best: int | None,
+    run: Any,
+    last: int,
+) -> None:
+    founders = {i for i in _closure(alive, parents) if not parents[i]}
+    run_id = one_line(run.info.get("run_id") or run.path.name)
+    text = (
+        f"{run_id}: ancestry of the population after generation {last} ({len(alive)} bodies, "
+        f"from {len(founders)} founder{'s' * (len(founders) != 1)})"
+    )
+    if best is not None:
+        names = dict(zip(frame["id"].astype(int), frame["body_id"]))
+        fitness = float(frame.loc[frame["id"] == best, "fitness"].iloc[0])
+        chain = _ancestors(best, parents)
+        roots = ", ".join(sorted(names[i] for i in chain if not parents[i]))
+        text += f"\nbest body {names[best]} (fitness {fitness:.4g}): " + (
+            f"{len(chain)} ancestor{'s' * (len(chain) != 1)}, back to {roots}"
+            if chain
+            else "a founder (no ancestors)"
+        )
+    text = text.replace("$", r"\$")  # a run id is any text: no mathtext
+    axes.set_title(fitted(text, drawn.get_figwidth() * 0.8, 11), fontsize=11)

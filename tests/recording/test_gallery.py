@@ -1,0 +1,258 @@
+"""`ariel gallery` (`make_gallery`): a run's bodies as a PNG contact sheet and an HTML page,
+their thumbnails drawn once and cached in the run folder, written where OpenGL is missing too.
+
+One tiny MAP-Elites run for the module (it has a final population, an archive and a lineage);
+a test that changes the folder works on a copy.
+"""
+
+from __future__ import annotations
+
+import base64
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _helpers import exit_code, one_error_line, tiny_run_toml
+from PIL import Image
+
+import ariel
+from ariel.recording import load_run, make_gallery, population_after_selection
+from ariel.recording.analysis import _gallery_render, _gallery_sheet
+from ariel.recording.analysis._gallery_select import OF, GalleryError
+from ariel.recording.store import ancestors, lineage
+
+DATA_URI = 'src="data:image/png;base64,'
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("gallery")
+    config = folder / "tiny.toml"
+    config.write_text(tiny_run_toml("gallery", 5, generations=3))
+    out = folder / "run"
+    ariel.run_experiment(config, out=out, progress=False, overrides=['body.optimizer="map_elites"'])
+    return out
+
+
+@pytest.fixture
+def fresh(run_dir: Path, tmp_path: Path) -> Path:
+    """A copy of the run without its gallery: nothing drawn yet."""
+    return Path(
+        shutil.copytree(run_dir, tmp_path / "run", ignore=shutil.ignore_patterns("gallery"))
+    )
+
+
+@pytest.fixture(scope="module")
+def gl_available() -> None:
+    reason = _gallery_render.gl_problem()
+    if reason is not None:
+        pytest.skip(reason)
+
+
+@pytest.fixture
+def no_gl(monkeypatch: pytest.MonkeyPatch) -> None:
+    """OpenGL unavailable, as `create_renderer` reports it (tests/recording/test_report.py)."""
+    import ariel.utils.renderers
+
+    def no_gl(*args, **kwargs):
+        raise RuntimeError("no OpenGL backend available for headless rendering (test)")
+
+    monkeypatch.setattr(ariel.utils.renderers, "create_renderer", no_gl)
+
+
+def _pictures(gallery) -> int:
+    """Thumbnails embedded in the page and tiles of the sheet that show a picture (each
+    checked: not the grey tile of a body without one)."""
+    html = gallery.html.read_text(encoding="utf-8")
+    with Image.open(gallery.png) as image:
+        sheet = np.asarray(image.convert("RGB"))
+    size, label = _gallery_render.THUMBNAIL_SIZE, 3 * _gallery_sheet.LINE + 6
+    columns, _ = _gallery_sheet.sheet_grid(len(gallery.bodies))
+    top = _gallery_sheet.MARGIN + 28 + _gallery_sheet.LINE + _gallery_sheet.GAP
+    for k in range(len(gallery.bodies)):
+        x = _gallery_sheet.MARGIN + (k % columns) * (size + _gallery_sheet.GAP)
+        y = top + (k // columns) * (size + label + _gallery_sheet.GAP)
+        tile = sheet[y : y + size, x : x + size]
+        assert tile.std() > 5 and (tile != _gallery_sheet.EMPTY).any(axis=-1).mean() > 0.5
+    return html.count(DATA_URI)
+
+
+def _best(run) -> str:
+    bodies = run.bodies.drop_duplicates("body_id", keep="last")
+    bodies = bodies[np.isfinite(bodies["fitness"])]
+    return str(bodies.sort_values("fitness", ascending=not run.maximise)["body_id"].iloc[0])
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_final_and_lineage_of_best_show_their_bodies(run_dir: Path) -> None:
+    run = load_run(run_dir)
+    population = population_after_selection(run.bodies)
+    last = population[population["generation"] == run.generations_done - 1]
+    final = make_gallery(run_dir)
+    assert final.png == run_dir / "gallery" / "final.png"
+    ids = [body.body_id for body in final.bodies]
+    assert sorted(ids) == sorted(last["body_id"]) and final.notes == []
+    fitness = [body.fitness for body in final.bodies]
+    assert fitness == sorted(fitness, reverse=run.maximise)  # best first
+    assert _pictures(final) == len(ids)
+
+    frame = lineage(run)
+    best = int(frame.loc[frame["body_id"] == _best(run), "id"].iloc[0])
+    chain = set(frame.loc[frame["id"].isin([best, *ancestors(frame, best)]), "body_id"])
+    family = make_gallery(run_dir, of="lineage-of-best")
+    assert {body.body_id for body in family.bodies} == chain
+    assert family.bodies[-1].caption == "best"  # oldest first, the best last
+    assert _pictures(family) == len(chain)
+    html = family.html.read_text(encoding="utf-8")
+    for body in family.bodies:  # each with the command that opens it
+        assert f"replay {run_dir} {body.eval_id}" in html
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_thumbnails_are_drawn_once(fresh: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    first = make_gallery(fresh, workers=1)
+    assert first.drawn == len(first.bodies) > 0 and first.reused == 0
+    drawn = {body.thumbnail: body.thumbnail.stat().st_mtime_ns for body in first.bodies}
+    assert all(path.parent == fresh / "gallery" / "thumbnails" for path in drawn)
+
+    def no_drawing(*args, **kwargs):
+        raise AssertionError("a cached thumbnail was drawn again")
+
+    monkeypatch.setattr(_gallery_render, "render_thumbnails", no_drawing)
+    again = make_gallery(fresh, workers=1)
+    assert again.drawn == 0 and again.reused == len(drawn)
+    assert {b.thumbnail: b.thumbnail.stat().st_mtime_ns for b in again.bodies} == drawn
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_a_pool_draws_many(fresh: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(_gallery_render, "PER_WORKER", 1)  # 2 workers even for a few
+    gallery = make_gallery(fresh, of="elites", workers=2)
+    assert gallery.drawn == len(gallery.bodies) >= 2 and gallery.notes == []
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_the_archive_is_an_atlas_of_the_cells(run_dir: Path) -> None:
+    run = load_run(run_dir)
+    archive = run.archive[run.archive["generation"] == run.archive["generation"].max()]
+    gallery = make_gallery(run_dir, of="archive")
+    atlas = gallery.atlas
+    assert tuple(archive["grid"].iloc[0]) == (8, 8)  # the defaults: 8 bins per measure
+    assert atlas.measures == ("num_limbs", "joints_ratio") and atlas.filled == len(archive)
+    assert atlas.cells == 64 and atlas.row_edges[-1] - atlas.row_edges[0] == atlas.rows
+    cells = [np.unravel_index(c, (8, 8)) for c in archive["cell"]]
+    low, left = min(row for row, _ in cells), min(column for _, column in cells)
+    # the rows and columns from the first to the last that hold an elite
+    assert atlas.rows == max(row for row, _ in cells) - low + 1
+    assert atlas.columns == max(column for _, column in cells) - left + 1
+    expected = {b: (r - low, c - left) for b, (r, c) in zip(archive["body_id"], cells)}
+    assert {body.body_id: body.cell for body in gallery.bodies} == expected
+    assert gallery.html.read_text(encoding="utf-8").count(DATA_URI) == len(expected)
+    with Image.open(gallery.png) as image:  # each cell holds a picture of 100 pixels at least
+        assert image.width > atlas.columns * 100 and image.height > atlas.rows * 100
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_the_command_writes_them(
+    fresh: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    argv = ["gallery", str(fresh), "--of", "lineage-of-best", "--out", str(out), "--workers", "1"]
+    assert exit_code(argv) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["lineage-of-best.html", "lineage-of-best.png"]
+    assert not (fresh / "gallery" / "lineage-of-best.png").exists()  # only the thumbnails there
+    assert list((fresh / "gallery" / "thumbnails").glob("*.png"))
+    printed = capsys.readouterr().out
+    assert f"wrote {out / 'lineage-of-best.png'}" in printed and "thumbnails: " in printed
+
+
+@pytest.mark.usefixtures("no_gl")
+def test_without_opengl_one_line_says_why_and_the_rest_is_written(
+    fresh: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert exit_code(["gallery", str(fresh)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    why = [line for line in lines if "OpenGL" in line]
+    assert len(why) == 1 and "left out: no OpenGL backend available" in why[0], lines
+    html = (fresh / "gallery" / "final.html").read_text(encoding="utf-8")
+    assert html.count(DATA_URI) == 0 and "no thumbnail" in html
+    assert (fresh / "gallery" / "final.png").read_bytes().startswith(b"\x89PNG")
+    assert not list((fresh / "gallery" / "thumbnails").glob("*"))
+
+
+@pytest.mark.usefixtures("no_gl")
+def test_a_planted_link_is_neither_read_nor_followed(fresh: Path, tmp_path: Path) -> None:
+    secret = tmp_path / "secret.png"
+    secret.write_bytes(b"\x89PNG\r\n\x1a\nsecret")
+    body = make_gallery(fresh, render=False).bodies[0]
+    thumbnail = _gallery_render.thumbnail_path(fresh, body.body_id)
+    thumbnail.parent.mkdir(parents=True, exist_ok=True)
+    thumbnail.symlink_to(secret)
+    gallery = make_gallery(fresh)
+    assert gallery.reused == 0 and gallery.bodies[0].thumbnail is None
+    assert base64.b64encode(secret.read_bytes()).decode() not in gallery.html.read_text()
+    shutil.rmtree(fresh / "gallery")
+    (fresh / "gallery").symlink_to(tmp_path, target_is_directory=True)
+    with pytest.raises(ariel.errors.UnsafePathError, match="symbolic link"):
+        make_gallery(fresh)
+
+
+def test_a_bad_of_is_one_line(run_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert exit_code(["gallery", str(run_dir), "--of", "everything"]) == 2
+    assert "invalid choice: 'everything'" in one_error_line(capsys, subcommand=True)
+    with pytest.raises(GalleryError, match="not 'everything'"):
+        make_gallery(run_dir, of="everything")
+    from ariel.cli import _gallery
+
+    assert _gallery.OF == OF  # the command's choices, written out to keep --help instant
+
+
+def test_a_cvt_archive_is_binned_by_its_measures(tmp_path: Path) -> None:
+    """A CVT archive (run.json's ``archive``, `Run.archive_description`) has no grid: each
+    elite goes to the bin of its measures, `ATLAS_BINS` per measure over the ranges."""
+    from ariel.recording.analysis._gallery_select import ATLAS_BINS, archive_atlas
+
+    config = tmp_path / "cvt.toml"
+    config.write_text(tiny_run_toml("cvt", 5, generations=2))
+    options = 'body.optimizer_options={archive="cvt", cells=16}'
+    ariel.run_experiment(
+        config,
+        out=tmp_path / "run",
+        progress=False,
+        overrides=['body.optimizer="map_elites"', options],
+    )
+    run = load_run(tmp_path / "run")
+    atlas = archive_atlas(run, run.maximise)
+    assert atlas.binned and atlas.cells == 16 and atlas.positions
+    assert atlas.rows <= ATLAS_BINS and atlas.columns <= ATLAS_BINS
+    archive = run.archive[run.archive["generation"] == run.archive["generation"].max()]
+    bins = {  # over the default ranges: num_limbs 0..8, joints_ratio 0..1
+        body_id: (min(int(limbs), 7), min(int(ratio * 8), 7))
+        for body_id, (limbs, ratio) in zip(archive["body_id"], archive["measures"])
+    }
+    low = min(row for row, _ in bins.values())
+    left = min(column for _, column in bins.values())
+    assert atlas.row_edges[0] == low and atlas.column_edges[0] == left / 8
+    for body_id, (row, column) in atlas.positions.items():
+        assert bins[body_id] == (row + low, column + left)
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_a_campaign_shows_the_best_body_of_each_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from _helpers import REPO
+
+    from ariel.runs import run_campaign
+
+    folder = tmp_path / "campaign"
+    run_campaign(REPO / "tests" / "data" / "campaign_tiny.toml", out=folder, progress=False)
+    gallery = make_gallery(folder)
+    captions = [body.caption for body in gallery.bodies]
+    assert captions == ["fresh, seed 1", "fresh, seed 2", "inherit, seed 1", "inherit, seed 2"]
+    assert gallery.png == folder / "gallery" / "final.png" and _pictures(gallery) == 4
+    for body in gallery.bodies:  # cached in each run's own folder
+        assert body.thumbnail.parent == body.run / "gallery" / "thumbnails"
+    assert exit_code(["gallery", str(folder), "--of", "lineage-of-best"]) == 2
+    assert "a campaign's gallery shows the best body" in one_error_line(capsys)
