@@ -184,10 +184,11 @@ def test_compare_a_campaign_writes_figures_tables_and_one_page(
     assert main(["compare", str(campaign), "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "fresh" in printed and "inherit" in printed and "runs: fresh 2, inherit 2" in printed
-    for name in ("best_so_far.png", "final_best.png", "morphology.png", "stats.csv", "stats.md"):
+    figures = ("best_so_far.png", "final_best.png", "morphology.png", "lineages.png")
+    for name in (*figures, "stats.csv", "stats.md"):
         assert (out / name).is_file(), name
     html = (out / "compare.html").read_text()
-    assert html.count('src="data:image/png;base64,') == 3 and "fresh" in html
+    assert html.count('src="data:image/png;base64,') == len(figures) and "fresh" in html
     # Plain run folders: grouped by how their configs differ (brain.inherit).
     runs = [str(campaign / f"runs/condition={c}/seed={s}") for c, s in RUNS]
     assert main(["compare", *runs, "--out", str(tmp_path / "plain")]) == 0
