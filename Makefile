@@ -83,10 +83,12 @@ docs: setup gl
 docs-serve: setup gl
 	$(DOCS_ENV) $(VENV)/bin/mkdocs serve --strict
 
-# ruff, then the layering of the package (import-linter: [tool.importlinter] in pyproject.toml)
-# and its faces (tests/test_public_imports.py: no package imports another's private parts).
+# ruff, then the layering of the package (import-linter: [tool.importlinter] in pyproject.toml),
+# its types (pyright: [tool.pyright]) and its faces (tests/test_public_imports.py: no package
+# imports another's private parts).
 lint: setup
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check . && $(VENV)/bin/lint-imports
+	$(VENV)/bin/pyright
 	$(PY) -m pytest -q -p no:cacheprovider tests/test_public_imports.py
 
 format: setup

@@ -68,6 +68,29 @@ def ariel_run(config: Path, out: Path, *extra: str) -> str:
     return printed.getvalue()
 
 
+def interrupt_then_resume(
+    config: dict[str, Any], out: Path, monkeypatch: pytest.MonkeyPatch, *, after: int
+) -> None:
+    """Run ``config`` into ``out``, interrupted (Ctrl-C) once generation ``after`` has ended,
+    then resume it to the end (asserted finished): compare its records with an uninterrupted
+    run's. The folder name is the run id, in every row: name both folders alike."""
+    from ariel.evolution._progress import Progress
+    from ariel.runs import resume_experiment, run_experiment
+
+    original = Progress.end_generation
+
+    def stop_after(self: Progress, generation: int, *args: Any, **kwargs: Any) -> None:
+        original(self, generation, *args, **kwargs)
+        if generation == after:
+            raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(Progress, "end_generation", stop_after)
+        with pytest.raises(KeyboardInterrupt):
+            run_experiment(config, out=out)
+    assert resume_experiment(out).status == "finished"
+
+
 def exit_code(argv: list[str]) -> int:
     """``main(argv)``'s exit code, whether it returns it or argparse exits."""
     try:

@@ -55,6 +55,7 @@ __all__ = [
     "CallTimeoutError",
     "DaskExecutor",
     "DaskKind",
+    "EvaluationExecutor",
     "ExecutorKind",
     "ExecutorSettingsError",
     "GpuKind",
@@ -177,12 +178,18 @@ class BatchExecutor:
         return submit_with_timeout(self, timeout, batch, tasks)  # type: ignore[arg-type]
 
 
+class EvaluationExecutor(BatchExecutor, cf.Executor):
+    """A `concurrent.futures.Executor` that is also a `BatchExecutor`: what `make_executor`
+    returns (typing has no intersection of two classes). The built-in executors subclass it;
+    an executor kind's own executor may too, or subclass the two itself."""
+
+
 # --------------------------------------------------------------------------------------------
 # serial
 # --------------------------------------------------------------------------------------------
 
 
-class SerialExecutor(BatchExecutor, cf.Executor):
+class SerialExecutor(EvaluationExecutor):
     """Runs each submitted call at once, in this process; returns completed futures.
 
     An exception raised by the call is stored in its future (as in a process pool), not raised
@@ -192,8 +199,7 @@ class SerialExecutor(BatchExecutor, cf.Executor):
     kind = "serial"
 
     def __init__(self) -> None:
-        self._shutdown = False
-        self._lock = threading.Lock()
+        self._shutdown, self._lock = False, threading.Lock()
 
     def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
         with self._lock:
@@ -370,7 +376,7 @@ def _default_mp_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
-class LocalExecutor(BatchExecutor, LocalPool):
+class LocalExecutor(EvaluationExecutor, LocalPool):
     """The ``local`` executor: a `LocalPool` whose capacity is its worker count."""
 
     kind = "local"
@@ -392,12 +398,9 @@ def _make_local(
 ) -> LocalExecutor:
     workers = workers or default_workers()
     env = worker_environment(blas_threads, workers=workers)
-    if mp_context is None:
-        context = _default_mp_context()
-    elif isinstance(mp_context, str):
-        context = multiprocessing.get_context(mp_context)
-    else:
-        context = mp_context
+    context = _default_mp_context() if mp_context is None else mp_context
+    if isinstance(context, str):
+        context = multiprocessing.get_context(context)
     return LocalExecutor(
         workers,
         mp_context=context,
@@ -414,7 +417,7 @@ def _make_local(
 # --------------------------------------------------------------------------------------------
 
 
-class DaskExecutor(BatchExecutor, cf.Executor):
+class DaskExecutor(EvaluationExecutor):
     """``client.get_executor(pure=False)`` that also closes what it started on shutdown.
 
     ``pure=False``: Dask would otherwise run identical calls once and share the result.
@@ -735,8 +738,8 @@ class ExecutorKind:
         address: Any = None,
         max_retries: int | None = None,
         **options: Any,
-    ) -> cf.Executor:
-        """The executor (a `BatchExecutor`), from `make_executor`'s checked arguments."""
+    ) -> EvaluationExecutor:
+        """The executor, from `make_executor`'s checked arguments."""
         raise NotImplementedError
 
 
@@ -944,9 +947,9 @@ def make_executor(
     address: Any = None,
     max_retries: int | None = None,
     **options: Any,
-) -> cf.Executor:
+) -> EvaluationExecutor:
     """A `concurrent.futures.Executor` of ``kind`` (use it as a context manager), which is
-    also a `BatchExecutor` (``capacity``, ``submit_batch``).
+    also a `BatchExecutor` (``capacity``, ``submit_batch``): an `EvaluationExecutor`.
 
     Args:
         kind: ``"serial"``, ``"local"``, ``"dask"`` or ``"gpu"`` (options ``device``:

@@ -100,11 +100,11 @@ class BodyConfig(_Section):
     optimizer: str = "ga"
     optimizer_options: dict[str, Any] = Field(default_factory=dict)
     genotype: Any = None
-    population: Int = Field(8, ge=1)
-    offspring: Int = Field(8, ge=1)
+    population: Int = Field(default=8, ge=1)
+    offspring: Int = Field(default=8, ge=1)
     survivors: Literal["plus", "generational"] = "plus"
-    tournament: Int = Field(2, ge=1)
-    crossover_rate: Float = Field(0.5, ge=0.0, le=1.0)
+    tournament: Int = Field(default=2, ge=1)
+    crossover_rate: Float = Field(default=0.5, ge=0.0, le=1.0)
 
 
 class BrainConfig(_Section):
@@ -132,12 +132,12 @@ class BrainConfig(_Section):
     options: dict[str, Any] = Field(default_factory=dict)
     optimizer: Str = "cmaes"
     optimizer_options: dict[str, Any] = Field(default_factory=dict)
-    popsize: Int = Field(8, ge=2)
-    iterations: Int = Field(6, ge=1)
-    sigma0: Float = Field(1.0, gt=0.0)
+    popsize: Int = Field(default=8, ge=2)
+    iterations: Int = Field(default=6, ge=1)
+    sigma0: Float = Field(default=1.0, gt=0.0)
     inherit: Bool = False
-    smoothing: Float = Field(0.5, gt=0.0, le=1.0)
-    control_period: Int = Field(50, ge=1)
+    smoothing: Float = Field(default=0.5, gt=0.0, le=1.0)
+    control_period: Int = Field(default=50, ge=1)
 
 
 class WorldConfig(_Section):
@@ -171,7 +171,7 @@ class TaskConfig(_Section):
     fitness: Str = "xy_displacement"
     options: dict[str, Any] = Field(default_factory=dict)
     duration: Seconds = 10.0
-    settle: Float = Field(1.0, ge=0.0)
+    settle: Float = Field(default=1.0, ge=0.0)
     spawn_position: tuple[Float, Float, Float] = (0.0, 0.0, 0.0)
 
 
@@ -195,7 +195,7 @@ class RecordConfig(_Section):
 
     rerun: Bool = True
     bodies: Literal["all", "elites", "none"] = "elites"
-    rate_hz: Float = Field(10.0, gt=0.0)
+    rate_hz: Float = Field(default=10.0, gt=0.0)
     trajectories: Bool = True
 
 
@@ -228,14 +228,14 @@ class ExecutorConfig(_Section):
 
     # A name in `ariel.evaluation.executors.executor_kinds` (built-in or registered).
     kind: Annotated[Str, AfterValidator(_known_executor_kind)] = "local"
-    workers: Int | None = Field(None, ge=1)
+    workers: Int | None = Field(default=None, ge=1)
     # Read under its old name ``scheduler`` too (a TOML file, ``--set``, an older run's config).
-    address: Str | None = Field(None, validation_alias=AliasChoices("address", "scheduler"))
+    address: Str | None = Field(default=None, validation_alias=AliasChoices("address", "scheduler"))
     # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).
     # Unlike the other kinds, ``gpu`` does change results: float32 physics (docs/gpu.md).
     device: Literal["cuda", "cpu"] = "cuda"
     timeout: Seconds = 600.0
-    max_retries: Int = Field(2, ge=0)
+    max_retries: Int = Field(default=2, ge=0)
 
     @model_validator(mode="before")
     @classmethod
@@ -263,10 +263,10 @@ class ExperimentConfig(_Section):
         executor: Where evaluations run, ``[executor]`` (it never enters the config hash).
     """
 
-    name: Str = Field("experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    name: Str = Field(default="experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
     description: Str = ""
-    seed: Int = Field(0, ge=0, lt=2**63)
-    generations: Int = Field(10, ge=1)
+    seed: Int = Field(default=0, ge=0, lt=2**63)
+    generations: Int = Field(default=10, ge=1)
     body: BodyConfig = Field(default_factory=BodyConfig)
     brain: BrainConfig = Field(default_factory=BrainConfig)
     world: WorldConfig = Field(default_factory=WorldConfig)
@@ -530,7 +530,9 @@ def _genotype_file_beside(data: dict[str, Any], config_path: Path) -> dict[str, 
     from ariel.evolution._genotype import is_genotype_file
 
     body = data.get("body")
-    genotype = body.get("genotype") if isinstance(body, dict) else None
+    if not isinstance(body, dict):
+        return data
+    genotype = body.get("genotype")
     if not is_genotype_file(genotype) or Path(genotype).is_absolute():
         return data
     beside = str(config_path.parent / genotype)

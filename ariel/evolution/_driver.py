@@ -58,9 +58,19 @@ class Plugins:
 class RunRecords(Protocol):
     """Where a run's records go (`ariel.recording.RunWriter`)."""
 
-    record_bodies: bool
-
-    def evaluated(self, body: Body, model: Any, tasks: Any, results: Any, **where: Any) -> None: ...
+    @property
+    def record_bodies(self) -> bool: ...
+    def evaluated(
+        self,
+        body: Body,
+        model: Any,
+        tasks: Sequence[Any],
+        results: Sequence[Any],
+        *,
+        generation: int,
+        iteration: int,
+        improved: int | None,
+    ) -> None: ...
     def body_failed(self, body: Body, generation: int, worst: float) -> None: ...
     def flush(self) -> None: ...
     def plugin_failed(self, task: Any, exc: BaseException) -> BaseException: ...
@@ -114,6 +124,7 @@ class BrainWork:
     def batch_done(self, results: list[Any]) -> None:
         job, driver = self.job, self.driver
         iteration = job.run.iteration
+        assert self._params is not None  # the scheduler tells a batch that next_batch gave
         improved = job.run.tell(self._params, np.array([r.fitness for r in results]))
         body = job.body
         body.evaluations += len(results)

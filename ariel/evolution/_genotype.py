@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -31,7 +31,7 @@ __all__ = [
 GENOTYPE_FILE_SUFFIXES = (".json", ".npy")
 
 
-def is_genotype_file(value: Any) -> bool:
+def is_genotype_file(value: Any) -> TypeGuard[str]:
     """Whether ``body.genotype`` names a file (a string ending in .json or .npy)."""
     return isinstance(value, str) and value.lower().endswith(GENOTYPE_FILE_SUFFIXES)
 

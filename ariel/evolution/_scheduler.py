@@ -78,7 +78,7 @@ class Scheduler:
         self._in_flight: dict[cf.Future, tuple[_Batch, np.ndarray]] = {}
         self._working: dict[int, int] = {}  # group -> pieces of work not done yet
 
-    def run(self, groups: Sequence[Iterator[list[Work]]]) -> None:
+    def run(self, groups: Sequence[Iterator[Sequence[Work]]]) -> None:
         """Run every group to its end (see the module docstring)."""
         from ariel.utils.interrupts import raise_pending
 
@@ -132,7 +132,7 @@ class Scheduler:
 
     # -- groups and work -----------------------------------------------------------------------
 
-    def _advance(self, groups: list[Iterator[list[Work]]], index: int) -> None:
+    def _advance(self, groups: list[Iterator[Sequence[Work]]], index: int) -> None:
         """Take the group's next list of work and start it (again while a list is empty)."""
         while True:
             try:
@@ -160,7 +160,7 @@ class Scheduler:
             self._send(batch, part)
         return True
 
-    def _finish(self, groups: list[Iterator[list[Work]]], finished: list[_Batch]) -> None:
+    def _finish(self, groups: list[Iterator[Sequence[Work]]], finished: list[_Batch]) -> None:
         """Hand each finished batch to its work and send the work's next batch; only then
         write their records (`Work.flush`), so the executor steps the next batches meanwhile.
         """
@@ -218,7 +218,7 @@ class Scheduler:
         return batch.left == 0
 
 
-def run_groups(groups: Sequence[Iterator[list[Work]]], executor_settings: Any) -> int:
+def run_groups(groups: Sequence[Iterator[Sequence[Work]]], executor_settings: Any) -> int:
     """Run ``groups`` to their ends on the executor ``executor_settings`` (a config's
     ``[executor]``) describes; returns its capacity (workers) as the run ended."""
     from threadpoolctl import threadpool_limits

@@ -403,7 +403,10 @@ def _drive_campaign(
         with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
             write_campaign_info(path, {**info, "status": status, "ended": now()})
             _write_recording(path, quiet=status != "finished")
-    results = [run_result(run.driver, run.folder, run.run_id, run.status) for run in runs]
+    results = []
+    for run in runs:
+        assert run.driver is not None  # every run got its driver before run_groups
+        results.append(run_result(run.driver, run.folder, run.run_id, run.status))
     return CampaignResult(
         path=path,
         campaign_id=str(info["campaign_id"]),

@@ -99,11 +99,11 @@ class _ConditionEntry(BaseModel):
 class _CampaignModel(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    name: str = Field("campaign", min_length=1, pattern=_NAME.pattern)
+    name: str = Field(default="campaign", min_length=1, pattern=_NAME.pattern)
     description: str = ""
     base: str | dict[str, Any]
     seeds: list[Int] | None = None  # strict, as the experiment's seed: not true, "3" or 2.0
-    seed_count: Int | None = Field(None, ge=1)
+    seed_count: Int | None = Field(default=None, ge=1)
     seeding: str = SEEDING[0]
     set: dict[str, Any] = Field(default_factory=dict)
     condition: list[_ConditionEntry] = Field(default_factory=list)
@@ -284,7 +284,7 @@ def _check_size(model: _CampaignModel, max_runs: int) -> None:
 
 
 def _seeds(model: _CampaignModel) -> list[int]:
-    seeds = model.seeds if model.seeds is not None else list(range(1, model.seed_count + 1))
+    seeds = model.seeds if model.seed_count is None else list(range(1, model.seed_count + 1))
     if not seeds:
         raise ConfigError("seeds: the list is empty; give at least one seed (or seed_count = N)")
     if len(set(seeds)) != len(seeds):

@@ -202,8 +202,8 @@ def resume_settings(
 
     stored = stored if isinstance(stored, dict) else {}
     stored_kind = stored.get("kind")
-    if stored_kind not in executor_kinds:  # absent, or not a kind: the stored config's
-        stored_kind = config.executor.kind
+    if not isinstance(stored_kind, str) or stored_kind not in executor_kinds:
+        stored_kind = config.executor.kind  # absent, or not a kind: the stored config's
     # ``scheduler``: the old name of ``address``, in folders written before the rename.
     named = stored.get("address") or stored.get("scheduler") or config.executor.address
     if kind is None:

@@ -13,15 +13,15 @@ import pandas as pd
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _helpers import interrupt_then_resume
 from test_golden_records import table_digests
 
 from ariel.evolution import BodyConfig, ConfigError, MapElites
 from ariel.evolution._optimizer_checks import check_body_optimizer
-from ariel.evolution._progress import Progress
 from ariel.evolution._state import Body
 from ariel.recording import load_run, make_report
 from ariel.recording.store import describe_archive
-from ariel.runs import resume_experiment, run_experiment
+from ariel.runs import run_experiment
 
 MEASURES = ["num_limbs", "joints_ratio"]
 RANGES = [[0.0, 4.0], [0.0, 1.0]]
@@ -182,19 +182,8 @@ def test_the_report_view_and_run_rrd_draw_a_cvt(cvt_run: Path) -> None:
 def test_an_interrupted_cvt_run_resumes_to_the_same_records(
     cvt_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    original = Progress.end_generation
-
-    def stop_after_generation_zero(self, generation, *args, **kwargs):
-        original(self, generation, *args, **kwargs)
-        if generation == 0:
-            raise KeyboardInterrupt
-
-    monkeypatch.setattr(Progress, "end_generation", stop_after_generation_zero)
     out = tmp_path / "run"  # the folder name is the run id, as the reference's
-    with pytest.raises(KeyboardInterrupt):
-        run_experiment(CVT, out=out)
-    monkeypatch.setattr(Progress, "end_generation", original)
-    assert resume_experiment(out).status == "finished"
+    interrupt_then_resume(CVT, out, monkeypatch, after=0)
     assert table_digests(out) == table_digests(cvt_run)
     resumed, reference = load_run(out), load_run(cvt_run)
     pd.testing.assert_frame_equal(resumed.archive, reference.archive)

@@ -1,15 +1,22 @@
 """Novelty search over morphologies: novelty and local competition as defined, its ranking,
-its archive, its check, an exact resume and one-line option errors (no physics)."""
+its archive, its check, an exact resume (of the optimizer, and of a tiny run after Ctrl-C) and
+one-line option errors."""
 
 from __future__ import annotations
 
 import inspect
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _helpers import interrupt_then_resume
+from test_golden_records import table_digests
 
 from ariel.evolution import BodyConfig, ConfigError, MapElites, NoveltySearch
 from ariel.evolution._ga import random_proposals
@@ -18,6 +25,7 @@ from ariel.evolution._optimizer_checks import _body, _VectorEncoder
 from ariel.evolution._progress import fmt_value, population_text
 from ariel.evolution._state import Body
 from ariel.plugins import body_optimizers, check_body_optimizer
+from ariel.recording import load_run
 from ariel.runs import run_experiment
 
 MEASURES = ["joints_ratio", "symmetry"]  # both in [0, 1]: places are the values themselves
@@ -314,3 +322,49 @@ def test_a_run_with_bad_options_is_one_config_error_and_writes_nothing(
     with pytest.raises(ConfigError, match="^body.optimizer_options: 'novelty': " + message):
         run_experiment(config, out=tmp_path / "run")
     assert not (tmp_path / "run").exists()
+
+
+# -- a run -------------------------------------------------------------------------------------
+
+# experiments/novelty_flat.toml's NSLC, made tiny: a few bodies, one brain iteration, 0.3 s.
+NSLC = {
+    "name": "nslc",
+    "seed": 2,
+    "generations": 3,
+    "body": {
+        "options": {"number_of_modules": 6},
+        "optimizer": "novelty",
+        "optimizer_options": {
+            "measures": ["num_limbs", "joints_ratio"],
+            "ranges": [[0, 8], [0, 1]],
+            "bins": [4, 4],
+            "k": 3,
+            "novelty_threshold": 0.05,
+            "local_competition": True,
+            "selection": "novelty+fitness",
+        },
+        "population": 3,
+        "offspring": 3,
+    },
+    "brain": {"popsize": 2, "iterations": 1},
+    "task": {"duration": 0.3},
+    "record": {"rerun": False},
+    "executor": {"kind": "serial"},
+}
+
+
+def test_an_interrupted_novelty_run_resumes_to_the_same_records(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    reference = tmp_path / "whole" / "run"  # the folder name is the run id, in every row
+    run_experiment(NSLC, out=reference)
+    out = tmp_path / "killed" / "run"
+    interrupt_then_resume(NSLC, out, monkeypatch, after=0)
+    assert table_digests(out) == table_digests(reference)
+    resumed, whole = load_run(out), load_run(reference)
+    assert len(whole.archive) and set(whole.archive["generation"]) == {0, 1, 2}
+    pd.testing.assert_frame_equal(resumed.archive, whole.archive)
+    state = [
+        json.loads((run / "checkpoints" / "state.json").read_text()) for run in (out, reference)
+    ]
+    assert state[0]["state"]["optimizer"] == state[1]["state"]["optimizer"]  # the novelty archive

@@ -14,7 +14,7 @@ import pytest
 from PIL import Image
 
 from ariel.evolution import run_experiment
-from ariel.recording import load_run, make_report
+from ariel.recording import ancestors, lineage_statistics, load_run, make_report
 from ariel.recording.analysis._report import TABLE_COLUMNS, print_report
 from ariel.recording.rerun._joint_names import joint_labels
 
@@ -56,6 +56,20 @@ def _check_png(path: Path, min_size: tuple[int, int] = (500, 350)) -> np.ndarray
     return pixels
 
 
+def _thumbnail_cards(report) -> dict[str, tuple[int, ...]]:
+    """lineage.png's thumbnails: caption ("best b000012", "founder b000001") -> its pixels'
+    shape."""
+    from matplotlib.offsetbox import AnnotationBbox
+
+    (axes, _colorbar) = report.figures["lineage.png"].axes
+    cards = {}
+    for artist in axes.artists:
+        if isinstance(artist, AnnotationBbox):
+            image, label = artist.offsetbox.get_children()
+            cards[label.get_text()] = image.get_data().shape
+    return cards
+
+
 def _table_text(report) -> str:
     out = io.StringIO()
     from rich.console import Console
@@ -71,6 +85,7 @@ def test_the_report_writes_every_figure_as_a_readable_png(run_dir: Path, report)
     for path in report.written:
         _check_png(path)
     assert report.notes == [
+        "lineage.png: thumbnails left out (rendering off)",
         "gallery.png, gallery.html: left out (rendering off)",
         "best_body.png: left out (rendering off)",
     ]
@@ -264,8 +279,11 @@ def test_without_opengl_the_body_image_is_left_out_with_a_note(
     shutil.copytree(run_dir, copy)
     report = make_report(copy)
     assert [p.name for p in report.written] == WRITTEN  # the gallery without its pictures
-    assert len(report.notes) == 2 and "OpenGL" in report.notes[0]
-    assert report.notes[1] == (
+    assert len(report.notes) == 3  # the lineage and the gallery drawn without thumbnails
+    assert re.fullmatch(r"lineage\.png: \d thumbnail\(s\) left out: no OpenGL .*", report.notes[0])
+    assert "OpenGL" in report.notes[1]
+    assert not _thumbnail_cards(report)
+    assert report.notes[2] == (
         "best_body.png: left out (no OpenGL backend available for headless rendering (test))"
     )
 
@@ -294,6 +312,16 @@ def test_the_best_body_is_rendered(run_dir: Path, tmp_path: Path) -> None:
     population = load_run(copy).population  # the final one: a picture per body
     final = population[population["generation"] == population["generation"].max()]
     assert gallery.count("data:image/png;base64,") == len(final) > 0
+    # lineage.png: thumbnails of the best body and of its ancestry's founders, the gallery's
+    frame = load_run(copy).lineage()
+    best = int(lineage_statistics(frame)["best_id"].iloc[-1])
+    names = dict(zip(frame["id"], frame["body_id"]))
+    founders = [i for i in ancestors(frame, best) if not ancestors(frame, i)]
+    expected = {f"best {names[best]}", *(f"founder {names[i]}" for i in founders)}
+    cards = _thumbnail_cards(report)
+    assert set(cards) == expected and all(shape == (256, 256, 3) for shape in cards.values())
+    for body_id in [names[best], *(names[i] for i in founders)]:
+        assert (copy / "gallery" / "thumbnails" / f"{body_id}-256.png").is_file()  # cached
     assert report.written[-1] == copy / "report" / "best_body.png"
     pixels = _check_png(report.written[-1])
     # The core module is yellow: the body is in the picture.

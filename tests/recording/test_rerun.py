@@ -311,7 +311,7 @@ def test_record_bodies_must_be_all_elites_or_none() -> None:
 
 
 def test_a_killed_writers_temporary_rrd_does_not_block_resume(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    recorded, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import ariel.recording.rerun._rerun as rerun_files
 
@@ -346,6 +346,8 @@ def test_a_killed_writers_temporary_rrd_does_not_block_resume(
     assert not list(out.rglob("*.tmp"))
     for path in files.values():
         assert ("/world/robot", True) in chunks(path)  # every file whole and readable
+    # run.rrd's lineage: generation 0's read back from its tables, as the uninterrupted run's
+    assert lineage_rows(out / "run.rrd") == lineage_rows(recorded[0].run_dir / "run.rrd")
 
 
 def test_write_evaluation_recording_draws_terrain_near_the_path_and_a_still_robot(
@@ -439,3 +441,45 @@ def test_a_non_elite_s_3d_replay_on_demand_equals_the_all_recording(tmp_path: Pa
         (entry,) = rr.chunk.RrdReader(made).recordings()
         assert entry.recording_id == eval_id
     assert not list(elites.rglob("*.tmp"))
+
+
+def lineage_rows(path: Path) -> list[tuple[int, list[str], list[tuple[str, str]], list[Any]]]:
+    """run.rrd's ``/lineage`` per generation: (generation, node ids, edges, node colours)."""
+    batch = chunks(path)[("/lineage", False)]
+    return [
+        (generation, nodes, [(e["first"], e["second"]) for e in edges], colours)
+        for generation, nodes, edges, colours in zip(
+            column(batch, "generation"),
+            column(batch, "GraphNodes:node_ids"),
+            column(batch, "GraphEdges:edges"),
+            column(batch, "GraphNodes:colors"),
+        )
+    ]
+
+
+def test_run_rrd_holds_the_lineage_graph_and_the_blueprint_a_view_of_it(recorded) -> None:
+    result, run = recorded
+    rows = lineage_rows(result.run_dir / "run.rrd")
+    assert [g for g, *_ in rows] == list(range(SMALL["generations"]))
+    for generation, nodes, edges, _ in rows:  # each generation: the bodies born so far
+        bodies = run.bodies[run.bodies["born_generation"] <= generation]
+        bodies = bodies.drop_duplicates("body_id")
+        # one node per body, one edge per parent link (a body made from one parent twice: one)
+        assert sorted(nodes) == sorted(bodies["body_id"]) and len(nodes) == len(set(nodes))
+        links = {(p, b) for b, ps in zip(bodies["body_id"], bodies["parent_ids"]) for p in ps}
+        assert sorted(edges) == sorted(links)
+    assert rows[-1][2] and not rows[0][2]  # founders have no parents
+    # Coloured by fitness: the fittest body bright yellow.
+    _, nodes, _, colours = rows[-1]
+    fitness = run.bodies.drop_duplicates("body_id").set_index("body_id")["fitness"]
+    best = nodes.index(fitness.idxmax())
+    assert colours[best] == 0xFDE725FF  # viridis' top, RGBA
+    (blueprint,) = rr.chunk.RrdReader(result.run_dir / "blueprint.rbl").blueprints()
+    layout = rr.chunk.RrdReader(result.run_dir / "blueprint.rbl").stream(store=blueprint)
+    origins = {}
+    for chunk in layout.to_chunks():
+        batch = chunk.to_record_batch()
+        if "ViewBlueprint:space_origin" in batch.schema.names:
+            (name,) = column(batch, "ViewBlueprint:display_name")[0]
+            origins[name] = column(batch, "ViewBlueprint:space_origin")[0][0]
+    assert origins["lineage (bright: fitter)"] == "/lineage"

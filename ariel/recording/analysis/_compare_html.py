@@ -104,7 +104,7 @@ def format_stats(stats: Any, *, paired: bool = False) -> list[list[str]]:
 
 
 def _stats_head(paired: bool) -> list[str]:
-    head = list(STATS_COLUMNS)
+    head: list[str] = list(STATS_COLUMNS)
     if paired:
         head.insert(head.index("p (Holm)"), PAIRED_COLUMN)
     return head

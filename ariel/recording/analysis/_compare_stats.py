@@ -271,7 +271,7 @@ def _wilcoxon_p(x: np.ndarray, y: np.ndarray) -> float:
         return 1.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        return _no_evidence(float(wilcoxon(differences, alternative="two-sided").pvalue))
+        return _no_evidence(float(wilcoxon(differences, alternative="two-sided").pvalue))  # pyright: ignore[reportAttributeAccessIssue]  # scipy makes the result class at run time
 
 
 def pair_p_value(a: Sample | Any, b: Sample | Any, *, paired: bool) -> float:

@@ -13,15 +13,18 @@ without pictures and a note says why.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ariel.recording.analysis._gallery_select import (
+    KEY_DESCRIPTORS,
     OF,
     Atlas,
     GalleryError,
     Pick,
+    _last_rows,
     archive_atlas,
     campaign_picks,
     key_descriptors,
@@ -34,6 +37,7 @@ __all__ = [
     "GalleryBody",
     "GalleryError",
     "add_report_gallery",
+    "body_thumbnails",
     "make_gallery",
     "report_gallery",
 ]
@@ -163,7 +167,7 @@ def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> G
     body = pick.body
     descriptors = {}
     for name in DESCRIPTOR_NAMES:
-        value = body.get(name)
+        value = body.get(name, math.nan)  # missing: NaN, not finite, so None
         try:
             descriptors[name] = float(value) if math.isfinite(float(value)) else None
         except (TypeError, ValueError):  # <NA>: a body without descriptors
@@ -219,6 +223,24 @@ def _thumbnails(
             gallery.notes.append(f"{jobs[path].body_id}: no thumbnail ({why})")
     gallery.drawn = sum(why is None for why in drawn.values())
     return [None if drawn.get(str(path), None) is not None else path for path in paths]
+
+
+def body_thumbnails(
+    run: Any, body_ids: Sequence[str], *, render: bool = True, workers: int | None = None
+) -> tuple[dict[str, Path], list[str]]:
+    """Thumbnails of bodies ``body_ids`` of ``run`` (a `Run`), drawn as the gallery draws
+    them and cached with its own (``RUN/gallery/thumbnails/``; one already there is reused).
+
+    Returns body id -> its PNG, for each body that has one, and the notes: one line per thing
+    left out and why (no OpenGL here, ``render`` False, a body that cannot be built)."""
+    bodies = _last_rows(run)
+    chosen = [
+        Pick(run, bodies.loc[i].to_dict()) for i in dict.fromkeys(body_ids) if i in bodies.index
+    ]
+    scratch = Gallery(Path(run.path), "lineage-of-best", "", "", KEY_DESCRIPTORS)  # its notes
+    paths = _thumbnails(scratch, chosen, workers=workers, render=render)
+    found = {str(p.body["body_id"]): path for p, path in zip(chosen, paths) if path is not None}
+    return found, scratch.notes
 
 
 def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:

@@ -74,13 +74,13 @@ def _atlas(gallery: Any) -> str:
     ]
     for row in range(atlas.rows):
         line = atlas.rows - row  # the first measure grows upwards: row 0 is drawn last
-        label = bin_text(*atlas.row_edges[row : row + 2], whole[0])
+        label = bin_text(atlas.row_edges[row], atlas.row_edges[row + 1], whole[0])
         parts.append(f'<div class="axis" style="grid-row: {line}; grid-column: 1">{label}</div>')
         for column in range(atlas.columns):
             place = f"grid-row: {line}; grid-column: {column + 2}"
             parts.append(f'<div class="empty" style="{place}"></div>')
     for column in range(atlas.columns):
-        label = bin_text(*atlas.column_edges[column : column + 2], whole[1])
+        label = bin_text(atlas.column_edges[column], atlas.column_edges[column + 1], whole[1])
         place = f"grid-row: {atlas.rows + 1}; grid-column: {column + 2}"
         parts.append(f'<div class="axis" style="{place}">{label}</div>')
     for body in gallery.bodies:

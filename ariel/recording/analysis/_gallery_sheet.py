@@ -149,13 +149,13 @@ def _atlas_axes(sheet: Any, atlas: Any, corner: tuple[int, int], cell: int) -> N
     down, across = atlas.measures
     for row in range(atlas.rows):  # the first measure grows upwards
         y = top + (atlas.rows - 1 - row) * cell
-        text = bin_text(*atlas.row_edges[row : row + 2], _whole(down))
+        text = bin_text(atlas.row_edges[row], atlas.row_edges[row + 1], _whole(down))
         draw.text((left - 8, y + cell / 2), text, fill=FAINT, font=small, anchor="rm")
         for x in range(left, left + atlas.columns * cell, cell):
             draw.rectangle((x, y, x + cell - 2, y + cell - 2), fill=EMPTY)
     bottom = top + atlas.rows * cell + 4
     for column in range(atlas.columns):
-        text = bin_text(*atlas.column_edges[column : column + 2], _whole(across))
+        text = bin_text(atlas.column_edges[column], atlas.column_edges[column + 1], _whole(across))
         x = left + column * cell + cell / 2
         draw.text((x, bottom), text, fill=FAINT, font=small, anchor="ma")
     middle = (left + atlas.columns * cell / 2, bottom + LINE + 2)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -43,6 +43,9 @@ from ariel.recording.store import (
     one_line,
     population_after_selection,
 )
+
+if TYPE_CHECKING:
+    from rich.text import TextType
 
 __all__ = ["Report", "make_report", "print_report"]
 
@@ -399,7 +402,7 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     _fitness_figure(report, maximise)
     _morphology_figure(report)
     archive_figure(report, maximise, render=render, figure=_figure, save=_save)
-    lineage_figure(report, maximise, figure=_figure, save=_save)
+    lineage_figure(report, maximise, figure=_figure, save=_save, render=render)
     add_report_gallery(report, render)
     if report.best is None:
         report.notes.append("trajectory.png, joints.png, best_body.png: no evaluation succeeded")
@@ -419,7 +422,7 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     return report
 
 
-def _table(table_class: Any, box: Any, title: str) -> Any:
+def _table(table_class: Any, box: Any, title: TextType) -> Any:
     return table_class(
         title=title,
         box=box.SIMPLE_HEAD,

@@ -63,11 +63,12 @@ def _cvt(axes: Any, archive: Any, description: dict[str, Any]) -> Any:
     cells, the regions nearest to each centroid in the measures scaled to [0, 1] (as the run
     placed bodies), coloured by their elite's fitness (blank: empty); with more, whose cells
     do not lie flat, only its centroids, coloured (hollow: empty). Centroids are dots."""
-    from scipy.spatial import cKDTree
+    from scipy.spatial import KDTree
 
-    from ariel.recording.rerun import archive_cells
+    from ariel.recording.rerun import CvtCells, archive_cells
 
     cells = archive_cells(archive.to_dict("records"), description)
+    assert isinstance(cells, CvtCells)  # description["kind"] == "cvt" (archive_figure checks)
     low, high = cells.ranges[:, 0], cells.ranges[:, 1]
     unit = (cells.centroids - low) / (high - low)
     count, flat = len(unit), unit.shape[1] <= 2
@@ -79,7 +80,7 @@ def _cvt(axes: Any, archive: Any, description: dict[str, Any]) -> Any:
         steps = (np.arange(_PIXELS) + 0.5) / _PIXELS
         rows, columns = np.meshgrid(steps, steps, indexing="ij")
         pixels = np.column_stack([rows.ravel(), columns.ravel()])[:, : unit.shape[1]]
-        _, nearest = cKDTree(unit).query(pixels)
+        _, nearest = KDTree(unit, leafsize=16).query(pixels)  # cKDTree's leaf size: its tree
         labels = nearest.reshape(_PIXELS, _PIXELS)
         edges = np.zeros(labels.shape, dtype=bool)  # where a pixel's cell is not its neighbour's
         edges[:, 1:] |= labels[:, 1:] != labels[:, :-1]

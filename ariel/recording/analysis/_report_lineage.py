@@ -9,7 +9,11 @@ parent -> child edge, from the parent in the generation before the child's to th
 crossover's second parent dotted). Rows follow the tree (a child's first parent), a parent
 between its descendants, as in a phylogeny: a straight run of dots is a chain of descent. The
 best body of the final population is a star, and its ancestry, back to its founders, is drawn
-in red. Left out for a brain-only run (one fixed body).
+in red. Thumbnails of the founders of that ancestry (left of the tree) and of the best body
+(right of it), each tied to its dot, show what the bodies looked like: the gallery's, cached in
+``RUN/gallery/thumbnails/`` (`body_thumbnails`); with rendering off or without OpenGL the
+figure is drawn without them and one note says why. Left out for a brain-only run (one fixed
+body).
 """
 
 from __future__ import annotations
@@ -33,6 +37,9 @@ __all__ = ["LINEAGE_PNG", "ancestry_layout", "lineage_figure"]
 LINEAGE_PNG = "lineage.png"
 _CHAIN = "#d62728"  # the best body's ancestry
 _EDGE = "0.55"
+_THUMBNAIL_INCHES = 1.1  # a thumbnail's side at most (less where many founders must fit)
+_CARD_INCHES = 0.4  # a thumbnail's caption and frame, and the gap to the next
+_MOST_FOUNDERS = 8  # founders with a thumbnail at most (the lowest ids)
 
 
 def _closure(alive: list[int], parents: dict[int, list[int]]) -> set[int]:
@@ -73,10 +80,12 @@ def _best(frame: Any, alive: list[int], maximise: bool) -> int | None:
     return min(scored, key=lambda i: (-fitness[i] if maximise else fitness[i], i))
 
 
-def lineage_figure(report: Any, maximise: bool, *, figure: Any, save: Any) -> None:
+def lineage_figure(
+    report: Any, maximise: bool, *, figure: Any, save: Any, render: bool = True
+) -> None:
     """Write ``lineage.png`` (the module's docstring) with ``figure(width, height)`` and
     ``save(figure, path, report)``; a note instead for a brain-only run, or a lineage that
-    cannot be read."""
+    cannot be read. ``render`` False: without thumbnails (no OpenGL needed)."""
     run = report.run
     if run.brain_only:
         report.notes.append(f"{LINEAGE_PNG}: left out (brain-only run: one fixed body)")
@@ -95,8 +104,16 @@ def lineage_figure(report: Any, maximise: bool, *, figure: Any, save: Any) -> No
     }
     shown = _closure(alive, parents)
     rows = ancestry_layout(shown, parents)
-    drawn = figure(11.0, min(12.0, max(5.0, 2.6 + 0.1 * len(rows))))
-    _draw(drawn, frame, rows, alive, parents, maximise, _best(frame, alive, maximise), run)
+    best = _best(frame, alive, maximise)
+    pictures = _pictures(report, frame, best, parents, render)
+    cards = sum(caption == "founder" for _, caption, _ in pictures.values())
+    tall = 2.4 + (_THUMBNAIL_INCHES + _CARD_INCHES) * cards  # room for the founders' column
+    drawn = figure(11.0, min(12.0, max(5.0, 2.6 + 0.1 * len(rows), tall)))
+    _draw(drawn, frame, rows, alive, parents, maximise, best, run)
+    if pictures:
+        _place_pictures(
+            drawn, drawn.axes[0], pictures, rows, _spans(frame, run.generations_done - 1)
+        )
     save(drawn, report.folder / LINEAGE_PNG, report)
 
 
@@ -242,3 +259,109 @@ def _title(
         )
     text = text.replace("$", r"\$")  # a run id is any text: no mathtext
     axes.set_title(fitted(text, drawn.get_figwidth() * 0.8, 11), fontsize=11)
+
+
+# --------------------------------------------------------------------------------------------
+# Thumbnails
+# --------------------------------------------------------------------------------------------
+
+
+def _pictures(
+    report: Any, frame: Any, best: int | None, parents: dict[int, list[int]], render: bool
+) -> dict[int, tuple[str, str, Any]]:
+    """id -> (its body id, its caption, its thumbnail as RGB pixels) of the founders of the
+    best body's ancestry and of the best body; none, with one note, where none can be drawn."""
+    if best is None:
+        return {}
+    if not render:
+        report.notes.append(f"{LINEAGE_PNG}: thumbnails left out (rendering off)")
+        return {}
+    from PIL import Image
+
+    from ariel.recording.analysis._gallery import body_thumbnails
+
+    names = dict(zip(frame["id"].astype(int), frame["body_id"].astype(str)))
+    founders = [i for i in sorted(_ancestors(best, parents)) if not parents[i]]
+    if len(founders) > _MOST_FOUNDERS:
+        report.notes.append(
+            f"{LINEAGE_PNG}: thumbnails of {_MOST_FOUNDERS} of the best body's "
+            f"{len(founders)} founders"
+        )
+    wanted = {i: "founder" for i in founders[:_MOST_FOUNDERS]}
+    wanted[best] = "best"
+    found, notes = body_thumbnails(report.run, [names[i] for i in wanted])
+    pictures = {}
+    for node, caption in wanted.items():
+        path = found.get(names[node])
+        if path is None:
+            continue  # the gallery's notes say why
+        try:
+            with Image.open(path) as image:
+                pictures[node] = (names[node], caption, np.asarray(image.convert("RGB")))
+        except (OSError, ValueError) as exc:  # a cached file that is no image after all
+            notes.append(f"{names[node]}: no thumbnail ({exc})")
+    if notes:
+        report.notes.append(f"{LINEAGE_PNG}: " + "; ".join(notes))  # drawn without those
+    return pictures
+
+
+def _place_pictures(
+    drawn: Any,
+    axes: Any,
+    pictures: dict[int, tuple[str, str, Any]],
+    rows: dict[int, int],
+    spans: dict[int, tuple[int, int]],
+) -> None:
+    """Each thumbnail beside the tree, tied to its dot by a red line: the founders' left of
+    it, the best body's right of it, each at its body's row (founders moved apart as needed).
+    The x axis is widened to make the room; its ticks stay on the generations."""
+    from matplotlib.offsetbox import AnnotationBbox, OffsetImage, TextArea, VPacker
+
+    drawn.draw_without_rendering()  # the constrained layout: the axes' size in inches
+    box = axes.get_position()
+    width, height = box.width * drawn.get_figwidth(), box.height * drawn.get_figheight()
+    best = [n for n, (_, caption, _) in pictures.items() if caption == "best"]  # or none
+    founders = sorted((n for n in pictures if n not in best), key=lambda n: rows[n])
+    side = min(_THUMBNAIL_INCHES, height / max(1, len(founders)) - _CARD_INCHES)
+    room = side + 0.35  # inches beside the tree for a column of thumbnails
+    low, high = axes.get_xlim()
+    left, right = room if founders else 0.0, room if best else 0.0
+    span = (high - low) / (1.0 - (left + right) / width)  # data units across, widened
+    axes.set_xlim(low - left * span / width, high + right * span / width)
+    last = max(end for _, end in spans.values())
+    axes.set_xticks(
+        [t for t in axes.xaxis.get_major_locator().tick_values(0, last) if 0 <= t <= last]
+    )
+    top, bottom = axes.get_ylim()[1], axes.get_ylim()[0]  # the first row on top
+    rows_per_inch = (bottom - top) / height
+    tall = (side + _CARD_INCHES) * rows_per_inch  # a thumbnail and its caption, in rows
+    places = _spread([rows[n] for n in founders], tall, top, bottom)
+    at = {n: (low - left * span / width / 2, y) for n, y in zip(founders, places)}
+    for node in best:
+        (y,) = _spread([rows[node]], tall, top, bottom)
+        at[node] = (high + right * span / width / 2, y)
+    for node, (x, y) in at.items():
+        body_id, caption, pixels = pictures[node]
+        image = OffsetImage(pixels, zoom=side * 72 / pixels.shape[0])  # sized in points
+        label = TextArea(f"{caption} {body_id}", textprops={"fontsize": 7, "color": _CHAIN})
+        packed = VPacker(children=[image, label], align="center", pad=0, sep=1)
+        tie = {"arrowstyle": "-", "color": _CHAIN, "lw": 1.0, "shrinkA": 0, "shrinkB": 0}
+        axes.annotate("", (spans[node][0], rows[node]), (x, y), arrowprops=tie, zorder=3.5)
+        card = AnnotationBbox(  # over every tie: a tie ends under its own card
+            packed,
+            (x, y),
+            bboxprops={"edgecolor": _CHAIN, "linewidth": 1.0, "boxstyle": "round,pad=0.15"},
+            annotation_clip=False,
+            zorder=8,
+        )
+        card.set_in_layout(False)
+        axes.add_artist(card)
+
+
+def _spread(wanted: list[float], tall: float, top: float, bottom: float) -> list[float]:
+    """Centres near ``wanted`` (ascending) at least ``tall`` apart, inside ``top``..``bottom``."""
+    places: list[float] = []
+    for y in wanted:
+        places.append(max(y, top + tall / 2, places[-1] + tall if places else -math.inf))
+    overflow = (places[-1] + tall / 2 - bottom) if places else 0.0
+    return [y - max(0.0, overflow) for y in places]

@@ -1,5 +1,5 @@
 """Rerun recordings: an evaluation's, a generation's, the run's and a campaign's, the scene
-and camera they share, and joint names for people.
+and camera they share, the lineage graph, and joint names for people.
 
 Cheap to import: names are loaded from their modules on first use (`ariel.utils.lazy`).
 """
@@ -38,6 +38,11 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.recording.rerun._joint_names import (
         joint_labels as joint_labels,
     )
+    from ariel.recording.rerun._lineage import (
+        LINEAGE_ENTITY as LINEAGE_ENTITY,
+        Lineage as Lineage,
+        lineage_view as lineage_view,
+    )
     from ariel.recording.rerun._recorder import (
         RerunRecorder as RerunRecorder,
         generation_summary as generation_summary,
@@ -63,6 +68,8 @@ _INTERNAL: dict[str, str] = {
     "ARCHIVE_ENTITY": "ariel.recording.rerun._archive",
     "CAMPAIGN_BLUEPRINT": "ariel.recording.rerun._campaign_rerun",
     "CvtCells": "ariel.recording.rerun._archive",
+    "LINEAGE_ENTITY": "ariel.recording.rerun._lineage",
+    "Lineage": "ariel.recording.rerun._lineage",
     "RUN_SERIES": "ariel.recording.rerun._rerun",
     "RerunRecorder": "ariel.recording.rerun._recorder",
     "SUMMARY_SERIES": "ariel.recording.rerun._rerun",
@@ -78,6 +85,7 @@ _INTERNAL: dict[str, str] = {
     "generation_summary": "ariel.recording.rerun._recorder",
     "graph_archetypes": "ariel.recording.rerun._rerun",
     "joint_labels": "ariel.recording.rerun._joint_names",
+    "lineage_view": "ariel.recording.rerun._lineage",
     "rerun_module": "ariel.recording.rerun._rerun",
     "run_summary_chunks": "ariel.recording.rerun._rerun",
     "static_chunk": "ariel.recording.rerun._rerun",

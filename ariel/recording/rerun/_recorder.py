@@ -18,8 +18,9 @@ recording, elites' 3D replays, ``run.rrd`` and the layouts, in the run folder.
   selection (as ``Run.generations`` computes them), two diversity measures of that population
   (``diversity``: the mean pairwise Euclidean distance between the bodies' morphology
   descriptor vectors, the 12 descriptors as stored; ``distinct_morphologies``: the number of
-  distinct robot graphs, compared by structure, ``graph_io.graph_key``) and the best body's
-  graph; rewritten whole after every generation.
+  distinct robot graphs, compared by structure, ``graph_io.graph_key``), the best body's
+  graph and the lineage so far (``/lineage``: a node per body, an edge per parent link,
+  `Lineage`); rewritten whole after every generation.
 * ``blueprint.rbl`` and ``generation.rbl``: the viewer layouts, written once.
 
 Files are written whole under a temporary name and renamed, so a killed run leaves no
@@ -43,6 +44,7 @@ import numpy as np
 
 from ariel.evolution import fitness_rank
 from ariel.recording.rerun._archive import archive_cells, archive_grid
+from ariel.recording.rerun._lineage import Lineage
 from ariel.recording.store import (
     GENERATION_BLUEPRINT,
     generation_recording_path,
@@ -127,6 +129,8 @@ class RerunRecorder:
         self._rows: dict[int, dict[str, Any]] = {}
         self._best: dict[int, dict[str, Any]] = {}
         self._archives: dict[int, Any] = {}  # MAP-Elites: fitness per cell (`archive_cells`)
+        self._lineage = Lineage(maximise=maximise)
+        self._lineages: dict[int, list[Any]] = {}  # per generation: the lineage graph so far
         self._described: dict[str, Any] | None = None  # run.json's archive description
         self._traces: dict[int, list[Any]] = {}  # per generation: its evaluations' traces
         self._blueprint = False
@@ -197,6 +201,7 @@ class RerunRecorder:
         self._rows[generation] = row
         if best is not None:
             self._best[generation] = best
+        self._grow_lineage(generation, body_rows)
         if archive is not None:
             self._archives[generation] = archive_cells(archive, self._description())
         gens = sorted(g for g in self._rows if g <= generation)
@@ -207,6 +212,7 @@ class RerunRecorder:
             columns,
             {g: b for g, b in self._best.items() if g <= generation},
             archives={g: a for g, a in self._archives.items() if g <= generation},
+            lineage={g: a for g, a in self._lineages.items() if g <= generation},
             run_id=self.run_id,
             properties={
                 "run_id": self.run_id,
@@ -235,12 +241,17 @@ class RerunRecorder:
             archive = [row for row in cells if row["generation"] == g]
             if archive:
                 self._archives[g] = archive_cells(archive, self._description())
-            row, best = generation_summary(
-                g, [r for r in rows if r["generation"] == g], self.maximise
-            )
+            bodies = [r for r in rows if r["generation"] == g]
+            row, best = generation_summary(g, bodies, self.maximise)
             self._rows[g] = row
             if best is not None:
                 self._best[g] = best
+            self._grow_lineage(g, bodies)
+
+    def _grow_lineage(self, generation: int, body_rows: Sequence[Mapping[str, Any]]) -> None:
+        """Add the generation's bodies to the lineage and keep its graph as of then."""
+        self._lineage.grow(body_rows, generation)
+        self._lineages[generation] = self._lineage.archetypes()
 
     def _description(self) -> dict[str, Any] | None:
         """run.json's ``archive`` (the driver writes it before the first generation); None: a

@@ -34,7 +34,8 @@ Entities of an evaluation recording (few on purpose: each is a chunk of ~1.5 kB 
 * recording properties (``/__properties/ariel``): the caller's ``properties``.
 
 ``run.rrd`` (`write_run_recording`) holds per-generation fitness and diversity on a
-``generation`` timeline and the best body of each generation; ``blueprint.rbl``
+``generation`` timeline, the best body of each generation and the lineage so far
+(``/lineage``, `ariel.recording.rerun._lineage`); ``blueprint.rbl``
 (`write_blueprint`) the default layout for all of them. ``ariel view`` opens an evaluation's
 recording as a copy with the run's charts (and a MAP-Elites archive) beside it
 (`write_view_recording`), laid out by a `blueprint` written for that run.
@@ -62,6 +63,7 @@ from ariel.recording.rerun._archive import (
     archive_view,
 )
 from ariel.recording.rerun._joint_names import joint_labels, module_labels
+from ariel.recording.rerun._lineage import LINEAGE_ENTITY, lineage_view
 from ariel.recording.store import atomic_write, json_data, require_free_space
 
 __all__ = [
@@ -708,6 +710,7 @@ def write_run_recording(
     best_bodies: Mapping[int, Mapping[str, Any]] | Sequence[Mapping[str, Any]],
     *,
     archives: Mapping[int, np.ndarray] | None = None,
+    lineage: Mapping[int, Sequence[Any]] | None = None,
     run_id: str = "",
     properties: Mapping[str, Any] | None = None,
     fsync: bool = True,
@@ -729,6 +732,8 @@ def write_run_recording(
             fitness per cell, NaN: empty, or a CVT's cells), logged at ``/archive``
             (`archive_image`: a tensor, or points), so the viewer plays the archive over the
             generations; None: no archive.
+        lineage: The lineage so far after each generation (`Lineage.archetypes`: its graph
+            nodes and edges), logged whole at ``/lineage`` per generation; None: none.
         run_id: The recording's id and name; ``""``: the name of ``path``'s folder.
         properties: Plain values stored as recording properties; None: none.
         fsync: Whether to also fsync the file (it is written whole and renamed either way).
@@ -771,6 +776,9 @@ def write_run_recording(
     for gen, grid in sorted((archives or {}).items()):
         at = [rr.TimeColumn("generation", sequence=[int(gen)])]
         chunks.append(Chunk.from_columns("/archive", at, _one_row(archive_image(grid))))
+    for gen, graph in sorted((lineage or {}).items()):  # one row each: the graph grows
+        at = [rr.TimeColumn("generation", sequence=[int(gen)])]
+        chunks.append(Chunk.from_columns(LINEAGE_ENTITY, at, _one_row(*graph)))
     return _write_chunks(path, name, chunks, fsync=fsync)
 
 
@@ -878,9 +886,10 @@ def blueprint(
     generation (``/best/graph``). Fitness and diversity per generation are static bar charts
     (`run_summary_chunks`, drawn whatever the timeline), one view per series, titled with its
     name and unit (``fitness_unit``, e.g. "m"); with ``run_curves`` each group has a second
-    tab of run.rrd's curves on the ``generation`` timeline. The 3D camera looks at the start,
-    from 1.5 m away. ``panels=False`` collapses the side panels (the blueprint tree, the
-    selection, the time panel) for pictures of the views alone.
+    tab of run.rrd's curves on the ``generation`` timeline, and the morphology a tab of its
+    lineage graph (`lineage_view`). The 3D camera looks at the start, from 1.5 m away.
+    ``panels=False`` collapses the side panels (the blueprint tree, the selection, the time
+    panel) for pictures of the views alone.
     """
     rr = rerun_module()
     rrb = rr.blueprint
@@ -943,6 +952,8 @@ def blueprint(
         ),
         rrb.GraphView(name="morphology", origin="/", contents=["/graph/**", "/best/graph/**"]),
     ]
+    if run_curves:  # run.rrd's lineage, a tab beside the morphology
+        top[1] = rrb.Tabs(top[1], lineage_view(), active_tab=0)
     if archive:  # measure 0 across, measure 1 up
         top.append(archive_view(archive, unit, sliced=True))
     return rrb.Blueprint(
@@ -983,7 +994,7 @@ def write_blueprint(
         fitness_unit: The fitness's unit (e.g. ``"m"``) for the fitness views' titles; None:
             no unit.
         run_curves: Whether the fitness and diversity views get a second tab of run.rrd's
-            curves on the ``generation`` timeline.
+            curves on the ``generation`` timeline, and the morphology one of its lineage.
 
     Returns:
         ``path``, as a `Path`.

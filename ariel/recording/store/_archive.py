@@ -40,7 +40,8 @@ def describe_archive(info: Mapping[str, Any], archive: Any) -> dict[str, Any] | 
 
     from ariel.evolution import DEFAULT_RANGES, MapElites
 
-    config = info.get("config") if isinstance(info.get("config"), Mapping) else {}
+    config = info.get("config")
+    config = config if isinstance(config, Mapping) else {}
     options = config.get("body", {}).get("optimizer_options") or {}
     default = inspect.signature(MapElites).parameters["measures"].default
     measures = [str(m) for m in options.get("measures") or default]

@@ -21,7 +21,7 @@ import re
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import atomic_write_json
@@ -97,13 +97,13 @@ MAX_CONDITION_NAME = 255 - len("condition=")
 _CONDITION_RULE = f"letters, digits, _ . -; at most {MAX_CONDITION_NAME} characters"
 
 
-def _is_seed(value: Any) -> bool:
+def _is_seed(value: Any) -> TypeGuard[int]:
     """A seed as the experiment's ``seed`` allows it: an integer (not a bool, a float or a
     string), 0 <= seed < 2**63."""
     return type(value) is int and 0 <= value < 2**63
 
 
-def _is_condition(value: Any) -> bool:
+def _is_condition(value: Any) -> TypeGuard[str]:
     return (
         isinstance(value, str)
         and len(value) <= MAX_CONDITION_NAME

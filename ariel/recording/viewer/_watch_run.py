@@ -17,8 +17,9 @@ Entities (``generation``: the generation timeline; ``sim_time``: the best body's
 * ``/progress``: evaluations done and total, evaluations/s and ETA, a text (static) and
   scalars (``/progress/*`` on ``generation``).
 * ``/lineage``: every body as a graph node coloured by fitness (bright: better), larger while
-  in the population, with directed edges from its parents; logged whole each generation, at
-  that generation and at ``sim_time`` 0 (so it shows on either timeline).
+  in the population, with directed edges from its parents (`Lineage`, as ``run.rrd`` has
+  it); logged whole each generation, at that generation and at ``sim_time`` 0 (so it shows
+  on either timeline).
 * ``/best``: the best evaluation so far, walking (``/best/world``, its joints ``/best/joints``
   and morphology ``/best/graph``, from its own recording or a replay made on demand) and
   ``/best/info``; cleared (``Clear(recursive=True)``) and logged again when a better one
@@ -37,11 +38,14 @@ from typing import Any
 import numpy as np
 
 from ariel.recording.rerun import (
+    LINEAGE_ENTITY,
     RUN_SERIES,
     SUMMARY_SERIES,
+    Lineage,
     archive_chunks,
     archive_image,
     archive_view,
+    lineage_view,
     rerun_module,
     run_summary_chunks,
 )
@@ -55,23 +59,6 @@ FINAL = ("finished", "failed", "interrupted")
 QD_ENTITIES = {"coverage": "/qd/coverage", "qd_score": "/qd/qd_score"}
 _BODY_COLUMNS = ("generation", "body_id", "parent_ids", "born_generation", "graph", "status")
 _EVALUATION_COLUMNS = ["generation", "eval_id", "body_id", "fitness", "status"]
-LINEAGE_STEP = (40.0, 40.0)  # scene units between generations (across), between bodies (down)
-# viridis at 0, 1/4, 1/2, 3/4, 1 (dark: worst, bright yellow: best)
-_VIRIDIS = np.array([[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]])
-
-
-def _fitness_colours(fitness: np.ndarray, maximise: bool) -> np.ndarray:
-    """RGB per fitness: viridis from the worst (dark) to the best (yellow); grey for NaN."""
-    finite = np.isfinite(fitness)
-    colours = np.full((len(fitness), 3), 160, dtype=np.uint8)
-    if finite.any():
-        low, high = float(fitness[finite].min()), float(fitness[finite].max())
-        share = (fitness[finite] - low) / (high - low) if high > low else np.ones(finite.sum())
-        share = share if maximise else 1.0 - share
-        anchors = np.linspace(0.0, 1.0, len(_VIRIDIS))
-        rgb = [np.interp(share, anchors, _VIRIDIS[:, c]) for c in range(3)]
-        colours[finite] = np.stack(rgb, axis=1).round().astype(np.uint8)
-    return colours
 
 
 def _read_generation(folder: Path, generation: int, config: Any, checked: bool) -> Any:
@@ -150,10 +137,7 @@ class RunSource:
         self.shown = 0  # generations logged
         self._rows: dict[int, int] = {}  # generation -> its evaluations (for the rate)
         self._summary: dict[str, list[float]] = {c: [] for c in ("generation", *SUMMARY_SERIES)}
-        self._nodes: dict[str, list[Any]] = {}  # body id -> [x, y, fitness]
-        self._edges: dict[tuple[str, str], None] = {}
-        self._born: dict[int, int] = {}  # generation -> bodies born in it so far
-        self._alive: set[str] = set()
+        self.lineage = Lineage(maximise=self.run.maximise)
         self.best = BestBody(self.path, self.run.maximise)
         self._total = _total_evaluations(self.config, bool(self.info.get("brain_only")))
         self._started = False
@@ -247,9 +231,9 @@ class RunSource:
         self._rows[generation] = len(evaluations)
         if "archive" in tables:
             self._log_archive(rec, generation, tables["archive"])
-        self._grow_lineage(bodies, generation)
+        self.lineage.grow(bodies.to_dict("records"), generation)
         _at(rec, generation, sim_time=True)
-        rec.log("/lineage", *self._lineage())
+        rec.log(LINEAGE_ENTITY, *self.lineage.archetypes())
         self.best.offer(evaluations, generation)
 
     def _log_archive(self, rec: Any, generation: int, archive: Any) -> None:
@@ -268,40 +252,6 @@ class RunSource:
         quality = archive_quality_table(archive, self.run.qd_offset, self.run.maximise)
         for column, entity in QD_ENTITIES.items():
             rec.log(entity, rr.Scalars(float(quality[column].iloc[-1])))
-
-    # -- the lineage -----------------------------------------------------------------------
-
-    def _grow_lineage(self, bodies: Any, generation: int) -> None:
-        step_x, step_y = LINEAGE_STEP
-        for body in bodies.to_dict("records"):
-            body_id = str(body["body_id"])
-            node = self._nodes.get(body_id)
-            if node is None:
-                born = int(body.get("born_generation", generation))
-                k = self._born.get(born, 0)
-                self._born[born] = k + 1
-                node = self._nodes[body_id] = [step_x * born, step_y * k, math.nan]
-                parents = body.get("parent_ids")
-                for parent in [] if parents is None else list(parents):
-                    self._edges[(str(parent), body_id)] = None
-            node[2] = float(body["fitness"])
-        self._alive = {str(b) for b in bodies.loc[bodies["selected"], "body_id"]}
-
-    def _lineage(self) -> list[Any]:
-        rr = rerun_module()
-        ids = list(self._nodes)
-        nodes = np.array(list(self._nodes.values()), dtype=np.float64).reshape(-1, 3)
-        return [
-            rr.GraphNodes(
-                ids,
-                positions=nodes[:, :2],
-                colors=_fitness_colours(nodes[:, 2], self.run.maximise),
-                labels=[f"{i}: {f:.4g}" for i, f in zip(ids, nodes[:, 2])],
-                radii=[6.0 if i in self._alive else 3.0 for i in ids],
-                show_labels=False,
-            ),
-            rr.GraphEdges([e for e in self._edges if e[0] in self._nodes], graph_type="directed"),
-        ]
 
     # -- progress --------------------------------------------------------------------------
 
@@ -393,7 +343,7 @@ def run_blueprint(*, archive: bool | str = False, fitness_unit: str | None = Non
             ),
         ),
         rrb.Tabs(
-            rrb.GraphView(name="lineage (bright: fitter)", origin="/lineage"),
+            lineage_view(),
             rrb.GraphView(name="best body's morphology", origin="/best/graph"),
         ),
     ]
