@@ -7,6 +7,7 @@ conftest, default import mode), so a test module anywhere below imports this as 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import json
 import math
@@ -262,3 +263,49 @@ class ServedWebViewer:
     def stop(self, signum: int) -> int:
         self.proc.send_signal(signum)
         return self.proc.wait(timeout=30)
+
+
+# --- records, bit for bit ----------------------------------------------------------------------
+
+_UNMEASURED = {"wall_seconds"}  # a measured time, different in every run
+_ORDER = {"evaluations": ["eval_id"], "bodies": ["body_id"], "trajectories": ["eval_id", "t"]}
+
+
+def table_digests(run_dir: Path) -> dict[str, str]:
+    """``"<table>/gen-N"`` -> SHA-256 of that table's rows in a bit-exact, ordered form (the
+    golden records' digests, tests/e2e/test_golden_records.py)."""
+    import pyarrow.parquet as pq
+
+    digests = {}
+    for table, order in _ORDER.items():
+        for path in sorted((run_dir / table).glob("gen-*.parquet")):
+            frame = pq.read_table(path).to_pandas()
+            columns = [c for c in frame.columns if c not in _UNMEASURED]
+            frame = frame.sort_values(order, kind="stable")
+            text = json.dumps(
+                [columns, [[plain(v) for v in row] for row in frame[columns].itertuples(False)]],
+                default=str,
+            )
+            digests[f"{table}/{path.stem}"] = hashlib.sha256(text.encode()).hexdigest()
+    return digests
+
+
+# --- a robot graph of two branches (joint names, the viewer's panels) ------------------------
+
+
+def two_branches() -> Any:
+    """Core; RIGHT: hinge 1 > hinge 2; FRONT: brick 3, with hinge 4 on its LEFT face and hinge 5
+    on its RIGHT face (RIGHT, face 2, is attached before LEFT, face 3)."""
+    from ariel.body_phenotypes.robogen_lite.graph_io import robot_graph
+
+    return robot_graph(
+        {
+            0: ("CORE", "DEG_0"),
+            1: ("HINGE", "DEG_0"),
+            2: ("HINGE", "DEG_90"),
+            3: ("BRICK", "DEG_0"),
+            4: ("HINGE", "DEG_0"),
+            5: ("HINGE", "DEG_0"),
+        },
+        [(0, 1, "RIGHT"), (1, 2, "FRONT"), (0, 3, "FRONT"), (3, 4, "LEFT"), (3, 5, "RIGHT")],
+    )

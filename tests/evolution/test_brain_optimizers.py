@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_golden_records import table_digests
+from _helpers import table_digests
 
 from ariel.errors import PluginCheckError
 from ariel.evolution import BrainRun, ConfigError, load_config

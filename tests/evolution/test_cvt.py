@@ -5,16 +5,12 @@ the viewer and run.rrd as a CVT, not a grid; bad options are one line."""
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _helpers import interrupt_then_resume
-from test_golden_records import table_digests
+from _helpers import interrupt_then_resume, table_digests
 
 from ariel.evolution import BodyConfig, ConfigError, MapElites
 from ariel.evolution._optimizer_checks import check_body_optimizer

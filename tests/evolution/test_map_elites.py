@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_golden_records import table_digests
+from _helpers import table_digests
 
 from ariel.evolution import BodyConfig, ConfigError, MapElites
 from ariel.evolution._progress import Progress

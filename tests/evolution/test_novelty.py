@@ -7,16 +7,12 @@ from __future__ import annotations
 import inspect
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _helpers import interrupt_then_resume
-from test_golden_records import table_digests
+from _helpers import interrupt_then_resume, table_digests
 
 from ariel.evolution import BodyConfig, ConfigError, MapElites, NoveltySearch
 from ariel.evolution._ga import random_proposals

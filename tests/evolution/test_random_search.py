@@ -4,14 +4,11 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_golden_records import table_digests
+from _helpers import table_digests
 
 from ariel.evolution import BodyConfig, RandomSearch
 from ariel.evolution._ga import random_proposals

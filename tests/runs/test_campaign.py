@@ -32,7 +32,7 @@ _UNMEASURED = {"wall_seconds", "run_id"}  # a measured time; the run's id names 
 
 def digests(run_dir: Path) -> dict[str, str]:
     """``"<table>/gen-N"`` -> SHA-256 of the table's rows, bit-exact, in id order (like
-    tests/evolution/test_golden_records.py, without ``run_id`` and ``wall_seconds``)."""
+    tests/e2e/test_golden_records.py, without ``run_id`` and ``wall_seconds``)."""
     import pyarrow.parquet as pq
 
     found = {}

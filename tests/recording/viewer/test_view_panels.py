@@ -18,7 +18,7 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 
-from test_joint_names import _two_branches  # noqa: E402 - the same robot graph
+from _helpers import two_branches  # noqa: E402 - the same robot graph as test_joint_names
 
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain  # noqa: E402
 from ariel.evolution import run_experiment  # noqa: E402
@@ -104,7 +104,7 @@ def first(batch: Any, column: str) -> Any:
 
 
 def test_module_labels_are_short_and_read_as_the_joint_legends() -> None:
-    graph = _stored(_two_branches())
+    graph = _stored(two_branches())
     ids, types, _ = _graph_parts(graph)
     labels = dict(zip(ids, module_labels(ids, types, graph)))
     assert labels == {
@@ -120,7 +120,7 @@ def test_module_labels_are_short_and_read_as_the_joint_legends() -> None:
 
 
 def test_a_morphology_is_drawn_as_a_tree_with_room_for_its_labels() -> None:
-    ids, _, edges = _graph_parts(_stored(_two_branches()))
+    ids, _, edges = _graph_parts(_stored(two_branches()))
     at = dict(zip(ids, tree_positions(ids, edges)))
     step_x, step_y = GRAPH_STEP
     assert at["0"] == (0.0, 0.0)  # the core on top, in the middle

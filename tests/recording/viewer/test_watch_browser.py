@@ -19,7 +19,7 @@ psutil = pytest.importorskip("psutil")
 
 from ariel.recording.viewer._browser import BrowserError, HeadlessChromium, find_chromium  # noqa: E402
 
-RUN = Path(__file__).resolve().parents[1] / "data" / "run_tiny.toml"
+RUN = Path(__file__).resolve().parents[2] / "data" / "run_tiny.toml"
 
 
 def _chromium() -> Path | None:

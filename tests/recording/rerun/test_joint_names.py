@@ -9,9 +9,10 @@ import re
 import networkx as nx
 import numpy as np
 import pytest
+from _helpers import two_branches
 
 from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
-from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain, robot_graph
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
 from ariel.ec.genotypes.tree.encoder import TreeEncoder
 from ariel.recording.rerun._joint_names import joint_labels
 
@@ -25,24 +26,8 @@ def _joint_names(graph: nx.DiGraph, prefix: str = "robot1_") -> list[str]:
     return [prefix + model.actuator(a).name for a in range(model.nu)]
 
 
-def _two_branches() -> nx.DiGraph:
-    """Core; RIGHT: hinge 1 > hinge 2; FRONT: brick 3, with hinge 4 on its LEFT face and hinge 5
-    on its RIGHT face (RIGHT, face 2, is attached before LEFT, face 3)."""
-    return robot_graph(
-        {
-            0: ("CORE", "DEG_0"),
-            1: ("HINGE", "DEG_0"),
-            2: ("HINGE", "DEG_90"),
-            3: ("BRICK", "DEG_0"),
-            4: ("HINGE", "DEG_0"),
-            5: ("HINGE", "DEG_0"),
-        },
-        [(0, 1, "RIGHT"), (1, 2, "FRONT"), (0, 3, "FRONT"), (3, 4, "LEFT"), (3, 5, "RIGHT")],
-    )
-
-
 def test_a_hinge_is_named_by_its_branch_and_its_number_there() -> None:
-    graph = _two_branches()
+    graph = two_branches()
     names = _joint_names(graph)
     assert names == [  # the constructor's names: parent-child-face-servo, breadth-first
         "robot1_0-1-2-servo",
@@ -66,7 +51,7 @@ def test_a_hinge_is_named_by_its_branch_and_its_number_there() -> None:
 
 
 def test_without_the_graph_a_hinge_is_named_by_its_module() -> None:
-    names = _joint_names(_two_branches())
+    names = _joint_names(two_branches())
     assert joint_labels(names) == [
         "hinge module 1",
         "hinge module 5",
@@ -74,7 +59,7 @@ def test_without_the_graph_a_hinge_is_named_by_its_module() -> None:
         "hinge module 2",
     ]
     assert joint_labels(names, "not json") == joint_labels(names)  # an unreadable graph
-    assert joint_labels([], _two_branches()) == []
+    assert joint_labels([], two_branches()) == []
 
 
 def test_hand_named_joints_lose_prefix_and_suffix_and_stay_unique() -> None:

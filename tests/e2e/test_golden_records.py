@@ -4,13 +4,12 @@
 (rows in id order, every cell in a bit-exact form; the ``wall_seconds`` column, a measured time,
 left out). It was written by the loop before it was split into body optimizers, a scheduler
 and row builders, and the rebuilt loop gave the same records. Written again only when records
-change on purpose (``python tests/evolution/test_golden_records.py``), and said so in the commit:
+change on purpose (``python tests/e2e/test_golden_records.py``), and said so in the commit:
 since then once, for the integer count columns (the same values, cast).
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import sys
 from pathlib import Path
@@ -19,7 +18,7 @@ from typing import Any
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # _helpers, when run as a script
-from _helpers import plain
+from _helpers import table_digests
 
 GOLDEN = Path(__file__).with_name("golden_records.json")
 
@@ -53,27 +52,6 @@ CONFIGS: dict[str, dict[str, Any]] = {
         "executor": {"kind": "serial"},
     },
 }
-
-_UNMEASURED = {"wall_seconds"}  # a measured time, different in every run
-_ORDER = {"evaluations": ["eval_id"], "bodies": ["body_id"], "trajectories": ["eval_id", "t"]}
-
-
-def table_digests(run_dir: Path) -> dict[str, str]:
-    """``"<table>/gen-N"`` -> SHA-256 of that table's rows in a bit-exact, ordered form."""
-    import pyarrow.parquet as pq
-
-    digests = {}
-    for table, order in _ORDER.items():
-        for path in sorted((run_dir / table).glob("gen-*.parquet")):
-            frame = pq.read_table(path).to_pandas()
-            columns = [c for c in frame.columns if c not in _UNMEASURED]
-            frame = frame.sort_values(order, kind="stable")
-            text = json.dumps(
-                [columns, [[plain(v) for v in row] for row in frame[columns].itertuples(False)]],
-                default=str,
-            )
-            digests[f"{table}/{path.stem}"] = hashlib.sha256(text.encode()).hexdigest()
-    return digests
 
 
 def _run(name: str, out: Path) -> dict[str, str]:

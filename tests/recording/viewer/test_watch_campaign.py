@@ -20,7 +20,7 @@ rr = pytest.importorskip("rerun")
 from ariel.recording.store._campaign import load_campaign  # noqa: E402
 from ariel.recording.viewer._watch_campaign import STATUS_ENTITY, CampaignSource  # noqa: E402
 
-CAMPAIGN = Path(__file__).resolve().parents[1] / "data" / "campaign_tiny.toml"
+CAMPAIGN = Path(__file__).resolve().parents[2] / "data" / "campaign_tiny.toml"
 RUNS = [(c, s) for c in ("fresh", "inherit") for s in (1, 2)]
 
 

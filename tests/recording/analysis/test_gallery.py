@@ -52,7 +52,7 @@ def gl_available() -> None:
 
 @pytest.fixture
 def no_gl(monkeypatch: pytest.MonkeyPatch) -> None:
-    """OpenGL unavailable, as `create_renderer` reports it (tests/recording/test_report.py)."""
+    """OpenGL unavailable, as `create_renderer` reports it (see analysis/test_report.py)."""
     import ariel.utils.renderers
 
     def no_gl(*args, **kwargs):
