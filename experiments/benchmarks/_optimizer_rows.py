@@ -1,12 +1,15 @@
-"""coevolution.py's co-evolution rows: the loop with each body optimizer (``ga``, ``map_elites``)
-against raw ``mujoco.rollout`` of the very evaluations the loop made.
+"""coevolution.py's co-evolution rows: the loop with each body optimizer (``ga``, ``map_elites``,
+``novelty``, ``map_elites_cvt``) against raw ``mujoco.rollout`` of the very evaluations the loop
+made.
 
-Each row runs a small co-evolution experiment (``coevolve_flat.toml`` for the GA,
-``qd_flat.toml`` for MAP-Elites; ``--coevolve-generations`` generations, the main options'
-popsize, iterations and duration, recordings off) on a prestarted local pool, as the brain-only
-row does. The reference then rolls out, for every body the loop evaluated, as many evaluations
-as the loop made of it, in batches of ``popsize`` on one ``Rollout(nthread=CPUs)`` pool, with
-random controls shaped as the engine shapes them; only the ``rollout`` calls are timed
+Each row (`ROWS`: an experiment file and overrides) runs a small co-evolution experiment
+(``coevolve_flat.toml`` for the GA, ``qd_flat.toml`` for MAP-Elites, ``novelty_flat.toml`` for
+novelty search, ``qd_flat.toml`` with a 64-cell CVT archive over the same measures for
+CVT-MAP-Elites; ``--coevolve-generations`` generations, the main options' popsize, iterations
+and duration, recordings off) on a prestarted local pool, as the brain-only row does. The
+reference then rolls out, for every body the loop evaluated, as many evaluations as the loop
+made of it, in batches of ``popsize`` on one ``Rollout(nthread=CPUs)`` pool, with random
+controls shaped as the engine shapes them; only the ``rollout`` calls are timed
 (compiling the bodies and making the controls are not). The ratio is (loop evaluations/s) /
 (reference evaluations/s): what the loop costs over the physics of the same bodies, including
 everything a new body costs the loop (decoding and compiling in the driver and a worker, CMA-ES,
@@ -36,13 +39,26 @@ from ariel.recording import load_run
 __all__ = ["optimizer_rows"]
 
 EXPERIMENTS = Path(__file__).resolve().parents[1]
-CONFIGS = {"ga": EXPERIMENTS / "coevolve_flat.toml", "map_elites": EXPERIMENTS / "qd_flat.toml"}
+CVT = (
+    'body.optimizer_options={ archive = "cvt", cells = 64, '
+    'measures = ["num_limbs", "joints_ratio"], ranges = [[0, 8], [0, 1]] }'
+)
+# Row name -> (experiment file, overrides applied before the benchmark's own). The CVT row is
+# qd_flat.toml's MAP-Elites with a CVT archive of 64 cells (its grid: 8 x 8) on its measures.
+ROWS: dict[str, tuple[Path, tuple[str, ...]]] = {
+    "ga": (EXPERIMENTS / "coevolve_flat.toml", ()),
+    "map_elites": (EXPERIMENTS / "qd_flat.toml", ()),
+    "novelty": (EXPERIMENTS / "novelty_flat.toml", ()),
+    "map_elites_cvt": (EXPERIMENTS / "qd_flat.toml", (CVT,)),
+}
 
 
-def optimizer_config(optimizer: str, args: Any) -> ExperimentConfig:
+def optimizer_config(row: str, args: Any) -> ExperimentConfig:
+    path, overrides = ROWS[row]
     return load_config(
-        CONFIGS[optimizer],
+        path,
         [
+            *overrides,
             f"seed={args.seed}",
             f"generations={args.coevolve_generations}",
             f"brain.popsize={args.popsize}",
@@ -96,15 +112,16 @@ def optimizer_rows(
     threads: int,
     folder: Path,
     timed_loop: Callable[[ExperimentConfig, Path], float],
-) -> dict[str, dict[str, float]]:
-    """Per optimizer: loop and raw evaluations/s and their ratio (medians over the rounds)."""
+) -> dict[str, dict[str, Any]]:
+    """Per row: loop and raw evaluations/s and their ratio (medians over the rounds), and the
+    rounds' ratios."""
     from ariel.plugins import body_encoders
 
     # Untimed: the NDE's first decode imports torch (once per process; a run pays it once).
     encoder = body_encoders.make("nde", number_of_modules=12)
     encoder.decode(encoder.random_genotype(np.random.default_rng(0)))
     rows = {}
-    for optimizer in CONFIGS:
+    for optimizer in ROWS:
         config = optimizer_config(optimizer, args)
         ratios, loop_rates, raw_rates = [], [], []
         for round_ in range(args.repeats):
@@ -121,5 +138,6 @@ def optimizer_rows(
             "loop_evals_per_s": float(np.median(loop_rates)),
             "raw_evals_per_s": float(np.median(raw_rates)),
             "evaluations": len(evaluations),
+            "ratios": [round(r, 4) for r in ratios],
         }
     return rows

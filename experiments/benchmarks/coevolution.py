@@ -128,7 +128,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--coevolve-generations",
         type=int,
         default=2,
-        help="generations of the co-evolution rows (ga, map_elites; _optimizer_rows.py)",
+        help="generations of the co-evolution rows (ga, map_elites, novelty, map_elites_cvt;"
+        " _optimizer_rows.py)",
     )
     parser.add_argument("--seed", type=int, default=3, help="experiment seed (the config's: 3)")
     add_quick_option(parser, QUICK)
@@ -377,27 +378,27 @@ def main(argv: list[str] | None = None) -> int:
     first_ratio = evaluations / first_loop / raw_rate
 
     print()
-    print(f"{'figure':<48}{'evals/s':>9}{'ratio':>8}  target")
-    print("-" * 78)
+    print(f"{'figure':<52}{'evals/s':>9}{'ratio':>8}  target")
+    print("-" * 82)
     print(
-        f"{'raw mujoco.rollout, ' + str(threads) + ' threads (reference)':<48}"
+        f"{'raw mujoco.rollout, ' + str(threads) + ' threads (reference)':<52}"
         f"{raw_rate:>9.2f}{1:>8.2f}"
     )
     print(
-        f"{'co-evolution loop, run_experiment':<48}{loop_rate:>9.2f}{ratio:>8.3f}  "
+        f"{'co-evolution loop, run_experiment':<52}{loop_rate:>9.2f}{ratio:>8.3f}  "
         f">= {TARGET:g}  {'ok' if ratio >= TARGET else 'MISSED'}"
     )
     for name, row in optimizers.items():
         print(
-            f"{'co-evolution, body optimizer ' + name + ' (' + str(row['evaluations']) + ')':<48}"
+            f"{'co-evolution, body optimizer ' + name + ' (' + str(row['evaluations']) + ')':<52}"
             f"{row['loop_evals_per_s']:>9.2f}{row['ratio']:>8.3f}  >= {TARGET:g}  "
             f"{'ok' if row['ratio'] >= TARGET else 'MISSED'}  (raw {row['raw_evals_per_s']:.2f})"
         )
     print(
-        f"{'  incl. process-pool start-up (info)':<48}{'':>9}{statistics.median(end_to_end):>8.3f}"
+        f"{'  incl. process-pool start-up (info)':<52}{'':>9}{statistics.median(end_to_end):>8.3f}"
     )
     print(
-        f"{'  first run in this process, untimed warm-up (info)':<48}"
+        f"{'  first run in this process, untimed warm-up (info)':<52}"
         f"{evaluations / first_loop:>9.2f}{first_ratio:>8.3f}"
     )
     print()
@@ -426,6 +427,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{name}_loop_evals_per_s": round(row["loop_evals_per_s"], 3)
             for name, row in optimizers.items()
         },
+        **{f"{name}_ratios": row["ratios"] for name, row in optimizers.items()},
         "loop_evals_per_s": round(loop_rate, 3),
         "raw_evals_per_s": round(raw_rate, 3),
         "evaluations": evaluations,
