@@ -24,7 +24,7 @@ from ariel.evolution._optimizer import Proposal, ranked
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body
 
-__all__ = ["GeneticAlgorithm", "breed", "random_proposals"]
+__all__ = ["GeneticAlgorithm", "breed", "random_proposals", "tournament_children"]
 
 
 def random_proposals(encoder: Any, seed: int, n: int) -> list[Proposal]:
@@ -46,6 +46,24 @@ def breed(
     else:
         genotype, parents = first.genotype, [first.body_id]
     return Proposal(encoder.mutate(genotype, rng), parents)
+
+
+def tournament_children(optimizer: Any, n: int) -> list[Proposal]:
+    """``ask(n)`` of a population optimizer (the GA, novelty search): ``n`` random genotypes
+    before its first population, else ``n`` children, child j from its own stream
+    (``variation``, generation, j), parents drawn by ``optimizer.tournament``."""
+    if not optimizer._population:
+        return random_proposals(optimizer.encoder, optimizer.seed, n)
+    return [
+        breed(
+            optimizer.encoder,
+            derive_rng(optimizer.seed, "variation", optimizer.generation, j),
+            optimizer.tournament,
+            optimizer.settings.crossover_rate,
+            len(optimizer._population) > 1,
+        )
+        for j in range(n)
+    ]
 
 
 class GeneticAlgorithm:
@@ -90,18 +108,7 @@ class GeneticAlgorithm:
         return ranked([population[i] for i in sorted(picks)], self.maximise)[0]
 
     def ask(self, n: int) -> list[Proposal]:
-        if not self._population:
-            return random_proposals(self.encoder, self.seed, n)
-        return [
-            breed(
-                self.encoder,
-                derive_rng(self.seed, "variation", self.generation, j),
-                self.tournament,
-                self.settings.crossover_rate,
-                len(self._population) > 1,
-            )
-            for j in range(n)
-        ]
+        return tournament_children(self, n)
 
     def tell(self, bodies: Sequence[Body]) -> None:
         children = list(bodies)

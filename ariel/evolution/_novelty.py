@@ -55,10 +55,9 @@ from typing import Any
 
 import numpy as np
 
-from ariel.evolution._ga import breed, random_proposals
+from ariel.evolution._ga import tournament_children
 from ariel.evolution._map_elites import MapElites, body_measures
 from ariel.evolution._optimizer import Proposal
-from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body
 
 __all__ = ["NoveltySearch", "neighbour_scores", "pareto_fronts"]
@@ -325,18 +324,7 @@ class NoveltySearch:
         return population[int(np.min(picks))]
 
     def ask(self, n: int) -> list[Proposal]:
-        if not self._population:
-            return random_proposals(self.encoder, self.seed, n)
-        return [
-            breed(
-                self.encoder,
-                derive_rng(self.seed, "variation", self.generation, j),
-                self.tournament,
-                self.settings.crossover_rate,
-                len(self._population) > 1,
-            )
-            for j in range(n)
-        ]
+        return tournament_children(self, n)
 
     def tell(self, bodies: Sequence[Body]) -> None:
         children = sorted(bodies, key=lambda b: b.number)
