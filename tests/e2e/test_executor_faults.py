@@ -181,7 +181,7 @@ def test_sigterm_to_a_local_campaign_ends_in_one_line(
     folder, err = tmp_path / "campaign", tmp_path / "stderr.txt"
     command = [sys.executable, "-m", "ariel.cli", "campaign", "run", str(TINY_CAMPAIGN)]
     command += ["--executor", "local", "--workers", "2", "--out", str(folder), "--quiet"]
-    command += ["--set", "generations=6"]  # long enough to be under way when the signal comes
+    command += ["--set", "generations=30"]  # still under way 2 s after its runs start
     with err.open("wb") as stderr:
         process = subprocess.Popen(
             command,
