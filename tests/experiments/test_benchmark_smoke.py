@@ -63,8 +63,11 @@ def test_coevolution_benchmark_prints_json_summary_last(tmp_path: Path) -> None:
         "co-evolution loop",
         "body optimizer ga",
         "body optimizer map_elites",
+        "body optimizer novelty",
+        "body optimizer map_elites_cvt",
     ):
         assert label in table
+    assert {"novelty_vs_raw_ratio", "map_elites_cvt_vs_raw_ratio"} <= set(summary)
     # The runs went into a temporary folder that is gone again; nothing written here.
     assert list(tmp_path.iterdir()) == []
 
