@@ -19,13 +19,17 @@ from typing import Any
 
 import numpy as np
 
-from ariel.recording.rerun._rerun import APPLICATION_ID, _write_chunks, rerun_module, static_chunk
+from ariel.recording.rerun._rerun import (
+    APPLICATION_ID,
+    _write_chunks,
+    rerun_module,
+    save_blueprint,
+    static_chunk,
+)
 from ariel.recording.store import (
     CAMPAIGN_RRD,
-    atomic_write,
     best_so_far,
     load_campaign,
-    require_free_space,
 )
 
 __all__ = [
@@ -172,19 +176,7 @@ def write_campaign_blueprint(
         *side,
         collapse_panels=False,
     )
-
-    def write(temporary: Path) -> None:
-        require_free_space(temporary.parent, 1 << 20)
-        staging = temporary.with_name(temporary.name + ".rbl")  # rerun wants a .rbl name
-        try:
-            layout.save(APPLICATION_ID, str(staging))
-            os.replace(staging, temporary)
-        finally:
-            if staging.exists():
-                staging.unlink()
-
-    atomic_write(path, write)
-    return path
+    return save_blueprint(path, layout, APPLICATION_ID)
 
 
 def campaign_views(
