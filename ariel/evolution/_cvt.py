@@ -25,6 +25,7 @@ use the centroids the run used, whatever this code becomes.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import Any
 
@@ -69,9 +70,12 @@ def check_archive(archive: Any, bins: Any, cells: Any) -> int | None:
     return cells
 
 
+@functools.lru_cache(maxsize=8)
 def unit_centroids(seed: int, cells: int, dimensions: int) -> np.ndarray:
     """The ``(cells, dimensions)`` centroids of a CVT of the unit cube for run ``seed`` (see
-    the module docstring): the same for the same arguments, on any machine."""
+    the module docstring): the same for the same arguments, on any machine. Kept for the
+    next call (read-only): a run makes its archive twice, when `prepare_run` checks the
+    options and when the run starts."""
     from scipy.spatial import KDTree
 
     rng = derive_rng(seed, "cvt-centroids")
@@ -87,6 +91,7 @@ def unit_centroids(seed: int, cells: int, dimensions: int) -> np.ndarray:
         for d in range(dimensions):
             sums = np.bincount(labels, weights=samples[:, d], minlength=cells)
             centroids[:, d] = np.where(counts > 0, sums / np.maximum(counts, 1), centroids[:, d])
+    centroids.flags.writeable = False
     return centroids
 
 
