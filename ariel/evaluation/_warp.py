@@ -226,6 +226,27 @@ class _Run:
     period: int
     steps: np.ndarray  # physics steps of the recorded frames
     record_bodies: bool
+    call_times: np.ndarray  # simulated seconds of the controller calls
+    dt: float
+
+    @classmethod
+    def of(cls, head: EvaluationTask, model: Any, nworld: int) -> _Run:
+        """The run of ``nworld`` worlds of tasks timed like ``head`` on ``model``."""
+        nstep, period, dt = num_steps(head, model), head.control_period, model.opt.timestep
+        call_times = np.arange(0, nstep, period) * dt
+        steps = frame_steps(nstep, head.record_every)
+        ncalls, bodies = call_times.size, head.record_bodies
+        return cls(nworld, ncalls, nstep, period, steps, bodies, call_times, dt)
+
+    @property
+    def times(self) -> np.ndarray:
+        """Simulated seconds of the recorded frames."""
+        return self.steps * self.dt
+
+
+def _starts(count: int, size: int | None) -> range:
+    """Where each piece of ``count`` tasks starts, ``size`` (None: all) at a time."""
+    return range(0, count, size or count)
 
 
 @dataclass
@@ -361,7 +382,7 @@ class WarpEvaluator:
         """An open-loop group, ``max_worlds`` tasks at a time."""
         size = self.max_worlds or len(group.tasks)
         outs: list[EvaluationResult] = []
-        for start in range(0, len(group.tasks), size):
+        for start in _starts(len(group.tasks), size):
             piece = group.tasks[start : start + size]
             outs.extend(self._open_loop(piece, group.built, group.controller, group.fitness_fn))
         return outs
@@ -414,28 +435,21 @@ class WarpEvaluator:
         fitness_fn: Any,
     ) -> list[EvaluationResult]:
         head = tasks[0]
-        model = built.model
-        nstep = num_steps(head, model)
-        period = head.control_period
-        dt = model.opt.timestep
-        steps = frame_steps(nstep, head.record_every)
-        call_times = np.arange(0, nstep, period) * dt
+        run = _Run.of(head, built.model, len(tasks))
         start = _time.perf_counter()
         body = self._lone_body(head, built)
         parts: list[np.ndarray] = []
         if device_cpg_reason(controller) is None:
-            controls: Any = cpg_inputs(
-                controller, [(0, *net_inputs(tasks, model, controller))], call_times
-            )
+            nets = [(0, *net_inputs(tasks, built.model, controller))]
+            controls: Any = cpg_inputs(controller, nets, run.call_times)
         else:
-            controls = _kept(_control_pieces(tasks, built, controller, call_times), parts)
-        run = _Run(len(tasks), call_times.size, nstep, period, steps, head.record_bodies)
+            controls = _kept(_control_pieces(tasks, built, controller, run.call_times), parts)
         frames, controls = self._stepped(body, controls, parts, run, head.smoothing, controller)
         wall = (_time.perf_counter() - start) / len(tasks)
         if frames.held is None:  # the control in force at each frame (the last step's at the
             # end), as on the CPU, from the host's held controls
-            frames.held = controls[:, np.minimum(steps, nstep - 1) // period]
-        return self._results(tasks, built, fitness_fn, body, frames, steps * dt, wall)
+            frames.held = controls[:, np.minimum(run.steps, run.nstep - 1) // run.period]
+        return self._results(tasks, built, fitness_fn, body, frames, run.times, wall)
 
     def _packed(self, groups: list[TaskGroup]) -> list[list[EvaluationResult]]:
         """Groups of different bodies in one packed model, ``max_worlds`` worlds at a time."""
@@ -458,7 +472,7 @@ class WarpEvaluator:
         most = max(len(g.tasks) for g in groups)
         size = self.max_worlds or most
         outs: list[list[EvaluationResult]] = [[] for _ in groups]
-        for start in range(0, most, size):
+        for start in _starts(most, size):
             pieces = [g.tasks[start : start + size] or g.tasks[-1:] for g in groups]
             for k, results in enumerate(self._packed_piece(groups, packed, body, pieces)):
                 outs[k].extend(results[: max(0, len(groups[k].tasks) - start)])
@@ -468,19 +482,14 @@ class WarpEvaluator:
         self, groups: list[TaskGroup], packed: Any, body: _DeviceBody, pieces: list[Any]
     ) -> list[list[EvaluationResult]]:
         head = groups[0].tasks[0]
-        model = packed.model
-        nstep, period, dt = num_steps(head, model), head.control_period, model.opt.timestep
-        steps = frame_steps(nstep, head.record_every)
-        call_times = np.arange(0, nstep, period) * dt
+        run = _Run.of(head, packed.model, max(len(tasks) for tasks in pieces))
         start = _time.perf_counter()
         controller = groups[0].controller
-        inputs = packed_inputs(pieces, packed, controller, call_times)
-        nworld = inputs.z.shape[0]
-        run = _Run(nworld, call_times.size, nstep, period, steps, head.record_bodies)
+        inputs = packed_inputs(pieces, packed, controller, run.call_times)
         frames, _ = self._stepped(body, inputs, [], run, head.smoothing, controller)
-        wall = (_time.perf_counter() - start) / (nworld * len(groups))
+        wall = (_time.perf_counter() - start) / (run.nworld * len(groups))
         return [
-            self._results(tasks, g.built, g.fitness_fn, body, frames, steps * dt, wall, view)
+            self._results(tasks, g.built, g.fitness_fn, body, frames, run.times, wall, view)
             for g, tasks, view in zip(groups, pieces, robot_views(packed))
         ]
 

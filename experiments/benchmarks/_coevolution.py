@@ -24,7 +24,7 @@ OPTIONS = {"number_of_modules": 12}
 
 
 def parse_coevolution(text: str | None) -> tuple[int, int] | None:
-    """``"32x512"`` -> (32, 512); None stays None; ValueError for anything else."""
+    """``"32x1024"`` -> (32, 1024); None stays None; ValueError for anything else."""
     if not text:
         return None
     bodies, _, brains = text.lower().partition("x")
@@ -61,6 +61,7 @@ def _device(evaluator: Any, batches: list[list[EvaluationTask]], repeats: int) -
     start = time.perf_counter()
     results = evaluator.evaluate_batch(tasks)
     first = time.perf_counter() - start
+    print(f"  packed: first call {first:.1f} s (compiles, packing, capture)", flush=True)
     best = np.inf
     for _ in range(repeats):
         start = time.perf_counter()
@@ -80,6 +81,7 @@ def _cpu(batches: list[list[EvaluationTask]], brains: int, threads: int) -> floa
             for future in futures:
                 future.result()
             seconds = time.perf_counter() - start
+    print(f"  local executor: {seconds:.2f} s for {sum(map(len, work))} evaluations", flush=True)
     return seconds
 
 

@@ -91,7 +91,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--rate-hz", type=float, default=10.0, help="recorded frames per second")
     parser.add_argument("--seed", type=int, default=0, help="seeds the random parameters")
     parser.add_argument("--quick", action="store_true", help="smoke run on Warp's CPU device")
-    parser.add_argument("--coevolution", help="K bodies x P brains packed, e.g. 32x512")
+    parser.add_argument("--coevolution", help="K bodies x P brains packed, e.g. 32x1024")
     parser.add_argument("--coevolution-duration", type=float, default=8.0)
     parser.add_argument("--coevolution-cpu-brains", type=int, default=8)
     parser.add_argument(
@@ -277,7 +277,8 @@ def size_row(args: argparse.Namespace, worlds: int, evaluator: Any) -> dict[str,
     row = warp_row(args, tasks, evaluator)
     row |= bare_row(args, tasks, evaluator)
     row |= testspeed_row(args, tasks, tuple(row["buffer_sizes"]))
-    row["overhead_ratio"] = row["seconds"] / row["bare_seconds"]
+    row["overhead_ratio"] = row["seconds"] / row["bare_seconds"]  # times: >= 1
+    row["warp_over_bare"] = row["bare_seconds"] / row["seconds"]  # evals/s: the 0.9 target
     row["bare_over_testspeed"] = row["bare_steps_per_s"] / row["testspeed_steps_per_s"]
     same = row["bare_same_controls_steps_per_s"]
     row["bare_same_controls_over_testspeed"] = same / row["testspeed_steps_per_s"]
@@ -288,8 +289,8 @@ def size_row(args: argparse.Namespace, worlds: int, evaluator: Any) -> dict[str,
             f"{row[key + 'ns_per_world_step']:8.1f} ns/world-step"
         )
     print(
-        f"{'':<13} {worlds:>6} worlds: warp/bare {row['overhead_ratio']:.2f}, bare/testspeed "
-        f"{row['bare_over_testspeed']:.2f} (one control sequence for all worlds, as "
+        f"{'':<13} {worlds:>6} worlds: warp/bare {row['warp_over_bare']:.2f} (evals/s), "
+        f"bare/testspeed {row['bare_over_testspeed']:.2f} (one control sequence for all worlds, as "
         f"testspeed: {row['bare_same_controls_over_testspeed']:.2f}), first call "
         f"{row['first_call_s']:.1f} s" + (f", {row['not_ok']} not ok" if row["not_ok"] else "")
     )
