@@ -238,16 +238,6 @@ class _Run:
         ncalls, bodies = call_times.size, head.record_bodies
         return cls(nworld, ncalls, nstep, period, steps, bodies, call_times, dt)
 
-    @property
-    def times(self) -> np.ndarray:
-        """Simulated seconds of the recorded frames."""
-        return self.steps * self.dt
-
-
-def _starts(count: int, size: int | None) -> range:
-    """Where each piece of ``count`` tasks starts, ``size`` (None: all) at a time."""
-    return range(0, count, size or count)
-
 
 @dataclass
 class _Buffers:
@@ -382,7 +372,7 @@ class WarpEvaluator:
         """An open-loop group, ``max_worlds`` tasks at a time."""
         size = self.max_worlds or len(group.tasks)
         outs: list[EvaluationResult] = []
-        for start in _starts(len(group.tasks), size):
+        for start in range(0, len(group.tasks), size):
             piece = group.tasks[start : start + size]
             outs.extend(self._open_loop(piece, group.built, group.controller, group.fitness_fn))
         return outs
@@ -449,7 +439,7 @@ class WarpEvaluator:
         if frames.held is None:  # the control in force at each frame (the last step's at the
             # end), as on the CPU, from the host's held controls
             frames.held = controls[:, np.minimum(run.steps, run.nstep - 1) // run.period]
-        return self._results(tasks, built, fitness_fn, body, frames, run.times, wall)
+        return self._results(tasks, built, fitness_fn, body, frames, run.steps * run.dt, wall)
 
     def _packed(self, groups: list[TaskGroup]) -> list[list[EvaluationResult]]:
         """Groups of different bodies in one packed model, ``max_worlds`` worlds at a time."""
@@ -472,7 +462,7 @@ class WarpEvaluator:
         most = max(len(g.tasks) for g in groups)
         size = self.max_worlds or most
         outs: list[list[EvaluationResult]] = [[] for _ in groups]
-        for start in _starts(most, size):
+        for start in range(0, most, size):
             pieces = [g.tasks[start : start + size] or g.tasks[-1:] for g in groups]
             for k, results in enumerate(self._packed_piece(groups, packed, body, pieces)):
                 outs[k].extend(results[: max(0, len(groups[k].tasks) - start)])
@@ -488,8 +478,9 @@ class WarpEvaluator:
         inputs = packed_inputs(pieces, packed, controller, run.call_times)
         frames, _ = self._stepped(body, inputs, [], run, head.smoothing, controller)
         wall = (_time.perf_counter() - start) / (run.nworld * len(groups))
+        times = run.steps * run.dt
         return [
-            self._results(tasks, g.built, g.fitness_fn, body, frames, run.times, wall, view)
+            self._results(tasks, g.built, g.fitness_fn, body, frames, times, wall, view)
             for g, tasks, view in zip(groups, pieces, robot_views(packed))
         ]
 
