@@ -351,6 +351,32 @@ class NoveltySearch:
         """The result archive's description (`MapElites.archive_description`: a grid)."""
         return self.result.archive_description()
 
+    def novelty_rows(self) -> list[dict[str, Any]]:
+        """Rows of the ``novelty`` table after a `tell` (`NoveltyRow`): each body of the
+        population, ranked, with its novelty and local competition score as `stats` measures
+        them, and each member of the novelty archive, by body number."""
+        scores = self.scores(self._population)
+        rank = {b.number: i for i, b in enumerate(self._population)}
+        places = {b.number: self.place(b) for b in self._population}
+        numbers, _, member_places = self.members()
+        places.update(zip(numbers, member_places))
+        members = set(numbers)
+        rows = []
+        for number in sorted(places):
+            place = places[number]
+            novelty, competition = scores.get(number, (math.nan, -1))
+            rows.append(
+                {
+                    "body_id": Body(number, None, [], -1).body_id,
+                    "place": [] if place is None else [float(v) for v in place],
+                    "novelty": novelty,
+                    "local_competition": competition,
+                    "rank": rank.get(number, -1),
+                    "in_archive": number in members,
+                }
+            )
+        return rows
+
     def stats(self) -> dict[str, float]:
         """The result archive's `MapElites.stats`, with ``novelty_archive`` (members of the
         novelty archive) and ``mean_novelty`` (of the population's bodies that did not fail,

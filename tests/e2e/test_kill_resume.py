@@ -32,7 +32,7 @@ from ariel.evolution import run_experiment
 from ariel.recording import load_run
 from ariel.recording.store._tables import TABLES as ALL_TABLES
 
-TABLES = tuple(t for t in ALL_TABLES if t != "archive")  # MAP-Elites only; these runs are GA
+TABLES = tuple(t for t in ALL_TABLES if t not in ("archive", "novelty"))  # not GA tables
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -264,6 +264,16 @@ def test_stats_add_the_novelty_archive_to_the_qd_metrics() -> None:
     assert population_text(None, stats).endswith(
         f", novelty archive 5, mean novelty {fmt_value(stats['mean_novelty'])}"
     )
+    rows = search.novelty_rows()  # the novelty table's rows: population and archive
+    assert [row["body_id"] for row in rows] == [f"b{n:06d}" for n in range(5)]
+    assert sum(row["in_archive"] for row in rows) == stats["novelty_archive"]
+    ranked = sorted((row for row in rows if row["rank"] >= 0), key=lambda row: row["rank"])
+    assert [row["body_id"] for row in ranked] == ["b000004", "b000003", "b000000"]
+    assert np.mean([row["novelty"] for row in ranked]) == pytest.approx(stats["mean_novelty"])
+    outside = [row for row in rows if row["rank"] < 0]
+    assert len(outside) == 2  # B and C, in the archive only
+    assert all(math.isnan(row["novelty"]) and row["local_competition"] == -1 for row in outside)
+    assert all(len(row["place"]) == 2 and min(row["place"]) >= 0 for row in rows)
 
 
 # -- options -------------------------------------------------------------------------------------
@@ -360,6 +370,10 @@ def test_an_interrupted_novelty_run_resumes_to_the_same_records(
     resumed, whole = load_run(out), load_run(reference)
     assert len(whole.archive) and set(whole.archive["generation"]) == {0, 1, 2}
     pd.testing.assert_frame_equal(resumed.archive, whole.archive)
+    assert set(whole.novelty["generation"]) == {0, 1, 2}  # the novelty table, every generation
+    pd.testing.assert_frame_equal(resumed.novelty, whole.novelty)
+    last = whole.novelty[whole.novelty["generation"] == 2]
+    assert (last["rank"] >= 0).sum() == NSLC["body"]["population"]
     state = [
         json.loads((run / "checkpoints" / "state.json").read_text()) for run in (out, reference)
     ]

@@ -42,7 +42,7 @@ def test_a_grid_crossed_with_named_conditions_names_every_point_from_its_values(
 def test_the_shipped_campaigns_are_valid() -> None:
     for name, conditions in (
         ("inheritance", ["fresh", "inherit"]),
-        ("ga_vs_map_elites", ["ga", "map_elites"]),
+        ("ga_vs_map_elites", ["ga", "map_elites", "novelty"]),
     ):
         spec = load_campaign_file(REPO / "experiments" / "campaigns" / f"{name}.toml")
         assert [c.name for c in spec.conditions] == conditions and len(spec.seeds) == 5

@@ -198,6 +198,13 @@ class Run:
         return self._table("archive")
 
     @cached_property
+    def novelty(self) -> Any:
+        """Novelty search runs: after each generation, one row per body of the population
+        (its ``novelty``, ``local_competition`` and ``rank``) or of the novelty archive
+        (``in_archive``), with its normalised ``place``; empty for other runs."""
+        return self._table("novelty")
+
+    @cached_property
     def archive_description(self) -> dict[str, Any] | None:
         """MAP-Elites and novelty runs: what the archive is (``kind``, ``"grid"`` or ``"cvt"``;
         ``measures``; ``ranges``; a grid's ``bins`` or a CVT's ``cells`` and ``centroids``),

@@ -25,6 +25,7 @@ __all__ = [
     "ArchiveRow",
     "BodyRow",
     "EvaluationRow",
+    "NoveltyRow",
     "Row",
     "RowError",
     "TrajectoryRow",
@@ -291,7 +292,22 @@ class ArchiveRow(Row):
     grid: Int32s  # cells per measure, a CVT's [cells] (coverage = rows / their product)
 
 
+@dataclass(frozen=True, kw_only=True)
+class NoveltyRow(Row):
+    """Novelty search after a generation: a body of its population or of its novelty archive
+    (`ariel.evolution.NoveltySearch`; the ``novelty`` table, novelty runs only)."""
+
+    table: ClassVar[str] = "novelty"
+    generation: Int32
+    body_id: String
+    place: Floats  # the body's measures mapped to [0, 1]: where novelty is measured
+    novelty: Float64  # among the archive and the population; NaN: not in the population
+    local_competition: Int32  # neighbours it outwalks; -1: not in the population
+    rank: Int32  # place in the population's ranking, 0 = best; -1: not in the population
+    in_archive: Bool  # a member of the novelty archive after the generation
+
+
 #: Table name -> its row.
 ROWS: dict[str, type[Row]] = {
-    cls.table: cls for cls in (EvaluationRow, BodyRow, TrajectoryRow, ArchiveRow)
+    cls.table: cls for cls in (EvaluationRow, BodyRow, TrajectoryRow, ArchiveRow, NoveltyRow)
 }

@@ -16,7 +16,13 @@ from typing import Any
 
 from ariel.recording.store._load import FAILED_STATUSES
 from ariel.recording.store._manifest import write_manifest
-from ariel.recording.store._row_types import ArchiveRow, BodyRow, EvaluationRow, table_columns
+from ariel.recording.store._row_types import (
+    ArchiveRow,
+    BodyRow,
+    EvaluationRow,
+    NoveltyRow,
+    table_columns,
+)
 from ariel.recording.store._tables import trajectory_columns, write_table
 
 __all__ = ["RunWriter", "body_row", "error_row", "evaluation_row"]
@@ -194,9 +200,11 @@ class RunWriter:
         generation: int,
         bodies: Sequence[tuple[Any, bool, bool]],
         archive: Sequence[dict[str, Any]] | None = None,
+        novelty: Sequence[dict[str, Any]] | None = None,
     ) -> dict[str, int]:
         """Write the generation's tables (``bodies``: (body, is_new, selected); ``archive``:
-        a MAP-Elites archive's rows, see `ArchiveRow`) and run.rrd.
+        a MAP-Elites archive's rows, see `ArchiveRow`; ``novelty``: novelty search's rows, see
+        `NoveltyRow`) and run.rrd.
 
         Returns the counts of evaluations rows written, by status (``rows``: all of them).
         """
@@ -218,6 +226,9 @@ class RunWriter:
         if archive is not None:
             cells = [ArchiveRow.of({"generation": generation, **row}) for row in archive]
             write_table(self.path, "archive", generation, table_columns(ArchiveRow, cells))
+        if novelty is not None:
+            rows_n = [NoveltyRow.of({"generation": generation, **row}) for row in novelty]
+            write_table(self.path, "novelty", generation, table_columns(NoveltyRow, rows_n))
         if self.recorder is not None:
             self.recorder.generation(generation, [row.record() for row in body_rows], archive)
         write_manifest(self.path, generation)  # the tables' sizes and hashes; before the checkpoint

@@ -25,6 +25,7 @@ from ariel.recording.store._row_types import (
     ArchiveRow,
     BodyRow,
     EvaluationRow,
+    NoveltyRow,
     TrajectoryRow,
     check_columns,
     row_schema,
@@ -54,7 +55,7 @@ __all__ = [
 ]
 
 #: Table name -> folder in the run folder.
-TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories", "archive")
+TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories", "archive", "novelty")
 #: Where each finished generation's manifest (its tables' sizes and SHA-256) lives.
 MANIFEST_DIR = "manifests"
 _GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
@@ -81,6 +82,11 @@ def trajectory_schema() -> pa.Schema:
 def archive_schema() -> pa.Schema:
     """A MAP-Elites archive after a generation: one row per filled cell."""
     return row_schema(ArchiveRow)
+
+
+def novelty_schema() -> pa.Schema:
+    """Novelty search after a generation: one row per body of its population or archive."""
+    return row_schema(NoveltyRow)
 
 
 def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> dict[str, Any]:
@@ -125,6 +131,7 @@ _SCHEMAS = {
     "bodies": body_schema,
     "trajectories": trajectory_schema,
     "archive": archive_schema,
+    "novelty": novelty_schema,
 }
 
 
@@ -274,8 +281,9 @@ def row_limit(config: Mapping[str, Any] | None, table: str, generation: int) -> 
       iterations of ``brain.popsize`` (a body that cannot be built or has no parameters: fewer),
       and a generation makes ``body.population`` (generation 0) or ``body.offspring`` bodies
       (a brain-only run: one);
-    - ``bodies`` and ``archive``: the bodies of the generation and the parents it keeps (the
-      elites), each once: at most every body made so far;
+    - ``bodies``, ``archive`` and ``novelty``: the bodies of the generation and the parents it
+      keeps (the elites, the novelty archive's members), each once: at most every body made so
+      far;
     - ``trajectories``: a frame every ``round(1 / (record.rate_hz x timestep))`` physics steps
       of ``task.duration``, plus the first and last (`ariel.evaluation._engine.frame_steps`):
       at most 3 x duration x rate_hz + 4 per evaluation, whatever the world's timestep.
@@ -295,7 +303,7 @@ def row_limit(config: Mapping[str, Any] | None, table: str, generation: int) -> 
     evaluations = int(bodies * per_body)
     if table == "evaluations":
         return evaluations
-    if table in ("bodies", "archive"):
+    if table in ("bodies", "archive", "novelty"):
         return int(bodies) * (max(generation, 0) + 1)
     duration = _config_number(config, "task.duration", whole=False)
     rate = _config_number(config, "record.rate_hz", whole=False)
