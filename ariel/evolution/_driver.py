@@ -144,7 +144,7 @@ class BrainWork:
             body.best_params = job.run.best_params.tolist()  # type: ignore[union-attr]
             body.best_eval_id = self._tasks[improved].eval_id
         driver.candidates.extend(float(r.fitness) for r in results if math.isfinite(r.fitness))
-        driver.progress.advance(len(results), driver.best_so_far())
+        driver.advance(len(results), driver.best_so_far())
 
     def failed_result(self, task: Any, reason: str) -> Any:
         from ariel.evaluation import EvaluationResult
@@ -196,8 +196,16 @@ class RunDriver:
         # The finite fitnesses of this generation's evaluations (a brain-only run's progress
         # line shows their mean: the population is one body, whose mean is its best).
         self.candidates: list[float] = []
+        # Evaluations run or skipped (failed bodies) so far: the checkpoint's count, kept here
+        # and shown by the progress display, which only draws it.
+        self.budget_done = state.budget_done if state is not None else 0
         self._started = time.perf_counter()
         self._wall_before = state.wall_seconds if state is not None else 0.0
+
+    def advance(self, evaluations: int, best: float | None = None) -> None:
+        """Count ``evaluations`` as done (run, or skipped for a failed body) and show it."""
+        self.budget_done += evaluations
+        self.progress.advance(evaluations, best)
 
     @property
     def first_generation(self) -> int:
@@ -267,13 +275,13 @@ class RunDriver:
             if child.status == "error":
                 self.records.body_failed(child, generation, self.plugins.worst)
                 child.fitness = self.plugins.worst
-                self.progress.advance(each)
+                self.advance(each)
                 continue
             jobs.append(
                 factory.job(child, factory.new_brain(child, by_id), config.brain.iterations)
             )
             if child.n_params == 0:  # one evaluation: count the rest as done
-                self.progress.advance(each - 1)
+                self.advance(each - 1)
         return jobs
 
     # -- the end of a generation ---------------------------------------------------------------
@@ -298,7 +306,7 @@ class RunDriver:
             generation, rows, archive() if archive else None, novelty() if novelty else None
         )
         state.evaluations_done += counts["rows"]
-        state.budget_done = self.progress.done
+        state.budget_done = self.budget_done
         state.wall_seconds = self.wall_seconds
         self.records.save_checkpoint(state_to_plain(state))
         best, mean = summary(state.population, self.plugins.maximise)
