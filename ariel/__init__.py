@@ -23,11 +23,12 @@ __all__ = ["__version__", "console", "run_experiment"]
 
 def __getattr__(name: str) -> Any:
     if name == "run_experiment":
+        # lazy: `import ariel` stays light (ariel.runs loads the evolution driver, numpy, pydantic)
         from ariel.runs import run_experiment
 
         return run_experiment
     if name == "console":
-        from rich.console import Console
+        from rich.console import Console  # lazy: `import ariel` stays light (rich: ~0.1 s)
 
         console = globals()["console"] = Console()  # one shared console, as upstream's
         return console

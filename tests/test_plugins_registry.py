@@ -248,6 +248,8 @@ def test_importing_plugins_imports_no_engine() -> None:
     assert ariel_modules.split() == [
         "ariel",
         "ariel._builtin_names",
+        "ariel._plugin_kinds",
+        "ariel._plugin_registry",
         "ariel._version",
         "ariel.errors",
         "ariel.plugins",

@@ -1,6 +1,7 @@
 """``ariel campaign run | resume | status`` and ``ariel compare``: parsing and one-line errors.
 
-Like `ariel.cli`, every command imports what it needs only when it runs.
+Like every command, these reach `ariel.runs` and `ariel.recording.analysis` through their lazy
+faces (`ariel.cli`): nothing of them is imported until a command runs.
 """
 
 from __future__ import annotations
@@ -11,29 +12,41 @@ import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar
 
+from ariel import runs
+from ariel.cli._common import fail
+from ariel.cli._live import LiveView
+from ariel.cli._options import add_executor_options
 from ariel.cli._types import positive_int
+from ariel.errors import (
+    ConfigError,
+    DuplicatePluginError,
+    NotARunError,
+    PluginLoadError,
+    RunInUseError,
+    RunStorageError,
+)
+from ariel.recording import analysis
+from ariel.recording.store import terminal_text
+from ariel.utils import ariel_command, load_run_command, report_interrupted
+from ariel.utils.interrupts import stop_on_signals
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ariel.cli._common import SubParsers
+    from ariel.runs import CampaignResult
 
 __all__ = ["add_campaign_commands"]
 
-EXIT_USAGE = 2
+T = TypeVar("T")
 
 
-def _fail(message: str) -> int:
-    print(f"ariel: error: {message}", file=sys.stderr)
-    return EXIT_USAGE
-
-
-def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str | None) -> int:
+def _guarded(start: Callable[[], T], show: Callable[[T], None], hint: str | None) -> int:
     """``start()``; bad input, a folder in use or that cannot be written -> one line, exit 2;
     Ctrl-C -> how to resume: the folder the interrupt names (its ``campaign_dir``,
     `ariel.runs`), else ``hint``, else none (nothing was written yet)."""
-    from ariel.evolution import ConfigError
-    from ariel.plugins import DuplicatePluginError, PluginLoadError
-    from ariel.recording import NotARunError, RunInUseError, RunStorageError
-    from ariel.utils.interrupts import stop_on_signals
-
     try:
         with stop_on_signals():
             result = start()
@@ -47,17 +60,15 @@ def _guarded(start: Callable[[], Any], show: Callable[[Any], None], hint: str | 
         RunStorageError,
         ValueError,
     ) as exc:
-        return _fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+        return fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
     except KeyboardInterrupt as exc:
-        from ariel.utils import report_interrupted
-
         folder = getattr(exc, "campaign_dir", None) or hint
         return report_interrupted(exc, folder, "campaign", "resume")
     show(result)
     return 0
 
 
-def _show_campaign(result: Any) -> None:
+def _show_campaign(result: CampaignResult) -> None:
     quoted = shlex.quote(str(result.path))
     finished = sum(r.status == "finished" for r in result.runs)
     skipped = f" ({result.skipped} finished before, skipped)" if result.skipped else ""
@@ -68,8 +79,6 @@ def _show_campaign(result: Any) -> None:
         f"worker{'' if result.workers == 1 else 's'})"
     )
     print(f"campaign folder: {result.path}")
-    from ariel.utils import ariel_command, load_run_command
-
     ariel = ariel_command()
     # the last generation's best fitness, condition x seed
     shown = (
@@ -85,15 +94,12 @@ def _show_campaign(result: Any) -> None:
 
 
 def _cmd_campaign_run(args: argparse.Namespace) -> int:
-    from ariel.cli._live import LiveView
-    from ariel.runs import run_campaign
-
     if args.dry_run:
         return _guarded(lambda: _plan(args), lambda lines: print("\n".join(lines)), None)
     live = LiveView(args, "campaign.json")  # --live: the watcher on the folder, beside it
 
-    def start() -> Any:
-        return run_campaign(
+    def start() -> CampaignResult:
+        return runs.run_campaign(
             args.file,
             out=live.campaign_folder(args.out, args.file, args.set),
             executor=args.executor,
@@ -109,28 +115,23 @@ def _cmd_campaign_run(args: argparse.Namespace) -> int:
 
 def _plan(args: argparse.Namespace) -> list[str]:
     """`--dry-run`: the campaign's conditions x seeds x evaluations and a timed estimate."""
-    from ariel.recording.store import terminal_text
-    from ariel.runs import campaign_plan, plan_text
 
     def timing() -> None:
         if not args.quiet:
             print("timing a few evaluations of each condition here ...", file=sys.stderr)
 
-    plan = campaign_plan(
+    plan = runs.campaign_plan(
         args.file, tuple(args.set), executor=args.executor, workers=args.workers, on_timing=timing
     )
-    return [terminal_text(line) for line in plan_text(plan)]
+    return [terminal_text(line) for line in runs.plan_text(plan)]
 
 
 def _cmd_campaign_resume(args: argparse.Namespace) -> int:
-    from ariel.cli._live import LiveView
-    from ariel.runs import resume_campaign
-
     live = LiveView(args, "campaign.json")
 
-    def start() -> Any:
+    def start() -> CampaignResult:
         live.start(args.campaign_dir)
-        return resume_campaign(
+        return runs.resume_campaign(
             args.campaign_dir,
             executor=args.executor,
             workers=args.workers,
@@ -138,16 +139,14 @@ def _cmd_campaign_resume(args: argparse.Namespace) -> int:
             progress=not args.quiet,
         )
 
-    resumed: list[Any] = []
+    resumed: list[CampaignResult] = []
 
-    def show(result: Any) -> None:
+    def show(result: CampaignResult) -> None:
         resumed.append(result)
         _show_campaign(result)
 
     code = live.finish(_guarded(live.guard(start), show, args.campaign_dir))
     if code == 0 and resumed and resumed[0].damaged:
-        from ariel.recording.store import terminal_text
-
         for line in resumed[0].damaged:  # the others went on: say which did not, and why
             print(f"ariel: error: {terminal_text(line)}", file=sys.stderr)
         return EXIT_SKIPPED
@@ -159,21 +158,18 @@ EXIT_SKIPPED = 1
 
 
 def _cmd_campaign_status(args: argparse.Namespace) -> int:
+    # lazy: rich takes ~0.2 s to import, and every `ariel` command imports this module
     from rich.console import Console
-    from rich.table import Table
-    from rich.text import Text
-
-    from ariel.recording import NotARunError
-    from ariel.recording.store import terminal_text
-    from ariel.runs import campaign_status
+    from rich.table import Table  # lazy: rich, as above
+    from rich.text import Text  # lazy: rich, as above
 
     def shown(value: object) -> Text:  # from the folder: no rich markup, no control sequence
         return Text(terminal_text(value))
 
     try:
-        rows = campaign_status(args.campaign_dir)
+        rows = runs.campaign_status(args.campaign_dir)
     except NotARunError as exc:
-        return _fail(terminal_text(exc))
+        return fail(terminal_text(exc))
     table = Table(title=shown(f"campaign {args.campaign_dir}"))
     for name, justify in (
         ("condition", "left"),
@@ -198,14 +194,13 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_frame(frame: Any, title: str) -> None:
+def _print_frame(frame: pd.DataFrame, title: str) -> None:
     """A table of text (a `Comparison` table) with rich, as wide as it needs. Names from the
     folders are shown as text: one line, no control sequence, no rich markup."""
+    # lazy: rich takes ~0.2 s to import, and every `ariel` command imports this module
     from rich.console import Console
-    from rich.table import Table
-    from rich.text import Text
-
-    from ariel.recording.store import terminal_text
+    from rich.table import Table  # lazy: rich, as above
+    from rich.text import Text  # lazy: rich, as above
 
     table = Table(title=Text(terminal_text(title)))
     for heading in frame.columns:
@@ -224,30 +219,27 @@ def _label(text: str) -> tuple[str, str]:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from ariel.recording import NotARunError
-    from ariel.recording.analysis import CompareError, compare, shown_path
-    from ariel.recording.store import terminal_text as shown
-
+    shown, shown_path = terminal_text, analysis.shown_path
     labels: dict[str, str] = {}
     for name, folder in args.label:
         if labels.setdefault(folder, name) != name:
-            return _fail(shown(f"{folder!r} has two labels, {labels[folder]!r} and {name!r}"))
+            return fail(shown(f"{folder!r} has two labels, {labels[folder]!r} and {name!r}"))
 
     def announce(line: str) -> None:
         print(f"note: {shown(line)}", file=sys.stderr, flush=True)
 
     try:
-        comparison = compare(
+        comparison = analysis.compare(
             args.paths,
             out=args.out,
             at_evaluations=args.at_evaluations,
             labels=labels or None,
             announce=announce,
         )
-    except (CompareError, NotARunError) as exc:
-        return _fail(shown(exc))
+    except (analysis.CompareError, NotARunError) as exc:
+        return fail(shown(exc))
     except OSError as exc:  # a folder that cannot be read or written: no permission, disk full
-        return _fail(shown(f"cannot compare: {exc}"))
+        return fail(shown(f"cannot compare: {exc}"))
     direction = "higher" if comparison.maximise else "lower"
     about = f"{comparison.title}: {comparison.fitness_fn}, {direction} is better"
     print(
@@ -271,12 +263,19 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None]) -> None:
+def add_campaign_commands(sub: SubParsers) -> None:
     """Add ``campaign`` (with run, resume, status) and ``compare`` to the sub-parsers."""
     campaign = sub.add_parser(
         "campaign", help="conditions x seeds as one command: run, resume, status"
     )
     actions = campaign.add_subparsers(dest="action", metavar="ACTION", required=True)
+    _add_campaign_run(actions)
+    _add_campaign_resume_and_status(actions)
+    _add_compare(sub)
+
+
+def _add_campaign_run(actions: SubParsers) -> None:
+    """``ariel campaign run``."""
     p = actions.add_parser("run", help="run every condition x seed of a campaign file")
     p.add_argument("file", metavar="FILE", help="campaign TOML file")
     p.add_argument(
@@ -296,6 +295,9 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
     add_executor_options(p)
     p.set_defaults(func=_cmd_campaign_run)
 
+
+def _add_campaign_resume_and_status(actions: SubParsers) -> None:
+    """``ariel campaign resume`` and ``ariel campaign status``."""
     p = actions.add_parser("resume", help="continue the unfinished runs of a campaign")
     p.add_argument("campaign_dir", metavar="DIR", help="a campaign folder")
     add_executor_options(p)
@@ -305,6 +307,9 @@ def add_campaign_commands(sub: Any, add_executor_options: Callable[[Any], None])
     p.add_argument("campaign_dir", metavar="DIR", help="a campaign folder")
     p.set_defaults(func=_cmd_campaign_status)
 
+
+def _add_compare(sub: SubParsers) -> None:
+    """``ariel compare``."""
     p = sub.add_parser(
         "compare",
         help="compare a campaign's conditions (or run folders) with statistics and figures",

@@ -15,7 +15,13 @@ import math
 import re
 import shlex
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING
+
+from ariel import evolution
+
+if TYPE_CHECKING:
+    from ariel.cli._common import SubParsers
+    from ariel.evolution import ExperimentConfig
 
 __all__ = ["add_config_commands", "to_toml"]
 
@@ -26,7 +32,7 @@ def _key(name: str) -> str:
     return name if _BARE_KEY.fullmatch(name) else json.dumps(name)
 
 
-def _value(value: Any) -> str:
+def _value(value: object) -> str:
     """One TOML value: strings, numbers, booleans, arrays and inline tables."""
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -48,7 +54,9 @@ def _value(value: Any) -> str:
     raise TypeError(f"no TOML form for {type(value).__name__}: {value!r}")
 
 
-def to_toml(config: Mapping[str, Any], unused: Mapping[str, tuple[str, bool]] | None = None) -> str:
+def to_toml(
+    config: Mapping[str, object], unused: Mapping[str, tuple[str, bool]] | None = None
+) -> str:
     """``config`` as TOML: plain keys first, then one ``[table]`` per nested mapping whose values
     are inline (options tables as inline tables). ``None`` values become comments.
 
@@ -56,10 +64,10 @@ def to_toml(config: Mapping[str, Any], unused: Mapping[str, tuple[str, bool]] | 
     written as a comment (``# key = value  (why)``) when ``as_comment``, else as a key with
     ``# why`` after it."""
     lines: list[str] = []
-    tables: list[tuple[str, Mapping[str, Any]]] = []
+    tables: list[tuple[str, Mapping[str, object]]] = []
     unused = unused or {}
 
-    def write(entries: Mapping[str, Any], prefix: str = "") -> None:
+    def write(entries: Mapping[str, object], prefix: str = "") -> None:
         for name, value in entries.items():
             if value is None:
                 lines.append(f"# {_key(str(name))}: not set")
@@ -82,7 +90,7 @@ def to_toml(config: Mapping[str, Any], unused: Mapping[str, tuple[str, bool]] | 
     return "\n".join(lines) + "\n"
 
 
-def _unused_keys(config: Any) -> dict[str, tuple[str, bool]]:
+def _unused_keys(config: ExperimentConfig) -> dict[str, tuple[str, bool]]:
     """The keys ``config``'s executor does not use: ``executor.device`` unless the kind is
     ``gpu``; a comment at its default, else kept (it reads back the same) with a note."""
     executor = config.executor
@@ -94,9 +102,8 @@ def _unused_keys(config: Any) -> dict[str, tuple[str, bool]]:
 
 
 def _cmd_config_show(args: argparse.Namespace) -> int:
-    from ariel.evolution import load_config
-
-    config = load_config(args.file, args.set)  # a bad file, key or value: ConfigError, one line
+    # a bad file, key or value: ConfigError, one line
+    config = evolution.load_config(args.file, args.set)
     source = args.file or "the default experiment (experiments/coevolve_flat.toml)"
     overrides = "".join(f" --set {shlex.quote(item)}" for item in args.set)
     print(f"# {source}{overrides}, resolved: every key, defaults included")
@@ -105,7 +112,7 @@ def _cmd_config_show(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_config_commands(sub: Any) -> None:
+def add_config_commands(sub: SubParsers) -> None:
     """Add ``config show`` to the sub-parsers."""
     config = sub.add_parser("config", help="the resolved experiment: ariel config show [FILE]")
     actions = config.add_subparsers(dest="action", metavar="ACTION", required=True)

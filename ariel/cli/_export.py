@@ -1,8 +1,7 @@
 """``ariel export``: one evaluation into a folder (`ariel.recording.resim.export`), the run's
 lineage as the ALife data standard's phylogeny CSV (``--lineage FILE.csv``), or both.
 
-Like `ariel.cli`, the command imports what it needs only when it runs; bad input is one line
-on stderr and exit code 2.
+Bad input is one line on stderr and exit code 2.
 """
 
 from __future__ import annotations
@@ -10,21 +9,22 @@ from __future__ import annotations
 import argparse
 import os
 import shlex
-import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
+
+from ariel import recording
+from ariel.cli._common import fail
+from ariel.recording import resim
+from ariel.recording.store import cannot_write
+from ariel.utils import python_command
+
+if TYPE_CHECKING:
+    from ariel.cli._common import SubParsers
 
 __all__ = ["add_export_command"]
 
-EXIT_USAGE = 2
 
-
-def _fail(message: str) -> int:
-    print(f"ariel: error: {message}", file=sys.stderr)
-    return EXIT_USAGE
-
-
-def add_export_command(sub: Any) -> None:
+def add_export_command(sub: SubParsers) -> None:
     """The ``export`` sub-command, on the ``ariel`` parser's sub-parsers ``sub``."""
     p = sub.add_parser(
         "export",
@@ -51,18 +51,15 @@ def add_export_command(sub: Any) -> None:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from ariel.recording.resim import export
-    from ariel.utils import python_command
-
     if args.out is None and (args.lineage is None or args.eval_id is not None):
-        return _fail(
+        return fail(
             "export: give EVAL_ID and DIR (one evaluation), --lineage FILE.csv (the run's "
             "lineage), or both (see ariel export --help)"
         )
     if args.lineage is not None and os.path.lexists(args.lineage):  # a dangling link too
-        return _fail(_exists(args.lineage))  # before anything is written
+        return fail(_exists(args.lineage))  # before anything is written
     if args.out is not None:
-        out = export(args.run_dir, args.eval_id, args.out)
+        out = resim.export(args.run_dir, args.eval_id, args.out)
         python = python_command()
         body, replay = (shlex.quote(str(out / name)) for name in ("body.xml", "replay.py"))
         print(
@@ -78,16 +75,13 @@ def _exists(path: str | Path) -> str:
 
 def _export_lineage(run_dir: str, path: Path) -> int:
     """The run's lineage (`ariel.recording.Run.lineage`) as the standard's CSV at ``path``."""
-    from ariel.recording import load_run, write_lineage_csv
-    from ariel.recording.store import cannot_write
-
-    frame = load_run(run_dir).lineage()
+    frame = recording.load_run(run_dir).lineage()
     try:
-        write_lineage_csv(frame, path)
+        recording.write_lineage_csv(frame, path)
     except FileExistsError:  # made since the check in _cmd_export
-        return _fail(_exists(path))
+        return fail(_exists(path))
     except OSError as exc:  # no permission, a full disk, a file where a folder goes
-        return _fail(cannot_write(exc, path))
+        return fail(cannot_write(exc, path))
     alive = int(frame["destruction_time"].isna().sum())
     print(
         f"wrote {path}: the lineage of {len(frame):,} bodies ({alive:,} in the final "

@@ -1,16 +1,25 @@
 """``ariel gallery RUN|CAMPAIGN``: the bodies of a run (or the best of each run of a campaign)
 side by side, a PNG contact sheet and a self-contained HTML page (`ariel.recording.make_gallery`).
 
-Like `ariel.cli`, the command imports what it needs only when it runs. Bad input (a folder that
-is not a run, ``--of archive`` of a run without an archive) is one line and exit code 2,
-through `ariel.cli.main`. Where nothing can be drawn (no OpenGL) the gallery is still written,
+Like every command, it reaches `ariel.recording.analysis` through its lazy face (`ariel.cli`):
+mujoco is imported after the GL backend is chosen. Bad input (a folder that is not a run,
+``--of archive`` of a run without an archive) is one line and exit code 2, through
+`ariel.cli.main`. Where nothing can be drawn (no OpenGL) the gallery is still written,
 without pictures, one line says why, and the exit code is 0, as `ariel report` does.
 """
 
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
+
+from ariel.cli._common import headless_unless_display
+from ariel.cli._types import positive_int
+from ariel.recording import analysis
+from ariel.recording.store import terminal_text
+
+if TYPE_CHECKING:
+    from ariel.cli._common import SubParsers
 
 __all__ = ["add_gallery_command"]
 
@@ -18,10 +27,8 @@ __all__ = ["add_gallery_command"]
 OF = ("final", "elites", "archive", "lineage-of-best")
 
 
-def add_gallery_command(sub: Any) -> None:
+def add_gallery_command(sub: SubParsers) -> None:
     """Add ``ariel gallery`` to the sub-command parsers ``sub``."""
-    from ariel.cli._types import positive_int
-
     p = sub.add_parser(
         "gallery",
         help="the bodies of a run side by side: a PNG contact sheet and an HTML page "
@@ -54,14 +61,9 @@ def add_gallery_command(sub: Any) -> None:
 
 
 def _cmd_gallery(args: argparse.Namespace) -> int:
-    from ariel.utils import ensure_headless_gl, has_display
-
-    if not has_display():  # before mujoco is imported: it draws off-screen (EGL)
-        ensure_headless_gl(without="MUJOCO_GL=disable to write the gallery without pictures")
-    from ariel.recording.analysis import make_gallery
-    from ariel.recording.store import terminal_text
-
-    gallery = make_gallery(args.folder, of=args.of, out=args.out, workers=args.workers)
+    # before mujoco is imported: it draws off-screen (EGL)
+    headless_unless_display("MUJOCO_GL=disable to write the gallery without pictures")
+    gallery = analysis.make_gallery(args.folder, of=args.of, out=args.out, workers=args.workers)
     drawn = f"thumbnails: {gallery.drawn} drawn, {gallery.reused} reused from before"
     print(terminal_text(f"{gallery.title}; {drawn}"))
     for note in gallery.notes:  # e.g. why the thumbnails are missing: one line each

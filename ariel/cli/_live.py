@@ -3,13 +3,13 @@ resume``: the live view of the run beside it.
 
 The live view is ``ariel watch`` itself, as a child process reading the folder: one mechanism
 for a run watched from here, from another terminal or from another machine. The child starts
-before the run, waits for the folder's ``run.json`` (``campaign.json``) to be written, then
-becomes ``python -m ariel.cli watch DIR [--web]`` (``exec``). The run never waits on it: it
-shares nothing with it but the folder, which the watcher only reads. The child dies with this
-process (Linux: ``PR_SET_PDEATHSIG``). It ignores SIGINT: Ctrl-C interrupts the run, which
-then stops the watcher (SIGTERM: it saves what it logged and ends). When the run ends, the
-command says that the view stays open and waits until its window is closed (with ``--web``:
-until Ctrl-C).
+before the run, waits for the folder's ``run.json`` (``campaign.json``) to be written
+(`ariel.cli._live_child`), then becomes ``python -m ariel.cli watch DIR [--web]`` (``exec``).
+The run never waits on it: it shares nothing with it but the folder, which the watcher only
+reads. The child dies with this process (Linux: ``PR_SET_PDEATHSIG``). It ignores SIGINT:
+Ctrl-C interrupts the run, which then stops the watcher (SIGTERM: it saves what it logged and
+ends). When the run ends, the command says that the view stays open and waits until its
+window is closed (with ``--web``: until Ctrl-C).
 
 ``ARIEL_WATCH_ARGS``: more options for the watcher (``--no-viewer --save FILE.rrd
 --until-finished`` in the tests and benchmarks), split as a shell would.
@@ -28,15 +28,27 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from ariel import runs
+from ariel.cli._common import DEFAULT_RUNS
+from ariel.errors import ConfigError
+from ariel.recording import viewer
+from ariel.utils import has_display
+
+if TYPE_CHECKING:
+    from ariel.evolution import ExperimentConfig
 
 __all__ = ["WATCH_ARGS_ENV", "LiveView"]
+
+T = TypeVar("T")
 
 #: Environment variable with more options for the watcher, e.g. ``--no-viewer --save F.rrd``.
 WATCH_ARGS_ENV = "ARIEL_WATCH_ARGS"
 #: Seconds a stopped watcher gets to end before it is killed.
 STOP_TIMEOUT_S = 5.0
-_WAIT_S = 0.1  # how often the waiting child looks for the folder
+#: The child's module: it waits for the folder, then becomes the watcher.
+CHILD = "ariel.cli._live_child"
 #: The watcher's (and its viewer's) niceness: below the run's when the CPUs are all busy,
 #: its share then is a small one; idle CPUs it gets in full.
 WATCHER_NICENESS = 10
@@ -65,16 +77,18 @@ class LiveView:
         web = ["--web"] if self.web else []
         return [sys.executable, "-m", "ariel.cli", "watch", str(folder), *web, *extra]
 
-    def run_folder(self, out: str | None, config: Any, overrides: Sequence[str]) -> str | None:
+    def run_folder(
+        self,
+        out: str | None,
+        config: ExperimentConfig | str | Path | dict[str, Any] | None,
+        overrides: Sequence[str],
+    ) -> str | None:
         """``ariel run``'s folder (``out``, else the default one, named as `run_experiment`
         names it) with the watcher started on it; ``out`` unchanged when not live."""
         if not self.enabled:
             return out
         if out is None:
-            from ariel.cli import DEFAULT_RUNS
-            from ariel.runs import load_config, new_run_id
-
-            out = str(Path(DEFAULT_RUNS) / new_run_id(load_config(config, overrides)))
+            out = str(Path(DEFAULT_RUNS) / runs.new_run_id(runs.load_config(config, overrides)))
         self.start(out)
         return out
 
@@ -85,10 +99,8 @@ class LiveView:
         if not self.enabled:
             return out
         if out is None:
-            from ariel.runs import load_campaign_file, new_campaign_id
-
-            spec = load_campaign_file(file, tuple(overrides))
-            out = str(Path("data") / "campaigns" / new_campaign_id(spec.name))
+            spec = runs.load_campaign_file(file, tuple(overrides))
+            out = str(Path("data") / "campaigns" / runs.new_campaign_id(spec.name))
         self.start(out)
         return out
 
@@ -99,13 +111,11 @@ class LiveView:
         live."""
         if not self.enabled or self.proc is not None:
             return
-        from ariel.recording.viewer import die_with_parent
-
         self._check_display()
         self.folder = Path(folder)
         since = time.time() - 0.05  # file times may lag the clock a little
-        waiter = [sys.executable, "-m", "ariel.cli._live", str(folder), self.marker, str(since)]
-        die = die_with_parent()
+        waiter = [sys.executable, "-m", CHILD, str(folder), self.marker, str(since)]
+        die = viewer.die_with_parent()
 
         def preexec() -> None:  # started before the run: no busy threads yet
             # Ctrl-C is this process's to handle: it stops the watcher then, with SIGTERM
@@ -123,9 +133,6 @@ class LiveView:
 
     def _check_display(self) -> None:
         """The native viewer needs a display: without one, say so before the run starts."""
-        from ariel.errors import ConfigError
-        from ariel.utils import has_display
-
         headless = "--no-viewer" in shlex.split(os.environ.get(WATCH_ARGS_ENV, ""))
         if not (self.web or headless or has_display()):
             raise ConfigError(
@@ -134,10 +141,10 @@ class LiveView:
                 "an SSH tunnel line are printed)"
             )
 
-    def guard(self, start: Callable[[], Any]) -> Callable[[], Any]:
+    def guard(self, start: Callable[[], T]) -> Callable[[], T]:
         """``start``, noting an interruption (Ctrl-C, SIGTERM): the view then stops too."""
 
-        def guarded() -> Any:
+        def guarded() -> T:
             try:
                 return start()
             except KeyboardInterrupt:
@@ -184,25 +191,3 @@ class LiveView:
             with contextlib.suppress(subprocess.TimeoutExpired):
                 proc.wait(timeout=STOP_TIMEOUT_S)
         proc.wait()
-
-
-def _wait_then_watch(argv: Sequence[str]) -> int:
-    """The child: ``FOLDER MARKER SINCE COMMAND...``; wait until ``FOLDER/MARKER`` was
-    written at ``SINCE`` (a time) or later, then become ``COMMAND``."""
-    folder, marker, since, *command = argv
-    path = Path(folder) / marker
-    try:
-        while True:
-            with contextlib.suppress(OSError):
-                if path.stat().st_mtime >= float(since):
-                    break
-            time.sleep(_WAIT_S)
-    except KeyboardInterrupt:  # Ctrl-C before the folder was made: nothing to show
-        return 130
-    sys.stdout.flush()
-    os.execv(command[0], command)
-    return 0  # pragma: no cover - execv does not return
-
-
-if __name__ == "__main__":
-    sys.exit(_wait_then_watch(sys.argv[1:]))

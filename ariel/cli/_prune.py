@@ -7,15 +7,16 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from ariel.recording import store
+from ariel.recording.store import one_line
+
 __all__ = ["prune_runs"]
 
 
 def prune_runs(folder: Path, *, yes: bool) -> int:
     """List the prunable runs under ``folder``, ask, delete them; exit status (2: one or
     more could not be deleted, each said in one line on stderr)."""
-    from ariel.recording.store import PruneError, one_line, prunable_runs, prune_run
-
-    found, links = prunable_runs(folder)
+    found, links = store.prunable_runs(folder)
     for path, why in links:
         print(f"left alone: {one_line(path)}: {why}")
     if not found:
@@ -43,8 +44,8 @@ def prune_runs(folder: Path, *, yes: bool) -> int:
     failed = 0
     for run in found:
         try:
-            prune_run(folder, run["path"])
-        except PruneError as exc:
+            store.prune_run(folder, run["path"])
+        except store.PruneError as exc:
             print(f"ariel: error: {one_line(exc)}", file=sys.stderr)
             failed += 1
         else:

@@ -1,28 +1,31 @@
 """``ariel watch DIR``: a live view of a running (or finished) run or campaign in the Rerun
 viewer (`ariel.recording.watch`), read from its folder alone.
 
-Like `ariel.cli`, the command imports what it needs only when it runs. Bad input (a folder
-that is not a run, a busy port, no display for the native viewer) is one line and exit code
-2, through `ariel.cli.main`.
+Like every command, it reaches `ariel.recording.viewer` through its lazy face (`ariel.cli`).
+Bad input (a folder that is not a run, a busy port, no display for the native viewer) is one
+line and exit code 2, through `ariel.cli.main`.
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-from typing import Any
+from typing import TYPE_CHECKING
+
+from ariel.cli._common import EXIT_USAGE
+from ariel.cli._options import add_web_viewer_options
+from ariel.cli._types import poll_seconds
+from ariel.recording import viewer
+
+if TYPE_CHECKING:
+    from ariel.cli._common import SubParsers
+    from ariel.recording.viewer import Watcher
 
 __all__ = ["add_watch_command"]
 
-EXIT_USAGE = 2
 
-
-def add_watch_command(sub: Any) -> None:
+def add_watch_command(sub: SubParsers) -> None:
     """Add ``ariel watch`` to the sub-command parsers ``sub``."""
-    from ariel.cli._options import add_web_viewer_options
-    from ariel.cli._types import poll_seconds
-
     p = sub.add_parser(
         "watch",
         help="a live view of a running (or finished) run or campaign in the Rerun viewer "
@@ -54,9 +57,7 @@ def add_watch_command(sub: Any) -> None:
     p.set_defaults(func=_cmd_watch)
 
 
-def _announce(watcher: Any, args: argparse.Namespace) -> None:
-    from ariel.recording.viewer import LOCALHOST, tunnel_command
-
+def _announce(watcher: Watcher, args: argparse.Namespace) -> None:
     folder = watcher.source.path
     saving = f", saving it to {args.save}" if args.save else ""
     if "web" in watcher.urls:
@@ -64,9 +65,9 @@ def _announce(watcher: Any, args: argparse.Namespace) -> None:
             f"Rerun web viewer: live view of {folder}{saving}\n"
             f"  open  {watcher.urls['web']}\n"
             "From another computer (this one being a cluster node), tunnel both ports first:\n"
-            f"  {tunnel_command(watcher.ports)}\n"
+            f"  {viewer.tunnel_command(watcher.ports)}\n"
             "  (add -J user@login-node when this node is reached through a login node)\n"
-            f"The server listens on {LOCALHOST} only. Ctrl-C stops it.",
+            f"The server listens on {viewer.LOCALHOST} only. Ctrl-C stops it.",
             flush=True,
         )
     elif watcher.urls:
@@ -80,34 +81,30 @@ def _announce(watcher: Any, args: argparse.Namespace) -> None:
 
 
 def _cmd_watch(args: argparse.Namespace) -> int:
-    from ariel.recording.viewer import Stopped, raise_stopped, watch
-
     if args.no_viewer and (args.web or args.port is not None or args.grpc_port is not None):
         print("ariel: error: --no-viewer starts no viewer: no --web or ports", file=sys.stderr)
         return EXIT_USAGE
-    viewer = "none" if args.no_viewer else "web" if args.web else "native"
-    handled = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
-    previous = {s: signal.signal(s, raise_stopped) for s in handled}
-    try:
-        watcher = watch(
-            args.folder,
-            viewer=viewer,
-            port=args.port,
-            grpc_port=args.grpc_port,
-            save=args.save,
-            poll_s=args.poll,
-        )
-        with watcher:
-            _announce(watcher, args)
-            why = watcher.follow(until_finished=args.until_finished)
-        ended = "it has ended and all of it is shown" if why == "finished" else "the viewer closed"
-        print(f"stopped watching {watcher.source.path}: {ended}", flush=True)
-        return 0
-    except KeyboardInterrupt:
-        print("\nstopped watching", file=sys.stderr)
-        return 0
-    except Stopped as stop:
-        return 128 + stop.signum
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
+    kind = "none" if args.no_viewer else "web" if args.web else "native"
+    with viewer.stop_on_signals():
+        try:
+            watcher = viewer.watch(
+                args.folder,
+                viewer=kind,
+                port=args.port,
+                grpc_port=args.grpc_port,
+                save=args.save,
+                poll_s=args.poll,
+            )
+            with watcher:
+                _announce(watcher, args)
+                why = watcher.follow(until_finished=args.until_finished)
+            ended = (
+                "it has ended and all of it is shown" if why == "finished" else "the viewer closed"
+            )
+            print(f"stopped watching {watcher.source.path}: {ended}", flush=True)
+            return 0
+        except KeyboardInterrupt:
+            print("\nstopped watching", file=sys.stderr)
+            return 0
+        except viewer.ViewerStopped as stop:
+            return 128 + stop.signum

@@ -12,148 +12,59 @@ Worlds and fitness functions are checked with the gecko driven by `NaCPGControll
 scored by `xy_displacement` itself, not by whatever the registries now hold under "na_cpg" and
 "xy_displacement": a user may replace those names, and a check of one plugin must not fail
 for the faults of another.
+
+The machinery every check uses (`Checker`, the reference body and run):
+`ariel.evaluation._check_tools`, its names re-exported here.
 """
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import dataclasses
-import json
 import math
 import numbers
-from collections.abc import Callable, Iterator
-from typing import Any, NoReturn
+from collections.abc import Callable
+from typing import Any
 
 import mujoco
 import networkx as nx
 import numpy as np
 
-from ariel.errors import PluginCheckError
-from ariel.evaluation._engine import (
-    TrajectoryRecord,
-    _one_line,
-    _open_loop,
-    build,
-    evaluate_batch,
-    num_steps,
+from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
+from ariel.evaluation._build import _one_line, build
+from ariel.evaluation._check_tools import (
+    CHECK_BODY as CHECK_BODY,
+    CHECK_CANDIDATES as CHECK_CANDIDATES,
+    CHECK_DURATION as CHECK_DURATION,
+    CHECK_SEED as CHECK_SEED,
+    Checker as Checker,
+    _decoded,
+    _expect_bool,
+    _expect_methods,
+    _expect_same_results,
+    _gecko_params,
+    _plain_round_trip,
+    _rng,
+    _run_gecko,
+    _same,
+    call_text as call_text,
 )
-from ariel.evaluation._task import BodySpec, EvaluationResult, EvaluationTask, _plain
-from ariel.evaluation.builtin_plugins import NaCPGController, xy_displacement
-from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
+from ariel.evaluation._engine import evaluate_batch
+from ariel.evaluation._results import TrajectoryRecord, num_steps
+from ariel.evaluation._task import BodySpec, EvaluationTask
+from ariel.evaluation.builtin_plugins import xy_displacement
+from ariel.plugins import (
+    BodyEncoder,
+    ClosedLoopController,
+    body_encoders,
+    controllers,
+    fitness_functions,
+    worlds,
+)
 from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.observations import hinge_observation
 
 __all__ = ["check_body_encoder", "check_controller", "check_fitness", "check_world"]
-
-#: The body every world, controller and fitness check runs (8 hinges, flat world).
-CHECK_BODY = BodySpec("prebuilt", "gecko")
-#: Simulated seconds of each check's evaluations: enough to move, short enough to be cheap.
-CHECK_DURATION = 0.5
-CHECK_SEED = 12345
-CHECK_CANDIDATES = 3
-
-
-class Checker:
-    """Failure messages that all start with the plugin, e.g. ``controller 'sine': ...``."""
-
-    def __init__(self, label: str, name: str) -> None:
-        self.prefix = f"{label} {name!r}"
-
-    def fail(self, what: str) -> NoReturn:
-        raise PluginCheckError(f"{self.prefix}: {what}")
-
-    def expect(self, condition: object, what: str) -> None:
-        if not condition:
-            self.fail(what)
-
-    @contextlib.contextmanager
-    def step(self, what: str) -> Iterator[None]:
-        """Any exception inside becomes a one-line `PluginCheckError` saying which call raised."""
-        try:
-            yield
-        except PluginCheckError:
-            raise
-        except Exception as exc:
-            raise PluginCheckError(f"{self.prefix}: {what} raised {_one_line(exc)}") from exc
-
-
-def call_text(options: dict[str, Any]) -> str:
-    return f"make(**{options})" if options else "make()"
-
-
-def _rng(seed: int = CHECK_SEED) -> np.random.Generator:
-    return np.random.default_rng(seed)
-
-
-def _same(a: Any, b: Any) -> bool:
-    """Equal as plain data (arrays compared by value)."""
-    return bool(_plain(a) == _plain(b))
-
-
-def _plain_round_trip(check: Checker, genotype: Any, what: str) -> Any:
-    """``genotype`` as the plain data stored in Parquet and sent to workers (via JSON)."""
-    with check.step(f"storing the {what} genotype as plain data (JSON)"):
-        plain = _plain(genotype)
-        back = json.loads(json.dumps(plain, allow_nan=False))
-    check.expect(back == plain, f"the {what} genotype does not survive a JSON round trip")
-    return back
-
-
-def _decoded(check: Checker, encoder: Any, genotype: Any, what: str) -> nx.DiGraph:
-    from ariel.body_phenotypes.robogen_lite.constructor import validate_robot_graph
-
-    with check.step(f"decode({what})"):
-        graph = encoder.decode(genotype)
-    check.expect(
-        isinstance(graph, nx.DiGraph),
-        f"decode({what}) returned {type(graph).__name__}, not a networkx.DiGraph",
-    )
-    with check.step(f"validating the robot graph of decode({what})"):
-        validate_robot_graph(graph)
-    return graph
-
-
-def _expect_methods(check: Checker, plugin: Any, names: tuple[str, ...]) -> None:
-    for method in names:
-        check.expect(callable(getattr(plugin, method, None)), f"has no method {method}()")
-
-
-def _expect_bool(check: Checker, plugin: Any, attribute: str, hint: str = "") -> None:
-    value = getattr(plugin, attribute, None)
-    check.expect(
-        isinstance(value, bool), f"needs a bool attribute {attribute!r}, not {value!r}{hint}"
-    )
-
-
-def _expect_same_results(
-    check: Checker, first: list[EvaluationResult], again: list[EvaluationResult]
-) -> None:
-    for a, b in zip(first, again):
-        check.expect(a.status == "ok", f"the gecko's evaluation ended {a.status!r}: {a.error}")
-        same = (
-            a.fitness == b.fitness
-            and np.array_equal(a.joint_target, b.joint_target)
-            and np.array_equal(a.core_pos, b.core_pos)
-        )
-        check.expect(same, "the same evaluation task gave different results when run again")
-
-
-def _gecko_params(count: int = CHECK_CANDIDATES) -> np.ndarray:
-    """Parameters of the reference brain for the gecko (world and fitness checks drive it)."""
-    model = build(EvaluationTask(body=CHECK_BODY)).model
-    return NaCPGController().random_parameters(model, _rng(), count)
-
-
-def _run_gecko(tasks: list[EvaluationTask], fitness_fn: Any) -> list[EvaluationResult]:
-    """Evaluate ``tasks`` (one body, one world) with the reference brain and ``fitness_fn``.
-
-    The engine's own rollout of a batch, given the objects instead of the tasks' registry
-    names, so a replaced "na_cpg" or "xy_displacement" cannot break a world's or a fitness
-    function's check.
-    """
-    return _open_loop(tasks, build(tasks[0]), NaCPGController(), fitness_fn, nthread=1)
-
 
 # --------------------------------------------------------------------------------------------
 # Body encoders
@@ -215,7 +126,7 @@ def check_body_encoder(name: str, **options: Any) -> None:
         _check_refuses_variation(check, encoder, genotype)
 
 
-def _check_variation(check: Checker, encoder: Any, genotype: Any, plain: Any) -> None:
+def _check_variation(check: Checker, encoder: BodyEncoder, genotype: Any, plain: Any) -> None:
     before = copy.deepcopy(genotype)
     with check.step("mutate(genotype, rng)"):
         child = encoder.mutate(genotype, _rng())
@@ -245,8 +156,8 @@ def _check_variation(check: Checker, encoder: Any, genotype: Any, plain: Any) ->
     _decoded(check, encoder, child, "a crossover child")
 
 
-def _check_refuses_variation(check: Checker, encoder: Any, genotype: Any) -> None:
-    calls: dict[str, Callable[[], Any]] = {
+def _check_refuses_variation(check: Checker, encoder: BodyEncoder, genotype: Any) -> None:
+    calls: dict[str, Callable[[], object]] = {
         "mutate": lambda: encoder.mutate(genotype, _rng()),
         "crossover": lambda: encoder.crossover(genotype, genotype, _rng()),
     }
@@ -293,8 +204,6 @@ def check_world(name: str, **options: Any) -> None:
         PluginCheckError: The first broken part of the contract, in one line naming the plugin
             (an exception raised by the world itself, or an unknown ``name``, included).
     """
-    from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_ROBOTS
-
     check = Checker("world", name)
     models = []
     for _ in range(2):
@@ -408,7 +317,10 @@ def check_controller(name: str, **options: Any) -> None:
 
 
 def _check_targets(
-    check: Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
+    check: Checker,
+    controller: Any,  # an OpenLoopController, maybe with iter_targets (not in the protocol)
+    params: np.ndarray,
+    model: mujoco.MjModel,
 ) -> None:
     task = EvaluationTask(body=CHECK_BODY, duration=CHECK_DURATION)
     times = np.arange(0, num_steps(task, model), task.control_period) * model.opt.timestep
@@ -443,7 +355,7 @@ def _check_targets(
 
 
 def _check_policy(
-    check: Checker, controller: Any, params: np.ndarray, model: mujoco.MjModel
+    check: Checker, controller: ClosedLoopController, params: np.ndarray, model: mujoco.MjModel
 ) -> None:
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)

@@ -8,7 +8,7 @@ call and since when, so that:
 - a worker that dies (a segfault, the OOM killer, a SIGKILL) costs only its own call, which
   runs again on a fresh worker, at most ``max_retries`` times; after that its future fails
   with `WorkerLostError`, naming how the process ended;
-- a call given a ``timeout`` (`LocalPool.submit_with_timeout`) that has no result in time has
+- a call given a ``timeout`` (``LocalPool.submit_with_timeout``) that has no result in time has
   its worker killed and replaced, and its future fails with `CallTimeoutError` (no retry: a call
   that hangs once would hang again).
 
@@ -30,49 +30,53 @@ pid) and runs their calls again, not counted as deaths; the next worker starts a
 server. A worker cannot be started even after a few tries: the pool breaks, every future fails
 with ``BrokenProcessPool`` saying so. Nothing here prints a traceback: the driver thread's
 failures go to the futures, and a worker whose driver closed its pipe exits quietly.
+
+This module is the driver thread (`_Driver`); the pool's executor face, ``LocalPool``, is in
+`ariel.evaluation._executor_local`, and a worker process's side in
+`ariel.evaluation._pool_worker`.
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import contextlib
-import contextvars
 import multiprocessing
 import os
-import pickle
 import signal
 import threading
 import time
-import traceback
-import weakref
 from collections import deque
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait as wait_for_ready
-from typing import Any, TypeVar
 
 from ariel.errors import CallTimeoutError, WorkerLostError
+from ariel.evaluation._pool_worker import (
+    _BROKEN,
+    _DONE,
+    _RETIRING,
+    _STARTED,
+    _STOP,
+    _Call,
+    _ended_how,
+    _one_line,
+    _open_pidfd,
+    _settle,
+    _Worker,
+    _worker_main,
+    temporary_environ as temporary_environ,
+)
 
 __all__ = [
+    "WORKER_CANNOT_START",
     "CallTimeoutError",
-    "LocalPool",
     "WorkerCannotStartError",
     "WorkerLostError",
-    "call_with_timeout",
     "temporary_environ",
 ]
 
-R = TypeVar("R")
-
-_STOP = b""  # sent to an idle worker: exit
-# Tags of a worker's messages (see `_worker_main`).
-_STARTED, _DONE, _RETIRING, _BROKEN = b"S", b"D", b"R", b"B"
 # Time a call's timeout does not count: a fresh worker starting and importing what the call
 # needs (unpickling it); a worker that takes longer than this as well is stopped too.
 _START_SECONDS = 120.0
-# Exit status of a worker whose driver died (no one reads it; for `ps` and tests).
-_ORPHANED_EXIT = 3
 # `multiprocessing`'s exit code for a forkserver worker whose fork server died (not its own).
 _FORKSERVER_GONE = 255
 # A call whose fork server died this often while it ran counts such deaths as its own.
@@ -89,186 +93,6 @@ class WorkerCannotStartError(BrokenProcessPool):
     call (it said why on its stderr, e.g. the script it re-imported lacks a ``__main__`` guard)."""
 
 
-# --------------------------------------------------------------------------------------------
-# Worker side
-# --------------------------------------------------------------------------------------------
-
-
-class _RemoteTracebackError(Exception):
-    """The worker's traceback, chained to an exception that came back (as CPython's pool does)."""
-
-    def __init__(self, text: str) -> None:
-        super().__init__(text)
-        self.text = text
-
-    def __str__(self) -> str:
-        return self.text
-
-
-def _watch_driver(lifeline: Connection) -> None:
-    """Return when the driver process is gone (its end of ``lifeline`` closed), then exit."""
-    with contextlib.suppress(EOFError, OSError):
-        lifeline.recv_bytes()
-    os._exit(_ORPHANED_EXIT)
-
-
-def _start_watchdog(lifeline: Connection | None, inherited: Connection | None) -> None:
-    if inherited is not None:  # fork: this copy of the driver's end would keep the pipe open
-        inherited.close()
-    if lifeline is not None:
-        threading.Thread(
-            target=_watch_driver, args=(lifeline,), name="ariel-driver-watchdog", daemon=True
-        ).start()
-
-
-def _worker_main(
-    conn: Connection,
-    initializer: Callable[..., object] | None,
-    initargs: tuple[Any, ...],
-    max_tasks: int | None,
-    lifeline: Connection | None = None,
-    inherited: Connection | None = None,
-) -> None:
-    """A worker's life: initializer, then calls one at a time until told to stop.
-
-    Messages to the driver start with a tag byte: `_STARTED` once a call is unpickled (its
-    imports done), then `_DONE` (or `_RETIRING`, when this worker exits after it) followed by
-    the pickled ``(ok, value, traceback_text)``. An initializer that raises sends `_BROKEN` and
-    its traceback, and the worker exits. The tag lets the driver hand this worker its next call
-    before it unpickles the result. ``lifeline``: see the module docstring.
-    """
-    _start_watchdog(lifeline, inherited)
-    if initializer is not None:
-        try:
-            initializer(*initargs)
-        except BaseException:
-            with contextlib.suppress(OSError):  # the driver may be gone already
-                conn.send_bytes(_BROKEN + traceback.format_exc().encode(errors="replace"))
-            return
-    calls = 0
-    while True:
-        try:
-            payload = conn.recv_bytes()
-        except (EOFError, OSError):  # the driver is gone
-            return
-        if payload == _STOP:
-            return
-        try:
-            fn, args, kwargs = pickle.loads(payload)
-            conn.send_bytes(_STARTED)
-            value, ok, text = fn(*args, **kwargs), True, ""
-        except BaseException as exc:
-            value, ok, text = exc, False, traceback.format_exc()
-        calls += 1
-        retiring = max_tasks is not None and calls >= max_tasks
-        try:
-            message = pickle.dumps((ok, value, text))
-        except Exception as exc:  # a result or exception that cannot be pickled
-            error = RuntimeError(
-                f"the call's {'result' if ok else 'exception'} cannot be sent back: {exc!r}"
-            )
-            message = pickle.dumps((False, error, traceback.format_exc()))
-        del value
-        try:
-            conn.send_bytes((_RETIRING if retiring else _DONE) + message)
-        except OSError:  # the driver closed this pipe (it took this worker for lost): quietly
-            return
-        if retiring:
-            return
-
-
-# --------------------------------------------------------------------------------------------
-# Driver side
-# --------------------------------------------------------------------------------------------
-
-# Serialises temporary edits of os.environ (worker processes are created on the driver thread).
-_ENVIRON_LOCK = threading.Lock()
-
-
-@contextlib.contextmanager
-def temporary_environ(env: Mapping[str, str]) -> Iterator[None]:
-    """``os.environ`` updated with ``env`` for the duration (process creation inherits it)."""
-    with _ENVIRON_LOCK:
-        saved = {name: os.environ.get(name) for name in env}
-        os.environ.update(env)
-        try:
-            yield
-        finally:
-            for name, value in saved.items():
-                if value is None:
-                    os.environ.pop(name, None)
-                else:
-                    os.environ[name] = value
-
-
-@dataclass
-class _Call:
-    future: cf.Future
-    payload: bytes
-    timeout: float | None
-    deaths: int = 0
-    orphaned: int = 0  # times its worker's fork server died while it ran (not deaths)
-    running: bool = False  # its future is marked running (it was handed to a worker once)
-
-
-@dataclass
-class _Worker:
-    process: Any  # multiprocessing.Process of the pool's context
-    conn: Connection
-    call: _Call | None = None
-    deadline: float | None = None
-    retiring: bool = False
-    killed: str = ""  # why the pool killed it ("timeout", "closed"): not the call's fault
-    spoke: bool = False  # it sent a message: it started
-    pidfd: int | None = None  # forkserver workers (not our children): a pidfd to stop it by
-
-
-def _open_pidfd(pid: int | None) -> int | None:
-    """A pidfd for process ``pid`` (Linux 5.3 and later), or None."""
-    opener = getattr(os, "pidfd_open", None)
-    if opener is None or pid is None:
-        return None
-    try:
-        return int(opener(pid))
-    except OSError:
-        return None
-
-
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
-
-
-def _settle(call: _Call, data: bytes) -> None:
-    """Set a finished call's future from the worker's pickled ``(ok, value, traceback)``."""
-    try:
-        ok, value, text = pickle.loads(data)
-    except Exception as exc:  # e.g. an exception class that cannot be rebuilt from its args
-        ok, value, text = (
-            False,
-            RuntimeError(f"the call's outcome cannot be unpickled: {exc!r}"),
-            "",
-        )
-    if ok:
-        call.future.set_result(value)
-        return
-    if text and isinstance(value, BaseException):
-        value.__cause__ = _RemoteTracebackError(text)
-    call.future.set_exception(value)
-
-
-def _ended_how(exitcode: int | None) -> str:
-    if exitcode is None:
-        return "ended without an exit code"
-    if exitcode < 0:
-        try:
-            name = signal.Signals(-exitcode).name
-        except ValueError:
-            name = f"signal {-exitcode}"
-        return f"killed by {name}"
-    return f"exit code {exitcode}"
-
-
 class _Driver:
     """State shared by the pool object and its driver thread (which holds no pool reference)."""
 
@@ -278,7 +102,7 @@ class _Driver:
         context: multiprocessing.context.BaseContext,
         worker_env: Mapping[str, str],
         initializer: Callable[..., object] | None,
-        initargs: tuple[Any, ...],
+        initargs: tuple[object, ...],
         max_tasks_per_child: int | None,
         max_retries: int,
     ) -> None:
@@ -356,7 +180,7 @@ class _Driver:
                 return False
         deadlines = [w.deadline for w in self.workers if w.deadline is not None]
         timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
-        waitables: list[Any] = [self._wake_reader]
+        waitables: list[Connection | int] = [self._wake_reader]
         for worker in self.workers:
             waitables += [worker.conn, worker.process.sentinel]
         ready = set(wait_for_ready(waitables, timeout))
@@ -612,153 +436,3 @@ class _Driver:
         self._wake_reader.close()
         self._lifeline.close()
         self._lifeline_end.close()
-
-
-class LocalPool(cf.Executor):
-    """A process pool that survives workers dying or hanging (see the module docstring).
-
-    Args:
-        max_workers: worker processes at most (started on demand).
-        mp_context: the multiprocessing context that starts them (never use fork if the
-            calling process runs threads).
-        worker_env: variables every worker process is started with.
-        initializer: run once in every worker before its first call, with ``initargs``; if it
-            raises, the pool is broken (every future fails with ``BrokenProcessPool``). None:
-            nothing is run.
-        initargs: the positional arguments ``initializer`` is called with.
-        max_tasks_per_child: a worker exits after this many calls (a fresh one replaces it).
-        max_retries: how many times a call whose worker died is tried again.
-    """
-
-    def __init__(
-        self,
-        max_workers: int,
-        *,
-        mp_context: multiprocessing.context.BaseContext,
-        worker_env: Mapping[str, str] | None = None,
-        initializer: Callable[..., object] | None = None,
-        initargs: tuple[Any, ...] = (),
-        max_tasks_per_child: int | None = None,
-        max_retries: int = 2,
-    ) -> None:
-        if not isinstance(max_workers, int) or isinstance(max_workers, bool) or max_workers < 1:
-            raise ValueError(f"max_workers must be an integer >= 1, got {max_workers!r}")
-        if not isinstance(max_retries, int) or isinstance(max_retries, bool) or max_retries < 0:
-            raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
-        if max_tasks_per_child is not None and (
-            not isinstance(max_tasks_per_child, int) or max_tasks_per_child < 1
-        ):
-            raise ValueError(
-                f"max_tasks_per_child must be an integer >= 1 or None, got {max_tasks_per_child!r}"
-            )
-        self._max_workers = max_workers
-        self.max_retries = max_retries
-        self._driver = _Driver(
-            max_workers,
-            mp_context,
-            worker_env or {},
-            initializer,
-            tuple(initargs),
-            max_tasks_per_child,
-            max_retries,
-        )
-        self._started = False
-        # Dropped without shutdown, or still open at exit: stop the workers, do not hang.
-        self._finalizer = weakref.finalize(
-            self, self._driver.stop, cancel=True, kill=True, wait=True
-        )
-
-    @property
-    def max_workers(self) -> int:
-        return self._max_workers
-
-    def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> cf.Future[R]:
-        return self._submit(None, fn, args, kwargs)
-
-    def submit_with_timeout(
-        self, timeout: float | None, fn: Callable[..., R], /, *args: Any, **kwargs: Any
-    ) -> cf.Future[R]:
-        """`submit` with a wall-clock limit in seconds, counted from the call's start in a worker
-        (after its function and arguments are unpickled). Past it the worker is killed and
-        replaced, and the future fails with `CallTimeoutError`. None: no limit."""
-        if timeout is not None and not timeout > 0:
-            raise ValueError(f"timeout must be > 0 seconds or None, got {timeout!r}")
-        return self._submit(timeout, fn, args, kwargs)
-
-    def _submit(
-        self, timeout: float | None, fn: Callable[..., R], args: tuple, kwargs: dict
-    ) -> cf.Future[R]:
-        driver = self._driver
-        future: cf.Future[R] = cf.Future()
-        try:
-            payload = pickle.dumps((fn, args, kwargs))
-        except Exception as exc:  # as a pool does: the error is the future's, not submit's
-            future.set_running_or_notify_cancel()
-            future.set_exception(exc)
-            return future
-        with driver.lock:
-            if driver.broken is not None:
-                raise driver.broken_error(driver.broken)
-            if driver.shutting_down:
-                raise RuntimeError("cannot schedule new futures after shutdown")
-            driver.pending.append(_Call(future, payload, timeout))
-            if not self._started:
-                self._started = True
-                driver.thread.start()
-        driver.wake()
-        return future
-
-    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-        self._finalizer.detach()  # from here on the driver stops once its work is done
-        with self._driver.lock:
-            started = self._started
-            self._driver.shutting_down = True
-        if started:
-            self._driver.stop(cancel=cancel_futures, kill=False, wait=wait)
-
-    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> bool | None:
-        if exc_type is not None and not issubclass(exc_type, Exception):
-            # Ctrl-C, SIGTERM (`KeyboardInterrupt`), SystemExit: stop now, do not wait for the
-            # running calls (minutes, up to their timeout).
-            self._finalizer.detach()
-            with self._driver.lock:
-                started = self._started
-                self._driver.shutting_down = True
-            if started:
-                self._driver.stop(cancel=True, kill=True, wait=True)
-            return None
-        return super().__exit__(exc_type, exc, tb)
-
-    def __repr__(self) -> str:
-        return f"LocalPool(max_workers={self._max_workers}, max_retries={self.max_retries})"
-
-
-# --------------------------------------------------------------------------------------------
-# A soft timeout, where killing the worker is not ours to do (Dask)
-# --------------------------------------------------------------------------------------------
-
-
-def call_with_timeout(timeout: float, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> R:
-    """``fn(*args, **kwargs)`` in a helper thread, waiting at most ``timeout`` seconds for it.
-
-    Past the timeout `CallTimeoutError` is raised and the helper thread is left running (a thread
-    cannot be stopped): the caller moves on, but the thread may keep a CPU busy until it ends.
-    The thread runs in a copy of this thread's context (e.g. Dask's current worker).
-    """
-    outcome: dict[str, Any] = {}
-    context = contextvars.copy_context()
-
-    def target() -> None:
-        try:
-            outcome["value"] = context.run(fn, *args, **kwargs)
-        except BaseException as exc:
-            outcome["error"] = exc
-
-    thread = threading.Thread(target=target, name="ariel-timed-call", daemon=True)
-    thread.start()
-    thread.join(timeout)
-    if thread.is_alive():
-        raise CallTimeoutError(f"no result after {timeout:g} s; the call was left running")
-    if "error" in outcome:
-        raise outcome["error"]
-    return outcome["value"]

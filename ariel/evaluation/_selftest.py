@@ -6,13 +6,13 @@ import os
 import signal
 import time
 
+import numpy as np
+
 from ariel.evaluation.executors import THREAD_LIMIT_VARIABLES, evaluation_threads
 
 
 def seeded_sum(seed: int, n: int = 1000) -> float:
     """Sum of ``n`` standard normal draws from ``default_rng(seed)``: same seed, same bits."""
-    import numpy as np
-
     return float(np.random.default_rng(seed).standard_normal(n).sum())
 
 

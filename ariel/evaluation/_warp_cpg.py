@@ -25,11 +25,19 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
+from ariel.evaluation.builtin_plugins import NaCPGController
 from ariel.simulation.controllers import cpg_kernel
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from ariel.evaluation._task import EvaluationTask
+    from ariel.plugins import ControllerPlugin
 
 __all__ = [
     "CPGInputs",
@@ -42,10 +50,8 @@ __all__ = [
 ]
 
 
-def device_cpg_reason(controller: Any) -> str | None:
+def device_cpg_reason(controller: ControllerPlugin) -> str | None:
     """None if ``controller``'s targets can be computed on the device; else why not."""
-    from ariel.evaluation.builtin_plugins import NaCPGController
-
     if type(controller) is not NaCPGController:
         return f"{type(controller).__name__} has no device kernel (its targets come from the host)"
     return None
@@ -63,7 +69,9 @@ class CPGInputs:
     advance: np.ndarray  # (ncalls,) int32: CPG steps before each call's sample
 
 
-def net_inputs(tasks: Sequence[Any], model: Any, controller: Any) -> tuple[np.ndarray, np.ndarray]:
+def net_inputs(
+    tasks: Sequence[EvaluationTask], model: mujoco.MjModel, controller: NaCPGController
+) -> tuple[np.ndarray, np.ndarray]:
     """One network's ``(params (B, 5n), state (B, n, 2, 2))`` for tasks of one body: each
     task's parameters and its seed's initial state (xy, xy_dot_old), as the host draws it."""
     params = np.array([t.params for t in tasks], dtype=np.float64)
@@ -80,7 +88,7 @@ def net_inputs(tasks: Sequence[Any], model: Any, controller: Any) -> tuple[np.nd
 
 
 def cpg_inputs(
-    controller: Any,
+    controller: NaCPGController,
     nets: Sequence[tuple[int, np.ndarray, np.ndarray]],
     call_times: np.ndarray,
 ) -> CPGInputs:
@@ -108,7 +116,7 @@ def cpg_inputs(
         phase = groups["phase"]
         # rot[w, i, j] = dt * R(phase_i - phase_j) where node i receives from node j (the host
         # kernel's product, in its order: exp, then * dt, then * adjacency).
-        rot = np.exp(1j * (phase[:, :, None] - phase[:, None, :]))
+        rot: npt.NDArray[np.complex128] = np.exp(1j * (phase[:, :, None] - phase[:, None, :]))
         rot *= dt
         rot *= controller.adjacency(n)[None]
         blocks.append(np.stack([rot.real, rot.imag], axis=-1).reshape(nworld, n * n, 2))
@@ -224,7 +232,7 @@ class DeviceCPG:
     Arrays keep their addresses from batch to batch (graphs captured with them stay valid).
     """
 
-    def __init__(self, wp: Any, inputs: CPGInputs, controller: Any, smoothing: float,
+    def __init__(self, wp: Any, inputs: CPGInputs, controller: NaCPGController, smoothing: float,
                  low: np.ndarray, high: np.ndarray) -> None:  # fmt: skip
         self.key = batch_key(inputs, controller, smoothing, low, high)
         nworld, nu = inputs.z.shape[:2]
@@ -244,7 +252,7 @@ class DeviceCPG:
         self.held = wp.zeros((nworld, nu), dtype=wp.float64)
         self.wp = wp
 
-    def matches(self, key: tuple[Any, ...]) -> bool:
+    def matches(self, key: tuple[object, ...]) -> bool:
         """Whether these arrays serve a batch of this `key` (shape, constants, bounds)."""
         return self.key == key
 
@@ -271,8 +279,12 @@ class DeviceCPG:
 
 
 def batch_key(
-    inputs: CPGInputs, controller: Any, smoothing: float, low: np.ndarray, high: np.ndarray
-) -> tuple[Any, ...]:
+    inputs: CPGInputs,
+    controller: NaCPGController,
+    smoothing: float,
+    low: np.ndarray,
+    high: np.ndarray,
+) -> tuple[object, ...]:
     """What a `DeviceCPG` is made for: array shapes, the calls' steps and the constants."""
     return (
         inputs.z.shape,

@@ -37,8 +37,9 @@ import mujoco
 import numpy as np
 
 from ariel.errors import BodyBuildError
-from ariel.evaluation._engine import SPAWN_PREFIX, BuiltBody, build, make_plugin, robot_module
+from ariel.evaluation._build import SPAWN_PREFIX, BuiltBody, build, make_plugin, robot_module
 from ariel.evaluation._task import EvaluationTask
+from ariel.plugins import body_encoders, worlds
 from ariel.simulation.control_callback import control_callback_unset
 
 __all__ = [
@@ -128,8 +129,6 @@ def _world_key(task: EvaluationTask) -> str:
 
 @functools.lru_cache(maxsize=16)
 def _world_reason(key: str) -> str | None:
-    from ariel.plugins import worlds
-
     name, options = json.loads(key)
     world = make_plugin(worlds, name, options)
     with control_callback_unset():
@@ -144,7 +143,7 @@ def _world_reason(key: str) -> str | None:
     return None
 
 
-def _bit0_only(model: mujoco.MjModel, geoms: Any = slice(None)) -> bool:
+def _bit0_only(model: mujoco.MjModel, geoms: slice | np.ndarray = slice(None)) -> bool:
     bits = np.concatenate([model.geom_contype[geoms], model.geom_conaffinity[geoms]])
     return bool(np.all((bits == 0) | (bits == 1)))
 
@@ -264,10 +263,9 @@ def _packed_model(
     tasks: list[EvaluationTask], padding: int, *, sparse: bool
 ) -> tuple[mujoco.MjModel, list[str]]:
     """The world with every task's robot as alone, each with its bit; ``padding`` inert dofs."""
-    from ariel.plugins import body_encoders, worlds
-
     head = tasks[0]
-    world = make_plugin(worlds, head.world, head.world_options)
+    # A built-in world (`packable`): its spawn_prefix and spawns are not in the World protocol.
+    world: Any = make_plugin(worlds, head.world, head.world_options)
     every = 0
     for k in range(len(tasks)):
         every |= _bit(k)
@@ -310,7 +308,7 @@ def _bit(k: int) -> int:
     return (1 << k) - (1 << 32 if k == 31 else 0)
 
 
-def _recolour(geom: Any, bits: int) -> None:
+def _recolour(geom: mujoco.MjsGeom, bits: int) -> None:
     """Bit 0 (the only one `packable` allows) becomes ``bits``, in contype and conaffinity."""
     geom.contype = bits if geom.contype else 0
     geom.conaffinity = bits if geom.conaffinity else 0
@@ -319,9 +317,8 @@ def _recolour(geom: Any, bits: int) -> None:
 def _lone_offset(task: EvaluationTask, robot_spec: mujoco.MjSpec) -> list[float]:
     """Where the world's spawn puts the robot's root when alone (as in `build`): spawning
     into the packed world would lift each robot by compiling all robots spawned before it."""
-    from ariel.plugins import worlds
-
-    world = make_plugin(worlds, task.world, task.world_options)
+    # A built-in world (`packable`): its spawn_prefix and spawns are not in the World protocol.
+    world: Any = make_plugin(worlds, task.world, task.world_options)
     world.spawn(robot_spec, position=task.spawn_position, rotation=task.spawn_rotation)
     prefix = f"{world.spawn_prefix}{world.spawns}_"
     return list(world.spec.body(prefix + robot_spec.worldbody.name).pos)

@@ -15,7 +15,7 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,6 +29,9 @@ from ariel.evaluation._warp_pack import (
     _world_key,
     _world_reason,
 )
+
+if TYPE_CHECKING:
+    from ariel.evaluation.builtin_plugins import NaCPGController
 
 __all__ = ["RobotView", "pack_plan", "packed_inputs", "robot_views"]
 
@@ -80,7 +83,7 @@ def pack_plan(
 def packed_inputs(
     pieces: Sequence[Sequence[EvaluationTask]],
     packed: PackedModel,
-    controller: Any,
+    controller: NaCPGController,
     call_times: np.ndarray,
 ) -> CPGInputs:
     """The device CPG's inputs: robot ``k`` of world ``w`` runs ``pieces[k][w]`` (padded)."""

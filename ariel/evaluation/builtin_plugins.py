@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -28,6 +28,9 @@ from ariel.simulation.tasks.gait_learning import (
 )
 from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _distance_to_target
 from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning_in_place
+
+if TYPE_CHECKING:
+    from ariel.evaluation._results import TrajectoryRecord
 
 __all__ = [
     "MLPController",
@@ -223,7 +226,7 @@ class MLPController:
 
 
 @fitness_function(maximise=True, unit="m")
-def xy_displacement(record: Any) -> float:
+def xy_displacement(record: TrajectoryRecord) -> float:
     """Planar distance between the core's first and last recorded position (m).
 
     Args:
@@ -236,7 +239,7 @@ def xy_displacement(record: Any) -> float:
 
 
 @fitness_function(maximise=True, unit="m")
-def sustained_displacement(record: Any, window: float = 1.0) -> float:
+def sustained_displacement(record: TrajectoryRecord, window: float = 1.0) -> float:
     """Planar displacement at the path's median pace over ``window``-second pieces (m).
 
     The locomotion measure of the default experiment (docs/methodology.md): a steady gait
@@ -255,7 +258,7 @@ def sustained_displacement(record: Any, window: float = 1.0) -> float:
 
 
 @fitness_function(maximise=True, unit="m/s")
-def x_speed(record: Any) -> float:
+def x_speed(record: TrajectoryRecord) -> float:
     """Mean speed along x over the run, |Δx| / duration (m/s), as upstream.
 
     Args:
@@ -270,7 +273,7 @@ def x_speed(record: Any) -> float:
 
 
 @fitness_function(maximise=False, unit="m")
-def distance_to_target(record: Any, target: Any = None) -> float:
+def distance_to_target(record: TrajectoryRecord, target: Sequence[float] | None = None) -> float:
     """Planar distance from the core's final position to the target (m; minimise).
 
     Args:
@@ -287,7 +290,7 @@ def distance_to_target(record: Any, target: Any = None) -> float:
 
 
 @fitness_function(maximise=True)
-def turning_in_place(record: Any) -> float:
+def turning_in_place(record: TrajectoryRecord) -> float:
     """Total heading change of the core's path per metre of net displacement (upstream's).
 
     Args:

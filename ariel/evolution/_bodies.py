@@ -12,14 +12,23 @@ import contextlib
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
+import networkx as nx
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
 from ariel.evolution._brain import BrainRun
 from ariel.evolution._seeds import derive_rng, derive_seed
 from ariel.evolution._state import Body
 from ariel.evolution._tasks import body_spec, evaluation_task, record_steps, shipped_body
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from ariel.evaluation import BodySpec, EvaluationTask
+    from ariel.evolution._config import ExperimentConfig
+    from ariel.plugins import BodyEncoder, ControllerPlugin
 
 __all__ = ["BodyFactory", "BrainJob"]
 
@@ -29,7 +38,7 @@ class BrainJob:
     """One body's brain run in one generation: learn until ``run.iteration == target``."""
 
     body: Body
-    spec: Any  # the shipped `BodySpec`
+    spec: BodySpec  # as shipped to the workers (`shipped_body`)
     run: BrainRun
     target: int
     eval_seed: int
@@ -39,20 +48,30 @@ class BrainJob:
 class BodyFactory:
     """Makes and compiles bodies, their brain runs and their evaluation tasks for one run."""
 
-    def __init__(self, config: Any, encoder: Any, controller: Any, maximise: bool) -> None:
+    def __init__(
+        self,
+        config: ExperimentConfig,
+        encoder: BodyEncoder,
+        controller: ControllerPlugin,
+        maximise: bool,
+    ) -> None:
         self.config = config
         self.encoder = encoder
         self.controller = controller
         self.maximise = maximise
-        self._models: dict[int, Any] = {}  # body number -> compiled model (this process only)
+        # body number -> compiled model (this process only)
+        self._models: dict[int, mujoco.MjModel] = {}
 
-    def task(self, spec: Any, params: Any = (), **fields: Any) -> Any:
+    def task(
+        self, spec: BodySpec, params: np.ndarray | tuple[float, ...] = (), **fields: object
+    ) -> EvaluationTask:
         # One place builds a run's tasks (`_tasks.evaluation_task`): replay rebuilds the same.
         return evaluation_task(self.config, spec, params, **fields)
 
-    def new_body(self, number: int, genotype: Any, parents: list[str], generation: int) -> Body:
+    def new_body(self, number: int, genotype: object, parents: list[str], generation: int) -> Body:
         """Decode and compile a body here (its parameter count, joints, descriptors, graph)."""
-        from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
+        # `ariel watch` imports this module (ariel.recording.viewer: `budget`, via _driver)
+        # lazy: the engine imports mujoco and with it the GL backend (ariel.utils._gl)
         from ariel.evaluation import BodyBuildError, build
 
         spec = body_spec(self.config, genotype)
@@ -62,8 +81,6 @@ class BodyFactory:
         except BodyBuildError as exc:
             body.status, body.error = "error", str(exc).splitlines()[0]
             return body
-        import networkx as nx
-
         body.n_params = int(self.controller.num_parameters(built.model))
         body.n_joints = int(built.model.nu)
         body.joint_names = list(built.joint_names)
@@ -74,7 +91,7 @@ class BodyFactory:
         self._models[number] = built.model
         return body
 
-    def model(self, body: Body) -> Any:
+    def model(self, body: Body) -> mujoco.MjModel:
         """The body's compiled model (compiled again for a body restored from a checkpoint)."""
         if body.number not in self._models:
             self.new_body(body.number, body.genotype, body.parent_ids, body.born)
@@ -127,7 +144,9 @@ class BodyFactory:
             record_every=record_steps(self.config, timestep),
         )
 
-    def batch_tasks(self, job: BrainJob, params: np.ndarray, record_bodies: bool) -> list[Any]:
+    def batch_tasks(
+        self, job: BrainJob, params: np.ndarray, record_bodies: bool
+    ) -> list[EvaluationTask]:
         """The tasks of the job's next batch (candidate k of iteration i: ``-iIII-cKKK``)."""
         iteration = job.run.iteration
         return [

@@ -24,15 +24,21 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, NotRequired, Protocol, TypedDict, runtime_checkable
 
 import numpy as np
+from threadpoolctl import threadpool_limits
+
+from ariel.plugins import brain_optimizers
 
 __all__ = [
     "BrainOptimizer",
     "BrainRun",
+    "BrainRunPlain",
     "ToldHistory",
+    "ToldState",
     "fitness_rank",
     "penalised_cost",
     "replay_told",
@@ -61,11 +67,13 @@ class BrainOptimizer(Protocol):
         turns them into the worst finite cost)."""
         ...
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> Mapping[str, object]:
         """Plain data (JSON-able; NaN and infinities are allowed) that `restore` takes back."""
         ...
 
-    def restore(self, state: dict[str, Any]) -> None:
+    # Any: what `state` gave, read back from JSON; its shape is the learner's own (a TypedDict
+    # such as `ToldState`), which a protocol cannot name for every learner.
+    def restore(self, state: Any) -> None:
         """Continue, on a fresh learner made with the same keywords, from `state`: the next
         `ask` gives exactly what the learner that gave `state` would have."""
         ...
@@ -99,6 +107,14 @@ def _digest(params: np.ndarray) -> str:
     return hashlib.sha256(data).hexdigest()[:16]
 
 
+class ToldState(TypedDict):
+    """A `ToldHistory` as plain data: each iteration's fitness (``told``) and, since it was
+    stored, a fingerprint of each iteration's candidates (``asked``)."""
+
+    told: list[list[float]]
+    asked: NotRequired[list[str]]
+
+
 class ToldHistory:
     """What a learner was told, as plain data: each iteration's fitness and a fingerprint of
     its candidates. The state of a learner whose asks depend only on its seed and what it was
@@ -112,11 +128,11 @@ class ToldHistory:
         self.told.append(np.asarray(fitness, dtype=np.float64).tolist())
         self.asked.append(_digest(params))
 
-    def plain(self) -> dict[str, Any]:
+    def plain(self) -> ToldState:
         return {"told": [list(batch) for batch in self.told], "asked": list(self.asked)}
 
 
-def replay_told(learner: BrainOptimizer, state: dict[str, Any]) -> None:
+def replay_told(learner: BrainOptimizer, state: ToldState) -> None:
     """Tell a fresh ``learner`` what ``state`` (`ToldHistory.plain`) says, asking again before
     each tell.
 
@@ -130,8 +146,6 @@ def replay_told(learner: BrainOptimizer, state: dict[str, Any]) -> None:
         ValueError: When the learner asks other candidates than the stored run did (e.g. made
             by another version of its package), which would continue another run.
     """
-    from threadpoolctl import threadpool_limits
-
     asked = state.get("asked")
     with threadpool_limits(limits=1):  # as in the loop: the same eigendecompositions
         for k, fitness in enumerate(state["told"]):
@@ -142,6 +156,24 @@ def replay_told(learner: BrainOptimizer, state: dict[str, Any]) -> None:
                     "the stored run did (another version of its package?)"
                 )
             learner.tell(params, np.asarray(fitness, dtype=np.float64))
+
+
+class BrainRunPlain(TypedDict):
+    """A `BrainRun` as plain data (`BrainRun.to_plain`): its settings, its best and its
+    learner's `BrainOptimizer.state` (None without a learner)."""
+
+    n_params: int
+    popsize: int
+    maximise: bool
+    x0: list[float]
+    sigma0: float
+    seed: int
+    optimizer: str
+    options: dict[str, object]
+    iteration: int
+    best_params: list[float] | None
+    best_fitness: float
+    state: Mapping[str, object] | None
 
 
 @dataclass
@@ -179,7 +211,7 @@ class BrainRun:
     sigma0: float
     seed: int
     optimizer: str = "cmaes"
-    options: dict[str, Any] = field(default_factory=dict)
+    options: dict[str, object] = field(default_factory=dict)
     iteration: int = 0
     best_params: np.ndarray | None = None
     best_fitness: float = field(default=math.nan)
@@ -188,8 +220,6 @@ class BrainRun:
     def __post_init__(self) -> None:
         if self.n_params == 0:
             return
-        from ariel.plugins import brain_optimizers
-
         self.learner = brain_optimizers.make(
             self.optimizer,
             x0=np.asarray(self.x0, dtype=np.float64),
@@ -239,7 +269,7 @@ class BrainRun:
         self.iteration += 1
         return improved
 
-    def to_plain(self) -> dict[str, Any]:
+    def to_plain(self) -> BrainRunPlain:
         """The run as JSON-able data: its settings, its best and its learner's state."""
         best = self.best_params
         return {
@@ -257,8 +287,9 @@ class BrainRun:
             "state": None if self.learner is None else self.learner.state(),
         }
 
+    # Any: a checkpoint's JSON, checked only by making the run from it (and older runs' form).
     @classmethod
-    def from_plain(cls, data: dict[str, Any]) -> BrainRun:
+    def from_plain(cls, data: Mapping[str, Any]) -> BrainRun:
         """The run `to_plain` describes: a fresh learner, its state restored."""
         data = dict(data)
         if "state" not in data:  # stored before brain optimizers: a CMA-ES run and its told
@@ -278,8 +309,6 @@ class BrainRun:
     def _told_again(cls, data: dict[str, Any]) -> BrainRun:
         """A run stored as its CMA-ES settings and every fitness it was told: a fresh run
         asked and told the same again."""
-        from threadpoolctl import threadpool_limits
-
         told = data.pop("told")
         run = cls(**data)
         run.x0 = np.asarray(run.x0, dtype=np.float64)

@@ -16,11 +16,19 @@ from __future__ import annotations
 import json
 import os
 import sys
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ariel.errors import PluginFailedError
+from ariel.evaluation import WORKER_CANNOT_START
 from ariel.evolution._config import ConfigError, ExperimentConfig
 from ariel.evolution._driver import per_body
+from ariel.evolution._seeds import derive_rng
+from ariel.evolution._tasks import body_spec, evaluation_task, record_steps
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from ariel.plugins import BodyEncoder
 
 __all__ = [
     "PluginFailedError",
@@ -48,8 +56,6 @@ def refuse_in_spawned_child() -> None:
     # (multiprocessing.parent_process() is still None while a child re-imports the script.)
     if not _importing_main_again():
         return  # a child that calls run_experiment from a function it was given is fine
-    from ariel.evaluation import WORKER_CANNOT_START
-
     line = (no_main_guard_line() + "\n").encode(errors="replace")
     try:  # one write: the workers' lines never interleave (print writes the newline apart)
         sys.stderr.flush()
@@ -92,6 +98,8 @@ def _importing_main_again() -> bool:
 def check_plugins(config: ExperimentConfig) -> None:
     """Run the plugin checkers (`ariel.plugins.check_*`) on the plugins ``config`` names, with
     its options; the first failure is a `ConfigError` naming the plugin and the problem."""
+    # ariel.recording.store._failures imports this module, for ERROR_LOG and plugin_named
+    # lazy: the checkers run the engine: mujoco and the GL backend (ariel.utils._gl)
     from ariel.plugins import (
         PluginCheckError,
         check_body_encoder,
@@ -139,11 +147,10 @@ def machine_memory() -> int | None:
         return None
 
 
-def _sample_model(config: ExperimentConfig, encoder: Any) -> Any | None:
+def _sample_model(config: ExperimentConfig, encoder: BodyEncoder) -> mujoco.MjModel | None:
     """A compiled body of this experiment (its first generation-0 body, or the fixed one)."""
+    # lazy: the engine imports mujoco and with it the GL backend (ariel.utils._gl)
     from ariel.evaluation import BodyBuildError, build
-    from ariel.evolution._seeds import derive_rng
-    from ariel.evolution._tasks import body_spec, evaluation_task
 
     genotype = config.body.genotype
     if genotype is None:
@@ -156,7 +163,7 @@ def _sample_model(config: ExperimentConfig, encoder: Any) -> Any | None:
 
 def check_resources(
     config: ExperimentConfig,
-    encoder: Any,
+    encoder: BodyEncoder,
     *,
     brain_only: bool,
     capacity: int,
@@ -169,8 +176,6 @@ def check_resources(
     the generation's tables are written (with ``record.trajectories``); the physics states of
     the evaluations running at once (``local_workers``: on this machine); the compiled bodies.
     """
-    from ariel.evolution._tasks import record_steps
-
     model = _sample_model(config, encoder)
     if model is None:  # no body to measure: the run records it as an error body
         return

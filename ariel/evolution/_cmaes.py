@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Any
 
 import numpy as np
 
-from ariel.evolution._brain import ToldHistory, penalised_cost, replay_told
+from ariel.evolution._brain import ToldHistory, ToldState, penalised_cost, replay_told
 
 __all__ = ["CMAES"]
 
@@ -48,7 +47,7 @@ class CMAES:
     def __init__(
         self, *, x0: np.ndarray, popsize: int, sigma0: float, seed: int, maximise: bool
     ) -> None:
-        import cma
+        import cma  # lazy: heavy optional library (it imports scipy and matplotlib)
 
         self.maximise = maximise
         self.history = ToldHistory()
@@ -77,8 +76,8 @@ class CMAES:
             warnings.simplefilter("ignore")
             self._es.tell(list(params), cost.tolist())
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> ToldState:
         return self.history.plain()
 
-    def restore(self, state: dict[str, Any]) -> None:
+    def restore(self, state: ToldState) -> None:
         replay_told(self, state)

@@ -11,6 +11,7 @@ import difflib
 import hashlib
 import json
 import math
+import stat
 import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -28,6 +29,8 @@ from pydantic import (
 )
 
 from ariel.errors import ConfigError
+from ariel.evaluation.executors import executor_kinds, known_kinds
+from ariel.evolution._genotype import is_genotype_file
 from ariel.evolution._toml import read_toml_file
 
 __all__ = [
@@ -96,10 +99,10 @@ class BodyConfig(_Section):
     """
 
     encoder: Str = "nde"
-    options: dict[str, Any] = Field(default_factory=dict)
+    options: dict[str, object] = Field(default_factory=dict)
     optimizer: str = "ga"
-    optimizer_options: dict[str, Any] = Field(default_factory=dict)
-    genotype: Any = None
+    optimizer_options: dict[str, object] = Field(default_factory=dict)
+    genotype: object = None
     population: Int = Field(default=8, ge=1)
     offspring: Int = Field(default=8, ge=1)
     survivors: Literal["plus", "generational"] = "plus"
@@ -129,9 +132,9 @@ class BrainConfig(_Section):
     """
 
     controller: Str = "na_cpg"
-    options: dict[str, Any] = Field(default_factory=dict)
+    options: dict[str, object] = Field(default_factory=dict)
     optimizer: Str = "cmaes"
-    optimizer_options: dict[str, Any] = Field(default_factory=dict)
+    optimizer_options: dict[str, object] = Field(default_factory=dict)
     popsize: Int = Field(default=8, ge=2)
     iterations: Int = Field(default=6, ge=1)
     sigma0: Float = Field(default=1.0, gt=0.0)
@@ -149,7 +152,7 @@ class WorldConfig(_Section):
     """
 
     name: Str = "flat"
-    options: dict[str, Any] = Field(default_factory=dict)
+    options: dict[str, object] = Field(default_factory=dict)
 
 
 class TaskConfig(_Section):
@@ -169,7 +172,7 @@ class TaskConfig(_Section):
     """
 
     fitness: Str = "xy_displacement"
-    options: dict[str, Any] = Field(default_factory=dict)
+    options: dict[str, object] = Field(default_factory=dict)
     duration: Seconds = 10.0
     settle: Float = Field(default=1.0, ge=0.0)
     spawn_position: tuple[Float, Float, Float] = (0.0, 0.0, 0.0)
@@ -200,8 +203,6 @@ class RecordConfig(_Section):
 
 
 def _known_executor_kind(kind: str) -> str:
-    from ariel.evaluation.executors import executor_kinds, known_kinds  # entry points: late
-
     if kind not in executor_kinds:
         raise ValueError(f"must be an executor kind: {known_kinds()}")
     return kind
@@ -239,7 +240,7 @@ class ExecutorConfig(_Section):
 
     @model_validator(mode="before")
     @classmethod
-    def _one_address(cls, data: Any) -> Any:
+    def _one_address(cls, data: object) -> object:
         if isinstance(data, Mapping) and "address" in data and "scheduler" in data:
             raise ValueError("give address or its old name scheduler, not both")
         return data
@@ -279,7 +280,7 @@ class ExperimentConfig(_Section):
         return self.model_dump(mode="json")
 
     @classmethod
-    def from_plain(cls, data: Mapping[str, Any]) -> ExperimentConfig:
+    def from_plain(cls, data: Mapping[str, object]) -> ExperimentConfig:
         """The config a run stored: keys added since read as they behaved before."""
         plain = json.loads(json.dumps(dict(data)))
         for (section, key), neutral in _LATER_KEYS.items():
@@ -315,7 +316,7 @@ def config_hash(config: ExperimentConfig) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-def _model_at(loc: Sequence[Any]) -> type[BaseModel] | None:
+def _model_at(loc: Sequence[str]) -> type[BaseModel] | None:
     model: type[BaseModel] = ExperimentConfig
     for part in loc:
         field = model.model_fields.get(str(part))
@@ -352,7 +353,7 @@ TYPE_ERRORS = {"int_type", "float_type", "bool_type", "string_type"}
 TOML_KIND = {bool: "a boolean", str: "a string", float: "a float", int: "an integer"}
 
 
-def _validate(data: Mapping[str, Any]) -> ExperimentConfig:
+def _validate(data: Mapping[str, object]) -> ExperimentConfig:
     try:
         return ExperimentConfig.model_validate(dict(data))
     except ValidationError as exc:
@@ -364,7 +365,7 @@ def _validate(data: Mapping[str, Any]) -> ExperimentConfig:
 # --------------------------------------------------------------------------------------------
 
 
-def _parse_value(text: str) -> Any:
+def _parse_value(text: str) -> object:
     """A TOML value (``8``, ``true``, ``"flat"``, ``[0, 0, 0]``); anything else is a string."""
     try:
         return tomllib.loads(f"value = {text}")["value"]
@@ -372,7 +373,7 @@ def _parse_value(text: str) -> Any:
         return text
 
 
-def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+def apply_overrides(data: Mapping[str, object], overrides: Sequence[str]) -> dict[str, Any]:
     """Apply ``key=value`` overrides (dotted keys) to raw config data; the key must exist.
 
     Keys under an ``options`` table are free (plugins define them).
@@ -445,7 +446,7 @@ def _did_you_mean(parts: list[str], depth: int, names: list[str]) -> str:
     return f"; did you mean '{whole}'?"
 
 
-def set_value(data: dict[str, Any], key: str, value: Any, label: str) -> None:
+def set_value(data: dict[str, Any], key: str, value: object, label: str) -> None:
     """Set dotted ``key`` of raw config ``data`` (in place) to ``value``; errors name ``label``."""
     table = _table_of(key, label)
     parts = key.split(".")
@@ -460,7 +461,7 @@ def set_value(data: dict[str, Any], key: str, value: Any, label: str) -> None:
 
 
 def load_config(
-    source: str | Path | Mapping[str, Any] | ExperimentConfig | None = None,
+    source: str | Path | Mapping[str, object] | ExperimentConfig | None = None,
     overrides: Sequence[str] = (),
 ) -> ExperimentConfig:
     """A validated config from a TOML file, a dict or a config (None: the default experiment).
@@ -491,7 +492,7 @@ def load_config(
         ```
     """
     if isinstance(source, ExperimentConfig):
-        data: Mapping[str, Any] = source.to_plain()
+        data: Mapping[str, object] = source.to_plain()
     elif isinstance(source, Mapping):
         data = source
     else:
@@ -506,8 +507,6 @@ def load_config(
 
 def _not_a_file(path: Path) -> str:
     """What ``path`` is instead of a TOML file, e.g. ``is a folder``."""
-    import stat
-
     try:
         mode = path.stat().st_mode
     except FileNotFoundError:
@@ -525,10 +524,8 @@ def _not_a_file(path: Path) -> str:
     return f"is {what}, not a TOML file"
 
 
-def _genotype_file_beside(data: dict[str, Any], config_path: Path) -> dict[str, Any]:
+def _genotype_file_beside(data: dict[str, object], config_path: Path) -> dict[str, object]:
     """A relative ``body.genotype`` file named in a TOML file is relative to that file."""
-    from ariel.evolution._genotype import is_genotype_file
-
     body = data.get("body")
     if not isinstance(body, dict):
         return data

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -52,7 +51,7 @@ DEFAULT_CELLS = 64
 ITERATIONS = 50
 
 
-def check_archive(archive: Any, bins: Any, cells: Any) -> int | None:
+def check_archive(archive: object, bins: object, cells: object) -> int | None:
     """The ``archive``, ``bins`` and ``cells`` options checked together: the CVT's number of
     cells (`DEFAULT_CELLS` when not given), None for a grid. ``bins`` is a grid's option and
     ``cells`` a CVT's; each is an error with the other archive."""
@@ -76,7 +75,7 @@ def unit_centroids(seed: int, cells: int, dimensions: int) -> np.ndarray:
     the module docstring): the same for the same arguments, on any machine. Kept for the
     next call (read-only): a run makes its archive twice, when `prepare_run` checks the
     options and when the run starts."""
-    from scipy.spatial import KDTree
+    from scipy.spatial import KDTree  # lazy: heavy optional library
 
     rng = derive_rng(seed, "cvt-centroids")
     samples = rng.random((max(10_000, 20 * cells), dimensions))

@@ -24,6 +24,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
+from ariel.evaluation import EvaluationResult
 from ariel.evolution._bodies import BodyFactory, BrainJob
 from ariel.evolution._brain import fitness_rank
 from ariel.evolution._config import ExperimentConfig, config_hash
@@ -50,6 +52,7 @@ class Plugins:
     @property
     def worst(self) -> float:
         """The fitness of an evaluation that failed (as the engine gives it)."""
+        # lazy: loads mujoco; `ariel watch` imports this module before choosing a GL backend
         from ariel.evaluation import worst_fitness
 
         return worst_fitness(self.maximise)
@@ -147,7 +150,6 @@ class BrainWork:
         driver.advance(len(results), driver.best_so_far())
 
     def failed_result(self, task: Any, reason: str) -> Any:
-        from ariel.evaluation import EvaluationResult
 
         worst = self.driver.plugins.worst
         return EvaluationResult(eval_id=task.eval_id, fitness=worst, status="error", error=reason)
@@ -350,7 +352,6 @@ def distinct_bodies(population: Sequence[Body]) -> tuple[int, int]:
     """(distinct robot graphs, bodies) among the bodies of ``population`` with a finite
     fitness (the population after selection, as `ariel.recording.Run.generations` counts it).
     Graphs are compared by structure (`graph_key`); a body without a graph counts as its own."""
-    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 
     alive = [b for b in population if math.isfinite(b.fitness)]
     return len({graph_key(b.graph) if b.graph else b.body_id for b in alive}), len(alive)

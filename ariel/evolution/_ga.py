@@ -15,8 +15,8 @@ which work is done.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Protocol, TypedDict
 
 import numpy as np
 
@@ -24,10 +24,43 @@ from ariel.evolution._optimizer import Proposal, ranked
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body
 
-__all__ = ["GeneticAlgorithm", "breed", "random_proposals", "tournament_children"]
+if TYPE_CHECKING:
+    from ariel.evolution._config import BodyConfig
+    from ariel.plugins import BodyEncoder
+
+__all__ = [
+    "GAState",
+    "GeneticAlgorithm",
+    "TournamentBreeder",
+    "breed",
+    "random_proposals",
+    "tournament_children",
+]
 
 
-def random_proposals(encoder: Any, seed: int, n: int) -> list[Proposal]:
+class GAState(TypedDict):
+    """The GA's state (`GeneticAlgorithm.state`): the generation its next `ask` breeds."""
+
+    generation: int
+
+
+class TournamentBreeder(Protocol):
+    """What `tournament_children` reads of a population optimizer (the GA, novelty search)."""
+
+    @property
+    def _population(self) -> list[Body]: ...
+    @property
+    def encoder(self) -> BodyEncoder: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def generation(self) -> int: ...
+    @property
+    def settings(self) -> BodyConfig: ...
+    def tournament(self, rng: np.random.Generator) -> Body: ...
+
+
+def random_proposals(encoder: BodyEncoder, seed: int, n: int) -> list[Proposal]:
     """``n`` random genotypes, genotype i from its own stream."""
     return [
         Proposal(encoder.random_genotype(derive_rng(seed, "body-init", i)), []) for i in range(n)
@@ -35,7 +68,11 @@ def random_proposals(encoder: Any, seed: int, n: int) -> list[Proposal]:
 
 
 def breed(
-    encoder: Any, rng: np.random.Generator, pick: Any, crossover_rate: float, can_cross: bool
+    encoder: BodyEncoder,
+    rng: np.random.Generator,
+    pick: Callable[[np.random.Generator], Body],
+    crossover_rate: float,
+    can_cross: bool,
 ) -> Proposal:
     """One child: ``pick(rng)`` a parent, perhaps a second one and crossover, then mutation."""
     first = pick(rng)
@@ -48,7 +85,7 @@ def breed(
     return Proposal(encoder.mutate(genotype, rng), parents)
 
 
-def tournament_children(optimizer: Any, n: int) -> list[Proposal]:
+def tournament_children(optimizer: TournamentBreeder, n: int) -> list[Proposal]:
     """``ask(n)`` of a population optimizer (the GA, novelty search): ``n`` random genotypes
     before its first population, else ``n`` children, child j from its own stream
     (``variation``, generation, j), parents drawn by ``optimizer.tournament``."""
@@ -86,7 +123,13 @@ class GeneticAlgorithm:
     """
 
     def __init__(
-        self, *, encoder: Any, seed: int, maximise: bool, settings: Any, **options: Any
+        self,
+        *,
+        encoder: BodyEncoder,
+        seed: int,
+        maximise: bool,
+        settings: BodyConfig,
+        **options: object,
     ) -> None:
         if options:
             raise TypeError(f"the ga takes no body.optimizer_options, got {sorted(options)}")
@@ -121,9 +164,9 @@ class GeneticAlgorithm:
         self._population = survivors
         self.generation += 1
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> GAState:
         return {"generation": self.generation}
 
-    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+    def restore(self, state: GAState, population: Sequence[Body]) -> None:
         self.generation = int(state["generation"])
         self._population = list(population)

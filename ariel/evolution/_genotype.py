@@ -14,11 +14,14 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any, TypeGuard
+from typing import TYPE_CHECKING, TypeGuard
 
 import numpy as np
 
 from ariel.errors import ConfigError
+
+if TYPE_CHECKING:
+    from ariel.plugins import BodyEncoder
 
 __all__ = [
     "GENOTYPE_FILE_SUFFIXES",
@@ -31,12 +34,12 @@ __all__ = [
 GENOTYPE_FILE_SUFFIXES = (".json", ".npy")
 
 
-def is_genotype_file(value: Any) -> TypeGuard[str]:
+def is_genotype_file(value: object) -> TypeGuard[str]:
     """Whether ``body.genotype`` names a file (a string ending in .json or .npy)."""
     return isinstance(value, str) and value.lower().endswith(GENOTYPE_FILE_SUFFIXES)
 
 
-def read_genotype_file(path: str | Path) -> Any:
+def read_genotype_file(path: str | Path) -> object:
     """The genotype in ``path`` as plain data (lists, numbers, strings); `ConfigError` else."""
     path = Path(path)
     where = f"body.genotype: file {str(path)!r}"
@@ -61,7 +64,7 @@ def read_genotype_file(path: str | Path) -> Any:
         raise ConfigError(f"{where}: not valid JSON ({exc})") from None
 
 
-def check_genotype(genotype: Any, encoder: Any, where: str = "body.genotype") -> None:
+def check_genotype(genotype: object, encoder: BodyEncoder, where: str = "body.genotype") -> None:
     """Raise `ConfigError` unless ``genotype`` fits ``encoder``'s ``genotype_shape``.
 
     Encoders without a ``genotype_shape`` check their genotypes when building the body.
@@ -87,7 +90,7 @@ def check_genotype(genotype: Any, encoder: Any, where: str = "body.genotype") ->
         raise ConfigError(f"{where}: {bad} of {array.size} values are not finite (NaN or infinite)")
 
 
-def describe(genotype: Any) -> str:
+def describe(genotype: object) -> str:
     """A short description of a genotype for an error line (never hundreds of numbers)."""
     if isinstance(genotype, str | int) or (isinstance(genotype, float) and math.isfinite(genotype)):
         return repr(genotype)

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any, NotRequired, TypedDict
 
 import numpy as np
 
@@ -55,9 +55,16 @@ from ariel.evolution._optimizer import Proposal
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body
 
+if TYPE_CHECKING:
+    from ribs.archives import CVTArchive, GridArchive
+
+    from ariel.evolution._config import BodyConfig
+    from ariel.plugins import BodyEncoder
+
 __all__ = [
     "DEFAULT_RANGES",
     "MapElites",
+    "MapElitesState",
     "archive_quality",
     "body_measures",
     "elite_gain",
@@ -85,7 +92,7 @@ def body_measures(body: Body, measures: Sequence[str]) -> list[float]:
     return [float(values.get(name, math.nan)) for name in measures]
 
 
-def resolve_qd_offset(qd_offset: Any, maximise: bool) -> float:
+def resolve_qd_offset(qd_offset: object, maximise: bool) -> float:
     """The ``qd_offset`` option checked: a finite number; 0 for a maximised fitness when not
     given. A minimised fitness has no natural worst value, so it must be given."""
     if qd_offset is None:
@@ -125,8 +132,10 @@ def archive_quality(
 
 
 def _check_options(
-    measures: Any, bins: Any, ranges: Any
+    measures: object, bins: object, ranges: object
 ) -> tuple[list[str], list[int], list[tuple[float, float]]]:
+    # Readers of runs import this module (`archive_quality`: ariel.recording's load_run)
+    # lazy: the descriptors import mujoco and with it the GL backend (ariel.utils._gl)
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     known = [*DESCRIPTOR_NAMES, "n_joints"]
@@ -154,6 +163,15 @@ def _check_options(
             raise ValueError(f"each range must be [low, high] with low < high, got {pair!r}")
         checked.append((low, high))
     return list(measures), [int(b) for b in bins], checked
+
+
+class MapElitesState(TypedDict):
+    """MAP-Elites' state (`MapElites.state`): the generation its next `ask` breeds and a CVT's
+    centroids (in the unit cube; none for a grid). Its elites are the population, stored
+    apart."""
+
+    generation: int
+    centroids: NotRequired[list[list[float]]]
 
 
 class MapElites:
@@ -194,10 +212,10 @@ class MapElites:
     def __init__(
         self,
         *,
-        encoder: Any,
+        encoder: BodyEncoder,
         seed: int,
         maximise: bool,
-        settings: Any,
+        settings: BodyConfig,
         measures: Sequence[str] = ("num_limbs", "joints_ratio"),
         bins: Sequence[int] | None = None,
         ranges: Sequence[Sequence[float]] | None = None,
@@ -205,7 +223,7 @@ class MapElites:
         archive: str = "grid",
         cells: int | None = None,
     ) -> None:
-        from ribs.archives import GridArchive
+        from ribs.archives import GridArchive  # lazy: heavy optional library (imports torch)
 
         cvt_cells = check_archive(archive, bins, cells)
         self.measures, self.bins, self.ranges = _check_options(list(measures), bins, ranges)
@@ -215,6 +233,7 @@ class MapElites:
         # cells per measure of a grid, [cells] of a CVT: the archive table's grid column
         self.shape = self.bins if cvt_cells is None else [cvt_cells]
         self.centroids: np.ndarray | None = None  # a CVT's, in the unit cube
+        self.archive: GridArchive | CVTArchive
         if cvt_cells is None:
             self.archive = GridArchive(
                 solution_dim=1,
@@ -235,7 +254,7 @@ class MapElites:
 
     def _make_cvt(self, centroids: np.ndarray) -> None:
         """A CVT archive of ``centroids`` (in the unit cube), empty."""
-        from ribs.archives import CVTArchive
+        from ribs.archives import CVTArchive  # lazy: heavy optional library (imports torch)
 
         self.centroids = np.array(centroids, dtype=np.float64)
         self.archive = CVTArchive(
@@ -333,12 +352,12 @@ class MapElites:
         centroids = in_measure_units(self.centroids, self.ranges)
         return {**described, "cells": len(centroids), "centroids": centroids}
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> MapElitesState:
         if self.centroids is None:
             return {"generation": self.generation}
         return {"generation": self.generation, "centroids": self.centroids.tolist()}
 
-    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+    def restore(self, state: MapElitesState, population: Sequence[Body]) -> None:
         self.generation = int(state["generation"])
         if self.centroids is not None and "centroids" in state:  # the run's own, exactly
             self._make_cvt(np.array(state["centroids"], dtype=np.float64))

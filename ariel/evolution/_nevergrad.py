@@ -14,20 +14,24 @@ from __future__ import annotations
 
 import difflib
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ariel.evolution._brain import ToldHistory, penalised_cost, replay_told
+from ariel.evolution._brain import ToldHistory, ToldState, penalised_cost, replay_told
+
+if TYPE_CHECKING:
+    from nevergrad.optimization.base import OptCls
+    from nevergrad.parametrization.core import Parameter
 
 __all__ = ["Nevergrad"]
 
 DEFAULT_METHOD = "TwoPointsDE"
 
 
-def _optimizer_class(method: Any) -> Any:
+def _optimizer_class(method: object) -> OptCls:
     """``nevergrad.optimizers.registry[method]``; `ValueError` naming the closest for others."""
-    import nevergrad as ng
+    import nevergrad as ng  # lazy: heavy optional library
 
     registry = ng.optimizers.registry
     if not isinstance(method, str) or method not in registry:
@@ -76,7 +80,7 @@ class Nevergrad:
         method: str = DEFAULT_METHOD,
         budget: int | None = None,
     ) -> None:
-        import nevergrad as ng
+        import nevergrad as ng  # lazy: heavy optional library
 
         cls = _optimizer_class(method)
         if budget is not None and (type(budget) is not int or budget < 1):
@@ -88,7 +92,7 @@ class Nevergrad:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             self._optimizer = cls(parametrization=parameters, budget=budget, num_workers=popsize)
-        self._asked: list[Any] = []  # the candidates of the last ask, to tell
+        self._asked: list[Parameter] = []  # the candidates of the last ask, to tell
 
     def ask(self) -> np.ndarray:
         with warnings.catch_warnings():
@@ -108,8 +112,8 @@ class Nevergrad:
                 self._optimizer.tell(candidate, value)
         self._asked = []
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> ToldState:
         return self.history.plain()
 
-    def restore(self, state: dict[str, Any]) -> None:
+    def restore(self, state: ToldState) -> None:
         replay_told(self, state)

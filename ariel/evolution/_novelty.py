@@ -213,7 +213,7 @@ class NoveltySearch:
         selection: str = "novelty",
         **unknown: Any,
     ) -> None:
-        from ribs.archives import ProximityArchive
+        from ribs.archives import ProximityArchive  # lazy: heavy optional library (torch)
 
         if unknown:
             name = sorted(unknown)[0]

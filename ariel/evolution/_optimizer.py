@@ -23,9 +23,11 @@ readers draw it from), its QD metrics (the progress line) and ``qd_offset``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+from ariel.evolution._brain import fitness_rank
 
 if TYPE_CHECKING:
     from ariel.evolution._state import Body
@@ -43,7 +45,7 @@ class Proposal:
             crossover); empty for a random genotype.
     """
 
-    genotype: Any
+    genotype: object
     parent_ids: list[str]
 
 
@@ -64,11 +66,13 @@ class BodyOptimizer(Protocol):
         """The bodies made from the last `ask`, with their fitness and descriptors."""
         ...
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> Mapping[str, object]:
         """Plain data (JSON-able) that `restore` takes back."""
         ...
 
-    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+    # Any: what `state` gave, read back from the checkpoint's JSON; its shape is the
+    # optimizer's own (a TypedDict such as `GAState`), which a protocol cannot name for all.
+    def restore(self, state: Any, population: Sequence[Body]) -> None:
         """Continue from `state` and the population kept when it was taken."""
         ...
 
@@ -79,12 +83,12 @@ class ArchiveOptimizer(BodyOptimizer, Protocol):
 
     qd_offset: float  # the fitness that counts as nothing in the QD-score
 
-    def archive_rows(self) -> list[dict[str, Any]]:
+    def archive_rows(self) -> Sequence[Mapping[str, object]]:
         """One row of the ``archive`` table per filled cell (``cell``, ``body_id``,
         ``fitness``, ``objective``, ``measures``, ``grid``), in cell order."""
         ...
 
-    def archive_description(self) -> dict[str, Any]:
+    def archive_description(self) -> Mapping[str, object]:
         """Plain JSON: ``kind`` (``"grid"`` or ``"cvt"``), ``measures``, ``ranges``, and a
         grid's ``bins`` or a CVT's ``cells`` and ``centroids`` (in the measures' units)."""
         ...
@@ -96,6 +100,4 @@ class ArchiveOptimizer(BodyOptimizer, Protocol):
 
 def ranked(bodies: Sequence[Body], maximise: bool) -> list[Body]:
     """Best first (failed bodies last); ties go to the older body (smaller number)."""
-    from ariel.evolution._brain import fitness_rank
-
     return sorted(bodies, key=lambda b: (fitness_rank(b.fitness, maximise), b.number))

@@ -18,12 +18,21 @@ plain-data state from which a fresh learner asks exactly what it would have.
 from __future__ import annotations
 
 import json
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 from ariel.evaluation import CHECK_SEED, Checker, call_text, check_engine_plugins, check_rows
-from ariel.evolution._state import Body
+from ariel.evolution._brain import BrainOptimizer
+from ariel.evolution._config import BodyConfig
+from ariel.evolution._optimizer import BodyOptimizer, Proposal
+from ariel.evolution._state import Body, from_json_safe, to_json_safe
+from ariel.plugins import body_optimizers, brain_optimizers
+
+if TYPE_CHECKING:
+    import networkx as nx
 
 __all__ = ["check_all", "check_body_optimizer", "check_brain_optimizer"]
 
@@ -40,20 +49,20 @@ class _VectorEncoder:
     def random_genotype(self, rng: np.random.Generator) -> list[float]:
         return rng.uniform(-1.0, 1.0, 4).tolist()
 
-    def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> list[float]:
+    def mutate(
+        self, genotype: list[float], rng: np.random.Generator, **options: object
+    ) -> list[float]:
         return (np.asarray(genotype, dtype=float) + rng.normal(0.0, 0.2, 4)).tolist()
 
-    def crossover(self, a: Any, b: Any, rng: np.random.Generator) -> list[float]:
+    def crossover(self, a: list[float], b: list[float], rng: np.random.Generator) -> list[float]:
         return np.where(rng.random(4) < 0.5, a, b).tolist()
 
-    def decode(self, genotype: Any) -> Any:
+    def decode(self, genotype: list[float]) -> nx.DiGraph:
         raise NotImplementedError("the optimizer check makes no bodies")
 
 
-def _body(number: int, proposal: Any, generation: int) -> Body:
+def _body(number: int, proposal: Proposal, generation: int) -> Body:
     """A made-up body: fitness and descriptors are functions of the genotype."""
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-
     g = np.asarray(proposal.genotype, dtype=float)
     descriptors = {name: float(abs(g[i % 4])) % 1.0 for i, name in enumerate(DESCRIPTOR_NAMES)}
     descriptors["num_limbs"] = float(int(abs(g[0]) * 4) % 8)
@@ -63,10 +72,9 @@ def _body(number: int, proposal: Any, generation: int) -> Body:
     return body
 
 
-def _make(check: Checker, factory: Any, options: dict[str, Any]) -> Any:
-    from ariel.evolution._config import BodyConfig
-    from ariel.evolution._optimizer import BodyOptimizer
-
+def _make(
+    check: Checker, factory: Callable[..., BodyOptimizer], options: dict[str, object]
+) -> BodyOptimizer:
     settings = BodyConfig(population=_SIZE, offspring=_SIZE, tournament=2)
     with check.step(f"making it ({call_text(options)})"):
         optimizer = factory(
@@ -79,7 +87,9 @@ def _make(check: Checker, factory: Any, options: dict[str, Any]) -> Any:
     return optimizer
 
 
-def _generation(check: Checker, optimizer: Any, generation: int, told: dict[str, Body]) -> list:
+def _generation(
+    check: Checker, optimizer: BodyOptimizer, generation: int, told: dict[str, Body]
+) -> list[str]:
     """One ask/tell round; returns the genotypes asked for (as JSON text)."""
     kept = {b.body_id for b in optimizer.population}
     with check.step(f"ask({_SIZE}) in generation {generation}"):
@@ -104,6 +114,7 @@ def _generation(check: Checker, optimizer: Any, generation: int, told: dict[str,
     return asked
 
 
+# Any: an `ArchiveOptimizer` in all but the members this check does not read (`stats`, ...).
 def _check_description(check: Checker, optimizer: Any) -> None:
     """The archive's description: plain data (JSON) of a known kind, a cell per row's cell."""
     with check.step("archive_description() as plain data (JSON)"):
@@ -123,10 +134,8 @@ def _check_description(check: Checker, optimizer: Any) -> None:
     )
 
 
-def check_body_optimizer(name: str, **options: Any) -> None:
+def check_body_optimizer(name: str, **options: object) -> None:
     """Check body optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
-    from ariel.plugins import body_optimizers
-
     check = Checker("body optimizer", name)
     with check.step("loading it"):
         factory = body_optimizers.get(name)
@@ -160,10 +169,10 @@ def _brain_fitness(params: np.ndarray, iteration: int) -> np.ndarray:
     return fitness
 
 
-def _learn(check: Checker, factory: Any, options: dict[str, Any], seed: int) -> tuple:
+def _learn(
+    check: Checker, factory: Callable[..., BrainOptimizer], options: dict[str, object], seed: int
+) -> tuple[BrainOptimizer, list[bytes]]:
     """A learner made and run for `_ITERATIONS` iterations: (learner, its asks as bytes)."""
-    from ariel.evolution._brain import BrainOptimizer
-
     x0 = np.linspace(-0.5, 0.5, 5)
     with check.step(f"making it ({call_text(options)})"):
         learner = factory(x0=x0, seed=seed, **_BRAIN, **options)
@@ -187,11 +196,8 @@ def _learn(check: Checker, factory: Any, options: dict[str, Any], seed: int) -> 
     return learner, asked
 
 
-def check_brain_optimizer(name: str, **options: Any) -> None:
+def check_brain_optimizer(name: str, **options: object) -> None:
     """Check brain optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
-    from ariel.evolution._state import from_json_safe, to_json_safe
-    from ariel.plugins import brain_optimizers
-
     check = Checker("brain optimizer", name)
     with check.step("loading it"):
         factory = brain_optimizers.get(name)
@@ -228,8 +234,6 @@ def check_all() -> list[tuple[str, str, str | None]]:
         order and names sorted; ``error`` is the one-line failure message, None for a plugin
         that passed.
     """
-    from ariel.plugins import body_optimizers, brain_optimizers
-
     return check_engine_plugins() + check_rows(
         (
             ("body_optimizer", body_optimizers, check_body_optimizer),

@@ -22,6 +22,15 @@ import time
 from collections.abc import Mapping
 from typing import Any, TextIO
 
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress as RichProgress,
+    TaskID,
+    TextColumn,
+)
+
 from ariel.utils import in_notebook_kernel
 
 __all__ = [
@@ -52,12 +61,9 @@ def auto_progress() -> bool:
     return in_notebook_kernel()
 
 
-def live_bars(stream: TextIO, label: str, *texts: str) -> Any:
-    """A started rich display of bars on ``stream`` (rich is imported only here): each row
-    ``label``, its bar, done / total, then ``texts`` and the task's ``info`` field."""
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress as RichProgress, TextColumn
-
+def live_bars(stream: TextIO, label: str, *texts: str) -> RichProgress:
+    """A started rich display of bars on ``stream``: each row ``label``, its bar, done /
+    total, then ``texts`` and the task's ``info`` field."""
     display = RichProgress(
         TextColumn(label),
         BarColumn(),
@@ -119,9 +125,11 @@ class Progress:
         self._mean = math.nan
         self._mean_label = "mean"
         self._population = ""  # morphs and archive of the last generation's line
+        # Any: a `RichProgress` (or None) whose add_task / update take this module's fields as
+        # **mappings, which rich's signatures (refresh: bool, ...) cannot be checked against
         self._rich: Any = None
-        self._run_task: Any = None
-        self._generation_task: Any = None
+        self._run_task: TaskID | None = None
+        self._generation_task: TaskID | None = None
 
     def __enter__(self) -> Progress:
         if self.live:

@@ -19,13 +19,25 @@ on, so the state is two counters and a resumed run asks what an uninterrupted on
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 from ariel.evolution._optimizer import Proposal, ranked
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body
 
-__all__ = ["RandomSearch"]
+if TYPE_CHECKING:
+    from ariel.evolution._config import BodyConfig
+    from ariel.plugins import BodyEncoder
+
+__all__ = ["RandomSearch", "RandomSearchState"]
+
+
+class RandomSearchState(TypedDict):
+    """Random search's state (`RandomSearch.state`): the generation its next `ask` draws and
+    the random genotypes told so far."""
+
+    generation: int
+    drawn: int
 
 
 class RandomSearch:
@@ -47,7 +59,13 @@ class RandomSearch:
     """
 
     def __init__(
-        self, *, encoder: Any, seed: int, maximise: bool, settings: Any, **options: Any
+        self,
+        *,
+        encoder: BodyEncoder,
+        seed: int,
+        maximise: bool,
+        settings: BodyConfig,
+        **options: object,
     ) -> None:
         if options:
             raise TypeError(f"random takes no body.optimizer_options, got {sorted(options)}")
@@ -75,10 +93,10 @@ class RandomSearch:
         self.drawn += len(bodies)
         self.generation += 1
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> RandomSearchState:
         return {"generation": self.generation, "drawn": self.drawn}
 
-    def restore(self, state: dict[str, Any], population: Sequence[Body]) -> None:
+    def restore(self, state: RandomSearchState, population: Sequence[Body]) -> None:
         self.generation = int(state["generation"])
         self.drawn = int(state["drawn"])
         self._population = list(population)

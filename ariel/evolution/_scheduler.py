@@ -29,9 +29,19 @@ import math
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+from threadpoolctl import threadpool_limits
+
+from ariel import evaluation
+from ariel.evaluation.executors import worker_fault
+from ariel.utils.interrupts import Stopped, raise_pending
+
+if TYPE_CHECKING:
+    from ariel.evaluation import EvaluationResult, EvaluationTask
+    from ariel.evaluation.executors import BatchExecutor
+    from ariel.evolution._config import ExecutorConfig
 
 __all__ = ["Scheduler", "Work", "run_groups"]
 
@@ -39,19 +49,19 @@ __all__ = ["Scheduler", "Work", "run_groups"]
 class Work(Protocol):
     """A piece of work: batches of evaluation tasks, one at a time."""
 
-    def next_batch(self) -> list[Any] | None:
+    def next_batch(self) -> list[EvaluationTask] | None:
         """The next batch of tasks, or None when the work is done."""
         ...
 
-    def batch_done(self, results: list[Any]) -> None:
+    def batch_done(self, results: list[EvaluationResult]) -> None:
         """The results of the last batch, in task order."""
         ...
 
-    def failed_result(self, task: Any, reason: str) -> Any:
+    def failed_result(self, task: EvaluationTask, reason: str) -> EvaluationResult:
         """The result of a task lost to its worker (``error``, the worst fitness)."""
         ...
 
-    def task_error(self, task: Any, exc: BaseException) -> BaseException:
+    def task_error(self, task: EvaluationTask, exc: BaseException) -> BaseException:
         """The error to stop the run with: ``task``'s evaluation raised ``exc`` (a plugin)."""
         ...
 
@@ -64,7 +74,8 @@ class Work(Protocol):
 class _Batch:
     work: Work
     group: int
-    tasks: list[Any]
+    tasks: list[EvaluationTask]
+    # Any: each task's `EvaluationResult`, None until it came back (all are in when left == 0)
     results: list[Any] = field(default_factory=list)
     left: int = 0
 
@@ -72,7 +83,7 @@ class _Batch:
 class Scheduler:
     """Runs groups of `Work` side by side on one executor (``capacity``, ``submit_batch``)."""
 
-    def __init__(self, executor: Any, *, timeout: float | None) -> None:
+    def __init__(self, executor: BatchExecutor, *, timeout: float | None) -> None:
         self.executor = executor
         self.timeout = timeout
         self._in_flight: dict[cf.Future, tuple[_Batch, np.ndarray]] = {}
@@ -80,8 +91,6 @@ class Scheduler:
 
     def run(self, groups: Sequence[Iterator[Sequence[Work]]]) -> None:
         """Run every group to its end (see the module docstring)."""
-        from ariel.utils.interrupts import raise_pending
-
         groups = list(groups)
         watch = getattr(self.executor, "watch_seconds", None)
         checked = time.monotonic()
@@ -112,8 +121,6 @@ class Scheduler:
 
     def _check_stalled(self) -> None:
         """Stop the run (`Stopped`) when the executor says it will give no more results."""
-        from ariel.utils.interrupts import Stopped
-
         reason = self.executor.stalled()
         if not reason:
             return
@@ -196,8 +203,6 @@ class Scheduler:
 
     def _collect(self, batch: _Batch, part: np.ndarray, future: cf.Future) -> bool:
         """Store a chunk's results; True when the batch is complete."""
-        from ariel.evaluation.executors import worker_fault
-
         try:
             results = future.result()
         except cf.BrokenExecutor as exc:  # the pool, not this chunk: one at a time cannot help
@@ -218,14 +223,13 @@ class Scheduler:
         return batch.left == 0
 
 
-def run_groups(groups: Sequence[Iterator[Sequence[Work]]], executor_settings: Any) -> int:
+def run_groups(
+    groups: Sequence[Iterator[Sequence[Work]]], executor_settings: ExecutorConfig
+) -> int:
     """Run ``groups`` to their ends on the executor ``executor_settings`` (a config's
     ``[executor]``) describes; returns its capacity (workers) as the run ended."""
-    from threadpoolctl import threadpool_limits
-
-    from ariel.evaluation import make_executor
-
-    # BLAS in this process (pycma's eigendecompositions) stays on one thread.
-    with threadpool_limits(limits=1), make_executor(executor_settings) as executor:
+    # BLAS in this process (pycma's eigendecompositions) stays on one thread. The executor's
+    # maker is looked up when called (`evaluation.make_executor`: a test may replace it).
+    with threadpool_limits(limits=1), evaluation.make_executor(executor_settings) as executor:
         Scheduler(executor, timeout=executor_settings.timeout).run(groups)
         return int(executor.capacity)

@@ -13,6 +13,7 @@ gives the same state bit for bit.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -57,7 +58,7 @@ class Body:
     """
 
     number: int
-    genotype: Any
+    genotype: object
     parent_ids: list[str]
     born: int
     status: str = "ok"  # "error": the genotype gives no buildable body
@@ -89,15 +90,16 @@ class LoopState:
     evaluations_done: int = 0  # rows in the evaluations table
     budget_done: int = 0  # progress: evaluations run or skipped (failed bodies)
     wall_seconds: float = 0.0
-    optimizer: dict[str, Any] = field(default_factory=dict)  # the body optimizer's own state
+    # the body optimizer's own state (`BodyOptimizer.state`)
+    optimizer: Mapping[str, object] = field(default_factory=dict)
 
 
-def to_json_safe(value: Any) -> Any:
+def to_json_safe(value: object) -> Any:
     """``value`` with every non-finite float as ``{"$float": text}`` (JSON has no NaN)."""
     return replace_non_finite(value, lambda x: {"$float": repr(x)})
 
 
-def from_json_safe(value: Any) -> Any:
+def from_json_safe(value: object) -> Any:
     """The inverse of `to_json_safe`."""
     if isinstance(value, dict):
         if set(value) == {"$float"}:
@@ -118,16 +120,16 @@ def state_to_plain(state: LoopState) -> dict[str, Any]:
     return to_json_safe(plain)
 
 
-def state_from_plain(data: Any) -> LoopState:
+def state_from_plain(data: object) -> LoopState:
     """A `LoopState` from `state_to_plain`'s data; `ValueError` (one line) for anything else."""
     try:
-        data = from_json_safe(data)
-        population = [Body(**body) for body in data.pop("population")]
-        brain = data.pop("brain")
+        plain = from_json_safe(data)
+        population = [Body(**body) for body in plain.pop("population")]
+        brain = plain.pop("brain")
         return LoopState(
             population=population,
             brain=None if brain is None else BrainRun.from_plain(brain),
-            **data,
+            **plain,
         )
     except (AttributeError, KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"not a loop state ({type(exc).__name__}: {exc})") from None

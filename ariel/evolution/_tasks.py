@@ -10,19 +10,23 @@ from __future__ import annotations
 
 from typing import Any
 
+import networkx as nx
+import numpy as np
+
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
+from ariel.evaluation import BodySpec, EvaluationTask
 from ariel.evolution._config import ExperimentConfig
+from ariel.plugins import body_encoders
 
 __all__ = ["body_spec", "evaluation_task", "record_bodies", "record_steps", "shipped_body"]
 
 
-def body_spec(config: ExperimentConfig, genotype: Any) -> Any:
+def body_spec(config: ExperimentConfig, genotype: object) -> BodySpec:
     """The `BodySpec` of ``genotype`` under the config's body encoder and options."""
-    from ariel.evaluation import BodySpec
-
     return BodySpec(config.body.encoder, genotype, config.body.options)
 
 
-def shipped_body(config: ExperimentConfig, body: Any) -> Any:
+def shipped_body(config: ExperimentConfig, body: BodySpec) -> BodySpec:
     """The form of ``body`` (a `BodySpec`) that evaluation tasks carry to the workers.
 
     A body whose encoder decodes it to a robot graph travels as that graph (the ``graph``
@@ -35,12 +39,9 @@ def shipped_body(config: ExperimentConfig, body: Any) -> Any:
     """
     if body.encoder == "graph":
         return body
-    import networkx as nx
-
+    # `ariel view` imports this module (ariel.recording.resim._replay: has_body_poses)
+    # lazy: the constructor imports mujoco and with it the GL backend (ariel.utils._gl)
     from ariel.body_phenotypes.robogen_lite.constructor import validate_robot_graph
-    from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
-    from ariel.evaluation import BodySpec
-    from ariel.plugins import body_encoders
 
     encoder = body_encoders.make(body.encoder, **body.options)
     if hasattr(encoder, "build"):
@@ -71,15 +72,19 @@ def record_bodies(config: ExperimentConfig) -> bool:
     return bool(getattr(record, "rerun", False)) and getattr(record, "bodies", "none") != "none"
 
 
-def evaluation_task(config: ExperimentConfig, body: Any, params: Any = (), **fields: Any) -> Any:
+def evaluation_task(
+    config: ExperimentConfig,
+    body: BodySpec,
+    params: np.ndarray | tuple[float, ...] = (),
+    **fields: object,
+) -> EvaluationTask:
     """The `EvaluationTask` of one evaluation of ``body`` (a `BodySpec`) in this experiment.
 
     ``fields`` sets the per-evaluation ones (``seed``, ``record_every``, ``eval_id``) and may
     override any other (replay asks for full-rate frames with ``record_every=1``).
     """
-    from ariel.evaluation import EvaluationTask
-
     c = config
+    # Any: the keywords of `EvaluationTask`, each of its own type (``fields`` may set any).
     values: dict[str, Any] = {
         "body": body,
         "params": params,

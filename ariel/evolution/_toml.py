@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Any
 
 from ariel.errors import ConfigError
 from ariel.utils import nests_deeper_than
@@ -17,7 +16,7 @@ __all__ = ["MAX_TOML_DEPTH", "read_toml_file"]
 MAX_TOML_DEPTH = 90
 
 
-def read_toml_file(path: Path) -> dict[str, Any]:
+def read_toml_file(path: Path) -> dict[str, object]:
     """The data of the TOML file ``path`` (an existing file): `ConfigError` for malformed
     TOML, text that is not UTF-8, and nesting deeper than `MAX_TOML_DEPTH`."""
     try:

@@ -11,20 +11,44 @@ lone run's, bit for bit. Everything is checked before anything is written.
 from __future__ import annotations
 
 import contextlib
+import datetime as _dt
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ariel.errors import DamagedRunError
+from ariel.evaluation.executors import planned_workers
 from ariel.evolution import (
     ConfigError,
+    ExecutorConfig,
     ExperimentConfig,
     LoopState,
     Plugins,
     RunDriver,
+    run_groups,
     shows_progress,
 )
+from ariel.recording.rerun import write_campaign_recording
+from ariel.recording.store import (
+    CAMPAIGN_JSON,
+    Campaign,
+    NotARunError,
+    RunFolder,
+    RunLock,
+    ensure_open_files,
+    load_campaign,
+    load_run,
+    now,
+    one_line,
+    read_campaign_info,
+    run_path,
+    storage_errors,
+    terminal_text,
+    write_campaign_info,
+)
+from ariel.runs._campaign_file import load_campaign_file
 from ariel.runs._campaign_info import campaign_info
 from ariel.runs._campaign_progress import CampaignProgress, RunProgress
 from ariel.runs._experiment import (
@@ -73,10 +97,8 @@ class CampaignResult:
     workers: int
     damaged: list[str] = field(default_factory=list)
 
-    def load(self) -> Any:
+    def load(self) -> Campaign:
         """The campaign's records (`ariel.recording.load_campaign`)."""
-        from ariel.recording.store import load_campaign
-
         return load_campaign(self.path)
 
 
@@ -84,7 +106,7 @@ class CampaignResult:
 class _Run:
     condition: str
     seed: int
-    folder: Any  # RunFolder
+    folder: RunFolder
     run_id: str
     config: ExperimentConfig
     plugins: Plugins
@@ -95,8 +117,6 @@ class _Run:
 
 
 def new_campaign_id(name: str) -> str:
-    import datetime as _dt
-
     return f"{name}-{_dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
 
 
@@ -168,15 +188,6 @@ def run_campaign(
                 print(row["condition"], row["seed"], row["status"], row["best_fitness"])
         ```
     """
-    from ariel.recording.store import (
-        RunFolder,
-        RunLock,
-        run_path,
-        storage_errors,
-        write_campaign_info,
-    )
-    from ariel.runs._campaign_file import load_campaign_file
-
     spec = load_campaign_file(file, tuple(overrides))
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers, address=address)
@@ -206,13 +217,10 @@ def run_campaign(
         return _drive_campaign(path, runs, settings, progress, skipped=0)
 
 
-def _check_open_files(runs: int, settings: Any) -> None:
+def _check_open_files(runs: int, settings: ExecutorConfig) -> None:
     """Each run the campaign drives holds its lock (an open file) throughout: the process's
     limit on open files must allow them all (`ensure_open_files`), checked before anything is
     written or locked."""
-    from ariel.evaluation.executors import planned_workers
-    from ariel.recording.store import ensure_open_files
-
     ensure_open_files(runs, planned_workers(settings)[0])
 
 
@@ -253,9 +261,6 @@ def resume_campaign(
         ConfigError: When the campaign's stored config cannot be read, or for a bad executor
             setting.
     """
-    from ariel.errors import DamagedRunError
-    from ariel.recording.store import CAMPAIGN_JSON, RunLock, read_campaign_info, storage_errors
-
     path = Path(campaign_dir)
     info = read_campaign_info(path)
     try:
@@ -286,13 +291,11 @@ def resume_campaign(
 
 
 def _unfinished_runs(
-    path: Path, info: dict[str, Any], locks: contextlib.ExitStack, settings: Any = None
+    path: Path, info: dict[str, Any], locks: contextlib.ExitStack, settings: ExecutorConfig
 ) -> tuple[list[_Run], int, list[str]]:
     """The campaign's runs left to do, each locked (by ``locks``) and made ready to go on;
     how many finished before; and one line per run that cannot go on (left alone, unlocked).
     First, that the limit on open files allows a lock for each (`_check_open_files`)."""
-    from ariel.recording.store import NotARunError, one_line
-
     _check_open_files(_left_to_do(path, info), settings)
     runs, skipped, damaged = [], 0, []
     for entry in info["runs"]:
@@ -314,8 +317,6 @@ def _unfinished_runs(
 
 def _left_to_do(path: Path, info: dict[str, Any]) -> int:
     """How many of the campaign's runs are not finished (reads each run.json only)."""
-    from ariel.recording.store import NotARunError, RunFolder
-
     left = 0
     for entry in info["runs"]:
         try:
@@ -329,8 +330,6 @@ def _left_to_do(path: Path, info: dict[str, Any]) -> int:
 def _unfinished_run(path: Path, entry: dict[str, Any], locks: contextlib.ExitStack) -> _Run | None:
     """campaign.json's run ``entry`` locked (by ``locks``) and made ready to go on; None when it
     is finished."""
-    from ariel.recording.store import RunFolder, RunLock
-
     folder = RunFolder(path / entry["path"])
     condition, seed = entry["condition"], int(entry["seed"])
     if not folder.run_json.is_file():  # killed while the campaign was being made
@@ -359,14 +358,16 @@ def _group(run: _Run, campaign: CampaignProgress) -> Iterator[list[Any]]:
 
 
 def _drive_campaign(
-    path: Path, runs: list[_Run], settings: Any, show_progress: bool | None, *, skipped: int
+    path: Path,
+    runs: list[_Run],
+    settings: ExecutorConfig,
+    show_progress: bool | None,
+    *,
+    skipped: int,
 ) -> CampaignResult:
     """Drive ``runs`` (locked, ready) side by side on one executor; campaign.json and every
     run.json say how it ended, however it ends."""
     show_progress = shows_progress(show_progress)
-    from ariel.evolution import run_groups
-    from ariel.recording.store import now, read_campaign_info, write_campaign_info
-
     campaign = CampaignProgress(runs=len(runs), total=0, enabled=show_progress)
     for run in runs:
         label = f"{run.condition} seed {run.seed}"
@@ -383,9 +384,7 @@ def _drive_campaign(
     info.pop("format")
     write_campaign_info(path, {**info, "status": "running"})
     if show_progress:
-        from ariel.recording.store import terminal_text  # names from the folder: as text
-
-        shown = terminal_text(f"campaign {info['campaign_id']}: {path}")
+        shown = terminal_text(f"campaign {info['campaign_id']}: {path}")  # names from the folder
         print(f"{shown} ({len(runs)} runs to go)", flush=True)
     status, started, capacity = "failed", time.perf_counter(), 1
     try:
@@ -421,8 +420,6 @@ def _drive_campaign(
 
 def _write_recording(path: Path, *, quiet: bool) -> None:
     """campaign.rrd; after an interruption, a failure to write it is not the error to tell."""
-    from ariel.recording.rerun import write_campaign_recording
-
     try:
         write_campaign_recording(path)
     except Exception:
@@ -433,8 +430,6 @@ def _write_recording(path: Path, *, quiet: bool) -> None:
 def _busy_share(runs: list[_Run], wall: float, workers: int) -> float:
     """The workers' time in evaluations (the evaluations' ``wall_seconds``: each a share of
     its batch's time on its worker) over ``wall`` x ``workers``, for this call's generations."""
-    from ariel.recording.store import load_run
-
     busy = 0.0
     for run in runs:
         evaluations = load_run(run.folder.path).evaluations
@@ -459,6 +454,4 @@ def campaign_status(campaign_dir: str | Path) -> list[dict[str, Any]]:
     Raises:
         NotACampaignError: When ``campaign_dir`` is not a campaign folder.
     """
-    from ariel.recording.store import load_campaign
-
     return load_campaign(campaign_dir).status()

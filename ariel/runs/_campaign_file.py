@@ -43,6 +43,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -57,6 +58,7 @@ from ariel.evolution import (
     ConfigError,
     ExperimentConfig,
     Int,
+    apply_overrides,
     check_key,
     load_config,
     read_toml_file,
@@ -111,7 +113,7 @@ class _CampaignModel(BaseModel):
 
     @field_validator("seeding", mode="before")
     @classmethod
-    def _known_seeding(cls, value: Any) -> Any:
+    def _known_seeding(cls, value: object) -> object:
         if value not in SEEDING:
             allowed = " or ".join(f'"{v}"' for v in SEEDING)
             raise ValueError(f"must be {allowed}")
@@ -183,7 +185,7 @@ def _base_data(base: str | dict[str, Any], beside: Path | None) -> dict[str, Any
     return config.to_plain()
 
 
-def _value_name(value: Any) -> str:
+def _value_name(value: object) -> str:
     text = json.dumps(value) if not isinstance(value, str) else value
     text = {"true": "on", "false": "off"}.get(text, text)
     return re.sub(r"[^A-Za-z0-9_.-]+", "-", text).strip("-") or "x"
@@ -268,8 +270,6 @@ def _apply(
 def _check_size(model: _CampaignModel, max_runs: int) -> None:
     """`ConfigError` when the campaign has more than ``max_runs`` runs, counted from the file's
     lists alone: nothing per run or per condition is made first."""
-    import math
-
     seeds = len(model.seeds) if model.seeds is not None else int(model.seed_count or 0)
     points = math.prod(len(values) for values in model.grid.values()) if model.grid else 0
     named = len(model.condition)
@@ -311,8 +311,6 @@ def campaign_spec(
     """Validate a campaign's raw data (``beside``: the folder of its file, for ``base``);
     ``overrides``: ``key=value`` strings applied to the base (``--set``); ``max_runs``: the
     most runs (conditions x seeds) allowed, checked before any is made."""
-    from ariel.evolution import apply_overrides
-
     try:
         model = _CampaignModel.model_validate(dict(data))
     except ValidationError as exc:

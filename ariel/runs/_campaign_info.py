@@ -3,19 +3,28 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from ariel.recording.store import now, run_path
+
+if TYPE_CHECKING:
+    from ariel.evolution import ExecutorConfig
+    from ariel.runs._campaign import _Run
+    from ariel.runs._campaign_file import CampaignSpec
 
 __all__ = ["campaign_info"]
 
 
 def campaign_info(
-    spec: Any, runs: Sequence[Any], settings: Any, campaign_id: str, file_name: str
+    spec: CampaignSpec,
+    runs: Sequence[_Run],
+    settings: ExecutorConfig,
+    campaign_id: str,
+    file_name: str,
 ) -> dict[str, Any]:
     """campaign.json of a new campaign: what resume and the readers need, no absolute path.
     ``spec``: the campaign file's `CampaignSpec`; ``runs``: its runs (``condition``, ``seed``,
     ``run_id``, ``config``); ``settings``: the executor's."""
-    from ariel.recording.store import now, run_path
-
     return {
         "campaign_id": campaign_id,
         "name": spec.name,

@@ -20,6 +20,20 @@ from typing import Any
 
 import numpy as np
 
+from ariel.errors import BodyBuildError
+from ariel.evaluation.executors import planned_workers
+from ariel.evolution import (
+    ExperimentConfig,
+    Plugins,
+    body_spec,
+    budget,
+    evaluation_task,
+    fixed_genotype,
+    is_brain_only,
+)
+from ariel.runs._campaign_file import load_campaign_file
+from ariel.runs._prepare import executor_settings, prepare_run
+
 __all__ = ["CampaignPlan", "campaign_plan"]
 
 _BODIES = 3  # random bodies timed per condition (their sizes vary)
@@ -67,15 +81,9 @@ def campaign_plan(
     evaluations, each condition timed here unless ``timed`` is False (``on_timing`` is called
     before the timing starts). Raises what `run_campaign` would for a bad file, before timing
     anything."""
-    from ariel.evolution import budget, is_brain_only
-    from ariel.runs._campaign_file import load_campaign_file
-    from ariel.runs._prepare import executor_settings, prepare_run
-
     spec = load_campaign_file(file, overrides)
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers)
-    from ariel.evaluation.executors import planned_workers
-
     plan = CampaignPlan(spec.name, planned_workers(settings)[0])
     prepared = {key: prepare_run(config) for key, config in spec.configs.items()}
     if timed and on_timing is not None:
@@ -99,12 +107,12 @@ def campaign_plan(
     return plan
 
 
-def _seconds_per_evaluation(config: Any, plugins: Any, brain_only: bool) -> float:
+def _seconds_per_evaluation(config: ExperimentConfig, plugins: Plugins, brain_only: bool) -> float:
     """CPU seconds per evaluation of a batch of random brains on random bodies, here, on one
     thread (as a worker process of the local pool runs it; CPU time, so that other work on the
     machine does not inflate it)."""
-    from ariel.evaluation import BodyBuildError, build, evaluate_batch
-    from ariel.evolution import body_spec, evaluation_task, fixed_genotype
+    # lazy: the engine imports mujoco (slow, and it reads MUJOCO_GL): only a timed plan needs it
+    from ariel.evaluation import build, evaluate_batch
 
     rng = np.random.default_rng(0)
     seconds, count = 0.0, 0

@@ -9,24 +9,50 @@ records writer of `ariel.recording`.
 from __future__ import annotations
 
 import contextlib
+import datetime as _dt
+import shutil
+import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NoReturn
 
+from ariel import evolution
+from ariel.evaluation import WorkerCannotStartError
+from ariel.evaluation.executors import planned_workers
 from ariel.evolution import (
     ConfigError,
+    ExecutorConfig,
     ExperimentConfig,
     LoopState,
     Plugins,
     Progress,
     RunDriver,
     budget,
+    check_resources,
     config_hash,
+    is_brain_only,
     load_config,
+    no_main_guard_line,
+    refuse_in_spawned_child,
     run_groups,
     shows_progress,
     state_from_plain,
+)
+from ariel.plugins import plugin_provenance
+from ariel.recording import Run, load_run
+from ariel.recording.rerun import RerunRecorder
+from ariel.recording.store import (
+    MANIFEST_FORMAT,
+    NotARunError,
+    RunFolder,
+    RunLock,
+    RunWriter,
+    adopt_manifests,
+    git_commit,
+    now,
+    software_versions,
+    storage_errors,
 )
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
     _read_genotype_file,
@@ -81,10 +107,8 @@ class RunResult:
     best_eval_id: str
     wall_seconds: float
 
-    def load(self) -> Any:
+    def load(self) -> Run:
         """The run's records as pandas DataFrames (`ariel.recording.load_run`)."""
-        from ariel.recording import load_run
-
         return load_run(self.run_dir)
 
 
@@ -103,8 +127,6 @@ def new_progress(
 ) -> Progress:
     """The run's progress display (``kind``: a `Progress` class; ``extra``: its keywords);
     ``show_progress``: see `shows_progress` (None: only where someone watches)."""
-    from ariel.evolution import is_brain_only
-
     return kind(
         total=budget(config, is_brain_only(config, plugins.encoder)),
         done=state.budget_done if state else 0,
@@ -116,16 +138,13 @@ def new_progress(
 def start_driver(
     config: ExperimentConfig,
     plugins: Plugins,
-    folder: Any,
+    folder: RunFolder,
     run_id: str,
     state: LoopState | None,
-    settings: Any,
+    settings: ExecutorConfig,
     progress: Progress,
 ) -> RunDriver:
     """The run's driver, writing into ``folder`` (locked by the caller), marked running."""
-    from ariel.recording.rerun import RerunRecorder
-    from ariel.recording.store import RunWriter
-
     recorder = None
     if config.record.rerun:
         recorder = RerunRecorder(
@@ -150,16 +169,14 @@ def start_driver(
     return driver
 
 
-def end_run(folder: Any, driver: RunDriver, status: str) -> None:
+def end_run(folder: RunFolder, driver: RunDriver, status: str) -> None:
     """Record how the run ended (``finished``, ``interrupted``, ``failed``) in run.json."""
-    from ariel.recording.store import now
-
     # On a full disk this write fails too: then the first error is the one to tell.
     with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
         folder.update_info(status=status, ended=now(), wall_seconds=driver.wall_seconds)
 
 
-def run_result(driver: RunDriver, folder: Any, run_id: str, status: str) -> RunResult:
+def run_result(driver: RunDriver, folder: RunFolder, run_id: str, status: str) -> RunResult:
     best = driver.best_body()
     return RunResult(
         run_dir=folder.path,
@@ -177,10 +194,10 @@ def run_result(driver: RunDriver, folder: Any, run_id: str, status: str) -> RunR
 def _drive(
     config: ExperimentConfig,
     plugins: Plugins,
-    folder: Any,
+    folder: RunFolder,
     run_id: str,
     state: LoopState | None,
-    settings: Any,
+    settings: ExecutorConfig,
     show_progress: bool | None,
 ) -> RunResult:
     progress = new_progress(config, plugins, state, show_progress)
@@ -201,8 +218,6 @@ def _drive(
 
 
 def new_run_id(config: ExperimentConfig) -> str:
-    import datetime as _dt
-
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     return f"{config.name}-{stamp}-s{config.seed}"
 
@@ -210,10 +225,6 @@ def new_run_id(config: ExperimentConfig) -> str:
 def run_info(config: ExperimentConfig, run_id: str, plugins: Plugins) -> dict[str, Any]:
     """A new run's run.json: config, hash, software, plugin provenance, and what readers need
     without the run's plugins (fitness direction, brain-only)."""
-    from ariel.evolution import is_brain_only
-    from ariel.plugins import plugin_provenance
-    from ariel.recording.store import MANIFEST_FORMAT, git_commit, now, software_versions
-
     provenance = plugin_provenance(
         {
             "body_encoder": config.body.encoder,
@@ -309,10 +320,6 @@ def run_experiment(
             run = result.load()  # pandas: run.evaluations, run.bodies, run.generations, ...
         ```
     """
-    from ariel.evaluation.executors import planned_workers
-    from ariel.evolution import check_resources, is_brain_only, refuse_in_spawned_child
-    from ariel.recording.store import RunFolder, RunLock, storage_errors
-
     refuse_in_spawned_child()  # a script without a __main__ guard, re-run by a pool worker
     config = load_config(config, overrides)
     settings = executor_settings(config, kind=executor, workers=workers, address=address)
@@ -349,11 +356,6 @@ def _end_script_without_main_guard(path: Path, progress: bool | None) -> NoRetur
     line on stderr (`refuse_in_spawned_child`); a traceback would bury it. Nothing ran: the
     new run folder goes, and the script ends (exit code 2). A live progress display on the
     terminal may have drawn over the workers' lines: then the line again, below it."""
-    import shutil
-    import sys
-
-    from ariel.evolution import no_main_guard_line
-
     shutil.rmtree(path, ignore_errors=True)
     isatty = getattr(sys.stdout, "isatty", None)
     if shows_progress(progress) and callable(isatty) and isatty():
@@ -376,8 +378,6 @@ def noted_on_interrupt(name: str, folder: Path) -> Iterator[None]:
 def _worker_cannot_start(exc: BaseException | None) -> bool:
     """Whether ``exc`` (or one it was raised from or during) is the local pool saying that a
     worker could not start (`WorkerCannotStartError`)."""
-    from ariel.evaluation import WorkerCannotStartError
-
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, WorkerCannotStartError):
@@ -425,9 +425,6 @@ def resume_experiment(
         RunInUseError: When another process runs (or resumes) the run.
         ConfigError: For a bad executor setting.
     """
-    from ariel.evolution import check_plugins
-    from ariel.recording.store import RunFolder, RunLock, storage_errors
-
     folder = RunFolder(run_dir)
     info, config, _ = resumable(folder)
     # Unless told otherwise, continue on the kind of executor the run last ran on (results do
@@ -441,7 +438,7 @@ def resume_experiment(
         command=("resume", run_dir),
     )
     plugins = resolve_plugins(config)
-    check_plugins(config)
+    evolution.check_plugins(config)  # from the face when called: tests replace it there
     with storage_errors(folder.path), RunLock(folder.path):
         # Again under the lock: another resume may have run (or finished) the run meanwhile.
         info, config, state = resumable(folder)
@@ -450,20 +447,16 @@ def resume_experiment(
             return _drive(config, plugins, folder, info["run_id"], state, settings, progress)
 
 
-def reopen(folder: Any, state: LoopState | None) -> None:
+def reopen(folder: RunFolder, state: LoopState | None) -> None:
     """Under the run's lock, before it goes on: manifests for the kept generations (a run
     made before manifests), later generations' files removed, this resume's software noted."""
-    from ariel.recording.store import adopt_manifests
-
     adopt_manifests(folder, state.generation + 1 if state is not None else 0)
     folder.discard_after(state.generation if state is not None else -1)
     folder.start_segment("resume")
 
 
-def resumable(folder: Any) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:
+def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:
     """run.json, config and checkpoint of a run that may be resumed; `ValueError` else."""
-    from ariel.recording.store import NotARunError
-
     info = folder.read_info()
     if info.get("status") == "finished":
         raise ValueError(f"run {str(folder.path)!r} is already finished; nothing to resume")

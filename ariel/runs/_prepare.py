@@ -5,19 +5,47 @@ genotype file read, a fixed body built, the executor settings checked; every pro
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import inspect
+import sys
+from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
+from ariel import evolution
+from ariel.evaluation import default_workers
+from ariel.evaluation.executors import (
+    ExecutorSettingsError,
+    check_settings,
+    executor_kind,
+    executor_kinds,
+)
 from ariel.evolution import (
+    BodyFactory,
     ConfigError,
+    ExecutorConfig,
     ExperimentConfig,
     Plugins,
     check_genotype,
     describe,
     fixed_genotype,
+    is_brain_only,
     is_genotype_file,
+    read_genotype_file,
+)
+from ariel.plugins import (
+    BodyEncoder,
+    FitnessFunction,
+    Registry,
+    body_encoders,
+    body_optimizers,
+    brain_optimizers,
+    controllers,
+    fitness_functions,
+    worlds,
 )
 from ariel.recording.store import short_ascii
+from ariel.utils import ariel_line
 
 __all__ = ["executor_settings", "prepare_run", "resolve_plugins", "resume_settings"]
 
@@ -27,7 +55,7 @@ __all__ = ["executor_settings", "prepare_run", "resolve_plugins", "resume_settin
 # --------------------------------------------------------------------------------------------
 
 
-def _make(key: str, registry: Any, name: str, options: dict[str, Any]) -> Any:
+def _make(key: str, registry: Registry[Any], name: str, options: dict[str, Any]) -> Any:
     try:
         registry.get(name)
     except (KeyError, ValueError, ImportError) as exc:
@@ -39,9 +67,7 @@ def _make(key: str, registry: Any, name: str, options: dict[str, Any]) -> Any:
         raise ConfigError(f"{options_key}: {registry.label} '{name}': {exc}") from None
 
 
-def _check_fitness_options(config: ExperimentConfig, fitness: Any) -> None:
-    import inspect
-
+def _check_fitness_options(config: ExperimentConfig, fitness: FitnessFunction) -> None:
     try:
         signature = inspect.signature(fitness)
     except (TypeError, ValueError):  # a callable without a readable signature: not checked
@@ -54,10 +80,10 @@ def _check_fitness_options(config: ExperimentConfig, fitness: Any) -> None:
         ) from None
 
 
-def _optimizer_factory(config: ExperimentConfig, encoder: Any, maximise: bool) -> Any:
+def _optimizer_factory(
+    config: ExperimentConfig, encoder: BodyEncoder, maximise: bool
+) -> Callable[..., Any]:
     """``(**keywords) -> BodyOptimizer`` for ``body.optimizer``, made once here to check it."""
-    from ariel.plugins import body_optimizers
-
     body = config.body
     try:
         cls = body_optimizers.get(body.optimizer)
@@ -80,10 +106,6 @@ def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
     one is made here for a two-parameter body (each body makes its own during the run), with
     at most 64 candidates (a popsize too big for this machine is the memory check's to refuse:
     pycma allocates per candidate)."""
-    import numpy as np
-
-    from ariel.plugins import brain_optimizers
-
     brain = config.brain
     try:
         factory = brain_optimizers.get(brain.optimizer)
@@ -105,8 +127,6 @@ def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
 
 def resolve_plugins(config: ExperimentConfig) -> Plugins:
     """Make every plugin the config names; a bad name or option is a `ConfigError`."""
-    from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
-
     encoder = _make("body.encoder", body_encoders, config.body.encoder, config.body.options)
     controller = _make(
         "brain.controller", controllers, config.brain.controller, config.brain.options
@@ -130,10 +150,8 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
     return Plugins(encoder, controller, fitness, optimizer)
 
 
-def _read_genotype_file(config: ExperimentConfig, encoder: Any) -> ExperimentConfig:
+def _read_genotype_file(config: ExperimentConfig, encoder: BodyEncoder) -> ExperimentConfig:
     """The config holding the genotype itself when ``body.genotype`` names a file (checked)."""
-    from ariel.evolution import read_genotype_file
-
     if not is_genotype_file(config.body.genotype):
         return config
     path = config.body.genotype
@@ -145,8 +163,6 @@ def _read_genotype_file(config: ExperimentConfig, encoder: Any) -> ExperimentCon
 
 def _check_fixed_body(config: ExperimentConfig, plugins: Plugins) -> None:
     """A brain-only run's body must build: a bad ``body.genotype`` is a config error."""
-    from ariel.evolution import BodyFactory
-
     factory = BodyFactory(config, plugins.encoder, plugins.controller, plugins.maximise)
     body = factory.new_body(0, fixed_genotype(config, plugins.encoder), [], 0)
     if body.status == "error":
@@ -154,15 +170,13 @@ def _check_fixed_body(config: ExperimentConfig, plugins: Plugins) -> None:
         raise ConfigError(f"body.genotype: {shown} gives no body: {body.error}")
 
 
-def executor_settings(config: ExperimentConfig, **given: Any) -> Any:
+def executor_settings(config: ExperimentConfig, **given: object) -> ExecutorConfig:
     """The config's ``[executor]`` with the caller's overrides, checked: `ConfigError`."""
     changes = {key: value for key, value in given.items() if value is not None}
     return _checked(config.executor.model_copy(update=changes))
 
 
-def _checked(settings: Any) -> Any:
-    from ariel.evaluation.executors import ExecutorSettingsError, check_settings
-
+def _checked(settings: ExecutorConfig) -> ExecutorConfig:
     try:
         check_settings(settings)
     except ExecutorSettingsError as exc:
@@ -170,11 +184,9 @@ def _checked(settings: Any) -> Any:
     return settings
 
 
-def _stored_workers(value: Any) -> int | None:
+def _stored_workers(value: object) -> int | None:
     """A worker count a folder recorded, if it is one this machine can honour (at most the
     CPUs this process may use); None (the default) otherwise."""
-    from ariel.evaluation import default_workers
-
     if type(value) is int and 1 <= value <= default_workers():
         return value
     return None
@@ -182,24 +194,19 @@ def _stored_workers(value: Any) -> int | None:
 
 def resume_settings(
     config: ExperimentConfig,
-    stored: Any,
+    stored: object,
     *,
     kind: str | None,
     workers: int | None,
     address: str | None,
     command: Sequence[object],
-) -> Any:
+) -> ExecutorConfig:
     """The executor of a resume: the caller's ``kind`` / ``workers`` / ``address``, else what
     the folder recorded (``stored``: run.json's or campaign.json's ``executor``, and the stored
     config's section) for the kind and the worker count, but never a scheduler address: a
     folder is data, and a Dask scheduler it names could be anyone's (Dask moves results as
     pickles). A stored address not used is said in one line on stderr, with how to pass one
     (``command``: the words of the resume command, e.g. ``("resume", run_dir)``)."""
-    import sys
-
-    from ariel.evaluation.executors import executor_kind, executor_kinds
-    from ariel.utils import ariel_line
-
     stored = stored if isinstance(stored, dict) else {}
     stored_kind = stored.get("kind")
     if not isinstance(stored_kind, str) or stored_kind not in executor_kinds:
@@ -230,11 +237,11 @@ def resume_settings(
 
 def prepare_run(config: ExperimentConfig) -> tuple[ExperimentConfig, Plugins]:
     """The config (a genotype file read into it) and its plugins, all checked: `ConfigError`."""
-    from ariel.evolution import check_plugins, is_brain_only
-
     plugins = resolve_plugins(config)
     config = _read_genotype_file(config, plugins.encoder)
     if is_brain_only(config, plugins.encoder):
         _check_fixed_body(config, plugins)
-    check_plugins(config)  # the plugins --check checks, for these plugins with these options
+    # The plugins --check checks, for these plugins with these options; from the face when
+    # called: tests replace it there (tests/e2e/test_unstable.py).
+    evolution.check_plugins(config)
     return config, plugins

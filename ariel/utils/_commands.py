@@ -19,6 +19,8 @@ import shutil
 import sys
 from pathlib import Path
 
+from ariel.utils.interrupts import exit_status
+
 __all__ = [
     "ariel_command",
     "ariel_line",
@@ -113,8 +115,6 @@ def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> 
     Returns:
         The exit code (`ariel.utils.interrupts.exit_status`).
     """
-    from ariel.utils.interrupts import exit_status
-
     hint = f"; continue it with: {ariel_line(*resume, folder)}" if folder else ""
     code, how = exit_status(exc)
     print(f"\ninterrupted{how}{hint}", file=sys.stderr)

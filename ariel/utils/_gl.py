@@ -131,7 +131,7 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
     model is left as it was. Raises a one-line `GLBackendError` (a ``RuntimeError``) when no
     OpenGL backend works.
     """
-    import mujoco
+    import mujoco  # lazy: MUJOCO_GL is read when mujoco is first imported: chosen before this
 
     if not (isinstance(width, int) and isinstance(height, int)) or width <= 0 or height <= 0:
         raise ValueError(

@@ -13,6 +13,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
+import imageio_ffmpeg
 import numpy as np
 
 __all__ = ["VideoRecorder"]
@@ -82,8 +83,6 @@ class VideoRecorder:
         return path
 
     def _start(self) -> None:
-        import imageio_ffmpeg
-
         self._writer = imageio_ffmpeg.write_frames(
             str(self.path),
             size=(self.width, self.height),

@@ -64,10 +64,10 @@ from ariel.evaluation import (  # noqa: E402
     build,
     evaluate_batch,
 )
+from ariel.evaluation._executor_local import _initialize_worker  # noqa: E402
 from ariel.evaluation._pool import temporary_environ  # noqa: E402
 from ariel.evaluation.builtin_plugins import NaCPGController  # noqa: E402
 from ariel.evaluation.executors import (  # noqa: E402
-    _initialize_worker,
     default_workers,
     make_executor,
     worker_environment,

@@ -20,7 +20,7 @@ from pathlib import Path
 from ariel.recording import load_run, watch
 from ariel.recording.store._files import atomic_write_bytes
 from ariel.recording.viewer._browser import HeadlessChromium, find_chromium
-from ariel.recording.viewer._view import wait_for_drawing
+from ariel.recording.viewer._web import wait_for_drawing
 
 
 def main() -> None:

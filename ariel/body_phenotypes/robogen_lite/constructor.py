@@ -247,7 +247,18 @@ def validate_robot_graph(graph: nx.DiGraph) -> RobotTree:
             one face of a parent.
     """
     _check_structure(graph)
+    types, rotations = _parse_nodes(graph)
+    parent, children = _parse_edges(graph, types)
+    order = _attachment_order(children)  # sorts each node's children, too
+    return RobotTree(
+        types=types, rotations=rotations, parent=parent, children=children, order=order
+    )
 
+
+def _parse_nodes(
+    graph: nx.DiGraph,
+) -> tuple[dict[int, ModuleType], dict[int, ModuleRotationsIdx]]:
+    """Each node's module type and rotation, checked (`validate_robot_graph`'s node errors)."""
     types: dict[int, ModuleType] = {}
     rotations: dict[int, ModuleRotationsIdx] = {}
     for node, attrs in graph.nodes(data=True):
@@ -275,7 +286,14 @@ def validate_robot_graph(graph: nx.DiGraph) -> RobotTree:
             )
         types[int(node)] = module_type
         rotations[int(node)] = rotation
+    return types, rotations
 
+
+def _parse_edges(
+    graph: nx.DiGraph, types: dict[int, ModuleType]
+) -> tuple[dict[int, tuple[int, ModuleFaces]], dict[int, list[tuple[ModuleFaces, int]]]]:
+    """Each node's parent and each node's children, by face (`validate_robot_graph`'s edge
+    errors); ``types``: the nodes' module types (`_parse_nodes`)."""
     parent: dict[int, tuple[int, ModuleFaces]] = {}
     children: dict[int, list[tuple[ModuleFaces, int]]] = {node: [] for node in types}
     for u, v, attrs in graph.edges(data=True):
@@ -297,7 +315,12 @@ def validate_robot_graph(graph: nx.DiGraph) -> RobotTree:
                 )
         children[int(u)].append((face, int(v)))
         parent[int(v)] = (int(u), face)
+    return parent, children
 
+
+def _attachment_order(children: dict[int, list[tuple[ModuleFaces, int]]]) -> list[int]:
+    """The breadth-first attachment order from the core; sorts each node's ``children`` (in
+    place) by face, then node."""
     for kids in children.values():
         kids.sort(key=lambda item: (item[0].value, item[1]))
     order: list[int] = []
@@ -306,9 +329,7 @@ def validate_robot_graph(graph: nx.DiGraph) -> RobotTree:
         node = queue.popleft()
         order.append(node)
         queue.extend(child for _face, child in children[node])
-    return RobotTree(
-        types=types, rotations=rotations, parent=parent, children=children, order=order
-    )
+    return order
 
 
 def construct_mjspec_from_graph(graph: nx.DiGraph | RobotTree) -> CoreModule:

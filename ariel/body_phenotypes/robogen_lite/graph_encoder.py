@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import networkx as nx
 
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
+from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_GRAPHS
 from ariel.errors import cannot_vary
 
 if TYPE_CHECKING:
@@ -34,8 +35,6 @@ class GraphEncoder:
         pass
 
     def random_genotype(self, rng: np.random.Generator) -> dict[str, Any]:
-        from ariel.body_phenotypes.robogen_lite.prebuilt_robots import PREBUILT_GRAPHS
-
         return nx.node_link_data(graph_to_plain(PREBUILT_GRAPHS["gecko"]()), edges="edges")
 
     def mutate(self, genotype: Any, rng: np.random.Generator, **options: Any) -> NoReturn:

@@ -15,9 +15,12 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "MEASURED_BY",
@@ -47,7 +50,7 @@ class CompareError(ValueError):
 
 #: The config keys that decide what a fitness value means, with the value a run.json config
 #: without the key had (``task.settle`` came later: older runs did not settle).
-MEASURED_BY: tuple[tuple[str, Any], ...] = (
+MEASURED_BY: tuple[tuple[str, object], ...] = (
     ("task.fitness", "xy_displacement"),
     ("task.options", {}),
     ("task.duration", None),
@@ -57,8 +60,8 @@ MEASURED_BY: tuple[tuple[str, Any], ...] = (
 )
 
 
-def _value(config: Mapping[str, Any], dotted: str, default: Any) -> Any:
-    value: Any = config
+def _value(config: Mapping[str, object], dotted: str, default: object) -> object:
+    value: object = config
     for part in dotted.split("."):
         if not isinstance(value, Mapping) or part not in value:
             return default
@@ -66,11 +69,11 @@ def _value(config: Mapping[str, Any], dotted: str, default: Any) -> Any:
     return value
 
 
-def _shown(value: Any) -> str:
+def _shown(value: object) -> str:
     return json.dumps(value, sort_keys=True, default=str)
 
 
-def check_comparable(configs: Sequence[tuple[str, Mapping[str, Any]]]) -> None:
+def check_comparable(configs: Sequence[tuple[str, Mapping[str, object]]]) -> None:
     """Refuse (`CompareError`, one line) runs whose ``(label, config)`` differ in a key of
     `MEASURED_BY`: the first such key, with the first run that differs from the first run."""
     if not configs:
@@ -93,19 +96,19 @@ def check_comparable(configs: Sequence[tuple[str, Mapping[str, Any]]]) -> None:
 # --------------------------------------------------------------------------------------------
 
 
-def evaluation_order(evaluations: Any) -> Any:
+def evaluation_order(evaluations: pd.DataFrame) -> pd.DataFrame:
     """The evaluations in the order the loop made them: by generation, then eval id (body,
     iteration, candidate), as the best-so-far curves count them
     (`ariel.recording.store._curves`)."""
     return evaluations.sort_values(["generation", "eval_id"], kind="stable")
 
 
-def first_evaluations(evaluations: Any, budget: int) -> Any:
+def first_evaluations(evaluations: pd.DataFrame, budget: int) -> pd.DataFrame:
     """The run's first ``budget`` evaluations, in `evaluation_order`."""
     return evaluation_order(evaluations).head(budget).reset_index(drop=True)
 
 
-def whole_generations(evaluations: Any, budget: int) -> list[Any]:
+def whole_generations(evaluations: pd.DataFrame, budget: int) -> list[Hashable]:
     """The generations all of whose evaluations are among the run's first ``budget``
     (`first_evaluations`): those whose per-generation values (QD, lineage) count at it."""
     counts = evaluations["generation"].value_counts()
@@ -164,7 +167,7 @@ class Source:
     base: str = ""
 
 
-def _flat(config: Mapping[str, Any], prefix: str = "") -> dict[str, str]:
+def _flat(config: Mapping[str, object], prefix: str = "") -> dict[str, str]:
     flat: dict[str, str] = {}
     for key, value in config.items():
         if isinstance(value, Mapping) and not key.endswith("options"):
@@ -174,7 +177,7 @@ def _flat(config: Mapping[str, Any], prefix: str = "") -> dict[str, str]:
     return flat
 
 
-def condition_settings(config: Mapping[str, Any]) -> dict[str, str]:
+def condition_settings(config: Mapping[str, object]) -> dict[str, str]:
     """A run config as dotted key -> JSON value (a plugin's ``options`` as one value), less
     what does not make a condition: seed, name, description and the executor."""
     return {
@@ -184,7 +187,7 @@ def condition_settings(config: Mapping[str, Any]) -> dict[str, str]:
     }
 
 
-def shared_settings(configs: Sequence[Mapping[str, Any]]) -> dict[str, str]:
+def shared_settings(configs: Sequence[Mapping[str, object]]) -> dict[str, str]:
     """The `condition_settings` every run shares (the base config's resolved values)."""
     flats = [condition_settings(c) for c in configs]
     if not flats:

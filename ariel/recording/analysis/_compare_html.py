@@ -13,15 +13,23 @@ import base64
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+import pandas as pd
+
+from ariel.recording.analysis._compare_design import MEASURES, QD_COLUMNS
+from ariel.recording.analysis._compare_lineage import LINEAGE_MEASURES, measures
 from ariel.recording.analysis._compare_stats import ALPHA
 from ariel.recording.store import (
+    atomic_write,
     html_text,
     markdown_cell,
     markdown_code,
     markdown_text,
 )
+
+if TYPE_CHECKING:
+    from ariel.recording.analysis._compare import Comparison
 
 __all__ = [
     "STATS_COLUMNS",
@@ -52,7 +60,7 @@ STATS_COLUMNS = (
 PAIRED_COLUMN = "A better (pairs)"
 
 
-def _number(value: Any) -> str:
+def _number(value: object) -> str:
     if isinstance(value, float):
         return "-" if math.isnan(value) else f"{value:.4g}"
     return str(value)
@@ -80,7 +88,7 @@ def _test(row: dict[str, Any]) -> str:
     return f"{row['test']}, {pairs} pairs" if pairs is not None else row["test"]
 
 
-def format_stats(stats: Any, *, paired: bool = False) -> list[list[str]]:
+def format_stats(stats: pd.DataFrame, *, paired: bool = False) -> list[list[str]]:
     """The pairwise table as rows of text (`STATS_COLUMNS`; ``paired``: with `PAIRED_COLUMN`)."""
     rows = []
     for row in stats.to_dict("records"):
@@ -110,15 +118,15 @@ def _stats_head(paired: bool) -> list[str]:
     return head
 
 
-def stats_frame(comparison: Any) -> Any:
+def stats_frame(comparison: Comparison) -> pd.DataFrame:
     """The pairwise table as text, one row per measure and pair (what the command prints)."""
-    import pandas as pd
-
     paired = comparison.tests.paired
     return pd.DataFrame(format_stats(comparison.stats, paired=paired), columns=_stats_head(paired))
 
 
-def _measure_rows(records: list[dict[str, Any]], measure: str, column: str) -> list[Any]:
+def _measure_rows(
+    records: list[dict[str, Any]], measure: str, column: str
+) -> list[tuple[str, list[str]]]:
     """A measure's rows of the summary: its median, and its mean ± sd, per condition."""
     return [
         (f"{measure}: median", [_number(r[f"{column}_median"]) for r in records]),
@@ -129,10 +137,7 @@ def _measure_rows(records: list[dict[str, Any]], measure: str, column: str) -> l
     ]
 
 
-def _summary_rows(summary: Any) -> list[tuple[str, list[str]]]:
-    from ariel.recording.analysis._compare_design import MEASURES, QD_COLUMNS
-    from ariel.recording.analysis._compare_lineage import LINEAGE_MEASURES
-
+def _summary_rows(summary: pd.DataFrame) -> list[tuple[str, list[str]]]:
     records = summary.to_dict("records")
     rows = [("runs", [str(r["runs"]) for r in records])]
     for measure, column in MEASURES.items():
@@ -146,12 +151,10 @@ def _summary_rows(summary: Any) -> list[tuple[str, list[str]]]:
     return rows
 
 
-def summary_frame(comparison: Any) -> Any:
+def summary_frame(comparison: Comparison) -> pd.DataFrame:
     """Per condition (a column each): runs, median and mean ± sd of each measure, the
     median of the QD columns where the runs have them, and median and mean ± sd of each
     lineage measure where a run has a lineage."""
-    import pandas as pd
-
     names = comparison.summary["condition"].tolist()
     rows = [[label, *cells] for label, cells in _summary_rows(comparison.summary)]
     return pd.DataFrame(rows, columns=["", *names])
@@ -160,10 +163,8 @@ def summary_frame(comparison: Any) -> Any:
 OMNIBUS_COLUMNS = ("measure", "test", "conditions", "n", "statistic", "p", "smallest p possible")
 
 
-def omnibus_frame(comparison: Any) -> Any:
+def omnibus_frame(comparison: Comparison) -> pd.DataFrame:
     """The omnibus test per measure (more than two conditions; else no rows)."""
-    import pandas as pd
-
     rows = [
         [
             row["measure"],
@@ -179,7 +180,7 @@ def omnibus_frame(comparison: Any) -> Any:
     return pd.DataFrame(rows, columns=list(OMNIBUS_COLUMNS))
 
 
-def _note(comparison: Any, escape: Callable[[object], str] = str) -> str:
+def _note(comparison: Comparison, escape: Callable[[object], str] = str) -> str:
     """What the tables mean; ``escape``: the medium's escape of the fitness function's name
     (from the runs' configs; the rest is ours)."""
     direction = "higher" if comparison.maximise else "lower"
@@ -207,9 +208,7 @@ _LINEAGE_NOTE = (
 )
 
 
-def _has_lineage(comparison: Any) -> bool:
-    from ariel.recording.analysis._compare_lineage import measures
-
+def _has_lineage(comparison: Comparison) -> bool:
     return comparison.runs is not None and bool(measures(comparison.runs))
 
 
@@ -219,14 +218,12 @@ def _has_lineage(comparison: Any) -> bool:
 
 
 def _write_text(path: Path, text: str) -> Path:
-    from ariel.recording.store import atomic_write
-
     # Whole, and never through a link (``compare/stats.md -> ~/.bashrc`` is replaced).
     atomic_write(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
     return path
 
 
-def _markdown_table(frame: Any) -> list[str]:
+def _markdown_table(frame: pd.DataFrame) -> list[str]:
     head = [markdown_cell(c) for c in frame.columns]
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
     lines += [
@@ -235,7 +232,7 @@ def _markdown_table(frame: Any) -> list[str]:
     return [*lines, ""]
 
 
-def _markdown_tables(comparison: Any) -> list[str]:
+def _markdown_tables(comparison: Comparison) -> list[str]:
     lines = ["## Per condition", "", *_markdown_table(comparison.summary_table())]
     lines += ["## Pairs of conditions", "", *_markdown_table(comparison.table())]
     if len(comparison.omnibus):
@@ -243,7 +240,7 @@ def _markdown_tables(comparison: Any) -> list[str]:
     return lines
 
 
-def write_markdown(comparison: Any, path: Path) -> Path:
+def write_markdown(comparison: Comparison, path: Path) -> Path:
     """``stats.md``: the note and the tables."""
     lines = [
         f"# {markdown_text(comparison.title)}",
@@ -263,7 +260,7 @@ _SECTIONS = {
 }
 
 
-def write_readme(comparison: Any, path: Path) -> Path:
+def write_readme(comparison: Comparison, path: Path) -> Path:
     """``README.md``: what was compared, the warnings, the tables and the figures."""
     lines = [f"# {markdown_text(comparison.title)}: comparison", "", "## What was compared", ""]
     lines += [f"- **{label}**: {markdown_text(text)}" for label, text in comparison.about]
@@ -297,7 +294,7 @@ def _table(head: list[str], rows: list[list[str]]) -> str:
     return f"<table><thead><tr>{cells}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def _frame_table(frame: Any) -> str:
+def _frame_table(frame: pd.DataFrame) -> str:
     return _table(
         [str(c) for c in frame.columns], [[str(c) for c in r] for r in frame.itertuples(False)]
     )
@@ -320,7 +317,7 @@ ul.warnings { background: #fff6e0; border-left: 4px solid #e0a000; padding: 0.6e
 """
 
 
-def _about(comparison: Any) -> list[str]:
+def _about(comparison: Comparison) -> list[str]:
     parts = [
         "<h2>What was compared</h2>",
         '<table class="about"><tbody>'
@@ -343,7 +340,7 @@ def _about(comparison: Any) -> list[str]:
     return parts
 
 
-def write_html(comparison: Any, path: Path) -> Path:
+def write_html(comparison: Comparison, path: Path) -> Path:
     """One page: what was compared, the warnings, the note, the tables, the figures
     (embedded) and the runs."""
     parts = [

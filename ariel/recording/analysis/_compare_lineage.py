@@ -5,7 +5,10 @@ standard (`ariel.recording.lineage_statistics`), at the budget compared:
   MAP-Elites' generation 0; every body of random search) with a descendant in the population
   after the selection of the run's last generation wholly within the budget;
 - ``best depth``: parent steps on the longest chain from that population's best body back to
-  a founder: how many rounds of variation made it.
+  a founder: how many rounds of variation made it;
+- ``distinct bodies``: how many different morphologies (robot graphs compared by structure,
+  `graph_key`) the run has made by then, every body that could be built counted once: the
+  diversity any body optimizer can be measured by, archive or not.
 
 They get the fitness measures' treatment (`_compare_stats`: the design's tests, Holm over the
 pairs, A12, the omnibus test; median, mean and sd per condition), but neither direction is
@@ -20,13 +23,21 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 from ariel.recording.analysis._compare_design import whole_generations
+from ariel.recording.analysis._compare_plots import lineages_figure
 from ariel.recording.analysis._compare_stats import location, median_band
 from ariel.recording.store import lineage, lineage_statistics, on_grid
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ariel.recording.analysis._compare_runs import RunCurve
+    from ariel.recording.store import Run
 
 __all__ = [
     "FIGURE",
@@ -41,13 +52,17 @@ __all__ = [
 ]
 
 #: Measure name -> its column in `Comparison.runs` (and in `run_lineage`'s table).
-LINEAGE_MEASURES = {"surviving lineages": "surviving_lineages", "best depth": "best_depth"}
+LINEAGE_MEASURES = {
+    "surviving lineages": "surviving_lineages",
+    "best depth": "best_depth",
+    "distinct bodies": "distinct_bodies",
+}
 #: The figure's file in ``compare/``.
 FIGURE = "lineages.png"
 GRID_POINTS = 200  # as best_so_far.png
 
 
-def run_lineage(run: Any) -> Any:
+def run_lineage(run: Run) -> pd.DataFrame | None:
     """Per finished generation of ``run``: ``generation``, ``evaluations`` (done by its end)
     and the `LINEAGE_MEASURES` columns (floats, NaN for no best); None for a brain-only run
     or one without a finished generation."""
@@ -57,31 +72,48 @@ def run_lineage(run: Any) -> Any:
     counts = run.evaluations.groupby("generation").size()
     done = counts.reindex(range(run.generations_done), fill_value=0).cumsum()
     stats["evaluations"] = done.reindex(stats["generation"]).to_numpy()
+    made = _distinct_bodies(run)
+    stats["distinct_bodies"] = [made.get(int(g), 0) for g in stats["generation"]]
     for column in LINEAGE_MEASURES.values():
         stats[column] = stats[column].to_numpy(dtype=np.float64, na_value=np.nan)
-    return stats[["generation", "evaluations", *LINEAGE_MEASURES.values()]]
+    return stats.loc[:, ["generation", "evaluations", *LINEAGE_MEASURES.values()]]
 
 
-def at_budget(curve: Any, budget: int) -> dict[str, float]:
+def _distinct_bodies(run: Run) -> dict[int, int]:
+    """Generation -> distinct morphologies among the bodies made up to it (its new bodies and
+    every earlier generation's; a body that could not be built has no graph and is left out)."""
+    bodies = run.bodies
+    new = bodies.loc[bodies["is_new"], ["generation", "graph"]].sort_values("generation")
+    seen: set[str] = set()
+    counts: dict[int, int] = {}
+    for generation, graph in zip(new["generation"].tolist(), new["graph"].tolist()):
+        if graph:
+            seen.add(graph_key(graph))
+        counts[int(generation)] = len(seen)
+    return counts
+
+
+def at_budget(curve: RunCurve, budget: int) -> dict[str, float]:
     """A run's lineage measures after its last generation wholly within its first ``budget``
     evaluations (NaN where there is none); empty for a run without a lineage."""
     table = getattr(curve, "lineage", None)
     if table is None:
         return {}
+    columns = [column for column in LINEAGE_MEASURES.values() if column in table]
     rows = table[table["generation"].isin(whole_generations(curve.evaluations, budget))]
     if not len(rows):
-        return dict.fromkeys(LINEAGE_MEASURES.values(), math.nan)
+        return dict.fromkeys(columns, math.nan)
     last = rows.sort_values("generation").iloc[-1]
-    return {column: float(last[column]) for column in LINEAGE_MEASURES.values()}
+    return {column: float(last[column]) for column in columns}
 
 
-def measures(runs: Any) -> dict[str, str]:
+def measures(runs: pd.DataFrame) -> dict[str, str]:
     """The `LINEAGE_MEASURES` that ``runs`` (`Comparison.runs`) have: none where no run has
     a lineage (synthetic curves, brain-only runs)."""
     return {name: column for name, column in LINEAGE_MEASURES.items() if column in runs}
 
 
-def summary(group: Any) -> dict[str, float]:
+def summary(group: pd.DataFrame) -> dict[str, float]:
     """``<column>_median``, ``_mean`` and ``_sd`` of each lineage measure of one condition's
     runs (`location`), as the fitness measures have them."""
     return {
@@ -98,17 +130,19 @@ def relabel(rows: Sequence[dict[str, Any]]) -> None:
             row["better"] = f"higher: {row['better']}"
 
 
-def series(grouped: Mapping[str, Sequence[Any]], budget: int) -> dict[str, dict[str, tuple]]:
+def series(
+    grouped: Mapping[str, Sequence[RunCurve]], budget: int
+) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]]:
     """Column -> condition -> (evaluations 1..budget on a grid, median, 95 % band low, high)
     of the runs' lineage measures after each generation (a step curve: a generation's value
     from the evaluation that ended it on); conditions without a lineage are left out."""
     grid = np.unique(np.linspace(1, max(budget, 1), GRID_POINTS).round().astype(np.int64))
-    found: dict[str, dict[str, tuple]] = {}
+    found: dict[str, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
     for name, runs in grouped.items():
-        tables = [r.lineage for r in runs if getattr(r, "lineage", None) is not None]
+        tables = [t for r in runs if (t := getattr(r, "lineage", None)) is not None]
         if not tables:
             continue
-        for column in LINEAGE_MEASURES.values():
+        for column in (c for c in LINEAGE_MEASURES.values() if c in tables[0]):
             values = np.array(
                 [
                     on_grid(t["evaluations"].to_numpy(np.int64), t[column].to_numpy(float), grid)
@@ -119,10 +153,8 @@ def series(grouped: Mapping[str, Sequence[Any]], budget: int) -> dict[str, dict[
     return found
 
 
-def figure(grouped: Mapping[str, Sequence[Any]], budget: int, out: Path) -> dict[str, Path]:
+def figure(grouped: Mapping[str, Sequence[RunCurve]], budget: int, out: Path) -> dict[str, Path]:
     """``{"lineages": out / FIGURE}`` after drawing it (`_compare_plots.lineages_figure`);
     empty, with nothing drawn, where no run has a lineage."""
-    from ariel.recording.analysis._compare_plots import lineages_figure
-
     drawn = series(grouped, budget)
     return {"lineages": lineages_figure(drawn, out / FIGURE)} if drawn else {}

@@ -13,11 +13,17 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ariel.recording.store import DESCRIPTORS, figure_label, integer_ticks
+from ariel.recording.store import DESCRIPTORS, atomic_write, figure_label, integer_ticks
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from ariel.recording.analysis._compare_runs import RunCurve
 
 __all__ = [
     "MORPHOLOGY",
@@ -37,22 +43,20 @@ _BAND_ALPHA = 0.2
 
 
 def _pyplot() -> Any:
-    import matplotlib
+    import matplotlib  # lazy: heavy optional library (only where a figure is drawn)
 
     matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # lazy: heavy optional library, after the Agg backend
 
     return plt
 
 
-def _colours(names: Sequence[str]) -> dict[str, Any]:
+def _colours(names: Sequence[str]) -> dict[str, str]:
     cycle = _pyplot().rcParams["axes.prop_cycle"].by_key()["color"]
     return {name: cycle[i % len(cycle)] for i, name in enumerate(names)}
 
 
-def _save(figure: Any, path: Path) -> Path:
-    from ariel.recording.store import atomic_write
-
+def _save(figure: Figure, path: Path) -> Path:
     figure.tight_layout()
     try:  # never through a link planted in the output folder (``compare/final_best.png -> ~/x``)
         atomic_write(path, lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"))
@@ -68,7 +72,7 @@ def best_so_far_figure(
     ylabel: str,
 ) -> Path:
     """``curves``: condition -> (evaluations grid, median, band low, band high)."""
-    from matplotlib.patches import Patch
+    from matplotlib.patches import Patch  # lazy: heavy optional library
 
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
@@ -153,13 +157,15 @@ def morphology_figure(
     return _save(figure, path)
 
 
-def morphology_series(grouped: Mapping[str, Sequence[Any]]) -> dict[str, dict[str, tuple]]:
-    """``grouped``: condition -> its runs (`_compare.RunCurve`, evaluations up to the budget).
+def morphology_series(
+    grouped: Mapping[str, Sequence[RunCurve]],
+) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]]:
+    """``grouped``: condition -> its runs (`_compare_runs.RunCurve`, evaluations up to the budget).
 
     Returns:
         descriptor -> condition -> (bin centres, median, 25 %, 75 %) of per-run bin means.
     """
-    series: dict[str, dict[str, tuple]] = {}
+    series: dict[str, dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
     for descriptor in MORPHOLOGY:
         per_condition = {}
         for name, runs in grouped.items():
@@ -179,7 +185,7 @@ def morphology_series(grouped: Mapping[str, Sequence[Any]]) -> dict[str, dict[st
     return series
 
 
-def _bin_means(evaluations: Any, descriptor: str, edges: np.ndarray) -> np.ndarray:
+def _bin_means(evaluations: pd.DataFrame, descriptor: str, edges: np.ndarray) -> np.ndarray:
     ordered = evaluations.sort_values(["generation", "eval_id"], kind="stable")
     values = ordered[descriptor].to_numpy(dtype=np.float64, na_value=np.nan)
     position = np.arange(len(values))
@@ -196,6 +202,7 @@ def _bin_means(evaluations: Any, descriptor: str, edges: np.ndarray) -> np.ndarr
 LINEAGE_PANELS = {
     "surviving_lineages": ("surviving lineages", "lineages (founders with a living descendant)"),
     "best_depth": ("depth of the best body's ancestry", "parent steps back to a founder"),
+    "distinct_bodies": ("distinct bodies made", "morphologies (robot graphs)"),
 }
 
 
@@ -224,5 +231,8 @@ def lineages_figure(
         integer_ticks(axes.yaxis)
         axes.grid(alpha=0.3)
     grid.flat[0].legend(loc="best", fontsize="small")
-    figure.suptitle("lineages after each generation: median of the seeds (band: 95 % bootstrap CI)")
+    figure.suptitle(
+        "lineages and diversity after each generation: median of the seeds "
+        "(band: 95 % bootstrap CI)"
+    )
     return _save(figure, path)

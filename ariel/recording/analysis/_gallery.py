@@ -16,8 +16,17 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from ariel.errors import RunStorageError
+from ariel.evaluation import default_workers
+from ariel.recording.analysis import _gallery_render
+from ariel.recording.analysis._gallery_render import (
+    THUMBNAIL_SIZE,
+    ThumbnailJob,
+    cached_thumbnail,
+    thumbnail_path,
+)
 from ariel.recording.analysis._gallery_select import (
     KEY_DESCRIPTORS,
     OF,
@@ -30,6 +39,22 @@ from ariel.recording.analysis._gallery_select import (
     key_descriptors,
     picks,
 )
+from ariel.recording.store import (
+    Run,
+    atomic_write,
+    atomic_write_bytes,
+    cannot_write,
+    fitness_label,
+    is_campaign,
+    load_campaign,
+    load_run,
+    one_line,
+    refuse_symlinks,
+)
+from ariel.utils import ariel_line
+
+if TYPE_CHECKING:
+    from ariel.recording.analysis._report import Report
 
 __all__ = [
     "OF",
@@ -110,21 +135,17 @@ class Gallery:
     atlas: Atlas | None = None
 
 
-def _run_name(run: Any) -> str:
-    from ariel.recording.store import one_line
-
+def _run_name(run: Run) -> str:
     run_id = run.info.get("run_id")
     return one_line(run_id if isinstance(run_id, str) and run_id else run.path.name)
 
 
-def _subtitle(run: Any, key: tuple[str, str]) -> str:
-    from ariel.recording.store import fitness_label
-
+def _subtitle(run: Run, key: tuple[str, str]) -> str:
     fitness = fitness_label(str(run.config.get("task", {}).get("fitness", "")), run.maximise)
     return f"{fitness}; each label: body id, fitness, {key[0]}, {key[1]}"
 
 
-def _title(run: Any, of: str, chosen: list[Pick], atlas: Atlas | None) -> str:
+def _title(run: Run, of: str, chosen: list[Pick], atlas: Atlas | None) -> str:
     generation = run.generations_done - 1
     if generation < 0 or not chosen:
         why = "no finished generation yet" if generation < 0 else "no body with a fitness"
@@ -154,14 +175,13 @@ def _bodies(chosen: list[Pick]) -> str:
     return f"{len(chosen)} bod{'y' if len(chosen) == 1 else 'ies'}"
 
 
-def _command(run: Any, eval_id: str) -> str:
-    from ariel.utils import ariel_line
-
+def _command(run: Run, eval_id: str) -> str:
     recorded = (run.path / "run.rrd").is_file() or (run.path / "recordings").is_dir()
     return ariel_line("view" if recorded else "replay", run.path, eval_id)
 
 
 def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> GalleryBody:
+    # lazy: imports mujoco, which reads MUJOCO_GL when imported (`ariel gallery` sets it first)
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     body = pick.body
@@ -190,16 +210,6 @@ def _thumbnails(
     gallery: Gallery, chosen: list[Pick], *, workers: int | None, render: bool
 ) -> list[Path | None]:
     """Each pick's thumbnail (None: not drawn), drawing those not drawn before."""
-    from ariel.evaluation import default_workers
-    from ariel.recording.analysis._gallery_render import (
-        ThumbnailJob,
-        cached_thumbnail,
-        gl_problem,
-        render_thumbnails,
-        thumbnail_path,
-    )
-    from ariel.recording.store import refuse_symlinks
-
     paths: list[Path | None] = []
     jobs: dict[str, ThumbnailJob] = {}
     for pick in chosen:
@@ -212,12 +222,14 @@ def _thumbnails(
     gallery.reused = len({str(p) for p in paths} - set(jobs))
     if not jobs:
         return list(paths)
-    problem = gl_problem() if render else "rendering off"
+    problem = _gallery_render.gl_problem() if render else "rendering off"
     if problem is not None:
         gallery.notes.append(f"{len(jobs)} thumbnail(s) left out: {problem}")
         return [None if str(path) in jobs else path for path in paths]
     runs = {str(pick.run.path): pick.run for pick in chosen}
-    drawn = render_thumbnails(list(jobs.values()), workers=workers or default_workers(), runs=runs)
+    drawn = _gallery_render.render_thumbnails(
+        list(jobs.values()), workers=workers or default_workers(), runs=runs
+    )
     for path, why in drawn.items():
         if why is not None:
             gallery.notes.append(f"{jobs[path].body_id}: no thumbnail ({why})")
@@ -226,7 +238,7 @@ def _thumbnails(
 
 
 def body_thumbnails(
-    run: Any, body_ids: Sequence[str], *, render: bool = True, workers: int | None = None
+    run: Run, body_ids: Sequence[str], *, render: bool = True, workers: int | None = None
 ) -> tuple[dict[str, Path], list[str]]:
     """Thumbnails of bodies ``body_ids`` of ``run`` (a `Run`), drawn as the gallery draws
     them and cached with its own (``RUN/gallery/thumbnails/``; one already there is reused).
@@ -245,11 +257,9 @@ def body_thumbnails(
 
 def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:
     """The sheet and the page, each written whole (`atomic_write`) inside ``root``."""
-    from ariel.errors import RunStorageError
+    # lazy: the page and the sheet import Pillow (PIL), a heavy optional library
     from ariel.recording.analysis._gallery_html import gallery_html
-    from ariel.recording.analysis._gallery_render import THUMBNAIL_SIZE
-    from ariel.recording.analysis._gallery_sheet import atlas_sheet, contact_sheet
-    from ariel.recording.store import atomic_write, atomic_write_bytes, cannot_write
+    from ariel.recording.analysis._gallery_sheet import atlas_sheet, contact_sheet  # lazy: PIL
 
     draw = atlas_sheet if gallery.atlas is not None else contact_sheet
     sheet = draw(gallery, THUMBNAIL_SIZE)
@@ -283,7 +293,7 @@ def _finish(
     return gallery
 
 
-def _run_gallery(run: Any, of: str) -> tuple[Gallery, list[Pick]]:
+def _run_gallery(run: Run, of: str) -> tuple[Gallery, list[Pick]]:
     chosen = picks(run, of)
     atlas = archive_atlas(run, run.maximise) if of == "archive" else None
     key = key_descriptors(run)
@@ -295,8 +305,6 @@ def _run_gallery(run: Any, of: str) -> tuple[Gallery, list[Pick]]:
 
 
 def _campaign_gallery(path: Path) -> tuple[Gallery, list[Pick]]:
-    from ariel.recording.store import load_campaign, one_line
-
     campaign = load_campaign(path)
     chosen = campaign_picks(campaign)
     name = one_line(campaign.info.get("campaign_id") or path.name)
@@ -364,8 +372,6 @@ def make_gallery(
         print(gallery.notes)  # e.g. why the thumbnails are missing
         ```
     """
-    from ariel.recording.store import is_campaign, load_run
-
     if of not in OF:
         raise GalleryError(f"a gallery shows one of {', '.join(OF)}, not {of!r}")
     source = Path(path)
@@ -384,7 +390,7 @@ def make_gallery(
 
 
 def report_gallery(
-    run: Any, folder: str | Path, *, render: bool = True, workers: int | None = None
+    run: Run, folder: str | Path, *, render: bool = True, workers: int | None = None
 ) -> Gallery:
     """The final population's gallery of ``run``, for `ariel report` to embed.
 
@@ -408,7 +414,7 @@ def report_gallery(
     return _finish(gallery, chosen, where, workers=workers, render=render)
 
 
-def add_report_gallery(report: Any, render: bool) -> None:
+def add_report_gallery(report: Report, render: bool) -> None:
     """`make_report`'s gallery of the final population (``gallery.png``, ``gallery.html``):
     added to ``report`` (a `Report`)'s written files, with its notes; left out with a note for
     a brain-only run (one body) and with rendering off."""

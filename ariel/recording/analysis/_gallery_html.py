@@ -7,10 +7,13 @@ run folder is escaped (`html_text`)."""
 from __future__ import annotations
 
 import base64
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ariel.recording.analysis._gallery_sheet import bin_text, descriptor_text, number_text
-from ariel.recording.store import html_text
+from ariel.recording.store import DESCRIPTORS, descriptor_label, html_text
+
+if TYPE_CHECKING:
+    from ariel.recording.analysis._gallery import Gallery, GalleryBody
 
 __all__ = ["gallery_html"]
 
@@ -33,7 +36,7 @@ code { display: block; margin-top: 6px; padding: 4px 6px; background: #f1f3f5; b
 """
 
 
-def _image(body: Any) -> str:
+def _image(body: GalleryBody) -> str:
     """``body``'s thumbnail as an ``<img>`` with a data URI, or a box that says it has none."""
     if body.thumbnail is not None:
         try:
@@ -47,7 +50,7 @@ def _image(body: Any) -> str:
     return '<div class="none">no thumbnail</div>'
 
 
-def _card(body: Any, key: tuple[str, str], style: str = "") -> str:
+def _card(body: GalleryBody, key: tuple[str, str], style: str = "") -> str:
     caption = f' <span class="caption">({html_text(body.caption)})</span>' if body.caption else ""
     every = ", ".join(
         f"{html_text(name)} {number_text(value)}" for name, value in body.descriptors.items()
@@ -62,10 +65,9 @@ def _card(body: Any, key: tuple[str, str], style: str = "") -> str:
     )
 
 
-def _atlas(gallery: Any) -> str:
-    from ariel.recording.store import DESCRIPTORS, descriptor_label
-
+def _atlas(gallery: Gallery) -> str:
     atlas = gallery.atlas
+    assert atlas is not None  # an archive's gallery (`gallery_html` checks)
     down, across = atlas.measures
     whole = [DESCRIPTORS.get(m, ("", False))[1] for m in atlas.measures]
     parts = [
@@ -84,6 +86,7 @@ def _atlas(gallery: Any) -> str:
         place = f"grid-row: {atlas.rows + 1}; grid-column: {column + 2}"
         parts.append(f'<div class="axis" style="{place}">{label}</div>')
     for body in gallery.bodies:
+        assert body.cell is not None  # every body of an atlas has its cell
         row, column = body.cell
         place = f' style="grid-row: {atlas.rows - row}; grid-column: {column + 2}"'
         parts.append(_card(body, gallery.key_descriptors, place))
@@ -93,7 +96,7 @@ def _atlas(gallery: Any) -> str:
     return f'<p class="sub">{axes}</p>' + "".join(parts)
 
 
-def gallery_html(gallery: Any) -> str:
+def gallery_html(gallery: Gallery) -> str:
     """The page of ``gallery`` (a `Gallery` whose bodies are final), as text."""
     if gallery.atlas is not None:
         body = _atlas(gallery)

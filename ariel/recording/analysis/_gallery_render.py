@@ -21,11 +21,24 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import multiprocessing
 import re
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ariel.errors import ArielError
+from ariel.recording.rerun import three_quarter_view
+from ariel.recording.store import Run, atomic_write, cannot_write, load_run
+from ariel.utils import gl_backend_error
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from PIL import Image
 
 __all__ = [
     "THUMBNAIL_SIZE",
@@ -81,9 +94,9 @@ def cached_thumbnail(path: Path) -> bytes | None:
 
 def gl_problem() -> str | None:
     """Why nothing can be drawn here (`create_renderer`'s one line, e.g. no EGL), or None."""
-    import mujoco
+    import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
 
-    from ariel.utils import renderers
+    from ariel.utils import renderers  # lazy: imports mujoco (as above)
 
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
     try:
@@ -121,9 +134,7 @@ class _Painter:
     """One GL context (``mujoco.GLContext``) for many thumbnails; see the module docstring."""
 
     def __init__(self, size: int = THUMBNAIL_SIZE) -> None:
-        import mujoco
-
-        from ariel.utils import gl_backend_error
+        import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
 
         self.size = size
         try:
@@ -134,10 +145,9 @@ class _Painter:
                 raise
             raise error from exc
 
-    def paint(self, built: Any) -> Any:
+    def paint(self, built: Any) -> np.ndarray:
         """The RGB pixels (``size`` x ``size`` x 3) of ``built``'s start pose."""
-        import mujoco
-        import numpy as np
+        import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
 
         model, size = built.model, self.size
         camera = mujoco.MjvCamera()
@@ -174,10 +184,7 @@ def _view(built: Any, data: Any) -> dict[str, Any]:
     aimed at the middle of the robot's box and sized to it (the report aims at the centre of
     mass, which a heavy core pulls aside, and sizes by the descriptors, which do not know the
     settled pose)."""
-    import mujoco
-    import numpy as np
-
-    from ariel.recording.rerun import three_quarter_view
+    import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
 
     model = built.model
     mujoco.mj_resetData(model, data)
@@ -192,13 +199,15 @@ def _view(built: Any, data: Any) -> dict[str, Any]:
     return view
 
 
-def _draw(run: Any, body: dict[str, Any], evaluations: Any, painter: _Painter) -> Any:
+def _draw(
+    run: Run, body: dict[str, Any], evaluations: pd.DataFrame, painter: _Painter
+) -> Image.Image:
     """The PIL image of ``body`` (a bodies-table row) of ``run``, built as its best evaluation
     was (`replay_task`, from the stored robot graph where there is one)."""
-    from PIL import Image
+    from PIL import Image  # lazy: heavy optional library
 
-    from ariel.evaluation import build
-    from ariel.recording.resim import replay_task
+    from ariel.evaluation import build  # lazy: imports mujoco, which reads MUJOCO_GL (as above)
+    from ariel.recording.resim import replay_task  # lazy: slow (~0.6 s: the engine, networkx)
 
     row = evaluations.loc[body["best_eval_id"]].to_dict()
     row["eval_id"] = body["best_eval_id"]
@@ -206,7 +215,7 @@ def _draw(run: Any, body: dict[str, Any], evaluations: Any, painter: _Painter) -
     return Image.fromarray(painter.paint(built))
 
 
-def _tables(run: Any) -> tuple[Any, Any]:
+def _tables(run: Run) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The run's bodies by id (each its last row) and its evaluations by id."""
     bodies = run.bodies.drop_duplicates("body_id", keep="last").set_index("body_id", drop=False)
     evaluations = run.evaluations.drop_duplicates("eval_id").set_index("eval_id", drop=False)
@@ -214,15 +223,12 @@ def _tables(run: Any) -> tuple[Any, Any]:
 
 
 def _render_chunk(
-    jobs: Sequence[ThumbnailJob], runs: dict[str, Any] | None = None
+    jobs: Sequence[ThumbnailJob], runs: dict[str, Run] | None = None
 ) -> list[tuple[str, str | None]]:
     """Draw ``jobs`` with one painter: ``(path, None)`` per thumbnail written, ``(path, why)``
     per body that could not be drawn. ``runs``: run path -> `Run` already loaded."""
-    from ariel.errors import ArielError
-    from ariel.recording.store import atomic_write, cannot_write, load_run
-
     runs = dict(runs or {})
-    tables: dict[str, tuple[Any, Any]] = {}
+    tables: dict[str, tuple[pd.DataFrame, pd.DataFrame]] = {}
     done: list[tuple[str, str | None]] = []
     painter = _Painter()
     try:
@@ -264,18 +270,13 @@ def _chunks(jobs: Sequence[ThumbnailJob], workers: int) -> list[list[ThumbnailJo
 
 
 def render_thumbnails(
-    jobs: Sequence[ThumbnailJob], *, workers: int, runs: dict[str, Any] | None = None
+    jobs: Sequence[ThumbnailJob], *, workers: int, runs: dict[str, Run] | None = None
 ) -> dict[str, str | None]:
     """Draw every job's thumbnail: path -> None (written) or why it could not be drawn.
 
     ``workers`` processes at most, `PER_WORKER` thumbnails each at least; what makes one
     chunk only is drawn in this process, with the runs in ``runs`` (run path -> `Run`).
     """
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from ariel.errors import ArielError
-
     chunks = _chunks(jobs, workers) if jobs else []
     if len(chunks) <= 1:
         try:

@@ -16,11 +16,18 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ariel.errors import ArielError
+from ariel.evolution import DEFAULT_RANGES
+from ariel.recording.store import Run, ancestors, archive_cell_count, lineage
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ariel.recording.store import Campaign
 
 __all__ = [
     "ATLAS_BINS",
@@ -50,7 +57,7 @@ class GalleryError(ArielError, ValueError):
 class Pick:
     """A body chosen for a gallery: its run, its bodies-table row (the last), a caption."""
 
-    run: Any
+    run: Run
     body: dict[str, Any]
     caption: str = ""
     fitness: float = math.nan
@@ -88,15 +95,15 @@ class Atlas:
     binned: bool = False
 
 
-def _ordered(frame: Any, maximise: bool) -> Any:
+def _ordered(frame: pd.DataFrame, maximise: bool) -> pd.DataFrame:
     return frame.sort_values(["fitness", "body_id"], ascending=[not maximise, True])
 
 
-def _last_rows(run: Any) -> Any:
+def _last_rows(run: Run) -> pd.DataFrame:
     return run.bodies.drop_duplicates("body_id", keep="last").set_index("body_id", drop=False)
 
 
-def _final(run: Any) -> list[Pick]:
+def _final(run: Run) -> list[Pick]:
     population = run.population
     if not len(population):
         return []
@@ -107,7 +114,7 @@ def _final(run: Any) -> list[Pick]:
     ]
 
 
-def _last_archive(run: Any) -> Any:
+def _last_archive(run: Run) -> pd.DataFrame:
     archive = run.archive
     if not len(archive):
         raise GalleryError(
@@ -117,7 +124,7 @@ def _last_archive(run: Any) -> Any:
     return archive[archive["generation"] == archive["generation"].max()]
 
 
-def _elites(run: Any) -> list[Pick]:
+def _elites(run: Run) -> list[Pick]:
     bodies = _last_rows(run)
     archive = _ordered(_last_archive(run), run.maximise)
     return [
@@ -127,16 +134,14 @@ def _elites(run: Any) -> list[Pick]:
     ]
 
 
-def _lineage_of_best(run: Any) -> list[Pick]:
-    from ariel.recording.store import ancestors, lineage
-
+def _lineage_of_best(run: Run) -> list[Pick]:
     frame = lineage(run)
-    scored = frame[frame["fitness"].map(math.isfinite)]
+    scored = frame.loc[frame["fitness"].map(math.isfinite)]
     if not len(scored):
         return []
     best = _ordered(scored, run.maximise).iloc[0]
     chain = {int(best["id"]), *ancestors(frame, int(best["id"]))}
-    shown = frame[frame["id"].isin(chain)].sort_values(["origin_time", "id"])
+    shown = frame.loc[frame["id"].isin(list(chain))].sort_values(["origin_time", "id"])
     bodies = _last_rows(run)
     return [
         Pick(
@@ -151,7 +156,7 @@ def _lineage_of_best(run: Any) -> list[Pick]:
     ]
 
 
-def picks(run: Any, of: str) -> list[Pick]:
+def picks(run: Run, of: str) -> list[Pick]:
     """The bodies ``of`` shows of ``run``, in order (see the module docstring)."""
     if of == "final":
         return _final(run)
@@ -160,7 +165,7 @@ def picks(run: Any, of: str) -> list[Pick]:
     return _lineage_of_best(run)
 
 
-def campaign_picks(campaign: Any) -> list[Pick]:
+def campaign_picks(campaign: Campaign) -> list[Pick]:
     """The best body of each run's final population, captioned ``condition, seed N``."""
     chosen = []
     for (condition, seed), run in campaign.runs.items():
@@ -170,7 +175,7 @@ def campaign_picks(campaign: Any) -> list[Pick]:
     return chosen
 
 
-def key_descriptors(run: Any) -> tuple[str, str]:
+def key_descriptors(run: Run) -> tuple[str, str]:
     """The two descriptors a label shows: a MAP-Elites run's first two measures (that are
     columns of the bodies table), else `KEY_DESCRIPTORS`."""
     measures = [m for m in _axes(run)[0] if m in run.bodies.columns] if len(run.archive) else []
@@ -178,7 +183,7 @@ def key_descriptors(run: Any) -> tuple[str, str]:
     return chosen[0], chosen[1]
 
 
-def _described(run: Any) -> dict[str, Any]:
+def _described(run: Run) -> dict[str, Any]:
     """The archive's description: ``run.archive_description`` (``kind``, ``measures``,
     ``ranges``, a grid's ``bins`` or a CVT's ``cells``), else the map_elites options."""
     try:
@@ -192,7 +197,7 @@ def _described(run: Any) -> dict[str, Any]:
     return {"kind": "grid", "measures": measures, "ranges": options.get("ranges")}
 
 
-def _axes(run: Any) -> tuple[list[str], list[Any] | None, str]:
+def _axes(run: Run) -> tuple[list[str], list[Any] | None, str]:
     """The archive's measures, their ranges (or None) and its kind (``grid``, ``cvt``)."""
     description = _described(run)
     ranges = description.get("ranges")
@@ -200,10 +205,8 @@ def _axes(run: Any) -> tuple[list[str], list[Any] | None, str]:
     return measures, list(ranges) if ranges else None, str(description.get("kind") or "grid")
 
 
-def _cells(run: Any, grid: list[int]) -> int:
+def _cells(run: Run, grid: list[int]) -> int:
     """How many cells the archive has: its description's, else the product of ``grid``."""
-    from ariel.recording.store import archive_cell_count
-
     description = _described(run)
     try:
         return int(archive_cell_count(description))
@@ -211,10 +214,10 @@ def _cells(run: Any, grid: list[int]) -> int:
         return int(np.prod(grid))
 
 
-def _range(measure: str, index: int, ranges: list[Any] | None, values: Any) -> tuple[float, float]:
+def _range(
+    measure: str, index: int, ranges: list[Any] | None, values: np.ndarray
+) -> tuple[float, float]:
     """``[low, high]`` of a measure: the archive's, else its default, else the values'."""
-    from ariel.evolution import DEFAULT_RANGES
-
     if ranges and index < len(ranges):
         low, high = (float(v) for v in ranges[index])
     elif measure in DEFAULT_RANGES:
@@ -230,7 +233,7 @@ def _binned(values: np.ndarray, low: float, high: float, bins: int) -> np.ndarra
     return np.clip(np.nan_to_num(scaled, nan=0.0), 0, bins - 1).astype(int)
 
 
-def archive_atlas(run: Any, maximise: bool) -> Atlas | None:
+def archive_atlas(run: Run, maximise: bool) -> Atlas | None:
     """Where each elite of ``run``'s last archive goes (None: fewer than two measures)."""
     measures, ranges, kind = _axes(run)
     archive = _ordered(_last_archive(run), maximise)  # best first: it keeps its position

@@ -8,9 +8,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from PIL import Image, ImageDraw, ImageFont
+
+from ariel.recording.store import DESCRIPTORS, descriptor_label
+
+if TYPE_CHECKING:
+    from ariel.recording.analysis._gallery import Gallery, GalleryBody
+    from ariel.recording.analysis._gallery_select import Atlas
+
+_Font = ImageFont.FreeTypeFont | ImageFont.ImageFont
 
 __all__ = [
     "atlas_sheet",
@@ -26,7 +34,7 @@ MARGIN, GAP, LINE = 16, 12, 18
 COLUMNS = 6  # a contact sheet's thumbnails per row at most
 
 
-def _font(size: int) -> Any:
+def _font(size: int) -> _Font:
     try:
         return ImageFont.load_default(size=size)
     except (TypeError, OSError, ImportError):  # Pillow without FreeType: the bitmap font
@@ -44,12 +52,12 @@ def number_text(value: Any) -> str:
     return f"{number:.0f}" if number.is_integer() and abs(number) < 1e6 else f"{number:.4g}"
 
 
-def descriptor_text(body: Any, names: Sequence[str]) -> str:
+def descriptor_text(body: GalleryBody, names: Sequence[str]) -> str:
     """``num_modules 10 · num_hinges 4`` for ``body`` (a `GalleryBody`)."""
     return " · ".join(f"{name} {number_text(body.descriptors.get(name))}" for name in names)
 
 
-def _fitted(draw: Any, text: str, font: Any, width: int) -> str:
+def _fitted(draw: ImageDraw.ImageDraw, text: str, font: _Font, width: int) -> str:
     """``text`` cut (with an ellipsis) to fit ``width`` pixels."""
     if draw.textlength(text, font=font) <= width:
         return text
@@ -58,7 +66,7 @@ def _fitted(draw: Any, text: str, font: Any, width: int) -> str:
     return text + "…"
 
 
-def _thumbnail(body: Any, size: int) -> Any:
+def _thumbnail(body: GalleryBody, size: int) -> Image.Image:
     """``body``'s thumbnail at ``size`` pixels, or a grey tile saying it has none."""
     if body.thumbnail is not None:
         try:
@@ -72,7 +80,7 @@ def _thumbnail(body: Any, size: int) -> Any:
     return tile
 
 
-def _title(draw: Any, title: str, subtitle: str, width: int) -> int:
+def _title(draw: ImageDraw.ImageDraw, title: str, subtitle: str, width: int) -> int:
     """The title and subtitle at the top; returns the height they take."""
     draw.text((MARGIN, MARGIN), _fitted(draw, title, _font(20), width), fill=INK, font=_font(20))
     draw.text(
@@ -88,7 +96,7 @@ def sheet_grid(count: int) -> tuple[int, int]:
     return max(1, math.ceil(count / rows)), rows
 
 
-def contact_sheet(gallery: Any, size: int) -> Any:
+def contact_sheet(gallery: Gallery, size: int) -> Image.Image:
     """Every body of ``gallery`` in rows of up to `COLUMNS`, labelled (see the module)."""
     bodies = gallery.bodies
     columns, rows = sheet_grid(len(bodies))
@@ -128,22 +136,18 @@ def bin_text(low: float, high: float, whole: bool) -> str:
     return f"{low:.3g} to {high:.3g}"
 
 
-def _cell_size(atlas: Any, size: int) -> int:
+def _cell_size(atlas: Atlas, size: int) -> int:
     """Pixels per cell: the thumbnail's, smaller for big grids (about 1600 pixels across)."""
     return max(64, min(size, 1600 // max(atlas.rows, atlas.columns)))
 
 
 def _whole(measure: str) -> bool:
     """Whether ``measure`` is a count (its bins then labelled by their whole number)."""
-    from ariel.recording.store import DESCRIPTORS
-
     return bool(DESCRIPTORS.get(measure, ("", False))[1])
 
 
-def _atlas_axes(sheet: Any, atlas: Any, corner: tuple[int, int], cell: int) -> None:
+def _atlas_axes(sheet: Image.Image, atlas: Atlas, corner: tuple[int, int], cell: int) -> None:
     """The empty cells, each row's and column's bin, and both measures' names."""
-    from ariel.recording.store import descriptor_label
-
     draw, (left, top) = ImageDraw.Draw(sheet), corner
     small = _font(12 if cell >= 100 else 10)
     down, across = atlas.measures
@@ -163,11 +167,13 @@ def _atlas_axes(sheet: Any, atlas: Any, corner: tuple[int, int], cell: int) -> N
     _vertical_text(sheet, descriptor_label(down), (MARGIN, top + atlas.rows * cell / 2))
 
 
-def _atlas_bodies(sheet: Any, gallery: Any, corner: tuple[int, int], cell: int) -> None:
+def _atlas_bodies(sheet: Image.Image, gallery: Gallery, corner: tuple[int, int], cell: int) -> None:
     """Each elite's thumbnail at its cell, its id and fitness along the lower edge."""
+    assert gallery.atlas is not None  # an archive's gallery (`atlas_sheet`)
     draw, (left, top), rows = ImageDraw.Draw(sheet), corner, gallery.atlas.rows
     small = _font(12 if cell >= 100 else 10)
     for body in gallery.bodies:
+        assert body.cell is not None  # every body of an atlas has its cell
         row, column = body.cell
         x, y = left + column * cell, top + (rows - 1 - row) * cell
         sheet.paste(_thumbnail(body, cell - 2), (x, y))
@@ -178,8 +184,9 @@ def _atlas_bodies(sheet: Any, gallery: Any, corner: tuple[int, int], cell: int) 
             draw.text((x + 4, band + 2), text, fill=INK, font=small)
 
 
-def atlas_sheet(gallery: Any, size: int) -> Any:
+def atlas_sheet(gallery: Gallery, size: int) -> Image.Image:
     """``gallery``'s elites at their cells (``gallery.atlas``), with both measures' bins."""
+    assert gallery.atlas is not None  # an archive's gallery (`_gallery._write` checks)
     atlas, cell = gallery.atlas, _cell_size(gallery.atlas, size)
     top = MARGIN + 28 + LINE + GAP
     left = MARGIN + LINE + 90  # the first measure's name, turned, then its bins
@@ -192,7 +199,7 @@ def atlas_sheet(gallery: Any, size: int) -> Any:
     return sheet
 
 
-def _vertical_text(sheet: Any, text: str, at: tuple[float, float]) -> None:
+def _vertical_text(sheet: Image.Image, text: str, at: tuple[float, float]) -> None:
     """``text`` turned a quarter left, its middle at ``at``'s height, its left at ``at``'s x."""
     font = _font(14)
     width = int(ImageDraw.Draw(sheet).textlength(text, font=font)) + 4

@@ -6,15 +6,17 @@ and the mean of each generation's CMA-ES candidates), ``morphology.png`` (the mo
 descriptors of the population after selection, `Run.population`, per generation; co-evolution
 only), ``trajectory.png`` and ``joints.png`` (the best evaluation's core path and every joint's
 target and angle, from the trajectories table; joints named by `joint_labels`) and
-``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing);
+``best_body.png`` (the best body rendered in its world; skipped where OpenGL is missing;
+these three are `_report_best`'s);
 ``archive.png`` for a MAP-Elites run (`_report_archive`); ``lineage.png``, the ancestry of the
 final population as a tree over generations, the best body's ancestry highlighted
 (co-evolution only, `_report_lineage`). Axes carry their units and counts
 whole-number ticks (`_axes`); titles wrap to fit.
 Only finished generations are reported, so a running or killed run reports what it has.
 
-matplotlib is imported here only, and drawn through the Agg canvas without pyplot, so making a
-report never changes the caller's matplotlib backend.
+Every figure is made by `_report_figures` (what the figures share), imported only when it is
+drawn, and drawn through the Agg canvas without pyplot, so making a report never changes the
+caller's matplotlib backend.
 """
 
 from __future__ import annotations
@@ -25,26 +27,38 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from rich import box
+from rich.console import Console
+from rich.table import Table
+from rich.text import Text
 
-from ariel.errors import DamagedRunError, RunStorageError
 from ariel.recording.analysis._gallery import add_report_gallery
 from ariel.recording.analysis._report_archive import archive_figure
+from ariel.recording.analysis._report_best import _body_image, _trajectory_figures
+from ariel.recording.analysis._report_figures import (
+    _cannot_write,
+    _figure,
+    _run_title,
+    _save,
+    _title,
+)
 from ariel.recording.analysis._report_lineage import lineage_figure
-from ariel.recording.rerun import three_quarter_view
 from ariel.recording.store import (
     DESCRIPTORS,
     QD_COLUMNS,
     Run,
     evaluation_trajectory,
     fitness_label,
-    fitted,
     integer_ticks,
     load_run,
     one_line,
     population_after_selection,
+    refuse_symlinks,
 )
 
 if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
     from rich.text import TextType
 
 __all__ = ["Report", "make_report", "print_report"]
@@ -60,7 +74,6 @@ TABLE_COLUMNS = {
     "unstable": "unstable",
     "invalid": "invalid",
 }
-_DPI = 110
 #: The population `morphology.png` shows (the notebooks' morphology figure says the same).
 MORPHOLOGY_TITLE = "morphology of the population after selection, per generation"
 
@@ -81,11 +94,11 @@ class Report:
     """
 
     run: Run
-    table: Any
+    table: pd.DataFrame
     best: dict[str, Any] | None
     written: list[Path] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    figures: dict[str, Any] = field(default_factory=dict, repr=False)
+    figures: dict[str, Figure] = field(default_factory=dict, repr=False)
 
     @property
     def folder(self) -> Path:
@@ -101,62 +114,9 @@ def _best_row(run: Run, maximise: bool) -> dict[str, Any] | None:
     return evals.loc[index].to_dict()
 
 
-def _figure(width: float, height: float) -> Any:
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width, height), dpi=_DPI, layout="constrained")
-
-
-def _cannot_write(exc: OSError, path: Path, report: Report) -> RunStorageError:
-    """A failed write (disk full, read-only, no permission) of the report: one line naming the
-    file and why. `atomic_write` leaves no part of the file; the figures written before it
-    are whole."""
-    from ariel.recording.store import cannot_write
-    from ariel.utils import ariel_line
-
-    return RunStorageError(
-        f"{cannot_write(exc, path)}; the report is not finished (the run is unchanged): make "
-        f"room (or fix the folder), then run {ariel_line('report', report.run.path)} again"
-    )
-
-
-def _save(figure: Any, path: Path, report: Report) -> None:
-    from ariel.recording.store import atomic_write
-
-    # Never through a link planted in a copied run folder (``report/fitness.png -> ~/x``).
-    try:
-        atomic_write(
-            path,
-            lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"),
-            root=report.run.path,
-        )
-    except OSError as exc:
-        raise _cannot_write(exc, path, report) from exc
-    report.written.append(path)
-    report.figures[path.name] = figure
-
-
-def _run_title(run: Run) -> str:
-    """The run's id (from run.json: any text) as one line, no control character in it."""
-    return one_line(run.info.get("run_id") or run.path.name)
-
-
 # --------------------------------------------------------------------------------------------
 # Figures
 # --------------------------------------------------------------------------------------------
-
-
-def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) -> None:
-    """A title (of axes ``on``, or ``suptitle`` of figure ``on``) wrapped to fit the width it
-    has (`fitted`), so it is never clipped at the figure's edge. A ``$`` in it (a run id is
-    any text) is a dollar sign, not mathtext, which could fail to draw."""
-    text = text.replace("$", r"\$")
-    if suptitle:
-        on.suptitle(fitted(text, on.get_figwidth(), fontsize), fontsize=fontsize)
-        return
-    spec = on.get_subplotspec()  # the axes' share of the figure's width
-    share = len(spec.colspan) / spec.get_gridspec().ncols
-    on.set_title(fitted(text, on.figure.get_figwidth() * share, fontsize), fontsize=fontsize)
 
 
 def _fitness_figure(report: Report, maximise: bool) -> None:
@@ -202,6 +162,7 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
 
 
 def _morphology_figure(report: Report) -> None:
+    # lazy: imports mujoco, which reads MUJOCO_GL when imported (`ariel report` sets it first)
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     run = report.run
@@ -238,114 +199,6 @@ def _morphology_figure(report: Report) -> None:
             integer_ticks(axes.yaxis)
         axes.grid(alpha=0.3)
     _save(figure, report.folder / "morphology.png", report)
-
-
-def _trajectory_figures(report: Report, frames: Any) -> None:
-    from ariel.recording.rerun import joint_labels
-
-    run, best = report.run, report.best
-    assert best is not None
-    label = f"{best['eval_id']} (fitness {best['fitness']:.6g})"
-    t = frames["t"].to_numpy()
-    x, y = frames["core_x"].to_numpy(), frames["core_y"].to_numpy()
-
-    figure = _figure(6.4, 6)
-    axes = figure.add_subplot()
-    axes.plot(x, y, color="0.6", lw=1, zorder=1)
-    points = axes.scatter(x, y, c=t, cmap="viridis", s=14, zorder=2)
-    axes.plot(x[0], y[0], "o", ms=10, mfc="none", mec="green", mew=2, label="start")
-    axes.plot(x[-1], y[-1], "X", ms=10, color="red", label="end")
-    figure.colorbar(points, ax=axes, label="time (s)")
-    axes.set_aspect("equal", adjustable="datalim")
-    axes.set_xlabel("core x (m)")
-    axes.set_ylabel("core y (m)")
-    _title(axes, f"{_run_title(run)}: core path\nbest evaluation {label}")
-    axes.grid(alpha=0.3)
-    axes.legend(loc="best")
-    _save(figure, report.folder / "trajectory.png", report)
-
-    names = [str(n) for n in best.get("joint_names", [])]
-    if not names:
-        report.notes.append("joints.png: left out (the best body has no joints)")
-        return
-    labels = joint_labels(names, _graph_of(run, str(best["body_id"])))
-    target = np.array(frames["joint_target"].tolist(), dtype=float)
-    angle = np.array(frames["joint_angle"].tolist(), dtype=float)
-    cols = min(3, len(names))
-    rows = math.ceil(len(names) / cols)
-    figure = _figure(4.2 * cols, 2.4 * rows + 0.8)
-    _title(figure, f"{_run_title(run)}: best evaluation {label}: joints", suptitle=True)
-    for j, name in enumerate(labels):
-        axes = figure.add_subplot(rows, cols, j + 1)
-        axes.plot(t, target[:, j], "--", lw=1.2, label="target")
-        axes.plot(t, angle[:, j], lw=1.2, label="angle")
-        _title(axes, name, fontsize=9)
-        axes.set_xlabel("time (s)")
-        axes.set_ylabel("angle (rad)")
-        axes.grid(alpha=0.3)
-        if j == 0:
-            axes.legend(loc="best", fontsize=8)
-    _save(figure, report.folder / "joints.png", report)
-
-
-def _graph_of(run: Run, body_id: str) -> Any:
-    """The robot graph (node-link JSON) of ``body_id`` from the bodies table, or None."""
-    bodies = run.bodies
-    if "graph" not in bodies:
-        return None
-    graphs = bodies.loc[bodies["body_id"] == body_id, "graph"]
-    return graphs.iloc[0] if len(graphs) and graphs.iloc[0] else None
-
-
-def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
-    # Reading the run's tables imported mujoco, with the GL backend MUJOCO_GL named then
-    # (`ariel report` sets egl first where no display is set, unless --no-render); a backend
-    # that fails leaves the image out, with create_renderer's one-line reason as the note.
-    import mujoco
-
-    from ariel.evaluation import build
-    from ariel.recording.resim import replay_task
-    from ariel.utils.renderers import single_frame_renderer
-
-    best = report.best
-    assert best is not None
-    try:
-        built = build(replay_task(report.run, best))
-    except DamagedRunError as exc:  # a changed table: the rest of the report stands
-        report.notes.append(f"best_body.png: left out ({exc})")
-        return
-    model = built.model
-    size = max(float(best.get(k) or 0.0) for k in ("extent_x", "extent_y", "extent_z"))
-    try:
-        try:
-            view = three_quarter_view(built, size or 1.0)
-            image = single_frame_renderer(
-                model, mujoco.MjData(model), steps=0, width=width, height=height, **view
-            )
-        except ValueError:  # a model without "ortho-cam": the free camera frames everything
-            image = single_frame_renderer(
-                model, mujoco.MjData(model), steps=0, width=width, height=height
-            )
-    except RuntimeError as exc:  # no OpenGL backend here
-        report.notes.append(f"best_body.png: left out ({exc})")
-        return
-    figure = _figure(width / _DPI, height / _DPI + 0.5)
-    axes = figure.add_subplot()
-    axes.imshow(np.asarray(image))
-    axes.set_axis_off()
-    modules = best.get("num_modules")
-    shape = (
-        f"{int(modules)} modules, {int(best.get('num_hinges') or 0)} hinges"
-        if modules is not None and math.isfinite(modules)
-        else f"{int(best.get('n_joints') or 0)} joints"
-    )
-    _title(
-        axes,
-        f"{_run_title(report.run)}: best body {best['body_id']} ({shape}), "
-        f"evaluation {best['eval_id']}",
-        fontsize=10,
-    )
-    _save(figure, report.folder / "best_body.png", report)
 
 
 # --------------------------------------------------------------------------------------------
@@ -392,8 +245,6 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     if not len(table):
         report.notes.append("no finished generation yet: no figures")
         return report
-    from ariel.recording.store import refuse_symlinks
-
     refuse_symlinks(report.folder / "fitness.png", run.path)
     try:
         report.folder.mkdir(parents=True, exist_ok=True)
@@ -422,8 +273,8 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     return report
 
 
-def _table(table_class: Any, box: Any, title: TextType) -> Any:
-    return table_class(
+def _table(title: TextType) -> Table:
+    return Table(
         title=title,
         box=box.SIMPLE_HEAD,
         show_edge=False,
@@ -432,10 +283,10 @@ def _table(table_class: Any, box: Any, title: TextType) -> Any:
     )
 
 
-def _print_archive_table(report: Report, console: Any, table_class: Any, box: Any) -> None:
+def _print_archive_table(report: Report, console: Console) -> None:
     """Per generation: the archive's coverage, QD-score and normalised QD-score."""
     offset = report.run.qd_offset
-    table = _table(table_class, box, "MAP-Elites archive after each generation")
+    table = _table("MAP-Elites archive after each generation")
     for column in ("generation", *QD_COLUMNS):
         table.add_column(column, justify="right", no_wrap=True, min_width=10)
     for row in report.table[["generation", *QD_COLUMNS]].itertuples(index=False):
@@ -460,13 +311,8 @@ def _print_archive_table(report: Report, console: Any, table_class: Any, box: An
         )
 
 
-def print_report(report: Report, console: Any = None) -> None:
+def print_report(report: Report, console: Console | None = None) -> None:
     """The per-generation table, the best evaluation, the files written and the notes."""
-    from rich import box
-    from rich.console import Console
-    from rich.table import Table
-    from rich.text import Text
-
     if console is None:
         console = Console()
         if not console.is_terminal:  # a file or a pipe: no need to fit 80 columns
@@ -475,7 +321,7 @@ def print_report(report: Report, console: Any = None) -> None:
     status = run.info.get("status", "?")
     done, total = run.generations_done, run.config.get("generations", "?")
     title = f"{_run_title(run)}: {one_line(status)}, {done}/{total} generations"
-    table = _table(Table, box, Text(title))  # Text: a run id's [bold] is no markup
+    table = _table(Text(title))  # Text: a run id's [bold] is no markup
     for heading in TABLE_COLUMNS.values():
         wide = 10 if heading in ("best", "mean", "median") else len(heading)  # -0.0123456
         table.add_column(heading, justify="right", no_wrap=True, min_width=wide)
@@ -496,7 +342,7 @@ def print_report(report: Report, console: Any = None) -> None:
     else:
         console.print("best, mean, median: fitness of the population after selection")
     if QD_COLUMNS[0] in report.table.columns:  # a MAP-Elites run: its archive, a second table
-        _print_archive_table(report, console, Table, box)
+        _print_archive_table(report, console)
     if report.best is not None:
         best = report.best
         console.print(

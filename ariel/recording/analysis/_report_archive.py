@@ -7,17 +7,31 @@ OpenGL is missing)."""
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.recording.rerun import CvtCells, archive_cells, archive_grid, three_quarter_view
 from ariel.recording.store import (
     DESCRIPTORS,
+    Run,
     archive_cell_count,
     descriptor_label,
     fitness_label,
     integer_ticks,
 )
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.axes import Axes
+    from matplotlib.collections import PathCollection
+    from matplotlib.figure import Figure
+    from matplotlib.image import AxesImage
+    from PIL import Image
+
+    from ariel.recording.analysis._report import Report
 
 __all__ = ["archive_figure"]
 
@@ -25,10 +39,8 @@ THUMBNAILS = 6  # the best cells whose bodies are drawn
 _PIXELS = 400  # a CVT's cells are drawn as an image this many pixels a side
 
 
-def _grid(archive: Any, maximise: bool) -> np.ndarray:
+def _grid(archive: pd.DataFrame, maximise: bool) -> np.ndarray:
     """Fitness per cell as a 2D array (measure 0 down, measure 1 across); NaN: empty."""
-    from ariel.recording.rerun import archive_grid
-
     grid = archive_grid(archive.to_dict("records"))
     best = np.fmax if maximise else np.fmin
     while grid.ndim > 2:  # fold the measures beyond the second by their best cell
@@ -36,14 +48,13 @@ def _grid(archive: Any, maximise: bool) -> np.ndarray:
     return grid.reshape(grid.shape[0], -1)
 
 
-def _thumbnail(run: Any, body_id: str) -> Any:
+def _thumbnail(run: Run, body_id: str) -> Image.Image:
     """The rendered start pose of ``body_id``'s best evaluation."""
-    import mujoco
+    import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel report` sets it first)
 
-    from ariel.evaluation import build
-    from ariel.recording.rerun import three_quarter_view
-    from ariel.recording.resim import replay_task
-    from ariel.utils.renderers import single_frame_renderer
+    from ariel.evaluation import build  # lazy: imports mujoco (as above)
+    from ariel.recording.resim import replay_task  # lazy: slow (~0.6 s: the engine, networkx)
+    from ariel.utils.renderers import single_frame_renderer  # lazy: imports mujoco (as above)
 
     body = run.bodies[run.bodies["body_id"] == body_id].iloc[-1]
     evals = run.evaluations
@@ -58,14 +69,14 @@ def _thumbnail(run: Any, body_id: str) -> Any:
         return single_frame_renderer(built.model, data, steps=0, width=240, height=180)
 
 
-def _cvt(axes: Any, archive: Any, description: dict[str, Any]) -> Any:
+def _cvt(
+    axes: Axes, archive: pd.DataFrame, description: dict[str, Any]
+) -> AxesImage | PathCollection:
     """A CVT archive on ``axes`` (measure 0 up, measure 1 across): with one or two measures its
     cells, the regions nearest to each centroid in the measures scaled to [0, 1] (as the run
     placed bodies), coloured by their elite's fitness (blank: empty); with more, whose cells
     do not lie flat, only its centroids, coloured (hollow: empty). Centroids are dots."""
-    from scipy.spatial import KDTree
-
-    from ariel.recording.rerun import CvtCells, archive_cells
+    from scipy.spatial import KDTree  # lazy: heavy optional library
 
     cells = archive_cells(archive.to_dict("records"), description)
     assert isinstance(cells, CvtCells)  # description["kind"] == "cvt" (archive_figure checks)
@@ -101,7 +112,14 @@ def _cvt(axes: Any, archive: Any, description: dict[str, Any]) -> Any:
     return shown
 
 
-def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, save: Any) -> None:
+def archive_figure(
+    report: Report,
+    maximise: bool,
+    *,
+    render: bool,
+    figure: Callable[[float, float], Figure],
+    save: Callable[[Figure, Path, Report], None],
+) -> None:
     """Write ``archive.png`` for a MAP-Elites run (nothing for any other run)."""
     run = report.run
     if not len(run.archive):
@@ -109,6 +127,7 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
     last = int(run.archive["generation"].max())
     archive = run.archive[run.archive["generation"] == last]
     description = run.archive_description
+    assert description is not None  # a run with an archive has its description
     measures = list(description["measures"])
     ranked = archive.sort_values("fitness", ascending=not maximise).head(THUMBNAILS)
     images, note = [], ""
@@ -120,12 +139,11 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
             ]
         except RuntimeError as exc:  # no OpenGL backend here
             note = f"archive.png: body thumbnails left out ({exc})"
-    make_figure = figure
-    figure = make_figure(11.0, 4.8 if images else 4.2)
+    drawn = figure(11.0, 4.8 if images else 4.2)
     rows = 2 if images else 1
     columns = max(3, math.ceil(len(images) / 2)) if images else 1
-    spec = figure.add_gridspec(rows, 1 + columns, width_ratios=[2.2] + [1] * columns)
-    axes = figure.add_subplot(spec[:, 0])
+    spec = drawn.add_gridspec(rows, 1 + columns, width_ratios=[2.2] + [1] * columns)
+    axes = drawn.add_subplot(spec[:, 0])
     if description["kind"] == "cvt":
         shown = _cvt(axes, archive, description)
     else:
@@ -135,7 +153,7 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
         extent = (across[0], across[1], ranges[0][0], ranges[0][1])
         shown = axes.imshow(grid, origin="lower", aspect="auto", cmap="viridis", extent=extent)
     fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
-    figure.colorbar(shown, ax=axes, label=fitness_label(fitness_fn, what="elite's fitness"))
+    drawn.colorbar(shown, ax=axes, label=fitness_label(fitness_fn, what="elite's fitness"))
     across_name = measures[1] if len(measures) > 1 else ""
     axes.set_ylabel(descriptor_label(measures[0]))
     axes.set_xlabel(descriptor_label(across_name) if across_name else "")
@@ -146,10 +164,10 @@ def archive_figure(report: Any, maximise: bool, *, render: bool, figure: Any, sa
     kind = "CVT archive" if description["kind"] == "cvt" else "archive"
     axes.set_title(f"{kind} after generation {last}: {len(archive)} cells ({coverage:.0%})")
     for k, (body_id, fitness, image) in enumerate(images):
-        thumb = figure.add_subplot(spec[k // columns, 1 + k % columns])
+        thumb = drawn.add_subplot(spec[k // columns, 1 + k % columns])
         thumb.imshow(np.asarray(image))
         thumb.set_axis_off()
         thumb.set_title(f"{body_id}: {fitness:.3g}", fontsize=8)
     if note:
         report.notes.append(note)
-    save(figure, report.folder / "archive.png", report)
+    save(drawn, report.folder / "archive.png", report)

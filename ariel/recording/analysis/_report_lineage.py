@@ -19,18 +19,29 @@ body).
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ariel.errors import DamagedRunError
+from ariel.recording.analysis._gallery import body_thumbnails
 from ariel.recording.store import (
+    Run,
     fitness_label,
     fitted,
     integer_ticks,
     one_line,
     parse_ancestor_list,
 )
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from ariel.recording.analysis._report import Report
 
 __all__ = ["LINEAGE_PNG", "ancestry_layout", "lineage_figure"]
 
@@ -71,7 +82,7 @@ def ancestry_layout(shown: set[int], parents: dict[int, list[int]]) -> dict[int,
     return rows
 
 
-def _best(frame: Any, alive: list[int], maximise: bool) -> int | None:
+def _best(frame: pd.DataFrame, alive: list[int], maximise: bool) -> int | None:
     """The final population's body of the best finite fitness (the lowest id on a tie)."""
     fitness = dict(zip(frame["id"].astype(int), frame["fitness"].astype(float)))
     scored = [i for i in alive if math.isfinite(fitness[i])]
@@ -81,7 +92,12 @@ def _best(frame: Any, alive: list[int], maximise: bool) -> int | None:
 
 
 def lineage_figure(
-    report: Any, maximise: bool, *, figure: Any, save: Any, render: bool = True
+    report: Report,
+    maximise: bool,
+    *,
+    figure: Callable[[float, float], Figure],
+    save: Callable[[Figure, Path, Report], None],
+    render: bool = True,
 ) -> None:
     """Write ``lineage.png`` (the module's docstring) with ``figure(width, height)`` and
     ``save(figure, path, report)``; a note instead for a brain-only run, or a lineage that
@@ -117,7 +133,7 @@ def lineage_figure(
     save(drawn, report.folder / LINEAGE_PNG, report)
 
 
-def _spans(frame: Any, last: int) -> dict[int, tuple[int, int]]:
+def _spans(frame: pd.DataFrame, last: int) -> dict[int, tuple[int, int]]:
     """id -> (the generation it was made in, the last it stayed in the population after;
     ``last`` for the final population)."""
     ends = frame["destruction_time"].astype("Float64").fillna(last + 1).astype("int64") - 1
@@ -128,17 +144,17 @@ def _spans(frame: Any, last: int) -> dict[int, tuple[int, int]]:
 
 
 def _draw(
-    drawn: Any,
-    frame: Any,
+    drawn: Figure,
+    frame: pd.DataFrame,
     rows: dict[int, int],
     alive: list[int],
     parents: dict[int, list[int]],
     maximise: bool,
     best: int | None,
-    run: Any,
+    run: Run,
 ) -> None:
-    from matplotlib.collections import LineCollection
-    from matplotlib.lines import Line2D
+    from matplotlib.collections import LineCollection  # lazy: heavy optional library
+    from matplotlib.lines import Line2D  # lazy: heavy optional library
 
     last = run.generations_done - 1
     spans = _spans(frame, last)
@@ -187,17 +203,17 @@ def _ancestors(node: int, parents: dict[int, list[int]]) -> set[int]:
 
 
 def _nodes(
-    drawn: Any,
-    axes: Any,
-    frame: Any,
+    drawn: Figure,
+    axes: Axes,
+    frame: pd.DataFrame,
     rows: dict[int, int],
     alive: list[int],
     maximise: bool,
     best: int | None,
-    run: Any,
+    run: Run,
 ) -> None:
     """The bodies as dots coloured by fitness (bright: better); a failed one grey."""
-    from matplotlib.colors import Normalize
+    from matplotlib.colors import Normalize  # lazy: heavy optional library
 
     fitness = dict(zip(frame["id"].astype(int), frame["fitness"].astype(float)))
     origin = dict(zip(frame["id"].astype(int), frame["origin_time"].astype(int)))
@@ -232,13 +248,13 @@ def _nodes(
 
 
 def _title(
-    drawn: Any,
-    axes: Any,
-    frame: Any,
+    drawn: Figure,
+    axes: Axes,
+    frame: pd.DataFrame,
     alive: list[int],
     parents: dict[int, list[int]],
     best: int | None,
-    run: Any,
+    run: Run,
     last: int,
 ) -> None:
     founders = {i for i in _closure(alive, parents) if not parents[i]}
@@ -267,8 +283,12 @@ def _title(
 
 
 def _pictures(
-    report: Any, frame: Any, best: int | None, parents: dict[int, list[int]], render: bool
-) -> dict[int, tuple[str, str, Any]]:
+    report: Report,
+    frame: pd.DataFrame,
+    best: int | None,
+    parents: dict[int, list[int]],
+    render: bool,
+) -> dict[int, tuple[str, str, np.ndarray]]:
     """id -> (its body id, its caption, its thumbnail as RGB pixels) of the founders of the
     best body's ancestry and of the best body; none, with one note, where none can be drawn."""
     if best is None:
@@ -276,9 +296,7 @@ def _pictures(
     if not render:
         report.notes.append(f"{LINEAGE_PNG}: thumbnails left out (rendering off)")
         return {}
-    from PIL import Image
-
-    from ariel.recording.analysis._gallery import body_thumbnails
+    from PIL import Image  # lazy: heavy optional library
 
     names = dict(zip(frame["id"].astype(int), frame["body_id"].astype(str)))
     founders = [i for i in sorted(_ancestors(best, parents)) if not parents[i]]
@@ -306,15 +324,16 @@ def _pictures(
 
 
 def _place_pictures(
-    drawn: Any,
-    axes: Any,
-    pictures: dict[int, tuple[str, str, Any]],
+    drawn: Figure,
+    axes: Axes,
+    pictures: dict[int, tuple[str, str, np.ndarray]],
     rows: dict[int, int],
     spans: dict[int, tuple[int, int]],
 ) -> None:
     """Each thumbnail beside the tree, tied to its dot by a red line: the founders' left of
     it, the best body's right of it, each at its body's row (founders moved apart as needed).
     The x axis is widened to make the room; its ticks stay on the generations."""
+    # lazy: heavy optional library
     from matplotlib.offsetbox import AnnotationBbox, OffsetImage, TextArea, VPacker
 
     drawn.draw_without_rendering()  # the constrained layout: the axes' size in inches

@@ -20,6 +20,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         archive_kind as archive_kind,
         archive_view as archive_view,
     )
+    from ariel.recording.rerun._blueprint import (
+        write_blueprint as write_blueprint,
+    )
     from ariel.recording.rerun._camera import (
         three_quarter_view as three_quarter_view,
     )
@@ -31,9 +34,17 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         write_campaign_blueprint as write_campaign_blueprint,
         write_campaign_recording as write_campaign_recording,
     )
+    from ariel.recording.rerun._chunks import (
+        APPLICATION_ID as APPLICATION_ID,
+        rerun_module as rerun_module,
+        static_chunk as static_chunk,
+    )
     from ariel.recording.rerun._generation_rrd import (
         write_generation_blueprint as write_generation_blueprint,
         write_generation_recording as write_generation_recording,
+    )
+    from ariel.recording.rerun._graph import (
+        graph_archetypes as graph_archetypes,
     )
     from ariel.recording.rerun._joint_names import (
         joint_labels as joint_labels,
@@ -48,23 +59,22 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         generation_summary as generation_summary,
     )
     from ariel.recording.rerun._rerun import (
-        APPLICATION_ID as APPLICATION_ID,
         RUN_SERIES as RUN_SERIES,
-        SUMMARY_SERIES as SUMMARY_SERIES,
         archive_chunks as archive_chunks,
-        graph_archetypes as graph_archetypes,
-        rerun_module as rerun_module,
         run_summary_chunks as run_summary_chunks,
-        static_chunk as static_chunk,
-        write_blueprint as write_blueprint,
         write_evaluation_recording as write_evaluation_recording,
         write_run_recording as write_run_recording,
         write_view_recording as write_view_recording,
     )
+    from ariel.recording.rerun._views import (
+        SUMMARY_SERIES as SUMMARY_SERIES,
+        robot_view as robot_view,
+        summary_bars as summary_bars,
+    )
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
-    "APPLICATION_ID": "ariel.recording.rerun._rerun",
+    "APPLICATION_ID": "ariel.recording.rerun._chunks",
     "ARCHIVE_ENTITY": "ariel.recording.rerun._archive",
     "CAMPAIGN_BLUEPRINT": "ariel.recording.rerun._campaign_rerun",
     "CvtCells": "ariel.recording.rerun._archive",
@@ -72,7 +82,7 @@ _INTERNAL: dict[str, str] = {
     "Lineage": "ariel.recording.rerun._lineage",
     "RUN_SERIES": "ariel.recording.rerun._rerun",
     "RerunRecorder": "ariel.recording.rerun._recorder",
-    "SUMMARY_SERIES": "ariel.recording.rerun._rerun",
+    "SUMMARY_SERIES": "ariel.recording.rerun._views",
     "archive_chunks": "ariel.recording.rerun._rerun",
     "archive_cells": "ariel.recording.rerun._archive",
     "archive_grid": "ariel.recording.rerun._archive",
@@ -83,14 +93,16 @@ _INTERNAL: dict[str, str] = {
     "condition_colours": "ariel.recording.rerun._campaign_rerun",
     "curve_chunks": "ariel.recording.rerun._campaign_rerun",
     "generation_summary": "ariel.recording.rerun._recorder",
-    "graph_archetypes": "ariel.recording.rerun._rerun",
+    "graph_archetypes": "ariel.recording.rerun._graph",
     "joint_labels": "ariel.recording.rerun._joint_names",
     "lineage_view": "ariel.recording.rerun._lineage",
-    "rerun_module": "ariel.recording.rerun._rerun",
+    "rerun_module": "ariel.recording.rerun._chunks",
+    "robot_view": "ariel.recording.rerun._views",
     "run_summary_chunks": "ariel.recording.rerun._rerun",
-    "static_chunk": "ariel.recording.rerun._rerun",
+    "static_chunk": "ariel.recording.rerun._chunks",
+    "summary_bars": "ariel.recording.rerun._views",
     "three_quarter_view": "ariel.recording.rerun._camera",
-    "write_blueprint": "ariel.recording.rerun._rerun",
+    "write_blueprint": "ariel.recording.rerun._blueprint",
     "write_campaign_blueprint": "ariel.recording.rerun._campaign_rerun",
     "write_campaign_recording": "ariel.recording.rerun._campaign_rerun",
     "write_evaluation_recording": "ariel.recording.rerun._rerun",

@@ -13,9 +13,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rerun import Points2D, Tensor
+    from rerun.blueprint import View
 
 __all__ = [
     "ARCHIVE_ENTITY",
@@ -83,7 +87,7 @@ def archive_cells(
     return CvtCells(centroids, ranges, [str(m) for m in description["measures"]], fitness)
 
 
-def archive_kind(archive: Any) -> str | bool:
+def archive_kind(archive: np.ndarray | CvtCells | None) -> str | bool:
     """``"cvt"`` for `CvtCells`, ``"grid"`` for a grid, False for None (no archive)."""
     if archive is None:
         return False
@@ -103,8 +107,8 @@ def _colours(fitness: np.ndarray) -> np.ndarray:
     return colours
 
 
-def _points(cells: CvtCells) -> Any:
-    import rerun as rr
+def _points(cells: CvtCells) -> Points2D:
+    import rerun as rr  # lazy: heavy optional library
 
     count = len(cells.fitness)
     radius = 0.4 / (math.sqrt(count) if cells.centroids.shape[1] > 1 else count)
@@ -122,15 +126,17 @@ def _points(cells: CvtCells) -> Any:
     )
 
 
-def archive_image(archive: np.ndarray | CvtCells) -> Any:
+def archive_image(archive: np.ndarray | CvtCells) -> Points2D | Tensor:
     """An archive of one generation as ``run.rrd`` logs it at ``/archive``: a grid's tensor
     (NaN: empty), a CVT's points."""
-    import rerun as rr
+    import rerun as rr  # lazy: heavy optional library
 
     return _points(archive) if isinstance(archive, CvtCells) else rr.Tensor(archive)
 
 
-def archive_shown(archive: np.ndarray | CvtCells, dimensions: Sequence[str] | None = None) -> Any:
+def archive_shown(
+    archive: np.ndarray | CvtCells, dimensions: Sequence[str] | None = None
+) -> Points2D | Tensor | None:
     """An archive as drawn beside an evaluation (`ARCHIVE_ENTITY`); None without elites.
 
     A grid is a tensor, its dimensions named (``dimensions``: the measures, e.g. "num_limbs
@@ -138,7 +144,7 @@ def archive_shown(archive: np.ndarray | CvtCells, dimensions: Sequence[str] | No
     every elite's (`_EMPTY_BELOW`) and the colour scale spans them to the best elite. A CVT
     is its points (see the module docstring).
     """
-    import rerun as rr
+    import rerun as rr  # lazy: heavy optional library
 
     if isinstance(archive, CvtCells):
         return _points(archive) if np.isfinite(archive.fitness).any() else None
@@ -161,13 +167,13 @@ def archive_view(
     *,
     name: str | None = None,
     sliced: bool = False,
-) -> Any:
+) -> View:
     """The blueprint view of an archive of ``kind`` (``"grid"``, or True; ``"cvt"``) at
     ``origin``: a tensor view (``sliced``: measure 0 across, measure 1 up, cells sharp, in
     viridis) or a 2D view of a CVT's points over the unit square. ``name``: its title; None:
     "archive: fitness (UNIT), dark: empty" (``unit``: " (m)", or "")."""
-    import rerun as rr
-    import rerun.blueprint as rrb
+    import rerun as rr  # lazy: heavy optional library
+    import rerun.blueprint as rrb  # lazy: heavy optional library
 
     empty = "grey" if kind == "cvt" else "dark"
     name = f"archive: fitness{unit}, {empty}: empty" if name is None else name

@@ -3,16 +3,26 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; renderers choose it first
 
 __all__ = ["three_quarter_view"]
 
 
-def three_quarter_view(built: Any, size: float) -> dict[str, Any]:
+class _Built(Protocol):
+    """What the camera needs of a built body (`ariel.evaluation.build`'s result)."""
+
+    model: mujoco.MjModel
+    core_geom: int
+
+
+def three_quarter_view(built: _Built, size: float) -> dict[str, Any]:
     """ "ortho-cam" overrides that frame the robot from the front-left, 30 degrees above."""
-    import mujoco
+    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; renderers choose it first
 
     model = built.model
     data = mujoco.MjData(model)

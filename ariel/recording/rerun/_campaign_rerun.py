@@ -15,22 +15,26 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ariel.recording.rerun._rerun import (
-    APPLICATION_ID,
-    _write_chunks,
-    rerun_module,
-    save_blueprint,
-    static_chunk,
-)
+from ariel.recording.rerun._blueprint import save_blueprint
+from ariel.recording.rerun._chunks import APPLICATION_ID, rerun_module, static_chunk
+from ariel.recording.rerun._rerun import _write_chunks
 from ariel.recording.store import (
     CAMPAIGN_RRD,
     best_so_far,
+    fitness_unit as fitness_unit_of,
     load_campaign,
+    read_campaign_info,
 )
+
+if TYPE_CHECKING:
+    from rerun.blueprint import TimeSeriesView
+    from rerun.chunk import Chunk
+
+    from ariel.recording.store import Campaign
 
 __all__ = [
     "CAMPAIGN_BLUEPRINT",
@@ -104,11 +108,11 @@ def curve_chunks(
     colour: tuple[int, int, int],
     *,
     style: bool = True,
-) -> list[Any]:
+) -> list[Chunk]:
     """The chunks of one run's best-so-far curve (``x``: evaluations, ``best``: the fitness
     so far, NaN before the first) at ``/condition/<condition>/seed/<seed>``: its style (with
     ``style``) and its points with a finite value; none when it has no such point."""
-    from rerun.chunk import Chunk
+    from rerun.chunk import Chunk  # lazy: heavy optional library
 
     rr = rerun_module()
     keep = np.isfinite(best)
@@ -125,13 +129,11 @@ def curve_chunks(
     return chunks
 
 
-def _fitness_unit(campaign: Any) -> str | None:
+def _fitness_unit(campaign: Campaign) -> str | None:
     """The unit of the campaign's fitness function (its first run's), None where unknown."""
-    from ariel.recording.store import fitness_unit
-
     for run in campaign.runs.values():
         name = run.config.get("task", {}).get("fitness")
-        return fitness_unit(name) if isinstance(name, str) and name else None
+        return fitness_unit_of(name) if isinstance(name, str) and name else None
     return None
 
 
@@ -149,8 +151,6 @@ def write_campaign_blueprint(
     its axes, with the fitness function's unit. ``fitness_unit`` and ``maximise``: read from
     the campaign's runs when not given. ``panels=False``: the side panels collapsed, for
     pictures."""
-    from ariel.recording.store import load_campaign, read_campaign_info
-
     conditions = [c["name"] for c in read_campaign_info(Path(campaign_dir)).get("conditions", [])]
     if fitness_unit is None or maximise is None:
         campaign = load_campaign(Path(campaign_dir))
@@ -181,7 +181,7 @@ def write_campaign_blueprint(
 
 def campaign_views(
     conditions: Sequence[str], *, fitness_unit: str | None, maximise: bool
-) -> tuple[Any, list[Any]]:
+) -> tuple[TimeSeriesView, list[TimeSeriesView]]:
     """The campaign's curve views: every run's in one (a legend of the conditions in the
     corner the curves leave empty: top left where fitness is maximised, bottom left where
     minimised), and one per condition, without legend; each titled with its axes."""

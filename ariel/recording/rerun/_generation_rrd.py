@@ -31,9 +31,22 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from ariel.recording.rerun._blueprint import save_blueprint
+from ariel.recording.rerun._chunks import _property_chunks, rerun_module, static_chunk
+from ariel.recording.rerun._graph import _graph_parts, graph_colour, tree_positions
+from ariel.recording.rerun._joint_names import joint_labels, module_labels
+from ariel.recording.rerun._rerun import _write_chunks
+from ariel.recording.rerun._scene import module_colours
+
+if TYPE_CHECKING:
+    from rerun import ComponentColumn
+    from rerun.blueprint import Blueprint
+
+    from ariel.evaluation import EvaluationResult
 
 __all__ = [
     "GENERATION_APPLICATION_ID",
@@ -80,7 +93,9 @@ class EvaluationTrace:
         return float(self.card["fitness"])
 
 
-def trace_of(properties: Mapping[str, Any], result: Any, graph_json: str | None) -> EvaluationTrace:
+def trace_of(
+    properties: Mapping[str, Any], result: EvaluationResult, graph_json: str | None
+) -> EvaluationTrace:
     """An evaluation's trace from its recording properties (see `RerunRecorder.evaluation`)
     and its `EvaluationResult`."""
     targets = np.asarray(result.joint_target, dtype=np.float32)
@@ -114,10 +129,8 @@ def _card(trace: EvaluationTrace) -> str:
     return "\n".join(lines)
 
 
-def _joint_columns(traces: Sequence[EvaluationTrace], leaf: str) -> list[Any]:
+def _joint_columns(traces: Sequence[EvaluationTrace], leaf: str) -> list[ComponentColumn]:
     """``/joints/<leaf>`` over the evaluations: each row one strip (t, rad) per joint."""
-    from ariel.recording.rerun._rerun import rerun_module
-
     rr = rerun_module()
     strips, labels, colours, lengths = [], [], [], []
     for trace in traces:
@@ -134,8 +147,6 @@ def _joint_columns(traces: Sequence[EvaluationTrace], leaf: str) -> list[Any]:
 def _joint_labels(names: tuple[str, ...], graph_json: str | None, joints: int) -> tuple[str, ...]:
     """`joint_labels` of a body's joints (cached: a body's evaluations share its graph, and
     reading the graph is most of the cost)."""
-    from ariel.recording.rerun._joint_names import joint_labels
-
     labels = joint_labels(names, graph_json)
     return (*labels, *(f"joint{j}" for j in range(len(names), joints)))
 
@@ -143,12 +154,15 @@ def _joint_labels(names: tuple[str, ...], graph_json: str | None, joints: int) -
 @lru_cache(maxsize=64)
 def _drawing(
     graph_json: str | None,
-) -> tuple[list[str], list[str], list[Any], list[Any], list[tuple[float, float]]]:
+) -> tuple[
+    list[str],
+    list[str],
+    list[tuple[int, int, int, int]],
+    list[tuple[str, str]],
+    list[tuple[float, float]],
+]:
     """A morphology's node ids, labels, colours, edges and positions (a tree drawn top-down,
     `tree_positions`; cached as `_joint_labels`)."""
-    from ariel.recording.rerun._joint_names import module_labels
-    from ariel.recording.rerun._rerun import _graph_parts, graph_colour, tree_positions
-
     if not graph_json:
         return [], [], [], [], []
     ids, types, edges = _graph_parts(graph_json)
@@ -157,10 +171,8 @@ def _drawing(
     return ids, labels, colours, edges, tree_positions(ids, edges)
 
 
-def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[Any]:
+def _graph_columns(traces: Sequence[EvaluationTrace]) -> list[ComponentColumn]:
     """``/graph`` over the evaluations: each row one morphology (empty when not known)."""
-    from ariel.recording.rerun._rerun import rerun_module
-
     rr = rerun_module()
     ids, labels, colours, edges, positions = [], [], [], [], []
     node_counts, edge_counts = [], []
@@ -191,7 +203,7 @@ def write_generation_recording(
     *,
     run_id: str,
     generation: int,
-    properties: Mapping[str, Any] | None = None,
+    properties: Mapping[str, object] | None = None,
 ) -> Path:
     """Write a generation's evaluations as one recording (see the module docstring), whole
     under a temporary name and renamed; recording id ``<run_id>/gen-NNNNNN``.
@@ -209,15 +221,7 @@ def write_generation_recording(
     Returns:
         ``path``, as a `Path`.
     """
-    from rerun.chunk import Chunk
-
-    from ariel.recording.rerun._rerun import (
-        _property_chunks,
-        _write_chunks,
-        module_colours,
-        rerun_module,
-        static_chunk,
-    )
+    from rerun.chunk import Chunk  # lazy: heavy optional library
 
     rr = rerun_module()
     traces = sorted(traces, key=lambda trace: trace.eval_id)
@@ -253,12 +257,10 @@ def write_generation_recording(
     )
 
 
-def generation_blueprint(*, panels: bool = True) -> Any:
+def generation_blueprint(*, panels: bool = True) -> Blueprint:
     """The layout of a generation recording: the evaluation's card, path and morphology above,
     its joints and the generation's fitness below; the time panel on ``evaluation``.
     ``panels=False``: the side panels collapsed (a screenshot shows the views)."""
-    from ariel.recording.rerun._rerun import rerun_module
-
     rrb = rerun_module().blueprint
     return rrb.Blueprint(
         rrb.Vertical(
@@ -283,6 +285,4 @@ def generation_blueprint(*, panels: bool = True) -> Any:
 
 def write_generation_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Path:
     """Write `generation_blueprint` (application id ``ariel-generation``) to ``path``."""
-    from ariel.recording.rerun._rerun import save_blueprint
-
     return save_blueprint(path, generation_blueprint(panels=panels), GENERATION_APPLICATION_ID)

@@ -29,7 +29,15 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import networkx as nx
+
+from ariel.body_phenotypes.robogen_lite.config import IDX_OF_CORE, ModuleType
+from ariel.recording.store import json_data
+
+if TYPE_CHECKING:
+    from ariel.body_phenotypes.robogen_lite.constructor import RobotTree
 
 __all__ = ["joint_labels", "module_labels"]
 
@@ -51,17 +59,14 @@ def _plain(name: str) -> str:
     return text or short
 
 
-def _tree(graph: Any) -> Any:
+def _tree(graph: Any) -> RobotTree | None:
     """The body's `RobotTree` from node-link JSON (a string or its dict) or a DiGraph; None
     where it cannot be read as a robot graph."""
-    import networkx as nx
-
+    # lazy: the constructor imports mujoco, which loads its GL backend (MUJOCO_GL) on import
     from ariel.body_phenotypes.robogen_lite.constructor import validate_robot_graph
 
     try:
         if isinstance(graph, str | bytes):
-            from ariel.recording.store import json_data
-
             graph = json_data(graph)  # guarded: a table's cell nested out of stack is refused
         if isinstance(graph, Mapping):
             edges = "links" if "edges" not in graph and "links" in graph else "edges"
@@ -73,11 +78,9 @@ def _tree(graph: Any) -> Any:
         return None
 
 
-def _hinge_places(tree: Any) -> dict[tuple[int, int, int], tuple[str, int]]:
+def _hinge_places(tree: RobotTree) -> dict[tuple[int, int, int], tuple[str, int]]:
     """(parent, hinge, face value) -> (branch, number): ("right", 1) for every hinge of
     ``tree``."""
-    from ariel.body_phenotypes.robogen_lite.config import IDX_OF_CORE, ModuleType
-
     branch_of: dict[int, str] = {}
     counted: dict[str, int] = {}
     places = {}
@@ -93,7 +96,9 @@ def _hinge_places(tree: Any) -> dict[tuple[int, int, int], tuple[str, int]]:
     return places
 
 
-def joint_labels(names: Sequence[str], graph: Any = None) -> list[str]:
+def joint_labels(
+    names: Sequence[str], graph: str | Mapping[str, Any] | nx.DiGraph | None = None
+) -> list[str]:
     """A short label for each joint of one body, unique within it (the rule: module docstring).
 
     Args:
@@ -137,7 +142,9 @@ def joint_labels(names: Sequence[str], graph: Any = None) -> list[str]:
     return labels if len(set(labels)) == len(labels) else names
 
 
-def module_labels(node_ids: Sequence[str], types: Sequence[str], graph: Any) -> list[str]:
+def module_labels(
+    node_ids: Sequence[str], types: Sequence[str], graph: str | Mapping[str, Any]
+) -> list[str]:
     """Short labels of a body's modules for its graph drawings, legible in a small view: a
     hinge by its branch and number ("right 1": the joint legends' "right branch, hinge 1"),
     any other module by its type alone ("core", "brick"; the colour says it too, and module

@@ -12,11 +12,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ariel.recording.rerun._archive import _VIRIDIS
+
+if TYPE_CHECKING:
+    from rerun import AsComponents
+    from rerun.blueprint import GraphView
 
 __all__ = ["LINEAGE_ENTITY", "LINEAGE_STEP", "Lineage", "fitness_colours", "lineage_view"]
 
@@ -72,9 +76,9 @@ class Lineage:
                 alive.add(body_id)
         self._alive = alive
 
-    def archetypes(self) -> list[Any]:
+    def archetypes(self) -> list[AsComponents]:
         """`GraphNodes` and directed `GraphEdges` of the lineage so far."""
-        import rerun as rr
+        import rerun as rr  # lazy: heavy optional library
 
         ids = list(self._nodes)
         nodes = np.array(list(self._nodes.values()), dtype=np.float64).reshape(-1, 3)
@@ -91,8 +95,8 @@ class Lineage:
         ]
 
 
-def lineage_view() -> Any:
+def lineage_view() -> GraphView:
     """The graph view of `LINEAGE_ENTITY`, as the run's and the live view's layouts show it."""
-    import rerun.blueprint as rrb
+    import rerun.blueprint as rrb  # lazy: heavy optional library
 
     return rrb.GraphView(name="lineage (bright: fitter)", origin=LINEAGE_ENTITY)

@@ -42,16 +42,34 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 from ariel.evolution import fitness_rank
-from ariel.recording.rerun._archive import archive_cells, archive_grid
+from ariel.recording.rerun._archive import CvtCells, archive_cells, archive_grid
+from ariel.recording.rerun._blueprint import write_blueprint
+from ariel.recording.rerun._generation_rrd import (
+    EvaluationTrace,
+    trace_of,
+    write_generation_blueprint,
+    write_generation_recording,
+)
 from ariel.recording.rerun._lineage import Lineage
+from ariel.recording.rerun._rerun import write_evaluation_recording, write_run_recording
 from ariel.recording.store import (
     GENERATION_BLUEPRINT,
+    NotARunError,
+    RunFolder,
+    describe_archive,
     generation_recording_path,
+    read_table,
     recording_path,
 )
 
 if TYPE_CHECKING:
+    import mujoco
+    from rerun import AsComponents
+
+    from ariel.evaluation import EvaluationResult, EvaluationTask
+    from ariel.evolution import Body, ExperimentConfig
     from ariel.recording.store import EvaluationRow
 
 # archive_grid: defined in _archive, still importable from here
@@ -60,7 +78,7 @@ __all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
 
 def generation_summary(
     generation: int, body_rows: Sequence[Mapping[str, Any]], maximise: bool
-) -> tuple[dict[str, Any], dict[str, Any] | None]:
+) -> tuple[dict[str, float], dict[str, Any] | None]:
     """One generation's ``run.rrd`` row and its best body, from its rows of the bodies table.
 
     The population is the bodies ``selected`` into the next generation. Returns the row
@@ -68,8 +86,8 @@ def generation_summary(
     ``distinct_morphologies``, see the module docstring) and the best body (``body_id``,
     ``fitness``, ``graph``; None when no body has a finite fitness).
     """
+    # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 
     population = [row for row in body_rows if row.get("selected")]
     fitness = np.array([float(row["fitness"]) for row in population], dtype=np.float64)
@@ -117,7 +135,13 @@ class RerunRecorder:
     """Writes a run's Rerun files (see the module docstring); one per run, in the driver."""
 
     def __init__(
-        self, run_dir: str | Path, *, run_id: str, bodies: str, maximise: bool, config: Any
+        self,
+        run_dir: str | Path,
+        *,
+        run_id: str,
+        bodies: str,
+        maximise: bool,
+        config: ExperimentConfig,
     ) -> None:
         if bodies not in ("all", "elites", "none"):
             raise ValueError(f"record.bodies must be all, elites or none, not {bodies!r}")
@@ -126,13 +150,16 @@ class RerunRecorder:
         self.bodies = bodies
         self.maximise = maximise
         self.config = config
-        self._rows: dict[int, dict[str, Any]] = {}
+        self._rows: dict[int, dict[str, float]] = {}
         self._best: dict[int, dict[str, Any]] = {}
-        self._archives: dict[int, Any] = {}  # MAP-Elites: fitness per cell (`archive_cells`)
+        # MAP-Elites: fitness per cell (`archive_cells`)
+        self._archives: dict[int, np.ndarray | CvtCells] = {}
         self._lineage = Lineage(maximise=maximise)
-        self._lineages: dict[int, list[Any]] = {}  # per generation: the lineage graph so far
+        # per generation: the lineage graph so far
+        self._lineages: dict[int, list[AsComponents]] = {}
         self._described: dict[str, Any] | None = None  # run.json's archive description
-        self._traces: dict[int, list[Any]] = {}  # per generation: its evaluations' traces
+        # per generation: its evaluations' traces
+        self._traces: dict[int, list[EvaluationTrace]] = {}
         self._blueprint = False
 
     @property
@@ -141,15 +168,19 @@ class RerunRecorder:
         return self.bodies != "none"
 
     def evaluation(
-        self, *, model: Any, body: Any, task: Any, result: Any, row: EvaluationRow, new_best: bool
+        self,
+        *,
+        model: mujoco.MjModel,
+        body: Body,
+        task: EvaluationTask,
+        result: EvaluationResult,
+        row: EvaluationRow,
+        new_best: bool,
     ) -> Path | None:
         """Keep the evaluation (``row``: its `EvaluationRow`) for its generation's recording, and
         write its own recording (a 3D replay) when ``record.bodies`` asks for it; ``new_best``:
         it improved its body's best. Returns the path of its own recording, if one was written.
         """
-        from ariel.recording.rerun._generation_rrd import trace_of
-        from ariel.recording.rerun._rerun import write_evaluation_recording
-
         if not self._blueprint:
             self.write_blueprint()
         generation = row.generation
@@ -185,9 +216,6 @@ class RerunRecorder:
         """After a generation's tables: write its evaluations' recording
         (``recordings/gen-NNNNNN/evaluations.rrd``), add its summary (and its MAP-Elites
         archive) and rewrite ``run.rrd``."""
-        from ariel.recording.rerun._generation_rrd import write_generation_recording
-        from ariel.recording.rerun._rerun import write_run_recording
-
         if not self._blueprint:
             self.write_blueprint()
         write_generation_recording(
@@ -233,8 +261,6 @@ class RerunRecorder:
         missing = [g for g in range(generation) if g not in self._rows]
         if not missing:
             return
-        from ariel.recording.store import read_table
-
         rows = read_table(self.run_dir, "bodies", up_to=generation - 1).to_pylist()
         cells = read_table(self.run_dir, "archive", up_to=generation - 1).to_pylist()
         for g in missing:
@@ -257,8 +283,6 @@ class RerunRecorder:
         """run.json's ``archive`` (the driver writes it before the first generation); None: a
         grid (a run made before it was recorded)."""
         if self._described is None:
-            from ariel.recording.store import NotARunError, RunFolder, describe_archive
-
             with contextlib.suppress(NotARunError):
                 self._described = describe_archive(RunFolder(self.run_dir).read_info(), None)
         return self._described
@@ -266,9 +290,6 @@ class RerunRecorder:
     def write_blueprint(self) -> Path:
         """Write the layouts: ``blueprint.rbl`` (evaluations, run.rrd) and ``generation.rbl``
         (the generations' ``evaluations.rrd``)."""
-        from ariel.recording.rerun._generation_rrd import write_generation_blueprint
-        from ariel.recording.rerun._rerun import write_blueprint
-
         path = write_blueprint(self.run_dir / "blueprint.rbl")
         write_generation_blueprint(self.run_dir / GENERATION_BLUEPRINT)
         self._blueprint = True

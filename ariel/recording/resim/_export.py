@@ -24,9 +24,25 @@ import contextlib
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ariel.errors import ArielError
+from ariel.plugins import body_encoders, worlds
+from ariel.recording import store
+from ariel.recording.resim._rebuild import _find_row, _require_plugins, cell_json, replay_task
+from ariel.recording.store import (
+    Run,
+    cannot_write,
+    check_eval_id,
+    check_run_id,
+    evaluation_trajectory,
+    load_run,
+)
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from ariel.evaluation import EvaluationTask
 
 __all__ = ["ExportError", "export"]
 
@@ -76,9 +92,8 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     `ExportError` for a non-empty ``out`` or a body that could not be built, and
     `MissingPluginError` when a plugin the body or world needs is not installed here.
     """
+    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
     from ariel.evaluation import SPAWN_PREFIX
-    from ariel.recording.resim._replay import _find_row, _require_plugins, cell_json, replay_task
-    from ariel.recording.store import check_eval_id, check_run_id, load_run
 
     out = Path(out)
     if out.is_symlink():
@@ -154,8 +169,6 @@ def _write(out: Path, texts: dict[str, str]) -> None:
     """Make ``out`` and write ``texts`` (file name -> text) into it, each whole; on a failed
     write (disk full, read-only, no permission) the files written are removed again (and
     ``out``, when made here), and `ExportError` names the file and why."""
-    from ariel.recording.store import atomic_write, cannot_write
-
     made = not out.exists()
     written: list[Path] = []
     try:
@@ -163,7 +176,10 @@ def _write(out: Path, texts: dict[str, str]) -> None:
         for name, text in texts.items():
             data = text.encode("utf-8")
             path = out / name
-            atomic_write(path, lambda temporary, data=data: temporary.write_bytes(data), root=out)
+            # From the store's face at each call, as before (tests stand in for it there).
+            store.atomic_write(
+                path, lambda temporary, data=data: temporary.write_bytes(data), root=out
+            )
             written.append(path)
     except OSError as exc:
         for path in written:  # no half export: all its files or none
@@ -175,11 +191,9 @@ def _write(out: Path, texts: dict[str, str]) -> None:
         raise ExportError(f"{cannot_write(exc, out)}; nothing was exported") from exc
 
 
-def _recorded_core(run: Any, row: dict[str, Any]) -> list[float] | None:
+def _recorded_core(run: Run, row: dict[str, Any]) -> list[float] | None:
     """Where the run recorded the core at the evaluation's end (its last trajectory frame);
     None where the run kept no trajectories."""
-    from ariel.recording.store import evaluation_trajectory
-
     frames = evaluation_trajectory(run, row)
     if frames is None or not len(frames):
         return None
@@ -187,10 +201,10 @@ def _recorded_core(run: Any, row: dict[str, Any]) -> list[float] | None:
     return [float(last["core_x"]), float(last["core_y"]), float(last["core_z"])]
 
 
-def _world_spec(task: Any) -> Any:
+def _world_spec(task: EvaluationTask) -> mujoco.MjSpec:
     """``task``'s body spawned in its world: the `mujoco.MjSpec` that `build` compiles."""
+    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
     from ariel.evaluation import make_plugin, robot_module
-    from ariel.plugins import body_encoders, worlds
 
     encoder = make_plugin(body_encoders, task.body.encoder, task.body.options)
     world = make_plugin(worlds, task.world, task.world_options)

@@ -14,11 +14,22 @@ otherwise).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from ariel.errors import DamagedRunError
+from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
+from ariel.recording.store import check_eval_id, check_run_id, json_data, one_line
+from ariel.simulation.controllers.observations import hinge_observation
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from ariel.simulation.controllers.controller import Controller
 
 __all__ = ["ExportedRobot", "load_exported"]
 
@@ -47,9 +58,9 @@ class ExportedRobot:
             here or the export does not say how the run recorded frames.
     """
 
-    model: Any
-    data: Any
-    controller: Any
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    controller: Controller
     duration: float
     eval_id: str = ""
     run_id: str = ""
@@ -59,7 +70,9 @@ class ExportedRobot:
     fitness_unit: str = ""
     _frames: _Frames | None = field(default=None, repr=False)
 
-    def set_control(self, model: Any, data: Any, *args: Any, **kwargs: Any) -> None:
+    def set_control(
+        self, model: mujoco.MjModel, data: mujoco.MjData, *args: Any, **kwargs: Any
+    ) -> None:
         """The MuJoCo control callback: ``controller.set_control``, then this step's frame
         where the run recorded one."""
         self.controller.set_control(model, data, *args, **kwargs)
@@ -82,9 +95,11 @@ class _Frames:
     the physics steps where the engine keeps them (`frame_steps`): core position and joint
     angles of the state about to be stepped, the control just set."""
 
-    def __init__(self, model: Any, brain: dict[str, Any], target: Any) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, brain: dict[str, Any], target: Sequence[float] | None
+    ) -> None:
+        # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
         from ariel.evaluation import SPAWN_PREFIX, frame_steps
-        from ariel.plugins import fitness_functions
 
         self.model = model
         self.dt = model.opt.timestep
@@ -96,23 +111,24 @@ class _Frames:
         self.target = None if target is None else tuple(float(v) for v in target)
         self.function = fitness_functions.get(brain["fitness_fn"])
         self.options = dict(brain.get("fitness_options", {}))
-        self.rows: dict[int, tuple[Any, Any, Any]] = {}
+        self.rows: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
-    def record(self, data: Any) -> None:
+    def record(self, data: mujoco.MjData) -> None:
         step = round(data.time / self.dt)
         if step == 0:
             self.rows.clear()  # a new simulation (simple_runner resets the data)
         if step < self.nstep and (step % self.every == 0 if self.every > 0 else step == 0):
             self._keep(step, data)
 
-    def _keep(self, step: int, data: Any) -> None:
+    def _keep(self, step: int, data: mujoco.MjData) -> None:
         core = data.geom_xpos[self.core].copy()
         self.rows[step] = (core, data.ctrl.copy(), data.qpos[self.joint_qpos].copy())
 
-    def fitness(self, data: Any) -> float:
+    def fitness(self, data: mujoco.MjData) -> float:
+        # lazy: mujoco loads its GL backend (MUJOCO_GL) on import; the caller's chose it
         import mujoco
 
-        from ariel.evaluation import TrajectoryRecord
+        from ariel.evaluation import TrajectoryRecord  # lazy: imports mujoco (as above)
 
         kept = self.rows.keys() | {self.nstep}
         if round(data.time / self.dt) != self.nstep or not set(self.wanted.tolist()) <= kept:
@@ -132,9 +148,6 @@ class _Frames:
 def _read(folder: Path, name: str) -> dict[str, Any]:
     """The JSON object in ``folder``/``name``, read with the guarded parser (`json_data`: none
     nested out of stack); `DamagedRunError`, one line, for one missing or unreadable."""
-    from ariel.errors import DamagedRunError
-    from ariel.recording.store import json_data
-
     try:
         data = json_data((folder / name).read_bytes())
     except (OSError, ValueError) as exc:
@@ -179,14 +192,14 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         print(robot.replayed_fitness(), robot.fitness)  # the recorded fitness again
         ```
     """
+    # lazy: mujoco loads its GL backend (MUJOCO_GL) on import, and these modules import it
     import mujoco
 
-    from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
-    from ariel.plugins import body_encoders, controllers, worlds
-    from ariel.recording.store import check_eval_id, check_run_id, one_line
-    from ariel.simulation.controllers.controller import Controller
-    from ariel.simulation.controllers.observations import hinge_observation
-    from ariel.simulation.settle import settle_model
+    from ariel.body_phenotypes.robogen_lite.constructor import (  # lazy: as above
+        construct_mjspec_from_graph,
+    )
+    from ariel.simulation.controllers.controller import Controller  # lazy: as above
+    from ariel.simulation.settle import settle_model  # lazy: as above
 
     folder = Path(folder)
     body, brain = (_read(folder, name) for name in ("genotype.json", "controller.json"))
@@ -208,13 +221,13 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         calls = np.arange(0, round(brain["duration"] / dt), period) * dt
         targets = plugin.targets(params[None], calls, model, seed=brain["seed"])[0]
 
-        def policy(m: Any, d: Any) -> Any:
+        def policy(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
             return targets[round(d.time / (dt * period))]
     else:  # closed loop: a policy of the robot's observation
         act = plugin.make_policy(params, model)
         observe = getattr(plugin, "observation", hinge_observation)
 
-        def policy(m: Any, d: Any) -> Any:
+        def policy(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
             return act(observe(m, d))
 
     controller = Controller(policy, time_steps_per_ctrl_step=period, alpha=brain["smoothing"])

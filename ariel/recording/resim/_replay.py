@@ -17,38 +17,51 @@ re-simulated on MuJoCo Warp again where its device is available here (else on th
 as a batch of one world: float32 physics whose summation order depends on the batch, so the
 replayed fitness is close to the stored one but not expected to equal it;
 `ReplayResult.difference` says by how much.
+
+What is rebuilt from the run folder (the row, the plugins, the task, the simulator, the
+versions) is `ariel.recording.resim._rebuild`'s; this module re-simulates and shows it.
 """
 
 from __future__ import annotations
 
 import contextlib
 import json
-import math
 import os
 import tempfile
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ariel.errors import DamagedRunError, MissingPluginError, UnknownEvaluationError
-from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record_steps, shipped_body
-from ariel.plugins import REGISTRIES, body_encoders, controllers
+from ariel.errors import MissingPluginError, UnknownEvaluationError
+from ariel.recording.rerun import write_evaluation_recording
+from ariel.recording.resim._rebuild import (
+    BEST as BEST,
+    _changed,
+    _evaluate_as_stored as _evaluate_as_stored,
+    _find_row,
+    _require_plugins,
+    _version_differences,
+    cell_json,
+    replay_task,
+)
 from ariel.recording.store import (
     Run,
     check_eval_id,
-    git_commit,
-    json_data,
     load_run,
     recording_path,
     refuse_symlinks,
-    short_ascii,
-    software_versions,
 )
-from ariel.utils import has_display, load_run_command
+from ariel.utils import has_display
+from ariel.utils.video_recorder import VideoRecorder
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from ariel.evaluation import EvaluationResult, EvaluationTask
 
 __all__ = [
     "MissingPluginError",
@@ -59,45 +72,9 @@ __all__ = [
     "replay",
 ]
 
-#: `replay(run, BEST)` replays the run's best evaluation.
-BEST = "best"
-
 #: Where `on_demand_recording` keeps the 3D replays it makes, inside the generation's folder
 #: of recordings (so a resume that discards the generation discards them too).
 REPLAYS = "replays"
-
-# Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
-_DECISIVE = ("mujoco", "numpy", "torch", "ariel")
-
-
-#: The plugins a replay needs: run.json's ``plugins`` kind -> config key.
-_PLUGIN_KEYS = {
-    "body_encoder": ("body", "encoder"),
-    "controller": ("brain", "controller"),
-    "world": ("world", "name"),
-    "fitness": ("task", "fitness"),
-}
-
-
-def _require_plugins(run: Run) -> None:
-    """`MissingPluginError`, one line, for the first of the run's plugins not installed here
-    (reading a run needs none of them; re-simulating it needs all)."""
-    for kind, (section, key) in _PLUGIN_KEYS.items():
-        name = run.config.get(section, {}).get(key)
-        if not isinstance(name, str):
-            continue
-        registry = REGISTRIES[kind]
-        try:
-            registry.get(name)
-        except (KeyError, ValueError, ImportError):
-            served = (run.info.get("plugins") or {}).get(kind) or {}
-            source = served.get("distribution") if isinstance(served, dict) else None
-            hint = f"install {source}" if source else "install the package that provides it"
-            raise MissingPluginError(
-                f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
-                f"({section}.{key}) is not installed here; {hint} (report, load_run and view "
-                "need no plugins)"
-            ) from None
 
 
 def _fitness_bits(value: float) -> bytes:
@@ -130,8 +107,8 @@ class ReplayResult:
     row: dict[str, Any]
     task: Any
     result: Any
-    version_differences: dict[str, tuple[Any, Any]] = field(default_factory=dict)
-    _full_rate: Any = field(default=None, repr=False)
+    version_differences: dict[str, tuple[object, object]] = field(default_factory=dict)
+    _full_rate: EvaluationResult | None = field(default=None, repr=False)
 
     @property
     def eval_id(self) -> str:
@@ -175,15 +152,16 @@ class ReplayResult:
         return _same_bits(self.fitness, self.stored_fitness) and self.status == self.stored_status
 
     @property
-    def model(self) -> Any:
+    def model(self) -> mujoco.MjModel:
         """The compiled body in its world (`ariel.evaluation.build`); raises for an error body."""
-        from ariel.evaluation import build  # MuJoCo: after the GL backend is chosen (see cli)
+        # lazy: MuJoCo, after the GL backend (MUJOCO_GL) is chosen (see cli)
+        from ariel.evaluation import build
 
         return build(self.task).model
 
     # -- full-rate re-simulation ---------------------------------------------------------------
 
-    def full_rate(self) -> Any:
+    def full_rate(self) -> EvaluationResult:
         """The same evaluation with a frame every physics step and every body's pose.
 
         Its ``fitness`` is the fitness function on these dense frames, which may differ from
@@ -191,6 +169,7 @@ class ReplayResult:
         look at more than the first and last frame.
         """
         if self._full_rate is None:
+            # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL)
             from ariel.evaluation import evaluate
 
             dense = replace(self.task, record_every=1, record_bodies=True)
@@ -202,7 +181,7 @@ class ReplayResult:
         dense = self.full_rate()
         return np.asarray(dense.joint_target[:-1])
 
-    def properties(self) -> dict[str, Any]:
+    def properties(self) -> dict[str, object]:
         """What a recording of this replay stores about it (plain values)."""
         row = self.row
         dense = self.full_rate()
@@ -240,8 +219,6 @@ class ReplayResult:
 
     def write_rrd(self, path: str | Path) -> Path:
         """A Rerun recording of the full-rate replay (3D bodies over time, joints, graph)."""
-        from ariel.recording.rerun import write_evaluation_recording
-
         self._need_body("a recording")
         dense = self.full_rate()
         path = Path(path)
@@ -263,11 +240,10 @@ class ReplayResult:
         # mujoco is imported already (the replay simulated), so it renders with the backend
         # MUJOCO_GL named then (`ariel replay --video` sets egl first where no display is set;
         # setting it now would be ignored); one that fails is create_renderer's one line.
-        import mujoco
+        import mujoco  # lazy: the GL backend is chosen first (see above)
 
-        from ariel.evaluation import SPAWN_PREFIX
-        from ariel.utils.renderers import tracking_video_renderer
-        from ariel.utils.video_recorder import VideoRecorder
+        from ariel.evaluation import SPAWN_PREFIX  # lazy: imports mujoco (as above)
+        from ariel.utils.renderers import tracking_video_renderer  # lazy: imports mujoco
 
         self._need_body("a video")
         model = self.model
@@ -290,8 +266,9 @@ class ReplayResult:
 
     def view(self, *, loop: bool = True) -> None:
         """Play the replay in MuJoCo's interactive viewer, in real time (needs a display)."""
+        # lazy: mujoco loads its GL backend (MUJOCO_GL) on import; the cli chose it before
         import mujoco
-        import mujoco.viewer
+        import mujoco.viewer  # lazy: as above
 
         if not has_display():
             raise RuntimeError("no display: the viewer needs a desktop session (DISPLAY unset)")
@@ -317,19 +294,19 @@ class ReplayResult:
                     return
 
     @contextlib.contextmanager
-    def driven(self, model: Any) -> Iterator[None]:
+    def driven(self, model: mujoco.MjModel) -> Iterator[None]:
         """While inside, every ``mj_step`` of ``model`` applies this replay's controls.
 
         Sets the process-wide ``mjcb_control`` (what the tutorial renderers step with) to set
         ``ctrl`` to the control of the current physics step, and restores the previous one.
         """
-        import mujoco
+        import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; chosen before
 
         controls = self.controls()
         dt = float(model.opt.timestep)
         last = controls.shape[0] - 1
 
-        def apply(m: Any, d: Any) -> None:
+        def apply(m: mujoco.MjModel, d: mujoco.MjData) -> None:
             if m.nu:
                 d.ctrl[:] = controls[min(max(0, round(d.time / dt)), last)]
 
@@ -346,149 +323,6 @@ class ReplayResult:
                 f"evaluation {self.eval_id!r} has no body to show in {what}: its genotype "
                 f"cannot be built ({self.row.get('error') or 'build error'})"
             )
-
-
-def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
-    evals = run.evaluations
-    if eval_id == BEST:
-        ok = evals[evals["fitness"].map(math.isfinite)]
-        if len(ok):
-            index = ok["fitness"].idxmax() if run.maximise else ok["fitness"].idxmin()
-            return evals.loc[index].to_dict()
-    else:
-        found = evals[evals["eval_id"] == eval_id]
-        if len(found):
-            return found.iloc[0].to_dict()
-
-    quoted = str(run.path)
-    where = (
-        f"no finished generation in run {quoted!r} yet"
-        if not len(evals)
-        else f"no evaluation {eval_id!r} in the finished generations of run {quoted!r}"
-    )
-    listing = 'r.evaluations[["generation", "eval_id", "fitness"]].to_string(index=False)'
-    raise UnknownEvaluationError(
-        f"{where}; ids look like b000012-i003-c005 ('best' for the best one); list them with "
-        f"{load_run_command(run.path, what=listing)}"
-    )
-
-
-def _recorded_software(run: Run, generation: int) -> tuple[dict[str, Any], Any]:
-    """Versions and commit of the software that ran ``generation``: the last of run.json's
-    ``segments`` (one per run or resume) that started at or before it; else the run's own."""
-    versions, commit = run.info.get("versions") or {}, run.info.get("git_commit")
-    segments = run.info.get("segments")
-    for segment in segments if isinstance(segments, list) else []:
-        start = segment.get("from_generation") if isinstance(segment, dict) else None
-        if isinstance(start, int) and start <= generation:
-            versions = segment.get("versions") or {}
-            commit = segment.get("git_commit")
-    return (versions if isinstance(versions, dict) else {}), commit
-
-
-def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[Any, Any]]:
-    recorded, commit_then = _recorded_software(run, generation)
-    now = software_versions()
-    differences = {
-        name: (recorded.get(name), now.get(name))
-        for name in _DECISIVE
-        if name in recorded and recorded.get(name) != now.get(name)
-    }
-    commit = git_commit()
-    if commit_then and commit and commit_then != commit:
-        differences["git_commit"] = (commit_then, commit)
-    return differences
-
-
-def cell_json(run: Run, row: dict[str, Any], table: str, column: str, text: Any) -> Any:
-    """The JSON in the cell ``column`` of ``table`` (``text``) for evaluation ``row`` of
-    ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
-    that is not JSON is a changed table: `DamagedRunError`, one line."""
-    try:
-        return json_data(text)
-    except (TypeError, ValueError) as exc:
-        raise _changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
-
-
-def _changed(run: Run, row: dict[str, Any], table: str, problem: str) -> DamagedRunError:
-    return DamagedRunError(
-        f"evaluation {short_ascii(row.get('eval_id'))} of run {str(run.path)!r}: {problem}; "
-        f"the {table} table was changed or damaged"
-    )
-
-
-def _row_params(row: dict[str, Any]) -> np.ndarray | None:
-    """The row's controller parameters, float64; None where they are not a list of finite
-    numbers (a changed table)."""
-    try:
-        params = np.asarray(row["controller_params"], dtype=np.float64)
-    except (KeyError, TypeError, ValueError):
-        return None
-    return params if params.ndim == 1 and np.all(np.isfinite(params)) else None
-
-
-def _check_params(
-    run: Run, row: dict[str, Any], task: Any, model: Any, params: np.ndarray | None
-) -> None:
-    """`DamagedRunError` naming the evaluation, the number of parameters its row holds and the
-    number its body's controller needs, where the two differ (a changed table)."""
-
-    from ariel.evaluation import make_plugin
-
-    controller = make_plugin(controllers, task.controller, task.controller_options)
-    needed = controller.num_parameters(model)
-    if params is not None and len(params) == needed:
-        return
-    found = (
-        f"{len(params)} controller parameters"
-        if params is not None
-        else "controller parameters that are not a list of finite numbers"
-    )
-    raise _changed(
-        run,
-        row,
-        "evaluations",
-        f"its row holds {found}, but its body's controller {task.controller!r} needs {needed} "
-        f"({model.nu} actuators)",
-    )
-
-
-def replay_task(
-    run: Run, row: dict[str, Any], *, graph: str | None = None, check_params: bool = False
-) -> Any:
-    """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``.
-
-    ``graph``: the body's decoded robot graph (the bodies table's ``graph``), the form the
-    loop's tasks carry (`shipped_body`) for an encoder that decodes to a graph: used as it is
-    instead of decoding the genotype again (the NDE's decoding imports torch, ~2 s).
-    ``check_params`` (to re-simulate): `DamagedRunError` where the row's controller parameters
-    are not as many finite numbers as its body's controller needs (a changed table); without
-    it (to draw the body), parameters that are not a list of finite numbers are left out.
-    A genotype or graph cell that is not JSON is `DamagedRunError` either way.
-    """
-
-    from ariel.evaluation import BodyBuildError, BodySpec, build
-
-    config = ExperimentConfig.from_plain(run.config)
-    encoder = config.body.encoder
-    if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
-        spec = BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
-    else:
-        genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
-        spec = shipped_body(config, body_spec(config, genotype))
-    fields: dict[str, Any] = {
-        "seed": int(row["seed"]),
-        "eval_id": str(row["eval_id"]),
-    }
-    params = _row_params(row)
-    # An error row's body cannot be built: evaluating its task gives the same error again.
-    with contextlib.suppress(BodyBuildError):
-        shape = evaluation_task(config, spec)
-        model = build(shape).model
-        fields["record_every"] = record_steps(config, model.opt.timestep)
-        if check_params:
-            _check_params(run, row, shape, model, params)
-    return evaluation_task(config, spec, () if params is None else params, **fields)
 
 
 def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
@@ -535,25 +369,9 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
     )
 
 
-def _evaluate_as_stored(task: Any, backend: Any) -> Any:
-    """Evaluate ``task`` on the simulator the row names where it is here, else the CPU engine."""
-    from ariel.evaluation import evaluate
-
-    prefix = "mujoco-warp:"
-    if isinstance(backend, str) and backend.startswith(prefix):
-        from ariel.evaluation import WarpEvaluator, WarpUnavailableError
-
-        try:
-            evaluator = WarpEvaluator(backend[len(prefix) :])
-        except (WarpUnavailableError, ValueError):  # not installed, no such device, unknown
-            return evaluate(task)
-        return evaluator.evaluate_batch([task])[0]
-    return evaluate(task)
-
-
 def has_body_poses(path: str | Path) -> bool:
     """Whether the ``.rrd`` at ``path`` holds the robot's body poses over time (a 3D replay)."""
-    from rerun.chunk import RrdReader
+    from rerun.chunk import RrdReader  # lazy: heavy optional library
 
     store = RrdReader(Path(path)).stream().collect()
     return any(
@@ -577,8 +395,6 @@ def on_demand_recording(run_dir: str | Path, eval_id: str) -> Path:
     reused from there. The poses equal, bit for bit, those an ``all`` run records (recording
     them never changes the physics). Raises as `replay` does.
     """
-    from ariel.recording.rerun import write_evaluation_recording
-
     run = load_run(run_dir)
     row = _find_row(run, eval_id)
     path = replay_recording_path(run.path, int(row["generation"]), str(row["eval_id"]))
@@ -605,9 +421,12 @@ def on_demand_recording(run_dir: str | Path, eval_id: str) -> Path:
     )
 
 
-def _recorder_properties(run: Run, row: dict[str, Any], task: Any, result: Any) -> dict[str, Any]:
+def _recorder_properties(
+    run: Run, row: dict[str, Any], task: EvaluationTask, result: EvaluationResult
+) -> dict[str, object]:
     """The properties the loop's recorder gives an evaluation's recording, from its row, and
     the replayed fitness (``replayed_fitness``, ``identical``)."""
+    # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     config = run.config

@@ -9,9 +9,15 @@ a grid, described here from its config and its ``archive`` table, as readers dre
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from ariel.evolution import DEFAULT_RANGES, MapElites
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["ARCHIVE_KINDS", "archive_cell_count", "describe_archive"]
 
@@ -19,7 +25,9 @@ __all__ = ["ARCHIVE_KINDS", "archive_cell_count", "describe_archive"]
 ARCHIVE_KINDS = ("grid", "cvt")
 
 
-def describe_archive(info: Mapping[str, Any], archive: Any) -> dict[str, Any] | None:
+def describe_archive(
+    info: Mapping[str, Any], archive: pd.DataFrame | None
+) -> dict[str, Any] | None:
     """The archive's description (see the module docstring).
 
     Args:
@@ -36,10 +44,6 @@ def describe_archive(info: Mapping[str, Any], archive: Any) -> dict[str, Any] | 
         return dict(recorded)
     if archive is None or not len(archive):
         return None
-    import inspect
-
-    from ariel.evolution import DEFAULT_RANGES, MapElites
-
     config = info.get("config")
     config = config if isinstance(config, Mapping) else {}
     options = config.get("body", {}).get("optimizer_options") or {}

@@ -9,7 +9,12 @@ say or is not installed here). Counts (generations, evaluations, modules) get in
 from __future__ import annotations
 
 import textwrap
-from typing import Any
+from typing import TYPE_CHECKING
+
+from ariel.plugins import fitness_functions
+
+if TYPE_CHECKING:
+    from matplotlib.axis import Axis
 
 __all__ = [
     "DESCRIPTORS",
@@ -45,13 +50,13 @@ def descriptor_label(name: str) -> str:
     return f"{name} ({unit})" if unit else name
 
 
-def integer_ticks(axis: Any) -> None:
+def integer_ticks(axis: Axis) -> None:
     """Ticks at whole numbers only on ``axis``: for counts.
 
     Args:
         axis: An x or y `matplotlib.axis.Axis` (e.g. ``ax.xaxis``); changed in place.
     """
-    from matplotlib.ticker import MaxNLocator, ScalarFormatter
+    from matplotlib.ticker import MaxNLocator, ScalarFormatter  # lazy: heavy optional library
 
     # min_n_ticks=1: one whole-number tick rather than fractions on a narrow range (all 9s)
     axis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
@@ -60,8 +65,6 @@ def integer_ticks(axis: Any) -> None:
 
 def fitness_unit(name: str) -> str | None:
     """The unit of fitness function ``name`` (its ``unit``), None where unknown."""
-    from ariel.plugins import fitness_functions
-
     try:
         unit = getattr(fitness_functions.get(name), "unit", None)
     except Exception:  # not installed here, or broken: a label goes without its unit

@@ -23,9 +23,14 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, TypeGuard
 
+import pandas as pd
+
+from ariel.plugins import fitness_functions
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import atomic_write_json
-from ariel.recording.store._load import Run, load_run
+from ariel.recording.store._lineage import campaign_lineages
+from ariel.recording.store._load import STOPPED, Run, load_run
+from ariel.recording.store._lock import lock_is_free
 from ariel.recording.store._run_folder import NotARunError, json_data
 
 __all__ = [
@@ -97,13 +102,13 @@ MAX_CONDITION_NAME = 255 - len("condition=")
 _CONDITION_RULE = f"letters, digits, _ . -; at most {MAX_CONDITION_NAME} characters"
 
 
-def _is_seed(value: Any) -> TypeGuard[int]:
+def _is_seed(value: object) -> TypeGuard[int]:
     """A seed as the experiment's ``seed`` allows it: an integer (not a bool, a float or a
     string), 0 <= seed < 2**63."""
     return type(value) is int and 0 <= value < 2**63
 
 
-def _is_condition(value: Any) -> TypeGuard[str]:
+def _is_condition(value: object) -> TypeGuard[str]:
     return (
         isinstance(value, str)
         and len(value) <= MAX_CONDITION_NAME
@@ -208,8 +213,6 @@ def fitness_maximise(info: dict[str, Any]) -> bool:
     function named in its config, looked up in the registry."""
     if "maximise" in info:
         return bool(info["maximise"])
-    from ariel.plugins import fitness_functions
-
     name = info.get("config", {}).get("task", {}).get("fitness", "xy_displacement")
     return bool(fitness_functions.get(name).maximise)
 
@@ -253,9 +256,7 @@ class Campaign:
         directions = {fitness_maximise(run.info) for run in self.runs.values()}
         return directions.pop() if len(directions) == 1 else True
 
-    def _joined(self, table: str) -> Any:
-        import pandas as pd
-
+    def _joined(self, table: str) -> pd.DataFrame:
         frames = []
         for (condition, seed), run in self.runs.items():
             frame = getattr(run, table).copy()
@@ -270,23 +271,23 @@ class Campaign:
         return pd.concat(frames, ignore_index=True)
 
     @cached_property
-    def evaluations(self) -> Any:
+    def evaluations(self) -> pd.DataFrame:
         """Every run's evaluations table, with ``condition`` and ``seed`` (the run's) columns;
         each evaluation's own seed is its ``eval_seed`` column here."""
         return self._joined("evaluations")
 
     @cached_property
-    def bodies(self) -> Any:
+    def bodies(self) -> pd.DataFrame:
         """Every run's bodies table, with ``condition`` and ``seed`` columns."""
         return self._joined("bodies")
 
     @cached_property
-    def generations(self) -> Any:
+    def generations(self) -> pd.DataFrame:
         """Every run's per-generation summary (`Run.generations`), with ``condition`` and
         ``seed`` columns."""
         return self._joined("generations")
 
-    def lineages(self) -> dict[str, Any]:
+    def lineages(self) -> dict[str, pd.DataFrame]:
         """Every run's lineage in the ALife phylogeny format (`Run.lineage`), by run id.
 
         `ariel.recording.lineage_statistics_by_run` turns them into one table of surviving
@@ -300,8 +301,6 @@ class Campaign:
             DamagedRunError: When a run's bodies table holds a body id that is not one, or a
                 parent that is no body of the run.
         """
-        from ariel.recording.store._lineage import campaign_lineages
-
         return campaign_lineages(self)
 
     def status(self) -> list[dict[str, Any]]:
@@ -309,9 +308,6 @@ class Campaign:
         ``status``: run.json's, `STOPPED` for a killed run, ``"not started"`` for a run not
         made yet, `DAMAGED` for one whose folder does not load (`load_campaign` leaves it out;
         ``ariel verify`` it)."""
-        from ariel.recording.store._load import STOPPED
-        from ariel.recording.store._lock import lock_is_free
-
         rows = []
         for entry in self.info.get("runs", []):
             key = (entry["condition"], int(entry["seed"]))

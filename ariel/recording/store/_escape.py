@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import html
 import re
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "csv_safe",
@@ -37,7 +40,7 @@ def one_line(text: object) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
-def short_ascii(value: Any, limit: int = 60) -> str:
+def short_ascii(value: object, limit: int = 60) -> str:
     """A value read from a folder, for a one-line error: ``ascii(value)`` (no control or
     non-ASCII characters), cut to ``limit`` characters."""
     text = ascii(value)
@@ -103,15 +106,17 @@ def figure_label(text: object) -> str:
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 
 
-def _cell(value: Any) -> Any:
+def _cell(value: object) -> object:
     if isinstance(value, str) and value.startswith(FORMULA_STARTS):
         return "'" + value
     return value
 
 
-def csv_safe(frame: Any) -> Any:
+def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
     """A copy of ``frame`` whose text cells that a spreadsheet would read as a formula start
     with ``'`` (numbers are left alone: ``-0.5`` stays a number)."""
+    # Every store module imports this one, and only a CSV of a DataFrame needs pandas:
+    # lazy: pandas is slow to import (~0.5 s), which would slow every `load_run`
     from pandas.api.types import is_object_dtype, is_string_dtype
 
     safe = frame.copy()

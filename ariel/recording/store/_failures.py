@@ -4,25 +4,26 @@
 from __future__ import annotations
 
 import traceback
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ariel.errors import PluginFailedError
 from ariel.evolution import ERROR_LOG, ExperimentConfig, plugin_named
+from ariel.recording.store._files import atomic_write_bytes
 from ariel.utils import ariel_line
+
+if TYPE_CHECKING:
+    from ariel.evaluation import EvaluationTask
 
 __all__ = ["plugin_failure"]
 
 
 def plugin_failure(
-    run_dir: str | Path, config: ExperimentConfig, task: Any, exc: BaseException
+    run_dir: str | Path, config: ExperimentConfig, task: EvaluationTask, exc: BaseException
 ) -> PluginFailedError:
     """The `PluginFailedError` for ``exc``, raised evaluating ``task``; writes the full
     traceback (with the worker's, when it came from one) to ``RUN/error.log`` first."""
-    from concurrent.futures.process import BrokenProcessPool
-
-    from ariel.recording.store._files import atomic_write_bytes
-
     if isinstance(exc, BrokenProcessPool):  # the pool, not an evaluation, failed
         return PluginFailedError(f"the executor's workers failed: {exc}")
     first = (f"{type(exc).__name__}: {exc}".splitlines() or [""])[0]

@@ -19,7 +19,6 @@ import os
 import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
 
 from ariel.errors import DamagedRunError, UnsafePathError
 from ariel.utils import ariel_line, replace_non_finite
@@ -109,7 +108,7 @@ def _fresh(temporary: Path) -> None:
 
 def atomic_write(
     path: Path,
-    write: Callable[[Path], Any],
+    write: Callable[[Path], object],
     *,
     fsync: bool = True,
     root: str | os.PathLike[str] | None = None,
@@ -177,14 +176,16 @@ def atomic_write_bytes(
     atomic_write(path, lambda temporary: temporary.write_bytes(data), root=root)
 
 
-def json_text(data: Any) -> str:
+def json_text(data: object) -> str:
     """Strict JSON of ``data`` (non-finite floats as null: Python's ``NaN`` / ``Infinity``
     tokens are not JSON, and other readers refuse them), indented, ending in a newline."""
     plain = replace_non_finite(data, lambda x: None)
     return json.dumps(plain, indent=2, sort_keys=False, allow_nan=False) + "\n"
 
 
-def atomic_write_json(path: Path, data: Any, *, root: str | os.PathLike[str] | None = None) -> None:
+def atomic_write_json(
+    path: Path, data: object, *, root: str | os.PathLike[str] | None = None
+) -> None:
     atomic_write_bytes(path, json_text(data).encode(), root=root)
 
 

@@ -41,11 +41,19 @@ import math
 import os
 import re
 from collections import deque
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
 
 from ariel.errors import DamagedRunError
+from ariel.recording.store._files import atomic_write
+
+if TYPE_CHECKING:
+    from ariel.recording.store._campaign import Campaign
+    from ariel.recording.store._load import Run
 
 __all__ = [
     "ALIVE_MARKS",
@@ -92,7 +100,7 @@ _BODY_ID = re.compile(r"b(\d{6,})")
 _ANCESTORS = re.compile(r"\[\s*(.*?)\s*\]")
 
 
-def _number(body_id: Any, where: Path) -> int:
+def _number(body_id: object, where: Path) -> int:
     """The number in a body id (``b000052`` -> 52); `DamagedRunError` for anything else."""
     found = _BODY_ID.fullmatch(body_id) if isinstance(body_id, str) else None
     if found is None:
@@ -141,7 +149,7 @@ def parse_ancestor_list(text: str) -> list[int]:
         raise ValueError(f"not an ancestor_list: {text!r} (ids are integers)") from None
 
 
-def _evaluations_done(run: Any) -> list[int]:
+def _evaluations_done(run: Run) -> list[int]:
     """Evaluations done by the end of each finished generation (cumulative counts)."""
     counts = run.evaluations.groupby("generation").size()
     done, total = [], 0
@@ -151,7 +159,7 @@ def _evaluations_done(run: Any) -> list[int]:
     return done
 
 
-def lineage(run: Any) -> Any:
+def lineage(run: Run) -> pd.DataFrame:
     """The lineage of ``run``'s bodies in the ALife phylogeny format (see the module's
     docstring for every column's definition).
 
@@ -178,8 +186,7 @@ def lineage(run: Any) -> Any:
         write_lineage_csv(frame, "my-run-phylogeny.csv")  # or: ariel export RUN --lineage FILE
         ```
     """
-    import pandas as pd
-
+    # lazy: imports mujoco, which reads MUJOCO_GL when imported (the CLI sets it first)
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     bodies = run.bodies.sort_values("generation", kind="stable")
@@ -227,7 +234,9 @@ def lineage(run: Any) -> Any:
     return frame
 
 
-def _parents(parent_ids: Any, known: set[int], body_id: str, where: Path) -> list[int]:
+def _parents(
+    parent_ids: Iterable[object] | None, known: set[int], body_id: str, where: Path
+) -> list[int]:
     """A body's parent numbers, each once, in the order recorded; each must be a body."""
     numbers: list[int] = []
     for parent in list(parent_ids) if parent_ids is not None else []:
@@ -243,7 +252,11 @@ def _parents(parent_ids: Any, known: set[int], body_id: str, where: Path) -> lis
 
 
 def write_lineage_csv(
-    frame: Any, path: str | os.PathLike[str], *, overwrite: bool = False, still_alive: str = ""
+    frame: pd.DataFrame,
+    path: str | os.PathLike[str],
+    *,
+    overwrite: bool = False,
+    still_alive: str = "",
 ) -> Path:
     """Write ``frame`` (a `lineage` frame) as the standard's CSV: a header row, then a row per
     taxon, ``ancestor_list`` as ``[3, 7]`` / ``[none]`` (quoted where it holds a comma).
@@ -269,8 +282,6 @@ def write_lineage_csv(
         ValueError: When ``frame`` lacks ``id`` or ``ancestor_list``, or ``still_alive`` is not
             one of `ALIVE_MARKS`.
     """
-    from ariel.recording.store._files import atomic_write
-
     path = Path(path)
     missing = [column for column in ("id", "ancestor_list") if column not in frame.columns]
     if missing:
@@ -291,13 +302,11 @@ def write_lineage_csv(
     return path
 
 
-def _missing(value: Any) -> bool:
-    import pandas as pd
-
+def _missing(value: object) -> bool:
     return value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value))
 
 
-def _parent_map(frame: Any) -> dict[int, list[int]]:
+def _parent_map(frame: pd.DataFrame) -> dict[int, list[int]]:
     """id -> its ancestors' ids, from ``ancestor_list``."""
     return {
         int(i): parse_ancestor_list(text)
@@ -305,7 +314,7 @@ def _parent_map(frame: Any) -> dict[int, list[int]]:
     }
 
 
-def ancestors(frame: Any, id: int | str) -> list[int]:
+def ancestors(frame: pd.DataFrame, id: int | str) -> list[int]:
     """The ancestors of taxon ``id`` in ``frame``: its parents, then their parents, and so on
     back to the founders; each id once, nearest first (breadth first; in an asexual lineage,
     the chain parent, grandparent, ..., founder).
@@ -367,7 +376,9 @@ def _depths(parents: Mapping[int, list[int]]) -> dict[int, int]:
     return depth
 
 
-def _founders(parents: Mapping[int, list[int]], depth: Mapping[int, int]) -> dict[int, Any]:
+def _founders(
+    parents: Mapping[int, list[int]], depth: Mapping[int, int]
+) -> dict[int, frozenset[int]]:
     """id -> the founders (taxa without ancestors in ``parents``) it descends from: itself,
     for a founder."""
     roots: dict[int, frozenset[int]] = {}
@@ -378,8 +389,8 @@ def _founders(parents: Mapping[int, list[int]], depth: Mapping[int, int]) -> dic
 
 
 def lineage_statistics(
-    frame: Any, *, maximise: bool | None = None, generations: int | None = None
-) -> Any:
+    frame: pd.DataFrame, *, maximise: bool | None = None, generations: int | None = None
+) -> pd.DataFrame:
     """Per generation, how many lineages survive and how deep the best body's ancestry is.
 
     A body is alive at generation ``g`` when ``origin_time <= g < destruction_time`` (an empty
@@ -420,9 +431,6 @@ def lineage_statistics(
         print(stats[["generation", "surviving_lineages", "best_depth"]])
         ```
     """
-    import numpy as np
-    import pandas as pd
-
     if maximise is None:
         maximise = frame.attrs.get("maximise")
         if not isinstance(maximise, bool):
@@ -465,8 +473,11 @@ def lineage_statistics(
 
 
 def lineage_statistics_by_run(
-    frames: Mapping[str, Any], *, maximise: bool | None = None, generations: int | None = None
-) -> Any:
+    frames: Mapping[str, pd.DataFrame],
+    *,
+    maximise: bool | None = None,
+    generations: int | None = None,
+) -> pd.DataFrame:
     """`lineage_statistics` of several runs (a campaign's), one table.
 
     Args:
@@ -479,8 +490,6 @@ def lineage_statistics_by_run(
     Returns:
         The runs' statistics one after another, a ``run_id`` column first.
     """
-    import pandas as pd
-
     tables = []
     for run_id, frame in frames.items():
         table = lineage_statistics(frame, maximise=maximise, generations=generations)
@@ -491,7 +500,7 @@ def lineage_statistics_by_run(
     return pd.concat(tables, ignore_index=True)
 
 
-def campaign_lineages(campaign: Any) -> dict[str, Any]:
+def campaign_lineages(campaign: Campaign) -> dict[str, pd.DataFrame]:
     """The lineage of every run of ``campaign``, by run id.
 
     Args:

@@ -9,11 +9,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
+from ariel.errors import UnknownEvaluationError
+from ariel.evolution import archive_quality
+from ariel.plugins import body_encoders, fitness_functions
 from ariel.recording.store._archive import archive_cell_count, describe_archive
 from ariel.recording.store._escape import terminal_text
+from ariel.recording.store._lineage import lineage
+from ariel.recording.store._lock import lock_is_free
+from ariel.recording.store._manifest import Manifest
 from ariel.recording.store._run_folder import DamagedRunError, NotARunError, RunFolder
-from ariel.recording.store._tables import read_table, to_pandas
+from ariel.recording.store._tables import generation_file, read_file, read_table, to_pandas
 
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
 FAILED_STATUSES = ("error", "unstable", "invalid")
@@ -78,7 +86,6 @@ class Run:
         recorded = self.info.get("maximise")
         if isinstance(recorded, bool):
             return recorded
-        from ariel.plugins import fitness_functions
 
         name = str(self.config.get("task", {}).get("fitness", "xy_displacement"))
         try:
@@ -100,7 +107,6 @@ class Run:
         body = self.config.get("body", {})
         if body.get("genotype") is not None:
             return True
-        from ariel.plugins import body_encoders
 
         try:
             encoder = body_encoders.get(body.get("encoder", "nde"))
@@ -143,7 +149,6 @@ class Run:
             DamagedRunError: When the bodies table holds a body id that is not one, or a
                 parent that is no body of the run.
         """
-        from ariel.recording.store._lineage import lineage
 
         return lineage(self)
 
@@ -154,10 +159,6 @@ class Run:
 
         Raises `UnknownEvaluationError` for an id not in the run's finished generations.
         """
-        import pandas as pd
-
-        from ariel.errors import UnknownEvaluationError
-        from ariel.recording.store._tables import generation_file, read_file
 
         evals = self.evaluations
         found = evals[evals["eval_id"] == eval_id]
@@ -246,8 +247,8 @@ class Run:
         Then the population's mean morphology: ``mean_<descriptor>`` for each morphology
         descriptor (``mean_num_modules``, ...): its mean over the bodies the fitness columns
         describe (NaN where none has descriptors)."""
-        import pandas as pd
 
+        # lazy: the descriptors module loads mujoco, which a GL backend must precede
         from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
         evaluations, bodies = self.evaluations, self.bodies
@@ -316,9 +317,6 @@ def archive_quality_table(
     `ariel.evolution._map_elites.archive_quality` computes them in the run (QD-scores NaN
     when ``qd_offset`` is None: an old run of a minimised fitness), over the cells of
     ``description`` (`Run.archive_description`; None: the product of the ``grid`` column)."""
-    import pandas as pd
-
-    from ariel.evolution import archive_quality
 
     rows = {}
     for generation, group in archive.groupby("generation", sort=True):
@@ -341,7 +339,6 @@ def archive_quality_table(
 
 def _distinct_bodies(population: Any) -> int | float:
     """Distinct robot graphs among ``population``'s rows (see `Run.generations`)."""
-    from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 
     if "graph" not in population.columns:
         return math.nan
@@ -410,7 +407,6 @@ def load_run(path: str | Path) -> Run:
         print(best["eval_id"], best["fitness"])
         ```
     """
-    from ariel.recording.store._manifest import Manifest
 
     folder = RunFolder(path)
     info = folder.read_info()
@@ -436,7 +432,6 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
         (None when none yet) and ``created``. A folder whose run.json cannot be read is
         listed with status `UNREADABLE`. Empty when ``root`` is not a folder.
     """
-    from ariel.recording.store._lock import lock_is_free
 
     root = Path(root)
     if not root.is_dir():

@@ -28,7 +28,7 @@ import time
 import warnings
 from pathlib import Path
 
-from ariel.errors import RunInUseError
+from ariel.errors import ConfigError, RunInUseError
 from ariel.recording.store._files import UnsafePathError
 
 __all__ = [
@@ -54,6 +54,11 @@ try:
 except ImportError:  # pragma: no cover - not POSIX
     fcntl = None  # type: ignore[assignment]
 
+try:
+    import resource
+except ImportError:  # pragma: no cover - not POSIX
+    resource = None  # type: ignore[assignment]
+
 
 #: Open files a campaign process needs besides its runs' locks: Python and its libraries, the
 #: campaign's own lock, the files a generation writes (measured: about 15 with a serial
@@ -68,11 +73,7 @@ def ensure_open_files(runs: int, workers: int = 1) -> None:
     (one lock each, held throughout, and `OPEN_FILES_BESIDE_RUNS` + `OPEN_FILES_PER_WORKER` x
     ``workers``): raise the soft limit on open files (``ulimit -n``) towards the hard one where
     it is lower, else `ConfigError` in one line, before anything is written."""
-    from ariel.errors import ConfigError
-
-    try:
-        import resource
-    except ImportError:  # pragma: no cover - not POSIX
+    if resource is None:  # pragma: no cover - not POSIX
         return
     needed = runs + OPEN_FILES_BESIDE_RUNS + OPEN_FILES_PER_WORKER * max(workers, 1)
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)

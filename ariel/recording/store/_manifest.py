@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import pyarrow.parquet as pq
+
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import atomic_write_json, within
 from ariel.recording.store._run_folder import (
@@ -42,7 +44,7 @@ from ariel.recording.store._run_folder import (
     damaged,
     json_data,
 )
-from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file
+from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file, rows_problem
 
 __all__ = [
     "MANIFEST_DIR",
@@ -278,8 +280,6 @@ class VerifyResult:
 
 
 def _check_readable(path: Path) -> str | None:
-    import pyarrow.parquet as pq
-
     try:
         pq.read_table(path)
     except Exception as exc:  # any decoding failure is damage; one line says which
@@ -348,6 +348,7 @@ def _check_run_json(run_dir: Path, info: dict[str, Any], result: VerifyResult) -
     """What never changes in run.json (it is in no manifest): its config against its
     ``config_hash`` and its ``seed``, and the checkpoint's ``config_hash`` against run.json's.
     A config this ariel cannot read (a newer ariel's, say) is a note, not damage."""
+    # lazy: slow (~0.2 s: pydantic, the executors), and `load_run` imports this module
     from ariel.evolution import ConfigError, ExperimentConfig, config_hash
 
     config, recorded = info.get("config"), info.get("config_hash")
@@ -386,13 +387,9 @@ def _check_run_json(run_dir: Path, info: dict[str, Any], result: VerifyResult) -
         result.problems.append(f"{name} has a config_hash that is not run.json's")
 
 
-def _check_rows(path: Path, config: Any) -> str | None:
+def _check_rows(path: Path, config: object) -> str | None:
     """A sound table file's row count against what the run's config makes (`rows_problem`),
     from its footer alone; a footer that does not decode is `_check_file`'s to say."""
-    import pyarrow.parquet as pq
-
-    from ariel.recording.store._tables import rows_problem
-
     try:
         metadata = pq.read_metadata(path)
     except Exception:  # not Parquet: a run made before manifests says so when it is read
@@ -402,8 +399,6 @@ def _check_rows(path: Path, config: Any) -> str | None:
 
 def _check_run_id(path: Path, info: dict[str, Any], result: VerifyResult) -> None:
     """The ``run_id`` of a sound evaluations table's rows is run.json's."""
-    import pyarrow.parquet as pq
-
     try:
         ids = set(pq.read_table(path, columns=["run_id"]).column("run_id").to_pylist())
     except Exception:  # a table that does not decode: `_check_file` says so
@@ -427,7 +422,7 @@ def _check_file(
     name: str,
     entry: tuple[int, str] | None,
     result: VerifyResult,
-    config: Any = None,
+    config: object = None,
 ) -> str | None:
     path = run_dir / name
     if path.is_symlink():

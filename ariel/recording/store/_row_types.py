@@ -89,6 +89,7 @@ Int32s = Annotated[list[int], pa.list_(pa.int32())]
 
 @cache
 def descriptor_names() -> tuple[str, ...]:
+    # lazy: the descriptors module loads mujoco, which a GL backend must precede
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     return DESCRIPTOR_NAMES

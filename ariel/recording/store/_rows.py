@@ -238,6 +238,7 @@ class RunWriter:
 
     def plugin_failed(self, task: Any, exc: BaseException) -> BaseException:
         """The one-line error that stops the run (the traceback goes to RUN/error.log)."""
+        # lazy: loads the evaluation engine, needed only when a plugin has failed
         from ariel.recording.store._failures import plugin_failure
 
         return plugin_failure(self.path, self.config, task, exc)

@@ -151,7 +151,7 @@ def software_versions() -> dict[str, str | None]:
     return versions
 
 
-def software_segment(kind: str, *, generation: Any = 0) -> dict[str, Any]:
+def software_segment(kind: str, *, generation: object = 0) -> dict[str, Any]:
     """One entry of run.json's ``segments``: who ran the run from ``generation`` on."""
     return {
         "kind": kind,

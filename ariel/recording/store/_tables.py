@@ -10,16 +10,19 @@ after the generation. Each table's columns are declared once, by its row's class
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping, Sequence
 from functools import cache
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from ariel.recording.store._files import atomic_write
+from ariel.evolution import ExperimentConfig
+from ariel.recording.store._files import atomic_write, damaged, within
 from ariel.recording.store._row_types import (
     COUNT_DESCRIPTORS,
     ArchiveRow,
@@ -96,7 +99,6 @@ def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> di
     number, about a million a generation) they left the driver's heap larger after every
     generation (soak benchmark).
     """
-    import numpy as np
 
     counts = [int(result.time.size) for _, result in frames]
     rows = np.repeat(np.arange(len(frames), dtype=np.int64), counts)
@@ -244,7 +246,6 @@ ROW_MARGIN = 2
 
 @cache
 def _config_defaults() -> dict[str, Any]:
-    from ariel.evolution import ExperimentConfig
 
     return ExperimentConfig().to_plain()
 
@@ -253,7 +254,6 @@ def _config_number(config: Mapping[str, Any], key: str, *, whole: bool) -> int |
     """``section.key`` of a run's config (run.json's, plain data), its default when missing;
     `ValueError` for a value no ariel writes (a count below 1, a duration or rate that is not a
     positive finite number)."""
-    import math
 
     section, name = key.split(".")
     part = config.get(section, {})
@@ -290,7 +290,6 @@ def row_limit(config: Mapping[str, Any] | None, table: str, generation: int) -> 
 
     `ValueError` (``has KEY VALUE in its config, ...``) for a config value no ariel writes.
     """
-    import math
 
     config = config if isinstance(config, Mapping) else {}
     bodies = max(
@@ -338,7 +337,6 @@ def rows_problem(config: Mapping[str, Any] | None, path: Path, metadata: Any) ->
 
 
 def _check_rows(run_dir: Path, path: Path, metadata: Any, config: Any) -> None:
-    from ariel.recording.store._files import damaged
 
     problem = rows_problem(config, path, metadata)
     if problem is None:
@@ -377,7 +375,6 @@ def read_table(
 
 
 def _unreadable(run_dir: Path, path: Path, problem: str) -> Exception:
-    from ariel.recording.store._files import damaged
 
     name = path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else str(path)
     return damaged(run_dir, name, problem)
@@ -403,7 +400,6 @@ def read_file(
     its row count against what its run's config can make in a generation (`row_limit`). A link
     out of the run folder is refused: the folder's records are its own files, and a reader must
     not be pointed elsewhere. ``columns``: decode only these (``filters`` may name only them)."""
-    from ariel.recording.store._files import within
 
     run_dir, path = Path(run_dir), Path(path)
     if path.is_symlink() and not within(path, run_dir):

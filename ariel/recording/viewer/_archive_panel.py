@@ -4,12 +4,22 @@ as its description says it is drawn (a grid's tensor, a CVT's points:
 
 from __future__ import annotations
 
-from typing import Any
+from types import SimpleNamespace
+from typing import TYPE_CHECKING
+
+from ariel.recording.rerun import archive_cells
+from ariel.recording.store import describe_archive
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from ariel.recording.rerun import CvtCells
+    from ariel.recording.store import Run
 
 __all__ = ["archive_beside"]
 
 
-def archive_beside(run: Any) -> tuple[Any, list[str]] | None:
+def archive_beside(run: Run | SimpleNamespace) -> tuple[np.ndarray | CvtCells, list[str]] | None:
     """A MAP-Elites run's archive after its last finished generation as drawn (a grid of
     fitness per cell, NaN: empty; or a CVT's `CvtCells`), and its measures' names with their
     ranges ("num_limbs (0 to 8)"); None for a run without an archive.
@@ -18,9 +28,6 @@ def archive_beside(run: Any) -> tuple[Any, list[str]] | None:
     run.json, whose ``archive`` description is used where the run recorded it; else the grid
     of the config's options, `ariel.recording.store.describe_archive`).
     """
-    from ariel.recording.rerun import archive_cells
-    from ariel.recording.store import describe_archive
-
     archive = run.archive
     if not len(archive):
         return None

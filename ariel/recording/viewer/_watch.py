@@ -9,7 +9,7 @@ its gRPC proxy, ``--serve-web``: no browser is opened; with ``viewer="notebook"`
 server only, ``--serve-grpc``, which Rerun's notebook widget shows) and, with ``save``, a
 `rerun.FileSink`.
 There is no server of ours. The child runs in its own session and dies with the watcher
-(`_view.die_with_parent`); the web server keeps what it serves within its memory limit
+(`_child.die_with_parent`); the web server keeps what it serves within its memory limit
 (dropping the oldest), so a browser that is slow, closed or never opened holds nothing back.
 
 The watcher never writes in the watched folder and never takes its lock: it reads files only
@@ -25,9 +25,26 @@ import subprocess
 import threading
 import time
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ariel.errors import NotARunError, ViewError
+from ariel.recording.rerun import APPLICATION_ID
+from ariel.recording.viewer._child import _terminate, die_with_parent, rerun_binary
+from ariel.recording.viewer._watch_run import RunSource
+from ariel.recording.viewer._web import (
+    DEFAULT_GRPC_PORT,
+    DEFAULT_WEB_PORT,
+    LOCALHOST,
+    _choose_port,
+    _wait_until_serving,
+    web_url,
+)
+from ariel.utils import has_display, in_notebook_kernel
+
+if TYPE_CHECKING:
+    import rerun as rr
+    from rerun.blueprint import Blueprint
+    from rerun.notebook import Viewer
 
 __all__ = ["VIEWERS", "Source", "Watcher", "source_for", "watch"]
 
@@ -43,11 +60,11 @@ class Source(Protocol):
 
     path: Path
 
-    def blueprint(self) -> Any:
+    def blueprint(self) -> Blueprint:
         """The `rerun.blueprint.Blueprint` laid out for it."""
         ...
 
-    def poll(self, rec: Any) -> bool:
+    def poll(self, rec: rr.RecordingStream) -> bool:
         """Log to ``rec`` (a `rerun.RecordingStream`) whatever is new in the folder since the
         last poll; True when anything was logged. Reads only."""
         ...
@@ -67,6 +84,7 @@ def source_for(path: str | os.PathLike[str]) -> Source:
         raise NotARunError(f"{str(folder)!r} {problem}")
     if (folder / "campaign.json").is_file():
         try:
+            # lazy: a tree without campaigns has no _watch_campaign; said in one line below
             from ariel.recording.viewer._watch_campaign import CampaignSource
         except ModuleNotFoundError as exc:
             if exc.name != "ariel.recording.viewer._watch_campaign":
@@ -80,16 +98,12 @@ def source_for(path: str | os.PathLike[str]) -> Source:
         raise NotARunError(
             f"{str(folder)!r} is not an ariel run or campaign folder (no run.json or campaign.json)"
         )
-    from ariel.recording.viewer._watch_run import RunSource
-
     return RunSource(folder)
 
 
 def _spawn(command: list[str]) -> subprocess.Popen[bytes]:
     """Start the ``rerun`` child in its own session (Ctrl-C reaches the watcher, which stops
     the whole group), terminated by Linux when the watcher dies."""
-    from ariel.recording.viewer._view import die_with_parent
-
     env = dict(os.environ)
     env.setdefault("RUST_LOG", "warn")  # rerun's info lines repeat ours
     return subprocess.Popen(
@@ -124,9 +138,7 @@ class Watcher:
         save: str | os.PathLike[str] | None = None,
         poll_s: float = 0.5,
     ) -> None:
-        import rerun as rr
-
-        from ariel.recording.rerun import APPLICATION_ID
+        import rerun as rr  # lazy: heavy optional library
 
         _check(source, viewer, save, poll_s)
         self.source = source
@@ -144,7 +156,7 @@ class Watcher:
         name = Path(source.path).resolve().name or "run"
         self.rec: Any = None
         try:
-            sinks: list[Any] = []
+            sinks: list[rr.GrpcSink | rr.FileSink] = []
             if viewer != "none":  # first: the child is forked before the stream's threads
                 sinks.append(rr.GrpcSink(self._start_viewer(viewer, port, grpc_port)))
             self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=name)
@@ -163,16 +175,6 @@ class Watcher:
 
     def _start_viewer(self, viewer: str, port: int | None, grpc_port: int | None) -> str:
         """Start the ``rerun`` child bound to 127.0.0.1; returns its gRPC proxy's URL."""
-        from ariel.recording.viewer._view import (
-            DEFAULT_GRPC_PORT,
-            DEFAULT_WEB_PORT,
-            LOCALHOST,
-            _choose_port,
-            _wait_until_serving,
-            rerun_binary,
-            web_url,
-        )
-
         binary = str(rerun_binary())
         if viewer == "web":
             web = _choose_port(port, DEFAULT_WEB_PORT, "--port", set())
@@ -243,8 +245,6 @@ class Watcher:
         if self._closed:
             return
         self._closed = True
-        from ariel.recording.viewer._view import _terminate
-
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=self.poll_s + FLUSH_TIMEOUT_S + 5.0)
         try:
@@ -265,10 +265,10 @@ class Watcher:
         self.close()
 
 
-def _notebook_widget(url: str) -> Any:
+def _notebook_widget(url: str) -> Viewer:
     """Rerun's notebook viewer, connected to the gRPC server at ``url`` (rerun-sdk[notebook])."""
     try:
-        from rerun.notebook import Viewer
+        from rerun.notebook import Viewer  # lazy: heavy optional library (its notebook extra)
     except ImportError:
         raise ViewError(
             "the notebook viewer needs rerun-sdk's notebook extra: pip install "
@@ -283,10 +283,8 @@ def _notebook_widget(url: str) -> Any:
         ) from None
 
 
-def _check(source: Source, viewer: str, save: Any, poll_s: float) -> None:
+def _check(source: Source, viewer: str, save: str | os.PathLike[str] | None, poll_s: float) -> None:
     """Bad arguments as `ViewError`, one line, before anything starts."""
-    from ariel.utils import has_display
-
     if viewer not in VIEWERS:
         raise ViewError(f"viewer must be one of {', '.join(VIEWERS)}, not {viewer!r}")
     if not poll_s > 0:
@@ -353,8 +351,6 @@ def watch(
         In a Jupyter notebook, ``watch("data/runs/my-run")`` shows the live view below the cell
         and keeps it updating while the kernel runs other cells.
     """
-    from ariel.utils import in_notebook_kernel
-
     if viewer is None:
         viewer = "notebook" if in_notebook_kernel() else "native"
     watcher = Watcher(

@@ -15,24 +15,31 @@ import os
 import shutil
 import tempfile
 import threading
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.errors import UnknownEvaluationError
 from ariel.recording.rerun import rerun_module
-from ariel.recording.store import NotARunError
+from ariel.recording.resim import replay
+from ariel.recording.store import NotARunError, check_eval_id, recording_path
+
+if TYPE_CHECKING:
+    import rerun as rr
+    from rerun.chunk import Chunk
 
 __all__ = ["BestBody", "fresh_chunks"]
 
 
-def fresh_chunks(chunks: Any, prefix: str) -> list[Any]:
+def fresh_chunks(chunks: Iterable[Chunk], prefix: str) -> list[Chunk]:
     """``chunks`` moved under entity ``prefix`` with fresh row ids (newer than a `Clear`
     logged before: a recording's own row ids are as old as its file). Recording properties
     are left out."""
-    from rerun.chunk import Chunk
+    from rerun.chunk import Chunk  # lazy: heavy optional library
 
-    moved = []
+    moved: list[Chunk] = []
     for chunk in chunks:
         if chunk.entity_path.startswith("/__properties"):
             continue
@@ -46,10 +53,10 @@ def fresh_chunks(chunks: Any, prefix: str) -> list[Any]:
     return moved
 
 
-def _poses_of(path: Path) -> list[Any] | None:
+def _poses_of(path: Path) -> list[Chunk] | None:
     """The chunks of an evaluation's recording at ``path`` when it holds the bodies' poses
     over time (a 3D replay), else None (no file, an unreadable one, a robot standing still)."""
-    from rerun.chunk import RrdReader
+    from rerun.chunk import RrdReader  # lazy: heavy optional library
 
     try:
         chunks = RrdReader(path).stream().to_chunks()
@@ -89,7 +96,7 @@ class BestBody:
         if best is None or (fitness > best[0] if self.maximise else fitness < best[0]):
             self.best = (fitness, eval_id, generation)
 
-    def update(self, rec: Any, *, ended: bool = False) -> bool:
+    def update(self, rec: rr.RecordingStream, *, ended: bool = False) -> bool:
         """Show a better evaluation: its own recording now, else its 3D replay (made in a
         thread, shown by the update that finds it done); True when anything was logged.
         ``ended``: the run has ended (a replay that waits for run.json to count its
@@ -105,8 +112,6 @@ class BestBody:
             return self._show(rec, job)
         if self.best is None or self.settled:
             return False
-        from ariel.recording.store import check_eval_id, recording_path
-
         best = self.best
         try:
             own = recording_path(self.run_dir, best[2], check_eval_id(best[1], self.run_dir))
@@ -125,9 +130,6 @@ class BestBody:
         job: dict[str, Any] = {"best": best, "how": "a 3D replay re-simulated here"}
 
         def work() -> None:
-            from ariel.errors import UnknownEvaluationError
-            from ariel.recording.resim import replay
-
             try:
                 made = replay(self.run_dir, eval_id).write_rrd(scratch / f"{eval_id}.rrd")
                 job["chunks"] = _poses_of(made)
@@ -141,7 +143,7 @@ class BestBody:
         job["thread"].start()
         self._job = job
 
-    def _show(self, rec: Any, job: dict[str, Any]) -> bool:
+    def _show(self, rec: rr.RecordingStream, job: dict[str, Any]) -> bool:
         rr = rerun_module()
         (fitness, eval_id, generation), chunks = job["best"], job.get("chunks")
         chunks = None if job.get("error") else chunks

@@ -25,21 +25,39 @@ import contextlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ariel.recording.rerun import campaign_views, condition_colours, curve_chunks
+from ariel.recording.rerun import (
+    campaign_views,
+    condition_colours,
+    curve_chunks,
+    graph_archetypes,
+    rerun_module,
+    static_chunk,
+)
 from ariel.recording.store import (
     CAMPAIGN_JSON,
     STOPPED,
     NotARunError,
     RunFolder,
     best_so_far,
+    fitness_maximise,
+    fitness_unit,
     holder_gone,
+    manifest_file,
+    manifests_expected,
     read_campaign_info,
+    terminal_text,
 )
 from ariel.recording.viewer._watch_run import FINAL, _read_generation
+
+if TYPE_CHECKING:
+    import pandas as pd
+    import rerun as rr
+    from rerun.blueprint import Blueprint
+    from rerun.chunk import Chunk
 
 __all__ = ["CampaignSource"]
 
@@ -53,14 +71,14 @@ class _Run:
     condition: str
     seed: int
     path: Path
-    total: Any  # the config's generations
+    total: object  # the config's generations
     status: str = "not started"
     generations: int = 0  # complete generations logged
     evaluations: int = 0  # evaluations counted in them
     best: float = -math.inf  # best fitness so far, oriented (sign x fitness)
     sign: float = 1.0  # 1: fitness maximised, -1: minimised
     styled: bool = False  # the curve's style was sent
-    stat: Any = None  # run.json's (mtime, size, inode) when last read
+    stat: tuple[int, int, int] | None = None  # run.json's (mtime, size, inode) when last read
     info: Any = None  # run.json when last read
     checked: bool = True  # its generations have manifests (all but runs made before them)
 
@@ -103,11 +121,9 @@ class CampaignSource:
 
     # --- the layout -------------------------------------------------------------------------
 
-    def blueprint(self) -> Any:
+    def blueprint(self) -> Blueprint:
         """Every run's curve and the status table above, one curve view per condition, then
         each condition's best body."""
-        from ariel.recording.rerun import rerun_module
-
         rrb = rerun_module().blueprint
         unit, maximise = self._fitness()
         every, views = campaign_views(self._conditions, fitness_unit=unit, maximise=maximise)
@@ -129,8 +145,6 @@ class CampaignSource:
     def _fitness(self) -> tuple[str | None, bool]:
         """The fitness function's unit and direction, from the first run (its run.json where
         made, else its config in campaign.json)."""
-        from ariel.recording.store import fitness_maximise, fitness_unit
-
         for entry in self._info.get("runs", []):
             name = entry.get("config", {}).get("task", {}).get("fitness")
             unit = fitness_unit(name) if isinstance(name, str) and name else None
@@ -146,11 +160,11 @@ class CampaignSource:
 
     # --- polling -----------------------------------------------------------------------------
 
-    def poll(self, rec: Any) -> bool:
+    def poll(self, rec: rr.RecordingStream) -> bool:
         """Log to ``rec`` what is new in the campaign folder since the last poll; True when
         anything was logged."""
         ended = self._campaign_ended()  # first: whatever it says, all was written before
-        chunks: list[Any] = []
+        chunks: list[Chunk] = []
         for entry in self._info.get("runs", []):
             key = (str(entry["condition"]), int(entry["seed"]))
             run = self._runs.get(key)
@@ -160,8 +174,6 @@ class CampaignSource:
             chunks += self._poll_run(run)
         status = self._status_text()
         if status != self._status_sent:
-            from ariel.recording.rerun import rerun_module, static_chunk
-
             rr = rerun_module()
             text = rr.TextDocument(status, media_type=rr.MediaType.MARKDOWN)
             chunks.append(static_chunk(STATUS_ENTITY, text))
@@ -189,8 +201,6 @@ class CampaignSource:
 
     def _read_info(self, run: _Run) -> None:
         """The run's status from its run.json (read again only when it changed)."""
-        from ariel.recording.store import manifests_expected
-
         stat = _stat(run.path / "run.json")
         if stat is None:
             run.status, run.info, run.stat = "not started", None, None
@@ -211,12 +221,12 @@ class CampaignSource:
             status = str(run.info.get("status", "?"))
             run.status = status if status in FINAL else STOPPED
 
-    def _poll_run(self, run: _Run) -> list[Any]:
+    def _poll_run(self, run: _Run) -> list[Chunk]:
         """The chunks of the run's generations completed since the last poll."""
         self._read_info(run)
         if run.info is None:
             return []
-        chunks: list[Any] = []
+        chunks: list[Chunk] = []
         while self._ready(run):
             config = run.info.get("config")
             tables = _read_generation(run.path, run.generations, config, run.checked)
@@ -231,13 +241,11 @@ class CampaignSource:
     def _ready(run: _Run) -> bool:
         """Whether the run's next generation may be complete: its manifest is there (a run
         made before manifests: run.json counts it finished), as `RunSource` reads a run."""
-        from ariel.recording.store import manifest_file
-
         if not run.checked:
             return run.generations < int(run.info.get("generations_done", 0) or 0)
         return manifest_file(run.path, run.generations).is_file()
 
-    def _curve(self, run: _Run, evaluations: Any) -> list[Any]:
+    def _curve(self, run: _Run, evaluations: pd.DataFrame) -> list[Chunk]:
         """The run's best-so-far curve over one more generation's ``evaluations``."""
         x, best = best_so_far(evaluations, run.sign > 0)
         oriented = np.where(np.isfinite(best), run.sign * best, -np.inf)
@@ -252,10 +260,8 @@ class CampaignSource:
         run.styled = run.styled or bool(chunks)
         return chunks
 
-    def _best_body(self, run: _Run, bodies: Any, generation: int) -> list[Any]:
+    def _best_body(self, run: _Run, bodies: pd.DataFrame, generation: int) -> list[Chunk]:
         """The condition's best body's graph, where this generation has a better one."""
-        from ariel.recording.rerun import graph_archetypes, static_chunk
-
         fitness = bodies["fitness"].to_numpy(dtype=np.float64) if len(bodies) else np.zeros(0)
         oriented = np.where(np.isfinite(fitness), run.sign * fitness, -np.inf)
         if not len(oriented) or not np.isfinite(oriented.max()):
@@ -277,7 +283,6 @@ class CampaignSource:
 
     def _status_text(self) -> str:
         """The status table (Markdown): one row per run, then each condition's best body."""
-        from ariel.recording.store import terminal_text
 
         def cell(value: object) -> str:
             return terminal_text(value).replace("|", "\\|")
@@ -310,8 +315,6 @@ class CampaignSource:
 def _maximise(info: dict[str, Any]) -> bool:
     """Whether the run's fitness is maximised (run.json's ``maximise``, else its fitness
     function's; True where neither tells)."""
-    from ariel.recording.store import fitness_maximise
-
     try:
         return fitness_maximise(info)
     except Exception:  # an old run whose fitness function is not installed here

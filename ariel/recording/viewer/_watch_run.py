@@ -33,10 +33,11 @@ import os
 from datetime import datetime
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.evolution import ExperimentConfig, budget
 from ariel.recording.rerun import (
     LINEAGE_ENTITY,
     RUN_SERIES,
@@ -45,12 +46,36 @@ from ariel.recording.rerun import (
     archive_chunks,
     archive_image,
     archive_view,
+    generation_summary,
     lineage_view,
     rerun_module,
+    robot_view,
     run_summary_chunks,
+    summary_bars,
 )
-from ariel.recording.store import NotARunError, RunFolder, holder_gone
+from ariel.recording.store import (
+    Manifest,
+    NotARunError,
+    Run,
+    RunFolder,
+    archive_quality_table,
+    fitness_unit,
+    generation_file,
+    holder_gone,
+    manifest_entries,
+    manifest_file,
+    manifests_expected,
+    population_after_selection,
+    read_file,
+    to_pandas,
+)
+from ariel.recording.viewer._archive_panel import archive_beside
 from ariel.recording.viewer._watch_body import BestBody
+
+if TYPE_CHECKING:
+    import pandas as pd
+    import rerun as rr
+    from rerun.blueprint import Blueprint, TimeSeriesView
 
 __all__ = ["RunSource", "run_blueprint"]
 
@@ -61,18 +86,14 @@ _BODY_COLUMNS = ("generation", "body_id", "parent_ids", "born_generation", "grap
 _EVALUATION_COLUMNS = ["generation", "eval_id", "body_id", "fitness", "status"]
 
 
-def _read_generation(folder: Path, generation: int, config: Any, checked: bool) -> Any:
+def _read_generation(
+    folder: Path, generation: int, config: dict[str, Any], checked: bool
+) -> dict[str, pd.DataFrame] | None:
     """Generation ``generation``'s tables (``evaluations``, ``bodies``, a MAP-Elites run's
     ``archive``) as DataFrames, checked against its manifest; None while it is not complete
     (no manifest yet, or its files are not what the manifest lists)."""
+    # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
     from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-    from ariel.recording.store import (
-        Manifest,
-        generation_file,
-        manifest_entries,
-        read_file,
-        to_pandas,
-    )
 
     columns = {
         "evaluations": _EVALUATION_COLUMNS,
@@ -100,14 +121,12 @@ def _read_generation(folder: Path, generation: int, config: Any, checked: bool) 
 def _total_evaluations(config: dict[str, Any], brain_only: bool) -> int | None:
     """The evaluations the run will make (`budget`), None where its config cannot say."""
     try:
-        from ariel.evolution import ExperimentConfig, budget
-
         return int(budget(ExperimentConfig.from_plain(config), brain_only))
     except Exception:  # a config of another version, a plugin not installed here
         return None
 
 
-def _seconds(text: Any) -> float | None:
+def _seconds(text: object) -> float | None:
     """A run.json time (ISO 8601) as seconds since the epoch; None where it is not one."""
     try:
         return datetime.fromisoformat(str(text)).timestamp()
@@ -125,8 +144,6 @@ class RunSource:
     """A run folder as the live view shows it (the module docstring lists what)."""
 
     def __init__(self, path: str | os.PathLike[str]) -> None:
-        from ariel.recording.store import Run, manifests_expected
-
         self.path = Path(path)
         self.info = RunFolder(self.path).read_info()
         self.run = Run(path=self.path, info=self.info)  # maximise, qd_offset: no table read
@@ -145,16 +162,14 @@ class RunSource:
 
     # -- the Source protocol ---------------------------------------------------------------
 
-    def blueprint(self) -> Any:
-        from ariel.recording.store import fitness_unit
-
+    def blueprint(self) -> Blueprint:
         name = self.config.get("task", {}).get("fitness")
         unit = fitness_unit(name) if isinstance(name, str) and name else None
         options = self.config.get("body", {}).get("optimizer_options") or {}
         kind = self.map_elites and str(options.get("archive") or "grid")  # as the run's
         return run_blueprint(archive=kind, fitness_unit=unit)
 
-    def poll(self, rec: Any) -> bool:
+    def poll(self, rec: rr.RecordingStream) -> bool:
         """Log what is new in the folder; True when anything was."""
         try:
             self.info = RunFolder(self.path).read_info()
@@ -196,11 +211,10 @@ class RunSource:
     def _ready(self, generation: int) -> bool:
         if not self.checked:  # a run made before manifests: its run.json counts
             return generation < int(self.info.get("generations_done", 0) or 0)
-        from ariel.recording.store import manifest_file
-
         return manifest_file(self.path, generation).is_file()
 
-    def _log_static(self, rec: Any) -> None:
+    def _log_static(self, rec: rr.RecordingStream) -> None:
+        # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
         from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
         rr = rerun_module()
@@ -212,10 +226,11 @@ class RunSource:
         rec.log("/progress/evaluations", rr.SeriesLines(names=["done", "total"]), static=True)
         rec.log("/best/info", rr.TextDocument("no finished generation yet"), static=True)
 
-    def _log_generation(self, rec: Any, generation: int, tables: dict[str, Any]) -> None:
+    def _log_generation(
+        self, rec: rr.RecordingStream, generation: int, tables: dict[str, pd.DataFrame]
+    ) -> None:
+        # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
         from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-        from ariel.recording.rerun import generation_summary
-        from ariel.recording.store import population_after_selection
 
         rr = rerun_module()
         bodies, evaluations = tables["bodies"], tables["evaluations"]
@@ -236,10 +251,7 @@ class RunSource:
         rec.log(LINEAGE_ENTITY, *self.lineage.archetypes())
         self.best.offer(evaluations, generation)
 
-    def _log_archive(self, rec: Any, generation: int, archive: Any) -> None:
-        from ariel.recording.store import archive_quality_table
-        from ariel.recording.viewer._archive_panel import archive_beside
-
+    def _log_archive(self, rec: rr.RecordingStream, generation: int, archive: pd.DataFrame) -> None:
         rr = rerun_module()
         shown = SimpleNamespace(archive=archive, config=self.config, info=self.info)
         beside = archive_beside(shown)
@@ -255,7 +267,7 @@ class RunSource:
 
     # -- progress --------------------------------------------------------------------------
 
-    def _log_progress(self, rec: Any, *, new: bool) -> bool:
+    def _log_progress(self, rec: rr.RecordingStream, *, new: bool) -> bool:
         """The progress text when a generation or the status changed (its ETA: as of the
         newest generation's end), and its scalars at each new generation."""
         rr = rerun_module()
@@ -284,8 +296,6 @@ class RunSource:
     def _rate(self, done: int) -> tuple[float | None, float | None]:
         """Evaluations per second of the run's current segment (since it started or last
         resumed, up to its newest manifest), and the seconds left at that rate."""
-        from ariel.recording.store import manifest_file
-
         info = self.info
         if info.get("status") in FINAL and info.get("wall_seconds"):
             return done / float(info["wall_seconds"]), 0.0
@@ -306,7 +316,7 @@ class RunSource:
         return rate, (max(0, self._total - done) / rate if self._total else None)
 
 
-def _at(rec: Any, generation: int, *, sim_time: bool = False) -> None:
+def _at(rec: rr.RecordingStream, generation: int, *, sim_time: bool = False) -> None:
     """Log what follows at ``generation`` (and at ``sim_time`` 0, to show on that timeline)."""
     rec.reset_time()
     rec.set_time("generation", sequence=generation)
@@ -314,34 +324,19 @@ def _at(rec: Any, generation: int, *, sim_time: bool = False) -> None:
         rec.set_time("sim_time", duration=0.0)
 
 
-def run_blueprint(*, archive: bool | str = False, fitness_unit: str | None = None) -> Any:
+def run_blueprint(*, archive: bool | str = False, fitness_unit: str | None = None) -> Blueprint:
     """The live view's layout: the best body walking, its morphology and the lineage, the
     progress (and a MAP-Elites archive) above; its joints and the run's fitness, diversity
     and morphology per generation below (bar charts, seen on any timeline, and curves on the
     ``generation`` timeline). The time panel plays ``sim_time`` in a loop: the body walks."""
     rrb = rerun_module().blueprint
     unit = f" ({fitness_unit})" if fitness_unit else ""
-    hidden = rrb.PlotLegend(visible=False)
 
-    def bars(column: str) -> Any:
-        entity, name, _ = SUMMARY_SERIES[column]
-        title = f"{name}{unit if 'fitness' in column else ''} per generation"
-        return rrb.BarChartView(name=title, origin=entity, plot_legend=hidden)
-
-    def curves(origin: str, title: str) -> Any:
+    def curves(origin: str, title: str) -> TimeSeriesView:
         return rrb.TimeSeriesView(name=f"{title} (generation timeline)", origin=origin)
 
     top = [
-        rrb.Spatial3DView(
-            name="best body so far",
-            origin="/best/world",
-            eye_controls=rrb.EyeControls3D(  # as `ariel view`'s: 1.5 m from the start
-                kind=rrb.components.Eye3DKind.Orbital,
-                position=(0.8, -1.2, 0.7),
-                look_target=(0.1, 0.0, 0.0),
-                eye_up=(0.0, 0.0, 1.0),
-            ),
-        ),
+        robot_view("best body so far", "/best/world"),  # as `ariel view`'s: 1.5 m from the start
         rrb.Tabs(
             lineage_view(),
             rrb.GraphView(name="best body's morphology", origin="/best/graph"),
@@ -365,10 +360,14 @@ def run_blueprint(*, archive: bool | str = False, fitness_unit: str | None = Non
     bottom = [
         rrb.TimeSeriesView(name="joint targets (rad)", origin="/best/joints/target"),
         rrb.TimeSeriesView(name="joint angles (rad)", origin="/best/joints/angle"),
-        rrb.Tabs(bars("best_fitness"), bars("mean_fitness"), curves("/fitness", "fitness")),
         rrb.Tabs(
-            bars("diversity"),
-            bars("distinct_morphologies"),
+            summary_bars("best_fitness", unit),
+            summary_bars("mean_fitness", unit),
+            curves("/fitness", "fitness"),
+        ),
+        rrb.Tabs(
+            summary_bars("diversity", unit),
+            summary_bars("distinct_morphologies", unit),
             curves("/diversity", "diversity"),
             curves("/morphology", "mean morphology"),
         ),

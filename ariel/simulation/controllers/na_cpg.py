@@ -67,6 +67,28 @@ def create_fully_connected_adjacency(num_nodes: int) -> dict[int, list[int]]:
     return {i: [j for j in range(num_nodes) if j != i] for i in range(num_nodes)}
 
 
+def _initial_draws(n: int, seed: int | None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """A network's random start: its parameters as one flat buffer (groups phase, w,
+    amplitudes, ha, b), its initial ``xy`` and ``xy_dot_old``. From a private generator when
+    seeded; torch's global RNG otherwise (docs/decisions.md)."""
+    generator = None if seed is None else torch.Generator().manual_seed(int(seed))
+
+    def uniform(low: float, high: float, *shape: int) -> torch.Tensor:
+        draw = torch.rand(*shape, generator=generator, dtype=torch.float64)
+        return low + (high - low) * draw
+
+    # Drawn in upstream's order (phase, amplitudes, w, ha, b), stored in group order.
+    phase = uniform(-_TWO_PI, _TWO_PI, n)
+    amplitudes = uniform(-_TWO_PI, _TWO_PI, n)
+    w = uniform(-_TWO_PI, _TWO_PI, n)
+    ha = torch.randn(n, generator=generator, dtype=torch.float64)
+    b = uniform(-_B_INIT_RANGE, _B_INIT_RANGE, n)
+    flat = torch.cat([phase, w, amplitudes, ha, b])
+    xy = torch.randn(n, 2, generator=generator, dtype=torch.float64)
+    xy_dot_old = torch.randn(n, 2, generator=generator, dtype=torch.float64)
+    return flat, xy, xy_dot_old
+
+
 def _to_float64_array(values: Any, what: str) -> np.ndarray:
     """List / tuple / ndarray / tensor -> flat float64 numpy array (a copy)."""
     if isinstance(values, torch.Tensor):
@@ -154,31 +176,15 @@ class NaCPG(nn.Module):
         self.num_of_parameters = NUM_PARAMETER_GROUPS * self.n
         self.num_of_parameter_groups = NUM_PARAMETER_GROUPS
 
-        # A private generator when seeded; torch's global RNG otherwise (docs/decisions.md).
-        generator = None if seed is None else torch.Generator().manual_seed(int(seed))
-
-        def uniform(low: float, high: float, *shape: int) -> torch.Tensor:
-            draw = torch.rand(*shape, generator=generator, dtype=torch.float64)
-            return low + (high - low) * draw
-
         n = self.n
-        # Drawn in upstream's order (phase, amplitudes, w, ha, b), stored in group order.
-        phase = uniform(-_TWO_PI, _TWO_PI, n)
-        amplitudes = uniform(-_TWO_PI, _TWO_PI, n)
-        w = uniform(-_TWO_PI, _TWO_PI, n)
-        ha = torch.randn(n, generator=generator, dtype=torch.float64)
-        b = uniform(-_B_INIT_RANGE, _B_INIT_RANGE, n)
         # The five parameters are views of one flat float64 buffer, so a single byte
         # comparison per forward call tells whether any of them changed.
-        self._flat = torch.cat([phase, w, amplitudes, ha, b])
+        self._flat, xy, xy_dot_old = _initial_draws(n, seed)
         self._flat_np = self._flat.numpy()
         for k, name in enumerate(PARAMETER_GROUPS):
             view = self._flat[k * n : (k + 1) * n]
             setattr(self, name, nn.Parameter(view, requires_grad=False))
         self._expected_ptrs = [getattr(self, name).data_ptr() for name in PARAMETER_GROUPS]
-
-        xy = torch.randn(n, 2, generator=generator, dtype=torch.float64)
-        xy_dot_old = torch.randn(n, 2, generator=generator, dtype=torch.float64)
         self._initial_xy = xy.numpy().copy()
         self._initial_xy_dot_old = xy_dot_old.numpy().copy()
 

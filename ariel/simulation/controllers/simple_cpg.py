@@ -33,6 +33,19 @@ E = 1e-9  # keeps atan2 and the radius defined at the origin, as upstream
 _GROUPS = ("phase", "w", "amplitudes", "ha", "b")
 
 
+def _coupling_matrix(adjacency: dict[int, list[int]]) -> np.ndarray:
+    """The ``(n, n)`` 0/1 coupling matrix of ``adjacency`` (keys ``0 .. n-1``); `ValueError`
+    for a neighbour that is unknown or the node itself."""
+    n = len(adjacency)
+    coupling = np.zeros((n, n))
+    for i, neighbours in adjacency.items():
+        for j in neighbours:
+            if not 0 <= j < n or j == i:
+                raise ValueError(f"node {i} has neighbour {j}; allowed: 0..{n - 1}, not itself")
+            coupling[i, j] = 1.0
+    return coupling
+
+
 class SimpleCPG(nn.Module):
     """One Hopf oscillator per joint; ``forward(time)`` returns joint targets (radians).
 
@@ -80,13 +93,7 @@ class SimpleCPG(nn.Module):
                 f"adjacency_dict keys must be 0..{n - 1}; got {sorted(adjacency_dict)}"
             )
         self.adjacency_dict = {int(k): [int(j) for j in v] for k, v in adjacency_dict.items()}
-        coupling = np.zeros((n, n))
-        for i, neighbours in self.adjacency_dict.items():
-            for j in neighbours:
-                if not 0 <= j < n or j == i:
-                    raise ValueError(f"node {i} has neighbour {j}; allowed: 0..{n - 1}, not itself")
-                coupling[i, j] = 1.0
-        self._coupling = coupling
+        self._coupling = _coupling_matrix(self.adjacency_dict)
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a finite number > 0; got {dt}")
         self.n, self.mu, self.dt = n, float(mu), float(dt)

@@ -13,6 +13,24 @@ from ariel.simulation.environments.heightmaps import amphitheatre_heightmap
 __all__ = ["AmphitheatreTerrainWorld"]
 
 
+def _radii(
+    inner_radius: float,
+    outer_radius: float,
+    ring_inner_radius: float | None,
+    ring_outer_radius: float | None,
+) -> tuple[float, float]:
+    """The inner and outer radius, each given under our name or upstream's (``ring_``)."""
+    for alias, value, ours, default in (
+        ("ring_inner_radius", ring_inner_radius, inner_radius, 0.2),
+        ("ring_outer_radius", ring_outer_radius, outer_radius, 0.45),
+    ):
+        if value is not None and ours != default:
+            raise ValueError(f"give {alias} or {alias.removeprefix('ring_')}, not both")
+    inner_radius = inner_radius if ring_inner_radius is None else ring_inner_radius
+    outer_radius = outer_radius if ring_outer_radius is None else ring_outer_radius
+    return inner_radius, outer_radius
+
+
 class AmphitheatreTerrainWorld(CompoundWorld):
     """Flat for r <= `inner_radius`, rising linearly to a plateau at `outer_radius` (r in unit
     heightmap coordinates from the centre), plus `height_of_noise` x Perlin noise. The slope
@@ -75,14 +93,9 @@ class AmphitheatreTerrainWorld(CompoundWorld):
         ring_outer_radius: float | None = None,
     ) -> None:
         # Upstream's names for the two radii.
-        for alias, value, ours, default in (
-            ("ring_inner_radius", ring_inner_radius, inner_radius, 0.2),
-            ("ring_outer_radius", ring_outer_radius, outer_radius, 0.45),
-        ):
-            if value is not None and ours != default:
-                raise ValueError(f"give {alias} or {alias.removeprefix('ring_')}, not both")
-        inner_radius = inner_radius if ring_inner_radius is None else ring_inner_radius
-        outer_radius = outer_radius if ring_outer_radius is None else ring_outer_radius
+        inner_radius, outer_radius = _radii(
+            inner_radius, outer_radius, ring_inner_radius, ring_outer_radius
+        )
         self.seed = seed
         self.inner_radius = inner_radius
         self.outer_radius = outer_radius

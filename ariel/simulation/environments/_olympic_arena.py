@@ -35,6 +35,40 @@ _TARGET_RGBA = (1.0, 0.1, 0.1, 0.7)
 _FINISH_RGBA = (0.9, 0.9, 0.9, 1.0)
 _GRID_RGBA = (0.2, 0.3, 0.4, 1.0)
 
+#: How a geom looks: ``{"material": name}`` or ``{"rgba": [r, g, b, a]}`` (add_geom keywords).
+_Look = dict[str, str | list[float]]
+
+
+def _upstream_lengths(
+    section_length: float | None, incline_axis: str, rugged_length: float, incline_length: float
+) -> tuple[float, float]:
+    """The rugged and incline lengths, given as ours or as upstream's keywords.
+
+    Upstream's ``section_length`` is the half-length of its rugged and incline sections (1.0
+    -> 2 m each, our defaults); its track also runs along +x, so only an incline about the y
+    axis ("y", upstream's default) fits it.
+    """
+    if incline_axis != "y":
+        raise ValueError(
+            f"incline_axis must be 'y' (the track runs along +x, the incline rises toward "
+            f"the target); got {incline_axis!r}"
+        )
+    if section_length is not None:
+        if (rugged_length, incline_length) != (2.0, 2.0):
+            raise ValueError("give section_length or rugged_length/incline_length, not both")
+        full = 2.0 * as_positive_float(section_length, "section_length")
+        rugged_length = incline_length = full
+    return rugged_length, incline_length
+
+
+def _incline_degrees(value: object) -> float:
+    """The incline's slope checked: a number within (-45, 45) degrees."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"incline_degrees must be a number, got {value!r}")
+    if not -45.0 < float(value) < 45.0:
+        raise ValueError(f"incline_degrees must be within (-45, 45), got {value!r}")
+    return float(value)
+
 
 class OlympicArena(BaseWorld):
     """A rectangular arena along +x with walls and a target marker (body "target").
@@ -109,19 +143,9 @@ class OlympicArena(BaseWorld):
         section_length: float | None = None,
         incline_axis: str = "y",
     ) -> None:
-        # Upstream's keywords: `section_length` is the half-length of its rugged and incline
-        # sections (1.0 -> 2 m each, our defaults); its track also runs along +x, so only an
-        # incline about the y axis ("y", upstream's default) fits it.
-        if incline_axis != "y":
-            raise ValueError(
-                f"incline_axis must be 'y' (the track runs along +x, the incline rises toward "
-                f"the target); got {incline_axis!r}"
-            )
-        if section_length is not None:
-            if (rugged_length, incline_length) != (2.0, 2.0):
-                raise ValueError("give section_length or rugged_length/incline_length, not both")
-            full = 2.0 * as_positive_float(section_length, "section_length")
-            rugged_length = incline_length = full
+        rugged_length, incline_length = _upstream_lengths(
+            section_length, incline_axis, rugged_length, incline_length
+        )
         self.arena_width = as_positive_float(arena_width, "arena_width")
         self.flat_length = as_positive_float(flat_length, "flat_length")
         self.rugged_length = as_positive_float(rugged_length, "rugged_length")
@@ -133,15 +157,20 @@ class OlympicArena(BaseWorld):
         self.rugged_resolution = as_dims(
             (rugged_resolution, rugged_resolution), "rugged_resolution"
         )[0]
-        if isinstance(incline_degrees, bool) or not isinstance(incline_degrees, numbers.Real):
-            raise ValueError(f"incline_degrees must be a number, got {incline_degrees!r}")
-        if not -45.0 < float(incline_degrees) < 45.0:
-            raise ValueError(f"incline_degrees must be within (-45, 45), got {incline_degrees!r}")
-        self.incline_degrees = float(incline_degrees)
+        self.incline_degrees = _incline_degrees(incline_degrees)
         self.checker_floor = as_bool(checker_floor, "checker_floor")
         self.seed = seed
+        self._lay_out()
+        self._make_rugged_surface()
+        super().__init__(
+            name=name,
+            timestep=timestep,
+            mujoco_config=mujoco_config,
+            load_precompiled=load_precompiled,
+        )
 
-        # Section boundaries along x and the platform height.
+    def _lay_out(self) -> None:
+        """Section boundaries along x, the platform height and the target's position."""
         theta = math.radians(self.incline_degrees)
         self._tan = math.tan(theta)
         self.x_start = _RUGGED_START_X - self.flat_length
@@ -155,8 +184,11 @@ class OlympicArena(BaseWorld):
             self.platform_height,
         )
 
+    def _make_rugged_surface(self) -> None:
+        """The rugged section's heightmap, its heightfield's position and size, and its
+        surface (what `ground_height` reads)."""
         res = self.rugged_resolution
-        heightmap = rugged_heightmap((res, res), self.rugged_scale, seed=seed)
+        heightmap = rugged_heightmap((res, res), self.rugged_scale, seed=self.seed)
         self.rugged_heightmap = heightmap * smooth_edges_heightmap((res, res), 0.1)
         # MuJoCo rescales the map to [0, rugged_height]; shift it so the border (map value 0)
         # is flush with the flat floor at z = 0.
@@ -178,18 +210,19 @@ class OlympicArena(BaseWorld):
             self._rugged_size,
             pos=self._rugged_pos,
         )
-        super().__init__(
-            name=name,
-            timestep=timestep,
-            mujoco_config=mujoco_config,
-            load_precompiled=load_precompiled,
-        )
 
     # ---------------------------------------------------------------------------------------
     def _build(self) -> None:
-        spec, world = self.spec, self.spec.worldbody
-        box = mujoco.mjtGeom.mjGEOM_BOX
-        half_width = self.arena_width / 2
+        look_grid, look_finish = self._looks()
+        self._add_flat_section(look_grid)
+        self._add_rugged_section()
+        incline = self._add_incline(look_grid)
+        self._add_platform_and_target(look_finish)
+        self._add_walls(*incline)
+
+    def _looks(self) -> tuple[_Look, _Look]:
+        """How the track and the finish platform look: checker materials (added to the spec)
+        or plain colours."""
         if self.checker_floor:
             grid = self._add_checker_material("grid", reflectance=0.1)
             finish = self._add_checker_material(
@@ -199,22 +232,26 @@ class OlympicArena(BaseWorld):
                 texrepeat=(8, 8),
                 reflectance=0.1,
             )
-            look_grid: dict[str, Any] = {"material": grid}
-            look_finish: dict[str, Any] = {"material": finish}
+            look_grid: _Look = {"material": grid}
+            look_finish: _Look = {"material": finish}
         else:
             look_grid = {"rgba": list(PLAIN_FLOOR_RGBA)}
             look_finish = {"rgba": list(_FINISH_RGBA)}
+        return look_grid, look_finish
 
-        # 1. Flat section.
-        world.add_geom(
+    def _add_flat_section(self, look_grid: _Look) -> None:
+        """1. Flat section."""
+        self.spec.worldbody.add_geom(
             name="floor",
-            type=box,
+            type=mujoco.mjtGeom.mjGEOM_BOX,
             pos=[0.5 * (self.x_start + _RUGGED_START_X), 0.0, -_SLAB / 2],
-            size=[self.flat_length / 2, half_width, _SLAB / 2],
+            size=[self.flat_length / 2, self.arena_width / 2, _SLAB / 2],
             **look_grid,
         )
 
-        # 2. Rugged section.
+    def _add_rugged_section(self) -> None:
+        """2. Rugged section."""
+        spec, world = self.spec, self.spec.worldbody
         res = self.rugged_resolution
         spec.add_hfield(
             name="rugged_field",
@@ -231,29 +268,34 @@ class OlympicArena(BaseWorld):
             rgba=list(TERRAIN_COLOR),
         )
 
-        # 3. Incline: its top face runs from (x_rugged_end, 0) up to the platform.
+    def _add_incline(self, look_grid: _Look) -> tuple[np.ndarray, np.ndarray, list]:
+        """3. Incline: its top face runs from (x_rugged_end, 0) up to the platform. Returns the
+        middle of its top face, the top face's normal and its quaternion (for its walls)."""
         theta = math.radians(self.incline_degrees)
         along = np.array([math.cos(theta), 0.0, math.sin(theta)])
         normal = np.array([-math.sin(theta), 0.0, math.cos(theta)])
         start = np.array([self.x_rugged_end, 0.0, 0.0])
         incline_quat = [math.cos(-theta / 2), 0.0, math.sin(-theta / 2), 0.0]  # about y
         middle = start + 0.5 * self.incline_length * along
-        world.add_geom(
+        self.spec.worldbody.add_geom(
             name="inclined_section",
-            type=box,
+            type=mujoco.mjtGeom.mjGEOM_BOX,
             pos=(middle - normal * _SLAB / 2).tolist(),
             quat=incline_quat,
-            size=[self.incline_length / 2, half_width, _SLAB / 2],
+            size=[self.incline_length / 2, self.arena_width / 2, _SLAB / 2],
             **look_grid,
         )
+        return middle, normal, incline_quat
 
-        # 4. Platform with the finish pattern and the target.
+    def _add_platform_and_target(self, look_finish: _Look) -> None:
+        """4. Platform with the finish pattern and the target."""
+        world = self.spec.worldbody
         top = self.platform_height
         world.add_geom(
             name="finish_platform",
-            type=box,
+            type=mujoco.mjtGeom.mjGEOM_BOX,
             pos=[0.5 * (self.x_incline_end + self.x_end), 0.0, top - _SLAB / 2],
-            size=[self.platform_length / 2, half_width, _SLAB / 2],
+            size=[self.platform_length / 2, self.arena_width / 2, _SLAB / 2],
             **look_finish,
         )
         target = world.add_body(name="target", pos=list(self.target_position))
@@ -267,9 +309,13 @@ class OlympicArena(BaseWorld):
             conaffinity=0,
         )
 
-        # 5. Walls: sides per section (each as high as wall_height above its floor), two ends.
-        wall: dict[str, Any] = {"type": box, "rgba": list(_WALL_RGBA)}
-        side_y = half_width + _WALL_THICKNESS / 2
+    def _add_walls(self, middle: np.ndarray, normal: np.ndarray, incline_quat: list) -> None:
+        """5. Walls: sides per section (each as high as wall_height above its floor), two ends.
+        ``middle``, ``normal``, ``incline_quat``: the incline's (`_add_incline`)."""
+        world = self.spec.worldbody
+        top = self.platform_height
+        wall: dict[str, Any] = {"type": mujoco.mjtGeom.mjGEOM_BOX, "rgba": list(_WALL_RGBA)}
+        side_y = self.arena_width / 2 + _WALL_THICKNESS / 2
         height = self.wall_height + _WALL_DEPTH
         for side, y in (("left", side_y), ("right", -side_y)):
             x0, x1 = self.x_start - _WALL_THICKNESS, self.x_rugged_end
@@ -295,7 +341,7 @@ class OlympicArena(BaseWorld):
                 size=[0.5 * (x1 - x0), _WALL_THICKNESS / 2, height / 2],
                 **wall,
             )
-        end_half_y = half_width + _WALL_THICKNESS
+        end_half_y = self.arena_width / 2 + _WALL_THICKNESS
         world.add_geom(
             name="wall_start",
             pos=[

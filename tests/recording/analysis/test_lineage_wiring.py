@@ -17,6 +17,7 @@ import pytest
 from _helpers import exit_code, one_error_line, tiny_run_toml
 
 import ariel
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 from ariel.recording import load_run
 from ariel.recording.store._lineage import (
     ancestors,
@@ -115,7 +116,10 @@ def test_compare_adds_the_lineage_measures_and_figure(
     assert result.runs["surviving_lineages"].tolist() == [last["surviving_lineages"]] * 2
     assert result.runs["best_depth"].tolist() == [last["best_depth"]] * 2
     measures = result.stats["measure"].tolist()
-    assert measures == ["final best", "AUC", "surviving lineages", "best depth"]
+    assert measures == ["final best", "AUC", "surviving lineages", "best depth", "distinct bodies"]
+    bodies = load_run(run_dir).bodies
+    made = bodies[bodies["is_new"] & (bodies["graph"] != "")]["graph"].map(graph_key).nunique()
+    assert result.runs["distinct_bodies"].tolist() == [made] * 2 and made > 1
     assert result.omnibus.empty  # two conditions
     summary = result.summary_table().set_index("")
     assert summary.loc["surviving lineages: median", "a"] == f"{last['surviving_lineages']:g}"

@@ -85,7 +85,7 @@ def draw_graph(
     Raises:
         ValueError: If ``graph`` has no nodes.
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # lazy: heavy optional library
 
     if graph.number_of_nodes() == 0:
         raise ValueError("cannot draw an empty graph")

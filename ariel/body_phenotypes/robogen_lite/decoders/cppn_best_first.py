@@ -29,7 +29,7 @@ from ariel.body_phenotypes.robogen_lite.config import (
     ModuleRotationsIdx,
     ModuleType,
 )
-from ariel.body_phenotypes.robogen_lite.cppn_neat.genome import Genome
+from ariel.body_phenotypes.robogen_lite.cppn_neat.genome import Evaluator, Genome
 
 __all__ = ["CPPN_INPUTS", "CPPN_OUTPUTS", "MorphologyDecoderBestFirst", "softmax"]
 
@@ -91,6 +91,42 @@ _CHILD_NAMES = [t.name for t in _CHILD_TYPES]
 _ROT_NAMES = [r.name for r in _ROTS]
 
 
+#: CPPN outputs per lattice point: (a batch's scores, types, rotations, the point's first row
+#: in them), by position.
+_Scored = dict[tuple[int, int, int], tuple[list, list, list, int]]
+
+
+def _check_cppn(genome: Genome) -> None:
+    """`ValueError` unless ``genome`` has the CPPN's inputs and outputs (`CPPN_INPUTS`,
+    at least `CPPN_OUTPUTS`)."""
+    n_in = sum(node.typ == "input" for node in genome.nodes.values())
+    n_out = sum(node.typ == "output" for node in genome.nodes.values())
+    if n_in != CPPN_INPUTS or n_out < CPPN_OUTPUTS:
+        raise ValueError(
+            f"the best-first decoder needs a CPPN with {CPPN_INPUTS} inputs and at least "
+            f"{CPPN_OUTPUTS} outputs; this one has {n_in} and {n_out}"
+        )
+
+
+def _prefetch(evaluate: Evaluator, scored: _Scored, pos: tuple[int, int, int]) -> None:
+    """Score, in one CPPN batch, every lattice point within `_LOOKAHEAD` steps of ``pos``
+    that ``scored`` lacks, and add them to it."""
+    points = [(pos[0] + o[0], pos[1] + o[1], pos[2] + o[2]) for o in _BALL]
+    fresh = [i for i, point in enumerate(points) if point not in scored]
+    rows = _BALL_ROWS.take(fresh, axis=0).reshape(-1, 2 * 3)
+    rows += pos + pos
+    out = evaluate(rows)[:, :CPPN_OUTPUTS]
+    if not np.isfinite(out).all():
+        out = np.nan_to_num(out, nan=-np.inf)  # a NaN never wins
+    batch = (
+        out[:, 0].tolist(),
+        out[:, _CHILD_TYPE_COLUMNS].argmax(axis=1).tolist(),
+        out[:, 1 + NUM_OF_TYPES_OF_MODULES :].argmax(axis=1).tolist(),
+    )
+    for i, k in enumerate(fresh):
+        scored[points[k]] = (*batch, i * len(_DELTAS))
+
+
 def softmax(raw_scores: np.ndarray) -> np.ndarray:
     """Softmax along the last axis (shifted by the maximum, so it never overflows).
 
@@ -148,13 +184,7 @@ class MorphologyDecoderBestFirst:
     def decode(self) -> nx.DiGraph:
         """The robot graph: node attributes ``type``/``rotation``, edge attribute ``face``."""
         genome = self.cppn_genome
-        n_in = sum(node.typ == "input" for node in genome.nodes.values())
-        n_out = sum(node.typ == "output" for node in genome.nodes.values())
-        if n_in != CPPN_INPUTS or n_out < CPPN_OUTPUTS:
-            raise ValueError(
-                f"the best-first decoder needs a CPPN with {CPPN_INPUTS} inputs and at least "
-                f"{CPPN_OUTPUTS} outputs; this one has {n_in} and {n_out}"
-            )
+        _check_cppn(genome)
         evaluate = genome.compile()
         nodes = [(IDX_OF_CORE, {"type": ModuleType.CORE.name, "rotation": _ROT_NAMES[0]})]
         edges: list[tuple[int, int, dict[str, str]]] = []
@@ -170,27 +200,11 @@ class MorphologyDecoderBestFirst:
         # placed module: one batch then serves that module's children and grandchildren too.
         # position -> (the batch's scores, types, rotations, the point's first row in them);
         # the rows are read only for the faces that become candidates.
-        scored: dict[tuple[int, int, int], tuple[list, list, list, int]] = {}
-
-        def prefetch(pos: tuple[int, int, int]) -> None:
-            points = [(pos[0] + o[0], pos[1] + o[1], pos[2] + o[2]) for o in _BALL]
-            fresh = [i for i, point in enumerate(points) if point not in scored]
-            rows = _BALL_ROWS.take(fresh, axis=0).reshape(-1, 2 * 3)
-            rows += pos + pos
-            out = evaluate(rows)[:, :CPPN_OUTPUTS]
-            if not np.isfinite(out).all():
-                out = np.nan_to_num(out, nan=-np.inf)  # a NaN never wins
-            batch = (
-                out[:, 0].tolist(),
-                out[:, _CHILD_TYPE_COLUMNS].argmax(axis=1).tolist(),
-                out[:, 1 + NUM_OF_TYPES_OF_MODULES :].argmax(axis=1).tolist(),
-            )
-            for i, k in enumerate(fresh):
-                scored[points[k]] = (*batch, i * len(_DELTAS))
+        scored: _Scored = {}
 
         def score_faces(module: int, steps: list, pos: tuple[int, int, int]) -> None:
             if pos not in scored:
-                prefetch(pos)
+                _prefetch(evaluate, scored, pos)
             scores, kinds, rotations, first = scored[pos]
             for index, face, (dx, dy, dz) in steps:
                 child = (pos[0] + dx, pos[1] + dy, pos[2] + dz)

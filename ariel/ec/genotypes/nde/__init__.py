@@ -16,6 +16,7 @@ __all__ = ["NeuralDevelopmentalEncoding"]
 
 def __getattr__(name: str) -> Any:
     if name == "NeuralDevelopmentalEncoding":
+        # lazy: the NDE is a torch module (heavy optional library); see the module docstring
         from ariel.ec.genotypes.nde.nde import NeuralDevelopmentalEncoding
 
         return NeuralDevelopmentalEncoding

@@ -13,6 +13,9 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
+from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
+
 __all__ = ["NDEEncoder"]
 
 #: Chromosomes of an NDE genotype (module types, connections, rotations).
@@ -22,8 +25,9 @@ NUM_CHROMOSOMES = 3
 @functools.lru_cache(maxsize=8)
 def _nde_weights(number_of_modules: int, genotype_size: int, nde_seed: int) -> dict:
     """NDE weights as numpy arrays, made once per process (torch only for the initialisation)."""
-    import torch
+    import torch  # lazy: heavy optional library (see the module docstring)
 
+    # lazy: the NDE is a torch module (heavy optional library)
     from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
 
     threads = torch.get_num_threads()
@@ -112,9 +116,6 @@ class NDEEncoder:
         return np.where(rng.random(ga.shape) < 0.5, ga, gb)
 
     def decode(self, genotype: Any) -> nx.DiGraph:
-        from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
-        from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
-
         weights = _nde_weights(self.number_of_modules, self.genotype_size, self.nde_seed)
         matrices = nde_forward_numpy(weights, genotype)
         return HighProbabilityDecoder(self.number_of_modules).probability_matrices_to_graph(

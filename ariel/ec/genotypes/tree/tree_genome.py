@@ -16,6 +16,7 @@ from typing import Any
 import networkx as nx
 
 from ariel.body_phenotypes.robogen_lite.config import IDX_OF_CORE
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
 
 __all__ = ["TreeGenome"]
 
@@ -77,8 +78,6 @@ class TreeGenome:
     @classmethod
     def from_networkx(cls, graph: nx.DiGraph) -> TreeGenome:
         """A genome from a robot graph (attribute values may be enum members or names)."""
-        from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
-
         plain = graph_to_plain(graph)
         nodes = {
             _node_id(n): {"type": a["type"], "rotation": a.get("rotation", "DEG_0")}

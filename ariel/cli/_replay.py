@@ -1,0 +1,79 @@
+"""``ariel replay RUN_DIR EVAL_ID``: one evaluation re-simulated (`ariel.recording.resim`) and its
+fitness compared with the stored one, bit for bit; ``--rrd``, ``--video`` and ``--viewer`` show
+it at the full rate. Exit 0 when reproduced, 1 when not.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import TYPE_CHECKING
+
+from ariel.cli._common import fail, headless_unless_display
+from ariel.recording import resim
+from ariel.recording.store import cannot_write
+from ariel.utils import has_display
+
+if TYPE_CHECKING:
+    from ariel.cli._common import SubParsers
+
+__all__ = ["add_replay_command"]
+
+
+def add_replay_command(sub: SubParsers) -> None:
+    """Add ``ariel replay`` to the sub-command parsers ``sub``."""
+    p = sub.add_parser(
+        "replay",
+        help="re-simulate one evaluation of a run and check its stored fitness bit for bit",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
+    p.add_argument("eval_id", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'")
+    p.add_argument("--rrd", metavar="FILE", help="write a full-rate Rerun recording")
+    p.add_argument("--video", metavar="FILE", help="write an MP4 (camera tracking the robot)")
+    p.add_argument("--viewer", action="store_true", help="play it in the MuJoCo viewer")
+    p.set_defaults(func=_cmd_replay)
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    if args.viewer and not has_display():
+        return fail(
+            "--viewer needs a display (DISPLAY is not set); write a video with --video FILE "
+            "or a Rerun recording with --rrd FILE instead"
+        )
+    if args.video:  # replay() imports mujoco to re-simulate: the backend is chosen first
+        headless_unless_display("run without --video")
+    replayed = resim.replay(args.run_dir, args.eval_id)
+    row = replayed.row
+    print(
+        f"evaluation {replayed.eval_id} (generation {int(row['generation'])}, body "
+        f"{row['body_id']}) of run {replayed.run.info.get('run_id', args.run_dir)}"
+    )
+    print(f"stored fitness:   {replayed.stored_fitness!r} ({replayed.stored_status})")
+    print(f"replayed fitness: {replayed.fitness!r} ({replayed.status})")
+    if not replayed.exact:  # MuJoCo Warp (float32) on either side: close, never claimed equal
+        print(f"backend: stored {replayed.stored_backend}, replayed {replayed.backend}")
+        print(f"difference: {replayed.difference:+.3g} (MuJoCo Warp is not bitwise repeatable)")
+    elif replayed.identical:
+        print("identical: yes, bit for bit")
+    else:
+        print("identical: NO")
+        for name, (then, now) in replayed.version_differences.items():
+            print(f"  {name}: the run used {then}, this replay {now}")
+    try:
+        if args.rrd or args.video or args.viewer:
+            dense = replayed.full_rate()
+            print(
+                f"full rate (every physics step, {len(dense.time)} frames): fitness "
+                f"{float(dense.fitness)!r}"
+            )
+        if args.rrd:
+            print(f"wrote {replayed.write_rrd(args.rrd)}")
+        if args.video:
+            print(f"wrote {replayed.write_video(args.video)}")
+        if args.viewer:
+            replayed.view()
+    except (ValueError, RuntimeError, ImportError) as exc:
+        return fail(str(exc).splitlines()[0])
+    except OSError as exc:  # --rrd / --video onto a full disk, a read-only file system, ...
+        return fail(cannot_write(exc))
+    close = not replayed.exact and replayed.status == replayed.stored_status
+    return 0 if replayed.identical or close else 1

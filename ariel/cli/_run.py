@@ -1,0 +1,156 @@
+"""``ariel run`` and ``ariel resume``: one run in its folder (`ariel.runs`), with the live view
+beside it when asked for. Bad input or a folder that cannot be written is one line and exit code
+2; Ctrl-C says how to resume; a finished run prints its summary and the commands to look at it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ariel import runs
+from ariel.cli._common import fail_with
+from ariel.cli._live import LiveView
+from ariel.cli._options import add_executor_options
+from ariel.errors import ArielError, ConfigError
+from ariel.utils import ariel_command, load_run_command, report_interrupted
+from ariel.utils.interrupts import stop_on_signals
+
+if TYPE_CHECKING:
+    from ariel.cli._common import SubParsers
+    from ariel.runs import RunResult
+
+__all__ = ["GENERATIONS_SHOWN", "add_resume_command", "add_run_command"]
+
+#: What the printed ``python -c`` line shows of a run: a few columns, none hidden behind ``...``.
+GENERATIONS_SHOWN = (
+    'r.generations[["generation", "evaluations", "best_fitness", "mean_fitness", '
+    '"median_fitness"]].to_string(index=False)'
+)
+
+
+def add_run_command(sub: SubParsers) -> None:
+    """Add ``ariel run`` to the sub-command parsers ``sub``."""
+    p = sub.add_parser(
+        "run",
+        help="run an experiment (default: experiments/coevolve_flat.toml)",
+        description="Run an experiment: a TOML file (default: experiments/coevolve_flat.toml) "
+        "with --set overrides. Every configuration key, its default and meaning: "
+        "docs/evolution.md, 'Configuration keys'; `ariel config show [FILE] [--set ...]` prints "
+        "the resolved experiment, every key with its value.",
+    )
+    p.add_argument("config", nargs="?", help="experiment TOML file")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a config value, e.g. --set brain.popsize=16 (repeatable)",
+    )
+    p.add_argument("--out", metavar="DIR", help="the run folder (default: data/runs/<run-id>)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
+    add_executor_options(p)
+    p.set_defaults(func=_cmd_run)
+
+
+def add_resume_command(sub: SubParsers) -> None:
+    """Add ``ariel resume`` to the sub-command parsers ``sub``."""
+    p = sub.add_parser("resume", help="continue a killed or interrupted run")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
+    add_executor_options(p)
+    p.set_defaults(func=_cmd_resume)
+
+
+def _how_to_look(path: Path) -> str:
+    """The commands to look at a finished run, each working when pasted into a new shell here
+    (the environment's ``ariel`` and python named by path: `ariel.utils._commands`)."""
+    ariel = ariel_command()
+    quoted = shlex.quote(str(path))
+    recorded = (path / "run.rrd").is_file() or (path / "recordings").is_dir()
+    commands = [
+        (f"{ariel} report {quoted}", f"summary table and figures in {quoted}/report"),
+        # record.rerun = false: nothing to view
+        *([(f"{ariel} view {quoted}", "Rerun viewer (--web on a headless node)")] * recorded),
+        (f"{ariel} replay {quoted} best", "re-simulate the best evaluation"),
+        (f"{ariel} runs {shlex.quote(str(path.parent))}", "every run there: status, best"),
+    ]
+    width = max(len(command) for command, _ in commands)
+    lines = [f"  {command:<{width}}  # {comment}" for command, comment in commands]
+    return "\n".join(
+        [
+            "look at the results:",
+            *lines,
+            f"  {load_run_command(path, what=GENERATIONS_SHOWN)}",
+            f"  (tables: {quoted}/evaluations, bodies, trajectories; one Parquet file per "
+            "generation)",
+        ]
+    )
+
+
+def _print_result(result: RunResult) -> None:
+    r = result
+    print(
+        f"{r.status}: {r.run_id}: best fitness {r.best_fitness:.6g} "
+        f"(body {r.best_body_id}, evaluation {r.best_eval_id or '-'}), "
+        f"{r.evaluations} evaluations in {r.wall_seconds:.1f} s"
+    )
+    print(f"run folder: {r.run_dir}")
+    print(_how_to_look(Path(r.run_dir)))
+
+
+def _run_guarded(start: Callable[[], RunResult], path_hint: str | None) -> int:
+    """Run ``start()``; bad input, a run folder in use or that cannot be written (disk full)
+    -> one line and exit 2; Ctrl-C -> how to resume: the folder the interrupt names (its
+    ``run_dir``, `ariel.runs`), else ``path_hint``, else none (nothing was written yet)."""
+    try:
+        with stop_on_signals():
+            result = start()
+    except (ArielError, FileExistsError) as exc:  # FileExistsError: --out exists, no --overwrite
+        return fail_with(exc)
+    except KeyboardInterrupt as exc:
+        return report_interrupted(exc, getattr(exc, "run_dir", None) or path_hint, "resume")
+    _print_result(result)
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    live = LiveView(args)  # --live: the watcher on the folder, beside the run
+
+    def start() -> RunResult:
+        return runs.run_experiment(
+            args.config,
+            out=live.run_folder(args.out, args.config, args.set),
+            overwrite=args.overwrite,
+            executor=args.executor,
+            workers=args.workers,
+            address=args.address,
+            progress=not args.quiet,
+            overrides=args.set,
+        )
+
+    # the run's folder: from the interrupt, once it exists
+    return live.finish(_run_guarded(live.guard(start), None))
+
+
+def _cmd_resume(args: argparse.Namespace) -> int:
+    live = LiveView(args)
+
+    def start() -> RunResult:
+        live.start(args.run_dir)
+        try:
+            return runs.resume_experiment(
+                args.run_dir,
+                executor=args.executor,
+                workers=args.workers,
+                address=args.address,
+                progress=not args.quiet,
+            )
+        except ValueError as exc:
+            if isinstance(exc, ArielError):
+                raise
+            raise ConfigError(str(exc)) from None
+
+    return live.finish(_run_guarded(live.guard(start), args.run_dir))

@@ -1,0 +1,71 @@
+"""``ariel runs [DIR]``: the runs in a folder, one line each (status, generations, evaluations,
+best fitness); ``--prune`` deletes those that never finished a generation (`ariel.cli._prune`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ariel import recording
+from ariel.cli._common import DEFAULT_RUNS, fail
+from ariel.cli._prune import prune_runs
+from ariel.recording.store import terminal_text
+
+if TYPE_CHECKING:
+    from ariel.cli._common import SubParsers
+
+__all__ = ["add_runs_command"]
+
+
+def add_runs_command(sub: SubParsers) -> None:
+    """Add ``ariel runs`` to the sub-command parsers ``sub``."""
+    p = sub.add_parser("runs", help="list the runs in a folder: status, generations, best")
+    p.add_argument(
+        "folder",
+        nargs="?",
+        metavar="DIR",
+        help=f"a folder of run folders (default: {DEFAULT_RUNS})",
+    )
+    p.add_argument(
+        "--prune",
+        action="store_true",
+        help="delete the runs that failed or were interrupted before their first generation "
+        "finished (lists them and asks first; never a finished generation or a symbolic link)",
+    )
+    p.add_argument("--yes", action="store_true", help="with --prune: delete without asking")
+    p.set_defaults(func=_cmd_runs)
+
+
+def _cmd_runs(args: argparse.Namespace) -> int:
+    folder = Path(args.folder if args.folder is not None else DEFAULT_RUNS)
+    if args.folder is not None and not folder.is_dir():  # a typo must not read as "no runs"
+        problem = "is not a folder" if folder.exists() else "does not exist"
+        return fail(f"{str(folder)!r} {problem}")
+    if args.yes and not args.prune:
+        return fail("--yes goes with --prune (it answers the question before deleting)")
+    if args.prune:
+        return prune_runs(folder, yes=args.yes)
+    runs = recording.list_runs(folder)
+    if not runs:
+        print(f"no runs under {terminal_text(folder)}")
+        return 0
+    for r in runs:  # names from run.json files: no control sequence reaches the terminal
+        r["run_id"], r["status"] = terminal_text(r["run_id"]), terminal_text(r["status"] or "?")
+    width = max(len(r["run_id"]) for r in runs)
+    status_width = max(11, *(len(r["status"]) for r in runs))
+    print(
+        f"{'run':<{width}}  {'status':<{status_width}} {'generations':>11} {'evaluations':>11}"
+        "  best"
+    )
+    for r in runs:
+        best = r["best_fitness"]
+        shown = f"{best:.6g}" if isinstance(best, float) and math.isfinite(best) else "-"
+        gens = f"{r['generations_done']}/{r['generations']}"
+        print(
+            f"{r['run_id']:<{width}}  {r['status']:<{status_width}} {gens:>11} "
+            f"{r['evaluations']:>11}  {shown}"
+        )
+    return 0

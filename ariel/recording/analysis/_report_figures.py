@@ -1,0 +1,68 @@
+"""What the report's figures share: a figure (`_figure`, matplotlib's Agg canvas, no pyplot),
+its title wrapped to fit (`_title`), the run's id as one line (`_run_title`), and writing it
+whole into ``RUN_DIR/report/`` (`_save`; a write that fails is one line, `_cannot_write`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ariel.errors import RunStorageError
+from ariel.recording.store import Run, atomic_write, cannot_write, fitted, one_line
+from ariel.utils import ariel_line
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from ariel.recording.analysis._report import Report
+
+_DPI = 110
+
+
+def _figure(width: float, height: float) -> Figure:
+    from matplotlib.figure import Figure  # lazy: heavy optional library
+
+    return Figure(figsize=(width, height), dpi=_DPI, layout="constrained")
+
+
+def _cannot_write(exc: OSError, path: Path, report: Report) -> RunStorageError:
+    """A failed write (disk full, read-only, no permission) of the report: one line naming the
+    file and why. `atomic_write` leaves no part of the file; the figures written before it
+    are whole."""
+    return RunStorageError(
+        f"{cannot_write(exc, path)}; the report is not finished (the run is unchanged): make "
+        f"room (or fix the folder), then run {ariel_line('report', report.run.path)} again"
+    )
+
+
+def _save(figure: Figure, path: Path, report: Report) -> None:
+    # Never through a link planted in a copied run folder (``report/fitness.png -> ~/x``).
+    try:
+        atomic_write(
+            path,
+            lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"),
+            root=report.run.path,
+        )
+    except OSError as exc:
+        raise _cannot_write(exc, path, report) from exc
+    report.written.append(path)
+    report.figures[path.name] = figure
+
+
+def _run_title(run: Run) -> str:
+    """The run's id (from run.json: any text) as one line, no control character in it."""
+    return one_line(run.info.get("run_id") or run.path.name)
+
+
+def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) -> None:
+    """A title (of axes ``on``, or ``suptitle`` of figure ``on``) wrapped to fit the width it
+    has (`fitted`), so it is never clipped at the figure's edge. A ``$`` in it (a run id is
+    any text) is a dollar sign, not mathtext, which could fail to draw."""
+    text = text.replace("$", r"\$")
+    if suptitle:
+        on.suptitle(fitted(text, on.get_figwidth(), fontsize), fontsize=fontsize)
+        return
+    spec = on.get_subplotspec()  # the axes' share of the figure's width
+    share = len(spec.colspan) / spec.get_gridspec().ncols
+    on.set_title(fitted(text, on.figure.get_figwidth() * share, fontsize), fontsize=fontsize)

@@ -1,0 +1,180 @@
+"""The run's viewer layout (``blueprint.rbl``, `write_blueprint`): an evaluation's robot,
+morphology and joints beside the run's fitness and diversity per generation (and a MAP-Elites
+archive), and `save_blueprint`, which writes any layout whole.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ariel.recording.rerun._archive import archive_view
+from ariel.recording.rerun._chunks import APPLICATION_ID, rerun_module
+from ariel.recording.rerun._lineage import lineage_view
+from ariel.recording.rerun._views import robot_view, summary_bars
+from ariel.recording.store import atomic_write, require_free_space
+
+if TYPE_CHECKING:
+    from rerun.blueprint import Blueprint, BlueprintPart, Container, ContainerLike, View
+
+__all__ = ["blueprint", "save_blueprint", "write_blueprint"]
+
+_BLUEPRINT_ROOM = 1 << 20  # bytes free before a blueprint (~70 kB) is written
+
+
+def blueprint(
+    *,
+    panels: bool = True,
+    archive: bool | str = False,
+    fitness_unit: str | None = None,
+    run_curves: bool = True,
+) -> Blueprint:
+    """The default layout: the 3D replay and the morphology (and, with ``archive``, a MAP-Elites
+    run's archive, `ARCHIVE_ENTITY`: True or ``"grid"``, or ``"cvt"``, `archive_view`) above,
+    joints and the run's fitness and diversity per generation below; the time panel on
+    ``sim_time`` (the evaluation's clock).
+
+    The morphology view shows an evaluation's ``/graph`` and run.rrd's best body of each
+    generation (``/best/graph``). Fitness and diversity per generation are static bar charts
+    (`run_summary_chunks`, drawn whatever the timeline), one view per series, titled with its
+    name and unit (``fitness_unit``, e.g. "m"); with ``run_curves`` each group has a second
+    tab of run.rrd's curves on the ``generation`` timeline, and the morphology a tab of its
+    lineage graph (`lineage_view`). The 3D camera looks at the start, from 1.5 m away.
+    ``panels=False`` collapses the side panels (the blueprint tree, the selection, the time
+    panel) for pictures of the views alone.
+    """
+    rrb = rerun_module().blueprint
+    unit = f" ({fitness_unit})" if fitness_unit else ""
+    fitness, diversity = _run_views(unit, run_curves)
+    top: list[ContainerLike] = [
+        robot_view("robot", "/world"),
+        rrb.GraphView(name="morphology", origin="/", contents=["/graph/**", "/best/graph/**"]),
+    ]
+    if run_curves:  # run.rrd's lineage, a tab beside the morphology
+        top[1] = rrb.Tabs(top[1], lineage_view(), active_tab=0)
+    if archive:  # measure 0 across, measure 1 up
+        top.append(archive_view(archive, unit, sliced=True))
+    return rrb.Blueprint(
+        rrb.Vertical(
+            rrb.Horizontal(*top, column_shares=[4, 2, 2] if archive else [3, 1]),
+            rrb.Horizontal(
+                rrb.TimeSeriesView(name="joint targets (rad)", origin="/joints/target"),
+                rrb.TimeSeriesView(name="joint angles (rad)", origin="/joints/angle"),
+                fitness,
+                diversity,
+            ),
+            row_shares=[3, 2],
+        ),
+        *_side_panels(panels),
+        collapse_panels=False,
+    )
+
+
+def _side_panels(panels: bool) -> list[BlueprintPart]:
+    """The time panel on ``sim_time``; ``panels=False``: it and the side panels collapsed."""
+    rrb = rerun_module().blueprint
+    time_panel = rrb.TimePanel(timeline="sim_time", **({} if panels else {"state": "collapsed"}))
+    return (
+        [time_panel]
+        if panels
+        else [
+            rrb.BlueprintPanel(state="collapsed"),
+            rrb.SelectionPanel(state="collapsed"),
+            time_panel,
+        ]
+    )
+
+
+def _run_views(unit: str, run_curves: bool) -> tuple[ContainerLike, ContainerLike]:
+    """The fitness and the diversity per generation: bar charts, one per series, and with
+    ``run_curves`` a second tab of run.rrd's curves on the ``generation`` timeline."""
+    rrb = rerun_module().blueprint
+    hidden = rrb.PlotLegend(visible=False)
+
+    def curve(entity: str, title: str) -> View:
+        return rrb.TimeSeriesView(name=title, origin=entity, plot_legend=hidden)
+
+    fitness: Container = rrb.Vertical(
+        summary_bars("best_fitness", unit),
+        summary_bars("mean_fitness", unit),
+        name="fitness per generation",
+    )
+    diversity: Container = rrb.Vertical(
+        summary_bars("diversity", unit),
+        summary_bars("distinct_morphologies", unit),
+        name="diversity per generation",
+    )
+    if run_curves:
+        fitness = rrb.Tabs(
+            fitness,
+            rrb.TimeSeriesView(
+                name=f"fitness{unit} (generation timeline)",
+                origin="/fitness",
+                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftTop),
+            ),
+            active_tab=0,
+        )
+        diversity = rrb.Tabs(
+            diversity,
+            rrb.Vertical(
+                curve("/diversity/descriptor_distance", "descriptor distance"),
+                curve("/diversity/distinct_morphologies", "distinct bodies"),
+                name="diversity (generation timeline)",
+            ),
+            active_tab=0,
+        )
+    return fitness, diversity
+
+
+def write_blueprint(
+    path: str | os.PathLike[str],
+    *,
+    panels: bool = True,
+    archive: bool | str = False,
+    fitness_unit: str | None = None,
+    run_curves: bool = True,
+) -> Path:
+    """Write the default viewer layout (``blueprint.rbl``, application id ``ariel``).
+
+    Open it with the recordings: ``rerun blueprint.rbl run.rrd recordings/gen-000000/*.rrd``.
+
+    Args:
+        path: The blueprint file to write (whole, replacing an existing one), usually
+            ``blueprint.rbl`` beside the recordings.
+        panels: False collapses the side panels (the blueprint tree, the selection, the time
+            panel) for pictures of the views alone.
+        archive: Whether to add a view of a MAP-Elites run's archive (`ARCHIVE_ENTITY`):
+            False, True or ``"grid"`` (a tensor view), ``"cvt"`` (a 2D view of its points).
+        fitness_unit: The fitness's unit (e.g. ``"m"``) for the fitness views' titles; None:
+            no unit.
+        run_curves: Whether the fitness and diversity views get a second tab of run.rrd's
+            curves on the ``generation`` timeline, and the morphology one of its lineage.
+
+    Returns:
+        ``path``, as a `Path`.
+    """
+    layout = blueprint(
+        panels=panels, archive=archive, fitness_unit=fitness_unit, run_curves=run_curves
+    )
+    return save_blueprint(path, layout, APPLICATION_ID)
+
+
+def save_blueprint(path: str | os.PathLike[str], layout: Blueprint, application_id: str) -> Path:
+    """Write the blueprint ``layout`` for ``application_id`` whole to ``path``."""
+    path = Path(path)
+
+    def write(temporary: Path) -> None:
+        # Rerun's blueprint writer logs a full disk and leaves a cut file: check first.
+        require_free_space(temporary.parent, _BLUEPRINT_ROOM)
+        # Rerun writes blueprints to paths ending in .rbl only: build beside, then move.
+        staging = temporary.with_name(temporary.name + ".rbl")
+        try:
+            layout.save(application_id, str(staging))
+            os.replace(staging, temporary)
+        finally:
+            if staging.exists():
+                staging.unlink()
+
+    atomic_write(path, write)
+    return path

@@ -1,0 +1,235 @@
+"""What a replay rebuilds from the run folder alone: the evaluation's row (`_find_row`), the
+plugins it needs (`_require_plugins`), its task as the loop built it (`replay_task`: both call
+`ariel.evolution._tasks.evaluation_task`), the simulator it ran on (`_evaluate_as_stored`), and
+the versions of the software that decide its numbers (`_version_differences`).
+
+A cell of the run's tables that is not what the loop wrote (a changed or damaged table) is a
+`DamagedRunError`, one line, naming the evaluation.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ariel.errors import DamagedRunError, MissingPluginError, UnknownEvaluationError
+from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record_steps, shipped_body
+from ariel.plugins import REGISTRIES, body_encoders, controllers
+from ariel.recording.store import (
+    Run,
+    git_commit,
+    json_data,
+    short_ascii,
+    software_versions,
+)
+from ariel.utils import load_run_command
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from ariel.evaluation import EvaluationResult, EvaluationTask
+
+__all__ = ["BEST", "cell_json", "replay_task"]
+
+#: `replay(run, BEST)` replays the run's best evaluation.
+BEST = "best"
+
+# Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
+_DECISIVE = ("mujoco", "numpy", "torch", "ariel")
+
+
+#: The plugins a replay needs: run.json's ``plugins`` kind -> config key.
+_PLUGIN_KEYS = {
+    "body_encoder": ("body", "encoder"),
+    "controller": ("brain", "controller"),
+    "world": ("world", "name"),
+    "fitness": ("task", "fitness"),
+}
+
+
+def _require_plugins(run: Run) -> None:
+    """`MissingPluginError`, one line, for the first of the run's plugins not installed here
+    (reading a run needs none of them; re-simulating it needs all)."""
+    for kind, (section, key) in _PLUGIN_KEYS.items():
+        name = run.config.get(section, {}).get(key)
+        if not isinstance(name, str):
+            continue
+        registry = REGISTRIES[kind]
+        try:
+            registry.get(name)
+        except (KeyError, ValueError, ImportError):
+            served = (run.info.get("plugins") or {}).get(kind) or {}
+            source = served.get("distribution") if isinstance(served, dict) else None
+            hint = f"install {source}" if source else "install the package that provides it"
+            raise MissingPluginError(
+                f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
+                f"({section}.{key}) is not installed here; {hint} (report, load_run and view "
+                "need no plugins)"
+            ) from None
+
+
+def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
+    evals = run.evaluations
+    if eval_id == BEST:
+        ok = evals[evals["fitness"].map(math.isfinite)]
+        if len(ok):
+            index = ok["fitness"].idxmax() if run.maximise else ok["fitness"].idxmin()
+            return evals.loc[index].to_dict()
+    else:
+        found = evals[evals["eval_id"] == eval_id]
+        if len(found):
+            return found.iloc[0].to_dict()
+
+    quoted = str(run.path)
+    where = (
+        f"no finished generation in run {quoted!r} yet"
+        if not len(evals)
+        else f"no evaluation {eval_id!r} in the finished generations of run {quoted!r}"
+    )
+    listing = 'r.evaluations[["generation", "eval_id", "fitness"]].to_string(index=False)'
+    raise UnknownEvaluationError(
+        f"{where}; ids look like b000012-i003-c005 ('best' for the best one); list them with "
+        f"{load_run_command(run.path, what=listing)}"
+    )
+
+
+def _recorded_software(run: Run, generation: int) -> tuple[dict[str, Any], object]:
+    """Versions and commit of the software that ran ``generation``: the last of run.json's
+    ``segments`` (one per run or resume) that started at or before it; else the run's own."""
+    versions, commit = run.info.get("versions") or {}, run.info.get("git_commit")
+    segments = run.info.get("segments")
+    for segment in segments if isinstance(segments, list) else []:
+        start = segment.get("from_generation") if isinstance(segment, dict) else None
+        if isinstance(start, int) and start <= generation:
+            versions = segment.get("versions") or {}
+            commit = segment.get("git_commit")
+    return (versions if isinstance(versions, dict) else {}), commit
+
+
+def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[object, object]]:
+    recorded, commit_then = _recorded_software(run, generation)
+    now = software_versions()
+    differences: dict[str, tuple[object, object]] = {
+        name: (recorded.get(name), now.get(name))
+        for name in _DECISIVE
+        if name in recorded and recorded.get(name) != now.get(name)
+    }
+    commit = git_commit()
+    if commit_then and commit and commit_then != commit:
+        differences["git_commit"] = (commit_then, commit)
+    return differences
+
+
+def cell_json(run: Run, row: dict[str, Any], table: str, column: str, text: str | bytes) -> Any:
+    """The JSON in the cell ``column`` of ``table`` (``text``) for evaluation ``row`` of
+    ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
+    that is not JSON is a changed table: `DamagedRunError`, one line."""
+    try:
+        return json_data(text)
+    except (TypeError, ValueError) as exc:
+        raise _changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
+
+
+def _changed(run: Run, row: dict[str, Any], table: str, problem: str) -> DamagedRunError:
+    return DamagedRunError(
+        f"evaluation {short_ascii(row.get('eval_id'))} of run {str(run.path)!r}: {problem}; "
+        f"the {table} table was changed or damaged"
+    )
+
+
+def _row_params(row: dict[str, Any]) -> np.ndarray | None:
+    """The row's controller parameters, float64; None where they are not a list of finite
+    numbers (a changed table)."""
+    try:
+        params = np.asarray(row["controller_params"], dtype=np.float64)
+    except (KeyError, TypeError, ValueError):
+        return None
+    return params if params.ndim == 1 and np.all(np.isfinite(params)) else None
+
+
+def _check_params(
+    run: Run,
+    row: dict[str, Any],
+    task: EvaluationTask,
+    model: mujoco.MjModel,
+    params: np.ndarray | None,
+) -> None:
+    """`DamagedRunError` naming the evaluation, the number of parameters its row holds and the
+    number its body's controller needs, where the two differ (a changed table)."""
+    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
+    from ariel.evaluation import make_plugin
+
+    controller = make_plugin(controllers, task.controller, task.controller_options)
+    needed = controller.num_parameters(model)
+    if params is not None and len(params) == needed:
+        return
+    found = (
+        f"{len(params)} controller parameters"
+        if params is not None
+        else "controller parameters that are not a list of finite numbers"
+    )
+    raise _changed(
+        run,
+        row,
+        "evaluations",
+        f"its row holds {found}, but its body's controller {task.controller!r} needs {needed} "
+        f"({model.nu} actuators)",
+    )
+
+
+def replay_task(
+    run: Run, row: dict[str, Any], *, graph: str | None = None, check_params: bool = False
+) -> EvaluationTask:
+    """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``.
+
+    ``graph``: the body's decoded robot graph (the bodies table's ``graph``), the form the
+    loop's tasks carry (`shipped_body`) for an encoder that decodes to a graph: used as it is
+    instead of decoding the genotype again (the NDE's decoding imports torch, ~2 s).
+    ``check_params`` (to re-simulate): `DamagedRunError` where the row's controller parameters
+    are not as many finite numbers as its body's controller needs (a changed table); without
+    it (to draw the body), parameters that are not a list of finite numbers are left out.
+    A genotype or graph cell that is not JSON is `DamagedRunError` either way.
+    """
+    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
+    from ariel.evaluation import BodyBuildError, BodySpec, build
+
+    config = ExperimentConfig.from_plain(run.config)
+    encoder = config.body.encoder
+    if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
+        spec = BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
+    else:
+        genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
+        spec = shipped_body(config, body_spec(config, genotype))
+    fields: dict[str, Any] = {
+        "seed": int(row["seed"]),
+        "eval_id": str(row["eval_id"]),
+    }
+    params = _row_params(row)
+    # An error row's body cannot be built: evaluating its task gives the same error again.
+    with contextlib.suppress(BodyBuildError):
+        shape = evaluation_task(config, spec)
+        model = build(shape).model
+        fields["record_every"] = record_steps(config, model.opt.timestep)
+        if check_params:
+            _check_params(run, row, shape, model, params)
+    return evaluation_task(config, spec, () if params is None else params, **fields)
+
+
+def _evaluate_as_stored(task: EvaluationTask, backend: object) -> EvaluationResult:
+    """Evaluate ``task`` on the simulator the row names where it is here, else the CPU engine."""
+    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
+    from ariel.evaluation import evaluate
+
+    prefix = "mujoco-warp:"
+    if isinstance(backend, str) and backend.startswith(prefix):
+        from ariel.evaluation import WarpEvaluator, WarpUnavailableError  # lazy: as above
+
+        try:
+            evaluator = WarpEvaluator(backend[len(prefix) :])
+        except (WarpUnavailableError, ValueError):  # not installed, no such device, unknown
+            return evaluate(task)
+        return evaluator.evaluate_batch([task])[0]
+    return evaluate(task)
