@@ -84,6 +84,9 @@ def test_how_to_look_offers_the_viewer_only_with_recordings(tmp_path: Path) -> N
     assert "ariel view" not in _how_to_look(tmp_path)  # record.rerun = false: none
     (tmp_path / "run.rrd").write_bytes(b"")
     assert f"ariel view {tmp_path} " in _how_to_look(tmp_path)
+    assert "trajectories; one Parquet" in _how_to_look(tmp_path)  # a GA run's three tables
+    (tmp_path / "novelty").mkdir()  # a novelty run's own table is named too
+    assert "trajectories, novelty; one Parquet" in _how_to_look(tmp_path)
 
 
 def test_runs_lists_a_finished_run(finished_run, capsys: pytest.CaptureFixture[str]) -> None:

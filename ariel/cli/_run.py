@@ -77,6 +77,8 @@ def _how_to_look(path: Path) -> str:
         (f"{ariel} replay {quoted} best", "re-simulate the best evaluation"),
         (f"{ariel} runs {shlex.quote(str(path.parent))}", "every run there: status, best"),
     ]
+    tables = ["evaluations", "bodies", "trajectories"]
+    tables += [name for name in ("archive", "novelty") if (path / name).is_dir()]  # QD runs
     width = max(len(command) for command, _ in commands)
     lines = [f"  {command:<{width}}  # {comment}" for command, comment in commands]
     return "\n".join(
@@ -84,8 +86,7 @@ def _how_to_look(path: Path) -> str:
             "look at the results:",
             *lines,
             f"  {load_run_command(path, what=GENERATIONS_SHOWN)}",
-            f"  (tables: {quoted}/evaluations, bodies, trajectories; one Parquet file per "
-            "generation)",
+            f"  (tables: {quoted}/{', '.join(tables)}; one Parquet file per generation)",
         ]
     )
 
