@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 ARIEL = Path(__file__).resolve().parents[1] / "ariel"
-#: Function-level imports in `ariel/` when the guard came; lower it as they go.
-CEILING = 141
+#: Function-level imports in `ariel/` now (516 before the house was split up); lower it as they go.
+CEILING = 53
 
 
 def _function_imports(text: str) -> list[ast.Import | ast.ImportFrom]:

@@ -7,7 +7,6 @@ faces (`ariel.cli`): nothing of them is imported until a command runs.
 from __future__ import annotations
 
 import argparse
-import math
 import shlex
 import sys
 from collections.abc import Callable
@@ -158,39 +157,14 @@ EXIT_SKIPPED = 1
 
 
 def _cmd_campaign_status(args: argparse.Namespace) -> int:
-    # lazy: rich takes ~0.2 s to import, and every `ariel` command imports this module
-    from rich.console import Console
-    from rich.table import Table  # lazy: rich, as above
-    from rich.text import Text  # lazy: rich, as above
-
-    def shown(value: object) -> Text:  # from the folder: no rich markup, no control sequence
-        return Text(terminal_text(value))
-
     try:
         rows = runs.campaign_status(args.campaign_dir)
     except NotARunError as exc:
         return fail(terminal_text(exc))
-    table = Table(title=shown(f"campaign {args.campaign_dir}"))
-    for name, justify in (
-        ("condition", "left"),
-        ("seed", "right"),
-        ("status", "left"),
-        ("generations", "right"),
-        ("evaluations", "right"),
-        ("best", "right"),
-    ):
-        table.add_column(name, justify=justify)  # type: ignore[arg-type]
-    for row in rows:
-        best = row["best_fitness"]
-        table.add_row(
-            shown(row["condition"]),
-            shown(row["seed"]),
-            shown(row["status"]),
-            shown(f"{row['generations_done']}/{row['generations']}"),
-            shown(row["evaluations"]),
-            f"{best:.6g}" if math.isfinite(best) else "-",
-        )
-    Console(width=max(100, Console().width)).print(table)
+    # lazy: rich takes ~0.2 s to import, and every `ariel` command imports this module
+    from ariel.cli._tables import print_campaign_status
+
+    print_campaign_status(rows, f"campaign {args.campaign_dir}")
     return 0
 
 
@@ -198,16 +172,9 @@ def _print_frame(frame: pd.DataFrame, title: str) -> None:
     """A table of text (a `Comparison` table) with rich, as wide as it needs. Names from the
     folders are shown as text: one line, no control sequence, no rich markup."""
     # lazy: rich takes ~0.2 s to import, and every `ariel` command imports this module
-    from rich.console import Console
-    from rich.table import Table  # lazy: rich, as above
-    from rich.text import Text  # lazy: rich, as above
+    from ariel.cli._tables import print_frame
 
-    table = Table(title=Text(terminal_text(title)))
-    for heading in frame.columns:
-        table.add_column(Text(terminal_text(heading)))
-    for row in frame.itertuples(index=False):
-        table.add_row(*(Text(terminal_text(cell)) for cell in row))
-    Console(width=max(160, Console().width)).print(table)
+    print_frame(frame, title)
 
 
 def _label(text: str) -> tuple[str, str]:

@@ -12,6 +12,7 @@ import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from ariel import evaluation
 from ariel.evaluation._executor_base import SerialExecutor
 
 if TYPE_CHECKING:
@@ -54,12 +55,11 @@ class WarpExecutor(SerialExecutor):
     kind = "gpu"
 
     def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
-        # The evaluator imports no Warp until it is made, but MuJoCo (the engine) at once.
-        # lazy: executors stay MuJoCo-free (the CLI imports them before choosing a GL backend)
-        from ariel.evaluation._warp import WarpEvaluator
-
+        # The evaluator imports no Warp until it is made, but MuJoCo (the engine) at once: it is
+        # reached here, at call time (executors stay MuJoCo-free: the CLI imports them before
+        # choosing a GL backend).
         super().__init__()
-        self.evaluator = WarpEvaluator(device, max_worlds=max_worlds)
+        self.evaluator = evaluation.WarpEvaluator(device, max_worlds=max_worlds)
         self._queued: list[_Batch] = []
         self._ready: list[_Batch] = []
         self._wake = threading.Condition()

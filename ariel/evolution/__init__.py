@@ -104,10 +104,6 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         is_genotype_file as is_genotype_file,
         read_genotype_file as read_genotype_file,
     )
-    from ariel.evolution._map_elites import (
-        DEFAULT_RANGES as DEFAULT_RANGES,
-        archive_quality as archive_quality,
-    )
     from ariel.evolution._optimizer_checks import (
         check_body_optimizer as check_body_optimizer,
         check_brain_optimizer as check_brain_optimizer,
@@ -118,6 +114,11 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         fmt_value as fmt_value,
         live_bars as live_bars,
         shows_progress as shows_progress,
+    )
+    from ariel.evolution._qd import (
+        DEFAULT_MEASURES as DEFAULT_MEASURES,
+        DEFAULT_RANGES as DEFAULT_RANGES,
+        archive_quality as archive_quality,
     )
     from ariel.evolution._scheduler import (
         run_groups as run_groups,
@@ -178,7 +179,8 @@ __all__ = sorted(_LAZY)
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
     "BodyFactory": "ariel.evolution._bodies",
-    "DEFAULT_RANGES": "ariel.evolution._map_elites",
+    "DEFAULT_MEASURES": "ariel.evolution._qd",
+    "DEFAULT_RANGES": "ariel.evolution._qd",
     "ERROR_LOG": "ariel.evolution._checks",
     "Int": "ariel.evolution._config",
     "LoopState": "ariel.evolution._state",
@@ -188,7 +190,7 @@ _INTERNAL: dict[str, str] = {
     "TOML_KIND": "ariel.evolution._config",
     "TYPE_ERRORS": "ariel.evolution._config",
     "apply_overrides": "ariel.evolution._config",
-    "archive_quality": "ariel.evolution._map_elites",
+    "archive_quality": "ariel.evolution._qd",
     "body_spec": "ariel.evolution._tasks",
     "budget": "ariel.evolution._driver",
     "check_body_optimizer": "ariel.evolution._optimizer_checks",

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import warnings
 
+import cma
 import numpy as np
 
 from ariel.evolution._brain import ToldHistory, ToldState, penalised_cost, replay_told
@@ -47,8 +48,6 @@ class CMAES:
     def __init__(
         self, *, x0: np.ndarray, popsize: int, sigma0: float, seed: int, maximise: bool
     ) -> None:
-        import cma  # lazy: heavy optional library (it imports scipy and matplotlib)
-
         self.maximise = maximise
         self.history = ToldHistory()
         options = {

@@ -109,6 +109,15 @@ class BodyConfig(_Section):
     tournament: Int = Field(default=2, ge=1)
     crossover_rate: Float = Field(default=0.5, ge=0.0, le=1.0)
 
+    @model_validator(mode="after")
+    def _generational_needs_enough_children(self) -> BodyConfig:
+        if self.survivors == "generational" and self.offspring < self.population:
+            raise ValueError(
+                f"generational survival needs offspring >= population ({self.population}), "
+                f"got offspring = {self.offspring}"
+            )
+        return self
+
 
 class BrainConfig(_Section):
     """A learner (``optimizer``, a brain optimizer; CMA-ES by default) for each new body.

@@ -30,6 +30,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.spatial import KDTree
 
 from ariel.evolution._seeds import derive_rng
 
@@ -75,8 +76,6 @@ def unit_centroids(seed: int, cells: int, dimensions: int) -> np.ndarray:
     the module docstring): the same for the same arguments, on any machine. Kept for the
     next call (read-only): a run makes its archive twice, when `prepare_run` checks the
     options and when the run starts."""
-    from scipy.spatial import KDTree  # lazy: heavy optional library
-
     rng = derive_rng(seed, "cvt-centroids")
     samples = rng.random((max(10_000, 20 * cells), dimensions))
     centroids = samples[np.sort(rng.choice(len(samples), cells, replace=False))]

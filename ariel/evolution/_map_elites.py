@@ -22,7 +22,8 @@ The archive describes itself (`MapElites.archive_description`: its kind, measure
 a grid's bins or a CVT's centroids); the driver records that in run.json (``archive``), and
 readers draw the archive from it.
 
-QD metrics (`archive_quality`), as pyribs' archive statistics: ``coverage`` (filled cells /
+QD metrics (`archive_quality`, in `ariel.evolution._qd` with what readers of runs need,
+without pyribs), as pyribs' archive statistics: ``coverage`` (filled cells /
 cells), ``qd_score`` (the sum over elites of how much better than ``qd_offset`` each is,
 pyribs' ``qd_score_offset``) and ``norm_qd_score`` (``qd_score`` / cells). ``qd_offset`` is a
 fitness (in the fitness's unit) that counts as nothing: 0 by default for a maximised fitness
@@ -48,95 +49,32 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, NotRequired, TypedDict
 
 import numpy as np
+from ribs.archives import CVTArchive, GridArchive
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.evolution._cvt import check_archive, in_measure_units, scaled, unit_centroids
 from ariel.evolution._ga import breed, random_proposals
 from ariel.evolution._optimizer import Proposal
+from ariel.evolution._qd import (
+    DEFAULT_MEASURES,
+    DEFAULT_RANGES,
+    archive_quality,
+    body_measures,
+    resolve_qd_offset,
+)
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body
 
 if TYPE_CHECKING:
-    from ribs.archives import CVTArchive, GridArchive
-
     from ariel.evolution._config import BodyConfig
     from ariel.plugins import BodyEncoder
 
-__all__ = [
-    "DEFAULT_RANGES",
-    "MapElites",
-    "MapElitesState",
-    "archive_quality",
-    "body_measures",
-    "elite_gain",
-    "resolve_qd_offset",
-]
-
-#: Ranges of the measures most worth mapping (others must be given).
-DEFAULT_RANGES: dict[str, tuple[float, float]] = {
-    "num_modules": (0.0, 20.0),
-    "num_hinges": (0.0, 12.0),
-    "num_bricks": (0.0, 12.0),
-    "num_limbs": (0.0, 8.0),
-    "num_core_children": (0.0, 4.0),
-    "depth": (0.0, 10.0),
-    "branching": (0.0, 1.0),
-    "joints_ratio": (0.0, 1.0),
-    "symmetry": (0.0, 1.0),
-    "n_joints": (0.0, 12.0),
-}
-
-
-def body_measures(body: Body, measures: Sequence[str]) -> list[float]:
-    """``body``'s value of each measure (a descriptor, or ``n_joints``)."""
-    values = {**body.descriptors, "n_joints": body.n_joints}
-    return [float(values.get(name, math.nan)) for name in measures]
-
-
-def resolve_qd_offset(qd_offset: object, maximise: bool) -> float:
-    """The ``qd_offset`` option checked: a finite number; 0 for a maximised fitness when not
-    given. A minimised fitness has no natural worst value, so it must be given."""
-    if qd_offset is None:
-        if maximise:
-            return 0.0
-        raise ValueError(
-            "qd_offset must be given for a minimised fitness: a fitness no elite is worse "
-            "than, which counts as nothing in the QD-score (e.g. the distance to the target "
-            "at the start)"
-        )
-    if isinstance(qd_offset, bool) or not isinstance(qd_offset, int | float):
-        raise ValueError(f"qd_offset must be a number, got {qd_offset!r}")
-    if not math.isfinite(qd_offset):
-        raise ValueError(f"qd_offset must be finite, got {qd_offset!r}")
-    return float(qd_offset)
-
-
-def elite_gain(fitness: float, qd_offset: float, maximise: bool) -> float:
-    """An elite's share of the QD-score: how much better than ``qd_offset`` it is, never < 0
-    (pyribs' objective - qd_score_offset, the objective being fitness or -fitness)."""
-    gain = fitness - qd_offset if maximise else qd_offset - fitness
-    return max(0.0, float(gain))
-
-
-def archive_quality(
-    fitness: Sequence[float], cells: int, qd_offset: float, maximise: bool
-) -> dict[str, float]:
-    """The QD metrics of an archive whose elites have ``fitness``, of ``cells`` cells:
-    ``coverage``, ``qd_score`` and ``norm_qd_score`` (see the module docstring). What the run
-    prints and what `ariel.recording.load_run` computes from the ``archive`` table."""
-    score = math.fsum(elite_gain(f, qd_offset, maximise) for f in fitness)
-    return {
-        "coverage": len(fitness) / cells,
-        "qd_score": score,
-        "norm_qd_score": score / cells,
-    }
+__all__ = ["MapElites", "MapElitesState"]
 
 
 def _check_options(
     measures: object, bins: object, ranges: object
 ) -> tuple[list[str], list[int], list[tuple[float, float]]]:
-    # Readers of runs import this module (`archive_quality`: ariel.recording's load_run)
-    # lazy: the descriptors import mujoco and with it the GL backend (ariel.utils._gl)
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     known = [*DESCRIPTOR_NAMES, "n_joints"]
     if not isinstance(measures, list | tuple) or not measures:
@@ -216,15 +154,13 @@ class MapElites:
         seed: int,
         maximise: bool,
         settings: BodyConfig,
-        measures: Sequence[str] = ("num_limbs", "joints_ratio"),
+        measures: Sequence[str] = DEFAULT_MEASURES,
         bins: Sequence[int] | None = None,
         ranges: Sequence[Sequence[float]] | None = None,
         qd_offset: float | None = None,
         archive: str = "grid",
         cells: int | None = None,
     ) -> None:
-        from ribs.archives import GridArchive  # lazy: heavy optional library (imports torch)
-
         cvt_cells = check_archive(archive, bins, cells)
         self.measures, self.bins, self.ranges = _check_options(list(measures), bins, ranges)
         self.qd_offset = resolve_qd_offset(qd_offset, maximise)
@@ -254,8 +190,6 @@ class MapElites:
 
     def _make_cvt(self, centroids: np.ndarray) -> None:
         """A CVT archive of ``centroids`` (in the unit cube), empty."""
-        from ribs.archives import CVTArchive  # lazy: heavy optional library (imports torch)
-
         self.centroids = np.array(centroids, dtype=np.float64)
         self.archive = CVTArchive(
             solution_dim=1,

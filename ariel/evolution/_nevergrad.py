@@ -16,6 +16,7 @@ import difflib
 import warnings
 from typing import TYPE_CHECKING
 
+import nevergrad as ng
 import numpy as np
 
 from ariel.evolution._brain import ToldHistory, ToldState, penalised_cost, replay_told
@@ -31,8 +32,6 @@ DEFAULT_METHOD = "TwoPointsDE"
 
 def _optimizer_class(method: object) -> OptCls:
     """``nevergrad.optimizers.registry[method]``; `ValueError` naming the closest for others."""
-    import nevergrad as ng  # lazy: heavy optional library
-
     registry = ng.optimizers.registry
     if not isinstance(method, str) or method not in registry:
         close = difflib.get_close_matches(str(method), sorted(registry), n=1)
@@ -80,8 +79,6 @@ class Nevergrad:
         method: str = DEFAULT_METHOD,
         budget: int | None = None,
     ) -> None:
-        import nevergrad as ng  # lazy: heavy optional library
-
         cls = _optimizer_class(method)
         if budget is not None and (type(budget) is not int or budget < 1):
             raise ValueError(f"budget must be a whole number of evaluations >= 1 (got {budget!r})")

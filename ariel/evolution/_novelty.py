@@ -54,10 +54,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from ribs.archives import ProximityArchive
 
 from ariel.evolution._ga import tournament_children
-from ariel.evolution._map_elites import MapElites, body_measures
+from ariel.evolution._map_elites import MapElites
 from ariel.evolution._optimizer import Proposal
+from ariel.evolution._qd import DEFAULT_MEASURES, body_measures
 from ariel.evolution._state import Body
 
 __all__ = ["NoveltySearch", "neighbour_scores", "pareto_fronts"]
@@ -203,7 +205,7 @@ class NoveltySearch:
         seed: int,
         maximise: bool,
         settings: Any,
-        measures: Sequence[str] = ("num_limbs", "joints_ratio"),
+        measures: Sequence[str] = DEFAULT_MEASURES,
         ranges: Sequence[Sequence[float]] | None = None,
         bins: Sequence[int] | None = None,
         qd_offset: float | None = None,
@@ -213,8 +215,6 @@ class NoveltySearch:
         selection: str = "novelty",
         **unknown: Any,
     ) -> None:
-        from ribs.archives import ProximityArchive  # lazy: heavy optional library (torch)
-
         if unknown:
             name = sorted(unknown)[0]
             raise TypeError(f"unknown option {name!r}; allowed: {', '.join(OPTIONS)}")

@@ -30,7 +30,7 @@ from ariel.evolution import (
     run_groups,
     shows_progress,
 )
-from ariel.recording.rerun import write_campaign_recording
+from ariel.recording import rerun  # its modules load at call time: `_write_recording`
 from ariel.recording.store import (
     CAMPAIGN_JSON,
     Campaign,
@@ -421,7 +421,7 @@ def _drive_campaign(
 def _write_recording(path: Path, *, quiet: bool) -> None:
     """campaign.rrd; after an interruption, a failure to write it is not the error to tell."""
     try:
-        write_campaign_recording(path)
+        rerun.write_campaign_recording(path)
     except Exception:
         if not quiet:
             raise

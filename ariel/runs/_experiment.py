@@ -40,8 +40,7 @@ from ariel.evolution import (
     state_from_plain,
 )
 from ariel.plugins import plugin_provenance
-from ariel.recording import Run, load_run
-from ariel.recording.rerun import RerunRecorder
+from ariel.recording import Run, load_run, rerun
 from ariel.recording.store import (
     MANIFEST_FORMAT,
     NotARunError,
@@ -146,8 +145,8 @@ def start_driver(
 ) -> RunDriver:
     """The run's driver, writing into ``folder`` (locked by the caller), marked running."""
     recorder = None
-    if config.record.rerun:
-        recorder = RerunRecorder(
+    if config.record.rerun:  # only then are the recorder's modules (and Rerun) loaded
+        recorder = rerun.RerunRecorder(
             folder.path,
             run_id=run_id,
             bodies=config.record.bodies,

@@ -139,11 +139,6 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
     _check_fitness_options(config, fitness)
     if config.body.genotype is not None and not is_genotype_file(config.body.genotype):
         check_genotype(config.body.genotype, encoder)  # a file is checked as it is read
-    if config.body.survivors == "generational" and config.body.offspring < config.body.population:
-        raise ConfigError(
-            f"body.offspring: generational survival needs offspring >= population "
-            f"({config.body.population}), got {config.body.offspring}"
-        )
     maximise = bool(fitness.maximise)
     optimizer = _optimizer_factory(config, encoder, maximise)
     _check_brain_optimizer(config, maximise)

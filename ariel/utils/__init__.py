@@ -22,6 +22,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         ensure_headless_gl as ensure_headless_gl,
         gl_backend_error as gl_backend_error,
         has_display as has_display,
+        mujoco_module as mujoco_module,
     )
     from ariel.utils._json import (
         nests_deeper_than as nests_deeper_than,
@@ -44,6 +45,7 @@ _INTERNAL: dict[str, str] = {
     "has_display": "ariel.utils._gl",
     "in_notebook_kernel": "ariel.utils._notebook",
     "load_run_command": "ariel.utils._commands",
+    "mujoco_module": "ariel.utils._gl",
     "nests_deeper_than": "ariel.utils._json",
     "python_command": "ariel.utils._commands",
     "replace_non_finite": "ariel.utils._json",

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import sys
+from types import ModuleType
 from typing import TYPE_CHECKING
 
 from ariel.errors import GLBackendError
@@ -36,6 +37,7 @@ __all__ = [
     "ensure_headless_gl",
     "gl_backend_error",
     "has_display",
+    "mujoco_module",
 ]
 
 NO_GL_MESSAGE = (
@@ -123,6 +125,15 @@ def gl_backend_error(exc: BaseException) -> GLBackendError | None:
     return _no_gl_error(exc, importing=True)
 
 
+def mujoco_module() -> ModuleType:
+    """``mujoco``, imported on the first call: for modules that a light path loads, which must
+    not choose the GL backend at their import (``MUJOCO_GL`` is read when mujoco is first
+    imported; the commands that render set it before they call into such a module)."""
+    import mujoco  # lazy: MUJOCO_GL is read when mujoco is first imported: chosen before this
+
+    return mujoco
+
+
 def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """Create a ``mujoco.Renderer`` of ``width`` x ``height`` pixels, headless-friendly.
 
@@ -131,8 +142,7 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
     model is left as it was. Raises a one-line `GLBackendError` (a ``RuntimeError``) when no
     OpenGL backend works.
     """
-    import mujoco  # lazy: MUJOCO_GL is read when mujoco is first imported: chosen before this
-
+    mujoco = mujoco_module()
     if not (isinstance(width, int) and isinstance(height, int)) or width <= 0 or height <= 0:
         raise ValueError(
             f"image size must be positive integers, got width={width!r}, height={height!r}"

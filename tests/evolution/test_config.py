@@ -163,3 +163,13 @@ def test_a_stored_config_from_before_settle_reads_as_settle_zero_with_its_old_ha
     text = json.dumps(stored, sort_keys=True, separators=(",", ":"))
     assert config_hash(config) == hashlib.sha256(text.encode()).hexdigest()
     assert config_hash(config) != config_hash(load_config({}))
+
+
+def test_a_cross_field_rule_is_the_config_s_own_generational_needs_enough_children() -> None:
+    # No plugin is made: the config itself refuses it, so an ExperimentConfig is valid or none.
+    with pytest.raises(ConfigError) as caught:
+        load_config(overrides=['body.survivors="generational"', "body.offspring=2"])
+    assert str(caught.value) == (
+        "body: generational survival needs offspring >= population (8), got offspring = 2"
+    )
+    assert load_config(overrides=['body.survivors="generational"', "body.offspring=8"])

@@ -14,6 +14,7 @@ if TYPE_CHECKING:
 __all__ = [
     "ALLOWED_FACES",
     "ALLOWED_ROTATIONS",
+    "DESCRIPTOR_NAMES",
     "IDX_OF_CORE",
     "NUM_OF_FACES",
     "NUM_OF_ROTATIONS",
@@ -66,6 +67,23 @@ IDX_OF_CORE = 0
 NUM_OF_TYPES_OF_MODULES = len(ModuleType)
 NUM_OF_FACES = len(ModuleFaces)
 NUM_OF_ROTATIONS = len(ModuleRotationsIdx)
+
+#: The morphological descriptors of a body (`descriptors.morphology_descriptors`), in order:
+#: here, where reading them (the bodies table's columns) imports neither mujoco nor networkx.
+DESCRIPTOR_NAMES: tuple[str, ...] = (
+    "num_modules",
+    "num_hinges",
+    "num_bricks",
+    "num_limbs",
+    "num_core_children",
+    "depth",
+    "branching",
+    "joints_ratio",
+    "symmetry",
+    "extent_x",
+    "extent_y",
+    "extent_z",
+)
 
 # Faces a module may use as a parent. The core's TOP/BOTTOM are excluded; a brick's BACK is
 # where it is itself attached; a hinge only grows from its rotor's FRONT.

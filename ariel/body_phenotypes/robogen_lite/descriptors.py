@@ -12,6 +12,7 @@ import networkx as nx
 import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.config import (
+    DESCRIPTOR_NAMES,
     IDX_OF_CORE,
     ModuleFaces,
     ModuleRotationsTheta,
@@ -38,20 +39,6 @@ from ariel.body_phenotypes.robogen_lite.modules.hinge import (
 
 __all__ = ["DESCRIPTOR_NAMES", "morphology_descriptors"]
 
-DESCRIPTOR_NAMES: tuple[str, ...] = (
-    "num_modules",
-    "num_hinges",
-    "num_bricks",
-    "num_limbs",
-    "num_core_children",
-    "depth",
-    "branching",
-    "joints_ratio",
-    "symmetry",
-    "extent_x",
-    "extent_y",
-    "extent_z",
-)
 
 # A mirror image (in a vertical plane) swaps a module's LEFT and RIGHT faces; the others stay.
 _MIRROR_FACE = {

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.stats import bootstrap, mannwhitneyu
 
 from ariel.recording.analysis._compare_samples import (
     Design as Design,
@@ -103,8 +104,6 @@ def _rng() -> np.random.Generator:
 def median_band(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Median over the rows (seeds) of ``values`` (seeds x points) and its 95 % bootstrap
     band, per column; the band is NaN where fewer than 2 seeds have a value."""
-    from scipy.stats import bootstrap  # lazy: heavy optional library
-
     values = np.asarray(values, dtype=np.float64)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: NaN, as meant
@@ -137,8 +136,6 @@ def median_difference_ci(
     """95 % bootstrap CI of median(a) - median(b): each sample resampled on its own, or, where
     ``paired`` (``a`` and ``b`` in step, seed by seed), the seeds resampled together. NaN when
     either has fewer than 2 values."""
-    from scipy.stats import bootstrap  # lazy: heavy optional library
-
     if len(a) < 2 or len(b) < 2:
         return math.nan, math.nan
     with warnings.catch_warnings():
@@ -162,8 +159,6 @@ def a12(a: np.ndarray, b: np.ndarray, *, maximise: bool) -> float:
     From the Mann-Whitney U of ``a`` (pairs with a > b, ties half): U / (n_a n_b) when higher
     is better, 1 minus it when lower is.
     """
-    from scipy.stats import mannwhitneyu  # lazy: heavy optional library
-
     if len(a) == 0 or len(b) == 0:
         return math.nan
     u = float(mannwhitneyu(a, b, alternative="two-sided").statistic)

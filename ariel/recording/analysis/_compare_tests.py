@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.stats import chi2, friedmanchisquare, kruskal, mannwhitneyu, wilcoxon
 
 from ariel.recording.analysis._compare_samples import Sample, as_sample, paired_values
 
@@ -36,16 +37,12 @@ def _no_evidence(p: float) -> float:
 
 
 def _mann_whitney_p(a: np.ndarray, b: np.ndarray) -> float:
-    from scipy.stats import mannwhitneyu  # lazy: heavy optional library
-
     if len(a) == 0 or len(b) == 0:
         return math.nan
     return _no_evidence(float(mannwhitneyu(a, b, alternative="two-sided").pvalue))
 
 
 def _wilcoxon_p(x: np.ndarray, y: np.ndarray) -> float:
-    from scipy.stats import wilcoxon  # lazy: heavy optional library
-
     differences = x - y
     if len(differences) == 0:
         return math.nan
@@ -86,8 +83,6 @@ def min_p_friedman(conditions: int, blocks: int) -> float:
     degrees of freedom): at its largest statistic, n (k - 1), every seed ranking the
     conditions the same way. (The exact permutation test's smallest p, 1 / (k!)^(n - 1),
     differs: above it for k = 3, n = 2, below it for larger k or n.)"""
-    from scipy.stats import chi2  # lazy: heavy optional library
-
     if conditions < 3 or blocks < 1:
         return math.nan
     return float(chi2.sf(blocks * (conditions - 1), conditions - 1))
@@ -114,8 +109,6 @@ def max_kruskal_h(sizes: Sequence[int]) -> float:
 def min_p_kruskal(sizes: Sequence[int]) -> float:
     """The smallest p of the Kruskal-Wallis test as scipy computes it (chi-square with k - 1
     degrees of freedom) at `max_kruskal_h`."""
-    from scipy.stats import chi2  # lazy: heavy optional library
-
     sizes = [n for n in sizes if n > 0]
     if len(sizes) < 2:
         return math.nan
@@ -151,8 +144,6 @@ def omnibus_test(
 ) -> dict[str, Any] | None:
     """For more than two conditions: Friedman on the seeds every condition has (``paired``),
     else Kruskal-Wallis on all runs; None for two or fewer. ``n``: seeds (blocks) or runs."""
-    from scipy.stats import friedmanchisquare, kruskal  # lazy: heavy optional library
-
     found = {name: as_sample(s) for name, s in samples.items()}
     if len(found) < 3:
         return None

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.errors import RunStorageError
 from ariel.evaluation import default_workers
 from ariel.recording.analysis import _gallery_render
@@ -181,8 +182,6 @@ def _command(run: Run, eval_id: str) -> str:
 
 
 def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> GalleryBody:
-    # lazy: imports mujoco, which reads MUJOCO_GL when imported (`ariel gallery` sets it first)
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     body = pick.body
     descriptors = {}

@@ -34,7 +34,7 @@ import numpy as np
 from ariel.errors import ArielError
 from ariel.recording.rerun import three_quarter_view
 from ariel.recording.store import Run, atomic_write, cannot_write, load_run
-from ariel.utils import gl_backend_error
+from ariel.utils import gl_backend_error, mujoco_module
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -94,7 +94,7 @@ def cached_thumbnail(path: Path) -> bytes | None:
 
 def gl_problem() -> str | None:
     """Why nothing can be drawn here (`create_renderer`'s one line, e.g. no EGL), or None."""
-    import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
+    mujoco = mujoco_module()
 
     from ariel.utils import renderers  # lazy: imports mujoco (as above)
 
@@ -134,7 +134,7 @@ class _Painter:
     """One GL context (``mujoco.GLContext``) for many thumbnails; see the module docstring."""
 
     def __init__(self, size: int = THUMBNAIL_SIZE) -> None:
-        import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
+        mujoco = mujoco_module()
 
         self.size = size
         try:
@@ -147,7 +147,7 @@ class _Painter:
 
     def paint(self, built: Any) -> np.ndarray:
         """The RGB pixels (``size`` x ``size`` x 3) of ``built``'s start pose."""
-        import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
+        mujoco = mujoco_module()
 
         model, size = built.model, self.size
         camera = mujoco.MjvCamera()
@@ -184,7 +184,7 @@ def _view(built: Any, data: Any) -> dict[str, Any]:
     aimed at the middle of the robot's box and sized to it (the report aims at the centre of
     mass, which a heavy core pulls aside, and sizes by the descriptors, which do not know the
     settled pose)."""
-    import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel gallery` sets it first)
+    mujoco = mujoco_module()
 
     model = built.model
     mujoco.mj_resetData(model, data)

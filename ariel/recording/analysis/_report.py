@@ -32,8 +32,8 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.recording.analysis._gallery import add_report_gallery
-from ariel.recording.analysis._report_archive import archive_figure
 from ariel.recording.analysis._report_best import _body_image, _trajectory_figures
 from ariel.recording.analysis._report_figures import (
     _cannot_write,
@@ -42,7 +42,6 @@ from ariel.recording.analysis._report_figures import (
     _save,
     _title,
 )
-from ariel.recording.analysis._report_lineage import lineage_figure
 from ariel.recording.store import (
     DESCRIPTORS,
     QD_COLUMNS,
@@ -162,8 +161,6 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
 
 
 def _morphology_figure(report: Report) -> None:
-    # lazy: imports mujoco, which reads MUJOCO_GL when imported (`ariel report` sets it first)
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     run = report.run
     if run.brain_only:
@@ -250,10 +247,13 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
         report.folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise _cannot_write(exc, report.folder, report) from exc
+    # lazy: they import matplotlib, PIL and scipy at their tops (a report being drawn)
+    from ariel.recording.analysis import _report_archive, _report_lineage
+
     _fitness_figure(report, maximise)
     _morphology_figure(report)
-    archive_figure(report, maximise, render=render, figure=_figure, save=_save)
-    lineage_figure(report, maximise, figure=_figure, save=_save, render=render)
+    _report_archive.archive_figure(report, maximise, render=render, figure=_figure, save=_save)
+    _report_lineage.lineage_figure(report, maximise, figure=_figure, save=_save, render=render)
     add_report_gallery(report, render)
     if report.best is None:
         report.notes.append("trajectory.png, joints.png, best_body.png: no evaluation succeeded")

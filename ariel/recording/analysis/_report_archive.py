@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from scipy.spatial import KDTree
 
 from ariel.recording.rerun import CvtCells, archive_cells, archive_grid, three_quarter_view
 from ariel.recording.store import (
@@ -22,6 +23,7 @@ from ariel.recording.store import (
     fitness_label,
     integer_ticks,
 )
+from ariel.utils import mujoco_module
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -50,7 +52,7 @@ def _grid(archive: pd.DataFrame, maximise: bool) -> np.ndarray:
 
 def _thumbnail(run: Run, body_id: str) -> Image.Image:
     """The rendered start pose of ``body_id``'s best evaluation."""
-    import mujoco  # lazy: reads MUJOCO_GL when imported (`ariel report` sets it first)
+    mujoco = mujoco_module()
 
     from ariel.evaluation import build  # lazy: imports mujoco (as above)
     from ariel.recording.resim import replay_task  # lazy: slow (~0.6 s: the engine, networkx)
@@ -76,8 +78,6 @@ def _cvt(
     cells, the regions nearest to each centroid in the measures scaled to [0, 1] (as the run
     placed bodies), coloured by their elite's fitness (blank: empty); with more, whose cells
     do not lie flat, only its centroids, coloured (hollow: empty). Centroids are dots."""
-    from scipy.spatial import KDTree  # lazy: heavy optional library
-
     cells = archive_cells(archive.to_dict("records"), description)
     assert isinstance(cells, CvtCells)  # description["kind"] == "cvt" (archive_figure checks)
     low, high = cells.ranges[:, 0], cells.ranges[:, 1]

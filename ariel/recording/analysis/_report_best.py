@@ -15,6 +15,7 @@ from ariel.errors import DamagedRunError
 from ariel.recording.analysis._report_figures import _DPI, _figure, _run_title, _save, _title
 from ariel.recording.rerun import joint_labels, three_quarter_view
 from ariel.recording.store import Run
+from ariel.utils import mujoco_module
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -81,12 +82,12 @@ def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
     # Reading the run's tables imported mujoco, with the GL backend MUJOCO_GL named then
     # (`ariel report` sets egl first where no display is set, unless --no-render); a backend
     # that fails leaves the image out, with create_renderer's one-line reason as the note.
-    # lazy: mujoco (and build, single_frame_renderer, which import it) only after MUJOCO_GL is set
-    import mujoco
-
-    from ariel.evaluation import build  # lazy: imports mujoco (see above)
+    # lazy: build and single_frame_renderer import mujoco: only after MUJOCO_GL is set
+    from ariel.evaluation import build
     from ariel.recording.resim import replay_task  # lazy: slow (~0.6 s: the engine, networkx)
     from ariel.utils.renderers import single_frame_renderer  # lazy: imports mujoco (see above)
+
+    mujoco = mujoco_module()
 
     best = report.best
     assert best is not None

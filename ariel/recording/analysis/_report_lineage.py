@@ -14,6 +14,9 @@ in red. Thumbnails of the founders of that ancestry (left of the tree) and of th
 ``RUN/gallery/thumbnails/`` (`body_thumbnails`); with rendering off or without OpenGL the
 figure is drawn without them and one note says why. Left out for a brain-only run (one fixed
 body).
+
+Matplotlib and PIL are imported at the top: `make_report` imports this module only when it
+draws.
 """
 
 from __future__ import annotations
@@ -24,6 +27,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Normalize
+from matplotlib.lines import Line2D
+from matplotlib.offsetbox import AnnotationBbox, OffsetImage, TextArea, VPacker
+from PIL import Image
 
 from ariel.errors import DamagedRunError
 from ariel.recording.analysis._gallery import body_thumbnails
@@ -153,9 +161,6 @@ def _draw(
     best: int | None,
     run: Run,
 ) -> None:
-    from matplotlib.collections import LineCollection  # lazy: heavy optional library
-    from matplotlib.lines import Line2D  # lazy: heavy optional library
-
     last = run.generations_done - 1
     spans = _spans(frame, last)
     chain = {best, *_ancestors(best, parents)} if best is not None else set()
@@ -213,8 +218,6 @@ def _nodes(
     run: Run,
 ) -> None:
     """The bodies as dots coloured by fitness (bright: better); a failed one grey."""
-    from matplotlib.colors import Normalize  # lazy: heavy optional library
-
     fitness = dict(zip(frame["id"].astype(int), frame["fitness"].astype(float)))
     origin = dict(zip(frame["id"].astype(int), frame["origin_time"].astype(int)))
     ids = list(rows)
@@ -296,8 +299,6 @@ def _pictures(
     if not render:
         report.notes.append(f"{LINEAGE_PNG}: thumbnails left out (rendering off)")
         return {}
-    from PIL import Image  # lazy: heavy optional library
-
     names = dict(zip(frame["id"].astype(int), frame["body_id"].astype(str)))
     founders = [i for i in sorted(_ancestors(best, parents)) if not parents[i]]
     if len(founders) > _MOST_FOUNDERS:
@@ -333,9 +334,6 @@ def _place_pictures(
     """Each thumbnail beside the tree, tied to its dot by a red line: the founders' left of
     it, the best body's right of it, each at its body's row (founders moved apart as needed).
     The x axis is widened to make the room; its ticks stay on the generations."""
-    # lazy: heavy optional library
-    from matplotlib.offsetbox import AnnotationBbox, OffsetImage, TextArea, VPacker
-
     drawn.draw_without_rendering()  # the constrained layout: the axes' size in inches
     box = axes.get_position()
     width, height = box.width * drawn.get_figwidth(), box.height * drawn.get_figheight()

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.recording.rerun._chunks import rerun_module
+
 if TYPE_CHECKING:
     from rerun import Points2D, Tensor
     from rerun.blueprint import View
@@ -108,7 +110,7 @@ def _colours(fitness: np.ndarray) -> np.ndarray:
 
 
 def _points(cells: CvtCells) -> Points2D:
-    import rerun as rr  # lazy: heavy optional library
+    rr = rerun_module()
 
     count = len(cells.fitness)
     radius = 0.4 / (math.sqrt(count) if cells.centroids.shape[1] > 1 else count)
@@ -129,7 +131,7 @@ def _points(cells: CvtCells) -> Points2D:
 def archive_image(archive: np.ndarray | CvtCells) -> Points2D | Tensor:
     """An archive of one generation as ``run.rrd`` logs it at ``/archive``: a grid's tensor
     (NaN: empty), a CVT's points."""
-    import rerun as rr  # lazy: heavy optional library
+    rr = rerun_module()
 
     return _points(archive) if isinstance(archive, CvtCells) else rr.Tensor(archive)
 
@@ -144,7 +146,7 @@ def archive_shown(
     every elite's (`_EMPTY_BELOW`) and the colour scale spans them to the best elite. A CVT
     is its points (see the module docstring).
     """
-    import rerun as rr  # lazy: heavy optional library
+    rr = rerun_module()
 
     if isinstance(archive, CvtCells):
         return _points(archive) if np.isfinite(archive.fitness).any() else None
@@ -172,8 +174,8 @@ def archive_view(
     ``origin``: a tensor view (``sliced``: measure 0 across, measure 1 up, cells sharp, in
     viridis) or a 2D view of a CVT's points over the unit square. ``name``: its title; None:
     "archive: fitness (UNIT), dark: empty" (``unit``: " (m)", or "")."""
-    import rerun as rr  # lazy: heavy optional library
-    import rerun.blueprint as rrb  # lazy: heavy optional library
+    rr = rerun_module()
+    rrb = rr.blueprint
 
     empty = "grey" if kind == "cvt" else "dark"
     name = f"archive: fitness{unit}, {empty}: empty" if name is None else name

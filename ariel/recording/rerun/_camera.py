@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from ariel.utils import mujoco_module
+
 if TYPE_CHECKING:
     import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; renderers choose it first
 
@@ -22,7 +24,7 @@ class _Built(Protocol):
 
 def three_quarter_view(built: _Built, size: float) -> dict[str, Any]:
     """ "ortho-cam" overrides that frame the robot from the front-left, 30 degrees above."""
-    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; renderers choose it first
+    mujoco = mujoco_module()
 
     model = built.model
     data = mujoco.MjData(model)

@@ -112,8 +112,6 @@ def curve_chunks(
     """The chunks of one run's best-so-far curve (``x``: evaluations, ``best``: the fitness
     so far, NaN before the first) at ``/condition/<condition>/seed/<seed>``: its style (with
     ``style``) and its points with a finite value; none when it has no such point."""
-    from rerun.chunk import Chunk  # lazy: heavy optional library
-
     rr = rerun_module()
     keep = np.isfinite(best)
     if not keep.any():
@@ -125,7 +123,9 @@ def curve_chunks(
         lines = rr.SeriesLines(names=[condition], colors=[colour])
         chunks.append(static_chunk(entity, lines))
     index = [rr.TimeColumn("evaluations", sequence=x[keep])]
-    chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=best[keep])))
+    chunks.append(
+        rr.chunk.Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=best[keep]))
+    )
     return chunks
 
 

@@ -52,14 +52,17 @@ def _property_value(value: object) -> list[bool | int | float | str] | None:
 
 def _property_chunks(properties: Mapping[str, object], name: str) -> list[Chunk]:
     """The recording's name and the ``ariel`` recording property (``/__properties``)."""
-    from rerun.archetypes import RecordingInfo  # lazy: heavy optional library
-    from rerun.chunk import Chunk  # lazy: heavy optional library
+    rr = rerun_module()
 
-    chunks = [Chunk.from_columns("/__properties", [], RecordingInfo.columns(name=[name]))]
+    chunks = [
+        rr.chunk.Chunk.from_columns(
+            "/__properties", [], rr.archetypes.RecordingInfo.columns(name=[name])
+        )
+    ]
     values = {str(k): _property_value(v) for k, v in properties.items()}
     values = {k: v for k, v in values.items() if v is not None}
     if values:
-        chunks.append(Chunk.from_property("ariel", rerun_module().AnyValues(**values)))
+        chunks.append(rr.chunk.Chunk.from_property("ariel", rr.AnyValues(**values)))
     return chunks
 
 
@@ -74,6 +77,6 @@ def _one_row(*archetypes: AsComponents) -> list[ComponentColumn]:
 
 def static_chunk(path: str, *archetypes: AsComponents) -> Chunk:
     """One static chunk at ``path`` holding ``archetypes``."""
-    from rerun.chunk import Chunk  # lazy: heavy optional library
+    rr = rerun_module()
 
-    return Chunk.from_columns(path, [], _one_row(*archetypes))
+    return rr.chunk.Chunk.from_columns(path, [], _one_row(*archetypes))

@@ -221,8 +221,6 @@ def write_generation_recording(
     Returns:
         ``path``, as a `Path`.
     """
-    from rerun.chunk import Chunk  # lazy: heavy optional library
-
     rr = rerun_module()
     traces = sorted(traces, key=lambda trace: trace.eval_id)
     name = f"{run_id}/gen-{int(generation):06d}"
@@ -242,16 +240,16 @@ def write_generation_recording(
         index = [rr.TimeColumn("evaluation", sequence=np.arange(len(traces)))]
         ones = [1] * len(traces)
         text = rr.TextDocument.columns(text=[_card(t) for t in traces]).partition(ones)
-        chunks.append(Chunk.from_columns("/evaluation", index, text))
+        chunks.append(rr.chunk.Chunk.from_columns("/evaluation", index, text))
         fitness = rr.Scalars.columns(scalars=[t.fitness for t in traces])
-        chunks.append(Chunk.from_columns("/fitness", index, fitness))
+        chunks.append(rr.chunk.Chunk.from_columns("/fitness", index, fitness))
         strips = rr.LineStrips3D.columns(strips=[t.core for t in traces]).partition(ones)
-        chunks.append(Chunk.from_columns("/world/trajectory", index, strips))
+        chunks.append(rr.chunk.Chunk.from_columns("/world/trajectory", index, strips))
         for leaf in ("target", "angle"):
             chunks.append(
-                Chunk.from_columns(f"/joints/{leaf}", index, _joint_columns(traces, leaf))
+                rr.chunk.Chunk.from_columns(f"/joints/{leaf}", index, _joint_columns(traces, leaf))
             )
-        chunks.append(Chunk.from_columns("/graph", index, _graph_columns(traces)))
+        chunks.append(rr.chunk.Chunk.from_columns("/graph", index, _graph_columns(traces)))
     return _write_chunks(
         Path(path), name, chunks, fsync=False, application_id=GENERATION_APPLICATION_ID
     )

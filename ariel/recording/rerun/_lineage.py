@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ariel.recording.rerun._archive import _VIRIDIS
+from ariel.recording.rerun._chunks import rerun_module
 
 if TYPE_CHECKING:
     from rerun import AsComponents
@@ -78,7 +79,7 @@ class Lineage:
 
     def archetypes(self) -> list[AsComponents]:
         """`GraphNodes` and directed `GraphEdges` of the lineage so far."""
-        import rerun as rr  # lazy: heavy optional library
+        rr = rerun_module()
 
         ids = list(self._nodes)
         nodes = np.array(list(self._nodes.values()), dtype=np.float64).reshape(-1, 3)
@@ -97,6 +98,6 @@ class Lineage:
 
 def lineage_view() -> GraphView:
     """The graph view of `LINEAGE_ENTITY`, as the run's and the live view's layouts show it."""
-    import rerun.blueprint as rrb  # lazy: heavy optional library
+    rrb = rerun_module().blueprint
 
     return rrb.GraphView(name="lineage (bright: fitter)", origin=LINEAGE_ENTITY)

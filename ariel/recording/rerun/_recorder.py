@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 from ariel.evolution import fitness_rank
 from ariel.recording.rerun._archive import CvtCells, archive_cells, archive_grid
@@ -86,8 +87,6 @@ def generation_summary(
     ``distinct_morphologies``, see the module docstring) and the best body (``body_id``,
     ``fitness``, ``graph``; None when no body has a finite fitness).
     """
-    # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     population = [row for row in body_rows if row.get("selected")]
     fitness = np.array([float(row["fitness"]) for row in population], dtype=np.float64)

@@ -133,10 +133,10 @@ def _write_chunks(
     application_id: str = APPLICATION_ID,
 ) -> Path:
     """Write ``chunks`` as one recording whole to ``path``."""
-    from rerun.chunk import LazyChunkStream  # lazy: heavy optional library
+    rr = rerun_module()
 
     def write(temporary: Path) -> None:
-        LazyChunkStream.from_iter(chunks).write_rrd(
+        rr.chunk.LazyChunkStream.from_iter(chunks).write_rrd(
             temporary, application_id=application_id, recording_id=recording_id
         )
 
@@ -220,7 +220,7 @@ def _robot_chunks(
 ) -> list[Chunk]:
     """``/world/robot``: the boxes' world poses over ``sim_time`` (with ``transforms``, where
     ``result`` has the bodies' poses: a 3D replay), else the robot standing in its start pose."""
-    from rerun.chunk import Chunk  # lazy: heavy optional library
+    rr = rerun_module()
 
     body_pos = getattr(result, "body_pos", None)
     body_quat = getattr(result, "body_quat", None)
@@ -240,7 +240,7 @@ def _robot_chunks(
             .Boxes3D.columns(centers=centers.reshape(-1, 3), quaternions=quats.reshape(-1, 4))
             .partition([boxes] * len(times))
         )
-        return [shared.robot_sizes, Chunk.from_columns("/world/robot", sim_time, poses)]
+        return [shared.robot_sizes, rr.chunk.Chunk.from_columns("/world/robot", sim_time, poses)]
     if boxes:
         return [shared.robot_still]
     return []
@@ -255,8 +255,6 @@ def _joint_chunks(
 ) -> list[Chunk]:
     """``/joints/target`` and ``/joints/angle`` over ``sim_time``: one series per joint, named
     for people (`joint_labels`; the names' chunks are kept with the model's scene)."""
-    from rerun.chunk import Chunk  # lazy: heavy optional library
-
     rr = rerun_module()
     targets = np.asarray(result.joint_target, dtype=np.float64)
     angles = np.asarray(result.joint_angle, dtype=np.float64)
@@ -273,7 +271,7 @@ def _joint_chunks(
     chunks = list(shared.joint_names[names])
     for leaf, values in (("target", targets), ("angle", angles)):
         scalars = rr.Scalars.columns(scalars=values.ravel()).partition([joints] * len(times))
-        chunks.append(Chunk.from_columns(f"/joints/{leaf}", sim_time, scalars))
+        chunks.append(rr.chunk.Chunk.from_columns(f"/joints/{leaf}", sim_time, scalars))
     return chunks
 
 
@@ -336,8 +334,6 @@ def write_run_recording(
     else:
         bests = sorted(((int(b["generation"]), b) for b in best_bodies), key=lambda gb: gb[0])
     name = run_id or path.parent.name or "run"
-    from rerun.chunk import Chunk  # lazy: heavy optional library
-
     rr = rerun_module()
     chunks = _property_chunks(dict(properties or {}), name)
     index = [rr.TimeColumn("generation", sequence=generation)]
@@ -345,7 +341,9 @@ def write_run_recording(
         if column in columns and len(generation):
             values = np.asarray(generations_df[column], dtype=np.float64)
             chunks.append(static_chunk(entity, rr.SeriesLines(names=[column.replace("_", " ")])))
-            chunks.append(Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=values)))
+            chunks.append(
+                rr.chunk.Chunk.from_columns(entity, index, rr.Scalars.columns(scalars=values))
+            )
     if len(generation):
         chunks += run_summary_chunks(generations_df)
     if bests:
@@ -354,18 +352,20 @@ def write_run_recording(
             f"{body.get('body_id', '')}: {float(body.get('fitness', math.nan)):.6g}"
             for _, body in bests
         ]
-        chunks.append(Chunk.from_columns("/best/body", gens, rr.TextDocument.columns(text=texts)))
+        chunks.append(
+            rr.chunk.Chunk.from_columns("/best/body", gens, rr.TextDocument.columns(text=texts))
+        )
         for gen, body in bests:  # one row each: graphs differ in size
             graph = graph_archetypes(body["graph"]) if body.get("graph") else []
             if graph:
                 at = [rr.TimeColumn("generation", sequence=[gen])]
-                chunks.append(Chunk.from_columns("/best/graph", at, _one_row(*graph)))
+                chunks.append(rr.chunk.Chunk.from_columns("/best/graph", at, _one_row(*graph)))
     for gen, grid in sorted((archives or {}).items()):
         at = [rr.TimeColumn("generation", sequence=[int(gen)])]
-        chunks.append(Chunk.from_columns("/archive", at, _one_row(archive_image(grid))))
+        chunks.append(rr.chunk.Chunk.from_columns("/archive", at, _one_row(archive_image(grid))))
     for gen, graph in sorted((lineage or {}).items()):  # one row each: the graph grows
         at = [rr.TimeColumn("generation", sequence=[int(gen)])]
-        chunks.append(Chunk.from_columns(LINEAGE_ENTITY, at, _one_row(*graph)))
+        chunks.append(rr.chunk.Chunk.from_columns(LINEAGE_ENTITY, at, _one_row(*graph)))
     return _write_chunks(path, name, chunks, fsync=fsync)
 
 
@@ -417,9 +417,9 @@ def write_view_recording(
     under the evaluation's recording id; returns its path. ``graph_json``: the body's
     morphology, drawn again as this version draws it (a recording made by an older one keeps
     its own drawing otherwise)."""
-    from rerun.chunk import RrdReader  # lazy: heavy optional library
+    rr = rerun_module()
 
-    reader = RrdReader(Path(evaluation))
+    reader = rr.chunk.RrdReader(Path(evaluation))
     (store,) = reader.recordings()[:1] or [None]
     recording_id = store.recording_id if store is not None else Path(evaluation).stem
     graph = _graph_chunk(graph_json) if graph_json else None

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ariel.recording.rerun._chunks import _CACHE_LOCK, rerun_module, static_chunk
+from ariel.utils import mujoco_module
 
 if TYPE_CHECKING:
     import mujoco
@@ -147,7 +148,7 @@ def _scene(model: mujoco.MjModel, body_names: Sequence[str]) -> _Scene:
 
 
 def _build_scene(model: mujoco.MjModel, body_names: Sequence[str]) -> _Scene:
-    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; callers choose it first
+    mujoco = mujoco_module()
 
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
@@ -191,7 +192,7 @@ def _build_scene(model: mujoco.MjModel, body_names: Sequence[str]) -> _Scene:
 
 def _robot_bodies(model: mujoco.MjModel, body_names: Sequence[str]) -> list[int]:
     """The model's body ids of ``body_names``; `ValueError` for one it does not have."""
-    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; callers choose it first
+    mujoco = mujoco_module()
 
     body_index = {
         mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or "": b for b in range(model.nbody)
@@ -227,7 +228,7 @@ def _world(
     """The world: everything but the robot, as static chunks, and its heightfields. Boxes (and
     planes, as thin boxes) form one batch at /world, with the view coordinates: one chunk for
     a flat floor or a whole arena."""
-    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; callers choose it first
+    mujoco = mujoco_module()
 
     rr = rerun_module()
     world_boxes: dict[str, list[object]] = {
@@ -312,7 +313,7 @@ def _round_shape(
 ) -> AsComponents | None:
     """A world geom of a round ``kind`` (sphere, ellipsoid, capsule, cylinder) as Rerun draws
     it; None for another kind (meshes: not drawn)."""
-    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; callers choose it first
+    mujoco = mujoco_module()
 
     rr = rerun_module()
     kinds = mujoco.mjtGeom

@@ -26,18 +26,28 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         replay as replay,
         replay_task as replay_task,
     )
+    from ariel.recording.resim._replay_video import (
+        drive_replay as drive_replay,
+        replay_video as replay_video,
+    )
+    from ariel.recording.resim._replay_window import (
+        play_replay as play_replay,
+    )
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
     "ExportedRobot": "ariel.recording.resim._exported",
     "ReplayResult": "ariel.recording.resim._replay",
     "UnknownEvaluationError": "ariel.recording.resim._replay",
+    "drive_replay": "ariel.recording.resim._replay_video",
     "export": "ariel.recording.resim._export",
     "has_body_poses": "ariel.recording.resim._replay",
     "load_exported": "ariel.recording.resim._exported",
     "on_demand_recording": "ariel.recording.resim._replay",
+    "play_replay": "ariel.recording.resim._replay_window",
     "replay": "ariel.recording.resim._replay",
     "replay_task": "ariel.recording.resim._replay",
+    "replay_video": "ariel.recording.resim._replay_video",
 }
 
 __getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

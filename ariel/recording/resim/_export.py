@@ -26,6 +26,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ariel import evaluation
 from ariel.errors import ArielError
 from ariel.plugins import body_encoders, worlds
 from ariel.recording import store
@@ -92,9 +93,6 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     `ExportError` for a non-empty ``out`` or a body that could not be built, and
     `MissingPluginError` when a plugin the body or world needs is not installed here.
     """
-    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.evaluation import SPAWN_PREFIX
-
     out = Path(out)
     if out.is_symlink():
         raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
@@ -139,7 +137,7 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
         "fitness": float(row["fitness"]),
         "core_end": _recorded_core(run, row),
     }
-    script = _SCRIPT.format(core=SPAWN_PREFIX + "core")  # the same for every export
+    script = _SCRIPT.format(core=evaluation.SPAWN_PREFIX + "core")  # the same for every export
     texts = {
         "body.xml": xml,
         "genotype.json": json.dumps(genotype, indent=1) + "\n",
@@ -203,11 +201,8 @@ def _recorded_core(run: Run, row: dict[str, Any]) -> list[float] | None:
 
 def _world_spec(task: EvaluationTask) -> mujoco.MjSpec:
     """``task``'s body spawned in its world: the `mujoco.MjSpec` that `build` compiles."""
-    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.evaluation import make_plugin, robot_module
-
-    encoder = make_plugin(body_encoders, task.body.encoder, task.body.options)
-    world = make_plugin(worlds, task.world, task.world_options)
-    core, _ = robot_module(encoder, task.body.genotype)
+    encoder = evaluation.make_plugin(body_encoders, task.body.encoder, task.body.options)
+    world = evaluation.make_plugin(worlds, task.world, task.world_options)
+    core, _ = evaluation.robot_module(encoder, task.body.genotype)
     world.spawn(core.spec, position=task.spawn_position, rotation=task.spawn_rotation)
     return world.spec

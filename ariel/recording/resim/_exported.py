@@ -9,6 +9,9 @@ as the evaluation engine records them), and `ExportedRobot.replayed_fitness` sco
 with that function: the recorded fitness again. The folder is data: only its two JSON files
 are read, and its run id and evaluation id must have their shapes (`_ids`: one line
 otherwise).
+
+This module imports mujoco (which reads its GL backend, ``MUJOCO_GL``, when first imported):
+ARIEL reaches it at call time only, through `ariel.recording.load_exported`.
 """
 
 from __future__ import annotations
@@ -17,19 +20,19 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+import mujoco
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from_graph
 from ariel.errors import DamagedRunError
+from ariel.evaluation import SPAWN_PREFIX, TrajectoryRecord, frame_steps
 from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
 from ariel.recording.store import check_eval_id, check_run_id, json_data, one_line
+from ariel.simulation.controllers.controller import Controller
 from ariel.simulation.controllers.observations import hinge_observation
-
-if TYPE_CHECKING:
-    import mujoco
-
-    from ariel.simulation.controllers.controller import Controller
+from ariel.simulation.settle import settle_model
 
 __all__ = ["ExportedRobot", "load_exported"]
 
@@ -98,9 +101,6 @@ class _Frames:
     def __init__(
         self, model: mujoco.MjModel, brain: dict[str, Any], target: Sequence[float] | None
     ) -> None:
-        # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
-        from ariel.evaluation import SPAWN_PREFIX, frame_steps
-
         self.model = model
         self.dt = model.opt.timestep
         self.nstep = max(1, round(float(brain["duration"]) / self.dt))
@@ -125,11 +125,6 @@ class _Frames:
         self.rows[step] = (core, data.ctrl.copy(), data.qpos[self.joint_qpos].copy())
 
     def fitness(self, data: mujoco.MjData) -> float:
-        # lazy: mujoco loads its GL backend (MUJOCO_GL) on import; the caller's chose it
-        import mujoco
-
-        from ariel.evaluation import TrajectoryRecord  # lazy: imports mujoco (as above)
-
         kept = self.rows.keys() | {self.nstep}
         if round(data.time / self.dt) != self.nstep or not set(self.wanted.tolist()) <= kept:
             raise ValueError(
@@ -192,15 +187,6 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         print(robot.replayed_fitness(), robot.fitness)  # the recorded fitness again
         ```
     """
-    # lazy: mujoco loads its GL backend (MUJOCO_GL) on import, and these modules import it
-    import mujoco
-
-    from ariel.body_phenotypes.robogen_lite.constructor import (  # lazy: as above
-        construct_mjspec_from_graph,
-    )
-    from ariel.simulation.controllers.controller import Controller  # lazy: as above
-    from ariel.simulation.settle import settle_model  # lazy: as above
-
     folder = Path(folder)
     body, brain = (_read(folder, name) for name in ("genotype.json", "controller.json"))
     eval_id = check_eval_id(brain.get("eval_id"), folder)

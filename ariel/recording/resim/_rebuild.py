@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel import evaluation
 from ariel.errors import DamagedRunError, MissingPluginError, UnknownEvaluationError
 from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record_steps, shipped_body
 from ariel.plugins import REGISTRIES, body_encoders, controllers
@@ -25,7 +26,7 @@ from ariel.recording.store import (
     short_ascii,
     software_versions,
 )
-from ariel.utils import load_run_command
+from ariel.utils import load_run_command, mujoco_module
 
 if TYPE_CHECKING:
     import mujoco
@@ -53,6 +54,9 @@ _PLUGIN_KEYS = {
 def _require_plugins(run: Run) -> None:
     """`MissingPluginError`, one line, for the first of the run's plugins not installed here
     (reading a run needs none of them; re-simulating it needs all)."""
+    # The built-in plugins load mujoco: import it first, so that a GL backend that cannot
+    # load (MUJOCO_GL) fails as itself (`gl_backend_error`), not as a plugin not installed.
+    mujoco_module()
     for kind, (section, key) in _PLUGIN_KEYS.items():
         name = run.config.get(section, {}).get(key)
         if not isinstance(name, str):
@@ -159,10 +163,7 @@ def _check_params(
 ) -> None:
     """`DamagedRunError` naming the evaluation, the number of parameters its row holds and the
     number its body's controller needs, where the two differ (a changed table)."""
-    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.evaluation import make_plugin
-
-    controller = make_plugin(controllers, task.controller, task.controller_options)
+    controller = evaluation.make_plugin(controllers, task.controller, task.controller_options)
     needed = controller.num_parameters(model)
     if params is not None and len(params) == needed:
         return
@@ -193,13 +194,10 @@ def replay_task(
     it (to draw the body), parameters that are not a list of finite numbers are left out.
     A genotype or graph cell that is not JSON is `DamagedRunError` either way.
     """
-    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.evaluation import BodyBuildError, BodySpec, build
-
     config = ExperimentConfig.from_plain(run.config)
     encoder = config.body.encoder
     if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
-        spec = BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
+        spec = evaluation.BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
     else:
         genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
         spec = shipped_body(config, body_spec(config, genotype))
@@ -209,9 +207,9 @@ def replay_task(
     }
     params = _row_params(row)
     # An error row's body cannot be built: evaluating its task gives the same error again.
-    with contextlib.suppress(BodyBuildError):
+    with contextlib.suppress(evaluation.BodyBuildError):
         shape = evaluation_task(config, spec)
-        model = build(shape).model
+        model = evaluation.build(shape).model
         fields["record_every"] = record_steps(config, model.opt.timestep)
         if check_params:
             _check_params(run, row, shape, model, params)
@@ -219,17 +217,15 @@ def replay_task(
 
 
 def _evaluate_as_stored(task: EvaluationTask, backend: object) -> EvaluationResult:
-    """Evaluate ``task`` on the simulator the row names where it is here, else the CPU engine."""
-    # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.evaluation import evaluate
+    """Evaluate ``task`` on the simulator the row names where it is here, else the CPU engine.
 
+    The engine (`ariel.evaluation`, which imports mujoco) is reached at call time: mujoco
+    reads its GL backend (MUJOCO_GL) on import, which the cli chooses first where it renders."""
     prefix = "mujoco-warp:"
     if isinstance(backend, str) and backend.startswith(prefix):
-        from ariel.evaluation import WarpEvaluator, WarpUnavailableError  # lazy: as above
-
         try:
-            evaluator = WarpEvaluator(backend[len(prefix) :])
-        except (WarpUnavailableError, ValueError):  # not installed, no such device, unknown
-            return evaluate(task)
+            evaluator = evaluation.WarpEvaluator(backend[len(prefix) :])
+        except (evaluation.WarpUnavailableError, ValueError):  # not installed, no such device
+            return evaluation.evaluate(task)
         return evaluator.evaluate_batch([task])[0]
-    return evaluate(task)
+    return evaluation.evaluate(task)

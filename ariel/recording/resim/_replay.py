@@ -26,17 +26,16 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
-import tempfile
-import time
-from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel import evaluation
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.errors import MissingPluginError, UnknownEvaluationError
+from ariel.recording import resim
 from ariel.recording.rerun import write_evaluation_recording
 from ariel.recording.resim._rebuild import (
     BEST as BEST,
@@ -55,8 +54,6 @@ from ariel.recording.store import (
     recording_path,
     refuse_symlinks,
 )
-from ariel.utils import has_display
-from ariel.utils.video_recorder import VideoRecorder
 
 if TYPE_CHECKING:
     import mujoco
@@ -154,10 +151,7 @@ class ReplayResult:
     @property
     def model(self) -> mujoco.MjModel:
         """The compiled body in its world (`ariel.evaluation.build`); raises for an error body."""
-        # lazy: MuJoCo, after the GL backend (MUJOCO_GL) is chosen (see cli)
-        from ariel.evaluation import build
-
-        return build(self.task).model
+        return evaluation.build(self.task).model
 
     # -- full-rate re-simulation ---------------------------------------------------------------
 
@@ -169,11 +163,8 @@ class ReplayResult:
         look at more than the first and last frame.
         """
         if self._full_rate is None:
-            # lazy: ariel.evaluation imports mujoco, which loads its GL backend (MUJOCO_GL)
-            from ariel.evaluation import evaluate
-
             dense = replace(self.task, record_every=1, record_bodies=True)
-            self._full_rate = evaluate(dense)
+            self._full_rate = evaluation.evaluate(dense)
         return self._full_rate
 
     def controls(self) -> np.ndarray:
@@ -236,86 +227,24 @@ class ReplayResult:
     def write_video(
         self, path: str | Path, *, width: int = 640, height: int = 480, fps: int = 30
     ) -> Path:
-        """An MP4 of the replay, filmed by a camera that tracks the robot's core."""
-        # mujoco is imported already (the replay simulated), so it renders with the backend
-        # MUJOCO_GL named then (`ariel replay --video` sets egl first where no display is set;
-        # setting it now would be ignored); one that fails is create_renderer's one line.
-        import mujoco  # lazy: the GL backend is chosen first (see above)
+        """An MP4 of the replay, filmed by a camera that tracks the robot's core.
 
-        from ariel.evaluation import SPAWN_PREFIX  # lazy: imports mujoco (as above)
-        from ariel.utils.renderers import tracking_video_renderer  # lazy: imports mujoco
-
-        self._need_body("a video")
-        model = self.model
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".replay-") as scratch:
-            recorder = VideoRecorder(
-                "replay", output_folder=scratch, width=width, height=height, fps=fps
-            )
-            with self.driven(model):
-                tracking_video_renderer(
-                    model,
-                    mujoco.MjData(model),
-                    duration=self.task.duration,
-                    video_recorder=recorder,
-                    geom_to_track=f"{SPAWN_PREFIX}core",
-                )
-            os.replace(recorder.path, path)  # the recorder stamps its names; keep the asked one
-        return path
+        mujoco is imported already (the replay simulated), so it renders with the backend
+        ``MUJOCO_GL`` named then (`ariel replay --video` sets egl first where no display is
+        set); one that fails is `ariel.utils.create_renderer`'s one line."""
+        return resim.replay_video(self, path, width=width, height=height, fps=fps)
 
     def view(self, *, loop: bool = True) -> None:
         """Play the replay in MuJoCo's interactive viewer, in real time (needs a display)."""
-        # lazy: mujoco loads its GL backend (MUJOCO_GL) on import; the cli chose it before
-        import mujoco
-        import mujoco.viewer  # lazy: as above
+        resim.play_replay(self, loop=loop)
 
-        if not has_display():
-            raise RuntimeError("no display: the viewer needs a desktop session (DISPLAY unset)")
-        self._need_body("the viewer")
-        model = self.model
-        controls = self.controls()
-        data = mujoco.MjData(model)
-        dt = float(model.opt.timestep)
-        with mujoco.viewer.launch_passive(model, data) as viewer:
-            while viewer.is_running():
-                mujoco.mj_resetData(model, data)
-                start = time.perf_counter()
-                for k in range(controls.shape[0]):
-                    if not viewer.is_running():
-                        return
-                    data.ctrl[:] = controls[k]
-                    mujoco.mj_step(model, data)
-                    viewer.sync()
-                    ahead = (k + 1) * dt - (time.perf_counter() - start)
-                    if ahead > 0:
-                        time.sleep(ahead)
-                if not loop:
-                    return
-
-    @contextlib.contextmanager
-    def driven(self, model: mujoco.MjModel) -> Iterator[None]:
+    def driven(self, model: mujoco.MjModel) -> contextlib.AbstractContextManager[None]:
         """While inside, every ``mj_step`` of ``model`` applies this replay's controls.
 
         Sets the process-wide ``mjcb_control`` (what the tutorial renderers step with) to set
         ``ctrl`` to the control of the current physics step, and restores the previous one.
         """
-        import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import; chosen before
-
-        controls = self.controls()
-        dt = float(model.opt.timestep)
-        last = controls.shape[0] - 1
-
-        def apply(m: mujoco.MjModel, d: mujoco.MjData) -> None:
-            if m.nu:
-                d.ctrl[:] = controls[min(max(0, round(d.time / dt)), last)]
-
-        previous = mujoco.get_mjcb_control()
-        mujoco.set_mjcb_control(apply)
-        try:
-            yield
-        finally:
-            mujoco.set_mjcb_control(previous)
+        return resim.drive_replay(self, model)
 
     def _need_body(self, what: str) -> None:
         if self.stored_status == "error":
@@ -426,9 +355,6 @@ def _recorder_properties(
 ) -> dict[str, object]:
     """The properties the loop's recorder gives an evaluation's recording, from its row, and
     the replayed fitness (``replayed_fitness``, ``identical``)."""
-    # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-
     config = run.config
     stored = float(row["fitness"])
     parents = row.get("parent_ids")

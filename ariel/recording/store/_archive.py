@@ -9,12 +9,11 @@ a grid, described here from its config and its ``archive`` table, as readers dre
 
 from __future__ import annotations
 
-import inspect
 import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from ariel.evolution import DEFAULT_RANGES, MapElites
+from ariel.evolution import DEFAULT_MEASURES, DEFAULT_RANGES
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -47,8 +46,7 @@ def describe_archive(
     config = info.get("config")
     config = config if isinstance(config, Mapping) else {}
     options = config.get("body", {}).get("optimizer_options") or {}
-    default = inspect.signature(MapElites).parameters["measures"].default
-    measures = [str(m) for m in options.get("measures") or default]
+    measures = [str(m) for m in options.get("measures") or DEFAULT_MEASURES]
     ranges = options.get("ranges") or [DEFAULT_RANGES.get(m, (0.0, 1.0)) for m in measures]
     return {
         "kind": "grid",

@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.errors import DamagedRunError
 from ariel.recording.store._files import atomic_write
 
@@ -186,8 +187,6 @@ def lineage(run: Run) -> pd.DataFrame:
         write_lineage_csv(frame, "my-run-phylogeny.csv")  # or: ariel export RUN --lineage FILE
         ```
     """
-    # lazy: imports mujoco, which reads MUJOCO_GL when imported (the CLI sets it first)
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     bodies = run.bodies.sort_values("generation", kind="stable")
     done = _evaluations_done(run)

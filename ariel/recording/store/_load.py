@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 from ariel.errors import UnknownEvaluationError
 from ariel.evolution import archive_quality
@@ -240,16 +241,13 @@ class Run:
         as its own; NaN for a table without graphs).
 
         MAP-Elites runs also get the archive's QD metrics, as the run printed them
-        (`ariel.evolution._map_elites.archive_quality`): ``coverage`` (filled cells / cells),
+        (`ariel.evolution._qd.archive_quality`): ``coverage`` (filled cells / cells),
         ``qd_score`` (the sum over elites of how much better than `qd_offset` each is, never
         below 0) and ``norm_qd_score`` (``qd_score`` / cells).
 
         Then the population's mean morphology: ``mean_<descriptor>`` for each morphology
         descriptor (``mean_num_modules``, ...): its mean over the bodies the fitness columns
         describe (NaN where none has descriptors)."""
-
-        # lazy: the descriptors module loads mujoco, which a GL backend must precede
-        from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
         evaluations, bodies = self.evaluations, self.bodies
         maximise = self.maximise if len(evaluations) else True
@@ -314,7 +312,7 @@ def archive_quality_table(
     archive: Any, qd_offset: float | None, maximise: bool, description: Any = None
 ) -> Any:
     """Per generation of an ``archive`` table (`Run.archive`): the `QD_COLUMNS`, as
-    `ariel.evolution._map_elites.archive_quality` computes them in the run (QD-scores NaN
+    `ariel.evolution._qd.archive_quality` computes them in the run (QD-scores NaN
     when ``qd_offset`` is None: an old run of a minimised fitness), over the cells of
     ``description`` (`Run.archive_description`; None: the product of the ``grid`` column)."""
 

@@ -19,6 +19,8 @@ from typing import Annotated, Any, ClassVar, Self, get_type_hints
 
 import pyarrow as pa
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
+
 __all__ = [
     "COUNT_DESCRIPTORS",
     "ROWS",
@@ -89,9 +91,6 @@ Int32s = Annotated[list[int], pa.list_(pa.int32())]
 
 @cache
 def descriptor_names() -> tuple[str, ...]:
-    # lazy: the descriptors module loads mujoco, which a GL backend must precede
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-
     return DESCRIPTOR_NAMES
 
 

@@ -27,6 +27,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+import rerun as rr
+
 from ariel.errors import NotARunError, ViewError
 from ariel.recording.rerun import APPLICATION_ID
 from ariel.recording.viewer._child import _terminate, die_with_parent, rerun_binary
@@ -42,7 +44,6 @@ from ariel.recording.viewer._web import (
 from ariel.utils import has_display, in_notebook_kernel
 
 if TYPE_CHECKING:
-    import rerun as rr
     from rerun.blueprint import Blueprint
     from rerun.notebook import Viewer
 
@@ -138,8 +139,6 @@ class Watcher:
         save: str | os.PathLike[str] | None = None,
         poll_s: float = 0.5,
     ) -> None:
-        import rerun as rr  # lazy: heavy optional library
-
         _check(source, viewer, save, poll_s)
         self.source = source
         self.poll_s = float(poll_s)

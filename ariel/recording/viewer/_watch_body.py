@@ -17,18 +17,15 @@ import tempfile
 import threading
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
+import rerun as rr
+from rerun.chunk import Chunk, RrdReader
 
 from ariel.errors import UnknownEvaluationError
-from ariel.recording.rerun import rerun_module
 from ariel.recording.resim import replay
 from ariel.recording.store import NotARunError, check_eval_id, recording_path
-
-if TYPE_CHECKING:
-    import rerun as rr
-    from rerun.chunk import Chunk
 
 __all__ = ["BestBody", "fresh_chunks"]
 
@@ -37,8 +34,6 @@ def fresh_chunks(chunks: Iterable[Chunk], prefix: str) -> list[Chunk]:
     """``chunks`` moved under entity ``prefix`` with fresh row ids (newer than a `Clear`
     logged before: a recording's own row ids are as old as its file). Recording properties
     are left out."""
-    from rerun.chunk import Chunk  # lazy: heavy optional library
-
     moved: list[Chunk] = []
     for chunk in chunks:
         if chunk.entity_path.startswith("/__properties"):
@@ -56,8 +51,6 @@ def fresh_chunks(chunks: Iterable[Chunk], prefix: str) -> list[Chunk]:
 def _poses_of(path: Path) -> list[Chunk] | None:
     """The chunks of an evaluation's recording at ``path`` when it holds the bodies' poses
     over time (a 3D replay), else None (no file, an unreadable one, a robot standing still)."""
-    from rerun.chunk import RrdReader  # lazy: heavy optional library
-
     try:
         chunks = RrdReader(path).stream().to_chunks()
     except Exception:  # missing, empty after a power cut, not a recording
@@ -144,7 +137,6 @@ class BestBody:
         self._job = job
 
     def _show(self, rec: rr.RecordingStream, job: dict[str, Any]) -> bool:
-        rr = rerun_module()
         (fitness, eval_id, generation), chunks = job["best"], job.get("chunks")
         chunks = None if job.get("error") else chunks
         rec.log(self.prefix, rr.Clear(recursive=True), static=True)

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.evolution import ExperimentConfig, budget
 from ariel.recording.rerun import (
     LINEAGE_ENTITY,
@@ -92,8 +93,6 @@ def _read_generation(
     """Generation ``generation``'s tables (``evaluations``, ``bodies``, a MAP-Elites run's
     ``archive``) as DataFrames, checked against its manifest; None while it is not complete
     (no manifest yet, or its files are not what the manifest lists)."""
-    # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
-    from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
     columns = {
         "evaluations": _EVALUATION_COLUMNS,
@@ -214,8 +213,6 @@ class RunSource:
         return manifest_file(self.path, generation).is_file()
 
     def _log_static(self, rec: rr.RecordingStream) -> None:
-        # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
-        from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
         rr = rerun_module()
         for column, entity in RUN_SERIES.items():
@@ -229,8 +226,6 @@ class RunSource:
     def _log_generation(
         self, rec: rr.RecordingStream, generation: int, tables: dict[str, pd.DataFrame]
     ) -> None:
-        # lazy: the descriptors import mujoco, which loads its GL backend (MUJOCO_GL) on import
-        from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 
         rr = rerun_module()
         bodies, evaluations = tables["bodies"], tables["evaluations"]

@@ -288,7 +288,7 @@ def test_the_viewer_plays_the_evaluated_motion(
     """No display here: a stand-in for MuJoCo's passive viewer records what it is shown."""
     import mujoco.viewer
 
-    import ariel.recording.resim._replay as replay_module
+    import ariel.recording.resim._replay_window as window_module
 
     shown: list[np.ndarray] = []
 
@@ -310,7 +310,7 @@ def test_the_viewer_plays_the_evaluated_motion(
 
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.setattr(mujoco.viewer, "launch_passive", FakeViewer)
-    monkeypatch.setattr(replay_module.time, "sleep", lambda seconds: None)
+    monkeypatch.setattr(window_module.time, "sleep", lambda seconds: None)
     run_dir, _ = coevolution
     replayed = replay(run_dir, "best")
     replayed.view(loop=False)
