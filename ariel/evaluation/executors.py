@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import functools
+import inspect
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Protocol, TypeVar
 
@@ -318,7 +319,7 @@ def check_settings(settings: ExecutorSettings) -> None:
         raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
     if kind.one_worker is not None and workers not in (None, 1):
         raise ExecutorSettingsError(f"executor.workers: {kind.one_worker} (got {workers})")
-    if address is not None and not kind.takes_address:
+    if address is not None and not _takes_address(kind):
         raise ExecutorSettingsError(
             f"executor.address: only for the dask executor, not {kind_name!r}"
         )
@@ -428,9 +429,22 @@ def make_executor(
     executor = executor_kind(kind)
     if workers is not None and not _is_count(workers):
         raise ValueError(f"workers must be an integer >= 1 or None, got {workers!r}")
-    if address is not None and not executor.takes_address:
+    if address is not None and not _takes_address(executor):
         raise ValueError(f"address= is only for the dask executor, not {kind!r}")
-    return executor.make(workers=workers, address=address, max_retries=max_retries, **options)
+    where = {_address_keyword(executor.make): address}
+    return executor.make(workers=workers, max_retries=max_retries, **where, **options)
+
+
+def _takes_address(kind: ExecutorKind) -> bool:
+    """``takes_address``, or ``takes_scheduler``: its name in kinds written before the rename."""
+    return bool(kind.takes_address or getattr(kind, "takes_scheduler", False))
+
+
+def _address_keyword(make: Callable[..., object]) -> str:
+    """The keyword a kind's ``make`` takes the Dask address by: ``address``, or ``scheduler``
+    where a kind written before the rename names only that (its ``make`` keeps working)."""
+    parameters = inspect.signature(make).parameters
+    return "scheduler" if "scheduler" in parameters and "address" not in parameters else "address"
 
 
 def worker_fault(exc: BaseException) -> str | None:

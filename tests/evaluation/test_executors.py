@@ -17,9 +17,11 @@ from ariel.evaluation.executors import (
     EVAL_THREADS_VARIABLE,
     THREAD_LIMIT_VARIABLES,
     DaskExecutor,
+    ExecutorKind,
     SerialExecutor,
     check_settings,
     evaluation_threads,
+    executor_kinds,
     make_executor,
     map_ordered,
 )
@@ -320,3 +322,25 @@ def test_a_third_party_executor_from_an_entry_point_runs_an_experiment(
             check_settings(type("S", (), {"kind": "counting", "workers": 3, "address": None})())
     finally:
         executor_kinds.refresh()
+
+
+def test_a_kind_written_before_the_rename_gets_the_address_as_scheduler() -> None:
+    """Third-party kinds from before ``scheduler`` became ``address`` keep working."""
+    made = []
+
+    class OldKind(ExecutorKind):
+        takes_scheduler = True  # the old name of takes_address
+
+        def make(self, *, workers=None, scheduler=None, max_retries=None, **options):
+            made.append(scheduler)
+            return SerialExecutor()
+
+    executor_kinds.register("old_style", OldKind)
+    try:
+        with make_executor("old_style", address="tcp://host:8786"):
+            pass
+        settings = type("S", (), {"kind": "old_style", "workers": None, "address": "tcp://h:1"})
+        check_settings(settings())  # executor.address is accepted for it
+    finally:
+        executor_kinds.refresh()
+    assert made == ["tcp://host:8786"]
