@@ -130,7 +130,7 @@ def test_a_run_whose_fork_server_is_killed_goes_on_without_a_word(tmp_path: Path
     run_dir = tmp_path / "run"
     command = [sys.executable, "-m", "ariel.cli", "run", str(TINY_RUN), "--executor", "local"]
     # Generations enough that the run is still under way at the second kill on a fast machine.
-    command += ["--workers", "2", "--out", str(run_dir), "--quiet", "--set", "generations=8"]
+    command += ["--workers", "2", "--out", str(run_dir), "--quiet", "--set", "generations=20"]
     with out.open("wb") as stdout, err.open("wb") as stderr:
         process = subprocess.Popen(
             command, stdout=stdout, stderr=stderr, env=repo_env(), start_new_session=True
@@ -164,7 +164,7 @@ def test_a_run_whose_fork_server_is_killed_goes_on_without_a_word(tmp_path: Path
     assert code == 0, errors[-3000:]
     assert errors.strip() == ""  # --quiet: a run that went on says nothing
     info = json.loads((run_dir / "run.json").read_text())
-    assert info["status"] == "finished" and info["generations_done"] == 8
+    assert info["status"] == "finished" and info["generations_done"] == 20
 
 
 @posix_only

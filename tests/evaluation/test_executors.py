@@ -342,5 +342,6 @@ def test_a_kind_written_before_the_rename_gets_the_address_as_scheduler() -> Non
         settings = type("S", (), {"kind": "old_style", "workers": None, "address": "tcp://h:1"})
         check_settings(settings())  # executor.address is accepted for it
     finally:
-        executor_kinds.refresh()
+        executor_kinds.unregister("old_style")
     assert made == ["tcp://host:8786"]
+    assert "old_style" not in executor_kinds.names()
