@@ -56,6 +56,24 @@ NO_WORKER_TIMEOUT_VARIABLE = "ARIEL_NO_WORKER_TIMEOUT"
 NO_WORKER_NOTE_SECONDS = 120.0
 
 
+class _CancelRace(logging.Filter):
+    """Drops one log record of an upstream race: when Ctrl-C lands inside distributed's
+    ``sync`` before its future exists, the event loop's ``cancel`` callback raises NameError
+    ("free variable 'future'"), which tornado logs with a traceback. After an interrupt that
+    is noise: the run already says it was interrupted and how to resume it."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        return not (isinstance(exc, NameError) and "'future'" in str(exc))
+
+
+def _quiet_cancel_race() -> None:
+    """Install `_CancelRace` on tornado's callback logger, once per process."""
+    logger = logging.getLogger("tornado.application")
+    if not any(isinstance(f, _CancelRace) for f in logger.filters):
+        logger.addFilter(_CancelRace())
+
+
 class DaskExecutor(EvaluationExecutor):
     """``client.get_executor(pure=False)`` that also closes what it started on shutdown.
 
@@ -89,6 +107,7 @@ class DaskExecutor(EvaluationExecutor):
         close_client: bool = True,
         no_worker_timeout: float | None = None,
     ) -> None:
+        _quiet_cancel_race()
         default = NO_WORKER_TIMEOUT_LOCAL if cluster is not None else NO_WORKER_TIMEOUT_SCHEDULER
         #: Seconds with no worker at all before `stalled` gives a reason (see
         #: `NO_WORKER_TIMEOUT_LOCAL`); ``math.inf``: wait for ever, with notes.

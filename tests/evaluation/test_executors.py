@@ -345,3 +345,19 @@ def test_a_kind_written_before_the_rename_gets_the_address_as_scheduler() -> Non
         executor_kinds.unregister("old_style")
     assert made == ["tcp://host:8786"]
     assert "old_style" not in executor_kinds.names()
+
+
+def test_the_dask_cancel_race_s_log_record_is_dropped_and_no_other() -> None:
+    import logging
+
+    from ariel.evaluation._executor_dask import _CancelRace
+
+    def record(exc: BaseException) -> logging.LogRecord:
+        return logging.LogRecord(
+            "tornado.application", logging.ERROR, "", 0, "x", None, (type(exc), exc, None)
+        )
+
+    race = NameError("cannot access free variable 'future' where it is not associated")
+    assert _CancelRace().filter(record(race)) is False
+    assert _CancelRace().filter(record(NameError("name 'x' is not defined"))) is True
+    assert _CancelRace().filter(record(RuntimeError("'future'"))) is True
