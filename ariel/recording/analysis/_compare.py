@@ -113,8 +113,9 @@ class Comparison:
         conditions: The conditions' names, in the order their first run came.
         runs: One row per run (a DataFrame): ``condition``, ``seed``, ``evaluations``,
             ``compared_at``, the measures ``final_best`` and ``auc``, the QD columns where the
-            runs have them, ``surviving_lineages`` and ``best_depth`` where a run has a
-            lineage (co-evolution; NaN for a brain-only run), and ``path``.
+            runs have them, ``surviving_lineages``, ``best_depth`` and ``distinct_made``
+            (distinct bodies made so far) where a run has a lineage (co-evolution; NaN for a
+            brain-only run), and ``path``.
         stats: One row per measure and pair of conditions (a DataFrame;
             `_compare_stats.pairwise_table`).
         figures: Figure name (``best_so_far``, ``final_best``, ``morphology``,

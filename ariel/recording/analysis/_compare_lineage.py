@@ -27,11 +27,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 from ariel.recording.analysis._compare_design import whole_generations
 from ariel.recording.analysis._compare_plots import lineages_figure
 from ariel.recording.analysis._compare_stats import location, median_band
-from ariel.recording.store import lineage, lineage_statistics, on_grid
+from ariel.recording.store import lineage, lineage_statistics, on_grid, stored_graph_key
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -55,7 +54,7 @@ __all__ = [
 LINEAGE_MEASURES = {
     "surviving lineages": "surviving_lineages",
     "best depth": "best_depth",
-    "distinct bodies": "distinct_bodies",
+    "distinct bodies": "distinct_made",
 }
 #: The figure's file in ``compare/``.
 FIGURE = "lineages.png"
@@ -72,23 +71,24 @@ def run_lineage(run: Run) -> pd.DataFrame | None:
     counts = run.evaluations.groupby("generation").size()
     done = counts.reindex(range(run.generations_done), fill_value=0).cumsum()
     stats["evaluations"] = done.reindex(stats["generation"]).to_numpy()
-    made = _distinct_bodies(run)
-    stats["distinct_bodies"] = [made.get(int(g), 0) for g in stats["generation"]]
+    made = _distinct_made(run)
+    stats["distinct_made"] = [made.get(int(g), 0) for g in stats["generation"]]
     for column in LINEAGE_MEASURES.values():
         stats[column] = stats[column].to_numpy(dtype=np.float64, na_value=np.nan)
     return stats.loc[:, ["generation", "evaluations", *LINEAGE_MEASURES.values()]]
 
 
-def _distinct_bodies(run: Run) -> dict[int, int]:
+def _distinct_made(run: Run) -> dict[int, int]:
     """Generation -> distinct morphologies among the bodies made up to it (its new bodies and
     every earlier generation's; a body that could not be built has no graph and is left out)."""
     bodies = run.bodies
-    new = bodies.loc[bodies["is_new"], ["generation", "graph"]].sort_values("generation")
+    new = bodies.loc[bodies["is_new"], ["generation", "graph", "body_id"]]
+    new = new.sort_values("generation")
     seen: set[str] = set()
     counts: dict[int, int] = {}
-    for generation, graph in zip(new["generation"].tolist(), new["graph"].tolist()):
+    for generation, graph, body_id in new.itertuples(index=False):
         if graph:
-            seen.add(graph_key(graph))
+            seen.add(stored_graph_key(graph, body_id))
         counts[int(generation)] = len(seen)
     return counts
 

@@ -202,7 +202,7 @@ def _bin_means(evaluations: pd.DataFrame, descriptor: str, edges: np.ndarray) ->
 LINEAGE_PANELS = {
     "surviving_lineages": ("surviving lineages", "lineages (founders with a living descendant)"),
     "best_depth": ("depth of the best body's ancestry", "parent steps back to a founder"),
-    "distinct_bodies": ("distinct bodies made", "morphologies (robot graphs)"),
+    "distinct_made": ("distinct bodies made", "morphologies (robot graphs)"),
 }
 
 

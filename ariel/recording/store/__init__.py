@@ -78,6 +78,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         list_runs as list_runs,
         load_run as load_run,
         population_after_selection as population_after_selection,
+        stored_graph_key as stored_graph_key,
     )
     from ariel.recording.store._lock import (
         RunInUseError as RunInUseError,
@@ -194,6 +195,7 @@ _INTERNAL: dict[str, str] = {
     "parse_ancestor_list": "ariel.recording.store._lineage",
     "one_line": "ariel.recording.store._escape",
     "population_after_selection": "ariel.recording.store._load",
+    "stored_graph_key": "ariel.recording.store._load",
     "prunable_runs": "ariel.recording.store._prune",
     "prune_run": "ariel.recording.store._prune",
     "read_campaign_info": "ariel.recording.store._campaign",

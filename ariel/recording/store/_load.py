@@ -34,6 +34,7 @@ __all__ = [
     "list_runs",
     "load_run",
     "population_after_selection",
+    "stored_graph_key",
 ]
 
 
@@ -342,19 +343,23 @@ def _distinct_bodies(population: Any) -> int | float:
         return math.nan
 
     def key(graph: Any, body_id: Any) -> Any:
-        if not (isinstance(graph, str) and graph):
-            return body_id
-        try:
-            return graph_key(graph)
-        except Exception as exc:  # RecursionError, JSON, networkx: a cell no run writes
-            raise DamagedRunError(
-                f"body {terminal_text(body_id)}: its graph cell is not a robot graph "
-                f"({type(exc).__name__}); the bodies table was changed or damaged"
-            ) from None
+        return stored_graph_key(graph, body_id) if isinstance(graph, str) and graph else body_id
 
     return len(
         {key(graph, body_id) for graph, body_id in zip(population["graph"], population["body_id"])}
     )
+
+
+def stored_graph_key(graph: str, body_id: object) -> str:
+    """`graph_key` of a bodies table's ``graph`` cell; a cell that is no robot graph (no run
+    writes one) is a one-line `DamagedRunError` naming the body, not a traceback."""
+    try:
+        return graph_key(graph)
+    except Exception as exc:  # RecursionError, JSON, networkx
+        raise DamagedRunError(
+            f"body {terminal_text(body_id)}: its graph cell is not a robot graph "
+            f"({type(exc).__name__}); the bodies table was changed or damaged"
+        ) from None
 
 
 def population_after_selection(bodies: Any) -> Any:

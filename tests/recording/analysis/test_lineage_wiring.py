@@ -119,7 +119,7 @@ def test_compare_adds_the_lineage_measures_and_figure(
     assert measures == ["final best", "AUC", "surviving lineages", "best depth", "distinct bodies"]
     bodies = load_run(run_dir).bodies
     made = bodies[bodies["is_new"] & (bodies["graph"] != "")]["graph"].map(graph_key).nunique()
-    assert result.runs["distinct_bodies"].tolist() == [made] * 2 and made > 1
+    assert result.runs["distinct_made"].tolist() == [made] * 2 and made > 1
     assert result.omnibus.empty  # two conditions
     summary = result.summary_table().set_index("")
     assert summary.loc["surviving lineages: median", "a"] == f"{last['surviving_lineages']:g}"
