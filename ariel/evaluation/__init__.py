@@ -64,6 +64,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         WORKER_CANNOT_START as WORKER_CANNOT_START,
         WorkerCannotStartError as WorkerCannotStartError,
     )
+    from ariel.evaluation._task import (
+        FAILED_STATUSES as FAILED_STATUSES,
+    )
     from ariel.evaluation._threads import (
         default_workers as default_workers,
     )
@@ -104,6 +107,7 @@ __all__ = sorted(_LAZY)
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
     "CHECK_SEED": "ariel.evaluation._checks",
+    "FAILED_STATUSES": "ariel.evaluation._task",
     "Checker": "ariel.evaluation._checks",
     "SPAWN_PREFIX": "ariel.evaluation._engine",
     "WORKER_CANNOT_START": "ariel.evaluation._pool",

@@ -16,10 +16,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-__all__ = ["BodySpec", "EvaluationResult", "EvaluationTask", "Status"]
+__all__ = ["FAILED_STATUSES", "BodySpec", "EvaluationResult", "EvaluationTask", "Status"]
 
 #: ``invalid``: the fitness function returned NaN or an infinity (the value is in ``error``).
 Status = Literal["ok", "unstable", "error", "invalid"]
+
+#: The statuses of an evaluation that gave no fitness of its own, in the order they are shown.
+FAILED_STATUSES: tuple[Status, ...] = ("error", "unstable", "invalid")
 
 
 def _plain(value: Any) -> Any:

@@ -98,6 +98,18 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         fixed_genotype as fixed_genotype,
         is_brain_only as is_brain_only,
     )
+    from ariel.evolution._events import (
+        BatchEvaluated as BatchEvaluated,
+        BodyFailed as BodyFailed,
+        CheckpointDue as CheckpointDue,
+        FlushDue as FlushDue,
+        GenerationEnded as GenerationEnded,
+        GenerationStarted as GenerationStarted,
+        RunEnded as RunEnded,
+        RunEvent as RunEvent,
+        RunObserver as RunObserver,
+        RunStarted as RunStarted,
+    )
     from ariel.evolution._genotype import (
         check_genotype as check_genotype,
         describe as describe,
@@ -178,6 +190,16 @@ __all__ = sorted(_LAZY)
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
+    "BatchEvaluated": "ariel.evolution._events",
+    "BodyFailed": "ariel.evolution._events",
+    "CheckpointDue": "ariel.evolution._events",
+    "FlushDue": "ariel.evolution._events",
+    "GenerationEnded": "ariel.evolution._events",
+    "GenerationStarted": "ariel.evolution._events",
+    "RunEnded": "ariel.evolution._events",
+    "RunEvent": "ariel.evolution._events",
+    "RunObserver": "ariel.evolution._events",
+    "RunStarted": "ariel.evolution._events",
     "BodyFactory": "ariel.evolution._bodies",
     "DEFAULT_MEASURES": "ariel.evolution._qd",
     "DEFAULT_RANGES": "ariel.evolution._qd",

@@ -168,9 +168,10 @@ def check_resources(
     brain_only: bool,
     capacity: int,
     local_workers: bool,
-) -> None:
-    """`ConfigError` when one generation would need more memory than this machine has (the
-    estimate, from a sample body, is in the message).
+) -> int | None:
+    """The bytes of memory one generation needs, estimated from a sample body (None: no body
+    to measure); `ConfigError` when that is more than this machine has (the estimate is in
+    the message).
 
     Counted: the recorded frames of a generation's evaluations, which the driver keeps until
     the generation's tables are written (with ``record.trajectories``); the physics states of
@@ -178,7 +179,7 @@ def check_resources(
     """
     model = _sample_model(config, encoder)
     if model is None:  # no body to measure: the run records it as an error body
-        return
+        return None
     c = config
     timestep = float(model.opt.timestep)
     steps = max(1, round(c.task.duration / timestep))  # as the engine's `num_steps`
@@ -196,7 +197,7 @@ def check_resources(
     needed = 2 * kept + running + models  # 2x: the frames are copied into the table once
     available = machine_memory()
     if available is None or needed <= available:
-        return
+        return needed
     parts = [
         f"{evaluations} evaluations a generation x {frames} recorded frames"
         if kept

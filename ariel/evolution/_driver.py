@@ -10,30 +10,43 @@ An encoder that cannot vary its genotypes (``evolvable = False``, e.g. ``prebuil
 fixed ``body.genotype`` under any encoder, gives a brain-only run: one fixed body whose brain
 run goes on across generations, each generation adding ``brain.iterations`` iterations.
 
-The driver writes nothing itself: it tells a records writer (``records``: `RunRecords`, made
-by `ariel.recording`) what happened.
+The driver writes nothing itself and owns the run's counts: it tells its observers what
+happened (`ariel.evolution._events`: the records writer, the Rerun recorder, run.json and the
+progress display in a run, wired by `ariel.runs`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator, Sequence
+from collections import Counter
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
-from ariel.evaluation import EvaluationResult
+from ariel.evaluation import FAILED_STATUSES, EvaluationResult, EvaluationTask
 from ariel.evolution._bodies import BodyFactory, BrainJob
 from ariel.evolution._brain import fitness_rank
 from ariel.evolution._config import ExperimentConfig, config_hash
-from ariel.evolution._progress import Progress
+from ariel.evolution._events import (
+    BatchEvaluated,
+    BodyFailed,
+    CheckpointDue,
+    FlushDue,
+    GenerationEnded,
+    GenerationStarted,
+    RunEnded,
+    RunEvent,
+    RunObserver,
+    RunStarted,
+)
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body, LoopState, state_to_plain
 
-__all__ = ["Plugins", "RunDriver", "RunRecords", "budget", "distinct_bodies", "fixed_genotype"]
+__all__ = ["Plugins", "RunDriver", "budget", "distinct_bodies", "fixed_genotype"]
 
 
 @dataclass
@@ -56,32 +69,6 @@ class Plugins:
         from ariel.evaluation import worst_fitness
 
         return worst_fitness(self.maximise)
-
-
-class RunRecords(Protocol):
-    """Where a run's records go (`ariel.recording.RunWriter`)."""
-
-    @property
-    def record_bodies(self) -> bool: ...
-    def evaluated(
-        self,
-        body: Body,
-        model: Any,
-        tasks: Sequence[Any],
-        results: Sequence[Any],
-        *,
-        generation: int,
-        iteration: int,
-        improved: int | None,
-    ) -> None: ...
-    def body_failed(self, body: Body, generation: int, worst: float) -> None: ...
-    def flush(self) -> None: ...
-    def plugin_failed(self, task: Any, exc: BaseException) -> BaseException: ...
-    def write_generation(
-        self, generation: int, bodies: Any, archive: Any, novelty: Any = None
-    ) -> dict[str, int]: ...
-    def save_checkpoint(self, state: dict[str, Any]) -> None: ...
-    def update_info(self, **changes: Any) -> None: ...
 
 
 def is_brain_only(config: ExperimentConfig, encoder: Any) -> bool:
@@ -110,70 +97,96 @@ def budget(config: ExperimentConfig, brain_only: bool) -> int:
 
 
 class BrainWork:
-    """A `BrainJob` as the scheduler's `Work`: ask the learner, evaluate, tell, record."""
+    """A `BrainJob` as the scheduler's `Work`: ask the learner, evaluate, tell, say so.
+    ``skipped``: evaluations its first batch counts beyond its own (a body without joints is
+    evaluated once, for a whole brain run)."""
 
-    def __init__(self, driver: RunDriver, job: BrainJob, generation: int) -> None:
+    def __init__(self, driver: RunDriver, job: BrainJob, generation: int, skipped: int = 0) -> None:
         self.driver, self.job, self.generation = driver, job, generation
+        self._skipped = skipped
         self._params: np.ndarray | None = None
-        self._tasks: list[Any] = []
+        self._tasks: list[EvaluationTask] = []
 
-    def next_batch(self) -> list[Any] | None:
+    def next_batch(self) -> list[EvaluationTask] | None:
         run = self.job.run
         if run.iteration >= self.job.target:
             return None
         self._params = run.ask()
-        records = self.driver.records
-        self._tasks = self.driver.factory.batch_tasks(self.job, self._params, records.record_bodies)
+        driver = self.driver
+        self._tasks = driver.factory.batch_tasks(self.job, self._params, driver.record_bodies)
         return self._tasks
 
-    def batch_done(self, results: list[Any]) -> None:
+    def batch_done(self, results: list[EvaluationResult]) -> None:
         job, driver = self.job, self.driver
         iteration = job.run.iteration
         assert self._params is not None  # the scheduler tells a batch that next_batch gave
         improved = job.run.tell(self._params, np.array([r.fitness for r in results]))
         body = job.body
         body.evaluations += len(results)
-        driver.records.evaluated(
-            body,
-            driver.factory.model(body),
-            self._tasks,
-            results,
-            generation=self.generation,
-            iteration=iteration,
-            improved=improved,
-        )
         if improved is not None:
             body.fitness = job.run.best_fitness
             body.best_params = job.run.best_params.tolist()  # type: ignore[union-attr]
             body.best_eval_id = self._tasks[improved].eval_id
         driver.candidates.extend(float(r.fitness) for r in results if math.isfinite(r.fitness))
-        driver.advance(len(results), driver.best_so_far())
+        driver.count_results(results)
+        counted, self._skipped = len(results) + self._skipped, 0
+        driver.budget_done += counted
+        driver.emit(
+            BatchEvaluated(
+                body=body,
+                model=driver.factory.model(body),
+                tasks=self._tasks,
+                results=results,
+                generation=self.generation,
+                iteration=iteration,
+                improved=improved,
+                counted=counted,
+                best=driver.best_so_far(),
+            )
+        )
 
-    def failed_result(self, task: Any, reason: str) -> Any:
-
+    def failed_result(self, task: EvaluationTask, reason: str) -> EvaluationResult:
         worst = self.driver.plugins.worst
         return EvaluationResult(eval_id=task.eval_id, fitness=worst, status="error", error=reason)
 
-    def task_error(self, task: Any, exc: BaseException) -> BaseException:
-        return self.driver.records.plugin_failed(task, exc)
+    def task_error(self, task: EvaluationTask, exc: BaseException) -> BaseException:
+        return self.driver.plugin_error(task, exc)
 
     def flush(self) -> None:
-        self.driver.records.flush()
+        self.driver.emit(FlushDue())
+
+
+def _unchanged(task: EvaluationTask, exc: BaseException) -> BaseException:
+    return exc
 
 
 class RunDriver:
     """One run's generations (`generations`, a group for the `Scheduler`); see the module
-    docstring. ``state``: the checkpoint to continue from, or None for a new run."""
+    docstring.
+
+    Args:
+        config: The run's config.
+        plugins: Its plugins.
+        observers: Who hears the run's events, in this order (`RunObserver`).
+        state: The checkpoint to continue from, or None for a new run.
+        record_bodies: Whether evaluations return the bodies' poses (for recordings).
+        plugin_error: ``(task, exc) -> the exception that stops the run`` when a plugin
+            raised in an evaluation (the records writer logs it); None: ``exc`` itself.
+    """
 
     def __init__(
         self,
         config: ExperimentConfig,
         plugins: Plugins,
-        records: RunRecords,
-        progress: Progress,
+        observers: Sequence[RunObserver] = (),
         state: LoopState | None = None,
+        *,
+        record_bodies: bool = False,
+        plugin_error: Callable[[EvaluationTask, BaseException], BaseException] | None = None,
     ) -> None:
-        self.config, self.plugins, self.records, self.progress = config, plugins, records, progress
+        self.config, self.plugins, self.observers = config, plugins, list(observers)
+        self.record_bodies = record_bodies
+        self.plugin_error = plugin_error or _unchanged
         self.brain_only = is_brain_only(config, plugins.encoder)
         self.factory = BodyFactory(config, plugins.encoder, plugins.controller, plugins.maximise)
         self.state = state
@@ -187,27 +200,35 @@ class RunDriver:
             )
             if state is not None:
                 self.optimizer.restore(state.optimizer, state.population)
-            describe = getattr(self.optimizer, "archive_description", None)  # a QD archive
-            if describe is not None:  # before its first rows: readers and run.rrd draw from it
-                records.update_info(archive=describe())
         self._jobs: list[BrainJob] = []
-        self._bodies: tuple[list[Body], list[Body]] = (
-            [],
-            [],
-        )  # this generation's parents, children
+        # this generation's parents, children
+        self._bodies: tuple[list[Body], list[Body]] = ([], [])
         # The finite fitnesses of this generation's evaluations (a brain-only run's progress
         # line shows their mean: the population is one body, whose mean is its best).
         self.candidates: list[float] = []
-        # Evaluations run or skipped (failed bodies) so far: the checkpoint's count, kept here
-        # and shown by the progress display, which only draws it.
+        # The run's counts, the checkpoint's: evaluations run or skipped (failed bodies) so
+        # far; this generation's evaluation rows, and those by failed status.
         self.budget_done = state.budget_done if state is not None else 0
+        self._rows = 0
+        self._failures: Counter[str] = Counter()
         self._started = time.perf_counter()
         self._wall_before = state.wall_seconds if state is not None else 0.0
 
-    def advance(self, evaluations: int, best: float | None = None) -> None:
-        """Count ``evaluations`` as done (run, or skipped for a failed body) and show it."""
-        self.budget_done += evaluations
-        self.progress.advance(evaluations, best)
+    def emit(self, event: RunEvent) -> None:
+        """Tell every observer ``event``, in order."""
+        for observer in self.observers:
+            observer.notify(event)
+
+    def start(self) -> None:
+        """Say `RunStarted` (with a QD optimizer's archive description: readers and run.rrd
+        draw from it before its first rows)."""
+        describe = getattr(self.optimizer, "archive_description", None)
+        self.emit(RunStarted(self.first_generation, describe() if describe else None))
+
+    def count_results(self, results: Sequence[EvaluationResult]) -> None:
+        """This generation's evaluation rows: one per result, counted by failed status."""
+        self._rows += len(results)
+        self._failures.update(r.status for r in results if r.status in FAILED_STATUSES)
 
     @property
     def first_generation(self) -> int:
@@ -221,14 +242,17 @@ class RunDriver:
 
     def generations(self) -> Iterator[list[BrainWork]]:
         for generation in range(self.first_generation, self.config.generations):
-            self.progress.start_generation(generation, self._generation_budget())
-            self.candidates = []
-            jobs = (
-                self._brain_only_jobs(generation) if self.brain_only else self._jobs_of(generation)
+            self.emit(GenerationStarted(generation, self._generation_budget()))
+            self.candidates, self._rows, self._failures = [], 0, Counter()
+            works = (
+                self._brain_only_works(generation)
+                if self.brain_only
+                else self._works_of(generation)
             )
-            self._jobs = jobs
-            yield [BrainWork(self, job, generation) for job in jobs]
+            self._jobs = [work.job for work in works]
+            yield works
             self._end(generation)
+        self.emit(RunEnded())
 
     def _generation_budget(self) -> int:
         """Evaluations the next generation makes (as `budget` counts them)."""
@@ -240,7 +264,7 @@ class RunDriver:
 
     # -- a generation's brain jobs -------------------------------------------------------------
 
-    def _brain_only_jobs(self, generation: int) -> list[BrainJob]:
+    def _brain_only_works(self, generation: int) -> list[BrainWork]:
         config, factory = self.config, self.factory
         if self.state is None:
             body = factory.new_body(0, fixed_genotype(config, self.plugins.encoder), [], 0)
@@ -252,9 +276,9 @@ class RunDriver:
         assert self.state.brain is not None
         self._bodies = ([], [body])
         target = (generation + 1) * config.brain.iterations
-        return [factory.job(body, self.state.brain, target)]
+        return [BrainWork(self, factory.job(body, self.state.brain, target), generation)]
 
-    def _jobs_of(self, generation: int) -> list[BrainJob]:
+    def _works_of(self, generation: int) -> list[BrainWork]:
         config, factory, optimizer = self.config, self.factory, self.optimizer
         assert optimizer is not None
         if self.state is None:
@@ -272,19 +296,19 @@ class RunDriver:
         self._bodies = (parents, children)
         by_id = {b.body_id: b for b in parents}
         each = per_body(config)
-        jobs = []
+        works = []
         for child in children:
             if child.status == "error":
-                self.records.body_failed(child, generation, self.plugins.worst)
                 child.fitness = self.plugins.worst
-                self.advance(each)
+                self._rows += 1  # its one row, with the error
+                self._failures["error"] += 1
+                self.budget_done += each
+                self.emit(BodyFailed(child, generation, self.plugins.worst, each))
                 continue
-            jobs.append(
-                factory.job(child, factory.new_brain(child, by_id), config.brain.iterations)
-            )
-            if child.n_params == 0:  # one evaluation: count the rest as done
-                self.advance(each - 1)
-        return jobs
+            job = factory.job(child, factory.new_brain(child, by_id), config.brain.iterations)
+            # A body without joints is evaluated once: its batch counts the rest as done.
+            works.append(BrainWork(self, job, generation, each - 1 if child.n_params == 0 else 0))
+        return works
 
     # -- the end of a generation ---------------------------------------------------------------
 
@@ -304,36 +328,37 @@ class RunDriver:
         state.generation = generation
         archive = getattr(self.optimizer, "archive_rows", None)  # a quality-diversity archive
         novelty = getattr(self.optimizer, "novelty_rows", None)  # novelty search's own
-        counts = self.records.write_generation(
-            generation, rows, archive() if archive else None, novelty() if novelty else None
+        self.emit(
+            GenerationEnded(
+                generation, rows, archive() if archive else None, novelty() if novelty else None
+            )
         )
-        state.evaluations_done += counts["rows"]
+        state.evaluations_done += self._rows
         state.budget_done = self.budget_done
         state.wall_seconds = self.wall_seconds
-        self.records.save_checkpoint(state_to_plain(state))
+        self.emit(self._checkpoint(generation, state, archive is not None))
+
+    def _checkpoint(self, generation: int, state: LoopState, qd: bool) -> CheckpointDue:
+        """The end of ``generation``: its checkpoint, counts and population summary."""
         best, mean = summary(state.population, self.plugins.maximise)
-        stats = getattr(self.optimizer, "stats", None) if archive else None
-        # What readers need to compute the QD-score as the run did (`load_run`, `report`).
-        offset = getattr(self.optimizer, "qd_offset", None) if archive else None
-        self.records.update_info(
-            generations_done=generation + 1,
-            evaluations_done=state.evaluations_done,
-            best_fitness=best,
-            **({} if offset is None else {"qd_offset": float(offset)}),
-        )
-        extra = "".join(f", {n} {s}" for s, n in counts.items() if s != "rows" and n)
         label = "mean"
         if self.brain_only:  # as `ariel report` draws it: the mean of the brain candidates
             label = "mean of candidates"
             mean = float(np.mean(self.candidates)) if self.candidates else math.nan
-        self.progress.end_generation(
-            generation,
-            best,
-            mean,
-            extra,
-            morphs=None if self.optimizer is None else distinct_bodies(state.population),
-            archive=stats() if stats else None,
+        stats = getattr(self.optimizer, "stats", None) if qd else None
+        # What readers need to compute the QD-score as the run did (`load_run`, `report`).
+        offset = getattr(self.optimizer, "qd_offset", None) if qd else None
+        return CheckpointDue(
+            generation=generation,
+            state=state_to_plain(state),
+            evaluations_done=state.evaluations_done,
+            best=best,
+            mean=mean,
             mean_label=label,
+            failures={s: self._failures[s] for s in FAILED_STATUSES if self._failures[s]},
+            morphs=None if self.optimizer is None else distinct_bodies(state.population),
+            archive_stats=stats() if stats else None,
+            qd_offset=None if offset is None else float(offset),
         )
 
     @property

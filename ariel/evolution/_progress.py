@@ -31,6 +31,13 @@ from rich.progress import (
     TextColumn,
 )
 
+from ariel.evolution._events import (
+    BatchEvaluated,
+    BodyFailed,
+    CheckpointDue,
+    GenerationStarted,
+    RunEvent,
+)
 from ariel.utils import in_notebook_kernel
 
 __all__ = [
@@ -195,7 +202,26 @@ class Progress:
         )
         self._rich.update(self._run_task, completed=self.done, **self._run_fields())
 
-    # -- what the driver calls --------------------------------------------------------------
+    # -- what the driver says (a `RunObserver`) ----------------------------------------------
+
+    def notify(self, event: RunEvent) -> None:
+        """Draw the run's events as they come; the end of a generation is its line."""
+        if isinstance(event, GenerationStarted):
+            self.start_generation(event.generation, event.evaluations)
+        elif isinstance(event, BatchEvaluated):
+            self.advance(event.counted, event.best)
+        elif isinstance(event, BodyFailed):
+            self.advance(event.counted)
+        elif isinstance(event, CheckpointDue):
+            self.end_generation(
+                event.generation,
+                event.best,
+                event.mean,
+                "".join(f", {n} {status}" for status, n in event.failures.items()),
+                morphs=event.morphs,
+                archive=event.archive_stats,
+                mean_label=event.mean_label,
+            )
 
     def start_generation(self, generation: int, evaluations: int | None = None) -> None:
         """A generation starts; ``evaluations``: how many it will make (its bar's total)."""

@@ -13,23 +13,14 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ariel.errors import DamagedRunError
 from ariel.evaluation.executors import planned_workers
-from ariel.evolution import (
-    ConfigError,
-    ExecutorConfig,
-    ExperimentConfig,
-    LoopState,
-    Plugins,
-    RunDriver,
-    run_groups,
-    shows_progress,
-)
+from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows_progress
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
 from ariel.recording.store import (
     CAMPAIGN_JSON,
@@ -51,18 +42,10 @@ from ariel.recording.store import (
 from ariel.runs._campaign_file import load_campaign_file
 from ariel.runs._campaign_info import campaign_info
 from ariel.runs._campaign_progress import CampaignProgress, RunProgress
-from ariel.runs._experiment import (
-    RunResult,
-    end_run,
-    new_progress,
-    noted_on_interrupt,
-    reopen,
-    resumable,
-    run_info,
-    run_result,
-    start_driver,
-)
-from ariel.runs._prepare import executor_settings, prepare_run, resolve_plugins, resume_settings
+from ariel.runs._experiment import new_progress, noted_on_interrupt
+from ariel.runs._prepare import PreparedRun, executor_settings, prepare_run, resume_settings
+from ariel.runs._result import RunResult
+from ariel.runs._session import RunSession, drive
 from ariel.utils import accept_aliases, ariel_line
 
 __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign"]
@@ -104,16 +87,28 @@ class CampaignResult:
 
 @dataclass
 class _Run:
+    """A run of the campaign: its condition, seed, id and prepared config; its session once
+    its folder is open."""
+
     condition: str
     seed: int
-    folder: RunFolder
     run_id: str
-    config: ExperimentConfig
-    plugins: Plugins
-    state: LoopState | None = None
-    driver: RunDriver | None = None
-    status: str = "failed"
+    prepared: PreparedRun
+    session: RunSession | None = None
     first_generation: int = 0
+
+    @property
+    def config(self) -> ExperimentConfig:
+        return self.prepared.config
+
+    @property
+    def label(self) -> str:
+        return f"{self.condition} seed {self.seed}"
+
+    @property
+    def started(self) -> RunSession:
+        assert self.session is not None  # every run's session opens before the drive
+        return self.session
 
 
 def new_campaign_id(name: str) -> str:
@@ -197,23 +192,16 @@ def run_campaign(
     campaign_id = path.name or campaign_id
     runs = []
     for (condition, seed), config in spec.configs.items():
-        config, plugins = prepare_run(config)
         run_id = f"{campaign_id}-{condition}-s{seed}"
-        folder = RunFolder(path / run_path(condition, seed))
-        runs.append(_Run(condition, seed, folder, run_id, config, plugins))
+        runs.append(_Run(condition, seed, run_id, prepare_run(config, settings)))
     _check_new_folder(path)
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
         write_campaign_info(path, info)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
         for run in runs:
-            locks.enter_context(RunLock(run.folder.path, create=True))
-            RunFolder.create(
-                run.folder.path,
-                run_info(run.config, run.run_id, run.plugins),
-                overwrite=False,
-                locked=True,
-            ).start_segment("run")
+            folder = path / run_path(run.condition, run.seed)
+            run.session = RunSession.create(run.prepared, folder, run.run_id, locks)
         return _drive_campaign(path, runs, settings, progress, skipped=0)
 
 
@@ -301,7 +289,7 @@ def _unfinished_runs(
     for entry in info["runs"]:
         try:
             with contextlib.ExitStack() as own:
-                run = _unfinished_run(path, entry, own)
+                run = _unfinished_run(path, entry, own, settings)
                 locks.enter_context(own.pop_all())
         except (NotARunError, ValueError) as exc:  # damaged, or a config that does not validate
             first = one_line((str(exc).splitlines() or [type(exc).__name__])[0])
@@ -327,34 +315,22 @@ def _left_to_do(path: Path, info: dict[str, Any]) -> int:
     return left
 
 
-def _unfinished_run(path: Path, entry: dict[str, Any], locks: contextlib.ExitStack) -> _Run | None:
+def _unfinished_run(
+    path: Path, entry: dict[str, Any], locks: contextlib.ExitStack, settings: ExecutorConfig
+) -> _Run | None:
     """campaign.json's run ``entry`` locked (by ``locks``) and made ready to go on; None when it
     is finished."""
     folder = RunFolder(path / entry["path"])
     condition, seed = entry["condition"], int(entry["seed"])
     if not folder.run_json.is_file():  # killed while the campaign was being made
-        config, plugins = prepare_run(ExperimentConfig.from_plain(entry["config"]))
-        locks.enter_context(RunLock(folder.path, create=True))
-        RunFolder.create(
-            folder.path, run_info(config, entry["run_id"], plugins), overwrite=True, locked=True
-        ).start_segment("run")
-        return _Run(condition, seed, folder, entry["run_id"], config, plugins)
+        prepared = prepare_run(ExperimentConfig.from_plain(entry["config"]), settings)
+        run = _Run(condition, seed, entry["run_id"], prepared)
+        run.session = RunSession.create(prepared, folder.path, run.run_id, locks, overwrite=True)
+        return run
     if folder.read_info().get("status") == "finished":
         return None
-    locks.enter_context(RunLock(folder.path))
-    run_json, config, state = resumable(folder)
-    plugins = resolve_plugins(config)
-    reopen(folder, state)
-    return _Run(condition, seed, folder, run_json["run_id"], config, plugins, state)
-
-
-def _group(run: _Run, campaign: CampaignProgress) -> Iterator[list[Any]]:
-    """The run's generations for the scheduler; marked finished the moment its last ends."""
-    assert run.driver is not None
-    yield from run.driver.generations()
-    run.status = "finished"
-    end_run(run.folder, run.driver, "finished")
-    campaign.run_finished()
+    session = RunSession.reopen(folder, locks, settings)
+    return _Run(condition, seed, session.run_id, session.prepared, session)
 
 
 def _drive_campaign(
@@ -370,15 +346,12 @@ def _drive_campaign(
     show_progress = shows_progress(show_progress)
     campaign = CampaignProgress(runs=len(runs), total=0, enabled=show_progress)
     for run in runs:
-        label = f"{run.condition} seed {run.seed}"
+        session = run.started
         shown = new_progress(
-            run.config, run.plugins, run.state, True, RunProgress, label=label, campaign=campaign
+            session.prepared, session.state, True, RunProgress, label=run.label, campaign=campaign
         )
         campaign.total, campaign.done = campaign.total + shown.total, campaign.done + shown.done
-        run.driver = start_driver(
-            run.config, run.plugins, run.folder, run.run_id, run.state, settings, shown
-        )
-        run.first_generation = run.driver.first_generation
+        run.first_generation = session.start(shown).first_generation
     campaign.restart()  # counts what earlier calls did as done, not as this call's rate
     info = read_campaign_info(path)
     info.pop("format")
@@ -386,31 +359,20 @@ def _drive_campaign(
     if show_progress:
         shown = terminal_text(f"campaign {info['campaign_id']}: {path}")  # names from the folder
         print(f"{shown} ({len(runs)} runs to go)", flush=True)
-    status, started, capacity = "failed", time.perf_counter(), 1
-    try:
-        with campaign:
-            capacity = run_groups([_group(run, campaign) for run in runs], settings)
-        status = "finished"
-    except KeyboardInterrupt:
-        status = "interrupted"
-        raise
-    finally:
-        wall = time.perf_counter() - started
-        for run in runs:
-            if run.status != "finished" and run.driver is not None:
-                end_run(run.folder, run.driver, status)
+    started = time.perf_counter()
+
+    def ended(status: str) -> None:
         with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
             write_campaign_info(path, {**info, "status": status, "ended": now()})
             _write_recording(path, quiet=status != "finished")
-    results = []
-    for run in runs:
-        assert run.driver is not None  # every run got its driver before run_groups
-        results.append(run_result(run.driver, run.folder, run.run_id, run.status))
+
+    capacity = drive([run.started for run in runs], settings, campaign, ended)
+    wall = time.perf_counter() - started
     return CampaignResult(
         path=path,
         campaign_id=str(info["campaign_id"]),
-        status=status,
-        runs=results,  # type: ignore[arg-type]
+        status="finished",
+        runs=[run.started.result() for run in runs],
         skipped=skipped,
         wall_seconds=wall,
         busy_share=_busy_share(runs, wall, capacity),
@@ -432,7 +394,7 @@ def _busy_share(runs: list[_Run], wall: float, workers: int) -> float:
     its batch's time on its worker) over ``wall`` x ``workers``, for this call's generations."""
     busy = 0.0
     for run in runs:
-        evaluations = load_run(run.folder.path).evaluations
+        evaluations = load_run(run.started.folder.path).evaluations
         done_now = evaluations[evaluations["generation"] >= run.first_generation]
         busy += float(done_now["wall_seconds"].sum())
     return busy / (wall * workers) if wall > 0 and workers > 0 else 0.0

@@ -23,16 +23,11 @@ import numpy as np
 from ariel.errors import BodyBuildError
 from ariel.evaluation.executors import planned_workers
 from ariel.evolution import (
-    ExperimentConfig,
-    Plugins,
     body_spec,
-    budget,
     evaluation_task,
-    fixed_genotype,
-    is_brain_only,
 )
 from ariel.runs._campaign_file import load_campaign_file
-from ariel.runs._prepare import executor_settings, prepare_run
+from ariel.runs._prepare import PreparedRun, executor_settings, prepare_run
 
 __all__ = ["CampaignPlan", "campaign_plan"]
 
@@ -85,40 +80,39 @@ def campaign_plan(
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers)
     plan = CampaignPlan(spec.name, planned_workers(settings)[0])
-    prepared = {key: prepare_run(config) for key, config in spec.configs.items()}
+    prepared = {key: prepare_run(config, settings) for key, config in spec.configs.items()}
     if timed and on_timing is not None:
         on_timing()
     seen: dict[str, dict[str, Any]] = {}
-    for (condition, seed), (config, plugins) in prepared.items():
+    for (condition, seed), run in prepared.items():
         if condition in seen:
             seen[condition]["seeds"].append(seed)
             continue
-        brain_only = is_brain_only(config, plugins.encoder)
         row: dict[str, Any] = {
             "condition": condition,
             "seeds": [seed],
-            "evaluations": budget(config, brain_only),
-            "simulated_seconds": config.task.duration,
+            "evaluations": run.budget,
+            "simulated_seconds": run.config.task.duration,
         }
         if timed:
-            row["seconds_per_evaluation"] = _seconds_per_evaluation(config, plugins, brain_only)
+            row["seconds_per_evaluation"] = _seconds_per_evaluation(run)
         seen[condition] = row
         plan.rows.append(row)
     return plan
 
 
-def _seconds_per_evaluation(config: ExperimentConfig, plugins: Plugins, brain_only: bool) -> float:
+def _seconds_per_evaluation(run: PreparedRun) -> float:
     """CPU seconds per evaluation of a batch of random brains on random bodies, here, on one
     thread (as a worker process of the local pool runs it; CPU time, so that other work on the
     machine does not inflate it)."""
     # lazy: the engine imports mujoco (slow, and it reads MUJOCO_GL): only a timed plan needs it
     from ariel.evaluation import build, evaluate_batch
 
+    config, plugins = run.config, run.plugins
     rng = np.random.default_rng(0)
     seconds, count = 0.0, 0
-    for _ in range(1 if brain_only else _BODIES):
-        encoder = plugins.encoder
-        genotype = fixed_genotype(config, encoder) if brain_only else encoder.random_genotype(rng)
+    for _ in range(1 if run.brain_only else _BODIES):
+        genotype = run.genotype if run.brain_only else plugins.encoder.random_genotype(rng)
         spec = body_spec(config, genotype)
         try:
             model = build(evaluation_task(config, spec)).model

@@ -16,7 +16,7 @@ import sys
 import time
 from typing import Any, TextIO
 
-from ariel.evolution import Progress, eta_text, fmt_value, live_bars
+from ariel.evolution import Progress, RunEnded, RunEvent, eta_text, fmt_value, live_bars
 
 __all__ = ["CampaignProgress", "RunProgress"]
 
@@ -113,8 +113,8 @@ class CampaignProgress:
 
 
 class RunProgress(Progress):
-    """A run of a campaign: counts its evaluations as a lone run's `Progress` does (the
-    checkpoint reads them) and reports them to the campaign; its generation lines, prefixed by
+    """A run of a campaign: counts its evaluations as a lone run's `Progress` does and reports
+    them to the campaign, and its end (`RunEnded`); its generation lines, prefixed by
     the run's condition and seed, go to the campaign's display without an evaluations/s or
     ETA of their own (never a live display of its own: one per run would fight over the
     terminal)."""
@@ -124,6 +124,11 @@ class RunProgress(Progress):
         self.label, self.campaign = label, campaign
         self.live = False
         self.enabled = False  # the base prints nothing; the campaign shows the lines
+
+    def notify(self, event: RunEvent) -> None:
+        super().notify(event)
+        if isinstance(event, RunEnded):
+            self.campaign.run_finished()
 
     def advance(self, evaluations: int, best: float | None = None) -> None:
         super().advance(evaluations, best)

@@ -13,102 +13,42 @@ import datetime as _dt
 import shutil
 import sys
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ariel import evolution
 from ariel.evaluation import WorkerCannotStartError
-from ariel.evaluation.executors import planned_workers
 from ariel.evolution import (
-    ConfigError,
-    ExecutorConfig,
     ExperimentConfig,
     LoopState,
-    Plugins,
     Progress,
-    RunDriver,
-    budget,
-    check_resources,
-    config_hash,
-    is_brain_only,
     load_config,
     no_main_guard_line,
     refuse_in_spawned_child,
-    run_groups,
     shows_progress,
-    state_from_plain,
 )
-from ariel.plugins import plugin_provenance
-from ariel.recording import Run, load_run, rerun
-from ariel.recording.store import (
-    MANIFEST_FORMAT,
-    NotARunError,
-    RunFolder,
-    RunLock,
-    RunWriter,
-    adopt_manifests,
-    git_commit,
-    now,
-    software_versions,
-    storage_errors,
-)
+from ariel.recording.store import RunFolder, storage_errors
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
+    PreparedRun,
     _read_genotype_file,
     executor_settings,
     prepare_run,
     resolve_plugins,
     resume_settings,
 )
+from ariel.runs._result import RunResult
+from ariel.runs._session import RunSession, drive, resumable
 from ariel.utils import accept_aliases
 
 __all__ = [
     "RunResult",
-    "end_run",
     "executor_settings",
     "new_progress",
     "noted_on_interrupt",
     "prepare_run",
     "resolve_plugins",
-    "resumable",
     "resume_experiment",
     "run_experiment",
-    "run_info",
-    "run_result",
-    "start_driver",
 ]
-
-
-@dataclass
-class RunResult:
-    """What `run_experiment` returns.
-
-    Attributes:
-        run_dir: The run folder.
-        run_id: The run's id (the folder's name when ``out`` was given, else
-            ``<name>-<YYYYmmdd-HHMMSS>-s<seed>``).
-        status: How the run ended: ``"finished"``.
-        generations: The generations of the run (the config's ``generations``).
-        evaluations: Rows in the evaluations table.
-        best_fitness: The fitness of the run's best body.
-        best_body_id: The id of the run's best body, e.g. ``"b000012"``.
-        best_eval_id: The id of that body's best evaluation, e.g. ``"b000012-i003-c005"``.
-        wall_seconds: Wall-clock seconds the run took (over all its sessions).
-    """
-
-    run_dir: Path
-    run_id: str
-    status: str
-    generations: int
-    evaluations: int
-    best_fitness: float
-    best_body_id: str
-    best_eval_id: str
-    wall_seconds: float
-
-    def load(self) -> Run:
-        """The run's records as pandas DataFrames (`ariel.recording.load_run`)."""
-        return load_run(self.run_dir)
 
 
 # --------------------------------------------------------------------------------------------
@@ -117,8 +57,7 @@ class RunResult:
 
 
 def new_progress(
-    config: ExperimentConfig,
-    plugins: Plugins,
+    prepared: PreparedRun,
     state: LoopState | None,
     show_progress: bool | None,
     kind: type[Progress] = Progress,
@@ -127,130 +66,27 @@ def new_progress(
     """The run's progress display (``kind``: a `Progress` class; ``extra``: its keywords);
     ``show_progress``: see `shows_progress` (None: only where someone watches)."""
     return kind(
-        total=budget(config, is_brain_only(config, plugins.encoder)),
+        total=prepared.budget,
         done=state.budget_done if state else 0,
         enabled=shows_progress(show_progress),
         **extra,
     )
 
 
-def start_driver(
-    config: ExperimentConfig,
-    plugins: Plugins,
-    folder: RunFolder,
-    run_id: str,
-    state: LoopState | None,
-    settings: ExecutorConfig,
-    progress: Progress,
-) -> RunDriver:
-    """The run's driver, writing into ``folder`` (locked by the caller), marked running."""
-    recorder = None
-    if config.record.rerun:  # only then are the recorder's modules (and Rerun) loaded
-        recorder = rerun.RerunRecorder(
-            folder.path,
-            run_id=run_id,
-            bodies=config.record.bodies,
-            maximise=plugins.maximise,
-            config=config,
-        )
-    writer = RunWriter(folder, config, run_id, recorder=recorder)
-    driver = RunDriver(config, plugins, writer, progress, state)
-    folder.update_info(
-        status="running",
-        executor={
-            "kind": settings.kind,
-            "workers": settings.workers,
-            "address": settings.address,
-        },
-        # What the checkpoint holds: run.json may lag behind it when a kill came between them.
-        generations_done=driver.first_generation,
-    )
-    return driver
-
-
-def end_run(folder: RunFolder, driver: RunDriver, status: str) -> None:
-    """Record how the run ended (``finished``, ``interrupted``, ``failed``) in run.json."""
-    # On a full disk this write fails too: then the first error is the one to tell.
-    with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
-        folder.update_info(status=status, ended=now(), wall_seconds=driver.wall_seconds)
-
-
-def run_result(driver: RunDriver, folder: RunFolder, run_id: str, status: str) -> RunResult:
-    best = driver.best_body()
-    return RunResult(
-        run_dir=folder.path,
-        run_id=run_id,
-        status=status,
-        generations=driver.config.generations,
-        evaluations=driver.state.evaluations_done if driver.state else 0,
-        best_fitness=best.fitness,
-        best_body_id=best.body_id,
-        best_eval_id=best.best_eval_id,
-        wall_seconds=driver.wall_seconds,
-    )
-
-
-def _drive(
-    config: ExperimentConfig,
-    plugins: Plugins,
-    folder: RunFolder,
-    run_id: str,
-    state: LoopState | None,
-    settings: ExecutorConfig,
-    show_progress: bool | None,
-) -> RunResult:
-    progress = new_progress(config, plugins, state, show_progress)
-    driver = start_driver(config, plugins, folder, run_id, state, settings, progress)
-    if driver.progress.enabled:
-        print(f"run {run_id}: {folder.path} ({progress.total} evaluations)", flush=True)
-    status = "failed"
-    try:
-        with progress:
-            run_groups([driver.generations()], settings)
-        status = "finished"
-    except KeyboardInterrupt:
-        status = "interrupted"
-        raise
-    finally:
-        end_run(folder, driver, status)
-    return run_result(driver, folder, run_id, status)
+def _drive(session: RunSession, show_progress: bool | None) -> RunResult:
+    """A lone run: a campaign of one, driven as a campaign's runs are (`drive`)."""
+    progress = new_progress(session.prepared, session.state, show_progress)
+    session.start(progress)
+    if progress.enabled:
+        shown = f"{session.run_id}: {session.folder.path} ({progress.total} evaluations)"
+        print(f"run {shown}", flush=True)
+    drive([session], session.prepared.settings, progress)
+    return session.result()
 
 
 def new_run_id(config: ExperimentConfig) -> str:
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     return f"{config.name}-{stamp}-s{config.seed}"
-
-
-def run_info(config: ExperimentConfig, run_id: str, plugins: Plugins) -> dict[str, Any]:
-    """A new run's run.json: config, hash, software, plugin provenance, and what readers need
-    without the run's plugins (fitness direction, brain-only)."""
-    provenance = plugin_provenance(
-        {
-            "body_encoder": config.body.encoder,
-            "controller": config.brain.controller,
-            "world": config.world.name,
-            "fitness": config.task.fitness,
-            "body_optimizer": config.body.optimizer,
-            "brain_optimizer": config.brain.optimizer,
-        }
-    )
-    return {
-        "run_id": run_id,
-        "name": config.name,
-        "status": "created",
-        "seed": config.seed,
-        "config": config.to_plain(),
-        "config_hash": config_hash(config),
-        "versions": software_versions(),
-        "git_commit": git_commit(),
-        "plugins": provenance,
-        "created": now(),
-        "generations_done": 0,
-        "evaluations_done": 0,
-        "maximise": plugins.maximise,
-        "brain_only": is_brain_only(config, plugins.encoder),
-        "manifests": MANIFEST_FORMAT,
-    }
 
 
 @accept_aliases(scheduler="address")
@@ -322,28 +158,18 @@ def run_experiment(
     refuse_in_spawned_child()  # a script without a __main__ guard, re-run by a pool worker
     config = load_config(config, overrides)
     settings = executor_settings(config, kind=executor, workers=workers, address=address)
-    config, plugins = prepare_run(config)
-    capacity, local_workers = planned_workers(settings)
-    check_resources(
-        config,
-        plugins.encoder,
-        brain_only=is_brain_only(config, plugins.encoder),
-        capacity=capacity,
-        local_workers=local_workers,
-    )
-    run_id = new_run_id(config)
+    prepared = prepare_run(config, settings)
+    run_id = new_run_id(prepared.config)
     path = Path(out) if out is not None else Path("data") / "runs" / run_id
     if out is not None:
         run_id = path.name or run_id
     RunFolder.check_new(path, overwrite=overwrite)
-    info = run_info(config, run_id, plugins)
     try:
-        # The lock is held for the whole run; create() checks the folder again under it.
-        with storage_errors(path), RunLock(path, create=True):
-            folder = RunFolder.create(path, info, overwrite=overwrite, locked=True)
-            with noted_on_interrupt("run_dir", folder.path):
-                folder.start_segment("run")
-                return _drive(config, plugins, folder, run_id, None, settings, progress)
+        with storage_errors(path), contextlib.ExitStack() as locks:
+            # The lock is held for the whole run.
+            session = RunSession.create(prepared, path, run_id, locks, overwrite=overwrite)
+            with noted_on_interrupt("run_dir", session.folder.path):
+                return _drive(session, progress)
     except Exception as exc:
         if not _worker_cannot_start(exc):
             raise
@@ -436,42 +262,8 @@ def resume_experiment(
         address=address,
         command=("resume", run_dir),
     )
-    plugins = resolve_plugins(config)
-    evolution.check_plugins(config)  # from the face when called: tests replace it there
-    with storage_errors(folder.path), RunLock(folder.path):
-        # Again under the lock: another resume may have run (or finished) the run meanwhile.
-        info, config, state = resumable(folder)
-        reopen(folder, state)
+    with storage_errors(folder.path), contextlib.ExitStack() as locks:
+        # Checked again under the lock: another resume may have run (or finished) the run.
+        session = RunSession.reopen(folder, locks, settings)
         with noted_on_interrupt("run_dir", folder.path):
-            return _drive(config, plugins, folder, info["run_id"], state, settings, progress)
-
-
-def reopen(folder: RunFolder, state: LoopState | None) -> None:
-    """Under the run's lock, before it goes on: manifests for the kept generations (a run
-    made before manifests), later generations' files removed, this resume's software noted."""
-    adopt_manifests(folder, state.generation + 1 if state is not None else 0)
-    folder.discard_after(state.generation if state is not None else -1)
-    folder.start_segment("resume")
-
-
-def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:
-    """run.json, config and checkpoint of a run that may be resumed; `ValueError` else."""
-    info = folder.read_info()
-    if info.get("status") == "finished":
-        raise ValueError(f"run {str(folder.path)!r} is already finished; nothing to resume")
-    try:
-        config = ExperimentConfig.from_plain(info["config"])
-    except (KeyError, ConfigError) as exc:
-        raise ValueError(f"run {str(folder.path)!r}: its config cannot be read ({exc})") from None
-    digest = config_hash(config)
-    plain = folder.load_checkpoint()
-    try:
-        state = None if plain is None else state_from_plain(plain)
-    except ValueError as exc:
-        raise NotARunError(f"{folder.checkpoint}: unreadable checkpoint ({exc})") from None
-    if digest != info.get("config_hash") or (state is not None and state.config_hash != digest):
-        raise ValueError(
-            f"run {str(folder.path)!r}: its config was edited after the run started (hash "
-            "mismatch); start a new run with the new config instead"
-        )
-    return info, config, state
+            return _drive(session, progress)

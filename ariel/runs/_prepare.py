@@ -1,6 +1,8 @@
-"""Before a run starts: its plugins made from the config and checked with their options, a
-genotype file read, a fixed body built, the executor settings checked; every problem a
-`ConfigError` naming the key, before anything is written.
+"""Before a run starts: `prepare_run` turns a config into a `PreparedRun`. Its plugins are
+made from the config and checked with their options (the only call of the plugin checkers), a
+genotype file read, a fixed body built, the executor settings checked and the memory one
+generation needs estimated; every problem a `ConfigError` naming the key, before anything is
+written.
 """
 
 from __future__ import annotations
@@ -8,6 +10,7 @@ from __future__ import annotations
 import inspect
 import sys
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,6 +22,7 @@ from ariel.evaluation.executors import (
     check_settings,
     executor_kind,
     executor_kinds,
+    planned_workers,
 )
 from ariel.evolution import (
     BodyFactory,
@@ -26,7 +30,9 @@ from ariel.evolution import (
     ExecutorConfig,
     ExperimentConfig,
     Plugins,
+    budget,
     check_genotype,
+    check_resources,
     describe,
     fixed_genotype,
     is_brain_only,
@@ -47,7 +53,13 @@ from ariel.plugins import (
 from ariel.recording.store import short_ascii
 from ariel.utils import ariel_line
 
-__all__ = ["executor_settings", "prepare_run", "resolve_plugins", "resume_settings"]
+__all__ = [
+    "PreparedRun",
+    "executor_settings",
+    "prepare_run",
+    "resolve_plugins",
+    "resume_settings",
+]
 
 
 # --------------------------------------------------------------------------------------------
@@ -230,13 +242,52 @@ def resume_settings(
     return settings
 
 
-def prepare_run(config: ExperimentConfig) -> tuple[ExperimentConfig, Plugins]:
-    """The config (a genotype file read into it) and its plugins, all checked: `ConfigError`."""
+@dataclass(frozen=True)
+class PreparedRun:
+    """A config made ready to run, every part of it checked (`prepare_run`).
+
+    Attributes:
+        config: The config, with a genotype file named by ``body.genotype`` read into it.
+        plugins: Its plugins, made once.
+        settings: The executor it runs on, checked.
+        brain_only: Whether its body is fixed (`is_brain_only`).
+        genotype: A brain-only run's body (it builds); None when bodies evolve.
+        budget: The evaluations the run makes.
+        memory: Bytes one generation needs, estimated from a sample body (None: no body to
+            measure).
+    """
+
+    config: ExperimentConfig
+    plugins: Plugins
+    settings: ExecutorConfig
+    brain_only: bool
+    genotype: object | None
+    budget: int
+    memory: int | None
+
+
+def prepare_run(config: ExperimentConfig, settings: ExecutorConfig | None = None) -> PreparedRun:
+    """``config`` made ready to run on ``settings`` (None: the config's ``[executor]``), all of
+    it checked: `ConfigError` naming the key."""
+    settings = executor_settings(config) if settings is None else settings
     plugins = resolve_plugins(config)
     config = _read_genotype_file(config, plugins.encoder)
-    if is_brain_only(config, plugins.encoder):
+    brain_only = is_brain_only(config, plugins.encoder)
+    genotype = None
+    if brain_only:
         _check_fixed_body(config, plugins)
+        genotype = fixed_genotype(config, plugins.encoder)
     # The plugins --check checks, for these plugins with these options; from the face when
     # called: tests replace it there (tests/e2e/test_unstable.py).
     evolution.check_plugins(config)
-    return config, plugins
+    capacity, local_workers = planned_workers(settings)
+    memory = check_resources(
+        config,
+        plugins.encoder,
+        brain_only=brain_only,
+        capacity=capacity,
+        local_workers=local_workers,
+    )
+    return PreparedRun(
+        config, plugins, settings, brain_only, genotype, budget(config, brain_only), memory
+    )

@@ -1,9 +1,9 @@
-"""`RunDriver` alone, behind its protocols: fake records and progress, fake evaluations.
+"""`RunDriver` alone, with fake observers and fake evaluations.
 
 No physics runs and nothing is written: each brain candidate's "fitness" is a function of its
-parameters, and the fakes keep what the driver tells them. So these tests say what the driver
-itself does (its counts, its calls, its checkpoints), whatever the scheduler, the engine and
-the records writer do.
+parameters, and the fake observers keep the events the driver says. So these tests say what
+the driver itself does (its counts, its events, its checkpoints), whatever the scheduler, the
+engine and the records writer do.
 """
 
 from __future__ import annotations
@@ -16,7 +16,16 @@ import numpy as np
 import pytest
 
 from ariel.evaluation import EvaluationResult
-from ariel.evolution import load_config
+from ariel.evolution import (
+    BatchEvaluated,
+    BodyFailed,
+    CheckpointDue,
+    GenerationEnded,
+    GenerationStarted,
+    RunEvent,
+    RunStarted,
+    load_config,
+)
 from ariel.evolution._driver import RunDriver, budget, per_body
 from ariel.runs._prepare import resolve_plugins
 
@@ -30,55 +39,46 @@ SMALL = [
 
 
 class FakeRecords:
-    """A `RunRecords` that keeps every call."""
-
-    record_bodies = False
+    """An observer that keeps what a records writer and run.json would be told."""
 
     def __init__(self) -> None:
         self.calls: list[tuple[Any, ...]] = []
         self.checkpoints: list[dict[str, Any]] = []
         self.info: dict[str, Any] = {}
+        self.events: list[str] = []
 
-    def evaluated(self, body, model, tasks, results, *, generation, iteration, improved) -> None:
-        fitness = [r.fitness for r in results]
-        self.calls.append(("evaluated", generation, body.body_id, iteration, fitness))
-
-    def body_failed(self, body, generation, worst) -> None:
-        self.calls.append(("failed", generation, body.body_id))
-
-    def flush(self) -> None:
-        pass
-
-    def plugin_failed(self, task, exc):
-        return exc
-
-    def write_generation(self, generation, bodies, archive, novelty=None) -> dict[str, int]:
-        kept = sorted(b.body_id for b, _, selected in bodies if selected)
-        self.calls.append(("generation", generation, kept, archive is not None, novelty))
-        return {"rows": 0}
-
-    def save_checkpoint(self, state: dict[str, Any]) -> None:
-        self.checkpoints.append(json.loads(json.dumps(state)))  # plain JSON, as on disk
-
-    def update_info(self, **changes: Any) -> None:
-        self.info.update(changes)
+    def notify(self, event: RunEvent) -> None:
+        self.events.append(type(event).__name__)
+        if isinstance(event, BatchEvaluated):
+            fitness = [r.fitness for r in event.results]
+            self.calls.append(
+                ("evaluated", event.generation, event.body.body_id, event.iteration, fitness)
+            )
+        elif isinstance(event, BodyFailed):
+            self.calls.append(("failed", event.generation, event.body.body_id))
+        elif isinstance(event, GenerationEnded):
+            kept = sorted(b.body_id for b, _, selected in event.bodies if selected)
+            self.calls.append(
+                ("generation", event.generation, kept, event.archive is not None, event.novelty)
+            )
+        elif isinstance(event, CheckpointDue):
+            self.checkpoints.append(json.loads(json.dumps(event.state)))  # plain JSON, as on disk
+        elif isinstance(event, RunStarted) and event.archive is not None:
+            self.info["archive"] = event.archive
 
 
 class FakeProgress:
-    """A `Progress` that counts what it is shown."""
+    """An observer that counts what a progress display is shown."""
 
     def __init__(self) -> None:
         self.done = 0
         self.generations: list[int] = []
 
-    def start_generation(self, generation: int, evaluations: int | None = None) -> None:
-        self.generations.append(generation)
-
-    def advance(self, evaluations: int, best: float | None = None) -> None:
-        self.done += evaluations
-
-    def end_generation(self, *args: Any, **kwargs: Any) -> None:
-        pass
+    def notify(self, event: RunEvent) -> None:
+        if isinstance(event, GenerationStarted):
+            self.generations.append(event.generation)
+        elif isinstance(event, BatchEvaluated | BodyFailed):
+            self.done += event.counted
 
 
 def _fitness(params: tuple[float, ...]) -> float:
@@ -88,7 +88,8 @@ def _fitness(params: tuple[float, ...]) -> float:
 def _drive(overrides: list[str]) -> tuple[RunDriver, FakeRecords, FakeProgress]:
     config = load_config(overrides=[*SMALL, *overrides])
     records, progress = FakeRecords(), FakeProgress()
-    driver = RunDriver(config, resolve_plugins(config), records, progress)  # type: ignore[arg-type]
+    driver = RunDriver(config, resolve_plugins(config), [records, progress])
+    driver.start()
     for works in driver.generations():
         for work in works:  # one after the other: the scheduler's order does not matter
             while (tasks := work.next_batch()) is not None:
@@ -121,6 +122,20 @@ def test_the_driver_counts_every_evaluation_and_checkpoints_its_own_count(ga) ->
     assert counted[-1] == budget(config, False)
     assert counted[-1] == driver.budget_done == progress.done
     assert counted == sorted(counted) and len(counted) == config.generations
+
+
+def test_the_events_come_in_the_documented_order(ga) -> None:
+    _, records, _ = ga
+    said = records.events
+    assert said[0] == "RunStarted" and said[-1] == "RunEnded"
+    starts = [i for i, name in enumerate(said) if name == "GenerationStarted"]
+    assert len(starts) == 3
+    for first, end in zip(starts, [*starts[1:], len(said) - 1]):
+        generation = said[first:end]
+        # the batches (each followed by a flush only when a scheduler sends more: none here),
+        # then the records, then the checkpoint
+        assert generation[-2:] == ["GenerationEnded", "CheckpointDue"]
+        assert set(generation[1:-2]) <= {"BatchEvaluated", "BodyFailed"}
 
 
 def test_each_generation_is_written_once_in_order_with_its_survivors(ga) -> None:

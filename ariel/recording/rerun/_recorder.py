@@ -44,7 +44,13 @@ import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
-from ariel.evolution import fitness_rank
+from ariel.evolution import (
+    BatchEvaluated,
+    FlushDue,
+    GenerationEnded,
+    RunEvent,
+    fitness_rank,
+)
 from ariel.recording.rerun._archive import CvtCells, archive_cells, archive_grid
 from ariel.recording.rerun._blueprint import write_blueprint
 from ariel.recording.rerun._generation_rrd import (
@@ -59,7 +65,9 @@ from ariel.recording.store import (
     GENERATION_BLUEPRINT,
     NotARunError,
     RunFolder,
+    body_rows_of,
     describe_archive,
+    evaluation_row,
     generation_recording_path,
     read_table,
     recording_path,
@@ -131,7 +139,8 @@ def generation_summary(
 
 
 class RerunRecorder:
-    """Writes a run's Rerun files (see the module docstring); one per run, in the driver."""
+    """Writes a run's Rerun files (see the module docstring); one per run, an observer of its
+    driver (`notify`)."""
 
     def __init__(
         self,
@@ -160,6 +169,53 @@ class RerunRecorder:
         # per generation: its evaluations' traces
         self._traces: dict[int, list[EvaluationTrace]] = {}
         self._blueprint = False
+        self._waiting: list[dict[str, Any]] = []  # evaluations waiting for their recording
+
+    def notify(self, event: RunEvent) -> None:
+        """The driver's events: a batch's evaluations kept as it comes back and recorded once
+        the next batches are sent (`FlushDue`); the generation's recordings at its end."""
+        if isinstance(event, BatchEvaluated):
+            self._keep(event)
+        elif isinstance(event, FlushDue):
+            self.flush()
+        elif isinstance(event, GenerationEnded):
+            rows = body_rows_of(self.run_id, self.config, event.generation, event.bodies)
+            self.generation(event.generation, [row.record() for row in rows], event.archive)
+
+    def _keep(self, event: BatchEvaluated) -> None:
+        """The batch's evaluations that ran (a body that cannot be built has no recording),
+        each with its row of the evaluations table."""
+        for k, (task, result) in enumerate(zip(event.tasks, event.results)):
+            if not result.time.size:
+                continue
+            row = evaluation_row(
+                self.run_id,
+                self.config,
+                event.body,
+                task,
+                result,
+                event.generation,
+                event.iteration,
+                k,
+            )
+            self._waiting.append(
+                dict(
+                    model=event.model,
+                    body=event.body,
+                    task=task,
+                    result=result,
+                    row=row,
+                    new_best=k == event.improved,
+                )
+            )
+
+    def flush(self) -> None:
+        """Record the evaluations kept since the last call."""
+        while self._waiting:
+            evaluation = self._waiting.pop(0)
+            self.evaluation(**evaluation)
+            result = evaluation["result"]
+            result.body_pos = result.body_quat = None  # recorded; not kept till the tables
 
     @property
     def record_bodies(self) -> bool:

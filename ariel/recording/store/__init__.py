@@ -105,9 +105,12 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.recording.store._rows import (
         RunWriter as RunWriter,
+        body_rows_of as body_rows_of,
+        evaluation_row as evaluation_row,
     )
     from ariel.recording.store._run_folder import (
         DamagedRunError as DamagedRunError,
+        JsonObject as JsonObject,
         NotARunError as NotARunError,
         RunFolder as RunFolder,
         RunStorageError as RunStorageError,
@@ -137,6 +140,7 @@ _INTERNAL: dict[str, str] = {
     "DamagedRunError": "ariel.recording.store._run_folder",
     "EvaluationRow": "ariel.recording.store._row_types",
     "GENERATION_BLUEPRINT": "ariel.recording.store._tables",
+    "JsonObject": "ariel.recording.store._run_folder",
     "MANIFEST_FORMAT": "ariel.recording.store._manifest",
     "Manifest": "ariel.recording.store._manifest",
     "NotARunError": "ariel.recording.store._run_folder",
@@ -148,6 +152,8 @@ _INTERNAL: dict[str, str] = {
     "RunLock": "ariel.recording.store._lock",
     "RunStorageError": "ariel.recording.store._run_folder",
     "RunWriter": "ariel.recording.store._rows",
+    "body_rows_of": "ariel.recording.store._rows",
+    "evaluation_row": "ariel.recording.store._rows",
     "STOPPED": "ariel.recording.store._load",
     "UnsafePathError": "ariel.recording.store._files",
     "adopt_manifests": "ariel.recording.store._manifest",

@@ -1,20 +1,26 @@
 """Rows of a run's tables, built as their declarations say (`_row_types`), and the writer that
-collects one generation's rows and recordings and writes them when the generation ends.
+collects one generation's rows and writes them when the generation ends.
 
-The run driver (`ariel.evolution`) hands the writer what happened (a batch of evaluations of a
-body, a body that could not be built, the end of a generation); the writer decides what the
-records look like. Rows are written in id order, so the order in which results arrived never
-shows in a table.
+The writer is one of the run driver's observers (`ariel.evolution.RunObserver`): the driver
+says what happened (a batch of evaluations of a body, a body that could not be built, the end
+of a generation, a checkpoint due); the writer decides what the tables look like. Rows are
+written in id order, so the order in which results arrived never shows in a table.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ariel.recording.store._load import FAILED_STATUSES
+from ariel.evolution import (
+    BatchEvaluated,
+    BodyFailed,
+    CheckpointDue,
+    GenerationEnded,
+    RunEvent,
+)
 from ariel.recording.store._manifest import write_manifest
 from ariel.recording.store._row_types import (
     ArchiveRow,
@@ -25,7 +31,7 @@ from ariel.recording.store._row_types import (
 )
 from ariel.recording.store._tables import trajectory_columns, write_table
 
-__all__ = ["RunWriter", "body_row", "error_row", "evaluation_row"]
+__all__ = ["RunWriter", "body_row", "body_rows_of", "error_row", "evaluation_row"]
 
 
 def _common(run_id: str, config: Any, body: Any, generation: int) -> dict[str, Any]:
@@ -125,59 +131,55 @@ def body_row(
 
 
 class RunWriter:
-    """Collects a generation's rows, frames and Rerun recordings; writes them at its end."""
+    """Collects a generation's rows (and recorded frames) and writes its tables when it ends,
+    then, at the checkpoint, its manifest and the checkpoint (see the module docstring)."""
 
-    def __init__(self, folder: Any, config: Any, run_id: str, *, recorder: Any = None) -> None:
-        """``recorder``: the run's Rerun recorder (`ariel.recording.rerun.RerunRecorder`, made
-        by the caller when ``record.rerun`` asks for one), told of each evaluation and
-        generation; None: no recordings."""
+    def __init__(self, folder: Any, config: Any, run_id: str) -> None:
         self.folder = folder
         self.config = config
         self.run_id = run_id
         self._rows: dict[tuple[int, int, int], EvaluationRow] = {}
         self._frames: dict[tuple[int, int, int], Any] = {}
-        self._recordings: list[dict[str, Any]] = []  # evaluations waiting for their recording
-        self.recorder = recorder
 
     @property
     def path(self) -> Path:
         return Path(self.folder.path)
 
-    @property
-    def record_bodies(self) -> bool:
-        """Whether evaluations must return the bodies' poses (for the recordings)."""
-        return self.recorder is not None and self.recorder.record_bodies
+    def notify(self, event: RunEvent) -> None:
+        """The driver's events: rows as batches come back, tables when the generation ends."""
+        if isinstance(event, BatchEvaluated):
+            self.evaluated(
+                event.body,
+                event.tasks,
+                event.results,
+                generation=event.generation,
+                iteration=event.iteration,
+            )
+        elif isinstance(event, BodyFailed):
+            self.body_failed(event.body, event.generation, event.worst)
+        elif isinstance(event, GenerationEnded):
+            self.write_generation(event.generation, event.bodies, event.archive, event.novelty)
+        elif isinstance(event, CheckpointDue):
+            # The tables' sizes and hashes, then the checkpoint: a generation counts as done
+            # only once its records are whole.
+            write_manifest(self.path, event.generation)
+            self.folder.save_checkpoint(dict(event.state))
 
     def evaluated(
         self,
         body: Any,
-        model: Any,
         tasks: Sequence[Any],
         results: Sequence[Any],
         *,
         generation: int,
         iteration: int,
-        improved: int | None,
     ) -> None:
-        """A batch of ``body``'s brain run came back (``improved``: the candidate that became
-        the body's best, if any)."""
+        """A batch of ``body``'s brain run came back: its rows (and frames, when recorded)."""
         for k, (task, result) in enumerate(zip(tasks, results)):
             key = (body.number, iteration, k)
-            row = evaluation_row(
+            self._rows[key] = evaluation_row(
                 self.run_id, self.config, body, task, result, generation, iteration, k
             )
-            self._rows[key] = row
-            if self.recorder is not None and result.time.size:
-                self._recordings.append(
-                    dict(
-                        model=model,
-                        body=body,
-                        task=task,
-                        result=result,
-                        row=row,
-                        new_best=k == improved,
-                    )
-                )
             if self.config.record.trajectories and result.time.size:
                 self._frames[key] = (task.eval_id, result)
 
@@ -187,41 +189,24 @@ class RunWriter:
             self.run_id, self.config, body, generation, worst
         )
 
-    def flush(self) -> None:
-        """Write the Rerun recordings of the evaluations finished since the last call."""
-        while self._recordings:
-            evaluation = self._recordings.pop(0)
-            self.recorder.evaluation(**evaluation)  # type: ignore[union-attr]
-            result = evaluation["result"]
-            result.body_pos = result.body_quat = None  # recorded; not kept till the tables
-
     def write_generation(
         self,
         generation: int,
         bodies: Sequence[tuple[Any, bool, bool]],
-        archive: Sequence[dict[str, Any]] | None = None,
-        novelty: Sequence[dict[str, Any]] | None = None,
-    ) -> dict[str, int]:
+        archive: Sequence[Mapping[str, object]] | None = None,
+        novelty: Sequence[Mapping[str, object]] | None = None,
+    ) -> None:
         """Write the generation's tables (``bodies``: (body, is_new, selected); ``archive``:
         a MAP-Elites archive's rows, see `ArchiveRow`; ``novelty``: novelty search's rows, see
-        `NoveltyRow`) and run.rrd.
-
-        Returns the counts of evaluations rows written, by status (``rows``: all of them).
-        """
+        `NoveltyRow`)."""
         rows = [self._rows[key] for key in sorted(self._rows)]
-        counts = {"rows": len(rows)}
-        counts.update({s: sum(row.status == s for row in rows) for s in FAILED_STATUSES})
         write_table(self.path, "evaluations", generation, table_columns(EvaluationRow, rows))
         if self.config.record.trajectories:
             frames = [self._frames[key] for key in sorted(self._frames)]
             write_table(
                 self.path, "trajectories", generation, trajectory_columns(generation, frames)
             )
-        body_rows = [
-            body_row(self.run_id, self.config, body, generation, is_new, selected)
-            for body, is_new, selected in bodies
-        ]
-        body_rows.sort(key=lambda row: row.body_id)
+        body_rows = body_rows_of(self.run_id, self.config, generation, bodies)
         write_table(self.path, "bodies", generation, table_columns(BodyRow, body_rows))
         if archive is not None:
             cells = [ArchiveRow.of({"generation": generation, **row}) for row in archive]
@@ -229,12 +214,8 @@ class RunWriter:
         if novelty is not None:
             rows_n = [NoveltyRow.of({"generation": generation, **row}) for row in novelty]
             write_table(self.path, "novelty", generation, table_columns(NoveltyRow, rows_n))
-        if self.recorder is not None:
-            self.recorder.generation(generation, [row.record() for row in body_rows], archive)
-        write_manifest(self.path, generation)  # the tables' sizes and hashes; before the checkpoint
         self._rows.clear()
         self._frames.clear()
-        return counts
 
     def plugin_failed(self, task: Any, exc: BaseException) -> BaseException:
         """The one-line error that stops the run (the traceback goes to RUN/error.log)."""
@@ -243,8 +224,15 @@ class RunWriter:
 
         return plugin_failure(self.path, self.config, task, exc)
 
-    def save_checkpoint(self, state: Any) -> None:
-        self.folder.save_checkpoint(state)
 
-    def update_info(self, **changes: Any) -> None:
-        self.folder.update_info(**changes)
+def body_rows_of(
+    run_id: str, config: Any, generation: int, bodies: Sequence[tuple[Any, bool, bool]]
+) -> list[BodyRow]:
+    """The generation's rows of the bodies table, in id order (``bodies``: (body, is_new,
+    selected))."""
+    rows = [
+        body_row(run_id, config, body, generation, is_new, selected)
+        for body, is_new, selected in bodies
+    ]
+    rows.sort(key=lambda row: row.body_id)
+    return rows

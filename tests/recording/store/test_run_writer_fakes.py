@@ -1,8 +1,9 @@
-"""`RunWriter` with a fake Rerun recorder behind it, told what a run driver tells it.
+"""`RunWriter` and the Rerun recorder as observers, told the events a run driver says.
 
-The evaluations are made up (no physics): a few frames each. The fake recorder keeps its
-calls, so these tests say what the writer hands the recorder, when, and what it writes
-itself (the tables and manifests), without a Rerun file in sight.
+The evaluations are made up (no physics): a few frames each. The recorder's writing is
+replaced by a fake that keeps its calls, so these tests say what the recorder records and
+when, and what the writer writes (the tables, then the manifest and the checkpoint), without
+a Rerun file in sight.
 """
 
 from __future__ import annotations
@@ -15,26 +16,41 @@ import numpy as np
 import pytest
 
 from ariel.evaluation import EvaluationResult, EvaluationTask
-from ariel.evolution import load_config
+from ariel.evolution import (
+    BatchEvaluated,
+    CheckpointDue,
+    FlushDue,
+    GenerationEnded,
+    load_config,
+)
 from ariel.evolution._state import Body
+from ariel.recording.rerun import RerunRecorder
 from ariel.recording.store._row_types import RowError
 from ariel.recording.store._rows import RunWriter
 
 
-class FakeRecorder:
-    """A Rerun recorder that keeps its calls."""
+class FakeRecorder(RerunRecorder):
+    """The run's recorder, keeping what it would write instead of writing it."""
 
-    record_bodies = True
-
-    def __init__(self) -> None:
+    def __init__(self, path: Path, config: Any) -> None:
+        super().__init__(path, run_id="run", bodies="all", maximise=True, config=config)
         self.evaluations: list[dict[str, Any]] = []
         self.generations: list[tuple[int, list[str], Any]] = []
 
-    def evaluation(self, **evaluation: Any) -> None:
+    def evaluation(self, **evaluation: Any) -> None:  # type: ignore[override]
         self.evaluations.append(evaluation)
 
-    def generation(self, generation: int, body_rows: Any, archive: Any = None) -> None:
+    def generation(self, generation: int, body_rows: Any, archive: Any = None) -> None:  # type: ignore[override]
         self.generations.append((generation, [row["body_id"] for row in body_rows], archive))
+
+
+class FakeFolder:
+    def __init__(self, path: Path) -> None:
+        self.path = str(path)
+        self.checkpoints: list[dict[str, Any]] = []
+
+    def save_checkpoint(self, state: dict[str, Any]) -> None:
+        self.checkpoints.append(state)
 
 
 def _body(number: int) -> Body:
@@ -58,12 +74,15 @@ def _result(task: EvaluationTask, fitness: float) -> EvaluationResult:
     )
 
 
+def _checkpoint() -> CheckpointDue:
+    return CheckpointDue(0, {"generation": 0}, 4, 1.0, 0.5, "mean", {})
+
+
 @pytest.fixture
-def written(tmp_path: Path) -> tuple[Path, FakeRecorder, list[Body]]:
+def written(tmp_path: Path) -> tuple[Path, FakeRecorder, FakeFolder]:
     config = load_config(overrides=["record.trajectories=true"])
-    recorder = FakeRecorder()
-    writer = RunWriter(SimpleNamespace(path=str(tmp_path)), config, "run", recorder=recorder)
-    assert writer.record_bodies  # asked of the recorder
+    folder = FakeFolder(tmp_path)
+    writer, recorder = RunWriter(folder, config, "run"), FakeRecorder(tmp_path, config)
     bodies = [_body(0), _body(1)]
     for body in bodies:
         tasks = [
@@ -71,13 +90,19 @@ def written(tmp_path: Path) -> tuple[Path, FakeRecorder, list[Body]]:
             for k in range(2)
         ]
         results = [_result(t, body.fitness - k) for k, t in enumerate(tasks)]
-        writer.evaluated(body, None, tasks, results, generation=0, iteration=0, improved=0)
+        event = BatchEvaluated(body, None, tasks, results, 0, 0, 0, 2, body.fitness)
+        for observer in (writer, recorder):
+            observer.notify(event)
         assert all(r.body_pos is not None for r in results)  # kept until flushed
     assert recorder.evaluations == []  # nothing recorded before the flush
-    writer.flush()
+    recorder.notify(FlushDue())
     assert all(e["result"].body_pos is None for e in recorder.evaluations)  # then let go
-    writer.write_generation(0, [(b, True, True) for b in bodies])
-    return tmp_path, recorder, bodies
+    ended = GenerationEnded(0, [(b, True, True) for b in bodies], None, None)
+    for observer in (writer, recorder):
+        observer.notify(ended)
+    assert not (tmp_path / "manifests").exists() and not folder.checkpoints  # not yet
+    writer.notify(_checkpoint())
+    return tmp_path, recorder, folder
 
 
 def test_the_recorder_gets_each_evaluation_once_with_its_new_best(written) -> None:
@@ -88,12 +113,13 @@ def test_the_recorder_gets_each_evaluation_once_with_its_new_best(written) -> No
     assert [e["row"].eval_id for e in recorder.evaluations] == ids  # its table row with it
 
 
-def test_the_generation_goes_to_the_tables_then_the_recorder(written) -> None:
-    path, recorder, _ = written
+def test_the_tables_come_at_the_generation_s_end_then_manifest_and_checkpoint(written) -> None:
+    path, recorder, folder = written
     assert recorder.generations == [(0, ["b000000", "b000001"], None)]
     for table in ("evaluations", "bodies", "trajectories"):
         assert (path / table / "gen-000000.parquet").is_file()
     assert (path / "manifests" / "gen-000000.json").is_file()
+    assert folder.checkpoints == [{"generation": 0}]
     assert not (path / "archive").exists() and not (path / "novelty").exists()
 
 
