@@ -244,6 +244,7 @@ class NoveltySearch:
         )
         self.generation = 0  # the generation the next `ask` breeds
         self._population: list[Body] = []  # ranked, best first
+        self._scored: dict[int, tuple[float, int]] | None = None  # its scores, once computed
 
     @property
     def population(self) -> list[Body]:
@@ -339,6 +340,7 @@ class NoveltySearch:
         generational = self.settings.survivors == "generational"
         pool = children if generational or not self._population else self._population + children
         self._population = self.ranked(pool)[: self.settings.population]
+        self._scored = None
         self.generation += 1
 
     # -- records -------------------------------------------------------------------------------
@@ -355,7 +357,7 @@ class NoveltySearch:
         """Rows of the ``novelty`` table after a `tell` (`NoveltyRow`): each body of the
         population, ranked, with its novelty and local competition score as `stats` measures
         them, and each member of the novelty archive, by body number."""
-        scores = self.scores(self._population)
+        scores = self._population_scores()
         rank = {b.number: i for i, b in enumerate(self._population)}
         places = {b.number: self.place(b) for b in self._population}
         numbers, _, member_places = self.members()
@@ -377,11 +379,18 @@ class NoveltySearch:
             )
         return rows
 
+    def _population_scores(self) -> dict[int, tuple[float, int]]:
+        """`scores` of the population, computed once per generation (its rows and its
+        `stats` both read them)."""
+        if self._scored is None:
+            self._scored = self.scores(self._population)
+        return self._scored
+
     def stats(self) -> dict[str, float]:
         """The result archive's `MapElites.stats`, with ``novelty_archive`` (members of the
         novelty archive) and ``mean_novelty`` (of the population's bodies that did not fail,
         among the archive and the population; NaN for none)."""
-        novelty = [nov for nov, _ in self.scores(self._population).values()]
+        novelty = [nov for nov, _ in self._population_scores().values()]
         mean = math.fsum(novelty) / len(novelty) if novelty else math.nan
         return {**self.result.stats(), "novelty_archive": len(self.archive), "mean_novelty": mean}
 
@@ -407,6 +416,7 @@ class NoveltySearch:
         self.generation = int(state["generation"])
         by_number = {b.number: b for b in population}
         self._population = [by_number[int(n)] for n in state["ranking"]]
+        self._scored = None
         self.archive.clear()
         if state["archive"]:
             # An empty archive takes a whole batch, in order: the same members, same places.

@@ -14,7 +14,7 @@ import re
 from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from ariel.recording.analysis import _compare_lineage as lineages
 from ariel.recording.analysis._compare_design import (
@@ -35,7 +35,7 @@ from ariel.recording.store import (
 if TYPE_CHECKING:
     import pandas as pd
 
-    from ariel.recording.store import Campaign
+    from ariel.recording.store import Campaign, JsonObject
 
 __all__ = [
     "LABEL",
@@ -65,7 +65,7 @@ class RunCurve:
     seed: int
     evaluations: pd.DataFrame
     path: str = ""
-    info: dict[str, Any] = field(default_factory=dict)
+    info: JsonObject = field(default_factory=dict)
     generations: pd.DataFrame | None = None
     lineage: pd.DataFrame | None = None
 

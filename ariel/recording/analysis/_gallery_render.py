@@ -27,7 +27,7 @@ from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -37,6 +37,7 @@ from ariel.recording.store import Run, atomic_write, cannot_write, load_run
 from ariel.utils import gl_backend_error, mujoco_module
 
 if TYPE_CHECKING:
+    import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import
     import pandas as pd
     from PIL import Image
 
@@ -107,7 +108,9 @@ def gl_problem() -> str | None:
 
 
 @contextlib.contextmanager
-def _thumbnail_settings(model: Any, camera_id: int, view: dict[str, Any] | None) -> Iterator[None]:
+def _thumbnail_settings(
+    model: mujoco.MjModel, camera_id: int, view: dict[str, Any] | None
+) -> Iterator[None]:
     """The camera overrides ``view`` on ``camera_id`` and a thumbnail's framebuffer and shadow
     map, for the block only: the model is the build cache's, shared (`build`)."""
     quality, buffers = model.vis.quality, model.vis.global_
@@ -130,6 +133,14 @@ def _thumbnail_settings(model: Any, camera_id: int, view: dict[str, Any] | None)
             model.cam_fovy[camera_id], model.cam_pos[camera_id], model.cam_quat[camera_id] = cameras
 
 
+class _Built(Protocol):
+    """What a thumbnail needs of a built body (`ariel.evaluation.build`'s result)."""
+
+    model: mujoco.MjModel
+    core_geom: int
+    robot_bodies: np.ndarray
+
+
 class _Painter:
     """One GL context (``mujoco.GLContext``) for many thumbnails; see the module docstring."""
 
@@ -145,7 +156,7 @@ class _Painter:
                 raise
             raise error from exc
 
-    def paint(self, built: Any) -> np.ndarray:
+    def paint(self, built: _Built) -> np.ndarray:
         """The RGB pixels (``size`` x ``size`` x 3) of ``built``'s start pose."""
         mujoco = mujoco_module()
 
@@ -179,7 +190,7 @@ class _Painter:
         self._context.free()
 
 
-def _view(built: Any, data: Any) -> dict[str, Any]:
+def _view(built: _Built, data: mujoco.MjData) -> dict[str, Any]:
     """The report's three-quarter view (`three_quarter_view`) of ``built`` in its reset pose,
     aimed at the middle of the robot's box and sized to it (the report aims at the centre of
     mass, which a heavy core pulls aside, and sizes by the descriptors, which do not know the

@@ -27,7 +27,7 @@ from ariel.recording.store import Run, ancestors, archive_cell_count, lineage
 if TYPE_CHECKING:
     import pandas as pd
 
-    from ariel.recording.store import Campaign
+    from ariel.recording.store import Campaign, JsonObject
 
 __all__ = [
     "ATLAS_BINS",
@@ -183,7 +183,7 @@ def key_descriptors(run: Run) -> tuple[str, str]:
     return chosen[0], chosen[1]
 
 
-def _described(run: Run) -> dict[str, Any]:
+def _described(run: Run) -> JsonObject:
     """The archive's description: ``run.archive_description`` (``kind``, ``measures``,
     ``ranges``, a grid's ``bins`` or a CVT's ``cells``), else the map_elites options."""
     try:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial import KDTree
@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from PIL import Image
 
     from ariel.recording.analysis._report import Report
+    from ariel.recording.store import JsonObject
 
 __all__ = ["archive_figure"]
 
@@ -71,9 +72,7 @@ def _thumbnail(run: Run, body_id: str) -> Image.Image:
         return single_frame_renderer(built.model, data, steps=0, width=240, height=180)
 
 
-def _cvt(
-    axes: Axes, archive: pd.DataFrame, description: dict[str, Any]
-) -> AxesImage | PathCollection:
+def _cvt(axes: Axes, archive: pd.DataFrame, description: JsonObject) -> AxesImage | PathCollection:
     """A CVT archive on ``axes`` (measure 0 up, measure 1 across): with one or two measures its
     cells, the regions nearest to each centroid in the measures scaled to [0, 1] (as the run
     placed bodies), coloured by their elite's fitness (blank: empty); with more, whose cells

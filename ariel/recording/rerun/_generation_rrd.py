@@ -94,7 +94,7 @@ class EvaluationTrace:
 
 
 def trace_of(
-    properties: Mapping[str, Any], result: EvaluationResult, graph_json: str | None
+    properties: Mapping[str, object], result: EvaluationResult, graph_json: str | None
 ) -> EvaluationTrace:
     """An evaluation's trace from its recording properties (see `RerunRecorder.evaluation`)
     and its `EvaluationResult`."""

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import json
 from collections import OrderedDict
-from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from ariel.recording.rerun._chunks import _CACHE_LOCK, rerun_module, static_chunk
-from ariel.recording.rerun._joint_names import module_labels
+from ariel.recording.rerun._joint_names import GraphData, GraphJson, module_labels
 from ariel.recording.rerun._scene import _OTHER_COLOUR, module_colours
 from ariel.recording.store import json_data
 
@@ -26,10 +26,11 @@ __all__ = ["GRAPH_STEP", "graph_archetypes", "graph_colour", "tree_positions"]
 
 
 def _graph_parts(
-    graph_json: str | Mapping[str, Any],
+    graph_json: GraphJson,
 ) -> tuple[list[str], list[str], list[tuple[str, str]]]:
     """Node ids, their module types and (parent, child) edges of a node-link graph."""
-    data = json_data(graph_json) if isinstance(graph_json, str) else graph_json  # guarded
+    # the text read with the guarded parser (no JSON nested out of stack)
+    data = cast(GraphData, json_data(graph_json)) if isinstance(graph_json, str) else graph_json
     nodes = data.get("nodes", [])
     ids = [str(node["id"]) for node in nodes]
     types = [str(node.get("type", "?")).upper() for node in nodes]
@@ -99,7 +100,7 @@ def graph_colour(module_type: str) -> tuple[int, int, int, int]:
     return round(r * scale), round(g * scale), round(b * scale), a
 
 
-def graph_archetypes(graph_json: str | Mapping[str, Any]) -> list[AsComponents]:
+def graph_archetypes(graph_json: GraphJson) -> list[AsComponents]:
     rr = rerun_module()
     ids, types, edges = _graph_parts(graph_json)
     if not ids:
@@ -119,7 +120,7 @@ def graph_archetypes(graph_json: str | Mapping[str, Any]) -> list[AsComponents]:
 _GRAPHS: OrderedDict[str, Chunk | None] = OrderedDict()  # graph JSON -> its static /graph chunk
 
 
-def _graph_chunk(graph_json: str | Mapping[str, Any]) -> Chunk | None:
+def _graph_chunk(graph_json: GraphJson) -> Chunk | None:
     """The static ``/graph`` chunk of a morphology (cached: a body's evaluations share it)."""
     key = graph_json if isinstance(graph_json, str) else json.dumps(graph_json, sort_keys=True)
     with _CACHE_LOCK:

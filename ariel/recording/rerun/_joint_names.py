@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeAlias, cast
 
 import networkx as nx
 
@@ -39,7 +39,14 @@ from ariel.recording.store import json_data
 if TYPE_CHECKING:
     from ariel.body_phenotypes.robogen_lite.constructor import RobotTree
 
-__all__ = ["joint_labels", "module_labels"]
+__all__ = ["GraphData", "GraphJson", "joint_labels", "module_labels"]
+
+#: A robot graph in networkx's node-link form, parsed: ``nodes`` (each an ``id`` and a
+#: ``type``) and ``edges`` (or ``links``), as read back from JSON (values unchecked).
+GraphData: TypeAlias = Mapping[str, Any]
+#: A robot graph as the records hold it: its node-link JSON text (the bodies table's
+#: ``graph``) or that text parsed.
+GraphJson: TypeAlias = str | GraphData
 
 #: ``{prefix}{parent}-{child}-{face}-servo``, the constructor's hinge joint names.
 _ROBOGEN = re.compile(r"(?:^|_)(\d+)-(\d+)-(\d+)-servo$")
@@ -59,7 +66,7 @@ def _plain(name: str) -> str:
     return text or short
 
 
-def _tree(graph: Any) -> RobotTree | None:
+def _tree(graph: object) -> RobotTree | None:
     """The body's `RobotTree` from node-link JSON (a string or its dict) or a DiGraph; None
     where it cannot be read as a robot graph."""
     # lazy: the constructor imports mujoco, which loads its GL backend (MUJOCO_GL) on import
@@ -73,7 +80,7 @@ def _tree(graph: Any) -> RobotTree | None:
             data = {**graph, "directed": True, "multigraph": False}
             data.setdefault(edges, [])
             graph = nx.node_link_graph(data, directed=True, multigraph=False, edges=edges)
-        return validate_robot_graph(graph)
+        return validate_robot_graph(cast("nx.DiGraph", graph))  # anything else: TypeError
     except (TypeError, ValueError, KeyError, nx.NetworkXError):
         return None
 
@@ -96,9 +103,7 @@ def _hinge_places(tree: RobotTree) -> dict[tuple[int, int, int], tuple[str, int]
     return places
 
 
-def joint_labels(
-    names: Sequence[str], graph: str | Mapping[str, Any] | nx.DiGraph | None = None
-) -> list[str]:
+def joint_labels(names: Sequence[str], graph: GraphJson | nx.DiGraph | None = None) -> list[str]:
     """A short label for each joint of one body, unique within it (the rule: module docstring).
 
     Args:
@@ -142,9 +147,7 @@ def joint_labels(
     return labels if len(set(labels)) == len(labels) else names
 
 
-def module_labels(
-    node_ids: Sequence[str], types: Sequence[str], graph: str | Mapping[str, Any]
-) -> list[str]:
+def module_labels(node_ids: Sequence[str], types: Sequence[str], graph: GraphJson) -> list[str]:
     """Short labels of a body's modules for its graph drawings, legible in a small view: a
     hinge by its branch and number ("right 1": the joint legends' "right branch, hinge 1"),
     any other module by its type alone ("core", "brick"; the colour says it too, and module

@@ -82,7 +82,7 @@ from ariel.recording.rerun._graph import (
     graph_colour as graph_colour,
     tree_positions,
 )
-from ariel.recording.rerun._joint_names import joint_labels
+from ariel.recording.rerun._joint_names import GraphJson, joint_labels
 from ariel.recording.rerun._lineage import LINEAGE_ENTITY
 from ariel.recording.rerun._scene import (
     TERRAIN_MARGIN,
@@ -156,7 +156,7 @@ def write_evaluation_recording(
     body_names: Sequence[str],
     result: EvaluationResult,
     properties: Mapping[str, object],
-    graph_json: str | Mapping[str, Any] | None = None,
+    graph_json: GraphJson | None = None,
     transforms: bool = True,
     fsync: bool = False,
 ) -> Path:
@@ -249,7 +249,7 @@ def _robot_chunks(
 def _joint_chunks(
     shared: _Scene,
     result: EvaluationResult,
-    graph_json: str | Mapping[str, Any] | None,
+    graph_json: GraphJson | None,
     times: np.ndarray,
     sim_time: list[TimeColumn],
 ) -> list[Chunk]:
@@ -409,7 +409,7 @@ def write_view_recording(
     *,
     archive: np.ndarray | CvtCells | None = None,
     archive_dimensions: Sequence[str] | None = None,
-    graph_json: str | Mapping[str, Any] | None = None,
+    graph_json: GraphJson | None = None,
 ) -> Path:
     """One recording to open: the evaluation recording ``evaluation`` (its robot, joints and
     graph on ``sim_time``) with the run's fitness and diversity per generation beside

@@ -23,8 +23,9 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ariel import evaluation
 from ariel.errors import ArielError
@@ -189,7 +190,7 @@ def _write(out: Path, texts: dict[str, str]) -> None:
         raise ExportError(f"{cannot_write(exc, out)}; nothing was exported") from exc
 
 
-def _recorded_core(run: Run, row: dict[str, Any]) -> list[float] | None:
+def _recorded_core(run: Run, row: Mapping[str, object]) -> list[float] | None:
     """Where the run recorded the core at the evaluation's end (its last trajectory frame);
     None where the run kept no trajectories."""
     frames = evaluation_trajectory(run, row)

@@ -20,7 +20,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -33,6 +33,9 @@ from ariel.recording.store import check_eval_id, check_run_id, json_data, one_li
 from ariel.simulation.controllers.controller import Controller
 from ariel.simulation.controllers.observations import hinge_observation
 from ariel.simulation.settle import settle_model
+
+if TYPE_CHECKING:
+    from ariel.recording.store import JsonObject
 
 __all__ = ["ExportedRobot", "load_exported"]
 
@@ -74,7 +77,7 @@ class ExportedRobot:
     _frames: _Frames | None = field(default=None, repr=False)
 
     def set_control(
-        self, model: mujoco.MjModel, data: mujoco.MjData, *args: Any, **kwargs: Any
+        self, model: mujoco.MjModel, data: mujoco.MjData, *args: object, **kwargs: object
     ) -> None:
         """The MuJoCo control callback: ``controller.set_control``, then this step's frame
         where the run recorded one."""
@@ -99,7 +102,7 @@ class _Frames:
     angles of the state about to be stepped, the control just set."""
 
     def __init__(
-        self, model: mujoco.MjModel, brain: dict[str, Any], target: Sequence[float] | None
+        self, model: mujoco.MjModel, brain: JsonObject, target: Sequence[float] | None
     ) -> None:
         self.model = model
         self.dt = model.opt.timestep
@@ -140,7 +143,7 @@ class _Frames:
         return float(self.function(record, **self.options))
 
 
-def _read(folder: Path, name: str) -> dict[str, Any]:
+def _read(folder: Path, name: str) -> JsonObject:
     """The JSON object in ``folder``/``name``, read with the guarded parser (`json_data`: none
     nested out of stack); `DamagedRunError`, one line, for one missing or unreadable."""
     try:

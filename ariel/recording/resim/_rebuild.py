@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -100,7 +101,7 @@ def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
     )
 
 
-def _recorded_software(run: Run, generation: int) -> tuple[dict[str, Any], object]:
+def _recorded_software(run: Run, generation: int) -> tuple[Mapping[str, object], object]:
     """Versions and commit of the software that ran ``generation``: the last of run.json's
     ``segments`` (one per run or resume) that started at or before it; else the run's own."""
     versions, commit = run.info.get("versions") or {}, run.info.get("git_commit")
@@ -127,7 +128,9 @@ def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[objec
     return differences
 
 
-def cell_json(run: Run, row: dict[str, Any], table: str, column: str, text: str | bytes) -> Any:
+def cell_json(
+    run: Run, row: Mapping[str, object], table: str, column: str, text: str | bytes
+) -> object:
     """The JSON in the cell ``column`` of ``table`` (``text``) for evaluation ``row`` of
     ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
     that is not JSON is a changed table: `DamagedRunError`, one line."""
@@ -137,14 +140,14 @@ def cell_json(run: Run, row: dict[str, Any], table: str, column: str, text: str 
         raise _changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
 
 
-def _changed(run: Run, row: dict[str, Any], table: str, problem: str) -> DamagedRunError:
+def _changed(run: Run, row: Mapping[str, object], table: str, problem: str) -> DamagedRunError:
     return DamagedRunError(
         f"evaluation {short_ascii(row.get('eval_id'))} of run {str(run.path)!r}: {problem}; "
         f"the {table} table was changed or damaged"
     )
 
 
-def _row_params(row: dict[str, Any]) -> np.ndarray | None:
+def _row_params(row: Mapping[str, object]) -> np.ndarray | None:
     """The row's controller parameters, float64; None where they are not a list of finite
     numbers (a changed table)."""
     try:
@@ -156,7 +159,7 @@ def _row_params(row: dict[str, Any]) -> np.ndarray | None:
 
 def _check_params(
     run: Run,
-    row: dict[str, Any],
+    row: Mapping[str, object],
     task: EvaluationTask,
     model: mujoco.MjModel,
     params: np.ndarray | None,
@@ -182,7 +185,7 @@ def _check_params(
 
 
 def replay_task(
-    run: Run, row: dict[str, Any], *, graph: str | None = None, check_params: bool = False
+    run: Run, row: Mapping[str, Any], *, graph: str | None = None, check_params: bool = False
 ) -> EvaluationTask:
     """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``.
 
@@ -201,7 +204,7 @@ def replay_task(
     else:
         genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
         spec = shipped_body(config, body_spec(config, genotype))
-    fields: dict[str, Any] = {
+    fields: dict[str, object] = {
         "seed": int(row["seed"]),
         "eval_id": str(row["eval_id"]),
     }

@@ -18,15 +18,15 @@ from ariel.evolution import DEFAULT_MEASURES, DEFAULT_RANGES
 if TYPE_CHECKING:
     import pandas as pd
 
+    from ariel.recording.store._run_folder import JsonObject
+
 __all__ = ["ARCHIVE_KINDS", "archive_cell_count", "describe_archive"]
 
 #: The kinds of archive a description names.
 ARCHIVE_KINDS = ("grid", "cvt")
 
 
-def describe_archive(
-    info: Mapping[str, Any], archive: pd.DataFrame | None
-) -> dict[str, Any] | None:
+def describe_archive(info: Mapping[str, object], archive: pd.DataFrame | None) -> JsonObject | None:
     """The archive's description (see the module docstring).
 
     Args:

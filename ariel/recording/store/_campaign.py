@@ -18,10 +18,11 @@ from __future__ import annotations
 import math
 import os
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any, TypeGuard
+from typing import TypeGuard
 
 import pandas as pd
 
@@ -31,7 +32,7 @@ from ariel.recording.store._files import atomic_write_json
 from ariel.recording.store._lineage import campaign_lineages
 from ariel.recording.store._load import STOPPED, Run, load_run
 from ariel.recording.store._lock import lock_is_free
-from ariel.recording.store._run_folder import NotARunError, json_data
+from ariel.recording.store._run_folder import JsonObject, NotARunError, json_data
 
 __all__ = [
     "CAMPAIGN_FORMAT",
@@ -69,7 +70,7 @@ def is_campaign(path: str | Path) -> bool:
     return (Path(path) / CAMPAIGN_JSON).is_file()
 
 
-def read_campaign_info(path: str | Path) -> dict[str, Any]:
+def read_campaign_info(path: str | Path) -> JsonObject:
     """``campaign.json`` of the campaign in ``path``; `NotACampaignError` if there is none, or
     if it is not what a campaign writes: a run elsewhere than at its own
     ``runs/condition=<name>/seed=<n>`` (or through a symbolic link), a seed that is not an
@@ -116,7 +117,7 @@ def _is_condition(value: object) -> TypeGuard[str]:
     )
 
 
-def _check_conditions(file: Path, info: dict[str, Any]) -> None:
+def _check_conditions(file: Path, info: Mapping[str, object]) -> None:
     """The names and seeds campaign.json gives its conditions, and its seeds: `NotACampaignError`
     unless they are names and seeds a campaign file can give."""
     seeds = info.get("seeds", [])
@@ -141,7 +142,7 @@ def _check_conditions(file: Path, info: dict[str, Any]) -> None:
             )
 
 
-def _check_runs(path: Path, file: Path, info: dict[str, Any]) -> None:
+def _check_runs(path: Path, file: Path, info: Mapping[str, object]) -> None:
     """campaign.json's runs: `NotACampaignError`, naming the entry, unless each is a condition
     and a seed at exactly ``runs/condition=<name>/seed=<n>``, once, with no symbolic link and
     nothing but folders on the way (a folder not made yet is made as a real one), with a config
@@ -204,11 +205,11 @@ def _check_folders(path: Path, relative: str, where: str) -> None:
             raise NotACampaignError(f"{where}: {str(folder)!r} is not a folder")
 
 
-def write_campaign_info(path: str | Path, info: dict[str, Any]) -> None:
+def write_campaign_info(path: str | Path, info: Mapping[str, object]) -> None:
     atomic_write_json(Path(path) / CAMPAIGN_JSON, {"format": CAMPAIGN_FORMAT, **info})
 
 
-def fitness_maximise(info: dict[str, Any]) -> bool:
+def fitness_maximise(info: JsonObject) -> bool:
     """Whether a run's fitness is maximised: run.json's ``maximise``, else the fitness
     function named in its config, looked up in the registry."""
     if "maximise" in info:
@@ -229,7 +230,7 @@ class Campaign:
     """
 
     path: Path
-    info: dict[str, Any]
+    info: JsonObject
     runs: dict[tuple[str, int], Run] = field(default_factory=dict)
 
     @property
@@ -303,7 +304,7 @@ class Campaign:
         """
         return campaign_lineages(self)
 
-    def status(self) -> list[dict[str, Any]]:
+    def status(self) -> list[dict[str, object]]:
         """One row per run of campaign.json: condition, seed, status, generations, best.
         ``status``: run.json's, `STOPPED` for a killed run, ``"not started"`` for a run not
         made yet, `DAMAGED` for one whose folder does not load (`load_campaign` leaves it out;

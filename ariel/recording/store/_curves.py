@@ -8,14 +8,17 @@ finished evaluations (status ``ok``, finite fitness) count.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["best_so_far", "on_grid"]
 
 
-def best_so_far(evaluations: Any, maximise: bool) -> tuple[np.ndarray, np.ndarray]:
+def best_so_far(evaluations: pd.DataFrame, maximise: bool) -> tuple[np.ndarray, np.ndarray]:
     """(evaluations 1..n, best fitness so far; NaN before the first finished evaluation)."""
     ordered = evaluations.sort_values(["generation", "eval_id"], kind="stable")
     fitness = ordered["fitness"].to_numpy(dtype=np.float64)

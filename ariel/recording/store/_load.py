@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -21,7 +22,7 @@ from ariel.recording.store._escape import terminal_text
 from ariel.recording.store._lineage import lineage
 from ariel.recording.store._lock import lock_is_free
 from ariel.recording.store._manifest import Manifest
-from ariel.recording.store._run_folder import DamagedRunError, NotARunError, RunFolder
+from ariel.recording.store._run_folder import DamagedRunError, JsonObject, NotARunError, RunFolder
 from ariel.recording.store._tables import generation_file, read_file, read_table, to_pandas
 
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
@@ -30,6 +31,7 @@ FAILED_STATUSES = ("error", "unstable", "invalid")
 __all__ = [
     "QD_COLUMNS",
     "Run",
+    "RunSummary",
     "archive_quality_table",
     "list_runs",
     "load_run",
@@ -52,9 +54,9 @@ class Run:
     """
 
     path: Path
-    info: dict[str, Any]
-    config: dict[str, Any] = field(init=False)
-    manifest: Any = field(default=None, repr=False)  # `_manifest.Manifest`: what is checked
+    info: JsonObject
+    config: JsonObject = field(init=False)
+    manifest: Manifest | None = field(default=None, repr=False)  # what is checked
 
     def __post_init__(self) -> None:
         config = self.info.get("config")
@@ -135,7 +137,7 @@ class Run:
         """One row per recorded frame: ``eval_id``, ``t``, core position, joint lists."""
         return self._table("trajectories")
 
-    def lineage(self) -> Any:
+    def lineage(self) -> pd.DataFrame:
         """The run's lineage in the ALife data standard's phylogeny format: one row per body
         ever evaluated (``id``, ``ancestor_list``, ``origin_time``, ``destruction_time``, ...;
         every column defined in `ariel.recording.store._lineage`). Computed on each call.
@@ -154,7 +156,7 @@ class Run:
 
         return lineage(self)
 
-    def joint_signals(self, eval_id: str) -> Any:
+    def joint_signals(self, eval_id: str) -> pd.DataFrame:
         """Evaluation ``eval_id``'s joint signals: a DataFrame indexed by ``t`` (seconds), one
         column per signal and joint, ``("target", joint)`` and ``("angle", joint)`` (radians),
         joints named as in its ``joint_names``. Reads that evaluation's rows only.
@@ -208,7 +210,7 @@ class Run:
         return self._table("novelty")
 
     @cached_property
-    def archive_description(self) -> dict[str, Any] | None:
+    def archive_description(self) -> JsonObject | None:
         """MAP-Elites and novelty runs: what the archive is (``kind``, ``"grid"`` or ``"cvt"``;
         ``measures``; ``ranges``; a grid's ``bins`` or a CVT's ``cells`` and ``centroids``),
         as run.json records it; a run made before that: its grid, from its config and the
@@ -310,8 +312,11 @@ QD_COLUMNS = ("coverage", "qd_score", "norm_qd_score")
 
 
 def archive_quality_table(
-    archive: Any, qd_offset: float | None, maximise: bool, description: Any = None
-) -> Any:
+    archive: pd.DataFrame,
+    qd_offset: float | None,
+    maximise: bool,
+    description: Mapping[str, Any] | None = None,
+) -> pd.DataFrame:
     """Per generation of an ``archive`` table (`Run.archive`): the `QD_COLUMNS`, as
     `ariel.evolution._qd.archive_quality` computes them in the run (QD-scores NaN
     when ``qd_offset`` is None: an old run of a minimised fitness), over the cells of
@@ -336,13 +341,13 @@ def archive_quality_table(
     return frame
 
 
-def _distinct_bodies(population: Any) -> int | float:
+def _distinct_bodies(population: pd.DataFrame) -> int | float:
     """Distinct robot graphs among ``population``'s rows (see `Run.generations`)."""
 
     if "graph" not in population.columns:
         return math.nan
 
-    def key(graph: Any, body_id: Any) -> Any:
+    def key(graph: object, body_id: object) -> object:
         return stored_graph_key(graph, body_id) if isinstance(graph, str) and graph else body_id
 
     return len(
@@ -416,12 +421,25 @@ def load_run(path: str | Path) -> Run:
     return Run(path=folder.path, info=info, manifest=Manifest.load(folder.path, info))
 
 
+class RunSummary(TypedDict):
+    """One run folder as `list_runs` lists it (run.json's values, checked)."""
+
+    path: str
+    run_id: str
+    status: str
+    generations_done: int
+    generations: int | None
+    evaluations: int
+    best_fitness: float | None
+    created: object  # run.json's, as written: an ISO time, or None
+
+
 #: `list_runs` status of a run whose run.json says "running" but whose lock is free: its
 #: process ended without saying so (SIGKILL, power cut, out of memory); `ariel resume` it.
 STOPPED = "stopped (killed?)"
 
 
-def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
+def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
     """One summary per run folder directly under ``root`` (folders that are not runs skipped).
 
     ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
@@ -460,7 +478,7 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[dict[str, Any]]:
 UNREADABLE = "unreadable"
 
 
-def _unreadable(child: Path) -> dict[str, Any]:
+def _unreadable(child: Path) -> RunSummary:
     return {
         "path": str(child),
         "run_id": child.name,
@@ -473,13 +491,13 @@ def _unreadable(child: Path) -> dict[str, Any]:
     }
 
 
-def _count(value: Any) -> int:
+def _count(value: object) -> int:
     if not isinstance(value, int) or isinstance(value, bool) or value < 0:
         raise TypeError(f"not a count: {value!r}")
     return value
 
 
-def _summary(child: Path, info: dict[str, Any]) -> dict[str, Any]:
+def _summary(child: Path, info: Mapping[str, object]) -> RunSummary:
     """One row of `list_runs`; `TypeError` / `ValueError` for a run.json that makes no sense."""
     config, run_id = info.get("config", {}), info.get("run_id", child.name)
     status = info.get("status", "?")

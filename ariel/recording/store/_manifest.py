@@ -29,9 +29,10 @@ import hashlib
 import json
 import os
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 import pyarrow.parquet as pq
 
@@ -68,6 +69,13 @@ _MANIFEST_ERA = ("segments", "maximise", "brain_only")
 _MANIFEST_NAME = re.compile(r"gen-\d{6}\.json")
 
 
+class _Entry(TypedDict):
+    """A table file as its generation's manifest lists it."""
+
+    bytes: int
+    sha256: str
+
+
 def manifest_file(run_dir: str | Path, generation: int) -> Path:
     return Path(run_dir) / MANIFEST_DIR / f"gen-{int(generation):06d}.json"
 
@@ -88,7 +96,7 @@ def _sha256_file(path: Path) -> tuple[int, str]:
 def write_manifest(run_dir: str | Path, generation: int) -> Path:
     """List ``generation``'s table files (size, SHA-256) in its manifest; returns its path."""
     run_dir = Path(run_dir)
-    files: dict[str, dict[str, Any]] = {}
+    files: dict[str, _Entry] = {}
     for table in TABLES:
         path = generation_file(run_dir, table, generation)
         if path.is_file() and not path.is_symlink():
@@ -103,7 +111,7 @@ def write_manifest(run_dir: str | Path, generation: int) -> Path:
     return path
 
 
-def _read_manifest(run_dir: Path, generation: int) -> dict[str, dict[str, Any]]:
+def _read_manifest(run_dir: Path, generation: int) -> dict[str, _Entry]:
     """The ``files`` of one generation's manifest; `DamagedRunError` when missing or bad."""
     path = manifest_file(run_dir, generation)
     name = _relative(run_dir, path)
@@ -118,11 +126,12 @@ def _read_manifest(run_dir: Path, generation: int) -> dict[str, dict[str, Any]]:
     except ValueError as exc:  # not JSON, not UTF-8, or nested too deep
         first = (str(exc).splitlines() or [""])[0]
         raise damaged(run_dir, name, f"is unreadable ({type(exc).__name__}: {first})") from None
-    files = data.get("files") if isinstance(data, dict) else None
+    read = data if isinstance(data, dict) else {}  # not an object: no "files", damaged below
+    files = read.get("files")
     ok = (
         isinstance(files, dict)
-        and data.get("format") == MANIFEST_FORMAT
-        and data.get("generation") == generation
+        and read.get("format") == MANIFEST_FORMAT
+        and read.get("generation") == generation
         and all(
             isinstance(v, dict)
             and isinstance(v.get("bytes"), int)
@@ -153,7 +162,7 @@ def _manifests_held(run_dir: Path) -> int:
         return 0
 
 
-def manifests_expected(run_dir: str | Path, info: dict[str, Any]) -> tuple[bool, str | None]:
+def manifests_expected(run_dir: str | Path, info: Mapping[str, object]) -> tuple[bool, str | None]:
     """Whether every finished generation of the run (``info``: its run.json) has a manifest,
     and where run.json's ``"manifests"`` contradicts that, the problem (one line, ``run.json
     ...``). Only a run.json of a run made before manifests (no ``"manifests"``, none of the keys
@@ -200,10 +209,10 @@ class Manifest:
     generations: int
     checked: bool
     files: dict[str, tuple[int, str] | None] = field(default_factory=dict)
-    config: dict[str, Any] | None = None
+    config: Mapping[str, object] | None = None
 
     @classmethod
-    def load(cls, run_dir: str | Path, info: dict[str, Any]) -> Manifest:
+    def load(cls, run_dir: str | Path, info: Mapping[str, object]) -> Manifest:
         """The manifest of the run's finished generations (``info``: its run.json), checking
         that each listed file is there with its size; `DamagedRunError` else."""
         run_dir = Path(run_dir)
@@ -344,7 +353,7 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
     return result
 
 
-def _check_run_json(run_dir: Path, info: dict[str, Any], result: VerifyResult) -> None:
+def _check_run_json(run_dir: Path, info: Mapping[str, object], result: VerifyResult) -> None:
     """What never changes in run.json (it is in no manifest): its config against its
     ``config_hash`` and its ``seed``, and the checkpoint's ``config_hash`` against run.json's.
     A config this ariel cannot read (a newer ariel's, say) is a note, not damage."""
@@ -397,7 +406,7 @@ def _check_rows(path: Path, config: object) -> str | None:
     return rows_problem(config if isinstance(config, dict) else None, path, metadata)
 
 
-def _check_run_id(path: Path, info: dict[str, Any], result: VerifyResult) -> None:
+def _check_run_id(path: Path, info: Mapping[str, object], result: VerifyResult) -> None:
     """The ``run_id`` of a sound evaluations table's rows is run.json's."""
     try:
         ids = set(pq.read_table(path, columns=["run_id"]).column("run_id").to_pylist())

@@ -16,11 +16,12 @@ folder whose run.json cannot be read are never prunable.
 from __future__ import annotations
 
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from ariel.errors import ArielError
-from ariel.recording.store._load import STOPPED, list_runs
+from ariel.recording.store._load import STOPPED, RunSummary, list_runs
 from ariel.recording.store._lock import RunLock
 from ariel.recording.store._run_folder import RunFolder
 from ariel.recording.store._tables import MANIFEST_DIR, TABLES, table_generations
@@ -49,7 +50,7 @@ def _finished_work(path: Path) -> str | None:
     return None
 
 
-def _why_not(summary: dict[str, Any]) -> str | None:
+def _why_not(summary: Mapping[str, Any]) -> str | None:
     """Why the `list_runs` row ``summary`` is not prunable, or None when it is."""
     path = Path(summary["path"])
     if path.is_symlink():
@@ -62,7 +63,7 @@ def _why_not(summary: dict[str, Any]) -> str | None:
     return f"it holds {held}" if held else None
 
 
-def prunable_runs(root: str | Path) -> tuple[list[dict[str, Any]], list[tuple[str, str]]]:
+def prunable_runs(root: str | Path) -> tuple[list[RunSummary], list[tuple[str, str]]]:
     """The `list_runs` rows of ``root`` that `prune_run` would remove, and ``(path, why)``
     for each symbolic link to a run folder that looks prunable but is left alone."""
     found, links = [], []

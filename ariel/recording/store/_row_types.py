@@ -101,7 +101,7 @@ def descriptor_fields() -> list[pa.Field]:
     ]
 
 
-def _descriptor_values(table: str, values: Mapping[str, Any]) -> Mapping[str, Any]:
+def _descriptor_values(table: str, values: Mapping[str, object]) -> Mapping[str, object]:
     """``values`` checked: only descriptor names, and all of them unless none."""
     names = descriptor_names()
     for key in values:
@@ -134,11 +134,11 @@ class Row:
                 _descriptor_values(cls.table, values[column.name])
         return row
 
-    def record(self) -> dict[str, Any]:
+    def record(self) -> dict[str, object]:
         """The row as its table holds it: column name -> value, in column order."""
         return {name: values[0] for name, values in table_columns(type(self), [self]).items()}
 
-    def card(self) -> dict[str, Any]:
+    def card(self) -> dict[str, object]:
         """The fields shown on the row's Rerun card (marked `CARD`), in column order."""
         return {c.name: getattr(self, c.name) for c in _layout(type(self)) if c.card}
 
@@ -177,9 +177,9 @@ def row_schema(cls: type[Row]) -> pa.Schema:
     return pa.schema(out)
 
 
-def table_columns(cls: type[Row], rows: Sequence[Row]) -> dict[str, list[Any]]:
+def table_columns(cls: type[Row], rows: Sequence[Row]) -> dict[str, list[object]]:
     """``rows`` (all of ``cls``) as the columns of its table, in column order."""
-    columns: dict[str, list[Any]] = {}
+    columns: dict[str, list[object]] = {}
     for column in _layout(cls):
         if column.arrow is None:
             values = [_descriptor_values(cls.table, getattr(row, column.name)) for row in rows]

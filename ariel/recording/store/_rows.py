@@ -10,14 +10,17 @@ written in id order, so the order in which results arrived never shows in a tabl
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
 from ariel.evolution import (
     BatchEvaluated,
+    Body,
     BodyFailed,
     CheckpointDue,
+    ExperimentConfig,
     GenerationEnded,
     RunEvent,
 )
@@ -31,10 +34,23 @@ from ariel.recording.store._row_types import (
 )
 from ariel.recording.store._tables import trajectory_columns, write_table
 
+if TYPE_CHECKING:
+    from ariel.evaluation import EvaluationResult, EvaluationTask
+
 __all__ = ["RunWriter", "body_row", "body_rows_of", "error_row", "evaluation_row"]
 
 
-def _common(run_id: str, config: Any, body: Any, generation: int) -> dict[str, Any]:
+class RunFiles(Protocol):
+    """Where the writer writes: a run folder (`RunFolder`)."""
+
+    @property
+    def path(self) -> str | os.PathLike[str]: ...
+    def save_checkpoint(self, state: Mapping[str, object]) -> None: ...
+
+
+def _common(
+    run_id: str, config: ExperimentConfig, body: Body, generation: int
+) -> dict[str, object]:
     return {
         "run_id": run_id,
         "generation": generation,
@@ -47,10 +63,10 @@ def _common(run_id: str, config: Any, body: Any, generation: int) -> dict[str, A
 
 def evaluation_row(
     run_id: str,
-    config: Any,
-    body: Any,
-    task: Any,
-    result: Any,
+    config: ExperimentConfig,
+    body: Body,
+    task: EvaluationTask,
+    result: EvaluationResult,
     generation: int,
     iteration: int,
     k: int,
@@ -81,7 +97,9 @@ def evaluation_row(
     )
 
 
-def error_row(run_id: str, config: Any, body: Any, generation: int, worst: float) -> EvaluationRow:
+def error_row(
+    run_id: str, config: ExperimentConfig, body: Body, generation: int, worst: float
+) -> EvaluationRow:
     """An unbuildable body still appears in the evaluations table, with its error."""
     return EvaluationRow.of(
         {
@@ -109,7 +127,12 @@ def error_row(run_id: str, config: Any, body: Any, generation: int, worst: float
 
 
 def body_row(
-    run_id: str, config: Any, body: Any, generation: int, is_new: bool, selected: bool
+    run_id: str,
+    config: ExperimentConfig,
+    body: Body,
+    generation: int,
+    is_new: bool,
+    selected: bool,
 ) -> BodyRow:
     """``body`` in generation ``generation``: new in it, kept after it (``selected``)."""
     return BodyRow.of(
@@ -134,12 +157,12 @@ class RunWriter:
     """Collects a generation's rows (and recorded frames) and writes its tables when it ends,
     then, at the checkpoint, its manifest and the checkpoint (see the module docstring)."""
 
-    def __init__(self, folder: Any, config: Any, run_id: str) -> None:
+    def __init__(self, folder: RunFiles, config: ExperimentConfig, run_id: str) -> None:
         self.folder = folder
         self.config = config
         self.run_id = run_id
         self._rows: dict[tuple[int, int, int], EvaluationRow] = {}
-        self._frames: dict[tuple[int, int, int], Any] = {}
+        self._frames: dict[tuple[int, int, int], tuple[str, EvaluationResult]] = {}
 
     @property
     def path(self) -> Path:
@@ -167,9 +190,9 @@ class RunWriter:
 
     def evaluated(
         self,
-        body: Any,
-        tasks: Sequence[Any],
-        results: Sequence[Any],
+        body: Body,
+        tasks: Sequence[EvaluationTask],
+        results: Sequence[EvaluationResult],
         *,
         generation: int,
         iteration: int,
@@ -183,7 +206,7 @@ class RunWriter:
             if self.config.record.trajectories and result.time.size:
                 self._frames[key] = (task.eval_id, result)
 
-    def body_failed(self, body: Any, generation: int, worst: float) -> None:
+    def body_failed(self, body: Body, generation: int, worst: float) -> None:
         """``body`` could not be built: its one row, with the error."""
         self._rows[(body.number, 0, 0)] = error_row(
             self.run_id, self.config, body, generation, worst
@@ -192,7 +215,7 @@ class RunWriter:
     def write_generation(
         self,
         generation: int,
-        bodies: Sequence[tuple[Any, bool, bool]],
+        bodies: Sequence[tuple[Body, bool, bool]],
         archive: Sequence[Mapping[str, object]] | None = None,
         novelty: Sequence[Mapping[str, object]] | None = None,
     ) -> None:
@@ -217,7 +240,7 @@ class RunWriter:
         self._rows.clear()
         self._frames.clear()
 
-    def plugin_failed(self, task: Any, exc: BaseException) -> BaseException:
+    def plugin_failed(self, task: EvaluationTask, exc: BaseException) -> BaseException:
         """The one-line error that stops the run (the traceback goes to RUN/error.log)."""
         # lazy: loads the evaluation engine, needed only when a plugin has failed
         from ariel.recording.store._failures import plugin_failure
@@ -226,7 +249,10 @@ class RunWriter:
 
 
 def body_rows_of(
-    run_id: str, config: Any, generation: int, bodies: Sequence[tuple[Any, bool, bool]]
+    run_id: str,
+    config: ExperimentConfig,
+    generation: int,
+    bodies: Sequence[tuple[Body, bool, bool]],
 ) -> list[BodyRow]:
     """The generation's rows of the bodies table, in id order (``bodies``: (body, is_new,
     selected))."""

@@ -19,9 +19,9 @@ import platform
 import re
 import shutil
 import subprocess
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 from ariel.errors import DamagedRunError, NotARunError, RunStorageError
 from ariel.recording.store._files import (
@@ -39,6 +39,7 @@ __all__ = [
     "CHECKPOINT_FORMAT",
     "RUN_FORMAT",
     "DamagedRunError",
+    "JsonObject",
     "NotARunError",
     "RunFolder",
     "RunStorageError",
@@ -55,9 +56,13 @@ _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "
 #: How deep the JSON of a folder's file may nest (run.json, a manifest, the checkpoint,
 #: campaign.json): what ariel writes nests a few levels; no reader then recurses out of stack.
 MAX_JSON_DEPTH = 100
+#: A JSON object read back from a folder's file (run.json, the checkpoint's state, a manifest,
+#: campaign.json): string keys, and values that are whatever the file holds (no type is
+#: promised for them: each is checked where it is read).
+JsonObject: TypeAlias = dict[str, Any]
 
 
-def json_data(raw: str | bytes) -> Any:
+def json_data(raw: str | bytes) -> object:
     """The data of a folder's JSON file (``raw``: its text or bytes); `ValueError` (one line)
     for one that is not JSON, or that nests deeper than `MAX_JSON_DEPTH` (``[[[[...]]]]``
     100,000 deep would be a `RecursionError` here, or in whatever walks it later)."""
@@ -151,7 +156,7 @@ def software_versions() -> dict[str, str | None]:
     return versions
 
 
-def software_segment(kind: str, *, generation: object = 0) -> dict[str, Any]:
+def software_segment(kind: str, *, generation: object = 0) -> dict[str, object]:
     """One entry of run.json's ``segments``: who ran the run from ``generation`` on."""
     return {
         "kind": kind,
@@ -251,7 +256,7 @@ class RunFolder:
 
     @classmethod
     def create(
-        cls, path: str | Path, info: dict[str, Any], *, overwrite: bool, locked: bool = False
+        cls, path: str | Path, info: Mapping[str, object], *, overwrite: bool, locked: bool = False
     ) -> RunFolder:
         cls.check_new(path, overwrite=overwrite, locked=locked)
         path = Path(path)
@@ -270,7 +275,7 @@ class RunFolder:
 
     # -- run.json ------------------------------------------------------------------------------
 
-    def read_info(self) -> dict[str, Any]:
+    def read_info(self) -> JsonObject:
         try:
             info = json_data(self.run_json.read_text(encoding="utf-8"))
         except (FileNotFoundError, NotADirectoryError):
@@ -284,10 +289,10 @@ class RunFolder:
             raise NotARunError(f"{self.run_json}: not a run.json of format {RUN_FORMAT}")
         return info
 
-    def write_info(self, info: dict[str, Any]) -> None:
+    def write_info(self, info: Mapping[str, object]) -> None:
         atomic_write_json(self.run_json, info, root=self.path)
 
-    def start_segment(self, kind: str) -> dict[str, Any]:
+    def start_segment(self, kind: str) -> JsonObject:
         """Record in run.json the software of this process, which now runs the run: ``kind``
         "run" (the first segment) or "resume" (each resume adds one). Versions and commit are
         read here, never carried over from run.json (which anyone may have edited)."""
@@ -299,7 +304,7 @@ class RunFolder:
         self.write_info(info)
         return info
 
-    def update_info(self, **changes: Any) -> dict[str, Any]:
+    def update_info(self, **changes: object) -> JsonObject:
         info = self.read_info()
         info.update(changes)
         self.write_info(info)
@@ -307,13 +312,13 @@ class RunFolder:
 
     # -- checkpoints ---------------------------------------------------------------------------
 
-    def save_checkpoint(self, state: dict[str, Any]) -> None:
+    def save_checkpoint(self, state: Mapping[str, object]) -> None:
         """Replace the checkpoint with ``state`` (JSON-able plain data, no NaN)."""
         payload = {"format": CHECKPOINT_FORMAT, "state": state}
         text = json.dumps(payload, allow_nan=False, separators=(",", ":"))
         atomic_write_bytes(self.checkpoint, text.encode(), root=self.path)
 
-    def load_checkpoint(self) -> dict[str, Any] | None:
+    def load_checkpoint(self) -> JsonObject | None:
         """The last saved state (plain data), or None when no generation finished yet."""
         legacy = self.checkpoint.with_name("state.pkl")
         if not self.checkpoint.is_file() and legacy.is_file():

@@ -15,7 +15,7 @@ import re
 from collections.abc import Mapping, Sequence
 from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyarrow as pa
@@ -33,6 +33,13 @@ from ariel.recording.store._row_types import (
     check_columns,
     row_schema,
 )
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ariel.evaluation import EvaluationResult
+    from ariel.recording.store._load import Run
+    from ariel.recording.store._manifest import Manifest
 
 __all__ = [
     "COUNT_DESCRIPTORS",
@@ -69,7 +76,7 @@ def evaluation_schema() -> pa.Schema:
 
 
 #: Columns added after runs were recorded, and what an older file's rows read as.
-_ADDED_COLUMNS: dict[str, dict[str, Any]] = {
+_ADDED_COLUMNS: dict[str, dict[str, object]] = {
     "evaluations": {"backend": "mujoco", "settle_seconds": 0.0}
 }
 
@@ -92,7 +99,9 @@ def novelty_schema() -> pa.Schema:
     return row_schema(NoveltyRow)
 
 
-def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> dict[str, Any]:
+def trajectory_columns(
+    generation: int, frames: Sequence[tuple[str, EvaluationResult]]
+) -> dict[str, pa.Array]:
     """The ``trajectories`` columns of one generation, from ``(eval_id, result)`` pairs.
 
     Arrow arrays made from the results' numpy arrays directly: as Python lists (an object per
@@ -103,11 +112,11 @@ def trajectory_columns(generation: int, frames: Sequence[tuple[str, Any]]) -> di
     counts = [int(result.time.size) for _, result in frames]
     rows = np.repeat(np.arange(len(frames), dtype=np.int64), counts)
 
-    def numbers(values: list[Any]) -> Any:
+    def numbers(values: Sequence[np.ndarray]) -> pa.Array:
         flat = [np.asarray(v, dtype=np.float64).ravel() for v in values]
         return pa.array(np.concatenate(flat) if flat else np.zeros(0), pa.float64())
 
-    def lists(name: str) -> Any:
+    def lists(name: str) -> pa.Array:
         blocks = [np.asarray(getattr(result, name), dtype=np.float64) for _, result in frames]
         sizes = {block.shape[1] for block in blocks}
         if len(sizes) == 1 and 0 not in sizes:  # every row as wide: a fixed-size list column
@@ -160,7 +169,7 @@ def generation_file(run_dir: Path, table: str, generation: int) -> Path:
 
 
 def write_table(
-    run_dir: Path, table: str, generation: int, columns: Mapping[str, Sequence[Any]]
+    run_dir: Path, table: str, generation: int, columns: Mapping[str, Sequence[object] | pa.Array]
 ) -> Path:
     """Write one generation's rows (as columns) of ``table``, atomically; returns the path.
     A column too many or too few is a `RowError` naming it."""
@@ -220,7 +229,7 @@ def _read_field(field: pa.Field, stored: pa.Field | None) -> pa.Field:
     return field
 
 
-def to_pandas(table: pa.Table) -> Any:
+def to_pandas(table: pa.Table) -> pd.DataFrame:
     """``table`` as a pandas DataFrame; a count column with nulls (a body that could not be
     built) as the nullable ``Int32`` rather than floats."""
     frame = table.to_pandas()
@@ -245,12 +254,12 @@ ROW_MARGIN = 2
 
 
 @cache
-def _config_defaults() -> dict[str, Any]:
+def _config_defaults() -> dict[str, dict[str, object]]:
 
     return ExperimentConfig().to_plain()
 
 
-def _config_number(config: Mapping[str, Any], key: str, *, whole: bool) -> int | float:
+def _config_number(config: Mapping[str, object], key: str, *, whole: bool) -> int | float:
     """``section.key`` of a run's config (run.json's, plain data), its default when missing;
     `ValueError` for a value no ariel writes (a count below 1, a duration or rate that is not a
     positive finite number)."""
@@ -268,12 +277,12 @@ def _config_number(config: Mapping[str, Any], key: str, *, whole: bool) -> int |
     return value
 
 
-def _shown(value: Any) -> str:
+def _shown(value: object) -> str:
     text = repr(value)
     return text if len(text) <= 40 else f"{text[:37]}..."
 
 
-def row_limit(config: Mapping[str, Any] | None, table: str, generation: int) -> int:
+def row_limit(config: Mapping[str, object] | None, table: str, generation: int) -> int:
     """The most rows ``table``'s file of ``generation`` holds in a run of ``config`` (run.json's
     config, plain data; a missing key counts as its default), as the run driver makes them:
 
@@ -309,7 +318,9 @@ def row_limit(config: Mapping[str, Any] | None, table: str, generation: int) -> 
     return evaluations * (math.ceil(3 * duration * rate) + 4)
 
 
-def rows_problem(config: Mapping[str, Any] | None, path: Path, metadata: Any) -> str | None:
+def rows_problem(
+    config: Mapping[str, object] | None, path: Path, metadata: pq.FileMetaData
+) -> str | None:
     """What is wrong with the row count of the table file ``path`` (``TABLE/gen-NNNNNN.parquet``,
     its Parquet footer ``metadata``) for a run of ``config``: ``has N rows; ...`` when it holds
     more than `ROW_MARGIN` x `row_limit`, ``run.json has ...`` for a config no ariel writes;
@@ -336,7 +347,9 @@ def rows_problem(config: Mapping[str, Any] | None, path: Path, metadata: Any) ->
     )
 
 
-def _check_rows(run_dir: Path, path: Path, metadata: Any, config: Any) -> None:
+def _check_rows(
+    run_dir: Path, path: Path, metadata: pq.FileMetaData, config: Mapping[str, object] | None
+) -> None:
 
     problem = rows_problem(config, path, metadata)
     if problem is None:
@@ -350,7 +363,7 @@ def read_table(
     run_dir: Path,
     table: str,
     up_to: int | None = None,
-    manifest: Any = None,
+    manifest: Manifest | None = None,
     columns: Sequence[str] | None = None,
 ) -> pa.Table:
     """All generations of ``table`` (those <= ``up_to`` when given) as one Arrow table.
@@ -391,8 +404,8 @@ def read_file(
     path: Path,
     table: str,
     *,
-    manifest: Any = None,
-    filters: Any = None,
+    manifest: Manifest | None = None,
+    filters: Sequence[tuple[str, str, object]] | None = None,
     columns: Sequence[str] | None = None,
 ) -> pa.Table:
     """One file of ``table`` in today's schema (columns it predates get the value they meant
@@ -439,7 +452,7 @@ def read_file(
     return part
 
 
-def evaluation_trajectory(run: Any, row: Mapping[str, Any]) -> Any:
+def evaluation_trajectory(run: Run, row: Mapping[str, Any]) -> pd.DataFrame | None:
     """The trajectories rows of one evaluation (``row``: its evaluations row), read from its
     generation's file only, as a DataFrame in time order; None when that generation recorded
     no trajectories. ``run``: a `Run` (its path and manifest)."""

@@ -59,6 +59,8 @@ if TYPE_CHECKING:
     from rerun.blueprint import Blueprint
     from rerun.chunk import Chunk
 
+    from ariel.recording.store import JsonObject
+
 __all__ = ["CampaignSource"]
 
 STATUS_ENTITY = "/status"
@@ -312,7 +314,7 @@ class CampaignSource:
         return "\n".join(lines)
 
 
-def _maximise(info: dict[str, Any]) -> bool:
+def _maximise(info: JsonObject) -> bool:
     """Whether the run's fitness is maximised (run.json's ``maximise``, else its fitness
     function's; True where neither tells)."""
     try:

@@ -33,7 +33,7 @@ import os
 from datetime import datetime
 from pathlib import Path
 from types import SimpleNamespace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -78,6 +78,8 @@ if TYPE_CHECKING:
     import rerun as rr
     from rerun.blueprint import Blueprint, TimeSeriesView
 
+    from ariel.recording.store import JsonObject
+
 __all__ = ["RunSource", "run_blueprint"]
 
 #: run.json statuses of a run that has ended.
@@ -88,7 +90,7 @@ _EVALUATION_COLUMNS = ["generation", "eval_id", "body_id", "fitness", "status"]
 
 
 def _read_generation(
-    folder: Path, generation: int, config: dict[str, Any], checked: bool
+    folder: Path, generation: int, config: JsonObject, checked: bool
 ) -> dict[str, pd.DataFrame] | None:
     """Generation ``generation``'s tables (``evaluations``, ``bodies``, a MAP-Elites run's
     ``archive``) as DataFrames, checked against its manifest; None while it is not complete
@@ -117,7 +119,7 @@ def _read_generation(
     return tables
 
 
-def _total_evaluations(config: dict[str, Any], brain_only: bool) -> int | None:
+def _total_evaluations(config: JsonObject, brain_only: bool) -> int | None:
     """The evaluations the run will make (`budget`), None where its config cannot say."""
     try:
         return int(budget(ExperimentConfig.from_plain(config), brain_only))
