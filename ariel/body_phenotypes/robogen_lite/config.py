@@ -14,6 +14,7 @@ if TYPE_CHECKING:
 __all__ = [
     "ALLOWED_FACES",
     "ALLOWED_ROTATIONS",
+    "COUNT_DESCRIPTORS",
     "DESCRIPTOR_NAMES",
     "IDX_OF_CORE",
     "NUM_OF_FACES",
@@ -84,6 +85,10 @@ DESCRIPTOR_NAMES: tuple[str, ...] = (
     "extent_y",
     "extent_z",
 )
+
+#: The descriptors that count modules or levels (integers; the others are ratios and lengths):
+#: the first six of `DESCRIPTOR_NAMES`.
+COUNT_DESCRIPTORS: tuple[str, ...] = DESCRIPTOR_NAMES[:6]
 
 # Faces a module may use as a parent. The core's TOP/BOTTOM are excluded; a brick's BACK is
 # where it is itself attached; a hinge only grows from its rotor's FRONT.

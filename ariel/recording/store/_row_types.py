@@ -19,7 +19,7 @@ from typing import Annotated, Any, ClassVar, Self, get_type_hints
 
 import pyarrow as pa
 
-from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
+from ariel.body_phenotypes.robogen_lite.config import COUNT_DESCRIPTORS, DESCRIPTOR_NAMES
 
 __all__ = [
     "COUNT_DESCRIPTORS",
@@ -36,17 +36,9 @@ __all__ = [
     "table_columns",
 ]
 
-#: Morphology descriptors that count something: integers in the tables (null for a body that
-#: could not be built; pandas reads such a column as the nullable ``Int32``). Files written
-#: before they were integers (float64 columns) are cast on read.
-COUNT_DESCRIPTORS: tuple[str, ...] = (
-    "num_modules",
-    "num_hinges",
-    "num_bricks",
-    "num_limbs",
-    "num_core_children",
-    "depth",
-)
+# COUNT_DESCRIPTORS (`robogen_lite.config`): integers in the tables (null for a body that could
+# not be built; pandas reads such a column as the nullable ``Int32``). Files written before they
+# were integers (float64 columns) are cast on read.
 
 
 class RowError(TypeError):

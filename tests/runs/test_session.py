@@ -1,0 +1,65 @@
+"""`drive`, the one loop of a lone run and a campaign: however the drive ends, every session
+that did not finish is closed with how it ended, and the campaign's own ending is told once.
+The scheduler is replaced (no physics, no folder): these tests say what `drive` does itself."""
+
+from __future__ import annotations
+
+import contextlib
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+
+from ariel.runs import _session
+from ariel.runs._session import RunSession, drive
+
+
+class FakeFolder:
+    def __init__(self) -> None:
+        self.info: dict[str, Any] = {}
+
+    def update_info(self, **changes: Any) -> None:
+        self.info.update(changes)
+
+
+def _session_of(status: str = "failed") -> RunSession:
+    session = RunSession(prepared=None, folder=FakeFolder(), run_id="r")  # type: ignore[arg-type]
+    session.driver = SimpleNamespace(wall_seconds=1.5)  # type: ignore[assignment]
+    session.status = status
+    return session
+
+
+@pytest.mark.parametrize(
+    ("raised", "status"), [(KeyboardInterrupt, "interrupted"), (RuntimeError, "failed")]
+)
+def test_an_ended_drive_closes_every_unfinished_session_with_how_it_ended(
+    monkeypatch: pytest.MonkeyPatch, raised: type[BaseException], status: str
+) -> None:
+    def run_groups(groups: Any, settings: Any) -> int:
+        raise raised()
+
+    monkeypatch.setattr(_session, "run_groups", run_groups)
+    done, left = _session_of("finished"), _session_of()
+    told: list[str] = []
+    with pytest.raises(raised):
+        drive([done, left], None, contextlib.nullcontext(), told.append)  # type: ignore[arg-type]
+    assert left.status == status and left.folder.info["status"] == status  # type: ignore[attr-defined]
+    assert left.folder.info["wall_seconds"] == 1.5  # type: ignore[attr-defined]
+    assert "status" not in done.folder.info  # type: ignore[attr-defined]  # finished: left alone
+    assert told == [status]
+
+
+def test_a_finished_drive_returns_the_capacity_and_says_finished(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    def run_groups(groups: Any, settings: Any) -> int:
+        for session in sessions:  # each group's end closes its session as finished
+            session.close("finished")
+        return 7
+
+    monkeypatch.setattr(_session, "run_groups", run_groups)
+    sessions = [_session_of(), _session_of()]
+    told: list[str] = []
+    assert drive(sessions, None, contextlib.nullcontext(), told.append) == 7  # type: ignore[arg-type]
+    assert [s.folder.info["status"] for s in sessions] == ["finished", "finished"]  # type: ignore[attr-defined]
+    assert told == ["finished"]
