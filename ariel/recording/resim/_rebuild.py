@@ -17,13 +17,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ariel import evaluation
-from ariel.errors import DamagedRunError, MissingPluginError, UnknownEvaluationError
+from ariel.errors import (
+    DamagedRunError,
+    MissingPluginError,
+    PluginLoadError,
+    UnknownEvaluationError,
+)
 from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record_steps, shipped_body
 from ariel.plugins import REGISTRIES, body_encoders, controllers
 from ariel.recording.store import (
     Run,
     git_commit,
     json_data,
+    one_line,
     short_ascii,
     software_versions,
 )
@@ -53,8 +59,9 @@ _PLUGIN_KEYS = {
 
 
 def _require_plugins(run: Run) -> None:
-    """`MissingPluginError`, one line, for the first of the run's plugins not installed here
-    (reading a run needs none of them; re-simulating it needs all)."""
+    """`MissingPluginError`, one line, for the first of the run's plugins not installed here,
+    or installed but failing to load (reading a run needs none of them; re-simulating it
+    needs all)."""
     # The built-in plugins load mujoco: import it first, so that a GL backend that cannot
     # load (MUJOCO_GL) fails as itself (`gl_backend_error`), not as a plugin not installed.
     mujoco_module()
@@ -65,6 +72,11 @@ def _require_plugins(run: Run) -> None:
         registry = REGISTRIES[kind]
         try:
             registry.get(name)
+        except PluginLoadError as exc:  # installed, but its import or its object is broken
+            raise MissingPluginError(
+                f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
+                f"({section}.{key}) is installed here but does not load: {one_line(str(exc))}"
+            ) from None
         except (KeyError, ValueError, ImportError):
             served = (run.info.get("plugins") or {}).get(kind) or {}
             source = served.get("distribution") if isinstance(served, dict) else None

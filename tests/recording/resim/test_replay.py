@@ -162,6 +162,39 @@ def test_a_copied_run_folder_replays_without_its_original(coevolution, tmp_path:
         away.rename(run_dir)
 
 
+@pytest.mark.parametrize(
+    ("registered", "said"),
+    [
+        (None, "is not installed here"),
+        ("ariel.no_such_module:Controller", "is installed here but does not load"),
+    ],
+)
+def test_a_missing_or_broken_plugin_is_one_line_naming_it(
+    coevolution, tmp_path: Path, registered: str | None, said: str
+) -> None:
+    from ariel.errors import MissingPluginError, PluginLoadError
+    from ariel.plugins import controllers
+
+    run_dir, _ = coevolution
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy)
+    info = json.loads((copy / "run.json").read_text())
+    info["config"]["brain"]["controller"] = "plugin_under_test"
+    (copy / "run.json").write_text(json.dumps(info))
+    if registered is not None:
+        controllers.register("plugin_under_test", registered)
+    try:
+        with pytest.raises(
+            MissingPluginError, match=rf"'plugin_under_test' \(brain.controller\) {said}"
+        ) as caught:
+            replay(copy, "best")
+        assert "\n" not in str(caught.value)
+    finally:
+        if registered is not None:
+            with pytest.raises(PluginLoadError):  # removed, then imported to be returned
+                controllers.unregister("plugin_under_test")
+
+
 def test_full_rate_frames_pass_through_the_recorded_ones(coevolution) -> None:
     run_dir, _ = coevolution
     replayed = replay(run_dir, "best")
