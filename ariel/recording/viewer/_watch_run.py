@@ -28,6 +28,7 @@ Entities (``generation``: the generation timeline; ``sim_time``: the best body's
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from datetime import datetime
@@ -195,13 +196,24 @@ class RunSource:
 
     def finished(self) -> bool:
         """The run has ended (a final status, or its process is gone) and every generation it
-        finished, and its best body, are logged."""
+        finished, its best body and how it ended are logged."""
+        status = self.info.get("status")
+        ended = self._ended()
+        if self.info.get("status") != status:  # it ended since the last poll: one more logs how
+            return False
         done = int(self.info.get("generations_done", 0) or 0)
-        return self._ended() and self.shown >= done and self.best.settled
+        return ended and self.shown >= done and self.best.settled
 
     def _ended(self) -> bool:
+        """Whether the run has ended. Its process gone while run.json (as last read) says
+        running: read again, since a run writes how it ended just before it lets go of its lock
+        (a process killed never does)."""
         status = self.info.get("status")
-        return status in FINAL or (status == "running" and holder_gone(self.path))
+        if status == "running" and holder_gone(self.path):
+            with contextlib.suppress(NotARunError):
+                self.info = RunFolder(self.path).read_info()
+            return True
+        return status in FINAL
 
     def close(self) -> None:
         """Remove the scratch folder of 3D replays."""
