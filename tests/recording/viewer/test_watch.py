@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import re
+import shutil
 import signal
 import socket
 import statistics
@@ -193,6 +194,22 @@ def test_the_stream_holds_every_generation_the_best_body_and_the_lineage(live: d
     # A new generation is shown within 2 s of its manifest (polling every 0.5 s).
     assert len(live["latencies"]) == len(table)
     assert statistics.median(live["latencies"]) < 2.0
+
+
+def test_a_run_that_ended_during_a_poll_is_read_again_to_say_how(
+    live: dict, tmp_path: Path
+) -> None:
+    """run.json read as running, then the run wrote "finished" and let go of its lock: the
+    watch reads it again and polls once more, so its last progress says finished."""
+    from ariel.recording.viewer._watch_run import RunSource
+
+    run = tmp_path / "run"
+    shutil.copytree(live["run"], run)
+    assert not (run / ".lock").exists()  # the run has let go of it
+    source = RunSource(run)
+    source.info = {**source.info, "status": "running"}  # as a poll read it, just before
+    assert not source.finished()  # ended, but not yet logged how
+    assert source.info["status"] == "finished"
 
 
 def test_a_map_elites_run_s_archive_is_there_per_generation(qd: dict) -> None:
