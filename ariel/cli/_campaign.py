@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, TypeVar
 from ariel import runs
 from ariel.cli._common import fail
 from ariel.cli._live import LiveView
-from ariel.cli._options import add_executor_options
+from ariel.cli._options import add_executor_options, add_set_option
 from ariel.cli._types import positive_int
 from ariel.errors import (
     ConfigError,
@@ -245,12 +245,8 @@ def _add_campaign_run(actions: SubParsers) -> None:
     """``ariel campaign run``."""
     p = actions.add_parser("run", help="run every condition x seed of a campaign file")
     p.add_argument("file", metavar="FILE", help="campaign TOML file")
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a value of the base experiment, e.g. --set generations=4 (repeatable)",
+    add_set_option(
+        p, "override a value of the base experiment, e.g. --set generations=4 (repeatable)"
     )
     p.add_argument("--out", metavar="DIR", help="campaign folder (default: data/campaigns/<id>)")
     p.add_argument(

@@ -18,6 +18,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 from ariel import evolution
+from ariel.cli._options import add_set_option
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -129,11 +130,5 @@ def add_config_commands(sub: SubParsers) -> None:
         metavar="FILE",
         help="experiment TOML file (default: the default experiment)",
     )
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a config value, as with ariel run (repeatable)",
-    )
+    add_set_option(p, "override a config value, as with ariel run (repeatable)")
     p.set_defaults(func=_cmd_config_show)

@@ -6,7 +6,17 @@ import argparse
 
 from ariel.cli._types import port, positive_int
 
-__all__ = ["add_executor_options", "add_live_options", "add_web_viewer_options"]
+__all__ = [
+    "add_executor_options",
+    "add_live_options",
+    "add_set_option",
+    "add_web_viewer_options",
+]
+
+
+def add_set_option(p: argparse.ArgumentParser, help_text: str) -> None:
+    """``--set KEY=VALUE``, repeatable: the config overrides, in order (``args.set``)."""
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=help_text)
 
 
 def add_executor_options(p: argparse.ArgumentParser) -> None:

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 from ariel import runs
 from ariel.cli._common import fail_with
 from ariel.cli._live import LiveView
-from ariel.cli._options import add_executor_options
+from ariel.cli._options import add_executor_options, add_set_option
 from ariel.errors import ArielError, ConfigError
 from ariel.utils import ariel_command, load_run_command, report_interrupted
 from ariel.utils.interrupts import stop_on_signals
@@ -43,13 +43,7 @@ def add_run_command(sub: SubParsers) -> None:
         "the resolved experiment, every key with its value.",
     )
     p.add_argument("config", nargs="?", help="experiment TOML file")
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a config value, e.g. --set brain.popsize=16 (repeatable)",
-    )
+    add_set_option(p, "override a config value, e.g. --set brain.popsize=16 (repeatable)")
     p.add_argument("--out", metavar="DIR", help="the run folder (default: data/runs/<run-id>)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
     add_executor_options(p)
