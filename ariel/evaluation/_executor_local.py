@@ -128,12 +128,16 @@ class LocalPool(cf.Executor):
         return future
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._stop(cancel=cancel_futures, kill=False, wait=wait)
+
+    def _stop(self, *, cancel: bool, kill: bool, wait: bool) -> None:
+        """No new calls from here on; the driver, if it ever started, stops (`_Driver.stop`)."""
         self._finalizer.detach()  # from here on the driver stops once its work is done
         with self._driver.lock:
             started = self._started
             self._driver.shutting_down = True
         if started:
-            self._driver.stop(cancel=cancel_futures, kill=False, wait=wait)
+            self._driver.stop(cancel=cancel, kill=kill, wait=wait)
 
     def __exit__(
         self,
@@ -144,12 +148,7 @@ class LocalPool(cf.Executor):
         if exc_type is not None and not issubclass(exc_type, Exception):
             # Ctrl-C, SIGTERM (`KeyboardInterrupt`), SystemExit: stop now, do not wait for the
             # running calls (minutes, up to their timeout).
-            self._finalizer.detach()
-            with self._driver.lock:
-                started = self._started
-                self._driver.shutting_down = True
-            if started:
-                self._driver.stop(cancel=True, kill=True, wait=True)
+            self._stop(cancel=True, kill=True, wait=True)
             return None
         return super().__exit__(exc_type, exc, tb)
 

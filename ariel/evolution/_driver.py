@@ -128,9 +128,8 @@ class BrainWork:
             body.best_params = job.run.best_params.tolist()  # type: ignore[union-attr]
             body.best_eval_id = self._tasks[improved].eval_id
         driver.candidates.extend(float(r.fitness) for r in results if math.isfinite(r.fitness))
-        driver.count_results(results)
         counted, self._skipped = len(results) + self._skipped, 0
-        driver.budget_done += counted
+        driver.count([r.status for r in results], counted)
         driver.emit(
             BatchEvaluated(
                 body=body,
@@ -225,10 +224,12 @@ class RunDriver:
         describe = getattr(self.optimizer, "archive_description", None)
         self.emit(RunStarted(self.first_generation, describe() if describe else None))
 
-    def count_results(self, results: Sequence[EvaluationResult]) -> None:
-        """This generation's evaluation rows: one per result, counted by failed status."""
-        self._rows += len(results)
-        self._failures.update(r.status for r in results if r.status in FAILED_STATUSES)
+    def count(self, statuses: Sequence[str], evaluations: int) -> None:
+        """Count rows of the evaluations table with ``statuses`` (one each), by failed status,
+        and ``evaluations`` as done (run, or skipped for a failed body)."""
+        self._rows += len(statuses)
+        self._failures.update(s for s in statuses if s in FAILED_STATUSES)
+        self.budget_done += evaluations
 
     @property
     def first_generation(self) -> int:
@@ -300,9 +301,7 @@ class RunDriver:
         for child in children:
             if child.status == "error":
                 child.fitness = self.plugins.worst
-                self._rows += 1  # its one row, with the error
-                self._failures["error"] += 1
-                self.budget_done += each
+                self.count(["error"], each)  # its one row, with the error; a whole brain run
                 self.emit(BodyFailed(child, generation, self.plugins.worst, each))
                 continue
             job = factory.job(child, factory.new_brain(child, by_id), config.brain.iterations)

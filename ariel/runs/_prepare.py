@@ -168,10 +168,11 @@ def _read_genotype_file(config: ExperimentConfig, encoder: BodyEncoder) -> Exper
     return config.model_copy(update={"body": body})
 
 
-def _check_fixed_body(config: ExperimentConfig, plugins: Plugins) -> None:
-    """A brain-only run's body must build: a bad ``body.genotype`` is a config error."""
+def _check_fixed_body(config: ExperimentConfig, plugins: Plugins, genotype: object) -> None:
+    """A brain-only run's body (``genotype``) must build: a bad ``body.genotype`` is a config
+    error."""
     factory = BodyFactory(config, plugins.encoder, plugins.controller, plugins.maximise)
-    body = factory.new_body(0, fixed_genotype(config, plugins.encoder), [], 0)
+    body = factory.new_body(0, genotype, [], 0)
     if body.status == "error":
         shown = describe(config.body.genotype)
         raise ConfigError(f"body.genotype: {shown} gives no body: {body.error}")
@@ -275,8 +276,8 @@ def prepare_run(config: ExperimentConfig, settings: ExecutorConfig | None = None
     brain_only = is_brain_only(config, plugins.encoder)
     genotype = None
     if brain_only:
-        _check_fixed_body(config, plugins)
         genotype = fixed_genotype(config, plugins.encoder)
+        _check_fixed_body(config, plugins, genotype)
     # The plugins --check checks, for these plugins with these options; from the face when
     # called: tests replace it there (tests/e2e/test_unstable.py).
     evolution.check_plugins(config)
