@@ -317,3 +317,42 @@ def test_bad_folder_input(
     assert message in one_error_line(capsys, quiet=True)
     assert (snapshot(folder) if folder.is_dir() else None) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == listing
+
+
+# --------------------------------------------------------------------------------------------
+# paths no file system takes: a name over 255 bytes, a loop of links
+# --------------------------------------------------------------------------------------------
+
+LONG = "L" * 300
+
+
+@pytest.mark.parametrize(
+    ("command", "message"),
+    [
+        (["run", "{base}", "--out", f"sub/{LONG}", "--quiet"], "File name too long"),
+        (["campaign", "run", "{long}.toml"], "File name too long"),
+        (["runs", LONG], "File name too long"),
+        (["view", LONG], "File name too long"),
+        (["export", LONG, "best", "out"], "File name too long"),
+        (["run", "{base}", "--out", "loop/x", "--quiet"], "Too many levels of symbolic links"),
+        (["report", "loop"], "Too many levels of symbolic links"),
+    ],
+    ids=["run-out", "campaign-file", "runs", "view", "export", "run-out-loop", "report-loop"],
+)
+def test_path_no_file_system_takes(
+    command: list[str],
+    message: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "base.toml").write_text(BASE)
+    (tmp_path / "loop").symlink_to("loop2")
+    (tmp_path / "loop2").symlink_to("loop")
+    listing = sorted(p.name for p in tmp_path.iterdir())
+    argv = [part.format(base="base.toml", long=LONG) for part in command]
+    assert exit_code(argv) == 2
+    line = one_error_line(capsys)
+    assert message in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == listing  # no folder made on the way

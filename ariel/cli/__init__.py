@@ -24,7 +24,9 @@ from ariel.cli._common import (
     DEFAULT_RUNS as DEFAULT_RUNS,
     EXIT_USAGE as EXIT_USAGE,
     Parser,
+    fail,
     fail_with,
+    path_error,
 )
 from ariel.cli._config import add_config_commands
 from ariel.cli._export import add_export_command
@@ -88,6 +90,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args))
     except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line
         return fail_with(exc)
+    except OSError as exc:  # a path no file system takes: a name over 255 bytes, a link loop
+        message = path_error(exc)
+        if message is None:
+            raise
+        return fail(message)
     except Exception as exc:  # `import mujoco` failing in its OpenGL backend (MUJOCO_GL): one line
         error = gl_backend_error(exc)
         if error is None:

@@ -6,6 +6,8 @@ and choosing an off-screen GL backend before a command that renders imports mujo
 from __future__ import annotations
 
 import argparse
+import errno
+import os
 import sys
 from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
@@ -18,6 +20,7 @@ __all__ = [
     "fail",
     "fail_with",
     "headless_unless_display",
+    "path_error",
 ]
 
 EXIT_USAGE = 2
@@ -44,6 +47,24 @@ def fail(message: str) -> int:
 
 def fail_with(exc: BaseException) -> int:
     return fail(str(exc) or type(exc).__name__)
+
+
+#: Errors that say a path cannot name a file at all, whatever the folder holds.
+_PATH_ERRNOS = {errno.ENAMETOOLONG, errno.ELOOP}
+
+
+def path_error(exc: OSError) -> str | None:
+    """One line for an `OSError` about a path no file system takes (a name over 255 bytes, a
+    loop of links), wherever the path came from (an argument, a folder's file); else None."""
+    if exc.errno not in _PATH_ERRNOS:
+        return None
+    name = os.fsdecode(exc.filename) if exc.filename is not None else "a path"
+    if len(name) > 80:
+        name = f"{name[:60]}...{name[-16:]} ({len(os.fsencode(name))} bytes)"
+    limit = (
+        " (a file or folder name has at most 255 bytes)" if exc.errno == errno.ENAMETOOLONG else ""
+    )
+    return f"{name!r}: {os.strerror(exc.errno)}{limit}"
 
 
 def headless_unless_display(without: str) -> None:

@@ -28,6 +28,7 @@ from ariel.recording.store import (
     NotARunError,
     RunFolder,
     RunLock,
+    check_name_lengths,
     ensure_open_files,
     load_campaign,
     load_run,
@@ -116,6 +117,7 @@ def new_campaign_id(name: str) -> str:
 
 
 def _check_new_folder(path: Path) -> None:
+    check_name_lengths(path)
     if path.exists() and (not path.is_dir() or any(path.iterdir())):
         raise FileExistsError(
             f"campaign folder {str(path)!r} already exists; choose another --out, or continue "

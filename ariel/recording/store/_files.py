@@ -29,6 +29,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_json",
     "cannot_write",
+    "check_name_lengths",
     "damaged",
     "json_text",
     "refuse_symlinks",
@@ -70,6 +71,17 @@ def refuse_symlinks(path: str | os.PathLike[str], root: str | os.PathLike[str] |
                 f"{os.readlink(folder)!r}); a run folder's files are written only inside it: "
                 "remove the link"
             )
+
+
+#: The longest file or folder name (bytes) the usual file systems take (NAME_MAX).
+NAME_MAX = 255
+
+
+def check_name_lengths(path: str | os.PathLike[str]) -> None:
+    """Raise ``OSError(ENAMETOOLONG)`` when a name in ``path`` is longer than `NAME_MAX`
+    bytes: before a new folder's parents are made, so that a refused name leaves none."""
+    if any(len(os.fsencode(part)) > NAME_MAX for part in Path(path).parts):
+        raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG), os.fspath(path))
 
 
 _OS_ERROR = re.compile(r"\(os error (\d+)\)")

@@ -27,6 +27,7 @@ from ariel.errors import DamagedRunError, NotARunError, RunStorageError
 from ariel.recording.store._files import (
     atomic_write_bytes,
     atomic_write_json,
+    check_name_lengths,
     damaged,
     remove_temporaries,
     written_path,
@@ -238,6 +239,7 @@ class RunFolder:
         in raises `RunInUseError` (``locked``: this process holds its lock).
         """
         path = Path(path)
+        check_name_lengths(path)
         if path.exists() and not path.is_dir():
             raise FileExistsError(f"output {str(path)!r} exists and is not a folder")
         holder = None if locked or not path.is_dir() else lock_holder(path)
