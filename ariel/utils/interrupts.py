@@ -11,6 +11,10 @@ SIGTERM (a batch system, ``kill``) and SIGHUP (a closed terminal or SSH session)
 Ctrl-C does: status ``interrupted``, the lock released, resumable. Once: a second signal
 meanwhile ends the process at once, as Python's own handling of a second Ctrl-C would.
 
+Some code must not be left midway: a C++ extension that is being imported (torch sets up its
+distributed package in C++, and a Python exception raised inside that aborts the whole process
+with a C++ dump). `signals_deferred` holds a signal back until such code is done.
+
 `Stopped` is the same kind of stop without a signal: the run cannot go on for a reason outside
 it (e.g. its Dask cluster has had no worker for a minute), so it ends as an interrupted one,
 resumable, with the reason in its one line.
@@ -29,6 +33,7 @@ __all__ = [
     "Stopped",
     "exit_status",
     "raise_pending",
+    "signals_deferred",
     "stop_on_signals",
 ]
 
@@ -36,6 +41,7 @@ __all__ = [
 STOPPED_EXIT = 75
 
 _pending: int | None = None  # the signal number taken and not yet acted on
+_deferring = 0  # how many `signals_deferred` blocks the main thread is in
 
 
 class Interrupted(KeyboardInterrupt):
@@ -84,6 +90,30 @@ def raise_pending() -> None:
         raise Interrupted(_pending)
 
 
+@contextlib.contextmanager
+def signals_deferred() -> Iterator[None]:
+    """Within: a stop signal is noted, not raised; leaving the block raises it (`Interrupted`).
+
+    For code that a Python exception must not enter midway, e.g. ``import torch``: a signal
+    that arrives during its C++ initialisation would abort the process instead of stopping
+    the run. Outside `stop_on_signals` it changes nothing.
+
+    Yields:
+        None.
+
+    Raises:
+        Interrupted: On leaving, when a signal arrived within (and nothing else was raised).
+    """
+    global _deferring
+    _deferring += 1
+    try:
+        yield
+    finally:
+        _deferring -= 1
+    if _deferring == 0:
+        raise_pending()
+
+
 def _signals() -> list[signal.Signals]:
     wanted = [signal.SIGTERM, getattr(signal, "SIGHUP", None)]
     # Ctrl-C only where Python's own handler has it: a Jupyter kernel or an embedding
@@ -120,7 +150,8 @@ def stop_on_signals() -> Iterator[None]:
         for number in wanted:  # a second signal: what it would do without us
             default = signal.default_int_handler if number == signal.SIGINT else signal.SIG_DFL
             signal.signal(number, default)
-        raise Interrupted(signum)
+        if _deferring == 0:
+            raise Interrupted(signum)  # else `signals_deferred` raises it on leaving
 
     previous = {number: signal.signal(number, interrupt) for number in wanted}
     try:

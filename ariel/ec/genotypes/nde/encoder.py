@@ -15,6 +15,7 @@ import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
 from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
+from ariel.utils.interrupts import signals_deferred
 
 __all__ = ["NDEEncoder"]
 
@@ -25,10 +26,12 @@ NUM_CHROMOSOMES = 3
 @functools.lru_cache(maxsize=8)
 def _nde_weights(number_of_modules: int, genotype_size: int, nde_seed: int) -> dict:
     """NDE weights as numpy arrays, made once per process (torch only for the initialisation)."""
-    import torch  # lazy: heavy optional library (see the module docstring)
+    # A stop signal during torch's C++ initialisation would abort the process: hold it back.
+    with signals_deferred():
+        import torch  # lazy: heavy optional library (see the module docstring)
 
-    # lazy: the NDE is a torch module (heavy optional library)
-    from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
+        # lazy: the NDE is a torch module (heavy optional library)
+        from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
 
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # a second spinning OpenMP thread slows everything else down

@@ -1,0 +1,40 @@
+"""Stop signals held back by `signals_deferred` (for code a Python exception must not enter,
+such as torch's C++ initialisation) are raised when the block is left."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from ariel.utils.interrupts import Interrupted, signals_deferred, stop_on_signals
+
+
+def test_a_signal_within_signals_deferred_is_raised_on_leaving() -> None:
+    reached = []
+    with stop_on_signals(), pytest.raises(Interrupted) as stopped:
+        with signals_deferred():
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):  # Python runs the handler between bytecodes
+                pass
+            reached.append("end of the block")
+        reached.append("after the block")
+    assert reached == ["end of the block"]
+    assert stopped.value.signum == signal.SIGTERM
+
+
+def test_nested_blocks_raise_when_the_outermost_is_left() -> None:
+    reached = []
+    with stop_on_signals(), pytest.raises(Interrupted), signals_deferred():
+        with signals_deferred():
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):
+                pass
+        reached.append("inner left")
+    assert reached == ["inner left"]
+
+
+def test_outside_stop_on_signals_nothing_is_raised() -> None:
+    with signals_deferred():
+        pass  # no signal noted: leaving raises nothing
