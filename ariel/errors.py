@@ -134,7 +134,8 @@ class WarpUnavailableError(ArielError, RuntimeError):
 
 
 class WorkerLostError(ArielError, RuntimeError):
-    """The worker process running a call died every time the call was tried."""
+    """Workers were lost: the process running a call died every time the call was tried, or
+    a cluster's workers could not start."""
 
 
 class CallTimeoutError(ArielError, TimeoutError):

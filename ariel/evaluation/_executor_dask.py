@@ -23,7 +23,8 @@ from collections.abc import Callable, Iterable, Iterator
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
-from ariel.errors import CallTimeoutError, ConfigError
+from ariel.errors import CallTimeoutError, ConfigError, WorkerLostError
+from ariel.evaluation._dask_logs import DaskLogs, quiet_cancel_race
 from ariel.evaluation._executor_base import EvaluationExecutor, worker_environment
 from ariel.evaluation._threads import default_workers
 
@@ -54,24 +55,6 @@ NO_WORKER_TIMEOUT_SCHEDULER = 3600.0
 NO_WORKER_TIMEOUT_VARIABLE = "ARIEL_NO_WORKER_TIMEOUT"
 #: While it waits for a worker, a Dask run says so on stderr this often (seconds).
 NO_WORKER_NOTE_SECONDS = 120.0
-
-
-class _CancelRace(logging.Filter):
-    """Drops one log record of an upstream race: when Ctrl-C lands inside distributed's
-    ``sync`` before its future exists, the event loop's ``cancel`` callback raises NameError
-    ("free variable 'future'"), which tornado logs with a traceback. After an interrupt that
-    is noise: the run already says it was interrupted and how to resume it."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        exc = record.exc_info[1] if record.exc_info else None
-        return not (isinstance(exc, NameError) and "'future'" in str(exc))
-
-
-def _quiet_cancel_race() -> None:
-    """Install `_CancelRace` on tornado's callback logger, once per process."""
-    logger = logging.getLogger("tornado.application")
-    if not any(isinstance(f, _CancelRace) for f in logger.filters):
-        logger.addFilter(_CancelRace())
 
 
 class DaskExecutor(EvaluationExecutor):
@@ -106,8 +89,9 @@ class DaskExecutor(EvaluationExecutor):
         cluster: Cluster | None = None,
         close_client: bool = True,
         no_worker_timeout: float | None = None,
+        logs: DaskLogs | None = None,
     ) -> None:
-        _quiet_cancel_race()
+        quiet_cancel_race()
         default = NO_WORKER_TIMEOUT_LOCAL if cluster is not None else NO_WORKER_TIMEOUT_SCHEDULER
         #: Seconds with no worker at all before `stalled` gives a reason (see
         #: `NO_WORKER_TIMEOUT_LOCAL`); ``math.inf``: wait for ever, with notes.
@@ -121,6 +105,8 @@ class DaskExecutor(EvaluationExecutor):
         self._closed = False
         self._none_since: float | None = None  # when `stalled` first saw no worker
         self._notes = 0
+        #: Dask's log lines, held back while our LocalCluster runs (None: a cluster of yours).
+        self.logs = logs
 
     kind = "dask"
 
@@ -158,7 +144,7 @@ class DaskExecutor(EvaluationExecutor):
                 address = getattr(self.client.scheduler, "address", None)
                 trouble = (
                     "the local Dask cluster has lost all its workers (killed, or they could "
-                    "not start again)"
+                    f"not start again){self.logs.cause() if self.logs is not None else ''}"
                     if self.cluster is not None
                     else f"none is connected to the Dask scheduler {address}"
                 )
@@ -208,8 +194,12 @@ class DaskExecutor(EvaluationExecutor):
                 if self._close_client:
                     self.client.close()
             finally:
-                if self.cluster is not None:
-                    self.cluster.close()
+                try:
+                    if self.cluster is not None:
+                        self.cluster.close()
+                finally:
+                    if self.logs is not None:
+                        self.logs.release()
 
     def __exit__(
         self,
@@ -293,14 +283,26 @@ def _make_dask(
     if address is None:
         settings = _cluster_settings(workers, max_retries, blas_threads, cluster_options)
         limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_LOCAL)  # before starting
-        with _workers_ignore_sigint():
-            cluster = LocalCluster(**settings)
+        logs = DaskLogs().hold()  # its workers' deaths are the run's to report, in one line
+        try:
+            with _workers_ignore_sigint():
+                cluster = LocalCluster(**settings)
+        except Exception as exc:
+            logs.release()
+            raise WorkerLostError(
+                f"the local Dask cluster could not start its {settings['n_workers']} worker(s): "
+                f"{type(exc).__name__}: {exc}{logs.cause()}"
+            ) from exc
+        except BaseException:
+            logs.release()
+            raise
         try:
             client = Client(cluster)
         except BaseException:
             cluster.close()
+            logs.release()
             raise
-        return DaskExecutor(client, cluster=cluster, no_worker_timeout=limit)
+        return DaskExecutor(client, cluster=cluster, no_worker_timeout=limit, logs=logs)
     if workers is not None:
         raise ValueError(
             "workers= sizes a LocalCluster; with address= the cluster's own workers are used "

@@ -19,7 +19,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from ariel.utils.interrupts import exit_status
+from ariel.utils.interrupts import Stopped, exit_status
 
 __all__ = [
     "ariel_command",
@@ -117,5 +117,7 @@ def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> 
     """
     hint = f"; continue it with: {ariel_line(*resume, folder)}" if folder else ""
     code, how = exit_status(exc)
-    print(f"\ninterrupted{how}{hint}", file=sys.stderr)
+    # After a key or signal, a new line first: the terminal may have echoed ^C on this one.
+    lead = "" if isinstance(exc, Stopped) else "\n"
+    print(f"{lead}interrupted{how}{hint}", file=sys.stderr)
     return code

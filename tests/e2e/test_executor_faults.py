@@ -18,6 +18,7 @@ import concurrent.futures as cf
 import contextlib
 import importlib.util
 import json
+import logging
 import multiprocessing
 import os
 import re
@@ -447,8 +448,8 @@ def test_a_dask_run_whose_workers_are_all_gone_stops_and_resumes(
     errors = capsys.readouterr().err
     assert closed == [0], errors  # the workers were all gone during generation 1
     assert code == 75, errors
-    lines = errors.strip().splitlines()
-    assert len(lines) == 1, errors
+    lines = errors.splitlines()
+    assert len(lines) == 1, errors  # no empty line first: no ^C to end a line after
     assert re.fullmatch(
         r"interrupted: no Dask worker for 3 s: the local Dask cluster has lost all its workers "
         r"\(killed, or they could not start again\); the run stopped at generation 1; "
@@ -463,3 +464,78 @@ def test_a_dask_run_whose_workers_are_all_gone_stops_and_resumes(
     assert code == 0, capsys.readouterr().err
     info = json.loads((run_dir / "run.json").read_text())
     assert info["status"] == "finished" and info["generations_done"] == 3
+
+
+class _Shown(logging.Handler):
+    """Collects the log records that reach it (as Dask's stderr handler would print them)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+
+@pytest.fixture
+def dask_log_shown() -> Any:
+    """What Dask's logger shows, on a handler of its own (Dask installs one only where the
+    root logger has none, which under pytest it has)."""
+    import distributed  # noqa: F401  (configures the "distributed" logger)
+
+    shown = _Shown()
+    loggers = [logging.getLogger(name) for name in ("distributed", "tornado.application")]
+    for logger in loggers:
+        logger.addHandler(shown)
+    yield shown
+    for logger in loggers:
+        logger.removeHandler(shown)
+
+
+@needs_dask
+def test_dask_s_error_logs_are_held_back_and_their_cause_kept(dask_log_shown: _Shown) -> None:
+    from ariel.evaluation._dask_logs import DaskLogs
+
+    nanny = logging.getLogger("distributed.nanny")
+    logs = DaskLogs().hold()
+    try:
+        try:
+            raise OSError(24, "Too many open files")
+        except OSError:
+            nanny.exception("Failed to start process")  # held back, its cause kept
+        nanny.error("Nanny failed to start")  # a message without an exception: not the cause
+        logging.getLogger("tornado.application").error("a cancelled future's callback")
+        nanny.critical("shown")  # still shown
+    finally:
+        logs.release()
+    assert [r.getMessage() for r in dask_log_shown.records] == ["shown"]
+    assert logs.cause() == "; first error: OSError: [Errno 24] Too many open files"
+    nanny.error("after")  # shown again once released
+    assert [r.getMessage() for r in dask_log_shown.records] == ["shown", "after"]
+
+
+@needs_dask
+def test_a_local_dask_cluster_that_cannot_start_is_one_line(
+    tmp_path: Path, monkeypatch, capsys, dask_log_shown: _Shown
+) -> None:
+    import distributed
+
+    from ariel import cli
+
+    class NoWorkers:  # as under `ulimit -n 32`: each nanny logs its failure, then it raises
+        def __init__(self, **settings: Any) -> None:
+            try:
+                raise OSError(24, "Too many open files")
+            except OSError:
+                logging.getLogger("distributed.nanny").exception("Failed to start process")
+            raise RuntimeError("Nanny failed to start.")
+
+    monkeypatch.setattr(distributed, "LocalCluster", NoWorkers)
+    argv = ["run", str(TINY_RUN), "--executor", "dask", "--workers", "2", "--quiet"]
+    assert cli.main([*argv, "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == [
+        "ariel: error: the local Dask cluster could not start its 2 worker(s): RuntimeError: "
+        "Nanny failed to start.; first error: OSError: [Errno 24] Too many open files"
+    ], err
+    assert dask_log_shown.records == []  # the nanny's error went into that line, not stderr

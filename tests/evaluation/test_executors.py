@@ -350,7 +350,7 @@ def test_a_kind_written_before_the_rename_gets_the_address_as_scheduler() -> Non
 def test_the_dask_cancel_race_s_log_record_is_dropped_and_no_other() -> None:
     import logging
 
-    from ariel.evaluation._executor_dask import _CancelRace
+    from ariel.evaluation._dask_logs import _CancelRace
 
     def record(exc: BaseException) -> logging.LogRecord:
         return logging.LogRecord(
