@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 import sys
 from collections.abc import Sequence
@@ -20,6 +21,7 @@ from ariel.recording.resim import has_body_poses, on_demand_recording
 from ariel.recording.store import (
     GENERATION_BLUEPRINT,
     NotARunError,
+    cannot_write,
     check_eval_id,
     generation_recording_path,
     load_run,
@@ -106,6 +108,7 @@ def select_recordings(
     ``eval_id``'s, or by default ``run.rrd`` and the best evaluation's. Raises `ViewError`."""
     if sum(x is not None for x in (best, generation, eval_id)) > 1:
         raise ViewError("choose one of --best, --generation and EVAL_ID")
+    _refuse_links(Path(run_dir))
     if (Path(run_dir) / "campaign.json").is_file():
         return _campaign_selection(Path(run_dir), best, generation, eval_id)
     try:
@@ -124,6 +127,23 @@ def select_recordings(
     if generation is not None:
         return _generation_of_run(run, generation, layout)
     return _ranked_selection(run, best, layout)
+
+
+def _refuse_links(folder: Path) -> None:
+    """Raise `ViewError` when a recording or layout of ``folder`` (its ``recordings/`` tree,
+    its own ``.rrd`` and ``.rbl`` files) is a symbolic link: a received folder must not make
+    the viewer read a file outside it."""
+    found = [folder / RECORDINGS, *folder.glob("*.rrd"), *folder.glob("*.rbl")]
+    if (folder / RECORDINGS).is_dir() and not (folder / RECORDINGS).is_symlink():
+        for parent, folders, files in os.walk(folder / RECORDINGS):  # links not followed
+            found += [Path(parent, name) for name in (*folders, *files)]
+    for path in found:
+        if path.is_symlink():
+            raise ViewError(
+                f"refusing to open {str(folder)!r}: {str(path.relative_to(folder))!r} is a "
+                f"symbolic link (to {os.readlink(path)!r}); a folder's recordings are read only "
+                "inside it: remove the link"
+            )
 
 
 def _beside_run(
@@ -226,10 +246,19 @@ def _own_or_replayed(run: Run, path: Path) -> Path:
     if path.is_file():
         return path
     try:
-        return on_demand_recording(run.path, path.stem)
+        return _replay(run, path.stem)
     except (MissingPluginError, ValueError) as exc:
         where = path.relative_to(run.path)
         raise ViewError(f"{where} is not recorded and cannot be replayed: {exc}") from None
+
+
+def _replay(run: Run, eval_id: str) -> Path:
+    """`on_demand_recording`, where a folder it cannot write (read-only, full) is a
+    `ValueError` that says so, as for a replay that cannot be made: the view goes on without."""
+    try:
+        return on_demand_recording(run.path, eval_id)
+    except OSError as exc:
+        raise ValueError(cannot_write(exc)) from None
 
 
 def _replayed_or_generation(
@@ -239,7 +268,7 @@ def _replayed_or_generation(
     the run's plugins) its generation's recording of every evaluation, with a note."""
     shared = generation_recording_path(run.path, generation)
     try:
-        made = on_demand_recording(run.path, eval_id)
+        made = _replay(run, eval_id)
     except (MissingPluginError, ValueError) as exc:
         if not shared.is_file():
             raise ViewError(
@@ -283,7 +312,7 @@ def _with_body_poses(run: Run, eval_id: str, recorded: Path) -> tuple[list[Path]
     if not run.config.get("record", {}).get("rerun") or has_body_poses(recorded):
         return [recorded], f"evaluation {eval_id}"
     try:
-        made = on_demand_recording(run.path, eval_id)
+        made = _replay(run, eval_id)
     except (MissingPluginError, ValueError) as exc:
         print(f"ariel: no 3D replay of {eval_id}: {exc}", file=sys.stderr)
         return [recorded], f"evaluation {eval_id} (no 3D replay)"

@@ -220,6 +220,50 @@ def test_an_evaluation_without_its_own_recording_is_replayed_on_demand(
         select_recordings(run, eval_id=victim.stem)
 
 
+@pytest.mark.parametrize("link", ["one recording", "recordings folder", "run.rrd"])
+def test_a_recording_linked_from_outside_the_run_is_refused(
+    recorded_run: Path, tmp_path: Path, link: str
+) -> None:
+    """A received folder must not make the viewer read a file outside it."""
+    run = tmp_path / "run"
+    shutil.copytree(recorded_run, run)
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    victim = {
+        "one recording": select_recordings(run, best=1).recordings[0],
+        "recordings folder": run / "recordings",
+        "run.rrd": run / "run.rrd",
+    }[link]
+    victim.rename(outside / victim.name)
+    victim.symlink_to(outside / victim.name)
+    with pytest.raises(ViewError, match=r"is a symbolic link \(to .*\); .* remove the link"):
+        select_recordings(run)
+
+
+def test_a_replay_that_cannot_be_written_is_a_view_error(
+    recorded_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A run on a read-only file system: no 3D replay can be cached there, said in one line."""
+    import errno
+
+    from ariel.recording.viewer import _select
+
+    run = tmp_path / "run"
+    shutil.copytree(recorded_run, run)
+    victim = select_recordings(run, best=2).recordings[1]
+    victim.unlink()
+
+    def read_only(run_dir: Path, eval_id: str) -> Path:
+        replays = victim.parent / "replays"
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(replays))
+
+    monkeypatch.setattr(_select, "on_demand_recording", read_only)
+    with pytest.raises(ViewError, match=r"cannot be replayed: cannot write .*Read-only file sys"):
+        select_recordings(run, best=2)
+    with pytest.raises(ViewError, match=r"no 3D replay: cannot write .*Read-only file system"):
+        select_recordings(run, eval_id=victim.stem)
+
+
 # --- the command's one-line errors ----------------------------------------------------------
 
 
