@@ -177,6 +177,24 @@ def _print_frame(frame: pd.DataFrame, title: str) -> None:
     print_frame(frame, title)
 
 
+#: The most pairs (rows) and conditions (columns) `ariel compare` prints; the files hold all.
+PAIR_ROWS_SHOWN = 40
+CONDITIONS_SHOWN = 12
+
+
+def _print_capped(frame: pd.DataFrame, title: str, *, rows: int, columns: int, file: str) -> None:
+    """``frame``, its first ``rows`` rows and ``columns`` columns (after the label column)
+    where it has more, saying so and which file has it all: 200 conditions are 19,900 pairs."""
+    more = []
+    if len(frame) > rows:
+        more.append(f"the first {rows} of {len(frame):,} rows")
+        frame = frame.head(rows)
+    if frame.shape[1] > columns + 1:
+        more.append(f"the first {columns} of {frame.shape[1] - 1:,} conditions")
+        frame = frame.iloc[:, : columns + 1]
+    _print_frame(frame, f"{title} ({', '.join(more)}; all in {file})" if more else title)
+
+
 def _label(text: str) -> tuple[str, str]:
     """``--label NAME=RUN_DIR`` -> (NAME, RUN_DIR); the name is checked by `compare`."""
     name, equals, folder = text.partition("=")
@@ -213,8 +231,11 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         f"compared at {comparison.budget:,} evaluations per run; tests: "
         f"{comparison.tests.describe()}"
     )
-    _print_frame(comparison.summary_table(), f"{about}: per condition")
-    _print_frame(comparison.table(), f"{about}: pairs of conditions")
+    capped = {"rows": PAIR_ROWS_SHOWN, "columns": CONDITIONS_SHOWN}
+    _print_capped(
+        comparison.summary_table(), f"{about}: per condition", **capped, file="summary.csv"
+    )
+    _print_capped(comparison.table(), f"{about}: pairs of conditions", **capped, file="stats.md")
     if len(comparison.omnibus):
         _print_frame(comparison.omnibus_table(), f"{about}: all conditions")
     for note in comparison.notes:

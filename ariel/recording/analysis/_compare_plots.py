@@ -57,7 +57,9 @@ def _colours(names: Sequence[str]) -> dict[str, str]:
 
 
 def _save(figure: Figure, path: Path) -> Path:
-    figure.tight_layout()
+    with warnings.catch_warnings():  # many conditions: the legend takes the room; drawn anyway
+        warnings.filterwarnings("ignore", "Tight layout not applied", UserWarning)
+        figure.tight_layout()
     try:  # never through a link planted in the output folder (``compare/final_best.png -> ~/x``)
         atomic_write(path, lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"))
     finally:

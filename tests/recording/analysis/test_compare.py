@@ -805,3 +805,24 @@ def test_the_command_announces_many_conditions_on_stderr(
     assert (
         err.startswith("note: 2 conditions: testing 1 pairs of conditions") and err.count("\n") == 1
     )
+
+
+def test_the_command_prints_at_most_40_pairs_and_12_conditions(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """200 conditions are 19,900 pairs: the terminal gets the first rows and columns and the
+    name of the file that has them all."""
+    from ariel.cli._campaign import _print_capped
+
+    pairs = pd.DataFrame({"pair": [f"c{i} vs c{i + 1}" for i in range(100)], "p": ["0.5"] * 100})
+    _print_capped(pairs, "pairs", rows=40, columns=12, file="stats.md")
+    out = capsys.readouterr().out
+    assert "pairs (the first 40 of 100 rows; all in stats.md)" in " ".join(out.split())
+    assert "c39 vs c40" in out and "c40 vs c41" not in out
+    summary = pd.DataFrame([["runs", *["5"] * 30]], columns=["", *[f"k{i}" for i in range(30)]])
+    _print_capped(summary, "per condition", rows=40, columns=12, file="summary.csv")
+    out = capsys.readouterr().out
+    assert "(the first 12 of 30 conditions; all in summary.csv)" in " ".join(out.split())
+    assert "k11" in out and "k12" not in out
+    _print_capped(pairs.head(3), "few", rows=40, columns=12, file="stats.md")
+    assert "the first" not in capsys.readouterr().out  # nothing left out: nothing said
