@@ -72,12 +72,12 @@ def _show_campaign(result: CampaignResult) -> None:
     finished = sum(r.status == "finished" for r in result.runs)
     skipped = f" ({result.skipped} finished before, skipped)" if result.skipped else ""
     print(
-        f"{result.status}: campaign {result.campaign_id}: {finished} of {len(result.runs)} runs "
+        f"{result.status}: campaign {terminal_text(result.campaign_id)}: {finished} of {len(result.runs)} runs "
         f"finished{skipped} in {result.wall_seconds:.1f} s; workers busy "
         f"{result.busy_share:.0%} of the time ({result.workers} "
         f"worker{'' if result.workers == 1 else 's'})"
     )
-    print(f"campaign folder: {result.path}")
+    print(f"campaign folder: {terminal_text(result.path)}")
     ariel = ariel_command()
     # the last generation's best fitness, condition x seed
     shown = (

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -118,7 +119,14 @@ def new_campaign_id(name: str) -> str:
 
 def _check_new_folder(path: Path) -> None:
     check_name_lengths(path)
-    if path.exists() and (not path.is_dir() or any(path.iterdir())):
+    if path.is_symlink():  # never made or written through: a dangling one would be followed
+        raise FileExistsError(
+            f"output {str(path)!r} is a symbolic link (to {os.readlink(path)!r}); choose "
+            "another --out"
+        )
+    if path.exists() and not path.is_dir():
+        raise FileExistsError(f"output {str(path)!r} is a file; choose another --out")
+    if path.exists() and any(path.iterdir()):
         raise FileExistsError(
             f"campaign folder {str(path)!r} already exists; choose another --out, or continue "
             f"it with: {ariel_line('campaign', 'resume', path)}"

@@ -189,3 +189,24 @@ def test_campaign_json_records_the_seeding_and_old_ones_read_as_shared(tmp_path:
     assert Campaign(tmp_path, info).seeding == "independent"
     del info["seeding"]  # a campaign.json from before the key: its conditions shared seeds
     assert Campaign(tmp_path, info).seeding == "shared"
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda out: out.symlink_to(out.parent / "nowhere"), "is a symbolic link (to "),
+        (lambda out: out.write_text("mine"), "is a file; choose another --out"),
+    ],
+    ids=["dangling-link", "file"],
+)
+def test_an_out_that_is_a_link_or_a_file_is_refused_in_so_many_words(
+    make, message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    file = tmp_path / "campaign.toml"
+    file.write_text(_GOOD.format(rest=""))
+    out = tmp_path / "out"
+    make(out)
+    listing = sorted(p.name for p in tmp_path.iterdir())
+    assert exit_code(["campaign", "run", str(file), "--out", str(out)]) == 2
+    assert message in one_error_line(capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == listing  # nothing made, not followed
