@@ -72,8 +72,8 @@ def _show_campaign(result: CampaignResult) -> None:
     finished = sum(r.status == "finished" for r in result.runs)
     skipped = f" ({result.skipped} finished before, skipped)" if result.skipped else ""
     print(
-        f"{result.status}: campaign {terminal_text(result.campaign_id)}: {finished} of {len(result.runs)} runs "
-        f"finished{skipped} in {result.wall_seconds:.1f} s; workers busy "
+        f"{result.status}: campaign {terminal_text(result.campaign_id)}: {finished} of "
+        f"{len(result.runs)} runs finished{skipped} in {result.wall_seconds:.1f} s; workers busy "
         f"{result.busy_share:.0%} of the time ({result.workers} "
         f"worker{'' if result.workers == 1 else 's'})"
     )
@@ -214,13 +214,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         print(f"note: {shown(line)}", file=sys.stderr, flush=True)
 
     try:
-        comparison = analysis.compare(
-            args.paths,
-            out=args.out,
-            at_evaluations=args.at_evaluations,
-            labels=labels or None,
-            announce=announce,
-        )
+        with stop_on_signals():  # Ctrl-C, SIGTERM: one line (the new folder may be partial)
+            comparison = analysis.compare(
+                args.paths,
+                out=args.out,
+                at_evaluations=args.at_evaluations,
+                labels=labels or None,
+                announce=announce,
+            )
+    except KeyboardInterrupt as exc:
+        return report_interrupted(exc, None)
     except (analysis.CompareError, NotARunError) as exc:
         return fail(shown(exc))
     except OSError as exc:  # a folder that cannot be read or written: no permission, disk full

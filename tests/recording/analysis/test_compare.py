@@ -826,3 +826,27 @@ def test_the_command_prints_at_most_40_pairs_and_12_conditions(
     assert "k11" in out and "k12" not in out
     _print_capped(pairs.head(3), "few", rows=40, columns=12, file="stats.md")
     assert "the first" not in capsys.readouterr().out  # nothing left out: nothing said
+
+
+def test_a_compare_stopped_by_sigterm_says_so_in_one_line(
+    two_runs: tuple[Path, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """200 conditions take minutes: a batch system's SIGTERM ends it with one line, exit 143
+    (it ended silently)."""
+    import os
+    import signal
+
+    from ariel.recording import analysis
+
+    def stopped(*args: object, **kwargs: object) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(10_000):  # the handler runs between bytecodes
+            pass
+        raise AssertionError("not stopped")
+
+    monkeypatch.setattr(analysis, "compare", stopped)
+    assert main(["compare", *map(str, two_runs), "--out", str(tmp_path / "out")]) == 143
+    assert capsys.readouterr().err.splitlines() == ["", "interrupted (SIGTERM)"]
