@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from ariel import recording
 from ariel.cli._common import fail
 from ariel.recording import resim
-from ariel.recording.store import cannot_write
+from ariel.recording.store import cannot_write, terminal_text
 from ariel.utils import python_command
 
 if TYPE_CHECKING:
@@ -59,12 +59,14 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.lineage is not None and os.path.lexists(args.lineage):  # a dangling link too
         return fail(_exists(args.lineage))  # before anything is written
     if args.out is not None:
-        out = resim.export(args.run_dir, args.eval_id, args.out)
+        out = resim.export(args.run_dir, str(args.eval_id), args.out)  # given with DIR
         python = python_command()
         body, replay = (shlex.quote(str(out / name)) for name in ("body.xml", "replay.py"))
-        print(
-            f"wrote {out}: body.xml ({python} -m mujoco.viewer --mjcf {body}), "
-            f"genotype.json, controller.json, replay.py ({python} {replay})"
+        print(  # escaped: DIR is any name, control characters too
+            terminal_text(
+                f"wrote {out}: body.xml ({python} -m mujoco.viewer --mjcf {body}), "
+                f"genotype.json, controller.json, replay.py ({python} {replay})"
+            )
         )
     return 0 if args.lineage is None else _export_lineage(args.run_dir, Path(args.lineage))
 
@@ -82,9 +84,11 @@ def _export_lineage(run_dir: str, path: Path) -> int:
         return fail(_exists(path))
     except OSError as exc:  # no permission, a full disk, a file where a folder goes
         return fail(cannot_write(exc, path))
-    alive = int(frame["destruction_time"].isna().sum())
+    alive = int(frame["destruction_time"].isna().to_numpy().sum())
     print(
-        f"wrote {path}: the lineage of {len(frame):,} bodies ({alive:,} in the final "
-        "population), in the ALife data standard's phylogeny format"
+        terminal_text(
+            f"wrote {path}: the lineage of {len(frame):,} bodies ({alive:,} in the final "
+            "population), in the ALife data standard's phylogeny format"
+        )
     )
     return 0

@@ -10,11 +10,12 @@ from typing import TYPE_CHECKING
 
 from ariel.cli._common import fail, headless_unless_display
 from ariel.recording import resim
-from ariel.recording.store import cannot_write
+from ariel.recording.store import cannot_write, terminal_text
 from ariel.utils import has_display
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
+    from ariel.recording.resim import ReplayResult
 
 __all__ = ["add_replay_command"]
 
@@ -43,21 +44,24 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         headless_unless_display("run without --video")
     replayed = resim.replay(args.run_dir, args.eval_id)
     row = replayed.row
-    print(
+    _say(
         f"evaluation {replayed.eval_id} (generation {int(row['generation'])}, body "
         f"{row['body_id']}) of run {replayed.run.info.get('run_id', args.run_dir)}"
     )
-    print(f"stored fitness:   {replayed.stored_fitness!r} ({replayed.stored_status})")
-    print(f"replayed fitness: {replayed.fitness!r} ({replayed.status})")
+    _say(f"stored fitness:   {replayed.stored_fitness!r} ({replayed.stored_status})")
+    _say(f"replayed fitness: {replayed.fitness!r} ({replayed.status})")
+    why = _why(replayed)
+    if why:
+        _say(why)
     if not replayed.exact:  # MuJoCo Warp (float32) on either side: close, never claimed equal
-        print(f"backend: stored {replayed.stored_backend}, replayed {replayed.backend}")
-        print(f"difference: {replayed.difference:+.3g} (MuJoCo Warp is not bitwise repeatable)")
+        _say(f"backend: stored {replayed.stored_backend}, replayed {replayed.backend}")
+        _say(f"difference: {replayed.difference:+.3g} (MuJoCo Warp is not bitwise repeatable)")
     elif replayed.identical:
-        print("identical: yes, bit for bit")
+        _say("identical: yes, bit for bit")
     else:
-        print("identical: NO")
+        _say("identical: NO")
         for name, (then, now) in replayed.version_differences.items():
-            print(f"  {name}: the run used {then}, this replay {now}")
+            _say(f"  {name}: the run used {then}, this replay {now}")
     try:
         if args.rrd or args.video or args.viewer:
             dense = replayed.full_rate()
@@ -66,14 +70,37 @@ def _cmd_replay(args: argparse.Namespace) -> int:
                 f"{float(dense.fitness)!r}"
             )
         if args.rrd:
-            print(f"wrote {replayed.write_rrd(args.rrd)}")
+            _say(f"wrote {replayed.write_rrd(args.rrd)}")
         if args.video:
-            print(f"wrote {replayed.write_video(args.video)}")
+            _say(f"wrote {replayed.write_video(args.video)}")
         if args.viewer:
             replayed.view()
     except (ValueError, RuntimeError, ImportError) as exc:
-        return fail(str(exc).splitlines()[0])
+        return fail(terminal_text(str(exc).splitlines()[0]))
     except OSError as exc:  # --rrd / --video onto a full disk, a read-only file system, ...
         return fail(cannot_write(exc))
     close = not replayed.exact and replayed.status == replayed.stored_status
     return 0 if replayed.identical or close else 1
+
+
+def _say(text: str) -> None:
+    """Print ``text``, escaped: the ids, statuses and versions in it are read from the run
+    folder (run.json, its tables), which anyone may have written."""
+    print(terminal_text(text))
+
+
+#: How the engine words a body that could not be built (`ariel.evaluation`'s error results).
+_BUILD_ERROR = "BodyBuildError: "
+
+
+def _why(replayed: ReplayResult) -> str | None:
+    """Why the replay ended in another status than the stored one, where the engine said why:
+    a body that could not be built from the stored genotype (a changed table, or another
+    encoder than the run's), or another error; None otherwise."""
+    error = replayed.result.error
+    if replayed.status == replayed.stored_status or not error:
+        return None
+    if str(error).startswith(_BUILD_ERROR):
+        cause = str(error).removeprefix(_BUILD_ERROR)
+        return f"why: the body could not be built from the stored genotype: {cause}"
+    return f"why: the replay ended in an error: {error}"

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.errors import RunStorageError
 from ariel.evaluation import default_workers
+from ariel.recording import resim
 from ariel.recording.analysis import _gallery_render
 from ariel.recording.analysis._gallery_render import (
     THUMBNAIL_SIZE,
@@ -221,11 +222,14 @@ def _thumbnails(
     gallery.reused = len({str(p) for p in paths} - set(jobs))
     if not jobs:
         return list(paths)
+    runs = {str(pick.run.path): pick.run for pick in chosen}
+    for run_path in dict.fromkeys(job.run_path for job in jobs.values()) if render else ():
+        # drawing makes each body's encoder and world: options they reject are one line
+        resim.check_options(runs[run_path], resim.BODY_PLUGINS)
     problem = _gallery_render.gl_problem() if render else "rendering off"
     if problem is not None:
         gallery.notes.append(f"{len(jobs)} thumbnail(s) left out: {problem}")
         return [None if str(path) in jobs else path for path in paths]
-    runs = {str(pick.run.path): pick.run for pick in chosen}
     drawn = _gallery_render.render_thumbnails(
         list(jobs.values()), workers=workers or default_workers(), runs=runs
     )
@@ -293,6 +297,7 @@ def _finish(
 
 
 def _run_gallery(run: Run, of: str) -> tuple[Gallery, list[Pick]]:
+    resim.check_config(run)  # a section that is no table: one line, before it is read
     chosen = picks(run, of)
     atlas = archive_atlas(run, run.maximise) if of == "archive" else None
     key = key_descriptors(run)
@@ -305,6 +310,8 @@ def _run_gallery(run: Run, of: str) -> tuple[Gallery, list[Pick]]:
 
 def _campaign_gallery(path: Path) -> tuple[Gallery, list[Pick]]:
     campaign = load_campaign(path)
+    for run in campaign.runs.values():
+        resim.check_config(run)
     chosen = campaign_picks(campaign)
     name = one_line(campaign.info.get("campaign_id") or path.name)
     runs = list(campaign.runs.values())
@@ -358,7 +365,9 @@ def make_gallery(
         GalleryError: For an unknown ``of``, ``elites`` or ``archive`` of a run without a
             MAP-Elites archive, or another ``of`` than ``final`` for a campaign.
         NotARunError: For a folder that is neither a run nor a campaign
-            (`DamagedRunError`: one whose tables were changed).
+            (`DamagedRunError`: one whose tables were changed, whose config has a section
+            that is no table, or, where bodies are drawn, whose body encoder or world rejects
+            the options its config records).
         UnsafePathError: When a folder on the way to a file written is a symbolic link.
         RunStorageError: When the PNG or the page cannot be written (disk full, read-only).
 

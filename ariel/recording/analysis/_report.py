@@ -33,6 +33,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
+from ariel.recording import resim
 from ariel.recording.analysis._gallery import add_report_gallery
 from ariel.recording.analysis._report_best import _body_image, _trajectory_figures
 from ariel.recording.analysis._report_figures import (
@@ -220,7 +221,8 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
 
     Raises:
         NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
-            were changed).
+            were changed, whose config has a section that is no table, or, with ``render``,
+            whose body encoder or world rejects the options its config records).
         UnsafePathError: When a folder on the way to ``report/`` is a symbolic link.
         RunStorageError: When a figure cannot be written (disk full, read-only).
 
@@ -234,6 +236,9 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
         ```
     """
     run = load_run(run_dir)
+    resim.check_config(run)  # a section that is no table: one line, before it is read
+    if render:  # drawing a body makes its encoder and world with the run's options
+        resim.check_options(run, resim.BODY_PLUGINS)
     generations = run.generations
     quality = [c for c in QD_COLUMNS if c in generations.columns]  # a MAP-Elites run
     table = generations[[*TABLE_COLUMNS, *quality]]
@@ -320,7 +325,7 @@ def print_report(report: Report, console: Console | None = None) -> None:
     run = report.run
     status = run.info.get("status", "?")
     done, total = run.generations_done, run.config.get("generations", "?")
-    title = f"{_run_title(run)}: {one_line(status)}, {done}/{total} generations"
+    title = f"{_run_title(run)}: {one_line(status)}, {done}/{one_line(total)} generations"
     table = _table(Text(title))  # Text: a run id's [bold] is no markup
     for heading in TABLE_COLUMNS.values():
         wide = 10 if heading in ("best", "mean", "median") else len(heading)  # -0.0123456

@@ -18,6 +18,11 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         ExportedRobot as ExportedRobot,
         load_exported as load_exported,
     )
+    from ariel.recording.resim._rebuild import (
+        BODY_PLUGINS as BODY_PLUGINS,
+        check_config as check_config,
+        check_options as check_options,
+    )
     from ariel.recording.resim._replay import (
         ReplayResult as ReplayResult,
         UnknownEvaluationError as UnknownEvaluationError,
@@ -36,9 +41,12 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
+    "BODY_PLUGINS": "ariel.recording.resim._rebuild",
     "ExportedRobot": "ariel.recording.resim._exported",
     "ReplayResult": "ariel.recording.resim._replay",
     "UnknownEvaluationError": "ariel.recording.resim._replay",
+    "check_config": "ariel.recording.resim._rebuild",
+    "check_options": "ariel.recording.resim._rebuild",
     "drive_replay": "ariel.recording.resim._replay_video",
     "export": "ariel.recording.resim._export",
     "has_body_poses": "ariel.recording.resim._replay",

@@ -31,14 +31,21 @@ from ariel import evaluation
 from ariel.errors import ArielError
 from ariel.plugins import body_encoders, worlds
 from ariel.recording import store
-from ariel.recording.resim._rebuild import _find_row, _require_plugins, cell_json, replay_task
+from ariel.recording.resim._rebuild import (
+    _changed,
+    _find_row,
+    _require_plugins,
+    cell_json,
+    load_checked,
+    replay_task,
+)
 from ariel.recording.store import (
     Run,
     cannot_write,
     check_eval_id,
     check_run_id,
     evaluation_trajectory,
-    load_run,
+    one_line,
 )
 
 if TYPE_CHECKING:
@@ -91,26 +98,33 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     ``out`` (created; an existing one must be empty): `FILES`. Returns ``out``.
 
     Raises `UnknownEvaluationError` for an id not in the run's finished generations,
-    `ExportError` for a non-empty ``out`` or a body that could not be built, and
-    `MissingPluginError` when a plugin the body or world needs is not installed here.
+    `ExportError` for a non-empty ``out`` or an evaluation whose body could not be built,
+    `DamagedRunError` for a row whose stored genotype no longer builds or a config whose
+    plugins reject its options, and `MissingPluginError` when a plugin the body or world
+    needs is not installed here.
     """
     out = Path(out)
     if out.is_symlink():
         raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
     _check_way(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ExportError(f"{out}: exists and is not an empty folder; name a new one")
-    run = load_run(run_dir)
+        raise ExportError(f"{str(out)!r} exists and is not an empty folder; name a new one")
+    run = load_checked(run_dir)
     run_id = check_run_id(run.info.get("run_id"), run.path)
     row = _find_row(run, eval_id)
     check_eval_id(row["eval_id"], run.path)
     if row["status"] == "error":
         raise ExportError(
             f"evaluation {row['eval_id']!r} has no body to export: its genotype cannot be "
-            f"built ({row.get('error') or 'build error'})"
+            f"built ({one_line(row.get('error') or 'build error')})"
         )
     _require_plugins(run)
     task = replay_task(run, row, check_params=True)
+    try:
+        evaluation.build(task)  # the body the run built, or why it is not one now
+    except evaluation.BodyBuildError as exc:
+        problem = f"its body could not be built from the stored genotype ({one_line(exc)})"
+        raise _changed(run, row, "evaluations", problem) from None
     xml = _world_spec(task).to_xml()
     genotype = {  # as the run's encoder sees it (the task may ship the decoded graph instead)
         "body_encoder": str(row["body_encoder"]),

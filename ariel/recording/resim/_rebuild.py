@@ -4,24 +4,33 @@ plugins it needs (`_require_plugins`), its task as the loop built it (`replay_ta
 the versions of the software that decide its numbers (`_version_differences`).
 
 A cell of the run's tables that is not what the loop wrote (a changed or damaged table) is a
-`DamagedRunError`, one line, naming the evaluation.
+`DamagedRunError`, one line, naming the evaluation; so is a config in run.json that no run has
+(`check_config`: a section that is not a table) or whose plugins reject the options it records
+for them (`check_options`), naming the run folder. Replay and export check both before they
+rebuild anything, report and gallery before they draw a body.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
+import inspect
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ariel import evaluation
 from ariel.errors import (
+    ConfigError,
     DamagedRunError,
+    DuplicatePluginError,
     MissingPluginError,
     PluginLoadError,
     UnknownEvaluationError,
+    UnknownPluginError,
 )
 from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record_steps, shipped_body
 from ariel.plugins import REGISTRIES, body_encoders, controllers
@@ -29,18 +38,27 @@ from ariel.recording.store import (
     Run,
     git_commit,
     json_data,
+    load_run,
     one_line,
     short_ascii,
     software_versions,
 )
-from ariel.utils import load_run_command, mujoco_module
+from ariel.utils import ariel_line, load_run_command, mujoco_module
 
 if TYPE_CHECKING:
     import mujoco
 
     from ariel.evaluation import EvaluationResult, EvaluationTask
 
-__all__ = ["BEST", "cell_json", "replay_task"]
+__all__ = [
+    "BEST",
+    "BODY_PLUGINS",
+    "cell_json",
+    "check_config",
+    "check_options",
+    "load_checked",
+    "replay_task",
+]
 
 #: `replay(run, BEST)` replays the run's best evaluation.
 BEST = "best"
@@ -58,10 +76,104 @@ _PLUGIN_KEYS = {
 }
 
 
+#: The plugins that make a body in its world (`ariel.evaluation.build`): what drawing one needs.
+BODY_PLUGINS = ("body_encoder", "world")
+
+
+def _damaged_config(run: Run, problem: str) -> DamagedRunError:
+    """The one line for run.json's config being what no run writes (as
+    `ariel.recording.store`'s ``damaged`` words it, which ``ariel verify`` reports)."""
+    return DamagedRunError(
+        f"run folder {str(run.path)!r} is damaged: run.json {problem}; restore the folder from "
+        f"a copy ({ariel_line('verify', run.path)} lists every damaged file)"
+    )
+
+
+@functools.cache
+def _sections() -> tuple[str, ...]:
+    """The config's sections (tables): body, brain, world, task, record, executor."""
+    return tuple(k for k, v in ExperimentConfig().to_plain().items() if isinstance(v, dict))
+
+
+def check_config(run: Run) -> None:
+    """`DamagedRunError`, one line naming the run folder, where run.json's config is no table
+    or one of its sections (`_sections`) is there but no table (``task = null``): what
+    ``ariel verify`` finds too. Every reader of the config (replay, export, report, gallery)
+    calls it before it reads a section."""
+    config = run.info.get("config")
+    if not isinstance(config, dict):
+        raise _damaged_config(run, f"has config {short_ascii(config, 40)}, not a table")
+    for section in _sections():
+        if section in config and not isinstance(config[section], dict):
+            value = short_ascii(config[section], 40)
+            raise _damaged_config(
+                run, f"has {section} {value} in its config, not a section (a table)"
+            )
+
+
+def load_checked(run_dir: str | Path) -> Run:
+    """`load_run`, and `check_config` of what it loaded."""
+    run = load_run(run_dir)
+    check_config(run)
+    return run
+
+
+def _experiment(run: Run) -> ExperimentConfig:
+    """The run's config as the loop read it; one that does not validate is the one line
+    ``ariel verify`` notes, naming the run folder."""
+    check_config(run)
+    try:
+        return ExperimentConfig.from_plain(run.config)
+    except ConfigError as exc:
+        raise DamagedRunError(
+            f"run folder {str(run.path)!r}: run.json's config is not one this ariel reads "
+            f"({one_line(exc)})"
+        ) from None
+
+
+def check_options(
+    run: Run, kinds: Sequence[str] = tuple(_PLUGIN_KEYS), config: ExperimentConfig | None = None
+) -> None:
+    """`DamagedRunError`, one line naming the run folder, the plugin and its cause, for the
+    first plugin of ``kinds`` (`_PLUGIN_KEYS`' kinds; `BODY_PLUGINS` draws a body) that rejects
+    the options the run's config records for it: a factory that raises `TypeError` (an unknown
+    keyword) or `ValueError` (a bad value), a fitness function whose signature does not take
+    them. A plugin not installed raises as its registry does (`UnknownPluginError`)."""
+    config = _experiment(run) if config is None else config
+    for kind in kinds:
+        section, key = _PLUGIN_KEYS[kind]
+        part = getattr(config, section)
+        name, options = getattr(part, key), dict(part.options)
+        registry = REGISTRIES[kind]
+        try:
+            if kind != "fitness":
+                registry.make(name, **options)
+            elif (signature := _signature(registry.get(name))) is not None:
+                signature.bind(None, **options)  # a fitness function takes them per call
+        except (UnknownPluginError, DuplicatePluginError):
+            raise
+        except (TypeError, ValueError) as exc:
+            raise DamagedRunError(
+                f"run folder {str(run.path)!r}: its config's {section}.options "
+                f"{short_ascii(options)} are rejected by {registry.label} {name!r}: "
+                f"{one_line(exc)}; run.json was changed, or this {registry.label} is not the "
+                "one that made the run"
+            ) from None
+
+
+def _signature(function: Callable[..., object]) -> inspect.Signature | None:
+    """``function``'s signature; None for one without a signature to read (a C function)."""
+    try:
+        return inspect.signature(function)
+    except (TypeError, ValueError):
+        return None
+
+
 def _require_plugins(run: Run) -> None:
     """`MissingPluginError`, one line, for the first of the run's plugins not installed here,
     or installed but failing to load (reading a run needs none of them; re-simulating it
-    needs all)."""
+    needs all); then `check_options` of them all."""
+    check_config(run)
     # The built-in plugins load mujoco: import it first, so that a GL backend that cannot
     # load (MUJOCO_GL) fails as itself (`gl_backend_error`), not as a plugin not installed.
     mujoco_module()
@@ -80,12 +192,15 @@ def _require_plugins(run: Run) -> None:
         except (KeyError, ValueError, ImportError):
             served = (run.info.get("plugins") or {}).get(kind) or {}
             source = served.get("distribution") if isinstance(served, dict) else None
-            hint = f"install {source}" if source else "install the package that provides it"
+            hint = (
+                f"install {one_line(source)}" if source else "install the package that provides it"
+            )
             raise MissingPluginError(
                 f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
                 f"({section}.{key}) is not installed here; {hint} (report, load_run and view "
                 "need no plugins)"
             ) from None
+    check_options(run)
 
 
 def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
@@ -209,11 +324,13 @@ def replay_task(
     it (to draw the body), parameters that are not a list of finite numbers are left out.
     A genotype or graph cell that is not JSON is `DamagedRunError` either way.
     """
-    config = ExperimentConfig.from_plain(run.config)
+    config = _experiment(run)
     encoder = config.body.encoder
     if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
+        check_options(run, ("world",), config)  # the graph is built without the encoder
         spec = evaluation.BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
     else:
+        check_options(run, BODY_PLUGINS, config)
         genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
         spec = shipped_body(config, body_spec(config, genotype))
     fields: dict[str, object] = {

@@ -45,12 +45,12 @@ from ariel.recording.resim._rebuild import (
     _require_plugins,
     _version_differences,
     cell_json,
+    load_checked,
     replay_task,
 )
 from ariel.recording.store import (
     Run,
     check_eval_id,
-    load_run,
     recording_path,
     refuse_symlinks,
 )
@@ -274,7 +274,8 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
         UnknownEvaluationError: For an id not in the run's finished generations.
         MissingPluginError: When a plugin of the run is not installed here.
         NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
-            were changed).
+            were changed, whose config has a section that is no table, or whose plugins
+            reject the options its config records for them).
 
     Example:
         ```python
@@ -284,7 +285,7 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
         print(again.eval_id, again.stored_fitness, again.fitness, again.identical)
         ```
     """
-    run = load_run(run_dir)
+    run = load_checked(run_dir)
     row = _find_row(run, eval_id)
     _require_plugins(run)
     task = replay_task(run, row, check_params=True)
@@ -324,7 +325,7 @@ def on_demand_recording(run_dir: str | Path, eval_id: str) -> Path:
     reused from there. The poses equal, bit for bit, those an ``all`` run records (recording
     them never changes the physics). Raises as `replay` does.
     """
-    run = load_run(run_dir)
+    run = load_checked(run_dir)
     row = _find_row(run, eval_id)
     path = replay_recording_path(run.path, int(row["generation"]), str(row["eval_id"]))
     if path.is_file():
