@@ -73,6 +73,8 @@ class DaskExecutor(EvaluationExecutor):
             gives a reason to stop (``math.inf``: wait for ever, with notes on stderr). None
             (the default): `NO_WORKER_TIMEOUT_VARIABLE` if set, else `NO_WORKER_TIMEOUT_LOCAL`
             with a ``cluster`` and `NO_WORKER_TIMEOUT_SCHEDULER` without.
+        logs: Dask's log lines held back while ``cluster`` runs (`DaskLogs`), released on
+            shutdown; their first error goes into `stalled`'s reason. None: left as they are.
 
     Raises:
         ConfigError: ``no_worker_timeout`` (or the variable) is not a number of seconds > 0.
