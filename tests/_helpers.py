@@ -195,6 +195,29 @@ def edit_json(path: Path, change: Any) -> None:
     path.write_text(json.dumps(info))
 
 
+def with_run_id(run_dir: Path, run_id: str) -> Path:
+    """Give the run in ``run_dir`` (a copy) the id ``run_id`` everywhere it is written: its
+    run.json and every table's ``run_id`` column, with the manifests written again (readers
+    refuse a table whose run id is not run.json's)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from ariel.recording.store._manifest import write_manifest
+
+    edit_json(run_dir / "run.json", lambda info: info.update(run_id=run_id))
+    generations = set()
+    for path in sorted(run_dir.glob("*/gen-*.parquet")):
+        data = pq.read_table(path)
+        if "run_id" in data.column_names:
+            index = data.schema.get_field_index("run_id")
+            column = pa.array([run_id] * data.num_rows, data.schema.field(index).type)
+            pq.write_table(data.set_column(index, data.schema.field(index), column), path)
+        generations.add(int(path.stem.removeprefix("gen-")))
+    for generation in sorted(generations):
+        write_manifest(run_dir, generation)
+    return run_dir
+
+
 def count_warp_module_loads(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """From now on, per Warp module load (every launch asks): True where the module was
     loaded or compiled anew, False where Warp reused one it had. Skips without Warp's

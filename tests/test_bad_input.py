@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, snapshot, tiny_run_toml
+from _helpers import REPO, ariel_run, exit_code, one_error_line, snapshot, tiny_run_toml
 
 BASE = tiny_run_toml("badinput", 1)
 
@@ -324,6 +324,7 @@ def test_bad_folder_input(
 # --------------------------------------------------------------------------------------------
 
 LONG = "L" * 300
+CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
 
 
 @pytest.mark.parametrize(
@@ -356,3 +357,28 @@ def test_path_no_file_system_takes(
     line = one_error_line(capsys)
     assert message in line, line
     assert sorted(p.name for p in tmp_path.iterdir()) == listing  # no folder made on the way
+
+
+@pytest.mark.parametrize(
+    ("command", "message"),
+    [
+        (["run", "base.toml", "--out", "bob's run", "--quiet"], 'run id "bob\'s run"'),
+        (["campaign", "run", str(CAMPAIGN), "--out", "a\\b"], "campaign id 'a\\\\b'"),
+    ],
+    ids=["run", "campaign"],
+)
+def test_an_out_whose_name_cannot_be_an_id_is_refused_before_anything_is_written(
+    command: list[str],
+    message: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The folder's name is the run's (campaign's) id, which every reader checks: a name it
+    could not read back is refused up front, not written and then refused."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "base.toml").write_text(BASE)
+    assert exit_code(command) == 2
+    line = one_error_line(capsys)
+    assert message in line and "choose another --out" in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["base.toml"]

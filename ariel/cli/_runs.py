@@ -1,5 +1,7 @@
 """``ariel runs [DIR]``: the runs in a folder, one line each (status, generations, evaluations,
-best fitness); ``--prune`` deletes those that never finished a generation (`ariel.cli._prune`).
+best fitness; ``?`` where a run.json does not say); a campaign folder: its runs (under
+``runs/condition=<name>/``). ``--prune`` deletes those that never finished a generation
+(`ariel.cli._prune`).
 """
 
 from __future__ import annotations
@@ -12,10 +14,11 @@ from typing import TYPE_CHECKING
 from ariel import recording
 from ariel.cli._common import DEFAULT_RUNS, fail
 from ariel.cli._prune import prune_runs
-from ariel.recording.store import terminal_text
+from ariel.recording.store import UNREADABLE, is_campaign, terminal_text
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
+    from ariel.recording.store import RunSummary
 
 __all__ = ["add_runs_command"]
 
@@ -27,7 +30,7 @@ def add_runs_command(sub: SubParsers) -> None:
         "folder",
         nargs="?",
         metavar="DIR",
-        help=f"a folder of run folders (default: {DEFAULT_RUNS})",
+        help=f"a folder of run folders, or a campaign folder (default: {DEFAULT_RUNS})",
     )
     p.add_argument(
         "--prune",
@@ -48,7 +51,7 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         return fail("--yes goes with --prune (it answers the question before deleting)")
     if args.prune:
         return prune_runs(folder, yes=args.yes)
-    runs = recording.list_runs(folder)
+    runs = _campaign_runs(folder) if is_campaign(folder) else recording.list_runs(folder)
     if not runs:
         print(f"no runs under {terminal_text(folder)}")
         return 0
@@ -63,9 +66,25 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     for r in runs:
         best = r["best_fitness"]
         shown = f"{best:.6g}" if isinstance(best, float) and math.isfinite(best) else "-"
-        gens = f"{r['generations_done']}/{r['generations']}"
+        known = r["status"] != UNREADABLE  # its counts are placeholders: say so
+        total = r["generations"] if r["generations"] is not None else "?"
+        gens = f"{r['generations_done']}/{total}" if known else "?"
+        evaluations = r["evaluations"] if known else "?"
         print(
             f"{r['run_id']:<{width}}  {r['status']:<{status_width}} {gens:>11} "
-            f"{r['evaluations']:>11}  {shown}"
+            f"{evaluations:>11}  {shown}"
         )
     return 0
+
+
+def _campaign_runs(folder: Path) -> list[RunSummary]:
+    """The runs of the campaign in ``folder``: each ``runs/condition=<name>/`` folder's (a
+    symbolic link is not followed: a campaign's runs lie inside it)."""
+    runs_dir = folder / "runs"
+    if runs_dir.is_symlink() or not runs_dir.is_dir():
+        return []
+    found = []
+    for condition in sorted(runs_dir.iterdir()):
+        if condition.is_dir() and not condition.is_symlink():
+            found += recording.list_runs(condition)
+    return found

@@ -37,9 +37,11 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     try:
         result = store.verify_run(args.run_dir)
     except NotARunError as exc:
-        return fail(str(exc))
+        return fail(terminal_text(exc))
     for problem in result.problems:
         print(f"damaged: {terminal_text(problem)}")
+    if result.unlisted:
+        print(f"damaged: ... and {result.unlisted} more problem(s), not listed")
     for note in result.notes:
         print(f"note: {terminal_text(note)}")
     how = (
@@ -47,9 +49,10 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         if result.checked
         else "presence and readability of the tables only: a run made before manifests"
     )
-    verdict = f"{len(result.problems)} damaged file(s)" if result.problems else "ok"
-    print(
-        f"{verdict}: {args.run_dir}: {result.generations} finished generation(s), "
+    damage = len(result.problems) + result.unlisted
+    verdict = f"{damage} damaged file(s)" if damage else "ok"
+    print(  # the folder's name as given: no control sequence reaches the terminal
+        f"{verdict}: {terminal_text(args.run_dir)}: {result.generations} finished generation(s), "
         f"{result.files} file(s), {result.bytes / 1e6:.1f} MB checked ({how})"
     )
     return EXIT_DAMAGED if result.problems else 0

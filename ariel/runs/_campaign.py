@@ -30,6 +30,7 @@ from ariel.recording.store import (
     RunFolder,
     RunLock,
     check_name_lengths,
+    check_new_id,
     ensure_open_files,
     load_campaign,
     load_run,
@@ -199,10 +200,10 @@ def run_campaign(
     _check_open_files(len(spec.configs), settings)
     campaign_id = new_campaign_id(spec.name)
     path = Path(out) if out is not None else Path("data") / "campaigns" / campaign_id
-    campaign_id = path.name or campaign_id
+    campaign_id = check_new_id(path.name or campaign_id, campaign=True)
     runs = []
     for (condition, seed), config in spec.configs.items():
-        run_id = f"{campaign_id}-{condition}-s{seed}"
+        run_id = check_new_id(f"{campaign_id}-{condition}-s{seed}")
         runs.append(_Run(condition, seed, run_id, prepare_run(config, settings)))
     _check_new_folder(path)
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)

@@ -26,7 +26,7 @@ from ariel.evolution import (
     refuse_in_spawned_child,
     shows_progress,
 )
-from ariel.recording.store import RunFolder, storage_errors
+from ariel.recording.store import RunFolder, check_new_id, storage_errors
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
     PreparedRun,
     _read_genotype_file,
@@ -163,6 +163,7 @@ def run_experiment(
     path = Path(out) if out is not None else Path("data") / "runs" / run_id
     if out is not None:
         run_id = path.name or run_id
+    check_new_id(run_id)
     RunFolder.check_new(path, overwrite=overwrite)
     try:
         with storage_errors(path), contextlib.ExitStack() as locks:

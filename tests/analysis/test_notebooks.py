@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from _helpers import with_run_id
 
 from ariel.evolution import run_experiment
 from ariel.recording import joint_labels, load_run
@@ -344,8 +345,8 @@ def test_without_run_dir_the_newest_finished_run_under_data_runs_is_read(
     ):
         folder = checkout / "data" / "runs" / name
         shutil.copytree(tiny_run, folder)
-        info = json.loads((folder / "run.json").read_text())
-        info = {**info, "created": created, "run_id": name}
+        info = json.loads((with_run_id(folder, name) / "run.json").read_text())
+        info = {**info, "created": created}
         if done is not None:
             info = {**info, "generations_done": done, "status": "interrupted"}
         (folder / "run.json").write_text(json.dumps(info))

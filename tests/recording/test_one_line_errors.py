@@ -7,13 +7,12 @@ nested too deeply."""
 from __future__ import annotations
 
 import errno
-import json
 import shutil
 from pathlib import Path
 from typing import Any
 
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, tiny_run_toml
+from _helpers import ariel_run, edit_json, exit_code, one_error_line, tiny_run_toml, with_run_id
 
 from ariel.errors import DamagedRunError
 from ariel.recording import load_run
@@ -109,10 +108,8 @@ def test_compare_on_a_full_disk_is_one_line(
     from matplotlib.figure import Figure
 
     other = Path(shutil.copytree(copy, tmp_path / "other"))
-    for run, name in ((copy, "one_line-a"), (other, "one_line-b")):
-        info = json.loads((run / "run.json").read_text())
-        info["run_id"] = name
-        (run / "run.json").write_text(json.dumps(info))
+    with_run_id(copy, "one_line-a")
+    with_run_id(other, "one_line-b")
 
     def full(self: Any, path: Any, **kwargs: Any) -> None:
         raise OSError(errno.ENOSPC, "No space left on device")
@@ -283,17 +280,21 @@ def test_runs_and_report_print_names_with_control_sequences_and_markup_as_text(
     run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     run = Path(shutil.copytree(run_dir, tmp_path / "runs" / "x"))
-    info = json.loads((run / "run.json").read_text())
-    info["run_id"] = "[red]x[/red]\x1b[2J$\\frac{$"
-    info["status"] = "[bold]ok\x1b]0;title\x07"
-    (run / "run.json").write_text(json.dumps(info))
+    with_run_id(run, "[red]x[bold]{y}")  # rich markup: a run id may hold brackets
+    edit_json(run / "run.json", lambda info: info.update(status="[bold]ok\x1b]0;title\x07"))
     assert exit_code(["runs", str(tmp_path / "runs")]) == 0
     out = capsys.readouterr().out
     assert "\x1b" not in out and "\x07" not in out
-    assert "[red]x[/red]\\x1b[2J$\\frac{$" in out and "[bold]ok\\x1b]0;title\\x07" in out
-    assert exit_code(["report", str(run), "--no-render"]) == 0  # mathtext: drawn as text
+    assert "[red]x[bold]{y}" in out and "[bold]ok\\x1b]0;title\\x07" in out
+    assert exit_code(["report", str(run), "--no-render"]) == 0
+    assert "[red]x[bold]{y}" in capsys.readouterr().out
+    # A run id with a control sequence (or mathtext's $) is no run id: refused, never shown.
+    edit_json(run / "run.json", lambda info: info.update(run_id="x\x1b[2J$\\frac{$"))
+    assert exit_code(["report", str(run), "--no-render"]) == 2
+    assert "holds a run id that is not one: 'x\\x1b[2J$" in one_error_line(capsys)
+    assert exit_code(["runs", str(tmp_path / "runs")]) == 0
     out = capsys.readouterr().out
-    assert "\x1b" not in out and "[red]x[/red]\\x1b[2J" in out
+    assert "\x1b" not in out and "unreadable" in out
 
 
 def test_a_crafted_eval_id_never_names_a_file_outside_the_run(copy: Path) -> None:

@@ -89,7 +89,7 @@ def test_the_campaign_line_prints_a_folder_name_with_control_sequences_as_text(
 ) -> None:
     from ariel.runs import run_campaign
 
-    out = tmp_path / "camp\x1b[2J"
+    out = tmp_path / "d\x1b[2J" / "camp"  # the campaign id is its folder's name: no such id
     run_campaign(TINY, out=out, progress=True, overrides=["generations=1"])
     printed = capsys.readouterr().out
-    assert "\x1b" not in printed and "campaign camp\\x1b[2J: " in printed
+    assert "\x1b" not in printed and "d\\x1b[2J/camp" in printed

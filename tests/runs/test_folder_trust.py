@@ -235,6 +235,37 @@ def test_a_run_entry_with_a_bad_seed_or_condition_is_refused(
     _refused(campaign, capsys, expected)
 
 
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (
+            lambda info: info.update(campaign_id="x\x1b[2J\x1b]0;pwned\x07"),
+            r"its campaign_id 'x\x1b[2J\x1b]0;pwned\x07' is not a campaign id (letters",
+        ),
+        (
+            lambda info: info["runs"][1].update(run_id='../../x\n"""import os'),
+            "runs[1] (condition fresh, seed 2): its run_id '../../x\\n",
+        ),
+        (
+            lambda info: info.update(conditions=[]),
+            "runs[0] (condition fresh, seed 1): its condition is not among the campaign's "
+            "conditions ([])",
+        ),
+        (
+            lambda info: info.pop("conditions"),
+            "its condition is not among the campaign's conditions ([])",
+        ),
+    ],
+)
+def test_campaign_ids_and_conditions_are_checked_on_read(
+    campaign: Path, change: Any, expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A crafted campaign id or run id (control sequences, a path, Python) never reaches a run
+    resume makes; runs of conditions the campaign does not have end no resume in a KeyError."""
+    edit_json(campaign / "campaign.json", change)
+    _refused(campaign, capsys, expected)
+
+
 @pytest.mark.parametrize("seeds", ["[true]", '["3"]', "[2.0]"])
 def test_campaign_file_seeds_are_strict_integers(seeds: str, tmp_path: Path) -> None:
     file = tmp_path / "c.toml"

@@ -17,21 +17,27 @@ test_folder_trust.py. Only item 5 evaluates (the tiny campaign's runs, a few sec
 from __future__ import annotations
 
 import json
+import os
+import re
 import shutil
+import signal
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from _helpers import REPO, edit_json, exit_code, one_error_line, snapshot
+from _helpers import REPO, edit_json, exit_code, one_error_line, snapshot, tiny_run_toml
 
 from ariel.evolution import ConfigError, ExperimentConfig
 from ariel.evolution._config import config_hash
 from ariel.recording import DamagedRunError, NotARunError, load_campaign, load_run, verify_run
 from ariel.recording.store._campaign import NotACampaignError
+from ariel.recording.store._lock import in_use_error
 from ariel.recording.store._manifest import write_manifest
-from ariel.recording.store._run_folder import MAX_JSON_DEPTH, RunFolder, json_data
+from ariel.recording.store._run_folder import MAX_JSON_BYTES, MAX_JSON_DEPTH, RunFolder, json_data
+from ariel.recording.store._verify import MAX_LISTED
 from ariel.runs import resume_campaign
 from ariel.runs._campaign_file import MAX_CONDITION_NAME, load_campaign_file
 
@@ -403,3 +409,248 @@ def test_verify_checks_the_checkpoint_s_config_hash_and_notes_a_config_it_cannot
     out = capsys.readouterr().out
     assert "note: run.json's config is not one this ariel reads (" in out
     assert out.splitlines()[-1].startswith("ok: ")
+
+
+# --- 7: run.json's generations_done is checked, and so is every manifest there is ---------------
+
+
+@pytest.mark.parametrize("done", [-1, None, "2", 2.5, True, 11, 100_000, 10**30])
+def test_a_generations_done_no_run_writes_is_damage_in_one_line(
+    tmp_path: Path, done: object, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It was trusted: 0, -1, null, "2" or 2.5 verified a damaged run "ok: 0 finished
+    generation(s)", 100,000 printed 99,999 lines, 10**30 ran for ever."""
+    run = _run(tmp_path / "run")  # 2 generations of a config of 10
+    _flip_a_bit(run / "bodies" / "gen-000001.parquet")
+    edit_json(run / "run.json", lambda info: info.update(generations_done=done))
+    expected = f"run.json has generations_done {done!a}, not a whole number from 0 to 10"
+    with pytest.raises(DamagedRunError, match=re.escape(expected)):
+        load_run(run)
+    assert exit_code(["verify", str(run)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[:2] == [
+        f"damaged: {expected} (its config's generations)",
+        "damaged: bodies/gen-000001.parquet has other bytes than when it was written (SHA-256)",
+    ]  # every manifest there is is checked
+    assert len(lines) == 3 and lines[-1].startswith("2 damaged file(s): ")
+
+
+def test_a_finished_run_s_later_generations_and_unlisted_tables_are_damage(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _run(tmp_path / "run")
+    edit_json(run / "run.json", lambda info: info.update(generations_done=0))
+    with pytest.raises(DamagedRunError, match=r"manifests/gen-000000\.json is of a generation aft"):
+        load_run(run)  # it read as a run of no generation
+    assert verify_run(run).problems == [
+        "manifests/gen-000000.json is of a generation after the run's 0 finished one(s) "
+        "(run.json's generations_done; the run is finished); 1 more such file(s)"
+    ]
+    edit_json(run / "run.json", lambda info: info.update(generations_done=2))
+    shutil.copy(run / "bodies" / "gen-000001.parquet", run / "bodies" / "gen-000002.parquet")
+    (run / "archive").mkdir()
+    shutil.copy(run / "bodies" / "gen-000001.parquet", run / "archive" / "gen-000001.parquet")
+    assert verify_run(run).problems == [
+        "bodies/gen-000002.parquet is of a generation after the run's 2 finished one(s) "
+        "(run.json's generations_done; the run is finished)",
+        "archive/gen-000001.parquet is in no manifest (its generation's manifest does not list it)",
+    ]
+    # An unfinished run: generation 2 was being written when it stopped (resume discards it).
+    (run / "archive" / "gen-000001.parquet").unlink()
+    edit_json(run / "run.json", lambda info: info.update(status="interrupted"))
+    shutil.copy(run / "evaluations/gen-000001.parquet", run / "evaluations/gen-000002.parquet")
+    write_manifest(run, 2)
+    assert verify_run(run).ok
+
+
+def _generations(run: Path, total: int) -> Path:
+    """``run`` with a config of ``total`` generations, its hash recomputed (as the probe did)."""
+
+    def change(info: dict[str, Any]) -> None:
+        info["config"]["generations"] = total
+        info["config_hash"] = config_hash(ExperimentConfig.from_plain(info["config"]))
+
+    edit_json(run / "run.json", change)
+    digest = json.loads((run / "run.json").read_text())["config_hash"]
+    RunFolder(run).save_checkpoint({"config_hash": digest})
+    return run
+
+
+def test_a_huge_generations_done_is_one_line_for_the_missing_manifests(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A config of 10**6 generations (its hash recomputed) makes 10**6 a count run.json may
+    hold: still one line, and load_run stops at the first missing manifest."""
+    run = _generations(_run(tmp_path / "run"), 10**6)
+    edit_json(run / "run.json", lambda info: info.update(generations_done=10**6))
+    assert exit_code(["verify", str(run)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == (
+        "damaged: manifests/gen-000002.json is missing (generation 2 is finished); "
+        "999,997 more finished generation(s) have no manifest either"
+    )
+    assert len(lines) == 2
+    with pytest.raises(DamagedRunError, match=r"manifests/gen-000002\.json is missing"):
+        load_run(run)
+
+
+def test_verify_lists_a_bounded_number_of_problems(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _generations(_run(tmp_path / "run", generations=MAX_LISTED + 10), 100)
+    for path in (run / "bodies").iterdir():
+        _flip_a_bit(path)
+    result = verify_run(run)
+    assert len(result.problems) == MAX_LISTED and result.unlisted == 10
+    assert exit_code(["verify", str(run)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[-2] == "damaged: ... and 10 more problem(s), not listed"
+    assert lines[-1].startswith(f"{MAX_LISTED + 10} damaged file(s): ")
+
+
+# --- 8: a folder's JSON files are regular files of a bounded size --------------------------------
+
+
+@pytest.fixture
+def no_hang() -> Iterator[None]:
+    """Fail, rather than hang, where a FIFO blocks a reader."""
+
+    def hung(*_: object) -> None:
+        raise TimeoutError("blocked on a FIFO")
+
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(20)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, previous)
+
+
+def _fifo(path: Path) -> None:
+    path.unlink()
+    os.mkfifo(path)
+
+
+def _sparse(path: Path, size: int = MAX_JSON_BYTES + 1) -> None:
+    with open(path, "r+b") as file:
+        file.truncate(size)  # sparse: nothing written, nothing read
+
+
+@pytest.mark.usefixtures("no_hang")
+@pytest.mark.parametrize(
+    ("make", "expected"),
+    [
+        (_fifo, "not a regular file (a FIFO)"),
+        (
+            lambda p: (p.unlink(), p.symlink_to("/dev/zero")),
+            "not a regular file (a character device)",
+        ),
+        (_sparse, "67,108,865 bytes, more than the 64 MiB such a file may have"),
+    ],
+)
+def test_a_run_json_that_is_no_regular_file_or_too_large_is_one_line(
+    tmp_path: Path, make: Any, expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sound = _run(tmp_path / "a-sound")
+    bad = _run(tmp_path / "b-bad", run_id="bad-s3")
+    make(bad / "run.json")
+    for command in (["verify"], ["report", "--no-render"]):
+        assert exit_code([*command, str(bad)]) == 2, command
+        assert f"unreadable run.json ({expected})" in one_error_line(capsys), command
+    assert exit_code(["runs", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "hostile-s3" in out and re.search(r"b-bad +unreadable +\? +\? +-", out)
+    assert len(load_run(sound).evaluations) == 2
+
+
+@pytest.mark.usefixtures("no_hang")
+def test_a_manifest_checkpoint_or_campaign_json_that_is_a_fifo_is_one_line(
+    tmp_path: Path, campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _run(tmp_path / "run")
+    _fifo(run / "manifests" / "gen-000001.json")
+    _fifo(RunFolder(run).checkpoint)
+    assert exit_code(["verify", str(run)]) == 1
+    out = capsys.readouterr().out
+    assert (
+        "damaged: manifests/gen-000001.json is unreadable (ValueError: not a regular file (a" in out
+    )
+    assert "damaged: checkpoints/state.json unreadable checkpoint (ValueError: not a regular" in out
+    _fifo(campaign / "campaign.json")
+    for command in (["campaign", "status"], ["campaign", "resume", "--quiet"], ["compare"]):
+        assert exit_code([*command, str(campaign)]) == 2, command
+        assert "unreadable campaign.json (not a regular file (a FIFO))" in one_error_line(capsys)
+
+
+def test_a_checkpoint_that_is_a_folder_is_not_taken_for_none(tmp_path: Path) -> None:
+    """Before, anything but a file read as "no generation finished": resume restarted the
+    run, discarding its generations."""
+    run = _run(tmp_path / "run")
+    RunFolder(run).checkpoint.unlink()
+    RunFolder(run).checkpoint.mkdir()
+    with pytest.raises(NotARunError, match=r"unreadable checkpoint \(ValueError: not a regular"):
+        RunFolder(run).load_checkpoint()
+
+
+# --- 9: ids are checked where run.json is read ---------------------------------------------------
+
+
+HOSTILE_ID = 'x\x1b[2J\x1b]0;pwned\x07\n"""import os'
+
+
+def test_a_crafted_run_id_is_refused_where_run_json_is_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _run(tmp_path / "run", run_id=HOSTILE_ID)
+    for command in (["verify", str(run)], ["report", str(run)], ["replay", str(run), "best"]):
+        assert exit_code(command) == 2, command
+        assert f"holds a run id that is not one: {HOSTILE_ID!r}"[:60] in one_error_line(capsys)
+    with pytest.raises(DamagedRunError, match="holds a run id that is not one"):
+        load_run(run)
+
+
+def test_a_table_s_run_id_must_be_run_json_s(tmp_path: Path) -> None:
+    run = _run(tmp_path / "run")
+    for generation in range(2):  # the tables say another run, their manifests rewritten
+        rows = pa.table({"run_id": ["../../x"], "generation": [generation]})
+        pq.write_table(rows, run / "evaluations" / f"gen-{generation:06d}.parquet")
+        write_manifest(run, generation)
+    with pytest.raises(DamagedRunError, match=r"evaluations/gen-000000\.parquet has run_id '\.\./"):
+        load_run(run).evaluations  # noqa: B018
+    assert "run.json has run_id 'hostile-s3', its tables '../../x'" in verify_run(run).problems
+
+
+# --- 10: names shown on the terminal; the output folder ------------------------------------------
+
+
+def test_verify_and_runs_show_a_folder_name_as_text(
+    tmp_path: Path, campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = _run(tmp_path / "r\x1b[2J\x1b]0;t\x07")
+    assert exit_code(["verify", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\x07" not in out and "r\\x1b[2J\\x1b]0;t\\x07: " in out
+    RunFolder(campaign / "runs/condition=fresh/seed=1").update_info(status="finished")
+    assert exit_code(["runs", str(campaign)]) == 0  # a campaign: its runs
+    out = capsys.readouterr().out
+    assert "no runs under" not in out
+    assert len([line for line in out.splitlines() if "-fresh-s1 " in line]) == 1
+    assert len(out.splitlines()) == 5  # the heading and 4 runs
+
+
+def test_an_output_that_is_a_dangling_link_is_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    link = tmp_path / "dangl"
+    link.symlink_to(tmp_path / "missing")
+    with pytest.raises(FileExistsError, match="is a symbolic link to a missing target"):
+        RunFolder.check_new(link, overwrite=False)
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("dangl", 1))
+    assert exit_code(["run", str(config), "--out", str(link), "--quiet"]) == 2
+    assert "is a symbolic link to a missing target" in one_error_line(capsys)
+    assert not (tmp_path / "missing").exists() and link.is_symlink()
+
+
+def test_a_campaign_folder_in_use_is_called_a_campaign_folder(campaign: Path) -> None:
+    assert "campaign folder " in str(in_use_error(campaign, "pid 1 on host h"))
+    assert str(in_use_error(campaign / "runs", "x")).startswith("run folder ")

@@ -61,6 +61,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.recording.store._ids import (
         check_eval_id as check_eval_id,
+        check_new_id as check_new_id,
         check_run_id as check_run_id,
     )
     from ariel.recording.store._lineage import (
@@ -74,7 +75,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.recording.store._load import (
         QD_COLUMNS as QD_COLUMNS,
         STOPPED as STOPPED,
+        UNREADABLE as UNREADABLE,
         Run as Run,
+        RunSummary as RunSummary,
         archive_quality_table as archive_quality_table,
         list_runs as list_runs,
         load_run as load_run,
@@ -90,11 +93,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.recording.store._manifest import (
         MANIFEST_FORMAT as MANIFEST_FORMAT,
         Manifest as Manifest,
-        adopt_manifests as adopt_manifests,
         manifest_entries as manifest_entries,
         manifest_file as manifest_file,
         manifests_expected as manifests_expected,
-        verify_run as verify_run,
     )
     from ariel.recording.store._prune import (
         PruneError as PruneError,
@@ -117,6 +118,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         RunStorageError as RunStorageError,
         git_commit as git_commit,
         json_data as json_data,
+        json_file as json_file,
         now as now,
         software_versions as software_versions,
         storage_errors as storage_errors,
@@ -130,6 +132,10 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         read_table as read_table,
         recording_path as recording_path,
         to_pandas as to_pandas,
+    )
+    from ariel.recording.store._verify import (
+        adopt_manifests as adopt_manifests,
+        verify_run as verify_run,
     )
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
@@ -148,6 +154,7 @@ _INTERNAL: dict[str, str] = {
     "PruneError": "ariel.recording.store._prune",
     "QD_COLUMNS": "ariel.recording.store._load",
     "Run": "ariel.recording.store._load",
+    "RunSummary": "ariel.recording.store._load",
     "RunFolder": "ariel.recording.store._run_folder",
     "RunInUseError": "ariel.recording.store._lock",
     "RunLock": "ariel.recording.store._lock",
@@ -156,8 +163,9 @@ _INTERNAL: dict[str, str] = {
     "body_rows_of": "ariel.recording.store._rows",
     "evaluation_row": "ariel.recording.store._rows",
     "STOPPED": "ariel.recording.store._load",
+    "UNREADABLE": "ariel.recording.store._load",
     "UnsafePathError": "ariel.recording.store._files",
-    "adopt_manifests": "ariel.recording.store._manifest",
+    "adopt_manifests": "ariel.recording.store._verify",
     "ancestors": "ariel.recording.store._lineage",
     "archive_cell_count": "ariel.recording.store._archive",
     "archive_quality_table": "ariel.recording.store._load",
@@ -167,6 +175,7 @@ _INTERNAL: dict[str, str] = {
     "cannot_write": "ariel.recording.store._files",
     "check_name_lengths": "ariel.recording.store._files",
     "check_eval_id": "ariel.recording.store._ids",
+    "check_new_id": "ariel.recording.store._ids",
     "check_run_id": "ariel.recording.store._ids",
     "csv_safe": "ariel.recording.store._escape",
     "describe_archive": "ariel.recording.store._archive",
@@ -186,6 +195,7 @@ _INTERNAL: dict[str, str] = {
     "integer_ticks": "ariel.recording.store._axes",
     "is_campaign": "ariel.recording.store._campaign",
     "json_data": "ariel.recording.store._run_folder",
+    "json_file": "ariel.recording.store._run_folder",
     "lineage": "ariel.recording.store._lineage",
     "lineage_statistics": "ariel.recording.store._lineage",
     "lineage_statistics_by_run": "ariel.recording.store._lineage",
@@ -218,7 +228,7 @@ _INTERNAL: dict[str, str] = {
     "storage_errors": "ariel.recording.store._run_folder",
     "terminal_text": "ariel.recording.store._escape",
     "to_pandas": "ariel.recording.store._tables",
-    "verify_run": "ariel.recording.store._manifest",
+    "verify_run": "ariel.recording.store._verify",
     "write_campaign_info": "ariel.recording.store._campaign",
     "write_lineage_csv": "ariel.recording.store._lineage",
     "written_path": "ariel.recording.store._files",

@@ -29,10 +29,11 @@ import pandas as pd
 from ariel.plugins import fitness_functions
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import atomic_write_json
+from ariel.recording.store._ids import CAMPAIGN_ID, RUN_ID, RUN_ID_RULE
 from ariel.recording.store._lineage import campaign_lineages
 from ariel.recording.store._load import STOPPED, Run, load_run
-from ariel.recording.store._lock import lock_is_free
-from ariel.recording.store._run_folder import JsonObject, NotARunError, json_data
+from ariel.recording.store._lock import CAMPAIGN_JSON, lock_is_free
+from ariel.recording.store._run_folder import JsonObject, NotARunError, json_file
 
 __all__ = [
     "CAMPAIGN_FORMAT",
@@ -49,7 +50,6 @@ __all__ = [
 ]
 
 CAMPAIGN_FORMAT = 1
-CAMPAIGN_JSON = "campaign.json"
 CAMPAIGN_RRD = "campaign.rrd"
 
 
@@ -67,18 +67,20 @@ def run_path(condition: str, seed: int) -> str:
 
 
 def is_campaign(path: str | Path) -> bool:
-    return (Path(path) / CAMPAIGN_JSON).is_file()
+    """Whether ``path`` holds a campaign.json (whatever it is: `read_campaign_info` says
+    in one line when it is not one, a FIFO or a folder included)."""
+    return os.path.lexists(Path(path) / CAMPAIGN_JSON)
 
 
 def read_campaign_info(path: str | Path) -> JsonObject:
     """``campaign.json`` of the campaign in ``path``; `NotACampaignError` if there is none, or
     if it is not what a campaign writes: a run elsewhere than at its own
     ``runs/condition=<name>/seed=<n>`` (or through a symbolic link), a seed that is not an
-    integer, a condition name that is not one, a run without a config (one line naming the
-    entry)."""
+    integer, a condition name that is not one or not among its conditions, a run without a
+    config, an id that is not one (`ariel.recording.store._ids`): one line naming the entry."""
     file = Path(path) / CAMPAIGN_JSON
     try:
-        info = json_data(file.read_text(encoding="utf-8"))
+        info = json_file(file)
     except (FileNotFoundError, NotADirectoryError):
         raise NotACampaignError(
             f"{str(path)!r} is not an ariel campaign folder (no {CAMPAIGN_JSON})"
@@ -87,9 +89,13 @@ def read_campaign_info(path: str | Path) -> JsonObject:
         raise NotACampaignError(f"{file}: unreadable {CAMPAIGN_JSON} ({exc})") from None
     if not isinstance(info, dict) or info.get("format") != CAMPAIGN_FORMAT:
         raise NotACampaignError(f"{file}: not a {CAMPAIGN_JSON} of format {CAMPAIGN_FORMAT}")
-    if not isinstance(info.get("campaign_id"), str):
-        shown = short_ascii(info.get("campaign_id"))
-        raise NotACampaignError(f"{file}: its campaign_id {shown} is not a campaign id (a string)")
+    campaign_id = info.get("campaign_id")
+    if not isinstance(campaign_id, str) or not CAMPAIGN_ID.fullmatch(campaign_id):
+        shown = short_ascii(campaign_id)
+        raise NotACampaignError(
+            f"{file}: its campaign_id {shown} is not a campaign id ({RUN_ID_RULE}; at most 255 "
+            "characters)"
+        )
     _check_conditions(file, info)
     _check_runs(Path(path), file, info)
     return info
@@ -152,6 +158,9 @@ def _check_runs(path: Path, file: Path, info: Mapping[str, object]) -> None:
     if not isinstance(runs, list) or not runs:
         raise NotACampaignError(f"{file}: lists no runs (its 'runs' is {short_ascii(runs)})")
     seen: set[tuple[str, int]] = set()
+    conditions = info.get("conditions")
+    listed = conditions if isinstance(conditions, list) else []
+    named = {str(c.get("name")) for c in listed if isinstance(c, dict)}
     for index, entry in enumerate(runs):
         where = f"{file}: runs[{index}]"
         if not isinstance(entry, dict):
@@ -180,9 +189,15 @@ def _check_runs(path: Path, file: Path, info: Mapping[str, object]) -> None:
                 f"{where}: its config {short_ascii(entry.get('config'))} is not a config "
                 "(an object)"
             )
-        if not isinstance(entry.get("run_id"), str):
+        run_id = entry.get("run_id")
+        if not isinstance(run_id, str) or not RUN_ID.fullmatch(run_id):
             raise NotACampaignError(
-                f"{where}: its run_id {short_ascii(entry.get('run_id'))} is not a run id (a string)"
+                f"{where}: its run_id {short_ascii(run_id)} is not a run id ({RUN_ID_RULE})"
+            )
+        if condition not in named:
+            raise NotACampaignError(
+                f"{where}: its condition is not among the campaign's conditions "
+                f"({short_ascii(sorted(named))})"
             )
         seen.add((condition, seed))
         _check_folders(path, expected, where)

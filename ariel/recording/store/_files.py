@@ -17,6 +17,7 @@ import errno
 import json
 import os
 import re
+import stat
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -32,6 +33,7 @@ __all__ = [
     "check_name_lengths",
     "damaged",
     "json_text",
+    "read_regular_file",
     "refuse_symlinks",
     "remove_temporaries",
     "require_free_space",
@@ -214,6 +216,42 @@ def remove_temporaries(folder: Path) -> Iterator[Path]:
             with contextlib.suppress(OSError):
                 temporary.unlink()
                 yield temporary
+
+
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _size(count: int) -> str:
+    return f"{count / 2**20:,.0f} MiB" if count % 2**20 == 0 else f"{count:,} bytes"
+
+
+def read_regular_file(path: str | os.PathLike[str], limit: int) -> bytes:
+    """The bytes of the regular file ``path`` (a link to one is followed), at most ``limit``.
+
+    A folder's file comes from anywhere: a FIFO would block a reader for ever, ``/dev/zero``
+    (through a link) or a sparse 4 GB file would fill memory. So the file is opened without
+    blocking (``O_NONBLOCK``: a FIFO opens at once), and anything but a regular file (``fstat``)
+    or a file of more than ``limit`` bytes is a `ValueError` (one line: ``not a regular file
+    (a FIFO)``, ``N MiB, more than the M MiB ...``). Missing or unreadable: `OSError`, as
+    `open` raises it."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    info = os.fstat(fd)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(fd)
+        kind = next((name for test, name in _KINDS if test(info.st_mode)), "not a plain file")
+        raise ValueError(f"not a regular file ({kind})")
+    with os.fdopen(fd, "rb") as file:
+        data = b"" if info.st_size > limit else file.read(limit + 1)  # it may grow meanwhile
+    if info.st_size > limit or len(data) > limit:
+        size = max(info.st_size, len(data))
+        raise ValueError(f"{size:,} bytes, more than the {_size(limit)} such a file may have")
+    return data
 
 
 def damaged(run_dir: str | Path, name: str, problem: str) -> DamagedRunError:

@@ -4,9 +4,13 @@ An evaluation id is ``b<body number>-i<iteration>-c<candidate>`` (``b000052-i005
 `ariel.evolution._bodies`). A run id is ``<experiment name>-<date>-<time>-s<seed>``
 (``coevolve_flat-20261126-101500-s1``), the name of the folder ``ariel run --out`` made, or
 ``<campaign id>-<condition>-s<seed>``: letters, digits, spaces and ``. _ - + @ = , : ~ ( ) [ ]
-{ } # % !``, not starting with a space, at most 255 characters. Nothing else (no quote,
-backslash, slash, newline or other control character) can be one; a folder holding another is
-crafted, and refused in one line (`DamagedRunError`) before the id is written anywhere.
+{ } # % ! '`` (an apostrophe: ``--out "it's"``; no id is ever put into code), not starting with
+a space, at most 600 characters (a campaign id, the name of its folder, is at most 255; a
+condition at most 245). A campaign id is made of the same characters,
+at most 255 of them. Nothing else (no double quote, backslash, slash, newline or other control
+character) can be one; a folder holding another is crafted, and refused in one line
+(`DamagedRunError`) when its run.json or campaign.json is read, before the id is shown or
+written anywhere.
 """
 
 from __future__ import annotations
@@ -14,13 +18,24 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from ariel.errors import DamagedRunError
+from ariel.errors import ConfigError, DamagedRunError
 
-__all__ = ["EVAL_ID", "RUN_ID", "check_eval_id", "check_run_id"]
+__all__ = [
+    "CAMPAIGN_ID",
+    "EVAL_ID",
+    "RUN_ID",
+    "RUN_ID_RULE",
+    "check_eval_id",
+    "check_new_id",
+    "check_run_id",
+]
 
 EVAL_ID = re.compile(r"b\d{6,}-i\d{3,}-c\d{3,}")
-_RUN_ID_CHARS = r"\w.+@=,:~()\[\]{}#%!-"
-RUN_ID = re.compile(rf"[{_RUN_ID_CHARS}][ {_RUN_ID_CHARS}]{{0,254}}")
+_RUN_ID_CHARS = r"\w.+@=,:~()\[\]{}#%!'-"
+RUN_ID = re.compile(rf"[{_RUN_ID_CHARS}][ {_RUN_ID_CHARS}]{{0,599}}")
+CAMPAIGN_ID = re.compile(rf"[{_RUN_ID_CHARS}][ {_RUN_ID_CHARS}]{{0,254}}")
+#: What a run or campaign id may hold, for a one-line error.
+RUN_ID_RULE = "letters, digits, spaces and . _ - + @ = , : ~ ( ) [ ] { } # % ! '"
 _SHOWN = 60
 
 
@@ -48,4 +63,18 @@ def check_run_id(value: object, where: str | Path) -> str:
     raise DamagedRunError(
         f"{str(where)!r} holds a run id that is not one: {_shown(value)} (run ids look like "
         "coevolve_flat-20261126-101500-s1); the folder was changed by hand or crafted: refused"
+    )
+
+
+def check_new_id(value: str, *, campaign: bool = False) -> str:
+    """A new run's (``campaign``: campaign's) id, e.g. the name of the folder ``--out`` names:
+    `ConfigError` in one line where it is not one (`RUN_ID`, `CAMPAIGN_ID`), before anything
+    is written: the folder could not be read back (its id is checked on every read)."""
+    pattern, most, what = (CAMPAIGN_ID, 255, "campaign") if campaign else (RUN_ID, 600, "run")
+    if pattern.fullmatch(value):
+        return value
+    raise ConfigError(
+        f"{what} id {_shown(value)} (the name of the {what} folder) cannot be one: a {what} id "
+        f"is {RUN_ID_RULE}, not starting with a space, at most {most} characters; choose "
+        "another --out"
     )

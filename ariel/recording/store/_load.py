@@ -22,7 +22,13 @@ from ariel.recording.store._escape import terminal_text
 from ariel.recording.store._lineage import lineage
 from ariel.recording.store._lock import lock_is_free
 from ariel.recording.store._manifest import Manifest
-from ariel.recording.store._run_folder import DamagedRunError, JsonObject, NotARunError, RunFolder
+from ariel.recording.store._run_folder import (
+    DamagedRunError,
+    JsonObject,
+    NotARunError,
+    RunFolder,
+    finished_generations,
+)
 from ariel.recording.store._tables import generation_file, read_file, read_table, to_pandas
 
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
@@ -509,7 +515,7 @@ def _summary(child: Path, info: Mapping[str, object]) -> RunSummary:
         "path": str(child),
         "run_id": run_id,
         "status": status,
-        "generations_done": _count(info.get("generations_done", 0)),
+        "generations_done": finished_generations(child, info),
         "generations": _count(generations) if generations is not None else None,
         "evaluations": _count(info.get("evaluations_done", 0)),
         "best_fitness": float(best) if isinstance(best, int | float) else None,

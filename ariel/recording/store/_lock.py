@@ -29,9 +29,10 @@ import warnings
 from pathlib import Path
 
 from ariel.errors import ConfigError, RunInUseError
-from ariel.recording.store._files import UnsafePathError
+from ariel.recording.store._files import UnsafePathError, read_regular_file
 
 __all__ = [
+    "CAMPAIGN_JSON",
     "LOCK_NAME",
     "RunInUseError",
     "RunLock",
@@ -43,6 +44,8 @@ __all__ = [
 ]
 
 LOCK_NAME = ".lock"
+#: The lock file holds one line (``pid N on host H``): more is not read.
+_LOCK_TEXT_BYTES = 4096
 # A probe (`lock_holder`, e.g. from `ariel runs`) holds a shared lock for microseconds;
 # retrying a few times keeps it from making a starting run refuse.
 _TRIES = 4
@@ -92,17 +95,28 @@ def ensure_open_files(runs: int, workers: int = 1) -> None:
     )
 
 
+def _lock_text(path: Path) -> str:
+    """The lock file's text; `ValueError` for one that is not a small regular file."""
+    return read_regular_file(path, _LOCK_TEXT_BYTES).decode("utf-8")
+
+
 def _holder_text(path: Path) -> str:
-    with contextlib.suppress(OSError, UnicodeDecodeError):
-        text = path.read_text(encoding="utf-8").strip()
+    with contextlib.suppress(OSError, ValueError):  # a FIFO, a device: not read
+        text = _lock_text(path).strip()
         if text:
             return text
     return "another process"
 
 
+#: The file that makes a folder a campaign folder (`ariel.recording.store._campaign`).
+CAMPAIGN_JSON = "campaign.json"
+
+
 def in_use_error(run_dir: Path, holder: str) -> RunInUseError:
+    """The one line for a run (or campaign) folder whose lock ``holder`` holds."""
+    kind = "campaign" if os.path.lexists(Path(run_dir) / CAMPAIGN_JSON) else "run"
     return RunInUseError(
-        f"run folder {str(run_dir)!r} is in use by {holder}; wait for that run to end "
+        f"{kind} folder {str(run_dir)!r} is in use by {holder}; wait for that {kind} to end "
         "(or stop it), then try again"
     )
 
@@ -142,10 +156,10 @@ def holder_gone(run_dir: str | Path) -> bool:
     run holds one while it runs), or one naming a process of this host that no longer exists.
     Another host's process, or an unreadable file: False (nothing known from here)."""
     try:
-        words = (Path(run_dir) / LOCK_NAME).read_text(encoding="utf-8").split()
+        words = _lock_text(Path(run_dir) / LOCK_NAME).split()
     except FileNotFoundError:
         return True
-    except (OSError, UnicodeDecodeError):
+    except (OSError, ValueError):
         return False
     # as `RunLock.acquire` writes it: "pid N on host H"
     if len(words) < 5 or words[0] != "pid" or words[-1] != socket.gethostname():

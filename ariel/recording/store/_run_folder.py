@@ -24,20 +24,25 @@ from pathlib import Path
 from typing import Any, TypeAlias
 
 from ariel.errors import DamagedRunError, NotARunError, RunStorageError
+from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import (
     atomic_write_bytes,
     atomic_write_json,
     check_name_lengths,
     damaged,
+    read_regular_file,
     remove_temporaries,
     written_path,
 )
+from ariel.recording.store._ids import check_run_id
 from ariel.recording.store._lock import LOCK_NAME, in_use_error, lock_holder
 from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
 from ariel.utils import ariel_line, nests_deeper_than
 
 __all__ = [
     "CHECKPOINT_FORMAT",
+    "MAX_CHECKPOINT_BYTES",
+    "MAX_JSON_BYTES",
     "RUN_FORMAT",
     "DamagedRunError",
     "JsonObject",
@@ -45,7 +50,9 @@ __all__ = [
     "RunFolder",
     "RunStorageError",
     "damaged",
+    "finished_generations",
     "json_data",
+    "json_file",
     "now",
     "software_versions",
     "storage_errors",
@@ -57,6 +64,13 @@ _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "
 #: How deep the JSON of a folder's file may nest (run.json, a manifest, the checkpoint,
 #: campaign.json): what ariel writes nests a few levels; no reader then recurses out of stack.
 MAX_JSON_DEPTH = 100
+#: The most bytes a folder's JSON file may have (`json_file`): run.json and a manifest are a few
+#: KB (run.json a CVT's centroids too: 10,000 cells of 3 measures, about 0.6 MB), campaign.json
+#: a run's config (about 3 KB) for each of at most 10,000 runs: about 30 MB.
+MAX_JSON_BYTES = 64 << 20
+#: The checkpoint holds the population: a MAP-Elites run's every elite, about 6 KB a body (its
+#: NDE genotype), so 512 MiB holds an archive of about 80,000 elites.
+MAX_CHECKPOINT_BYTES = 512 << 20
 #: A JSON object read back from a folder's file (run.json, the checkpoint's state, a manifest,
 #: campaign.json): string keys, and values that are whatever the file holds (no type is
 #: promised for them: each is checked where it is read).
@@ -74,6 +88,30 @@ def json_data(raw: str | bytes) -> object:
     if nests_deeper_than(data, MAX_JSON_DEPTH):
         raise ValueError(f"JSON nested more than {MAX_JSON_DEPTH} deep")
     return data
+
+
+def json_file(path: str | os.PathLike[str], limit: int = MAX_JSON_BYTES) -> object:
+    """The data of a folder's JSON file ``path`` (`json_data`), read as a regular file of at most
+    ``limit`` bytes (`read_regular_file`: a FIFO, a device or a larger file is a one-line
+    `ValueError`, never a reader blocked or out of memory). `OSError` when it cannot be opened.
+    Every JSON file of a run or campaign folder is read here."""
+    return json_data(read_regular_file(path, limit))
+
+
+def finished_generations(run_dir: str | Path, info: Mapping[str, object]) -> int:
+    """run.json's ``generations_done`` (``info``: run.json of ``run_dir``), checked: a whole
+    number (not a bool, a float or a string) from 0 to its config's ``generations``; else a
+    one-line `DamagedRunError`. Readers go by it (which tables to read, which manifests must be
+    there), so a count no run writes is damage, never 0 or a billion generations."""
+    done = info.get("generations_done", 0)
+    config = info.get("config")
+    total = config.get("generations") if isinstance(config, Mapping) else None
+    total = total if type(total) is int and total >= 1 else None  # else its own damage
+    if type(done) is int and done >= 0 and (total is None or done <= total):
+        return done
+    most = f"to {total} (its config's generations)" if total is not None else "up"
+    problem = f"has generations_done {short_ascii(done)}, not a whole number from 0 {most}"
+    raise damaged(run_dir, "run.json", problem)
 
 
 def _is_temporary(path: Path) -> bool:
@@ -120,7 +158,10 @@ def _storage_message(exc: OSError, run_dir: Path) -> str | None:
         info = RunFolder(run_dir).read_info()
     except NotARunError:
         return f"{problem}; the run did not start"
-    done = int(info.get("generations_done", 0))
+    try:
+        done = finished_generations(run_dir, info)
+    except DamagedRunError as bad:
+        return f"{problem}; {bad}"
     return (
         f"{problem}; the run stopped, its {done} finished generation(s) are kept: "
         f"make room (or fix the folder), then continue with: {ariel_line('resume', run_dir)}"
@@ -234,12 +275,19 @@ class RunFolder:
     def check_new(path: str | Path, *, overwrite: bool, locked: bool = False) -> None:
         """Raise `FileExistsError` unless ``path`` may become a new run folder.
 
-        An existing non-empty folder needs ``overwrite``, and is only ever replaced when it
-        is a run folder (never an arbitrary directory). A folder that another process runs
-        in raises `RunInUseError` (``locked``: this process holds its lock).
+        A symbolic link to a missing target is refused (never followed). An existing
+        non-empty folder needs ``overwrite``, and is only ever replaced when it is a run folder
+        (never an arbitrary directory). A folder that another process runs in raises
+        `RunInUseError` (``locked``: this process holds its lock).
         """
         path = Path(path)
         check_name_lengths(path)
+        if path.is_symlink() and not path.exists():  # never made through: it leads elsewhere
+            raise FileExistsError(
+                f"output {str(path)!r} is a symbolic link to a missing target "
+                f"({os.readlink(path)!r}); a run folder is never made through a link: remove "
+                "the link or choose another --out"
+            )
         if path.exists() and not path.is_dir():
             raise FileExistsError(f"output {str(path)!r} exists and is not a folder")
         holder = None if locked or not path.is_dir() else lock_holder(path)
@@ -279,7 +327,7 @@ class RunFolder:
 
     def read_info(self) -> JsonObject:
         try:
-            info = json_data(self.run_json.read_text(encoding="utf-8"))
+            info = json_file(self.run_json)
         except (FileNotFoundError, NotADirectoryError):
             why = "no run.json" if self.path.is_dir() else "no such folder"
             if self.path.exists() and not self.path.is_dir():
@@ -289,6 +337,8 @@ class RunFolder:
             raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
         if not isinstance(info, dict) or info.get("format") != RUN_FORMAT:
             raise NotARunError(f"{self.run_json}: not a run.json of format {RUN_FORMAT}")
+        if "run_id" in info:  # shown, written into exports and recordings: never a crafted one
+            check_run_id(info["run_id"], self.path)
         return info
 
     def write_info(self, info: Mapping[str, object]) -> None:
@@ -323,15 +373,16 @@ class RunFolder:
     def load_checkpoint(self) -> JsonObject | None:
         """The last saved state (plain data), or None when no generation finished yet."""
         legacy = self.checkpoint.with_name("state.pkl")
-        if not self.checkpoint.is_file() and legacy.is_file():
+        there = os.path.lexists(self.checkpoint)  # a FIFO or a folder there is no "none yet"
+        if not there and os.path.lexists(legacy):
             raise NotARunError(
                 f"{legacy}: a pickle checkpoint of an older ariel, not loaded (unpickling runs "
                 "code from the file); the run's tables load, but it cannot be resumed"
             )
-        if not self.checkpoint.is_file():
+        if not there:
             return None
         try:
-            payload = json_data(self.checkpoint.read_bytes())
+            payload = json_file(self.checkpoint, MAX_CHECKPOINT_BYTES)
         except (OSError, ValueError) as exc:  # written atomically: only outside damage
             first = (str(exc).splitlines() or [""])[0]
             raise NotARunError(

@@ -10,10 +10,8 @@ after the generation. Each table's columns are declared once, by its row's class
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping, Sequence
-from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,7 +19,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from ariel.evolution import ExperimentConfig
+from ariel.errors import DamagedRunError
 from ariel.recording.store._files import atomic_write, damaged, within
 from ariel.recording.store._row_types import (
     COUNT_DESCRIPTORS,
@@ -32,6 +30,13 @@ from ariel.recording.store._row_types import (
     TrajectoryRow,
     check_columns,
     row_schema,
+)
+from ariel.recording.store._table_limits import (
+    ROW_MARGIN,
+    row_limit,
+    rows_problem,
+    run_id_problem,
+    size_problem,
 )
 
 if TYPE_CHECKING:
@@ -45,6 +50,7 @@ __all__ = [
     "COUNT_DESCRIPTORS",
     "GENERATION_BLUEPRINT",
     "GENERATION_RECORDING",
+    "ROW_MARGIN",
     "TABLES",
     "archive_schema",
     "body_schema",
@@ -248,115 +254,28 @@ def table_generations(run_dir: Path, table: str) -> list[int]:
     return sorted(int(m.group(1)) for m in found if m)
 
 
-#: The row counts `row_limit` works out are the most the writers make; a file is refused only
-#: past this many times that, so a miscount here never refuses a run's own records.
-ROW_MARGIN = 2
-
-
-@cache
-def _config_defaults() -> dict[str, dict[str, object]]:
-
-    return ExperimentConfig().to_plain()
-
-
-def _config_number(config: Mapping[str, object], key: str, *, whole: bool) -> int | float:
-    """``section.key`` of a run's config (run.json's, plain data), its default when missing;
-    `ValueError` for a value no ariel writes (a count below 1, a duration or rate that is not a
-    positive finite number)."""
-
-    section, name = key.split(".")
-    part = config.get(section, {})
-    if not isinstance(part, Mapping):
-        raise ValueError(f"has {section} {_shown(part)} in its config, not a section (a table)")
-    value = part.get(name, _config_defaults()[section][name])
-    kinds = (int,) if whole else (int, float)
-    good = isinstance(value, kinds) and not isinstance(value, bool)
-    if not good or not (value >= 1 if whole else math.isfinite(value) and value > 0):
-        what = "a whole number >= 1" if whole else "a positive finite number"
-        raise ValueError(f"has {key} {_shown(value)} in its config, not {what}")
-    return value
-
-
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else f"{text[:37]}..."
-
-
-def row_limit(config: Mapping[str, object] | None, table: str, generation: int) -> int:
-    """The most rows ``table``'s file of ``generation`` holds in a run of ``config`` (run.json's
-    config, plain data; a missing key counts as its default), as the run driver makes them:
-
-    - ``evaluations``: every body of the generation runs CMA-ES for ``brain.iterations``
-      iterations of ``brain.popsize`` (a body that cannot be built or has no parameters: fewer),
-      and a generation makes ``body.population`` (generation 0) or ``body.offspring`` bodies
-      (a brain-only run: one);
-    - ``bodies``, ``archive`` and ``novelty``: the bodies of the generation and the parents it
-      keeps (the elites, the novelty archive's members), each once: at most every body made so
-      far;
-    - ``trajectories``: a frame every ``round(1 / (record.rate_hz x timestep))`` physics steps
-      of ``task.duration``, plus the first and last (`ariel.evaluation._engine.frame_steps`):
-      at most 3 x duration x rate_hz + 4 per evaluation, whatever the world's timestep.
-
-    `ValueError` (``has KEY VALUE in its config, ...``) for a config value no ariel writes.
-    """
-
-    config = config if isinstance(config, Mapping) else {}
-    bodies = max(
-        _config_number(config, "body.population", whole=True),
-        _config_number(config, "body.offspring", whole=True),
-    )
-    per_body = _config_number(config, "brain.popsize", whole=True) * _config_number(
-        config, "brain.iterations", whole=True
-    )
-    evaluations = int(bodies * per_body)
-    if table == "evaluations":
-        return evaluations
-    if table in ("bodies", "archive", "novelty"):
-        return int(bodies) * (max(generation, 0) + 1)
-    duration = _config_number(config, "task.duration", whole=False)
-    rate = _config_number(config, "record.rate_hz", whole=False)
-    return evaluations * (math.ceil(3 * duration * rate) + 4)
-
-
-def rows_problem(
-    config: Mapping[str, object] | None, path: Path, metadata: pq.FileMetaData
-) -> str | None:
-    """What is wrong with the row count of the table file ``path`` (``TABLE/gen-NNNNNN.parquet``,
-    its Parquet footer ``metadata``) for a run of ``config``: ``has N rows; ...`` when it holds
-    more than `ROW_MARGIN` x `row_limit`, ``run.json has ...`` for a config no ariel writes;
-    None when it is fine. Reads the footer only: a crafted file of a few bytes a row (2,000,000
-    dictionary-encoded rows in 1 MB) is refused before gigabytes are decoded."""
-    found = _GEN_FILE.match(path.name)
-    table = path.parent.name
-    if found is None or table not in _SCHEMAS:
-        return None
-    generation = int(found.group(1))
-    rows = max(
-        metadata.num_rows,
-        sum(metadata.row_group(i).num_rows for i in range(metadata.num_row_groups)),
-    )
-    try:
-        most = row_limit(config, table, generation)
-    except ValueError as exc:
-        return f"run.json {exc}: damaged or crafted, no table of it is loaded"
-    if rows <= ROW_MARGIN * most:
-        return None
-    return (
-        f"has {rows} rows; generation {generation} of this run's config makes at most {most}: "
-        "damaged or crafted, not loaded"
-    )
-
-
-def _check_rows(
-    run_dir: Path, path: Path, metadata: pq.FileMetaData, config: Mapping[str, object] | None
+def _check_footer(
+    run_dir: Path,
+    path: Path,
+    metadata: pq.FileMetaData,
+    data: bytes,
+    manifest: Manifest,
+    columns: Sequence[str] | None,
 ) -> None:
-
+    """The rows and decoded size of a file about to be decoded (`rows_problem`,
+    `size_problem`), for the run's config; `DamagedRunError` in one line else."""
+    config = getattr(manifest, "config", None)
     problem = rows_problem(config, path, metadata)
+    if problem is not None and problem.startswith("run.json "):
+        raise damaged(run_dir, *problem.split(" ", 1))
+    if problem is None:
+        problem = size_problem(config, path, metadata, pa.BufferReader(data), columns)
     if problem is None:
         return
-    if problem.startswith("run.json "):
-        raise damaged(run_dir, *problem.split(" ", 1))
-    raise _unreadable(run_dir, path, problem)
+    if "crafted" in problem:
+        raise _unreadable(run_dir, path, problem)
+    name = path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else path
+    raise DamagedRunError(f"run folder {str(run_dir)!r}: {name} {problem}")  # memory: no damage
 
 
 def read_table(
@@ -439,11 +358,14 @@ def read_file(
     except (pa.ArrowException, OSError, ValueError) as exc:
         raise _not_parquet(run_dir, path, exc) from None
     if manifest is not None:
-        _check_rows(run_dir, path, metadata, getattr(manifest, "config", None))
+        _check_footer(run_dir, path, metadata, data, manifest, columns)
     try:
         part = pq.read_table(pa.BufferReader(data), schema=schema, filters=filters)
     except (pa.ArrowException, OSError, ValueError) as exc:
         raise _not_parquet(run_dir, path, exc) from None
+    problem = run_id_problem(part, getattr(manifest, "run_id", None))
+    if problem is not None:
+        raise _unreadable(run_dir, path, problem)
     for name, value in _ADDED_COLUMNS.get(table, {}).items():
         if name not in stored and name in schema.names:
             index = part.schema.get_field_index(name)

@@ -5,7 +5,6 @@ figure, and ``ariel report``'s ``lineage.png``; all on one tiny run."""
 from __future__ import annotations
 
 import base64
-import json
 import re
 import shutil
 from pathlib import Path
@@ -14,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 import pytest
-from _helpers import exit_code, one_error_line, tiny_run_toml
+from _helpers import edit_json, exit_code, one_error_line, tiny_run_toml, with_run_id
 
 import ariel
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
@@ -98,10 +97,8 @@ def test_export_writes_the_lineage_csv_and_never_replaces_a_file(
 
 def _copy_as_another_run(run_dir: Path, target: Path) -> Path:
     """The run again, as a run of its own (another run id and creation time)."""
-    shutil.copytree(run_dir, target)
-    info = json.loads((target / "run.json").read_text())
-    info["run_id"], info["created"] = "wiring-copy", "2001-01-01T00:00:00+00:00"
-    (target / "run.json").write_text(json.dumps(info))
+    with_run_id(Path(shutil.copytree(run_dir, target)), "wiring-copy")
+    edit_json(target / "run.json", lambda info: info.update(created="2001-01-01T00:00:00+00:00"))
     return target
 
 

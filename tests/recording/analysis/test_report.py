@@ -11,6 +11,7 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 import pytest
+from _helpers import with_run_id
 from PIL import Image
 
 from ariel.evolution import run_experiment
@@ -177,9 +178,8 @@ def test_no_title_is_clipped_even_for_a_long_run_id(
     monkeypatch.setattr(ariel.utils.renderers, "single_frame_renderer", grey)
     copy = tmp_path / "long"
     shutil.copytree(run_dir, copy)
-    info = json.loads((copy / "run.json").read_text())
-    info["run_id"] = "coevolve_flat_with_a_longer_name-20250101-120000-s42"  # a default run id
-    (copy / "run.json").write_text(json.dumps(info))
+    long_id = "coevolve_flat_with_a_longer_name-20250101-120000-s42"  # a default run id
+    info = json.loads((with_run_id(copy, long_id) / "run.json").read_text())
     report = make_report(copy)
     assert sorted(report.figures) == sorted([*FIGURES, "best_body.png"])
     for name, figure in report.figures.items():

@@ -29,8 +29,10 @@ from _helpers import REPO, ariel_run, exit_code, one_error_line, repo_env, tiny_
 
 from ariel.errors import ConfigError, DamagedRunError
 from ariel.recording import load_run
-from ariel.recording.store._manifest import verify_run, write_manifest
+from ariel.recording.store import _table_limits
+from ariel.recording.store._manifest import write_manifest
 from ariel.recording.store._tables import ROW_MARGIN, TABLES, row_limit
+from ariel.recording.store._verify import verify_run
 from ariel.runs._campaign_file import MAX_RUNS, campaign_spec
 
 TINY_CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
@@ -142,6 +144,73 @@ def test_a_config_value_no_ariel_writes_is_damage_not_a_limit(
     with pytest.raises(DamagedRunError, match=r"is damaged: run\.json has brain\.popsize '8' in"):
         load_run(copy).evaluations  # noqa: B018
     assert any(p.startswith("run.json has brain.popsize '8'") for p in verify_run(copy).problems)
+
+
+def _rewritten(run: Path, tmp_path: Path, column: str, values: list, **options: object) -> Path:
+    """A copy of ``run`` whose generation-1 evaluations file has ``column`` set to ``values``
+    (its rows as many), written with ``options``, with a manifest that matches."""
+    copy = tmp_path / "copy"
+    shutil.copytree(run, copy)
+    path = copy / "evaluations" / "gen-000001.parquet"
+    part = pq.read_table(path)
+    part = part.take(pa.array(np.arange(len(values)) % part.num_rows))
+    index = part.schema.get_field_index(column)
+    field = part.schema.field(index)
+    part = part.set_column(index, field, pa.array(values, field.type))
+    pq.write_table(part, path, compression="zstd", **options)  # type: ignore[arg-type]
+    write_manifest(copy, 1)
+    return copy
+
+
+def test_a_row_too_large_decoded_is_refused_from_its_footer(
+    finished: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    """Four rows, as many as the config allows, one holding 20,000,000 doubles: 160 MB decoded
+    from a file of a few KB (the probe's had 150,000,000 in 30 KB: 4.6 GB for `report`)."""
+    params = [np.zeros(20_000_000), [0.5], [0.5], [0.5]]
+    copy = _rewritten(finished, tmp_path, "controller_params", params, use_dictionary=True)
+    assert (copy / "evaluations" / "gen-000001.parquet").stat().st_size < 200_000
+    original = pq.read_table
+
+    def decode(*args: object, **kwargs: object) -> pa.Table:
+        part = original(*args, **kwargs)
+        assert part.nbytes < 10_000_000, "the table was decoded before its size was checked"
+        return part
+
+    monkeypatch.setattr(pq, "read_table", decode)
+    expected = "evaluations/gen-000001.parquet would take 0.16 GB decoded; the 8 rows this run's"
+    with pytest.raises(DamagedRunError, match=re.escape(expected)):
+        load_run(copy).evaluations  # noqa: B018
+    capsys.readouterr()
+    assert exit_code(["report", str(copy), "--no-render"]) == 2
+    assert expected in one_error_line(capsys)
+    monkeypatch.undo()
+    (problem,) = verify_run(copy).problems
+    assert problem.startswith(expected) and problem.endswith("damaged or crafted, not loaded")
+
+
+def test_a_value_repeated_through_a_dictionary_counts_once_per_row(
+    finished: Path, tmp_path: Path
+) -> None:
+    """Eight rows (the margin allows them) sharing one 2 MB genotype: one copy in the file's
+    dictionary, over 16 MB decoded, more than 8 rows of `ROW_BYTES` may take."""
+    big = "x" * (2 << 20)
+    copy = _rewritten(finished, tmp_path, "body_genotype", [big] * 8, use_dictionary=True)
+    with pytest.raises(DamagedRunError, match=r"would take 1\d\.\d MB decoded; the 8 rows"):
+        load_run(copy).evaluations  # noqa: B018
+    fits = _rewritten(finished, tmp_path / "fits", "body_genotype", [big] + ["{}"] * 7)
+    assert len(load_run(fits).evaluations) == 4 + 8  # 2 MB in one row: within its rows' share
+
+
+def test_a_table_too_large_for_the_memory_here_is_refused(
+    finished: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A config may allow a million bodies (its hash recomputed): the memory free bounds a
+    file too, whatever the config allows."""
+    monkeypatch.setattr(_table_limits, "_memory_free", lambda: 100_000)
+    with pytest.raises(DamagedRunError, match=r"MB decoded, more than 25% of the 0\.1 MB of "):
+        load_run(finished).evaluations  # noqa: B018
+    assert verify_run(finished).ok  # verify judges the folder, not this machine
 
 
 def test_joint_signals_read_only_their_columns(finished: Path) -> None:

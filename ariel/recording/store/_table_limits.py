@@ -1,0 +1,313 @@
+"""What a table file read from a run folder may hold, checked before it is decoded.
+
+A table file comes from anywhere, and Parquet compresses well: 2,000,000 dictionary-encoded rows
+fit in 1 MB, one row holding a list of 150,000,000 doubles in 30 KB. Before a file is decoded,
+its footer alone is checked against what the run's config (run.json's) can make:
+
+- its rows (`row_limit`, `rows_problem`): at most `ROW_MARGIN` x what a generation makes;
+- its decoded size (`decoded_bytes`, `size_problem`): at most that many rows of `ROW_BYTES`
+  each (a row of the evaluations table, its genotype and parameters, is a few KB), and never
+  more than a quarter of the memory free here (`MEMORY_SHARE`; pandas takes more again): a
+  config edited to allow a million bodies must not let a file fill the machine. Values
+  repeated through a Parquet dictionary are counted as decoded (each row its own copy), from
+  the dictionary's indices alone.
+
+After decoding, the ``run_id`` column of the evaluations and bodies tables must be run.json's
+(`run_id_problem`): the tables' ids reach replays and recordings.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Iterable, Mapping
+from functools import cache
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from ariel.evolution import ExperimentConfig
+from ariel.recording.store._escape import short_ascii
+
+__all__ = [
+    "MEMORY_SHARE",
+    "ROW_BYTES",
+    "ROW_MARGIN",
+    "decoded_bytes",
+    "row_limit",
+    "rows_problem",
+    "run_id_problem",
+    "size_problem",
+]
+
+_GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
+_TABLES = ("evaluations", "bodies", "trajectories", "archive", "novelty")
+
+#: The row counts `row_limit` works out are the most the writers make; a file is refused only
+#: past this many times that, so a miscount here never refuses a run's own records.
+ROW_MARGIN = 2
+
+#: The most decoded bytes a row of each table may take. An evaluation holds its body's genotype
+#: (JSON, a few KB) and its brain's parameters (a few per joint); a body its genotype and robot
+#: graph (JSON, a few KB); a trajectory frame two lists of one value per joint. These are far
+#: above what any body of a few hundred modules makes.
+ROW_BYTES = {
+    "evaluations": 1 << 20,
+    "bodies": 1 << 20,
+    "trajectories": 64 << 10,
+    "archive": 64 << 10,
+    "novelty": 64 << 10,
+}
+
+#: A table file may take at most this share of the memory free here, decoded (as Arrow data:
+#: its pandas frame takes about as much again, its strings more).
+MEMORY_SHARE = 0.25
+
+_WIDTHS = {"BOOLEAN": 1, "INT32": 4, "FLOAT": 4, "INT64": 8, "DOUBLE": 8, "INT96": 12}
+#: Bytes of each value of a string (or list) column besides its characters: its offset.
+_OFFSET = 4
+
+
+@cache
+def _config_defaults() -> dict[str, dict[str, object]]:
+
+    return ExperimentConfig().to_plain()
+
+
+def _config_number(config: Mapping[str, object], key: str, *, whole: bool) -> int | float:
+    """``section.key`` of a run's config (run.json's, plain data), its default when missing;
+    `ValueError` for a value no ariel writes (a count below 1, a duration or rate that is not a
+    positive finite number)."""
+
+    section, name = key.split(".")
+    part = config.get(section, {})
+    if not isinstance(part, Mapping):
+        raise ValueError(f"has {section} {_shown(part)} in its config, not a section (a table)")
+    value = part.get(name, _config_defaults()[section][name])
+    kinds = (int,) if whole else (int, float)
+    good = isinstance(value, kinds) and not isinstance(value, bool)
+    if not good or not (value >= 1 if whole else math.isfinite(value) and value > 0):
+        what = "a whole number >= 1" if whole else "a positive finite number"
+        raise ValueError(f"has {key} {_shown(value)} in its config, not {what}")
+    return value
+
+
+def _shown(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:37]}..."
+
+
+def row_limit(config: Mapping[str, object] | None, table: str, generation: int) -> int:
+    """The most rows ``table``'s file of ``generation`` holds in a run of ``config`` (run.json's
+    config, plain data; a missing key counts as its default), as the run driver makes them:
+
+    - ``evaluations``: every body of the generation runs CMA-ES for ``brain.iterations``
+      iterations of ``brain.popsize`` (a body that cannot be built or has no parameters: fewer),
+      and a generation makes ``body.population`` (generation 0) or ``body.offspring`` bodies
+      (a brain-only run: one);
+    - ``bodies``, ``archive`` and ``novelty``: the bodies of the generation and the parents it
+      keeps (the elites, the novelty archive's members), each once: at most every body made so
+      far;
+    - ``trajectories``: a frame every ``round(1 / (record.rate_hz x timestep))`` physics steps
+      of ``task.duration``, plus the first and last (`ariel.evaluation._engine.frame_steps`):
+      at most 3 x duration x rate_hz + 4 per evaluation, whatever the world's timestep.
+
+    `ValueError` (``has KEY VALUE in its config, ...``) for a config value no ariel writes.
+    """
+
+    config = config if isinstance(config, Mapping) else {}
+    bodies = max(
+        _config_number(config, "body.population", whole=True),
+        _config_number(config, "body.offspring", whole=True),
+    )
+    per_body = _config_number(config, "brain.popsize", whole=True) * _config_number(
+        config, "brain.iterations", whole=True
+    )
+    evaluations = int(bodies * per_body)
+    if table == "evaluations":
+        return evaluations
+    if table in ("bodies", "archive", "novelty"):
+        return int(bodies) * (max(generation, 0) + 1)
+    duration = _config_number(config, "task.duration", whole=False)
+    rate = _config_number(config, "record.rate_hz", whole=False)
+    return evaluations * (math.ceil(3 * duration * rate) + 4)
+
+
+def _table_of(path: Path) -> tuple[str, int] | None:
+    found = _GEN_FILE.match(path.name)
+    table = path.parent.name
+    if found is None or table not in _TABLES:
+        return None
+    return table, int(found.group(1))
+
+
+def rows_problem(
+    config: Mapping[str, object] | None, path: Path, metadata: pq.FileMetaData
+) -> str | None:
+    """What is wrong with the row count of the table file ``path`` (``TABLE/gen-NNNNNN.parquet``,
+    its Parquet footer ``metadata``) for a run of ``config``: ``has N rows; ...`` when it holds
+    more than `ROW_MARGIN` x `row_limit`, ``run.json has ...`` for a config no ariel writes;
+    None when it is fine. Reads the footer only: a crafted file of a few bytes a row (2,000,000
+    dictionary-encoded rows in 1 MB) is refused before gigabytes are decoded."""
+    found = _table_of(path)
+    if found is None:
+        return None
+    table, generation = found
+    rows = max(
+        metadata.num_rows,
+        sum(metadata.row_group(i).num_rows for i in range(metadata.num_row_groups)),
+    )
+    try:
+        most = row_limit(config, table, generation)
+    except ValueError as exc:
+        return f"run.json {exc}: damaged or crafted, no table of it is loaded"
+    if rows <= ROW_MARGIN * most:
+        return None
+    return (
+        f"has {rows} rows; generation {generation} of this run's config makes at most {most}: "
+        "damaged or crafted, not loaded"
+    )
+
+
+def _wanted(path: str, columns: Iterable[str] | None) -> bool:
+    return columns is None or path.split(".", 1)[0] in set(columns)
+
+
+def decoded_bytes(
+    metadata: pq.FileMetaData, columns: Iterable[str] | None = None
+) -> tuple[int, list[str]]:
+    """From a Parquet footer: about how many bytes the file's ``columns`` (None: all) take
+    decoded, every value counted (a list's values, a dictionary's value once per row that
+    holds it: its indices), and the column paths whose values are dictionary-encoded strings,
+    whose size the footer cannot tell (they count here by their distinct values; see
+    `_dictionary_bytes`). Fixed-width values: their count x their width; strings: their
+    uncompressed bytes and an offset each."""
+    columns = list(columns) if columns is not None else None
+    total, dictionaries = 0, set()
+    for group in range(metadata.num_row_groups):
+        row_group = metadata.row_group(group)
+        for index in range(row_group.num_columns):
+            chunk = row_group.column(index)
+            if not _wanted(chunk.path_in_schema, columns):
+                continue
+            kind, count = chunk.physical_type, max(chunk.num_values, 0)
+            if kind in _WIDTHS:
+                total += count * _WIDTHS[kind]
+                continue
+            if kind == "FIXED_LEN_BYTE_ARRAY":
+                width = metadata.schema.column(index).length or 0
+                total += count * max(width, 1)
+                continue
+            total += count * _OFFSET + max(chunk.total_uncompressed_size, 0)
+            if chunk.has_dictionary_page:
+                dictionaries.add(chunk.path_in_schema)
+    return total, sorted(dictionaries)
+
+
+def _dictionary_bytes(source: pa.NativeFile | str | Path, paths: list[str]) -> int:
+    """The characters the dictionary-encoded string columns ``paths`` of the Parquet file
+    ``source`` hold decoded (each row its own copy), read as dictionaries (indices and distinct
+    values only), a row group at a time."""
+    file = pq.ParquetFile(source, read_dictionary=paths)
+    names = sorted({path.split(".", 1)[0] for path in paths})
+    total = 0
+    for group in range(file.num_row_groups):
+        for column in file.read_row_group(group, columns=names).columns:
+            for chunk in column.chunks:
+                while not pa.types.is_dictionary(chunk.type):
+                    if not hasattr(chunk, "flatten"):
+                        break
+                    chunk = chunk.flatten()
+                if not pa.types.is_dictionary(chunk.type) or not len(chunk.dictionary):
+                    continue
+                lengths = pc.call_function("binary_length", [chunk.dictionary])
+                lengths = lengths.to_numpy(zero_copy_only=False)
+                indices = chunk.indices.fill_null(0).to_numpy(zero_copy_only=False)
+                total += int(lengths[indices].sum())
+    return total
+
+
+def _memory_free() -> int | None:
+    """Bytes of memory free here (Linux's MemAvailable, else the free pages); None: unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as file:
+            for line in file:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _gb(count: float) -> str:
+    return f"{count / 1e9:.2f} GB" if count >= 1e8 else f"{count / 1e6:.1f} MB"
+
+
+def size_problem(
+    config: Mapping[str, object] | None,
+    path: Path,
+    metadata: pq.FileMetaData,
+    source: pa.NativeFile | str | Path,
+    columns: Iterable[str] | None = None,
+    *,
+    memory: bool = True,
+) -> str | None:
+    """What is wrong with the decoded size of the table file ``path`` (its footer ``metadata``,
+    its bytes ``source``) for a run of ``config``, reading ``columns`` (None: all): ``would take
+    ...`` when it is more than its rows can (`ROW_MARGIN` x `row_limit` x `ROW_BYTES`) or more
+    than `MEMORY_SHARE` of the memory free here (``memory``); None when fine (or no table's
+    file). Only
+    dictionary-encoded strings are read (their indices), and only when they could matter."""
+    found = _table_of(path)
+    if found is None:
+        return None
+    table, generation = found
+    try:
+        most = ROW_MARGIN * row_limit(config, table, generation) * ROW_BYTES[table]
+    except ValueError:
+        return None  # `rows_problem` says so
+    free = _memory_free() if memory else None
+    limit = most if free is None else min(most, int(free * MEMORY_SHARE))
+    size, dictionaries = decoded_bytes(metadata, columns)
+    if size <= limit and dictionaries:
+        worst = sum(  # each row holding a copy of every distinct value
+            chunk.num_values * chunk.total_uncompressed_size
+            for group in range(metadata.num_row_groups)
+            for chunk in map(metadata.row_group(group).column, range(metadata.num_columns))
+            if chunk.path_in_schema in dictionaries
+        )
+        if size + worst > limit:
+            size += _dictionary_bytes(source, dictionaries)
+    if size <= limit:
+        return None
+    if size > most:
+        rows = ROW_MARGIN * row_limit(config, table, generation)
+        return (
+            f"would take {_gb(size)} decoded; the {rows} rows this run's config allows take at "
+            f"most {_gb(most)}: damaged or crafted, not loaded"
+        )
+    return (
+        f"would take {_gb(size)} decoded, more than {MEMORY_SHARE:.0%} of the {_gb(free or 0)} "
+        "of memory free here: not loaded"
+    )
+
+
+def run_id_problem(part: pa.Table, run_id: object) -> str | None:
+    """What is wrong with the ``run_id`` column of a decoded table ``part`` (the evaluations
+    or bodies table; none: nothing) for a run whose run.json says ``run_id``."""
+    if "run_id" not in part.column_names or not isinstance(run_id, str):
+        return None
+    found = part.column("run_id").unique().to_pylist()
+    others = [value for value in found if value != run_id]
+    if not others:
+        return None
+    return (
+        f"has run_id {short_ascii(others[0])} in its rows, run.json {short_ascii(run_id)}: "
+        "changed by hand or crafted, not loaded"
+    )

@@ -1,0 +1,363 @@
+"""``ariel verify``: a run folder checked against its manifests (`verify_run`), and before a
+resume (`adopt_manifests`).
+
+Every file the manifests of the finished generations list is checked (size and SHA-256), every
+manifest there is (a finished run's manifest, or table, of a later generation than run.json's
+``generations_done`` is damage: run.json would hide it), and what never changes in run.json.
+Whatever run.json says, the lines are bounded: a run.json claiming 100,000 generations is one
+line for its count and one for the first missing manifest (with how many more), and at most
+`MAX_LISTED` problems are listed (`VerifyResult.unlisted`: how many more).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+from ariel.recording.store._escape import short_ascii
+from ariel.recording.store._files import within
+from ariel.recording.store._manifest import (
+    MANIFEST_FORMAT,
+    after_the_last,
+    manifest_entries,
+    manifest_file,
+    manifest_generations,
+    manifests_expected,
+    relative,
+    sha256_file,
+    write_manifest,
+)
+from ariel.recording.store._run_folder import (
+    DamagedRunError,
+    NotARunError,
+    RunFolder,
+    damaged,
+    finished_generations,
+)
+from ariel.recording.store._table_limits import rows_problem, size_problem
+from ariel.recording.store._tables import TABLES, generation_file, table_generations
+
+__all__ = ["MAX_LISTED", "VerifyResult", "adopt_manifests", "verify_run"]
+
+#: The most problems `verify_run` lists; the rest are counted (`VerifyResult.unlisted`).
+MAX_LISTED = 50
+#: Tables every finished generation has (a run made before manifests: checked without them).
+_REQUIRED = ("evaluations", "bodies")
+
+
+@dataclass
+class VerifyResult:
+    """What `verify_run` checked and found: ``problems`` empty means the folder is sound."""
+
+    run_dir: Path
+    generations: int
+    files: int = 0
+    bytes: int = 0
+    checked: bool = True  # False: a run made before manifests (presence and readability only)
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # what could not be checked, and why
+    run_id_checked: bool = False  # run.json's run_id against a table's rows
+    unlisted: int = 0  # problems past `MAX_LISTED`, not in ``problems``
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+def _check_readable(path: Path) -> str | None:
+    try:
+        pq.read_table(path)
+    except Exception as exc:  # any decoding failure is damage; one line says which
+        first = (str(exc).splitlines() or [""])[0]
+        return f"is not a readable Parquet table ({type(exc).__name__}: {first})"
+    return None
+
+
+def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyResult:
+    """Check every file the manifests list (size and SHA-256), every manifest there is, or for
+    a run made before manifests, that the required tables are there and readable; and what
+    never changes in run.json (`_check_run_json`).
+
+    Args:
+        run_dir: The run folder.
+        generations: Check only the first this many generations; None (the default): the
+            finished ones, run.json's ``generations_done`` (checked: a count no run writes is
+            a problem, and then every manifest there is is checked).
+
+    Returns:
+        What was checked and found: ``ok`` is True when the folder is sound; ``problems``
+        has one line per damaged file (``ariel verify`` prints them; at most `MAX_LISTED`,
+        ``unlisted`` counts the rest), ``notes`` what could not be checked, and ``files`` /
+        ``bytes`` what was read.
+
+    Raises:
+        NotARunError: For a folder that is not a run at all (no readable run.json).
+
+    Example:
+        ```python
+        from ariel.recording import list_runs, verify_run
+
+        result = verify_run(list_runs()[-1]["path"])  # a run folder under data/runs
+        print(result.ok, result.files, result.problems)
+        ```
+    """
+    run_dir = Path(run_dir)
+    info = RunFolder(run_dir).read_info()
+    expected, problem = manifests_expected(run_dir, info)
+    result = VerifyResult(run_dir, 0, checked=expected)
+    if problem is not None:
+        result.problems.append(f"{problem}; checked against the manifests all the same")
+    done: int | None
+    try:
+        done = finished_generations(run_dir, info)
+    except DamagedRunError as exc:
+        result.problems.append(_problem(exc))
+        done = None  # unknown: every manifest there is is checked
+    if generations is not None:  # resume: the checkpoint's count (run.json may lag by one)
+        done = generations
+    held = manifest_generations(run_dir)
+    gens = _generations(run_dir, done, held, expected, resume=generations is not None)
+    result.generations = done if done is not None else len(held)
+    if done is not None:
+        _check_missing(run_dir, done, [g for g in gens if g < done], expected, result)
+    listed: set[str] = set()
+    for generation in gens:
+        _check_generation(run_dir, generation, expected, info, result, listed)
+    if generations is None and expected:
+        _check_strays(run_dir, info, done, held, listed, result)
+    _check_run_json(run_dir, info, result)
+    if len(result.problems) > MAX_LISTED:
+        result.unlisted = len(result.problems) - MAX_LISTED
+        del result.problems[MAX_LISTED:]
+    return result
+
+
+def _generations(
+    run_dir: Path, done: int | None, held: list[int], expected: bool, *, resume: bool
+) -> list[int]:
+    """The generations whose files are checked: those before ``done`` with a manifest (or, a
+    run made before manifests, a required table), and outside a resume every manifest there
+    is (of any generation), ascending. Never ``range(done)``: run.json may claim 10**30."""
+    found = set(held)
+    if not expected:
+        found.update(g for table in _REQUIRED for g in table_generations(run_dir, table))
+    if done is None:
+        return sorted(found)
+    before = {g for g in found if g < done}
+    return sorted(before if resume or not expected else before | set(held))
+
+
+def _more(count: int, what: str) -> str:
+    return f"; {count:,} more {what}" if count > 0 else ""
+
+
+def _check_missing(
+    run_dir: Path, done: int, present: list[int], expected: bool, result: VerifyResult
+) -> None:
+    """One line for the finished generations (``done`` of them) without a manifest (a run
+    made before manifests: without a required table), however many: the first, and a count."""
+    missing = done - len(present)
+    if missing <= 0:
+        return
+    have, first = set(present), 0
+    while first in have:
+        first += 1
+    path = (
+        manifest_file(run_dir, first)
+        if expected
+        else generation_file(run_dir, "evaluations", first)
+    )
+    what = "have no manifest either" if expected else "have no tables either"
+    result.problems.append(
+        f"{relative(run_dir, path)} is missing (generation {first} is finished)"
+        f"{_more(missing - 1, f'finished generation(s) {what}')}"
+    )
+
+
+def _check_generation(
+    run_dir: Path,
+    generation: int,
+    expected: bool,
+    info: Mapping[str, object],
+    result: VerifyResult,
+    listed: set[str],
+) -> None:
+    """The files of ``generation``'s manifest (or its required tables): each a problem line
+    when damaged; their names added to ``listed``."""
+    try:
+        entries = manifest_entries(run_dir, generation, expected)
+    except DamagedRunError as exc:
+        result.problems.append(_problem(exc))
+        tables = (generation_file(run_dir, table, generation) for table in TABLES)
+        listed.update(relative(run_dir, path) for path in tables)  # said: its manifest
+        return
+    listed.update(entries)
+    for name, entry in entries.items():
+        problem = _check_file(run_dir, name, entry, result, info.get("config"))
+        if problem is not None and problem.startswith("run.json "):  # its config: once
+            if problem not in result.problems:
+                result.problems.append(problem)
+        elif problem is not None:
+            result.problems.append(f"{name} {problem}")
+        elif name.startswith("evaluations/") and not result.run_id_checked:
+            _check_run_id(run_dir / name, info, result)
+
+
+def _check_strays(
+    run_dir: Path,
+    info: Mapping[str, object],
+    done: int | None,
+    held: list[int],
+    listed: set[str],
+    result: VerifyResult,
+) -> None:
+    """Manifests and tables no finished generation accounts for: of a generation after
+    ``done`` (an unfinished run's generation ``done`` excepted: it was being written when the
+    run stopped, and resume discards it), or a table its generation's manifest does not list.
+    One line for each kind, with a count."""
+    in_flight = done if info.get("status") != "finished" else None
+    later = [
+        relative(run_dir, manifest_file(run_dir, g))
+        for g in held
+        if done is not None and g >= done and g != in_flight
+    ]
+    unlisted = []
+    for table in TABLES:
+        for generation in table_generations(run_dir, table):
+            name = relative(run_dir, generation_file(run_dir, table, generation))
+            if name in listed or generation == in_flight:
+                continue
+            if generation in held:
+                unlisted.append(name)
+            elif done is not None and generation >= done:
+                later.append(name)
+    if later and done is not None:
+        more = _more(len(later) - 1, "such file(s)")
+        result.problems.append(f"{later[0]} {after_the_last(done)}{more}")
+    if unlisted:
+        result.problems.append(
+            f"{unlisted[0]} is in no manifest (its generation's manifest does not list it)"
+            f"{_more(len(unlisted) - 1, 'such file(s)')}"
+        )
+
+
+def _check_run_json(run_dir: Path, info: Mapping[str, object], result: VerifyResult) -> None:
+    """What never changes in run.json (it is in no manifest): its config against its
+    ``config_hash`` and its ``seed``, and the checkpoint's ``config_hash`` against run.json's.
+    A config this ariel cannot read (a newer ariel's, say) is a note, not damage."""
+    # lazy: slow (~0.2 s: pydantic, the executors), and `load_run` imports this module
+    from ariel.evolution import ConfigError, ExperimentConfig, config_hash
+
+    config, recorded = info.get("config"), info.get("config_hash")
+    if not isinstance(config, dict):
+        result.problems.append(f"run.json has no config (its 'config' is {short_ascii(config)})")
+        return
+    if info.get("seed") != config.get("seed"):
+        result.problems.append(
+            f"run.json has seed {short_ascii(info.get('seed'))}, its config "
+            f"{short_ascii(config.get('seed'))}"
+        )
+    try:
+        digest = config_hash(ExperimentConfig.from_plain(config))
+    except (ConfigError, TypeError, ValueError) as exc:
+        first = (str(exc).splitlines() or [""])[0]
+        result.notes.append(
+            f"run.json's config is not one this ariel reads ({first}): its config_hash was not "
+            "checked"
+        )
+    else:
+        if digest != recorded:
+            result.problems.append(
+                "run.json has a config_hash that is not its config's (SHA-256): the config or "
+                "the hash changed after the run started"
+            )
+    folder = RunFolder(run_dir)
+    if not os.path.lexists(folder.checkpoint):
+        return
+    name = relative(run_dir, folder.checkpoint)
+    try:
+        state = folder.load_checkpoint()
+    except NotARunError as exc:
+        result.problems.append(f"{name} {str(exc).removeprefix(f'{folder.checkpoint}: ')}")
+        return
+    if isinstance(state, dict) and state.get("config_hash") != recorded:
+        result.problems.append(f"{name} has a config_hash that is not run.json's")
+
+
+def _check_rows(path: Path, config: object) -> str | None:
+    """A sound table file's row count and decoded size against what the run's config makes
+    (`rows_problem`, `size_problem`: its rows, not this machine's memory), from its footer (and
+    a dictionary's indices); a footer that does not decode is `_check_file`'s to say."""
+    config = config if isinstance(config, dict) else None
+    try:
+        metadata = pq.read_metadata(path)
+        return rows_problem(config, path, metadata) or size_problem(
+            config, path, metadata, str(path), memory=False
+        )
+    except Exception:  # not Parquet: a run made before manifests says so when it is read
+        return None
+
+
+def _check_run_id(path: Path, info: Mapping[str, object], result: VerifyResult) -> None:
+    """The ``run_id`` of a sound evaluations table's rows is run.json's."""
+    try:
+        ids = set(pq.read_table(path, columns=["run_id"]).column("run_id").to_pylist())
+    except Exception:  # a table that does not decode: `_check_file` says so
+        return
+    result.run_id_checked = True
+    others = sorted(str(i) for i in ids if i != info.get("run_id"))
+    if others:
+        result.problems.append(
+            f"run.json has run_id {short_ascii(info.get('run_id'))}, its tables "
+            f"{short_ascii(others[0])}"
+        )
+
+
+def _problem(exc: DamagedRunError) -> str:
+    """``NAME PROBLEM`` of `damaged`'s line."""
+    return str(exc).split(" is damaged: ", 1)[-1].rsplit("; restore", 1)[0]
+
+
+def _check_file(
+    run_dir: Path,
+    name: str,
+    entry: tuple[int, str] | None,
+    result: VerifyResult,
+    config: object = None,
+) -> str | None:
+    path = run_dir / name
+    if path.is_symlink():
+        return "is a symbolic link" + ("" if within(path, run_dir) else " out of the run folder")
+    if not path.is_file():
+        return "is missing" if not os.path.lexists(path) else "is not a file"
+    result.files += 1
+    if entry is None:
+        result.bytes += path.stat().st_size
+        return _check_rows(path, config) or _check_readable(path)
+    try:
+        size, digest = sha256_file(path)
+    except OSError as exc:
+        return f"is unreadable ({exc.strerror})"
+    result.bytes += size
+    if size != entry[0]:
+        return f"has {size} bytes, not {entry[0]}"
+    if digest != entry[1]:
+        return "has other bytes than when it was written (SHA-256)"
+    return _check_rows(path, config)
+
+
+def adopt_manifests(folder: RunFolder, generations: int) -> None:
+    """Before a run continues: refuse it when damaged (`DamagedRunError`, the first problem);
+    a run made before manifests gets them for its ``generations`` finished generations."""
+    result = verify_run(folder.path, generations)
+    if result.problems:
+        raise damaged(folder.path, *result.problems[0].split(" ", 1))
+    if result.checked:
+        return
+    for generation in range(generations):
+        write_manifest(folder.path, generation)
+    folder.update_info(manifests=MANIFEST_FORMAT)
