@@ -318,6 +318,26 @@ def test_campaign_status_names_a_run_that_does_not_load(
     assert "damaged" in capsys.readouterr().out
 
 
+def test_compare_names_a_damaged_run_of_a_campaign_instead_of_leaving_it_out(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (campaign / "runs/condition=fresh/seed=1/run.json").write_text("[[[")
+    assert "('fresh', 1)" in repr(load_campaign(campaign).damaged)
+    assert exit_code(["compare", str(campaign)]) == 2
+    line = one_error_line(capsys, quiet=True)
+    assert "run 'fresh' seed 1 of campaign" in line and "unreadable run.json" in line, line
+    (campaign / "runs/condition=fresh/seed=1/run.json").unlink()  # not made yet: no damage
+    assert load_campaign(campaign).damaged == {}
+
+
+def test_a_campaign_json_seeding_no_campaign_writes_is_one_line(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    edit_json(campaign / "campaign.json", lambda info: info.update(seeding="<junk>"))
+    assert exit_code(["compare", str(campaign)]) == 2
+    assert "seeding '<junk>' is not one of shared, independent" in one_error_line(capsys)
+
+
 # --- 6: run.json's "manifests" does not switch verification off ---------------------------------
 
 

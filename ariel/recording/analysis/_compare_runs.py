@@ -90,11 +90,25 @@ def _overrides(changes: Mapping[str, object]) -> str:
 
 def _campaign_runs(path: Path) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
     """(title, source, whether the conditions share seeds, the runs) of a campaign folder."""
-    campaign = load_campaign(path)
+    campaign = _undamaged(load_campaign(path))
     found = [(_curve(c, seed, run), run) for (c, seed), run in campaign.runs.items()]
     source = _campaign_source(path, campaign, len(found))
     title = str(campaign.info.get("campaign_id", path.name))
     return title, source, campaign.seeding == "shared", found
+
+
+def _undamaged(campaign: Campaign) -> Campaign:
+    """``campaign``, unless a run of it is damaged: `CompareError` naming it (a comparison
+    without it would be silently of fewer seeds)."""
+    if campaign.damaged:
+        (condition, seed), line = next(iter(campaign.damaged.items()))
+        more = len(campaign.damaged) - 1
+        others = f" (and {more} more run(s))" if more else ""
+        raise CompareError(
+            f"run {condition!r} seed {seed} of campaign {str(campaign.path)!r}{others} cannot "
+            f"be compared: {line}"
+        )
+    return campaign
 
 
 def _campaign_source(path: Path, campaign: Campaign, runs: int) -> Source:
@@ -127,7 +141,7 @@ def _pooled_campaign_runs(
 ) -> tuple[str, Source, bool, list[tuple[RunCurve, Run]]]:
     """Several folders of one campaign file run on different seeds (a campaign extended with
     more seeds), pooled as one campaign: the same conditions and seeding, no seed twice."""
-    campaigns = [load_campaign(p) for p in paths]
+    campaigns = [_undamaged(load_campaign(p)) for p in paths]
     first = _campaign_key(campaigns[0])
     for path, campaign in zip(paths[1:], campaigns[1:]):
         if _campaign_key(campaign) != first:

@@ -29,7 +29,7 @@ from ariel.body_phenotypes.robogen_lite.constructor import construct_mjspec_from
 from ariel.errors import DamagedRunError
 from ariel.evaluation import SPAWN_PREFIX, TrajectoryRecord, frame_steps
 from ariel.plugins import body_encoders, controllers, fitness_functions, worlds
-from ariel.recording.store import check_eval_id, check_run_id, json_data, one_line
+from ariel.recording.store import check_eval_id, check_run_id, json_file, one_line
 from ariel.simulation.controllers.controller import Controller
 from ariel.simulation.controllers.observations import hinge_observation
 from ariel.simulation.settle import settle_model
@@ -144,10 +144,11 @@ class _Frames:
 
 
 def _read(folder: Path, name: str) -> JsonObject:
-    """The JSON object in ``folder``/``name``, read with the guarded parser (`json_data`: none
-    nested out of stack); `DamagedRunError`, one line, for one missing or unreadable."""
+    """The JSON object in ``folder``/``name``, read as a run folder's JSON is (`json_file`: a
+    regular file, not too large, nested no deeper than a few levels); `DamagedRunError`, one
+    line, for one missing or unreadable."""
     try:
-        data = json_data((folder / name).read_bytes())
+        data = json_file(folder / name)
     except (OSError, ValueError) as exc:
         problem = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
     else:

@@ -97,9 +97,15 @@ def read_campaign_info(path: str | Path) -> JsonObject:
             "characters)"
         )
     _check_conditions(file, info)
+    if info.get("seeding", "shared") not in _SEEDINGS:
+        shown = short_ascii(info.get("seeding"))
+        raise NotACampaignError(f"{file}: seeding {shown} is not one of {', '.join(_SEEDINGS)}")
     _check_runs(Path(path), file, info)
     return info
 
+
+#: How a campaign's conditions take their seeds (`Campaign.seeding`).
+_SEEDINGS = ("shared", "independent")
 
 # A condition's name, as the campaign file allows it: one path component, never "." or "..".
 _CONDITION = re.compile(r"[A-Za-z0-9_.-]+")
@@ -242,11 +248,15 @@ class Campaign:
         path: the campaign folder.
         info: ``campaign.json``.
         runs: (condition, seed) -> `Run`, in campaign.json's order.
+        damaged: (condition, seed) -> the one line `load_run` refused that run with (its
+            folder has a run.json, unlike a run not made yet); what reads every run (``ariel
+            compare``) names it rather than leave it out.
     """
 
     path: Path
     info: JsonObject
     runs: dict[tuple[str, int], Run] = field(default_factory=dict)
+    damaged: dict[tuple[str, int], str] = field(default_factory=dict)
 
     @property
     def conditions(self) -> list[str]:
@@ -354,9 +364,9 @@ class Campaign:
 def load_campaign(path: str | Path) -> Campaign:
     """The records of the campaign in ``path`` (a folder made by `ariel campaign run`).
 
-    A run whose folder has no readable run.json yet (a campaign killed while it was being
-    made), or whose folder does not load (damaged), is left out of ``Campaign.runs``;
-    `Campaign.status` still lists it.
+    A run whose folder has no run.json yet (a campaign killed while it was being made), or
+    whose folder does not load (damaged: its line in ``Campaign.damaged``), is left out of
+    ``Campaign.runs``; `Campaign.status` still lists it.
 
     Args:
         path: The campaign folder.
@@ -374,9 +384,10 @@ def load_campaign(path: str | Path) -> Campaign:
     info = read_campaign_info(path)
     campaign = Campaign(path=path, info=info)
     for entry in info.get("runs", []):
+        key = (entry["condition"], int(entry["seed"]))
         try:
-            run = load_run(path / entry["path"])
-        except NotARunError:  # not created yet (a campaign killed while it was being made)
-            continue
-        campaign.runs[(entry["condition"], int(entry["seed"]))] = run
+            campaign.runs[key] = load_run(path / entry["path"])
+        except NotARunError as exc:
+            if os.path.lexists(path / entry["path"] / "run.json"):
+                campaign.damaged[key] = str(exc)  # else not made yet (a campaign killed early)
     return campaign
