@@ -19,7 +19,6 @@ After decoding, the ``run_id`` column of the evaluations and bodies tables must 
 from __future__ import annotations
 
 import math
-import os
 import re
 from collections.abc import Iterable, Mapping
 from functools import cache
@@ -29,7 +28,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from ariel.evolution import ExperimentConfig
+from ariel.evolution import ExperimentConfig, machine_memory
 from ariel.recording.store._escape import short_ascii
 
 __all__ = [
@@ -230,21 +229,6 @@ def _dictionary_bytes(source: pa.NativeFile | str | Path, paths: list[str]) -> i
     return total
 
 
-def _memory_free() -> int | None:
-    """Bytes of memory free here (Linux's MemAvailable, else the free pages); None: unknown."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as file:
-            for line in file:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (OSError, ValueError, AttributeError):
-        return None
-
-
 def _gb(count: float) -> str:
     return f"{count / 1e9:.2f} GB" if count >= 1e8 else f"{count / 1e6:.1f} MB"
 
@@ -272,7 +256,7 @@ def size_problem(
         most = ROW_MARGIN * row_limit(config, table, generation) * ROW_BYTES[table]
     except ValueError:
         return None  # `rows_problem` says so
-    free = _memory_free() if memory else None
+    free = machine_memory() if memory else None
     limit = most if free is None else min(most, int(free * MEMORY_SHARE))
     size, dictionaries = decoded_bytes(metadata, columns)
     if size <= limit and dictionaries:

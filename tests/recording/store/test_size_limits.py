@@ -207,7 +207,7 @@ def test_a_table_too_large_for_the_memory_here_is_refused(
 ) -> None:
     """A config may allow a million bodies (its hash recomputed): the memory free bounds a
     file too, whatever the config allows."""
-    monkeypatch.setattr(_table_limits, "_memory_free", lambda: 100_000)
+    monkeypatch.setattr(_table_limits, "machine_memory", lambda: 100_000)
     with pytest.raises(DamagedRunError, match=r"MB decoded, more than 25% of the 0\.1 MB of "):
         load_run(finished).evaluations  # noqa: B018
     assert verify_run(finished).ok  # verify judges the folder, not this machine
