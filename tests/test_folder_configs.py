@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -185,3 +186,19 @@ def test_what_report_prints_of_the_config_is_escaped(run_dir: Path, tmp_path: Pa
     print_report(report, Console(file=printed, width=200))
     assert "\x1b" not in printed.getvalue() and "\x07" not in printed.getvalue()
     assert load_run(report.run.path).generations_done == 1
+
+
+def test_a_plugin_that_raises_while_replaying_is_one_line(
+    run_dir: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A fitness option whose value the function rejects only while it scores: found when the
+    replay runs it, said in one line naming the evaluation (a traceback before)."""
+    from ariel import evaluation
+
+    def rejects(task: object) -> object:
+        raise ValueError("window must be > 0, got -1")
+
+    monkeypatch.setattr(evaluation, "evaluate", rejects)
+    assert exit_code(["replay", str(run_dir), "best"]) == 2
+    line = one_error_line(capsys)
+    assert re.search(r"re-simulating b\d+-i\d+-c\d+ raised ValueError: window must be", line)

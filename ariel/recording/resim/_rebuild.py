@@ -24,10 +24,12 @@ import numpy as np
 
 from ariel import evaluation
 from ariel.errors import (
+    ArielError,
     ConfigError,
     DamagedRunError,
     DuplicatePluginError,
     MissingPluginError,
+    PluginFailedError,
     PluginLoadError,
     UnknownEvaluationError,
     UnknownPluginError,
@@ -354,10 +356,19 @@ def _evaluate_as_stored(task: EvaluationTask, backend: object) -> EvaluationResu
     The engine (`ariel.evaluation`, which imports mujoco) is reached at call time: mujoco
     reads its GL backend (MUJOCO_GL) on import, which the cli chooses first where it renders."""
     prefix = "mujoco-warp:"
-    if isinstance(backend, str) and backend.startswith(prefix):
-        try:
-            evaluator = evaluation.WarpEvaluator(backend[len(prefix) :])
-        except (evaluation.WarpUnavailableError, ValueError):  # not installed, no such device
-            return evaluation.evaluate(task)
-        return evaluator.evaluate_batch([task])[0]
-    return evaluation.evaluate(task)
+    try:
+        if isinstance(backend, str) and backend.startswith(prefix):
+            try:
+                evaluator = evaluation.WarpEvaluator(backend[len(prefix) :])
+            except (evaluation.WarpUnavailableError, ValueError):  # not installed, no device
+                return evaluation.evaluate(task)
+            return evaluator.evaluate_batch([task])[0]
+        return evaluation.evaluate(task)
+    except ArielError:
+        raise
+    except Exception as exc:  # a plugin raising on what the run recorded (a fitness option)
+        raise PluginFailedError(
+            f"re-simulating {task.eval_id} raised {type(exc).__name__}: {one_line(exc)} (a "
+            "plugin of the run rejects what run.json records for it: the folder was changed, or "
+            "the plugin is not the one that made the run)"
+        ) from exc
