@@ -674,3 +674,21 @@ def test_an_output_that_is_a_dangling_link_is_refused_in_one_line(
 def test_a_campaign_folder_in_use_is_called_a_campaign_folder(campaign: Path) -> None:
     assert "campaign folder " in str(in_use_error(campaign, "pid 1 on host h"))
     assert str(in_use_error(campaign / "runs", "x")).startswith("run folder ")
+
+
+def test_a_run_folder_named_tilde_is_written_and_read_in_place(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """pyarrow and pandas expand a leading "~": the run's tables went to $HOME/evaluations/."""
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.chdir(tmp_path)
+    run = REPO / "tests" / "data" / "run_tiny.toml"
+    assert exit_code(["run", str(run), "--out", "~", "--quiet", "--set", "generations=1"]) == 0
+    assert exit_code(["verify", "~"]) == 0
+    assert exit_code(["report", "~", "--no-render"]) == 0
+    assert (tmp_path / "~" / "evaluations" / "gen-000000.parquet").stat().st_size > 0
+    assert (tmp_path / "~" / "report" / "fitness.png").is_file()
+    written = {p.name for p in home.iterdir()} - {".cache", ".config"}  # matplotlib's own
+    assert written == set()

@@ -141,7 +141,8 @@ def atomic_write(
     temporary = _temporary(path)
     try:
         _fresh(temporary)
-        write(temporary)
+        # Absolute: pyarrow and pandas expand a leading "~" (a folder named "~" is not $HOME).
+        write(Path(os.path.abspath(temporary)))
         if fsync:
             with open(temporary, "rb+") as file:
                 os.fsync(file.fileno())

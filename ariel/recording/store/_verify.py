@@ -70,7 +70,7 @@ class VerifyResult:
 
 def _check_readable(path: Path) -> str | None:
     try:
-        pq.read_table(path)
+        pq.read_table(os.path.abspath(path))  # pyarrow would expand a leading "~"
     except Exception as exc:  # any decoding failure is damage; one line says which
         first = (str(exc).splitlines() or [""])[0]
         return f"is not a readable Parquet table ({type(exc).__name__}: {first})"
@@ -294,9 +294,10 @@ def _check_rows(path: Path, config: object) -> str | None:
     a dictionary's indices); a footer that does not decode is `_check_file`'s to say."""
     config = config if isinstance(config, dict) else None
     try:
-        metadata = pq.read_metadata(path)
+        local = os.path.abspath(path)  # pyarrow would expand a leading "~"
+        metadata = pq.read_metadata(local)
         return rows_problem(config, path, metadata) or size_problem(
-            config, path, metadata, str(path), memory=False
+            config, path, metadata, local, memory=False
         )
     except Exception:  # not Parquet: a run made before manifests says so when it is read
         return None
@@ -305,7 +306,8 @@ def _check_rows(path: Path, config: object) -> str | None:
 def _check_run_id(path: Path, info: Mapping[str, object], result: VerifyResult) -> None:
     """The ``run_id`` of a sound evaluations table's rows is run.json's."""
     try:
-        ids = set(pq.read_table(path, columns=["run_id"]).column("run_id").to_pylist())
+        table = pq.read_table(os.path.abspath(path), columns=["run_id"])  # not "~" expanded
+        ids = set(table.column("run_id").to_pylist())
     except Exception:  # a table that does not decode: `_check_file` says so
         return
     result.run_id_checked = True
