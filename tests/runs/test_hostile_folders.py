@@ -555,6 +555,11 @@ def _sparse(path: Path, size: int = MAX_JSON_BYTES + 1) -> None:
         file.truncate(size)  # sparse: nothing written, nothing read
 
 
+def _padded(path: Path) -> None:
+    """run.json with 2 million ``{}``: 4 MB that would take about 300 MB to parse."""
+    edit_json(path, lambda info: info.update(pad=[{}] * 2_000_000))
+
+
 @pytest.mark.usefixtures("no_hang")
 @pytest.mark.parametrize(
     ("make", "expected"),
@@ -565,6 +570,7 @@ def _sparse(path: Path, size: int = MAX_JSON_BYTES + 1) -> None:
             "not a regular file (a character device)",
         ),
         (_sparse, "67,108,865 bytes, more than the 64 MiB such a file may have"),
+        (_padded, "2,000,0"),  # and a few more: run.json's own objects
     ],
 )
 def test_a_run_json_that_is_no_regular_file_or_too_large_is_one_line(
@@ -575,7 +581,7 @@ def test_a_run_json_that_is_no_regular_file_or_too_large_is_one_line(
     make(bad / "run.json")
     for command in (["verify"], ["report", "--no-render"]):
         assert exit_code([*command, str(bad)]) == 2, command
-        assert f"unreadable run.json ({expected})" in one_error_line(capsys), command
+        assert f"unreadable run.json ({expected}" in one_error_line(capsys), command
     assert exit_code(["runs", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "hostile-s3" in out and re.search(r"b-bad +unreadable +\? +\? +-", out)

@@ -69,8 +69,13 @@ MAX_JSON_DEPTH = 100
 #: a run's config (about 3 KB) for each of at most 10,000 runs: about 30 MB.
 MAX_JSON_BYTES = 64 << 20
 #: The checkpoint holds the population: a MAP-Elites run's every elite, about 6 KB a body (its
-#: NDE genotype), so 512 MiB holds an archive of about 80,000 elites.
-MAX_CHECKPOINT_BYTES = 512 << 20
+#: NDE genotype), so 256 MiB holds an archive of about 40,000 elites.
+MAX_CHECKPOINT_BYTES = 256 << 20
+#: What ariel writes has one object or list per 100 to 200 bytes (a genotype is a list of
+#: numbers); one per `BYTES_PER_CONTAINER` at most (beyond `FEW_CONTAINERS`), else 21 million
+#: ``{}`` in a 63 MB file would take 3 GB to parse.
+BYTES_PER_CONTAINER = 48
+FEW_CONTAINERS = 100_000
 #: A JSON object read back from a folder's file (run.json, the checkpoint's state, a manifest,
 #: campaign.json): string keys, and values that are whatever the file holds (no type is
 #: promised for them: each is checked where it is read).
@@ -94,8 +99,16 @@ def json_file(path: str | os.PathLike[str], limit: int = MAX_JSON_BYTES) -> obje
     """The data of a folder's JSON file ``path`` (`json_data`), read as a regular file of at most
     ``limit`` bytes (`read_regular_file`: a FIFO, a device or a larger file is a one-line
     `ValueError`, never a reader blocked or out of memory). `OSError` when it cannot be opened.
-    Every JSON file of a run or campaign folder is read here."""
-    return json_data(read_regular_file(path, limit))
+    Every JSON file of a run or campaign folder is read here. A file of far more objects and
+    lists for its size than ariel writes (`BYTES_PER_CONTAINER`) is refused before parsing."""
+    raw = read_regular_file(path, limit)
+    containers = raw.count(b"{") + raw.count(b"[")
+    if containers > max(FEW_CONTAINERS, len(raw) // BYTES_PER_CONTAINER):
+        raise ValueError(
+            f"{containers:,} objects and lists in {len(raw):,} bytes: far more than ariel writes "
+            f"(one per {BYTES_PER_CONTAINER} bytes at most)"
+        )
+    return json_data(raw)
 
 
 def finished_generations(run_dir: str | Path, info: Mapping[str, object]) -> int:
