@@ -6,6 +6,7 @@ draws it in a headless Chromium and saves a PNG.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -43,6 +44,8 @@ def _png_path(text: str) -> Path:
         raise argparse.ArgumentTypeError(f"must be a .png file, not {text!r}")
     if not path.parent.is_dir():
         raise argparse.ArgumentTypeError(f"folder {str(path.parent)!r} does not exist")
+    if not os.access(path.parent, os.W_OK):  # a read-only file system: said before drawing
+        raise argparse.ArgumentTypeError(f"folder {str(path.parent)!r} cannot be written")
     return path
 
 

@@ -23,7 +23,7 @@ from urllib.parse import quote
 
 from ariel.errors import ViewError
 from ariel.recording.rerun import write_campaign_blueprint, write_generation_blueprint
-from ariel.recording.store import atomic_write_bytes
+from ariel.recording.store import atomic_write_bytes, cannot_write, terminal_text
 from ariel.recording.viewer._browser import BrowserError, HeadlessChromium, find_chromium
 from ariel.recording.viewer._child import _run_child, _terminate, rerun_binary
 from ariel.recording.viewer._select import Selection
@@ -182,6 +182,8 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
             taken.append(str(out))
         except BrowserError as exc:
             raise ViewError(f"--screenshot: {exc}") from None
+        except OSError as exc:  # full, read-only, or a folder like /proc that takes no file
+            raise ViewError(f"--screenshot: {cannot_write(exc, out)}") from None
         finally:
             _terminate(proc)
 
@@ -191,7 +193,7 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
         shutil.rmtree(scratch, ignore_errors=True)
     if not taken:
         return code or 1
-    print(f"wrote {out} ({selection.description} of {selection.run_dir})")
+    print(terminal_text(f"wrote {out} ({selection.description} of {selection.run_dir})"))
     return 0
 
 

@@ -35,7 +35,7 @@ from ariel.recording.viewer._view import (
     select_recordings,
     web_url,
 )
-from tests._helpers import ServedWebViewer
+from tests._helpers import ServedWebViewer, exit_code
 
 CHROMIUM = Path("/usr/bin/chromium")
 # A small co-evolution run (like TINY in tests/evolution/test_loop.py): 3 generations, no
@@ -582,3 +582,51 @@ def test_the_view_recording_is_the_best_evaluation_with_the_run_beside(tmp_path:
         assert values[-1] == pytest.approx(generations["best_fitness"].iloc[-1])
         assert found["/run/diversity/distinct_morphologies"].is_static
     assert not combined.exists()  # a scratch file, gone when the viewer ends
+
+
+def test_a_screenshot_s_line_is_escaped_and_a_failed_write_is_a_view_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The browser and server stood in for: what `--screenshot` says once it has drawn."""
+    import errno
+
+    from ariel.recording.viewer import _web
+    from ariel.recording.viewer._select import Selection
+
+    class Browser(contextlib.nullcontext):
+        def __enter__(self) -> Browser:
+            return self
+
+        def open(self, url: str) -> None:
+            pass
+
+    monkeypatch.setattr(_web, "find_chromium", lambda: "chromium")
+    monkeypatch.setattr(_web, "_wait_until_serving", lambda *args: True)
+    monkeypatch.setattr(_web, "HeadlessChromium", lambda *args, **kwargs: Browser())
+    monkeypatch.setattr(_web, "wait_for_drawing", lambda browser, settle: b"\x89PNG")
+    monkeypatch.setattr(_web, "_terminate", lambda proc: None)
+    monkeypatch.setattr(_web, "_run_child", lambda command, when_started: when_started(None))
+    monkeypatch.setattr(_web, "web_command", lambda *args: [])
+    folder = tmp_path / "r\x1b[2J"
+    folder.mkdir()
+    chosen = Selection(folder, (), None, "the best evaluation \x1b]0;t\x07")
+    assert _web._screenshot(chosen, tmp_path / "s.png", (320, 240), 0.0) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\x07" not in out and "r\\x1b[2J" in out
+    assert (tmp_path / "s.png").read_bytes() == b"\x89PNG"
+
+    def read_only(path: Path, data: bytes, **kwargs: object) -> None:
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(path))
+
+    monkeypatch.setattr(_web, "atomic_write_bytes", read_only)
+    with pytest.raises(ViewError, match=r"--screenshot: cannot write .*Read-only file system"):
+        _web._screenshot(chosen, tmp_path / "t.png", (320, 240), 0.0)
+
+
+def test_a_screenshot_into_a_folder_that_cannot_be_written_is_refused_first(
+    recorded_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    monkeypatch.setattr(os, "access", lambda path, mode: False)  # as on a read-only mount
+    argv = ["view", str(recorded_run), "--screenshot", str(tmp_path / "s.png")]
+    assert exit_code(argv) == 2
+    assert "cannot be written" in capsys.readouterr().err
