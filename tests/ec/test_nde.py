@@ -319,3 +319,21 @@ def test_numpy_forward_module_does_not_import_torch() -> None:
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"number_of_modules": 1}, "number_of_modules must be 2 to 200, not 1"),
+        ({"number_of_modules": 1200}, "number_of_modules must be 2 to 200, not 1200"),
+        ({"genotype_size": 0}, "genotype_size must be 1 to 4096, not 0"),
+        ({"genotype_size": 10**6}, "genotype_size must be 1 to 4096"),
+    ],
+)
+def test_the_run_encoder_bounds_its_sizes_before_it_allocates(options: dict, match: str) -> None:
+    """1,200 modules took 9 GB (the NDE's connection layer grows with its square) before a
+    run could say anything."""
+    from ariel.ec.genotypes.nde.encoder import NDEEncoder
+
+    with pytest.raises(ValueError, match=match):
+        NDEEncoder(**options)

@@ -21,6 +21,11 @@ __all__ = ["NDEEncoder"]
 
 #: Chromosomes of an NDE genotype (module types, connections, rotations).
 NUM_CHROMOSOMES = 3
+#: The most modules a body may have: the NDE's connection layer has 128 x N x N x 6 weights
+#: (1,200 modules took 9 GB before a run could say anything; 200 take about 120 MB).
+MAX_MODULES = 200
+#: The most genes a chromosome may have (the NDE's first layer has 64 weights a gene).
+MAX_GENES = 4096
 
 
 @functools.lru_cache(maxsize=8)
@@ -48,8 +53,8 @@ class NDEEncoder:
     Genes start uniform in [0, 1) as in the tutorials.
 
     Args:
-        number_of_modules: the most modules a decoded body can have (>= 2).
-        genotype_size: genes per chromosome (>= 1); a genotype has shape
+        number_of_modules: the most modules a decoded body can have (2 to `MAX_MODULES`).
+        genotype_size: genes per chromosome (1 to `MAX_GENES`); a genotype has shape
             ``(3, genotype_size)``.
         nde_seed: seeds the NDE's weights, which stay fixed for a whole run; only the genotype
             evolves.
@@ -58,8 +63,8 @@ class NDEEncoder:
             them; the expected fraction perturbed).
 
     Raises:
-        ValueError: ``number_of_modules`` < 2, ``genotype_size`` < 1, or ``mutation_rate``
-            outside [0, 1].
+        ValueError: ``number_of_modules`` outside 2 to `MAX_MODULES`, ``genotype_size``
+            outside 1 to `MAX_GENES`, or ``mutation_rate`` outside [0, 1].
     """
 
     name = "nde"
@@ -74,10 +79,13 @@ class NDEEncoder:
         mutation_std: float = 0.1,
         mutation_rate: float = 1.0,
     ) -> None:
-        if int(number_of_modules) < 2:
-            raise ValueError(f"number_of_modules must be >= 2, not {number_of_modules!r}")
-        if int(genotype_size) < 1:
-            raise ValueError(f"genotype_size must be >= 1, not {genotype_size!r}")
+        if not 2 <= int(number_of_modules) <= MAX_MODULES:
+            raise ValueError(
+                f"number_of_modules must be 2 to {MAX_MODULES}, not {number_of_modules!r} (the "
+                f"NDE's weights grow with its square: {MAX_MODULES} take about 120 MB)"
+            )
+        if not 1 <= int(genotype_size) <= MAX_GENES:
+            raise ValueError(f"genotype_size must be 1 to {MAX_GENES}, not {genotype_size!r}")
         if not 0.0 <= float(mutation_rate) <= 1.0:
             raise ValueError(f"mutation_rate must be in [0, 1], not {mutation_rate!r}")
         self.number_of_modules = int(number_of_modules)
