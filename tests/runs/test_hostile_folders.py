@@ -567,7 +567,7 @@ def _padded(path: Path) -> None:
         (_fifo, "not a regular file (a FIFO)"),
         (
             lambda p: (p.unlink(), p.symlink_to("/dev/zero")),
-            "not a regular file (a character device)",
+            "a symbolic link out of the run folder",  # not opened at all
         ),
         (_sparse, "67,108,865 bytes, more than the 64 MiB such a file may have"),
         (_padded, "2,000,0"),  # and a few more: run.json's own objects
@@ -698,3 +698,25 @@ def test_a_run_folder_named_tilde_is_written_and_read_in_place(
     assert (tmp_path / "~" / "report" / "fitness.png").is_file()
     written = {p.name for p in home.iterdir()} - {".cache", ".config"}  # matplotlib's own
     assert written == set()
+
+
+@pytest.mark.parametrize("linked", ["evaluations", "manifests", "checkpoints", "run.json"])
+def test_a_folder_or_run_json_linked_out_of_the_run_is_not_read(
+    tmp_path: Path, linked: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A link on a table file was refused, one on its folder followed: verify said ok and
+    report drew another run's tables."""
+    elsewhere = _run(tmp_path / "elsewhere")
+    run = _run(tmp_path / "run")
+    target = run / linked
+    shutil.rmtree(target) if target.is_dir() else target.unlink()
+    target.symlink_to(elsewhere / linked)
+    assert exit_code(["verify", str(run)]) != 0
+    said = capsys.readouterr()
+    assert "symbolic link" in said.out + said.err
+    if linked != "checkpoints":  # report reads no checkpoint (resume does: refused as well)
+        assert exit_code(["report", str(run), "--no-render"]) == 2
+        assert "a symbolic link" in one_error_line(capsys)
+    else:
+        with pytest.raises(NotARunError, match="a symbolic link out of the run folder"):
+            RunFolder(run).load_checkpoint()

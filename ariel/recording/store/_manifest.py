@@ -108,7 +108,7 @@ def _read_manifest(run_dir: Path, generation: int) -> dict[str, _Entry]:
     """The ``files`` of one generation's manifest; `DamagedRunError` when missing or bad."""
     path = manifest_file(run_dir, generation)
     name = relative(run_dir, path)
-    if path.is_symlink():
+    if path.is_symlink() or not within(path, run_dir):  # manifests/ may be the link
         raise damaged(run_dir, name, "is a symbolic link")
     try:
         data = json_file(path)
@@ -241,7 +241,7 @@ class Manifest:
 
     def check_present(self, name: str, entry: tuple[int, str] | None) -> None:
         path = self.run_dir / name
-        if path.is_symlink() and not within(path, self.run_dir):
+        if not within(path, self.run_dir):  # the file, or a folder on its way, a link elsewhere
             raise damaged(self.run_dir, name, "is a symbolic link out of the run folder")
         try:
             size = path.stat().st_size

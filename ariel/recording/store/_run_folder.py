@@ -32,6 +32,7 @@ from ariel.recording.store._files import (
     damaged,
     read_regular_file,
     remove_temporaries,
+    within,
     written_path,
 )
 from ariel.recording.store._ids import check_run_id
@@ -339,6 +340,10 @@ class RunFolder:
     # -- run.json ------------------------------------------------------------------------------
 
     def read_info(self) -> JsonObject:
+        if not within(self.run_json, self.path):  # a link to another run's (or any) file
+            raise NotARunError(
+                f"{self.run_json}: unreadable run.json (a symbolic link out of the run folder)"
+            )
         try:
             info = json_file(self.run_json)
         except (FileNotFoundError, NotADirectoryError):
@@ -395,6 +400,8 @@ class RunFolder:
         if not there:
             return None
         try:
+            if not within(self.checkpoint, self.path):  # checkpoints/ or state.json a link
+                raise ValueError("a symbolic link out of the run folder")
             payload = json_file(self.checkpoint, MAX_CHECKPOINT_BYTES)
         except (OSError, ValueError) as exc:  # written atomically: only outside damage
             first = (str(exc).splitlines() or [""])[0]

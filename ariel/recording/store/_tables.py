@@ -334,7 +334,7 @@ def read_file(
     not be pointed elsewhere. ``columns``: decode only these (``filters`` may name only them)."""
 
     run_dir, path = Path(run_dir), Path(path)
-    if path.is_symlink() and not within(path, run_dir):
+    if not within(path, run_dir):  # the file, or a folder on its way, a link elsewhere
         raise _unreadable(run_dir, path, "is a symbolic link out of the run folder")
     try:
         data = path.read_bytes()

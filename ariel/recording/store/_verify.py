@@ -332,8 +332,10 @@ def _check_file(
     config: object = None,
 ) -> str | None:
     path = run_dir / name
+    if not within(path, run_dir):  # the file, or a folder on its way, a link elsewhere
+        return "is a symbolic link out of the run folder"
     if path.is_symlink():
-        return "is a symbolic link" + ("" if within(path, run_dir) else " out of the run folder")
+        return "is a symbolic link"
     if not path.is_file():
         return "is missing" if not os.path.lexists(path) else "is not a file"
     result.files += 1
