@@ -244,7 +244,11 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     for note in comparison.notes:
         print(f"warning: {shown(note)}")
     counts = comparison.runs.groupby("condition", sort=False).size()
-    print("runs: " + ", ".join(f"{shown(name)} {n}" for name, n in counts.items()))
+    listed = [f"{shown(name)} {n}" for name, n in counts.items()]
+    more = len(listed) - CONDITIONS_SHOWN
+    print(
+        "runs: " + ", ".join(listed[:CONDITIONS_SHOWN]) + (f", ... {more} more" if more > 0 else "")
+    )
     out = shown(shown_path(comparison.out))
     replaced = ", replacing the comparison that was there" if comparison.replaced else ""
     print(

@@ -16,10 +16,11 @@ import json
 import os
 import shlex
 import shutil
+import signal
 import sys
 from pathlib import Path
 
-from ariel.utils.interrupts import Stopped, exit_status
+from ariel.utils.interrupts import exit_status
 
 __all__ = [
     "ariel_command",
@@ -117,7 +118,7 @@ def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> 
     """
     hint = f"; continue it with: {ariel_line(*resume, folder)}" if folder else ""
     code, how = exit_status(exc)
-    # After a key or signal, a new line first: the terminal may have echoed ^C on this one.
-    lead = "" if isinstance(exc, Stopped) else "\n"
+    # After Ctrl-C, a new line first: the terminal has echoed ^C on this one.
+    lead = "\n" if code == 128 + signal.SIGINT else ""
     print(f"{lead}interrupted{how}{hint}", file=sys.stderr)
     return code

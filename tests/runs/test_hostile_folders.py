@@ -720,3 +720,13 @@ def test_a_folder_or_run_json_linked_out_of_the_run_is_not_read(
     else:
         with pytest.raises(NotARunError, match="a symbolic link out of the run folder"):
             RunFolder(run).load_checkpoint()
+
+
+def test_a_campaign_json_condition_listed_twice_is_one_line(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    edit_json(
+        campaign / "campaign.json", lambda info: info["conditions"].append(info["conditions"][0])
+    )
+    assert exit_code(["campaign", "status", str(campaign)]) == 2
+    assert "is listed twice" in one_error_line(capsys)

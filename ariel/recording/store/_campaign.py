@@ -147,6 +147,8 @@ def _check_conditions(file: Path, info: Mapping[str, object]) -> None:
             raise NotACampaignError(
                 f"{where}: {short_ascii(name)} is not a condition name ({_CONDITION_RULE})"
             )
+        if any(c.get("name") == condition["name"] for c in conditions[:index]):
+            raise NotACampaignError(f"{where}: condition {condition['name']!r} is listed twice")
         own = condition.get("seeds", [])
         if not isinstance(own, list) or not all(_is_seed(s) for s in own):
             raise NotACampaignError(

@@ -851,4 +851,4 @@ def test_a_compare_stopped_by_sigterm_says_so_in_one_line(
 
     monkeypatch.setattr(analysis, "compare", stopped)
     assert main(["compare", *map(str, two_runs), "--out", str(tmp_path / "out")]) == 143
-    assert capsys.readouterr().err.splitlines() == ["", "interrupted (SIGTERM)"]
+    assert capsys.readouterr().err.splitlines() == ["interrupted (SIGTERM)"]  # one line
