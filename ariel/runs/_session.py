@@ -45,6 +45,7 @@ from ariel.recording.store import (
     RunLock,
     RunWriter,
     adopt_manifests,
+    finished_generations,
     git_commit,
     now,
     software_versions,
@@ -275,4 +276,28 @@ def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, Loop
             f"run {str(folder.path)!r}: its config was edited after the run started (hash "
             "mismatch); start a new run with the new config instead"
         )
+    if state is not None:
+        problem = _state_problem(state, config, finished_generations(folder.path, info))
+        if problem:
+            raise NotARunError(f"{folder.checkpoint}: unreadable checkpoint ({problem})")
     return info, config, state
+
+
+def _state_problem(state: LoopState, config: ExperimentConfig, done: int) -> str | None:
+    """What no run's checkpoint holds, for a run of ``config`` with ``done`` finished
+    generations: the counters and bodies resume goes on from (a crafted generation -5 made it
+    write ``gen--00005`` tables and write generations 0 to 41 again over the run's own)."""
+    if not (type(state.generation) is int and done - 1 <= state.generation <= done):
+        return f"its generation {state.generation!r} is not the run's last finished one"
+    most = 2 * max(config.body.population, config.body.offspring) * (state.generation + 1) + 2
+    if not (type(state.next_body) is int and len(state.population) <= state.next_body <= most):
+        return f"its next_body {state.next_body!r} is not a count of the bodies made so far"
+    numbers = {body.number for body in state.population}
+    for body in state.population:
+        if not (type(body.born) is int and 0 <= body.born <= state.generation):
+            return f"body {body.number!r} was born in generation {body.born!r}"
+        if not (type(body.number) is int and 0 <= body.number < state.next_body):
+            return f"body number {body.number!r} is not one of the bodies made so far"
+    if len(numbers) != len(state.population):
+        return "its population holds a body twice"
+    return None
