@@ -13,6 +13,7 @@ without pictures and a note says why.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -368,7 +369,8 @@ def make_gallery(
             (`DamagedRunError`: one whose tables were changed, whose config has a section
             that is no table, or, where bodies are drawn, whose body encoder or world rejects
             the options its config records).
-        UnsafePathError: When a folder on the way to a file written is a symbolic link.
+        UnsafePathError: When a folder on the way to a file written is a symbolic link
+            (`GalleryError` when ``out`` itself is one).
         RunStorageError: When the PNG or the page cannot be written (disk full, read-only).
 
     Example:
@@ -382,6 +384,11 @@ def make_gallery(
     """
     if of not in OF:
         raise GalleryError(f"a gallery shows one of {', '.join(OF)}, not {of!r}")
+    if out is not None and Path(out).is_symlink():  # as `ariel compare --out` refuses one
+        raise GalleryError(
+            f"refusing to write the gallery into {str(out)!r}: it is a symbolic link (to "
+            f"{os.readlink(out)!r}); name the folder itself"
+        )
     source = Path(path)
     if is_campaign(source):
         if of != "final":

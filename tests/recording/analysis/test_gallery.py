@@ -256,3 +256,16 @@ def test_a_campaign_shows_the_best_body_of_each_run(
         assert body.thumbnail.parent == body.run / "gallery" / "thumbnails"
     assert exit_code(["gallery", str(folder), "--of", "lineage-of-best"]) == 2
     assert "a campaign's gallery shows the best body" in one_error_line(capsys)
+
+
+def test_an_out_that_is_a_symbolic_link_is_refused(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """As `ariel compare --out`: it wrote final.png and final.html into the link's target."""
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (tmp_path / "link").symlink_to(outside)
+    argv = ["gallery", str(run_dir), "--out", str(tmp_path / "link")]
+    assert exit_code(argv) == 2
+    assert "it is a symbolic link" in capsys.readouterr().err
+    assert list(outside.iterdir()) == []
