@@ -364,3 +364,21 @@ def test_path_no_file_system_takes_or_no_id(
     line = one_error_line(capsys)
     assert message in line, line
     assert sorted(p.name for p in tmp_path.iterdir()) == listing  # no folder made on the way
+
+
+def test_an_error_line_is_escaped_and_cut(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every command's one error line: a folder name with ESC or a line break stays one line
+    of text, and a message echoing a huge input is cut (a 3,000,000-number array made a
+    15 MB line)."""
+    named = tmp_path / "e\x1b]0;pwn\x07\nx"
+    named.mkdir()
+    assert exit_code(["view", str(named)]) == 2
+    line = one_error_line(capsys)
+    assert "\x1b" not in line and "\\x1b]0;pwn\\x07\\nx" in line
+    config = tmp_path / "huge.toml"
+    config.write_text("[task]\nspawn_position = [" + ", ".join(["0.0"] * 300_000) + "]\n")
+    assert exit_code(["config", "show", str(config)]) == 2
+    line = one_error_line(capsys)
+    assert len(line) < 2100 and "characters in all)" in line, len(line)

@@ -11,6 +11,7 @@ import os
 import sys
 from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
+from ariel.recording.store import terminal_text
 from ariel.utils import ensure_headless_gl, has_display
 
 __all__ = [
@@ -40,8 +41,18 @@ if TYPE_CHECKING:
     SubParsers: TypeAlias = argparse._SubParsersAction[Parser]
 
 
+#: The longest error line shown: a message that echoes its input (a 3,000,000-number array in a
+#: TOML file) is cut, with its length.
+MAX_ERROR_CHARACTERS = 2000
+
+
 def fail(message: str) -> int:
-    print(f"ariel: error: {message}", file=sys.stderr)
+    """Print ``message`` as the one error line, escaped for the terminal (a name from a folder
+    may hold control characters or line breaks) and cut to `MAX_ERROR_CHARACTERS`."""
+    line = terminal_text(message)
+    if len(line) > MAX_ERROR_CHARACTERS:
+        line = f"{line[: MAX_ERROR_CHARACTERS - 60]}... ({len(line):,} characters in all)"
+    print(f"ariel: error: {line}", file=sys.stderr)
     return EXIT_USAGE
 
 

@@ -16,6 +16,7 @@ from ariel.cli._common import EXIT_USAGE
 from ariel.cli._options import add_web_viewer_options
 from ariel.cli._types import poll_seconds
 from ariel.recording import viewer
+from ariel.recording.store import terminal_text
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -58,8 +59,8 @@ def add_watch_command(sub: SubParsers) -> None:
 
 
 def _announce(watcher: Watcher, args: argparse.Namespace) -> None:
-    folder = watcher.source.path
-    saving = f", saving it to {args.save}" if args.save else ""
+    folder = terminal_text(watcher.source.path)  # a folder's name may hold control characters
+    saving = terminal_text(f", saving it to {args.save}") if args.save else ""
     if "web" in watcher.urls:
         print(
             f"Rerun web viewer: live view of {folder}{saving}\n"
@@ -101,7 +102,7 @@ def _cmd_watch(args: argparse.Namespace) -> int:
             ended = (
                 "it has ended and all of it is shown" if why == "finished" else "the viewer closed"
             )
-            print(f"stopped watching {watcher.source.path}: {ended}", flush=True)
+            print(terminal_text(f"stopped watching {watcher.source.path}: {ended}"), flush=True)
             return 0
         except KeyboardInterrupt:
             print("\nstopped watching", file=sys.stderr)
