@@ -532,3 +532,13 @@ def test_a_gl_backend_that_cannot_load_is_one_line_exit_2(
     assert lines[0].startswith("ariel: error: no OpenGL backend available"), lines[0]
     assert "(MUJOCO_GL=egl)" in lines[0] and "libegl1" in lines[0] and hint in lines[0]
     assert not (tmp_path / "best.mp4").exists()
+
+
+def test_a_folder_named_like_an_option_is_pasteable_in_the_hints() -> None:
+    """`ariel run --out=-y` printed `ariel report -y`, which argparse reads as an option."""
+    from ariel.cli import _how_to_look
+    from ariel.utils import ariel_line
+
+    assert "report ./-y " in _how_to_look(Path("-y"))
+    assert ariel_line("resume", Path("--help")).endswith("resume ./--help")
+    assert ariel_line("view", Path("r"), "--best", 5).endswith("view r --best 5")

@@ -7,7 +7,6 @@ faces (`ariel.cli`): nothing of them is imported until a command runs.
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -28,7 +27,7 @@ from ariel.errors import (
 )
 from ariel.recording import analysis
 from ariel.recording.store import terminal_text
-from ariel.utils import ariel_command, load_run_command, report_interrupted
+from ariel.utils import ariel_command, load_run_command, report_interrupted, shell_path
 from ariel.utils.interrupts import stop_on_signals
 
 if TYPE_CHECKING:
@@ -68,7 +67,7 @@ def _guarded(start: Callable[[], T], show: Callable[[T], None], hint: str | None
 
 
 def _show_campaign(result: CampaignResult) -> None:
-    quoted = shlex.quote(str(result.path))
+    quoted = shell_path(result.path)
     finished = sum(r.status == "finished" for r in result.runs)
     skipped = f" ({result.skipped} finished before, skipped)" if result.skipped else ""
     print(

@@ -6,7 +6,6 @@ beside it when asked for. Bad input or a folder that cannot be written is one li
 from __future__ import annotations
 
 import argparse
-import shlex
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,7 +15,7 @@ from ariel.cli._common import fail_with
 from ariel.cli._live import LiveView
 from ariel.cli._options import add_executor_options, add_set_option
 from ariel.errors import ArielError, ConfigError
-from ariel.utils import ariel_command, load_run_command, report_interrupted
+from ariel.utils import ariel_command, load_run_command, report_interrupted, shell_path
 from ariel.utils.interrupts import stop_on_signals
 
 if TYPE_CHECKING:
@@ -62,14 +61,14 @@ def _how_to_look(path: Path) -> str:
     """The commands to look at a finished run, each working when pasted into a new shell here
     (the environment's ``ariel`` and python named by path: `ariel.utils._commands`)."""
     ariel = ariel_command()
-    quoted = shlex.quote(str(path))
+    quoted = shell_path(path)
     recorded = (path / "run.rrd").is_file() or (path / "recordings").is_dir()
     commands = [
         (f"{ariel} report {quoted}", f"summary table and figures in {quoted}/report"),
         # record.rerun = false: nothing to view
         *([(f"{ariel} view {quoted}", "Rerun viewer (--web on a headless node)")] * recorded),
         (f"{ariel} replay {quoted} best", "re-simulate the best evaluation"),
-        (f"{ariel} runs {shlex.quote(str(path.parent))}", "every run there: status, best"),
+        (f"{ariel} runs {shell_path(path.parent)}", "every run there: status, best"),
     ]
     tables = ["evaluations", "bodies", "trajectories"]
     tables += [name for name in ("archive", "novelty") if (path / name).is_dir()]  # QD runs

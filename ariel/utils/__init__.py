@@ -17,6 +17,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         load_run_command as load_run_command,
         python_command as python_command,
         report_interrupted as report_interrupted,
+        shell_path as shell_path,
     )
     from ariel.utils._gl import (
         ensure_headless_gl as ensure_headless_gl,
@@ -50,6 +51,7 @@ _INTERNAL: dict[str, str] = {
     "python_command": "ariel.utils._commands",
     "replace_non_finite": "ariel.utils._json",
     "report_interrupted": "ariel.utils._commands",
+    "shell_path": "ariel.utils._commands",
 }
 
 __getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -31,10 +31,19 @@ __all__ = [
 ]
 
 
+def shell_path(path: object) -> str:
+    """``path`` for a POSIX shell command line: quoted where it needs it, and ``./`` before a
+    name that starts with ``-`` (``ariel report -y`` would read it as an option)."""
+    text = str(path)
+    return shlex.quote(f".{os.sep}{text}" if text.startswith("-") else text)
+
+
 def ariel_line(*words: object) -> str:
     """An ``ariel`` command line to paste: `ariel_command` and ``words``, each quoted for a
-    POSIX shell where it needs it (``ariel_line("resume", "data/runs/it's")``)."""
-    return " ".join([ariel_command(), *(shlex.quote(str(word)) for word in words)])
+    POSIX shell where it needs it (``ariel_line("resume", Path("data/runs/it's"))``); a path
+    (``os.PathLike``) as `shell_path` writes it."""
+    quoted = (shell_path(w) if isinstance(w, os.PathLike) else shlex.quote(str(w)) for w in words)
+    return " ".join([ariel_command(), *quoted])
 
 
 def _shown(path: Path) -> str:
@@ -116,7 +125,7 @@ def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> 
     Returns:
         The exit code (`ariel.utils.interrupts.exit_status`).
     """
-    hint = f"; continue it with: {ariel_line(*resume, folder)}" if folder else ""
+    hint = f"; continue it with: {ariel_line(*resume, Path(str(folder)))}" if folder else ""
     code, how = exit_status(exc)
     # After Ctrl-C, a new line first: the terminal has echoed ^C on this one.
     lead = "\n" if code == 128 + signal.SIGINT else ""
