@@ -309,3 +309,15 @@ def test_a_crafted_eval_id_never_names_a_file_outside_the_run(copy: Path) -> Non
         select_recordings(copy, best=1)  # ariel view RUN --best 1
     with pytest.raises(DamagedRunError, match="holds an evaluation id that is not one"):
         replay_recording_path(copy, 0, "../../../../outside")  # where a replay is cached
+
+
+def test_a_body_that_is_its_own_ancestor_is_one_line(
+    copy: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A crafted parent cycle sent the report's lineage walk into a KeyError traceback."""
+    best = _best(copy)
+    _craft(copy, "bodies", "parent_ids", [best["eval_id"].split("-")[0]])  # its own parent
+    assert exit_code(["export", str(copy), "--lineage", str(tmp_path / "l.csv")]) == 2
+    assert "born no earlier than it" in one_error_line(capsys)
+    assert exit_code(["report", str(copy), "--no-render"]) == 0  # the lineage left out, said
+    assert "born no earlier than it" in capsys.readouterr().out

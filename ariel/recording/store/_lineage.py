@@ -200,6 +200,11 @@ def lineage(run: Run) -> pd.DataFrame:
         # The first generation whose selection did not keep it: after its last kept one.
         alive = bool(last["selected"]) and int(last["generation"]) == last_generation
         destruction = None if alive else (int(kept.max()) + 1 if len(kept) else origin)
+        if not 0 <= origin < len(done) or not (destruction is None or destruction < len(done)):
+            raise DamagedRunError(  # rows of one body that no run writes (a body id twice)
+                f"{str(run.path)!r}: body {body_id}'s rows in its bodies table are not a life "
+                "in the run's finished generations; the bodies table was changed or damaged"
+            )
         parents = _parents(first["parent_ids"], known, body_id, run.path)
         rows.append(
             {
@@ -224,6 +229,7 @@ def lineage(run: Run) -> pd.DataFrame:
     for name in DESCRIPTOR_NAMES:  # the bodies table's own dtypes (nullable counts)
         frame[name] = frame[name].astype(bodies[name].dtype)
     frame = frame.sort_values("id", kind="stable").reset_index(drop=True)
+    _check_parents_came_first(frame, run.path)
     if frame["id"].duplicated().any():  # b0000052 beside b000052: a crafted table
         raise DamagedRunError(
             f"{str(run.path)!r}: two body ids with one number in its bodies table"
@@ -231,6 +237,21 @@ def lineage(run: Run) -> pd.DataFrame:
     frame.attrs["maximise"] = bool(run.maximise) if len(frame) else True
     frame.attrs["generations"] = run.generations_done
     return frame
+
+
+def _check_parents_came_first(frame: pd.DataFrame, where: Path) -> None:
+    """Every parent was born in an earlier generation than its child: no body is its own
+    ancestor (a crafted cycle sent the report's lineage walk into a KeyError)."""
+    born = dict(zip(frame["id"], frame["origin_time"], strict=True))
+    for child, ancestors, origin in zip(
+        frame["id"], frame["ancestor_list"], frame["origin_time"], strict=True
+    ):
+        for parent in parse_ancestor_list(ancestors):
+            if born[parent] >= origin:
+                raise DamagedRunError(
+                    f"{str(where)!r}: body {child} has parent {parent}, born no earlier than "
+                    "it; the bodies table was changed or damaged"
+                )
 
 
 def _parents(
