@@ -7,6 +7,7 @@ so."""
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -66,14 +67,23 @@ def _fitted(draw: ImageDraw.ImageDraw, text: str, font: _Font, width: int) -> st
     return text + "…"
 
 
+#: The largest cached thumbnail read back (pixels a side; they are drawn at 256): a crafted
+#: PNG of 60,000 x 60,000 pixels is a few KB on disk and GBs decoded.
+LARGEST_THUMBNAIL = 2048
+
+
 def _thumbnail(body: GalleryBody, size: int) -> Image.Image:
     """``body``'s thumbnail at ``size`` pixels, or a grey tile saying it has none."""
     if body.thumbnail is not None:
         try:
-            with Image.open(body.thumbnail) as image:
-                return image.convert("RGB").resize((size, size), Image.Resampling.LANCZOS)
-        except (OSError, ValueError):  # damaged: drawn as missing
-            pass
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", Image.DecompressionBombWarning)
+                with Image.open(body.thumbnail) as image:  # reads the header only
+                    if max(image.size) > LARGEST_THUMBNAIL:
+                        raise ValueError(f"{image.size} pixels: not a thumbnail")
+                    return image.convert("RGB").resize((size, size), Image.Resampling.LANCZOS)
+        except (OSError, ValueError, Image.DecompressionBombError, Image.DecompressionBombWarning):
+            pass  # damaged or crafted: drawn as missing
     tile = Image.new("RGB", (size, size), EMPTY)
     draw = ImageDraw.Draw(tile)
     draw.text((size / 2, size / 2), "no thumbnail", fill=FAINT, font=_font(13), anchor="mm")

@@ -269,3 +269,22 @@ def test_an_out_that_is_a_symbolic_link_is_refused(
     assert exit_code(argv) == 2
     assert "it is a symbolic link" in capsys.readouterr().err
     assert list(outside.iterdir()) == []
+
+
+def test_a_crafted_huge_thumbnail_is_drawn_as_missing(tmp_path: Path) -> None:
+    """A cached thumbnail whose PNG header claims 60,000 x 60,000 pixels (a few bytes on disk,
+    GBs decoded) ended the gallery in PIL's DecompressionBombError traceback."""
+    import struct
+    import types
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        crc = zlib.crc32(kind + data) & 0xFFFFFFFF
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", 60_000, 60_000, 8, 2, 0, 0, 0)
+    bomb = tmp_path / "b000001-256.png"
+    bomb.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IEND", b""))
+    tile = _gallery_sheet._thumbnail(types.SimpleNamespace(thumbnail=bomb), 64)  # type: ignore[arg-type]
+    assert tile.size == (64, 64)
+    assert tile.getpixel((0, 0)) == _gallery_sheet.EMPTY  # the grey "no thumbnail" tile
