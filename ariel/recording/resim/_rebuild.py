@@ -38,6 +38,7 @@ from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record
 from ariel.plugins import REGISTRIES, body_encoders, controllers
 from ariel.recording.store import (
     Run,
+    damaged,
     git_commit,
     json_data,
     load_run,
@@ -45,7 +46,7 @@ from ariel.recording.store import (
     short_ascii,
     software_versions,
 )
-from ariel.utils import ariel_line, load_run_command, mujoco_module
+from ariel.utils import load_run_command, mujoco_module
 
 if TYPE_CHECKING:
     import mujoco
@@ -82,15 +83,6 @@ _PLUGIN_KEYS = {
 BODY_PLUGINS = ("body_encoder", "world")
 
 
-def _damaged_config(run: Run, problem: str) -> DamagedRunError:
-    """The one line for run.json's config being what no run writes (as
-    `ariel.recording.store`'s ``damaged`` words it, which ``ariel verify`` reports)."""
-    return DamagedRunError(
-        f"run folder {str(run.path)!r} is damaged: run.json {problem}; restore the folder from "
-        f"a copy ({ariel_line('verify', run.path)} lists every damaged file)"
-    )
-
-
 @functools.cache
 def _sections() -> tuple[str, ...]:
     """The config's sections (tables): body, brain, world, task, record, executor."""
@@ -104,13 +96,12 @@ def check_config(run: Run) -> None:
     calls it before it reads a section."""
     config = run.info.get("config")
     if not isinstance(config, dict):
-        raise _damaged_config(run, f"has config {short_ascii(config, 40)}, not a table")
+        raise damaged(run.path, "run.json", f"has config {short_ascii(config, 40)}, not a table")
     for section in _sections():
         if section in config and not isinstance(config[section], dict):
             value = short_ascii(config[section], 40)
-            raise _damaged_config(
-                run, f"has {section} {value} in its config, not a section (a table)"
-            )
+            problem = f"has {section} {value} in its config, not a section (a table)"
+            raise damaged(run.path, "run.json", problem)
 
 
 def load_checked(run_dir: str | Path) -> Run:
