@@ -193,6 +193,7 @@ def lineage(run: Run) -> pd.DataFrame:
     last_generation = run.generations_done - 1
     known = {_number(body_id, run.path) for body_id in bodies["body_id"]}
     rows = []
+    lives: list[tuple[int, int, list[int]]] = []  # (number, born, parents) of each body
     for body_id, group in bodies.groupby("body_id", sort=False):
         first, last = group.iloc[0], group.iloc[-1]
         kept = group.loc[group["selected"].astype(bool), "generation"]
@@ -206,9 +207,10 @@ def lineage(run: Run) -> pd.DataFrame:
                 "in the run's finished generations; the bodies table was changed or damaged"
             )
         parents = _parents(first["parent_ids"], known, body_id, run.path)
+        lives.append((_number(body_id, run.path), origin, parents))
         rows.append(
             {
-                "id": _number(body_id, run.path),
+                "id": lives[-1][0],
                 "ancestor_list": format_ancestor_list(parents),
                 "origin_time": origin,
                 "destruction_time": destruction,
@@ -229,7 +231,7 @@ def lineage(run: Run) -> pd.DataFrame:
     for name in DESCRIPTOR_NAMES:  # the bodies table's own dtypes (nullable counts)
         frame[name] = frame[name].astype(bodies[name].dtype)
     frame = frame.sort_values("id", kind="stable").reset_index(drop=True)
-    _check_parents_came_first(frame, run.path)
+    _check_parents_came_first(lives, run.path)
     if frame["id"].duplicated().any():  # b0000052 beside b000052: a crafted table
         raise DamagedRunError(
             f"{str(run.path)!r}: two body ids with one number in its bodies table"
@@ -239,14 +241,13 @@ def lineage(run: Run) -> pd.DataFrame:
     return frame
 
 
-def _check_parents_came_first(frame: pd.DataFrame, where: Path) -> None:
-    """Every parent was born in an earlier generation than its child: no body is its own
-    ancestor (a crafted cycle sent the report's lineage walk into a KeyError)."""
-    born = dict(zip(frame["id"], frame["origin_time"], strict=True))
-    for child, ancestors, origin in zip(
-        frame["id"], frame["ancestor_list"], frame["origin_time"], strict=True
-    ):
-        for parent in parse_ancestor_list(ancestors):
+def _check_parents_came_first(lives: list[tuple[int, int, list[int]]], where: Path) -> None:
+    """Every parent (of ``lives``: each body's number, generation born and parents) was born
+    in an earlier generation than its child: no body is its own ancestor (a crafted cycle sent
+    the report's lineage walk into a KeyError)."""
+    born = {number: origin for number, origin, _ in lives}
+    for child, origin, parents in lives:
+        for parent in parents:
             if born[parent] >= origin:
                 raise DamagedRunError(
                     f"{str(where)!r}: body {child} has parent {parent}, born no earlier than "
