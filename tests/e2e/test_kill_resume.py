@@ -225,8 +225,9 @@ def _kill_while_writing(
     process.kill()
     assert process.popen.returncode == -signal.SIGKILL
     written = run_dir / target
-    half = written.with_name(f".{written.name}.tmp")
-    assert half.is_file() and half.stat().st_size > 0, f"{target}: the kill missed the write"
+    halves = list(written.parent.glob(f".{written.name}.*.tmp"))
+    assert len(halves) == 1, f"{target}: the kill missed the write"
+    assert halves[0].stat().st_size > 0, f"{target}: the kill missed the write"
 
 
 def _stamp(path: Path) -> tuple[int, int] | None:

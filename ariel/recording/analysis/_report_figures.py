@@ -36,7 +36,20 @@ def _cannot_write(exc: OSError, path: Path, report: Report) -> RunStorageError:
     )
 
 
+#: What matplotlib raises when it lays out or draws values no run writes but a crafted table
+#: can hold (a time of 1e308: "arange: cannot compute length"; a position of 1e308: "Axis
+#: limits cannot be NaN or Inf").
+UNDRAWABLE = (ValueError, OverflowError)
+
+
+def cannot_draw(name: str, exc: BaseException) -> str:
+    """The report's note for figure ``name`` left out because drawing it raised ``exc``."""
+    return f"{name}: left out (its values cannot be drawn: {one_line(exc)})"
+
+
 def _save(figure: Figure, path: Path, report: Report) -> None:
+    """Write ``figure`` to ``path``; one that cannot be drawn (`UNDRAWABLE`) is left out with a
+    note: matplotlib finds out only when it draws, in ``savefig``."""
     # Never through a link planted in a copied run folder (``report/fitness.png -> ~/x``).
     try:
         atomic_write(
@@ -46,6 +59,9 @@ def _save(figure: Figure, path: Path, report: Report) -> None:
         )
     except OSError as exc:
         raise _cannot_write(exc, path, report) from exc
+    except UNDRAWABLE as exc:
+        report.notes.append(cannot_draw(path.name, exc))
+        return
     report.written.append(path)
     report.figures[path.name] = figure
 

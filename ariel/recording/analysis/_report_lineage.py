@@ -35,6 +35,7 @@ from PIL import Image
 
 from ariel.errors import DamagedRunError
 from ariel.recording.analysis._gallery import body_thumbnails
+from ariel.recording.analysis._report_figures import UNDRAWABLE, cannot_draw
 from ariel.recording.store import (
     Run,
     fitness_label,
@@ -135,9 +136,13 @@ def lineage_figure(
     drawn = figure(11.0, min(12.0, max(5.0, 2.6 + 0.1 * len(rows), tall)))
     _draw(drawn, frame, rows, alive, parents, maximise, best, run)
     if pictures:
-        _place_pictures(
-            drawn, drawn.axes[0], pictures, rows, _spans(frame, run.generations_done - 1)
-        )
+        try:  # it lays the figure out, which draws it
+            _place_pictures(
+                drawn, drawn.axes[0], pictures, rows, _spans(frame, run.generations_done - 1)
+            )
+        except UNDRAWABLE as exc:
+            report.notes.append(cannot_draw(LINEAGE_PNG, exc))
+            return
     save(drawn, report.folder / LINEAGE_PNG, report)
 
 

@@ -4,7 +4,7 @@ A reader (or a resumed run) therefore sees either the previous file or the compl
 never a half-written file, whenever the writing process is killed.
 
 Nothing is written through a symbolic link: a run folder comes from anywhere (copied, mailed,
-unpacked), and a link planted in it (``report -> ~``, ``.run.json.tmp -> ~/.bashrc``) must not
+unpacked), and a link planted in it (``report -> ~``, ``run.json -> ~/.bashrc``) must not
 make the workbench write outside it. The temporary is created fresh (``O_EXCL | O_NOFOLLOW``,
 after removing whatever had its name) and renamed over the final name, which replaces a link
 rather than following it; a folder on the way that is a link is refused (`UnsafePathError`).
@@ -17,6 +17,7 @@ import errno
 import json
 import os
 import re
+import secrets
 import stat
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -42,6 +43,9 @@ __all__ = [
 ]
 
 TEMP_SUFFIX = ".tmp"
+#: A temporary's own part, between the file's name and `TEMP_SUFFIX`: random, so that two
+#: processes writing one file (two ``ariel report`` of a run) never share a temporary.
+_TOKEN = re.compile(r"\.[0-9a-f]{8}$")
 _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
 
@@ -91,14 +95,18 @@ _OS_ERROR = re.compile(r"\(os error (\d+)\)")
 
 def _temporary(path: Path) -> Path:
     # Hidden ("." prefix): Parquet dataset readers and globs for gen-*.parquet skip it.
-    return path.with_name(f".{path.name}{TEMP_SUFFIX}")
+    return path.with_name(f".{path.name}.{secrets.token_hex(4)}{TEMP_SUFFIX}")
 
 
 def written_path(path: Path) -> Path | None:
-    """The file a temporary stands for (`_temporary`'s inverse); None for any other name."""
+    """The file a temporary stands for (`_temporary`'s inverse); None for any other name.
+
+    ``.NAME.TOKEN.tmp`` stands for ``NAME``, and so does ``.NAME.tmp`` (the temporaries of
+    versions before the token, left by a killed writer)."""
     name = path.name
     if name.startswith(".") and name.endswith(TEMP_SUFFIX) and len(name) > 1 + len(TEMP_SUFFIX):
-        return path.with_name(name[1 : -len(TEMP_SUFFIX)])
+        written = name[1 : -len(TEMP_SUFFIX)]
+        return path.with_name(_TOKEN.sub("", written) if _TOKEN.search(written[1:]) else written)
     return None
 
 

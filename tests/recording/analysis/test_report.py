@@ -327,3 +327,38 @@ def test_the_best_body_is_rendered(run_dir: Path, tmp_path: Path) -> None:
     # The core module is yellow: the body is in the picture.
     yellow = (pixels[..., 0] > 150) & (pixels[..., 1] > 150) & (pixels[..., 2] < 100)
     assert yellow.sum() > 500
+
+
+@pytest.mark.parametrize(
+    ("table", "column", "left_out"),
+    [
+        ("trajectories", "t", ["trajectory.png", "joints.png"]),  # "arange: cannot compute..."
+        ("trajectories", "core_x", ["trajectory.png"]),  # "Axis limits cannot be NaN or Inf"
+        ("bodies", "fitness", ["lineage.png"]),  # fails in the lineage's layout, before saving
+    ],
+)
+def test_values_matplotlib_cannot_draw_leave_that_figure_out_with_a_note(
+    run_dir: Path, tmp_path: Path, table: str, column: str, left_out: list[str]
+) -> None:
+    """A crafted table (consistent manifest) holding 1e308 where a run writes small numbers: a
+    traceback from matplotlib before; the other figures are written."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from ariel.recording.store._manifest import write_manifest
+
+    crafted = tmp_path / "crafted"
+    shutil.copytree(run_dir, crafted)
+    shutil.rmtree(crafted / "report", ignore_errors=True)
+    for path in sorted((crafted / table).glob("gen-*.parquet")):
+        rows = pq.read_table(path)
+        at = rows.schema.get_field_index(column)
+        values = pa.array([1e308] * rows.num_rows, type=rows.schema.field(column).type)
+        pq.write_table(rows.set_column(at, column, values), path)
+        write_manifest(crafted, int(path.stem.split("-")[1]))
+    report = make_report(crafted, render=False)
+    notes = [note for note in report.notes if "cannot be drawn" in note]
+    assert [note.split(":")[0] for note in notes] == left_out
+    written = [p.name for p in report.written]
+    assert set(written) == set(FIGURES) - set(left_out)
+    assert sorted(p.name for p in (crafted / "report").iterdir()) == sorted(written)

@@ -7,7 +7,12 @@ from pathlib import Path
 import pytest
 
 from ariel.recording import RunFolder
-from ariel.recording.store._files import atomic_write_bytes, remove_temporaries
+from ariel.recording.store._files import (
+    atomic_write,
+    atomic_write_bytes,
+    remove_temporaries,
+    written_path,
+)
 
 
 def test_a_folder_killed_while_being_created_may_be_reused(tmp_path: Path) -> None:
@@ -39,6 +44,25 @@ def test_atomic_writes_leave_no_temporary_and_leftovers_are_removed(tmp_path: Pa
     atomic_write_bytes(target, b"abc")
     assert target.read_bytes() == b"abc"
     assert [p.name for p in target.parent.iterdir()] == ["file.bin"]
-    (target.parent / ".gen-000001.parquet.tmp").write_bytes(b"half")
-    assert [p.name for p in remove_temporaries(tmp_path)] == [".gen-000001.parquet.tmp"]
+    (target.parent / ".gen-000001.parquet.tmp").write_bytes(b"half")  # before the token
+    (target.parent / ".gen-000002.parquet.0123abcd.tmp").write_bytes(b"half")
+    removed = sorted(p.name for p in remove_temporaries(tmp_path))
+    assert removed == [".gen-000001.parquet.tmp", ".gen-000002.parquet.0123abcd.tmp"]
     assert [p.name for p in target.parent.iterdir()] == ["file.bin"]
+    assert written_path(target.parent / ".gen-000002.parquet.0123abcd.tmp") == (
+        target.parent / "gen-000002.parquet"
+    )
+
+
+def test_two_writers_of_one_file_do_not_share_a_temporary(tmp_path: Path) -> None:
+    """Two ``ariel report`` of one run: the second writer's start used to delete the first's
+    temporary ("cannot write 'report/fitness.png': No such file or directory")."""
+    target = tmp_path / "fitness.png"
+
+    def first(temporary: Path) -> None:
+        temporary.write_bytes(b"first")
+        atomic_write_bytes(target, b"second")  # the other process, while this one writes
+
+    atomic_write(target, first)
+    assert target.read_bytes() == b"first"  # the last rename wins, and nothing failed
+    assert [p.name for p in tmp_path.iterdir()] == ["fitness.png"]
