@@ -51,8 +51,12 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     )
     damage = len(result.problems) + result.unlisted
     verdict = f"{damage} damaged file(s)" if damage else "ok"
-    print(  # the folder's name as given: no control sequence reaches the terminal
-        f"{verdict}: {terminal_text(args.run_dir)}: {result.generations} finished generation(s), "
-        f"{result.files} file(s), {result.bytes / 1e6:.1f} MB checked ({how})"
+    checked = (
+        "run.json refused, no table read (they are found through it)"
+        if result.run_json_refused
+        else f"{result.generations} finished generation(s), {result.files} file(s), "
+        f"{result.bytes / 1e6:.1f} MB checked ({how})"
     )
+    # The folder's name as given: no control sequence reaches the terminal.
+    print(f"{verdict}: {terminal_text(args.run_dir)}: {checked}")
     return EXIT_DAMAGED if result.problems else 0

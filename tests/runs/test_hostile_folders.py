@@ -627,9 +627,15 @@ def test_a_crafted_run_id_is_refused_where_run_json_is_read(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     run = _run(tmp_path / "run", run_id=HOSTILE_ID)
-    for command in (["verify", str(run)], ["report", str(run)], ["replay", str(run), "best"]):
+    for command in (["report", str(run)], ["replay", str(run), "best"]):
         assert exit_code(command) == 2, command
         assert f"holds a run id that is not one: {HOSTILE_ID!r}"[:60] in one_error_line(capsys)
+    # verify: damage found (exit 1, as for any other changed file), not "no run folder" (2)
+    assert exit_code(["verify", str(run)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("damaged: run.json: ") and "\x1b" not in lines[0]
+    refused = "run.json refused, no table read (they are found through it)"
+    assert lines[-1] == f"1 damaged file(s): {run}: {refused}"
     with pytest.raises(DamagedRunError, match="holds a run id that is not one"):
         load_run(run)
 

@@ -62,6 +62,7 @@ class VerifyResult:
     notes: list[str] = field(default_factory=list)  # what could not be checked, and why
     run_id_checked: bool = False  # run.json's run_id against a table's rows
     unlisted: int = 0  # problems past `MAX_LISTED`, not in ``problems``
+    run_json_refused: bool = False  # run.json holds what no run writes: nothing else was read
 
     @property
     def ok(self) -> bool:
@@ -95,7 +96,8 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
         ``bytes`` what was read.
 
     Raises:
-        NotARunError: For a folder that is not a run at all (no readable run.json).
+        NotARunError: For a folder that is not a run at all (no readable run.json). A run.json
+            holding what no run writes (a crafted run id) is a problem, not an exception.
 
     Example:
         ```python
@@ -106,7 +108,10 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
         ```
     """
     run_dir = Path(run_dir)
-    info = RunFolder(run_dir).read_info()
+    try:
+        info = RunFolder(run_dir).read_info()
+    except DamagedRunError as exc:  # a readable run.json holding what no run writes (its id)
+        return VerifyResult(run_dir, 0, problems=[f"run.json: {exc}"], run_json_refused=True)
     expected, problem = manifests_expected(run_dir, info)
     result = VerifyResult(run_dir, 0, checked=expected)
     if problem is not None:
