@@ -415,6 +415,8 @@ def test_replay_writes_a_recording_and_a_video(
     assert any(line.startswith("full rate (every physics step, ") for line in printed)
     assert rrd.read_bytes()[:4] == b"RRF2"
     assert video.stat().st_size > 1000
+    assert main(["replay", str(out), "best", "--rrd", str(rrd)]) == 0  # not without a word
+    assert f"wrote {rrd} (it replaced the file that was there)" in capsys.readouterr().out
 
 
 def test_report_prints_every_generation_and_the_files_it_wrote(

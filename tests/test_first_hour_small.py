@@ -42,6 +42,7 @@ def runs(tmp_path: Path) -> dict[str, Path]:
         "one_generation": _run_folder(root / "one_generation", "interrupted", 1),
         "checkpointed": _run_folder(root / "checkpointed", "failed"),
         "tables": _run_folder(root / "tables", "failed"),
+        "noted": _run_folder(root / "noted", "failed"),  # the user's notes in it
         # a symbolic link to a folder that would be prunable, and that folder
         "target": _run_folder(outside / "linked_run", "failed"),
     }
@@ -49,6 +50,7 @@ def runs(tmp_path: Path) -> dict[str, Path]:
     (made["checkpointed"] / "checkpoints" / "state.json").write_text("{}")
     (made["tables"] / "evaluations").mkdir()
     (made["tables"] / "evaluations" / "gen-000000.parquet").write_bytes(b"")
+    (made["noted"] / "notes.txt").write_text("why this run failed")
     made["link"] = root / "link"
     made["link"].symlink_to(made["target"], target_is_directory=True)
     # inside a prunable folder: links out of the runs folder, which must survive
@@ -58,7 +60,7 @@ def runs(tmp_path: Path) -> dict[str, Path]:
     return made
 
 
-KEPT = ("finished", "one_generation", "checkpointed", "tables", "target")
+KEPT = ("finished", "one_generation", "checkpointed", "tables", "noted", "target")
 PRUNED = ("failed", "interrupted", "killed")
 
 
@@ -73,6 +75,10 @@ def test_prune_asks_and_deletes_only_runs_without_a_finished_generation(
     listed = {line.split()[0] for line in out.splitlines() if line.startswith("  ")}
     assert listed == set(PRUNED)
     assert f"left alone: {runs['link']}: it is a symbolic link" in out
+    assert (
+        f"left alone: {runs['noted']}: it holds 'notes.txt', which no run writes (move it out, "
+        "or delete the folder yourself)"
+    ) in out
     assert all(runs[name].exists() for name in PRUNED)  # "n": nothing deleted
 
     monkeypatch.setattr("sys.stdin", io.StringIO(""))  # no answer at all: no
@@ -126,6 +132,7 @@ def test_prune_run_refuses_links_finished_runs_and_folders_elsewhere(
         (runs["one_generation"], "generation(s) finished"),
         (runs["checkpointed"], "it holds a checkpoint"),
         (runs["tables"], "it holds a generation's evaluations table"),
+        (runs["noted"], "it holds 'notes.txt', which no run writes"),
         (runs["target"], "is not a folder directly under"),
     ):
         with pytest.raises(PruneError, match=re.escape(message)):
@@ -141,3 +148,19 @@ def test_prune_run_refuses_links_finished_runs_and_folders_elsewhere(
 def test_yes_without_prune_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert exit_code(["runs", str(tmp_path), "--yes"]) == 2
     assert "--yes goes with --prune" in one_error_line(capsys, quiet=True)
+
+
+def test_what_a_run_writes_at_the_top_of_its_folder_is_known_to_prune(tmp_path: Path) -> None:
+    """`RUN_FOLDER_NAMES` in step with a real run's folder (Rerun recordings and a report): a
+    name missing there would keep every interrupted run of that kind from being pruned."""
+    from _helpers import ariel_run, tiny_run_toml
+
+    from ariel.recording.store._prune import RUN_FOLDER_NAMES
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("names", 1, generations=1, record="rerun = true"))
+    ariel_run(config, tmp_path / "run")
+    assert exit_code(["report", str(tmp_path / "run"), "--no-render"]) == 0
+    names = {path.name for path in (tmp_path / "run").iterdir()}
+    assert {"run.json", "recordings", "run.rrd", "blueprint.rbl", "report"} <= names
+    assert names <= RUN_FOLDER_NAMES

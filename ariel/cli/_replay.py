@@ -6,6 +6,7 @@ it at the full rate. Exit 0 when reproduced, 1 when not.
 from __future__ import annotations
 
 import argparse
+import os
 from typing import TYPE_CHECKING
 
 from ariel.cli._common import fail, headless_unless_display
@@ -28,8 +29,14 @@ def add_replay_command(sub: SubParsers) -> None:
     )
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     p.add_argument("eval_id", metavar="EVAL_ID", help="e.g. b000012-i003-c005, or 'best'")
-    p.add_argument("--rrd", metavar="FILE", help="write a full-rate Rerun recording")
-    p.add_argument("--video", metavar="FILE", help="write an MP4 (camera tracking the robot)")
+    p.add_argument(
+        "--rrd", metavar="FILE", help="write a full-rate Rerun recording (a FILE there is replaced)"
+    )
+    p.add_argument(
+        "--video",
+        metavar="FILE",
+        help="write an MP4 (camera tracking the robot; a FILE there is replaced)",
+    )
     p.add_argument("--viewer", action="store_true", help="play it in the MuJoCo viewer")
     p.set_defaults(func=_cmd_replay)
 
@@ -70,9 +77,11 @@ def _cmd_replay(args: argparse.Namespace) -> int:
                 f"{float(dense.fitness)!r}"
             )
         if args.rrd:
-            _say(f"wrote {replayed.write_rrd(args.rrd)}")
+            replaced = _replaces(args.rrd)
+            _say(f"wrote {replayed.write_rrd(args.rrd)}{replaced}")
         if args.video:
-            _say(f"wrote {replayed.write_video(args.video)}")
+            replaced = _replaces(args.video)
+            _say(f"wrote {replayed.write_video(args.video)}{replaced}")
         if args.viewer:
             replayed.view()
     except (ValueError, RuntimeError, ImportError) as exc:
@@ -81,6 +90,12 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         return fail(cannot_write(exc))
     close = not replayed.exact and replayed.status == replayed.stored_status
     return 0 if replayed.identical or close else 1
+
+
+def _replaces(path: str) -> str:
+    """What to add to the ``wrote FILE`` line when ``FILE`` was there before (a file the user
+    named is theirs to replace, but not without a word)."""
+    return " (it replaced the file that was there)" if os.path.lexists(path) else ""
 
 
 def _say(text: str) -> None:

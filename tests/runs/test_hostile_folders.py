@@ -651,6 +651,21 @@ def test_a_table_s_run_id_must_be_run_json_s(tmp_path: Path) -> None:
     assert "run.json has run_id 'hostile-s3', its tables '../../x'" in verify_run(run).problems
 
 
+def test_a_table_s_generation_column_must_be_its_file_s(tmp_path: Path) -> None:
+    """Before, rows claiming generation 5 in gen-000000.parquet passed verify and load, and the
+    report said the run kept no trajectories (it looked for them in gen-000005)."""
+    run = _run(tmp_path / "run")
+    rows = pa.table({"run_id": ["hostile-s3"], "generation": [5]})
+    pq.write_table(rows, run / "bodies" / "gen-000001.parquet")
+    write_manifest(run, 1)
+    with pytest.raises(DamagedRunError, match=r"bodies/gen-000001\.parquet has generation 5 in"):
+        load_run(run).bodies  # noqa: B018
+    assert verify_run(run).problems == [
+        "bodies/gen-000001.parquet has generation 5 in its rows, its name 1: changed by hand or "
+        "crafted, not loaded"
+    ]
+
+
 # --- 10: names shown on the terminal; the output folder ------------------------------------------
 
 

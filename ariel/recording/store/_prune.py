@@ -5,8 +5,9 @@ A folder is prunable when it is a run folder directly under the runs folder (its
 symbolic link to one), its run.json says ``failed`` or ``interrupted``, or ``running`` while
 no process holds its lock (`list_runs`' ``stopped (killed?)``), its ``generations_done`` is 0,
 and nothing of a finished generation is on disk: no checkpoint, no manifest and no table file
-of any generation. A finished run, a run with a finished generation, a running run and a
-folder whose run.json cannot be read are never prunable.
+of any generation. A finished run, a run with a finished generation, a running run, a folder
+whose run.json cannot be read and one holding anything a run does not write (the user's notes:
+`RUN_FOLDER_NAMES`) are never prunable.
 
 `prune_run` checks all of that again while it holds the run's lock (`RunLock`), so a run that
 `ariel resume` starts meanwhile is refused instead of deleted, then deletes the folder with
@@ -21,13 +22,21 @@ from pathlib import Path
 from typing import Any
 
 from ariel.errors import ArielError
+from ariel.recording.store._files import written_path
 from ariel.recording.store._load import STOPPED, RunSummary, list_runs
-from ariel.recording.store._lock import RunLock
+from ariel.recording.store._lock import LOCK_NAME, RunLock
 from ariel.recording.store._run_folder import RunFolder
 from ariel.recording.store._tables import MANIFEST_DIR, TABLES, table_generations
 
 __all__ = ["PruneError", "prunable_runs", "prune_run"]
 
+#: What a run writes at the top of its folder (`ariel run`, `report`, `gallery`, `view`): a
+#: folder holding anything else is the user's too (tests/test_first_hour_small.py keeps this
+#: in step with a real run's folder).
+RUN_FOLDER_NAMES = frozenset(
+    {"run.json", LOCK_NAME, "checkpoints", MANIFEST_DIR, *TABLES}
+    | {"recordings", "run.rrd", "blueprint.rbl", "generation.rbl", "report", "gallery"}
+)
 #: `list_runs` statuses of a run that no process runs and that did not finish.
 PRUNABLE_STATUSES = ("failed", "interrupted", STOPPED)
 
@@ -50,6 +59,17 @@ def _finished_work(path: Path) -> str | None:
     return None
 
 
+def _foreign(path: Path) -> str | None:
+    """The name of a file or folder in the run folder ``path`` that no run writes (the user's
+    notes, a script), or None: the folder is then the user's too, and left alone. A symbolic
+    link is not counted: deleting it deletes nothing it points to."""
+    for entry in sorted(path.iterdir()):
+        if entry.name in RUN_FOLDER_NAMES or entry.is_symlink() or written_path(entry):
+            continue
+        return entry.name
+    return None
+
+
 def _why_not(summary: Mapping[str, Any]) -> str | None:
     """Why the `list_runs` row ``summary`` is not prunable, or None when it is."""
     path = Path(summary["path"])
@@ -60,20 +80,31 @@ def _why_not(summary: Mapping[str, Any]) -> str | None:
     if summary["generations_done"] != 0:
         return f"run.json says {summary['generations_done']!r} generation(s) finished"
     held = _finished_work(path)
-    return f"it holds {held}" if held else None
+    if held:
+        return f"it holds {held}"
+    foreign = _foreign(path)
+    if foreign is not None:
+        return (
+            f"it holds {foreign!r}, which no run writes (move it out, or delete the folder "
+            "yourself)"
+        )
+    return None
 
 
 def prunable_runs(root: str | Path) -> tuple[list[RunSummary], list[tuple[str, str]]]:
     """The `list_runs` rows of ``root`` that `prune_run` would remove, and ``(path, why)``
-    for each symbolic link to a run folder that looks prunable but is left alone."""
-    found, links = [], []
+    for each run folder that looks prunable but is left alone: a symbolic link to one, or one
+    holding a file that no run writes."""
+    found, left_alone = [], []
     for summary in list_runs(root):
         why = _why_not(summary)
         if why is None:
             found.append(summary)
-        elif Path(summary["path"]).is_symlink() and summary["status"] in PRUNABLE_STATUSES:
-            links.append((summary["path"], why))
-    return found, links
+        elif summary["status"] in PRUNABLE_STATUSES and (
+            Path(summary["path"]).is_symlink() or "which no run writes" in why
+        ):
+            left_alone.append((summary["path"], why))
+    return found, left_alone
 
 
 def prune_run(root: str | Path, path: str | Path) -> None:

@@ -13,7 +13,8 @@ its footer alone is checked against what the run's config (run.json's) can make:
   the dictionary's indices alone.
 
 After decoding, the ``run_id`` column of the evaluations and bodies tables must be run.json's
-(`run_id_problem`): the tables' ids reach replays and recordings.
+(`run_id_problem`): the tables' ids reach replays and recordings; and every table's
+``generation`` column must be its file's (`generation_problem`): a row is found by its file.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ __all__ = [
     "ROW_BYTES",
     "ROW_MARGIN",
     "decoded_bytes",
+    "generation_problem",
     "row_limit",
     "rows_problem",
     "run_id_problem",
@@ -294,4 +296,20 @@ def run_id_problem(part: pa.Table, run_id: object) -> str | None:
     return (
         f"has run_id {short_ascii(others[0])} in its rows, run.json {short_ascii(run_id)}: "
         "changed by hand or crafted, not loaded"
+    )
+
+
+def generation_problem(part: pa.Table, path: Path) -> str | None:
+    """What is wrong with the ``generation`` column of a decoded table ``part`` read from the
+    file ``path`` (``TABLE/gen-NNNNNN.parquet``; another file: nothing): a row of another
+    generation would be shown as one of this file's, and looked for in vain in its own."""
+    found = _table_of(path)
+    if found is None or "generation" not in part.column_names:
+        return None
+    others = [g for g in pc.unique(part.column("generation")).to_pylist() if g != found[1]]
+    if not others:
+        return None
+    return (
+        f"has generation {short_ascii(others[0])} in its rows, its name {found[1]}: changed by "
+        "hand or crafted, not loaded"
     )

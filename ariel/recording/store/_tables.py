@@ -33,6 +33,7 @@ from ariel.recording.store._row_types import (
 )
 from ariel.recording.store._table_limits import (
     ROW_MARGIN,
+    generation_problem,
     row_limit,
     rows_problem,
     run_id_problem,
@@ -364,6 +365,7 @@ def read_file(
     except (pa.ArrowException, OSError, ValueError) as exc:
         raise _not_parquet(run_dir, path, exc) from None
     problem = run_id_problem(part, getattr(manifest, "run_id", None))
+    problem = problem or generation_problem(part, path)
     if problem is not None:
         raise _unreadable(run_dir, path, problem)
     for name, value in _ADDED_COLUMNS.get(table, {}).items():

@@ -38,7 +38,11 @@ from ariel.recording.store._run_folder import (
     damaged,
     finished_generations,
 )
-from ariel.recording.store._table_limits import rows_problem, size_problem
+from ariel.recording.store._table_limits import (
+    generation_problem,
+    rows_problem,
+    size_problem,
+)
 from ariel.recording.store._tables import TABLES, generation_file, table_generations
 
 __all__ = ["MAX_LISTED", "VerifyResult", "adopt_manifests", "verify_run"]
@@ -346,7 +350,7 @@ def _check_file(
     result.files += 1
     if entry is None:
         result.bytes += path.stat().st_size
-        return _check_rows(path, config) or _check_readable(path)
+        return _check_rows(path, config) or _check_readable(path) or _check_generations(path)
     try:
         size, digest = sha256_file(path)
     except OSError as exc:
@@ -356,7 +360,17 @@ def _check_file(
         return f"has {size} bytes, not {entry[0]}"
     if digest != entry[1]:
         return "has other bytes than when it was written (SHA-256)"
-    return _check_rows(path, config)
+    return _check_rows(path, config) or _check_generations(path)
+
+
+def _check_generations(path: Path) -> str | None:
+    """What is wrong with the ``generation`` column of the table file ``path`` (none where it
+    does not decode: `_check_readable` or the reader says so)."""
+    try:
+        part = pq.read_table(os.path.abspath(path), columns=["generation"])  # not "~" expanded
+    except Exception:
+        return None
+    return generation_problem(part, path)
 
 
 def adopt_manifests(folder: RunFolder, generations: int) -> None:
