@@ -99,6 +99,20 @@ def test_runs_lists_a_finished_run(finished_run, capsys: pytest.CaptureFixture[s
     assert main(["runs", str(out.parent / "nothing-here")]) == 2  # tests/test_first_hour.py
 
 
+def test_runs_names_a_renamed_run_folder_by_its_folder_too(
+    finished_run, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before, only the run id was listed: the name of a copied folder, the one a user types
+    next, was nowhere."""
+    import shutil
+
+    out, _ = finished_run
+    shutil.copytree(out, tmp_path / "my-copy", ignore=shutil.ignore_patterns("recordings"))
+    assert main(["runs", str(tmp_path)]) == 0
+    row = capsys.readouterr().out.splitlines()[1]
+    assert row.startswith(f"my-copy (run id {out.name})  finished")
+
+
 BAD_RUN_INPUT = {
     # unknown plugin names
     "body-encoder": (["--set", "body.encoder=nope"], "body.encoder: unknown body encoder"),

@@ -51,12 +51,13 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         return fail("--yes goes with --prune (it answers the question before deleting)")
     if args.prune:
         return prune_runs(folder, yes=args.yes)
-    runs = _campaign_runs(folder) if is_campaign(folder) else recording.list_runs(folder)
+    campaign = is_campaign(folder)
+    runs = _campaign_runs(folder) if campaign else recording.list_runs(folder)
     if not runs:
         print(f"no runs under {terminal_text(folder)}")
         return 0
     for r in runs:  # names from run.json files: no control sequence reaches the terminal
-        r["run_id"], r["status"] = terminal_text(r["run_id"]), terminal_text(r["status"] or "?")
+        r["run_id"], r["status"] = _shown_name(r, campaign), terminal_text(r["status"] or "?")
     width = max(len(r["run_id"]) for r in runs)
     status_width = max(11, *(len(r["status"]) for r in runs))
     print(
@@ -75,6 +76,16 @@ def _cmd_runs(args: argparse.Namespace) -> int:
             f"{evaluations:>11}  {shown}"
         )
     return 0
+
+
+def _shown_name(run: RunSummary, campaign: bool) -> str:
+    """The run's id, and its folder's name where that is another (a copied or renamed folder:
+    the name to type in the next command). A campaign's runs are named by their ids: their
+    folders are all ``seed=N``."""
+    name = Path(run["path"]).name
+    if campaign or name == run["run_id"]:
+        return terminal_text(run["run_id"])
+    return f"{terminal_text(name)} (run id {terminal_text(run['run_id'])})"
 
 
 def _campaign_runs(folder: Path) -> list[RunSummary]:
