@@ -66,6 +66,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.evaluation._task import (
         FAILED_STATUSES as FAILED_STATUSES,
+        fitness_options_error as fitness_options_error,
     )
     from ariel.evaluation._threads import (
         default_workers as default_workers,
@@ -116,6 +117,7 @@ _INTERNAL: dict[str, str] = {
     "call_text": "ariel.evaluation._checks",
     "check_rows": "ariel.evaluation._check_registered",
     "default_workers": "ariel.evaluation._threads",
+    "fitness_options_error": "ariel.evaluation._task",
     "frame_steps": "ariel.evaluation._engine",
     "make_plugin": "ariel.evaluation._engine",
     "robot_module": "ariel.evaluation._engine",

@@ -7,7 +7,6 @@ function's score (`TrajectoryRecord` is what it sees) and the result's status (`
 
 from __future__ import annotations
 
-import inspect
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -16,7 +15,7 @@ import mujoco
 import numpy as np
 
 from ariel.evaluation._build import BuiltBody, _one_line
-from ariel.evaluation._task import EvaluationResult, EvaluationTask
+from ariel.evaluation._task import EvaluationResult, EvaluationTask, fitness_options_error
 
 if TYPE_CHECKING:
     from ariel.plugins import FitnessFunction
@@ -89,14 +88,9 @@ def worst_fitness(maximise: bool) -> float:
 
 def _check_fitness_options(name: str, fitness_fn: FitnessFunction, options: dict[str, Any]) -> None:
     """Unknown fitness options raise before any physics runs, not after the rollout."""
-    try:
-        signature = inspect.signature(fitness_fn)
-    except (TypeError, ValueError):  # no signature to read (e.g. a C function): checked later
-        return
-    try:
-        signature.bind(None, **options)
-    except TypeError as exc:
-        raise TypeError(f"fitness function {name!r} rejected options {options}: {exc}") from None
+    exc = fitness_options_error(fitness_fn, options)
+    if exc is not None:
+        raise TypeError(f"fitness function {name!r} rejected options {options}: {exc}")
 
 
 def _score(

@@ -8,15 +8,24 @@ pure function of the task.
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import math
 import numbers
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 
-__all__ = ["FAILED_STATUSES", "BodySpec", "EvaluationResult", "EvaluationTask", "Status"]
+__all__ = [
+    "FAILED_STATUSES",
+    "BodySpec",
+    "EvaluationResult",
+    "EvaluationTask",
+    "Status",
+    "fitness_options_error",
+]
 
 #: ``invalid``: the fitness function returned NaN or an infinity (the value is in ``error``).
 Status = Literal["ok", "unstable", "error", "invalid"]
@@ -242,3 +251,21 @@ class EvaluationResult:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+
+def fitness_options_error(
+    fitness_fn: Callable[..., object], options: Mapping[str, Any]
+) -> TypeError | None:
+    """The `TypeError` that calling ``fitness_fn(record, **options)`` would raise for its
+    keywords (an unknown option, a missing one), or None: where a run's fitness options are
+    checked (the engine, a run's preparation, a replay), before any physics runs. None too for
+    a function without a signature to read (a C function): the call itself then says."""
+    try:
+        signature = inspect.signature(fitness_fn)
+    except (TypeError, ValueError):
+        return None
+    try:
+        signature.bind(None, **options)
+    except TypeError as exc:
+        return exc
+    return None

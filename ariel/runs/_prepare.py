@@ -7,7 +7,6 @@ written.
 
 from __future__ import annotations
 
-import inspect
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -16,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ariel import evolution
-from ariel.evaluation import default_workers
+from ariel.evaluation import default_workers, fitness_options_error
 from ariel.evaluation.executors import (
     ExecutorSettingsError,
     check_settings,
@@ -80,16 +79,9 @@ def _make(key: str, registry: Registry[Any], name: str, options: dict[str, Any])
 
 
 def _check_fitness_options(config: ExperimentConfig, fitness: FitnessFunction) -> None:
-    try:
-        signature = inspect.signature(fitness)
-    except (TypeError, ValueError):  # a callable without a readable signature: not checked
-        return
-    try:
-        signature.bind(None, **config.task.options)
-    except TypeError as exc:
-        raise ConfigError(
-            f"task.options: fitness function '{config.task.fitness}': {exc}"
-        ) from None
+    exc = fitness_options_error(fitness, config.task.options)
+    if exc is not None:
+        raise ConfigError(f"task.options: fitness function '{config.task.fitness}': {exc}")
 
 
 def _optimizer_factory(

@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import inspect
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -141,8 +140,8 @@ def check_options(
         try:
             if kind != "fitness":
                 registry.make(name, **options)
-            elif (signature := _signature(registry.get(name))) is not None:
-                signature.bind(None, **options)  # a fitness function takes them per call
+            elif error := evaluation.fitness_options_error(registry.get(name), options):
+                raise error  # a fitness function takes them per call
         except (UnknownPluginError, DuplicatePluginError):
             raise
         except (TypeError, ValueError) as exc:
@@ -152,14 +151,6 @@ def check_options(
                 f"{one_line(exc)}; run.json was changed, or this {registry.label} is not the "
                 "one that made the run"
             ) from None
-
-
-def _signature(function: Callable[..., object]) -> inspect.Signature | None:
-    """``function``'s signature; None for one without a signature to read (a C function)."""
-    try:
-        return inspect.signature(function)
-    except (TypeError, ValueError):
-        return None
 
 
 def _require_plugins(run: Run) -> None:
