@@ -306,7 +306,7 @@ def generation_problem(part: pa.Table, path: Path) -> str | None:
     found = _table_of(path)
     if found is None or "generation" not in part.column_names:
         return None
-    others = [g for g in pc.unique(part.column("generation")).to_pylist() if g != found[1]]
+    others = [g for g in part.column("generation").unique().to_pylist() if g != found[1]]
     if not others:
         return None
     return (
