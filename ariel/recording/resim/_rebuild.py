@@ -13,7 +13,6 @@ rebuild anything, report and gallery before they draw a body.
 from __future__ import annotations
 
 import contextlib
-import functools
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -37,11 +36,13 @@ from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record
 from ariel.plugins import REGISTRIES, body_encoders, controllers
 from ariel.recording.store import (
     Run,
+    config_sections,
     damaged,
     git_commit,
     json_data,
     load_run,
     one_line,
+    section_problem,
     short_ascii,
     software_versions,
 )
@@ -82,24 +83,17 @@ _PLUGIN_KEYS = {
 BODY_PLUGINS = ("body_encoder", "world")
 
 
-@functools.cache
-def _sections() -> tuple[str, ...]:
-    """The config's sections (tables): body, brain, world, task, record, executor."""
-    return tuple(k for k, v in ExperimentConfig().to_plain().items() if isinstance(v, dict))
-
-
 def check_config(run: Run) -> None:
     """`DamagedRunError`, one line naming the run folder, where run.json's config is no table
-    or one of its sections (`_sections`) is there but no table (``task = null``): what
+    or one of its sections (`config_sections`) is there but no table (``task = null``): what
     ``ariel verify`` finds too. Every reader of the config (replay, export, report, gallery)
     calls it before it reads a section."""
     config = run.info.get("config")
     if not isinstance(config, dict):
         raise damaged(run.path, "run.json", f"has config {short_ascii(config, 40)}, not a table")
-    for section in _sections():
-        if section in config and not isinstance(config[section], dict):
-            value = short_ascii(config[section], 40)
-            problem = f"has {section} {value} in its config, not a section (a table)"
+    for section in config_sections():
+        problem = section_problem(config, section)
+        if problem is not None:
             raise damaged(run.path, "run.json", problem)
 
 

@@ -125,6 +125,10 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         software_versions as software_versions,
         storage_errors as storage_errors,
     )
+    from ariel.recording.store._table_limits import (
+        config_sections as config_sections,
+        section_problem as section_problem,
+    )
     from ariel.recording.store._tables import (
         GENERATION_BLUEPRINT as GENERATION_BLUEPRINT,
         evaluation_trajectory as evaluation_trajectory,
@@ -178,6 +182,8 @@ _INTERNAL: dict[str, str] = {
     "check_name_lengths": "ariel.recording.store._files",
     "damaged": "ariel.recording.store._files",
     "check_eval_id": "ariel.recording.store._ids",
+    "config_sections": "ariel.recording.store._table_limits",
+    "section_problem": "ariel.recording.store._table_limits",
     "check_new_id": "ariel.recording.store._ids",
     "check_run_id": "ariel.recording.store._ids",
     "csv_safe": "ariel.recording.store._escape",

@@ -36,11 +36,13 @@ __all__ = [
     "MEMORY_SHARE",
     "ROW_BYTES",
     "ROW_MARGIN",
+    "config_sections",
     "decoded_bytes",
     "generation_problem",
     "row_limit",
     "rows_problem",
     "run_id_problem",
+    "section_problem",
     "size_problem",
 ]
 
@@ -74,8 +76,22 @@ _OFFSET = 4
 
 @cache
 def _config_defaults() -> dict[str, dict[str, object]]:
-
+    """Every config section's keys and default values (plain data)."""
     return ExperimentConfig().to_plain()
+
+
+def config_sections() -> tuple[str, ...]:
+    """The config's sections (tables): body, brain, world, task, record, executor."""
+    return tuple(k for k, v in _config_defaults().items() if isinstance(v, dict))
+
+
+def section_problem(config: Mapping[str, object], section: str) -> str | None:
+    """What is wrong with ``section`` of a run's config (run.json's, plain data): there, but no
+    table (``task = null``, crafted or edited); None when fine or missing (its defaults)."""
+    part = config.get(section, {})
+    if isinstance(part, Mapping):
+        return None
+    return f"has {section} {short_ascii(part, 40)} in its config, not a section (a table)"
 
 
 def _config_number(config: Mapping[str, object], key: str, *, whole: bool) -> int | float:
@@ -84,21 +100,18 @@ def _config_number(config: Mapping[str, object], key: str, *, whole: bool) -> in
     positive finite number)."""
 
     section, name = key.split(".")
+    problem = section_problem(config, section)
+    if problem is not None:
+        raise ValueError(problem)
     part = config.get(section, {})
-    if not isinstance(part, Mapping):
-        raise ValueError(f"has {section} {_shown(part)} in its config, not a section (a table)")
+    assert isinstance(part, Mapping)  # `section_problem`
     value = part.get(name, _config_defaults()[section][name])
     kinds = (int,) if whole else (int, float)
     good = isinstance(value, kinds) and not isinstance(value, bool)
     if not good or not (value >= 1 if whole else math.isfinite(value) and value > 0):
         what = "a whole number >= 1" if whole else "a positive finite number"
-        raise ValueError(f"has {key} {_shown(value)} in its config, not {what}")
+        raise ValueError(f"has {key} {short_ascii(value, 40)} in its config, not {what}")
     return value
-
-
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else f"{text[:37]}..."
 
 
 def row_limit(config: Mapping[str, object] | None, table: str, generation: int) -> int:
