@@ -478,7 +478,8 @@ def test_a_finished_run_s_later_generations_and_unlisted_tables_are_damage(
     # An unfinished run: generation 2 was being written when it stopped (resume discards it).
     (run / "archive" / "gen-000001.parquet").unlink()
     edit_json(run / "run.json", lambda info: info.update(status="interrupted"))
-    shutil.copy(run / "evaluations/gen-000001.parquet", run / "evaluations/gen-000002.parquet")
+    rows = pa.table({"run_id": ["hostile-s3"], "generation": [2]})
+    pq.write_table(rows, run / "evaluations" / "gen-000002.parquet")
     write_manifest(run, 2)
     assert verify_run(run).ok
 
