@@ -467,7 +467,8 @@ def test_a_finished_run_s_later_generations_and_unlisted_tables_are_damage(
         "(run.json's generations_done; the run is finished); 1 more such file(s)"
     ]
     edit_json(run / "run.json", lambda info: info.update(generations_done=2))
-    shutil.copy(run / "bodies" / "gen-000001.parquet", run / "bodies" / "gen-000002.parquet")
+    generation_2 = pa.table({"run_id": ["hostile-s3"], "generation": [2]})
+    pq.write_table(generation_2, run / "bodies" / "gen-000002.parquet")
     (run / "archive").mkdir()
     shutil.copy(run / "bodies" / "gen-000001.parquet", run / "archive" / "gen-000001.parquet")
     assert verify_run(run).problems == [
@@ -478,8 +479,7 @@ def test_a_finished_run_s_later_generations_and_unlisted_tables_are_damage(
     # An unfinished run: generation 2 was being written when it stopped (resume discards it).
     (run / "archive" / "gen-000001.parquet").unlink()
     edit_json(run / "run.json", lambda info: info.update(status="interrupted"))
-    rows = pa.table({"run_id": ["hostile-s3"], "generation": [2]})
-    pq.write_table(rows, run / "evaluations" / "gen-000002.parquet")
+    pq.write_table(generation_2, run / "evaluations" / "gen-000002.parquet")
     write_manifest(run, 2)
     assert verify_run(run).ok
 
