@@ -51,6 +51,7 @@ def runs(tmp_path: Path) -> dict[str, Path]:
     (made["tables"] / "evaluations").mkdir()
     (made["tables"] / "evaluations" / "gen-000000.parquet").write_bytes(b"")
     (made["noted"] / "notes.txt").write_text("why this run failed")
+    (made["failed"] / "error.log").write_text("Traceback ...")  # a plugin failed: ours
     made["link"] = root / "link"
     made["link"].symlink_to(made["target"], target_is_directory=True)
     # inside a prunable folder: links out of the runs folder, which must survive

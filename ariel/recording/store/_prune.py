@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ariel.errors import ArielError
+from ariel.evolution import ERROR_LOG
 from ariel.recording.store._files import written_path
 from ariel.recording.store._load import STOPPED, RunSummary, list_runs
 from ariel.recording.store._lock import LOCK_NAME, RunLock
@@ -34,7 +35,7 @@ __all__ = ["PruneError", "prunable_runs", "prune_run"]
 #: folder holding anything else is the user's too (tests/test_first_hour_small.py keeps this
 #: in step with a real run's folder).
 RUN_FOLDER_NAMES = frozenset(
-    {"run.json", LOCK_NAME, "checkpoints", MANIFEST_DIR, *TABLES}
+    {"run.json", LOCK_NAME, "checkpoints", MANIFEST_DIR, ERROR_LOG, *TABLES}
     | {"recordings", "run.rrd", "blueprint.rbl", "generation.rbl", "report", "gallery"}
 )
 #: `list_runs` statuses of a run that no process runs and that did not finish.
