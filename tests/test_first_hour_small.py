@@ -1,5 +1,6 @@
 """Small things a new user meets in the first hour: ``ariel runs --prune`` removes the runs that
-failed or were interrupted before a generation finished, and nothing else."""
+failed or were interrupted before a generation finished, and nothing else; a campaign file, an
+experiment file and a campaign folder handed to the other kind's command say which to use."""
 
 from __future__ import annotations
 
@@ -165,3 +166,30 @@ def test_what_a_run_writes_at_the_top_of_its_folder_is_known_to_prune(tmp_path: 
     names = {path.name for path in (tmp_path / "run").iterdir()}
     assert {"run.json", "recordings", "run.rrd", "blueprint.rbl", "report"} <= names
     assert names <= RUN_FOLDER_NAMES
+
+
+def test_a_campaign_file_an_experiment_file_and_a_campaign_folder_name_their_command(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: "unknown key 'base'", "base: Field required" and "not an ariel run folder (no
+    run.json)", none saying what the file or folder is."""
+    from _helpers import REPO
+
+    campaign = REPO / "experiments" / "campaigns" / "inheritance.toml"
+    experiment = REPO / "experiments" / "coevolve_flat.toml"
+    assert exit_code(["run", str(campaign)]) == 2
+    line = one_error_line(capsys)
+    assert "is a campaign file (it has base, condition, seeds), not an experiment" in line
+    assert line.endswith(f"ariel campaign run {campaign} (from Python: run_campaign)")
+    assert exit_code(["campaign", "run", str(experiment), "--dry-run"]) == 2
+    line = one_error_line(capsys)
+    assert "is an experiment file (it has generations, seed, body," in line
+    assert f"ariel run {experiment}, or name it as a campaign file's base" in line
+    folder = tmp_path / "campaign"
+    folder.mkdir()
+    (folder / "campaign.json").write_text("{}")
+    assert exit_code(["report", str(folder)]) == 2
+    line = one_error_line(capsys)
+    assert "is not an ariel run folder (a campaign folder: its runs are under runs/" in line
+    assert f"ariel campaign status {folder} lists them" in line
+    assert list(tmp_path.iterdir()) == [folder]  # nothing written

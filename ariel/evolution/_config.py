@@ -32,6 +32,7 @@ from ariel.errors import ConfigError
 from ariel.evaluation.executors import executor_kinds, known_kinds
 from ariel.evolution._genotype import is_genotype_file
 from ariel.evolution._toml import read_toml_file
+from ariel.utils import ariel_line
 
 __all__ = [
     "BodyConfig",
@@ -510,8 +511,25 @@ def load_config(
             return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
         if not path.is_file():  # never opened: reading a FIFO would wait forever
             raise ConfigError(f"config file {str(path)!r} {_not_a_file(path)}")
-        data = _genotype_file_beside(read_toml_file(path), path)
+        data = read_toml_file(path)
+        _refuse_campaign_file(data, path)
+        data = _genotype_file_beside(data, path)
     return _validate(apply_overrides(data, overrides))
+
+
+#: Top-level keys of a campaign file (`ariel.runs`) that no experiment has.
+_CAMPAIGN_KEYS = ("base", "condition", "grid", "seeds")
+
+
+def _refuse_campaign_file(data: Mapping[str, object], path: Path) -> None:
+    """`ConfigError` saying which command takes ``path`` when it is a campaign file (an easy
+    mix-up: both are TOML files under experiments/), rather than "unknown key 'base'"."""
+    found = [key for key in _CAMPAIGN_KEYS if key in data]
+    if "base" in data or len(found) >= 2:
+        raise ConfigError(
+            f"{str(path)!r} is a campaign file (it has {', '.join(found)}), not an experiment: "
+            f"run it with {ariel_line('campaign', 'run', path)} (from Python: run_campaign)"
+        )
 
 
 def _not_a_file(path: Path) -> str:

@@ -64,6 +64,7 @@ from ariel.evolution import (
     read_toml_file,
     set_value,
 )
+from ariel.utils import ariel_line
 
 __all__ = [
     "MAX_CAMPAIGN_NAME",
@@ -353,4 +354,21 @@ def load_campaign_file(
     if not path.is_file():
         raise ConfigError(f"campaign file {str(path)!r} not found")
     data = read_toml_file(path)
+    _refuse_experiment_file(data, path)
     return campaign_spec(data, beside=path.parent, overrides=overrides, max_runs=max_runs)
+
+
+#: Top-level keys of an experiment file that no campaign file has (it puts them in ``set``).
+_EXPERIMENT_KEYS = ("generations", "seed", "body", "brain", "world", "task", "record", "executor")
+
+
+def _refuse_experiment_file(data: Mapping[str, object], path: Path) -> None:
+    """`ConfigError` saying which command takes ``path`` when it is an experiment file (an
+    easy mix-up: both are TOML files under experiments/), rather than "base: Field required"."""
+    found = [key for key in _EXPERIMENT_KEYS if key in data]
+    if "base" not in data and found:
+        raise ConfigError(
+            f"{str(path)!r} is an experiment file (it has {', '.join(found)}), not a campaign: "
+            f"run it with {ariel_line('run', path)}, or name it as a campaign file's base "
+            "(docs/campaigns.md)"
+        )

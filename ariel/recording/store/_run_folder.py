@@ -36,7 +36,7 @@ from ariel.recording.store._files import (
     written_path,
 )
 from ariel.recording.store._ids import check_run_id
-from ariel.recording.store._lock import LOCK_NAME, in_use_error, lock_holder
+from ariel.recording.store._lock import CAMPAIGN_JSON, LOCK_NAME, in_use_error, lock_holder
 from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
 from ariel.utils import ariel_line, nests_deeper_than
 
@@ -350,6 +350,12 @@ class RunFolder:
             why = "no run.json" if self.path.is_dir() else "no such folder"
             if self.path.exists() and not self.path.is_dir():
                 why = "a file, not a folder"
+            elif (self.path / CAMPAIGN_JSON).is_file():  # the campaign's, not one of its runs
+                why = (
+                    "a campaign folder: its runs are under runs/condition=*/seed=*; "
+                    f"{ariel_line('campaign', 'status', self.path)} lists them, "
+                    f"{ariel_line('compare', self.path)} compares them"
+                )
             raise NotARunError(f"{str(self.path)!r} is not an ariel run folder ({why})") from None
         except (OSError, ValueError) as exc:
             raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
