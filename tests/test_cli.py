@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
@@ -558,3 +559,26 @@ def test_a_folder_named_like_an_option_is_pasteable_in_the_hints() -> None:
     assert "report ./-y " in _how_to_look(Path("-y"))
     assert ariel_line("resume", Path("--help")).endswith("resume ./--help")
     assert ariel_line("view", Path("r"), "--best", 5).endswith("view r --best 5")
+
+
+def test_a_reader_that_goes_away_ends_the_command_quietly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``ariel plugins | head -1``: a BrokenPipeError traceback before; now exit code 141 (as
+    SIGPIPE would end it) and nothing on stderr."""
+
+    class GoneReader(io.StringIO):
+        def __init__(self, fd: int) -> None:
+            super().__init__()
+            self.fd = fd
+
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def fileno(self) -> int:
+            return self.fd  # what the rest of the output is sent to /dev/null through
+
+    with open(tmp_path / "stdout", "w") as file:
+        monkeypatch.setattr("sys.stdout", GoneReader(file.fileno()))
+        assert main(["plugins"]) == 141
+    assert capsys.readouterr().err == ""

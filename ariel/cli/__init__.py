@@ -16,6 +16,10 @@ raises on purpose is an `ariel.errors.ArielError`, caught here as one class.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
+import signal
+import sys
 from collections.abc import Sequence
 
 from ariel import __version__
@@ -88,6 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         return int(args.func(args))
+    except BrokenPipeError:  # `ariel runs | head -3`: the reader has what it wanted
+        return _reader_gone()
     except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line
         return fail_with(exc)
     except OSError as exc:  # a path no file system takes: a name over 255 bytes, a link loop
@@ -100,3 +106,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if error is None:
             raise
         return fail_with(error)
+
+
+def _reader_gone() -> int:
+    """Stop quietly, as a command killed by SIGPIPE does (exit code 141): the rest of the
+    output goes nowhere, including what Python would flush at exit (which would say
+    "Exception ignored ... BrokenPipeError")."""
+    with contextlib.suppress(OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    return 128 + signal.SIGPIPE
