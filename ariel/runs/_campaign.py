@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ariel.errors import DamagedRunError
+from ariel.errors import ArielError, DamagedRunError
 from ariel.evaluation.executors import planned_workers
 from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows_progress
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
@@ -129,9 +129,23 @@ def _check_new_folder(path: Path) -> None:
         raise FileExistsError(f"output {str(path)!r} is a file; choose another --out")
     if path.exists() and any(path.iterdir()):
         raise FileExistsError(
-            f"campaign folder {str(path)!r} already exists; choose another --out, or continue "
-            f"it with: {ariel_line('campaign', 'resume', path)}"
+            f"campaign folder {str(path)!r} already exists; choose another --out, or "
+            f"{_existing_campaign_hint(path)}"
         )
+
+
+def _existing_campaign_hint(path: Path) -> str:
+    """What else to do with the folder ``path`` that is there: compare a finished campaign's
+    runs (there is nothing to resume), continue any other campaign, empty another folder."""
+    if not (path / CAMPAIGN_JSON).is_file():
+        return "empty it (it is not a campaign folder: there is nothing to continue)"
+    try:
+        finished = all(row["status"] == "finished" for row in load_campaign(path).status())
+    except (ArielError, OSError, ValueError):  # damaged: `campaign resume` says how
+        finished = False
+    if finished:
+        return f"compare its runs (it is finished): {ariel_line('compare', path)}"
+    return f"continue it with: {ariel_line('campaign', 'resume', path)}"
 
 
 @accept_aliases(scheduler="address")

@@ -23,6 +23,7 @@ from ariel.cli import main
 from ariel.evolution._progress import Progress
 from ariel.recording import load_campaign, load_run
 from ariel.runs import resume_campaign, run_campaign
+from ariel.utils import ariel_line
 
 TINY = REPO / "tests" / "data" / "campaign_tiny.toml"
 RUNS = [("fresh", 1), ("fresh", 2), ("inherit", 1), ("inherit", 2)]
@@ -141,6 +142,12 @@ def test_status_prints_a_table_of_condition_seed_status_generations_best(
     out = capsys.readouterr().out
     best = load_run(campaign / "runs/condition=inherit/seed=2").info["best_fitness"]
     assert f"{best:.6g}" in out and out.count("finished") == 4 and "2/2" in out
+    # Run again into it: a finished campaign has nothing to resume; the hint says compare.
+    assert exit_code(["campaign", "run", str(TINY), "--out", str(campaign)]) == 2
+    assert one_error_line(capsys).endswith(
+        f"already exists; choose another --out, or compare its runs (it is finished): "
+        f"{ariel_line('compare', campaign)}"
+    )
 
 
 def test_campaign_rrd_holds_every_run_s_best_so_far_and_view_opens_it(campaign: Path) -> None:

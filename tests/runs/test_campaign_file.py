@@ -132,7 +132,10 @@ def test_an_existing_campaign_folder_is_refused_and_left_as_it_was(
     out.mkdir()
     (out / "notes.txt").write_text("mine")
     assert exit_code(["campaign", "run", str(file), "--out", str(out)]) == 2
-    assert "already exists" in one_error_line(capsys)
+    assert one_error_line(capsys).endswith(
+        "already exists; choose another --out, or empty it (it is not a campaign folder: there "
+        "is nothing to continue)"
+    )
     assert [p.name for p in out.iterdir()] == ["notes.txt"]
     assert exit_code(["campaign", "status", str(tmp_path)]) == 2
     assert "not an ariel campaign folder" in one_error_line(capsys)
