@@ -107,9 +107,21 @@ FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 
 
 def _cell(value: object) -> object:
-    if isinstance(value, str) and value.startswith(FORMULA_STARTS):
+    if isinstance(value, str) and value.startswith(FORMULA_STARTS) and not _plain(value):
         return "'" + value
     return value
+
+
+def _plain(text: str) -> bool:
+    """Whether ``text`` is a sign alone (a table's "no value": ``-``) or a number written as
+    text (``-0.5``): what no spreadsheet evaluates, kept as it is for pandas readers."""
+    if text in ("-", "+"):
+        return True
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return text == text.strip()  # " -1" and "-1\n" are not what float() makes them
 
 
 def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:

@@ -66,3 +66,24 @@ def test_two_writers_of_one_file_do_not_share_a_temporary(tmp_path: Path) -> Non
     atomic_write(target, first)
     assert target.read_bytes() == b"first"  # the last rename wins, and nothing failed
     assert [p.name for p in tmp_path.iterdir()] == ["fitness.png"]
+
+
+def test_csv_cells_a_spreadsheet_would_evaluate_are_quoted_and_no_others() -> None:
+    """Before, a table's "-" (no better condition in compare's stats.csv) read back in pandas
+    as "'-"; a formula must still never reach a spreadsheet."""
+    import pandas as pd
+
+    from ariel.recording.store._escape import csv_safe
+
+    cells = ["-", "+", "-0.5", "-1e5", "=1+1", "-2+3+cmd|' /C calc'!A0", "@SUM(A1)", "\t-1", " -1"]
+    assert csv_safe(pd.DataFrame({"cell": cells}))["cell"].tolist() == [
+        "-",
+        "+",
+        "-0.5",
+        "-1e5",
+        "'=1+1",
+        "'-2+3+cmd|' /C calc'!A0",
+        "'@SUM(A1)",
+        "'\t-1",
+        " -1",
+    ]
