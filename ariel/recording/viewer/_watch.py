@@ -41,7 +41,7 @@ from ariel.recording.viewer._web import (
     _wait_until_serving,
     web_url,
 )
-from ariel.utils import has_display, in_notebook_kernel
+from ariel.utils import ariel_line, has_display, in_notebook_kernel
 
 if TYPE_CHECKING:
     from rerun.blueprint import Blueprint
@@ -293,7 +293,8 @@ def _check(source: Source, viewer: str, save: str | os.PathLike[str] | None, pol
     if viewer == "native" and not has_display():
         raise ViewError(
             "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); "
-            "serve it to a browser instead (--web)"
+            f"serve it to a browser instead: {ariel_line('watch', source.path, '--web')} "
+            '(from Python: viewer="web")'
         )
     if save is not None:
         out, folder = Path(save).resolve(), Path(source.path).resolve()

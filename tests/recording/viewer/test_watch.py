@@ -30,6 +30,7 @@ from ariel.recording.rerun._recorder import archive_grid
 from ariel.recording.rerun._rerun import RUN_SERIES
 from ariel.recording.store._manifest import manifest_file
 from ariel.recording.viewer._view import best_evaluations, recording_path
+from ariel.utils import ariel_line
 from tests._helpers import ServedWebViewer
 
 # Like TINY in tests/analysis/test_notebooks.py: 3 + 3 bodies, a generation in well under 1 s.
@@ -340,3 +341,15 @@ def test_the_notebook_viewer_follows_in_the_background(live: dict, tmp_path: Pat
     generations, best = _series(_chunks(saved), "/fitness/best")
     assert generations == list(range(len(load_run(live["run"]).generations)))
     assert len(best) == len(generations)
+
+
+def test_without_a_display_the_hint_is_the_web_command_to_paste(
+    live: dict, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before, it said "(--web)" where `ariel view` gives the whole command line."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["watch", str(live["run"])]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"serve it to a browser instead: {ariel_line('watch', live['run'], '--web')} " in err
