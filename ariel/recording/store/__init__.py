@@ -98,6 +98,11 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         manifest_file as manifest_file,
         manifests_expected as manifests_expected,
     )
+    from ariel.recording.store._provenance import (
+        git_commit as git_commit,
+        now as now,
+        software_versions as software_versions,
+    )
     from ariel.recording.store._prune import (
         PruneError as PruneError,
         prunable_runs as prunable_runs,
@@ -118,11 +123,8 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         RunFolder as RunFolder,
         RunStorageError as RunStorageError,
         finished_generations as finished_generations,
-        git_commit as git_commit,
         json_data as json_data,
         json_file as json_file,
-        now as now,
-        software_versions as software_versions,
         storage_errors as storage_errors,
     )
     from ariel.recording.store._table_limits import (
@@ -198,7 +200,7 @@ _INTERNAL: dict[str, str] = {
     "fitted": "ariel.recording.store._axes",
     "generation_file": "ariel.recording.store._tables",
     "generation_recording_path": "ariel.recording.store._tables",
-    "git_commit": "ariel.recording.store._run_folder",
+    "git_commit": "ariel.recording.store._provenance",
     "holder_gone": "ariel.recording.store._lock",
     "html_text": "ariel.recording.store._escape",
     "integer_ticks": "ariel.recording.store._axes",
@@ -218,7 +220,7 @@ _INTERNAL: dict[str, str] = {
     "markdown_cell": "ariel.recording.store._escape",
     "markdown_code": "ariel.recording.store._escape",
     "markdown_text": "ariel.recording.store._escape",
-    "now": "ariel.recording.store._run_folder",
+    "now": "ariel.recording.store._provenance",
     "on_grid": "ariel.recording.store._curves",
     "parse_ancestor_list": "ariel.recording.store._lineage",
     "one_line": "ariel.recording.store._escape",
@@ -234,7 +236,7 @@ _INTERNAL: dict[str, str] = {
     "require_free_space": "ariel.recording.store._files",
     "run_path": "ariel.recording.store._campaign",
     "short_ascii": "ariel.recording.store._escape",
-    "software_versions": "ariel.recording.store._run_folder",
+    "software_versions": "ariel.recording.store._provenance",
     "storage_errors": "ariel.recording.store._run_folder",
     "terminal_text": "ariel.recording.store._escape",
     "to_pandas": "ariel.recording.store._tables",

@@ -10,15 +10,11 @@ code from it); it is replaced atomically after every generation's tables.
 from __future__ import annotations
 
 import contextlib
-import datetime as _dt
 import errno
-import importlib.metadata
 import json
 import os
-import platform
 import re
 import shutil
-import subprocess
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any, TypeAlias
@@ -37,6 +33,7 @@ from ariel.recording.store._files import (
 )
 from ariel.recording.store._ids import check_run_id
 from ariel.recording.store._lock import CAMPAIGN_JSON, LOCK_NAME, in_use_error, lock_holder
+from ariel.recording.store._provenance import software_segment
 from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
 from ariel.utils import ariel_line, nests_deeper_than
 
@@ -54,14 +51,11 @@ __all__ = [
     "finished_generations",
     "json_data",
     "json_file",
-    "now",
-    "software_versions",
     "storage_errors",
 ]
 
 RUN_FORMAT = 1
 CHECKPOINT_FORMAT = 2  # 1: a pickle (no longer loaded)
-_VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
 #: How deep the JSON of a folder's file may nest (run.json, a manifest, the checkpoint,
 #: campaign.json): what ariel writes nests a few levels; no reader then recurses out of stack.
 MAX_JSON_DEPTH = 100
@@ -195,57 +189,6 @@ def storage_errors(run_dir: str | Path) -> Iterator[None]:
         if message is None:
             raise
         raise RunStorageError(message) from exc
-
-
-def now() -> str:
-    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
-
-
-def software_versions() -> dict[str, str | None]:
-    """Installed versions of what decides results (read from metadata; nothing imported)."""
-    versions: dict[str, str | None] = {"python": platform.python_version()}
-    for name in _VERSIONED:
-        try:
-            versions[name] = importlib.metadata.version(name)
-        except importlib.metadata.PackageNotFoundError:
-            versions[name] = None
-    return versions
-
-
-def software_segment(kind: str, *, generation: object = 0) -> dict[str, object]:
-    """One entry of run.json's ``segments``: who ran the run from ``generation`` on."""
-    return {
-        "kind": kind,
-        "from_generation": generation,
-        "started": now(),
-        "versions": software_versions(),
-        "git_commit": git_commit(),
-    }
-
-
-def git_commit() -> str | None:
-    """The commit of the ariel source checkout, when running from one (else None)."""
-    source = Path(__file__).resolve().parents[3]  # ariel/recording/store/ -> the checkout
-    if not (source / ".git").exists():
-        return None
-    try:
-        out = subprocess.run(
-            ["git", "-C", str(source), "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=5,
-            check=True,
-        )
-        dirty = subprocess.run(
-            ["git", "-C", str(source), "status", "--porcelain", "--untracked-files=no"],
-            capture_output=True,
-            text=True,
-            timeout=5,
-            check=True,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return out.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
 
 
 def _instead(path: Path) -> str:

@@ -286,7 +286,7 @@ def test_one_bad_run_json_shows_as_unreadable(
 
 
 def test_a_resume_records_the_software_that_ran_it(finished: Path, tmp_path: Path) -> None:
-    from ariel.recording.store._run_folder import software_versions
+    from ariel.recording.store._provenance import software_versions
 
     copy = _copy(finished, tmp_path, status="interrupted")
     info = json.loads((copy / "run.json").read_text())

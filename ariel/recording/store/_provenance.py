@@ -1,0 +1,66 @@
+"""What software made (and resumed) a run, for run.json: the installed versions of what
+decides results (`software_versions`), the git commit of the ariel checkout (`git_commit`), and
+the ``segments`` entry of each process that ran it (`software_segment`)."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import importlib.metadata
+import platform
+import subprocess
+from pathlib import Path
+
+__all__ = ["git_commit", "now", "software_segment", "software_versions"]
+
+_VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
+
+
+def now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+
+
+def software_versions() -> dict[str, str | None]:
+    """Installed versions of what decides results (read from metadata; nothing imported)."""
+    versions: dict[str, str | None] = {"python": platform.python_version()}
+    for name in _VERSIONED:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            versions[name] = None
+    return versions
+
+
+def software_segment(kind: str, *, generation: object = 0) -> dict[str, object]:
+    """One entry of run.json's ``segments``: who ran the run from ``generation`` on."""
+    return {
+        "kind": kind,
+        "from_generation": generation,
+        "started": now(),
+        "versions": software_versions(),
+        "git_commit": git_commit(),
+    }
+
+
+def git_commit() -> str | None:
+    """The commit of the ariel source checkout, when running from one (else None)."""
+    source = Path(__file__).resolve().parents[3]  # ariel/recording/store/ -> the checkout
+    if not (source / ".git").exists():
+        return None
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(source), "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
+        )
+        dirty = subprocess.run(
+            ["git", "-C", str(source), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
