@@ -150,8 +150,9 @@ def plan_text(plan: CampaignPlan) -> list[str]:
     seconds = plan.estimate_seconds
     if seconds is not None:
         lines.append(
-            f"estimate: about {_duration(seconds)} (from the physics of random bodies timed here; "
-            "the loop and records add to it, evolved bodies may be slower or faster)"
+            f"estimate: about {_duration(seconds)} with the cores to itself (from the physics of "
+            "random bodies timed here; other work on the machine, the loop and records add to "
+            "it, evolved bodies may be slower or faster)"
         )
     return lines
 
