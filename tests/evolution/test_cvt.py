@@ -146,7 +146,7 @@ def test_the_report_view_and_run_rrd_draw_a_cvt(cvt_run: Path) -> None:
     assert cvt_run / "report" / "archive.png" in report.written
     axes = report.figures["archive.png"].axes[0]
     assert axes.get_title().startswith("CVT archive after generation 1")
-    assert axes.get_ylabel().startswith("num_limbs") and axes.get_xlabel().startswith("joints")
+    assert axes.get_xlabel().startswith("num_limbs") and axes.get_ylabel().startswith("joints")
     run = load_run(cvt_run)
     cells, names = _archive_beside(run)
     assert isinstance(cells, CvtCells) and names == ["num_limbs (0 to 4)", "joints_ratio (0 to 1)"]

@@ -159,9 +159,9 @@ def test_the_report_draws_the_archive_and_run_rrd_plays_it(tmp_path: Path) -> No
     report = make_report(out, render=False)
     assert out / "report" / "archive.png" in report.written
     heatmap = report.figures["archive.png"].axes[0]  # measures with their units, counts whole
-    assert heatmap.get_ylabel() == "num_limbs (leaf modules)"
-    assert heatmap.get_xlabel() == "joints_ratio (hinges / modules)"
-    assert all(float(t).is_integer() for t in heatmap.get_yticks())
+    assert heatmap.get_xlabel() == "num_limbs (leaf modules)"  # as in the viewer: 0 across
+    assert heatmap.get_ylabel() == "joints_ratio (hinges / modules)"
+    assert all(float(t).is_integer() for t in heatmap.get_xticks())
     store = rr.chunk.RrdReader(out / "run.rrd").stream().collect()
     archive = [c for c in store.stream().to_chunks() if c.entity_path == "/archive"]
     grids = {}

@@ -2,12 +2,12 @@
 a self-contained HTML page.
 
 What is shown (``of``, `_gallery_select`): the final population, a MAP-Elites run's elites or
-its archive as an atlas (each elite at its cell over the two measures), or the best body's
-lineage; for a campaign, the best body of each run. Each body is drawn once, headless, from the
-report's three-quarter camera, and cached in its run folder (`_gallery_render`); the sheet
-(`_gallery_sheet`) and the page (`_gallery_html`) go to ``RUN/gallery/`` (a campaign's to
-``CAMPAIGN/gallery/``) or to ``out``. Where nothing can be drawn (no OpenGL), both are written
-without pictures and a note says why.
+its archive as an atlas (each elite at its cell over the two measures, the first across and
+the second up), or the best body's lineage; for a campaign, the best body of each run. Each
+body is drawn once, headless, from the report's three-quarter camera, and cached in its run
+folder (`_gallery_render`); the sheet (`_gallery_sheet`) and the page (`_gallery_html`) go to
+``RUN/gallery/`` (a campaign's to ``CAMPAIGN/gallery/``) or to ``out``. Where nothing can be
+drawn (no OpenGL), both are written without pictures and a note says why.
 """
 
 from __future__ import annotations
@@ -88,7 +88,8 @@ class GalleryBody:
             (``ariel replay RUN EVAL_ID`` for a run without Rerun recordings).
         thumbnail: its PNG in the run folder (``gallery/thumbnails/``); None where it could
             not be drawn.
-        cell: its (row, column) in the archive's atlas; None in any other gallery.
+        cell: its (row, column) in the archive's atlas (row 0 the lowest bin of the second
+            measure, column 0 the lowest of the first); None in any other gallery.
     """
 
     run: Path

@@ -1,8 +1,8 @@
 """The gallery's HTML page: one file, nothing to fetch (styles inline, each thumbnail a base64
 ``data:`` URI). A card per body: its thumbnail, id, caption, fitness, two key descriptors
 (every descriptor under "descriptors") and the ``ariel`` command that opens it. An archive's
-page puts the cards at their cells, the first measure growing upwards. Every text from the
-run folder is escaped (`html_text`)."""
+page puts the cards at their cells, the first measure across and the second growing upwards.
+Every text from the run folder is escaped (`html_text`)."""
 
 from __future__ import annotations
 
@@ -68,21 +68,21 @@ def _card(body: GalleryBody, key: tuple[str, str], style: str = "") -> str:
 def _atlas(gallery: Gallery) -> str:
     atlas = gallery.atlas
     assert atlas is not None  # an archive's gallery (`gallery_html` checks)
-    down, across = atlas.measures
-    whole = [DESCRIPTORS.get(m, ("", False))[1] for m in atlas.measures]
+    across, up = atlas.measures
+    whole = [DESCRIPTORS.get(m, ("", False))[1] for m in atlas.measures]  # across, up
     parts = [
         f'<div class="atlas" style="grid-template-columns: 64px repeat({atlas.columns}, '
         'minmax(120px, 220px))">'
     ]
     for row in range(atlas.rows):
-        line = atlas.rows - row  # the first measure grows upwards: row 0 is drawn last
-        label = bin_text(atlas.row_edges[row], atlas.row_edges[row + 1], whole[0])
+        line = atlas.rows - row  # the second measure grows upwards: row 0 is drawn last
+        label = bin_text(atlas.row_edges[row], atlas.row_edges[row + 1], whole[1])
         parts.append(f'<div class="axis" style="grid-row: {line}; grid-column: 1">{label}</div>')
         for column in range(atlas.columns):
             place = f"grid-row: {line}; grid-column: {column + 2}"
             parts.append(f'<div class="empty" style="{place}"></div>')
     for column in range(atlas.columns):
-        label = bin_text(atlas.column_edges[column], atlas.column_edges[column + 1], whole[1])
+        label = bin_text(atlas.column_edges[column], atlas.column_edges[column + 1], whole[0])
         place = f"grid-row: {atlas.rows + 1}; grid-column: {column + 2}"
         parts.append(f'<div class="axis" style="{place}">{label}</div>')
     for body in gallery.bodies:
@@ -91,8 +91,8 @@ def _atlas(gallery: Gallery) -> str:
         place = f' style="grid-row: {atlas.rows - row}; grid-column: {column + 2}"'
         parts.append(_card(body, gallery.key_descriptors, place))
     parts.append("</div>")
-    axes = f"rows (growing upwards): {html_text(descriptor_label(down))}; columns: "
-    axes += html_text(descriptor_label(across))
+    axes = f"columns: {html_text(descriptor_label(across))}; rows (growing upwards): "
+    axes += html_text(descriptor_label(up))
     return f'<p class="sub">{axes}</p>' + "".join(parts)
 
 

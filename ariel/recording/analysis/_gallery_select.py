@@ -5,7 +5,7 @@ them.
   (`population_after_selection`), best first.
 - ``elites``: a MAP-Elites run's archive after its last finished generation, best first.
 - ``archive``: the same elites, each at its cell in a grid over the archive's first two
-  measures (`Atlas`).
+  measures (`Atlas`: the first across, the second up, as the report and the viewer draw it).
 - ``lineage-of-best``: the run's best body and its ancestors (`lineage`, `ancestors`), oldest
   first.
 - a campaign: the best body of each run's final population, in campaign.json's order.
@@ -66,16 +66,18 @@ class Pick:
 @dataclass(frozen=True)
 class Atlas:
     """Where `archive` puts each elite: ``rows`` x ``columns`` cells over two measures, from
-    the first to the last row (and column) that holds an elite.
+    the first to the last row (and column) that holds an elite: the first measure across
+    (columns, left to right), the second up (rows, drawn from the bottom up), as the report's
+    heatmap and the Rerun viewer draw the archive.
 
     Attributes:
-        measures: the measure down the rows (drawn from the bottom up) and across the
-            columns.
-        rows: cells down (bins of the first measure, those from the lowest to the highest
-            that hold an elite).
-        columns: cells across (bins of the second measure, likewise).
-        row_edges: the first measure's bin edges, ``rows + 1`` of them.
-        column_edges: the second measure's bin edges, ``columns + 1`` of them.
+        measures: the archive's first two measures, in its order: the one across the
+            columns, then the one up the rows.
+        rows: cells up (bins of the second measure, those from the lowest to the highest
+            that hold an elite); row 0 is the lowest.
+        columns: cells across (bins of the first measure, likewise); column 0 is the left.
+        row_edges: the second measure's bin edges, ``rows + 1`` of them.
+        column_edges: the first measure's bin edges, ``columns + 1`` of them.
         cells: the archive's cells (all its measures); ``filled`` of them hold an elite.
         filled: the archive's elites.
         positions: body id -> its (row, column); one elite per position (the best, where
@@ -245,19 +247,21 @@ def archive_atlas(run: Run, maximise: bool) -> Atlas | None:
     binned = kind != "grid" or len(grid) < 2
     if not binned:  # the cell index, row-major over the measures
         shape = (grid[0], grid[1])
-        cells = [np.unravel_index(int(c), grid)[:2] for c in archive["cell"]]
+        bins = [np.unravel_index(int(c), grid)[:2] for c in archive["cell"]]
     else:  # a CVT archive: the elites binned by their measures
         shape = (ATLAS_BINS, ATLAS_BINS)
-        cells = list(zip(*(_binned(values[:, k], *bounds[k], ATLAS_BINS) for k in (0, 1))))
+        bins = list(zip(*(_binned(values[:, k], *bounds[k], ATLAS_BINS) for k in (0, 1))))
     positions: dict[str, tuple[int, int]] = {}
     taken: set[tuple[int, int]] = set()
-    for body_id, (row, column) in zip(archive["body_id"], cells, strict=True):
-        position = (int(row), int(column))
+    for body_id, (first, second) in zip(archive["body_id"], bins, strict=True):
+        position = (int(second), int(first))  # (row, column): the first measure across
         if position not in taken:  # the best elite of the position: it came first
             taken.add(position)
             positions[str(body_id)] = position
     edges = [np.linspace(*bounds[k], shape[k] + 1) for k in (0, 1)]
-    atlas = _cropped(positions, edges, (measures[0], measures[1]), _cells(run, grid), len(archive))
+    atlas = _cropped(
+        positions, [edges[1], edges[0]], (measures[0], measures[1]), _cells(run, grid), len(archive)
+    )
     return replace(atlas, binned=binned)
 
 
@@ -268,7 +272,8 @@ def _cropped(
     cells: int,
     filled: int,
 ) -> Atlas:
-    """The atlas of the rows and columns from the first to the last that hold an elite."""
+    """The atlas of the rows and columns from the first to the last that hold an elite
+    (``edges``: the rows' bin edges, then the columns')."""
     rows = [row for row, _ in positions.values()] or [0]
     columns = [column for _, column in positions.values()] or [0]
     low, left = min(rows), min(columns)

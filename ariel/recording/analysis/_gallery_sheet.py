@@ -1,8 +1,8 @@
 """The gallery's PNG: a contact sheet (thumbnails in rows, each labelled with its body id,
 caption, fitness and two key descriptors) or, for an archive, its atlas (each elite's thumbnail
-at its cell in the grid of the two measures, the first measure growing upwards as in the
-report's heatmap). Drawn with Pillow; a body without a thumbnail gets a grey tile that says
-so."""
+at its cell in the grid of the two measures, the first across and the second growing upwards,
+as in the report's heatmap and the Rerun viewer). Drawn with Pillow; a body without a
+thumbnail gets a grey tile that says so."""
 
 from __future__ import annotations
 
@@ -160,10 +160,10 @@ def _atlas_axes(sheet: Image.Image, atlas: Atlas, corner: tuple[int, int], cell:
     """The empty cells, each row's and column's bin, and both measures' names."""
     draw, (left, top) = ImageDraw.Draw(sheet), corner
     small = _font(12 if cell >= 100 else 10)
-    down, across = atlas.measures
-    for row in range(atlas.rows):  # the first measure grows upwards
+    across, up = atlas.measures
+    for row in range(atlas.rows):  # the second measure grows upwards: row 0 at the bottom
         y = top + (atlas.rows - 1 - row) * cell
-        text = bin_text(atlas.row_edges[row], atlas.row_edges[row + 1], _whole(down))
+        text = bin_text(atlas.row_edges[row], atlas.row_edges[row + 1], _whole(up))
         draw.text((left - 8, y + cell / 2), text, fill=FAINT, font=small, anchor="rm")
         for x in range(left, left + atlas.columns * cell, cell):
             draw.rectangle((x, y, x + cell - 2, y + cell - 2), fill=EMPTY)
@@ -174,7 +174,7 @@ def _atlas_axes(sheet: Image.Image, atlas: Atlas, corner: tuple[int, int], cell:
         draw.text((x, bottom), text, fill=FAINT, font=small, anchor="ma")
     middle = (left + atlas.columns * cell / 2, bottom + LINE + 2)
     draw.text(middle, descriptor_label(across), fill=INK, font=_font(14), anchor="ma")
-    _vertical_text(sheet, descriptor_label(down), (MARGIN, top + atlas.rows * cell / 2))
+    _vertical_text(sheet, descriptor_label(up), (MARGIN, top + atlas.rows * cell / 2))
 
 
 def _atlas_bodies(sheet: Image.Image, gallery: Gallery, corner: tuple[int, int], cell: int) -> None:
@@ -199,7 +199,7 @@ def atlas_sheet(gallery: Gallery, size: int) -> Image.Image:
     assert gallery.atlas is not None  # an archive's gallery (`_gallery._write` checks)
     atlas, cell = gallery.atlas, _cell_size(gallery.atlas, size)
     top = MARGIN + 28 + LINE + GAP
-    left = MARGIN + LINE + 90  # the first measure's name, turned, then its bins
+    left = MARGIN + LINE + 90  # the second measure's name, turned, then its bins
     width = max(left + atlas.columns * cell + MARGIN, 640)
     height = top + atlas.rows * cell + 2 * LINE + GAP + MARGIN
     sheet = Image.new("RGB", (width, height), BACKGROUND)

@@ -2,7 +2,8 @@
 it is (`Run.archive_description`), a grid as a heatmap of fitness per cell (over the first two
 measures; more are folded by their best), a CVT as its cells coloured by their elite's fitness
 (`_cvt`), and the bodies of the best cells rendered in a grid of thumbnails (left out where
-OpenGL is missing)."""
+OpenGL is missing). Measure 0 runs across (x) and measure 1 up (y), as the Rerun viewer draws
+the archive; with one measure, it runs across a single band."""
 
 from __future__ import annotations
 
@@ -43,12 +44,13 @@ _PIXELS = 400  # a CVT's cells are drawn as an image this many pixels a side
 
 
 def _grid(archive: pd.DataFrame, maximise: bool) -> np.ndarray:
-    """Fitness per cell as a 2D array (measure 0 down, measure 1 across); NaN: empty."""
+    """Fitness per cell as a 2D array, an image's rows by columns: a row per bin of measure 1
+    (one row with one measure), a column per bin of measure 0; NaN: empty."""
     grid = archive_grid(archive.to_dict("records"))
     best = np.fmax if maximise else np.fmin
     while grid.ndim > 2:  # fold the measures beyond the second by their best cell
         grid = best.reduce(grid, axis=-1)
-    return grid.reshape(grid.shape[0], -1)
+    return grid.reshape(grid.shape[0], -1).T
 
 
 def _thumbnail(run: Run, body_id: str) -> Image.Image:
@@ -73,7 +75,7 @@ def _thumbnail(run: Run, body_id: str) -> Image.Image:
 
 
 def _cvt(axes: Axes, archive: pd.DataFrame, description: JsonObject) -> AxesImage | PathCollection:
-    """A CVT archive on ``axes`` (measure 0 up, measure 1 across): with one or two measures its
+    """A CVT archive on ``axes`` (measure 0 across, measure 1 up): with one or two measures its
     cells, the regions nearest to each centroid in the measures scaled to [0, 1] (as the run
     placed bodies), coloured by their elite's fitness (blank: empty); with more, whose cells
     do not lie flat, only its centroids, coloured (hollow: empty). Centroids are dots."""
@@ -82,20 +84,21 @@ def _cvt(axes: Axes, archive: pd.DataFrame, description: JsonObject) -> AxesImag
     low, high = cells.ranges[:, 0], cells.ranges[:, 1]
     unit = (cells.centroids - low) / (high - low)
     count, flat = len(unit), unit.shape[1] <= 2
-    up = cells.centroids[:, 0]
-    across = cells.centroids[:, 1] if unit.shape[1] > 1 else np.full(count, 0.5)
-    span = (low[1], high[1]) if unit.shape[1] > 1 else (0.0, 1.0)
+    across = cells.centroids[:, 0]
+    up = cells.centroids[:, 1] if unit.shape[1] > 1 else np.full(count, 0.5)
+    span = (low[1], high[1]) if unit.shape[1] > 1 else (0.0, 1.0)  # up
     filled = np.isfinite(cells.fitness)
     if flat:
         steps = (np.arange(_PIXELS) + 0.5) / _PIXELS
         rows, columns = np.meshgrid(steps, steps, indexing="ij")
-        pixels = np.column_stack([rows.ravel(), columns.ravel()])[:, : unit.shape[1]]
+        # a pixel's point: its column along measure 0, its row along measure 1
+        pixels = np.column_stack([columns.ravel(), rows.ravel()])[:, : unit.shape[1]]
         _, nearest = KDTree(unit, leafsize=16).query(pixels)  # cKDTree's leaf size: its tree
         labels = nearest.reshape(_PIXELS, _PIXELS)
         edges = np.zeros(labels.shape, dtype=bool)  # where a pixel's cell is not its neighbour's
         edges[:, 1:] |= labels[:, 1:] != labels[:, :-1]
         edges[1:, :] |= labels[1:, :] != labels[:-1, :]
-        extent = (span[0], span[1], low[0], high[0])
+        extent = (low[0], high[0], span[0], span[1])
         image = cells.fitness[labels]
         shown = axes.imshow(image, origin="lower", aspect="auto", cmap="viridis", extent=extent)
         lines = np.where(edges, 1.0, np.nan)  # light grey
@@ -106,8 +109,8 @@ def _cvt(axes: Axes, archive: pd.DataFrame, description: JsonObject) -> AxesImag
         return shown
     axes.scatter(across[~filled], up[~filled], s=30, facecolors="none", edgecolors="grey")
     shown = axes.scatter(across[filled], up[filled], s=30, c=cells.fitness[filled], cmap="viridis")
-    axes.set_xlim(*span)
-    axes.set_ylim(low[0], high[0])
+    axes.set_xlim(low[0], high[0])
+    axes.set_ylim(*span)
     return shown
 
 
@@ -148,15 +151,15 @@ def archive_figure(
     else:
         grid = _grid(archive, maximise)
         ranges = description["ranges"]
-        across = ranges[1] if len(ranges) > 1 else (0.0, 1.0)
-        extent = (across[0], across[1], ranges[0][0], ranges[0][1])
+        up = ranges[1] if len(ranges) > 1 else (0.0, 1.0)
+        extent = (ranges[0][0], ranges[0][1], up[0], up[1])
         shown = axes.imshow(grid, origin="lower", aspect="auto", cmap="viridis", extent=extent)
     fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
     drawn.colorbar(shown, ax=axes, label=fitness_label(fitness_fn, what="elite's fitness"))
-    across_name = measures[1] if len(measures) > 1 else ""
-    axes.set_ylabel(descriptor_label(measures[0]))
-    axes.set_xlabel(descriptor_label(across_name) if across_name else "")
-    for axis, measure in ((axes.yaxis, measures[0]), (axes.xaxis, across_name)):
+    up_name = measures[1] if len(measures) > 1 else ""
+    axes.set_xlabel(descriptor_label(measures[0]))
+    axes.set_ylabel(descriptor_label(up_name) if up_name else "")
+    for axis, measure in ((axes.xaxis, measures[0]), (axes.yaxis, up_name)):
         if DESCRIPTORS.get(measure, ("", False))[1]:  # a count: whole-number ticks
             integer_ticks(axis)
     coverage = len(archive) / archive_cell_count(description)

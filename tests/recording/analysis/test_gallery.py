@@ -140,13 +140,14 @@ def test_the_archive_is_an_atlas_of_the_cells(run_dir: Path) -> None:
     atlas = gallery.atlas
     assert tuple(archive["grid"].iloc[0]) == (8, 8)  # the defaults: 8 bins per measure
     assert atlas.measures == ("num_limbs", "joints_ratio") and atlas.filled == len(archive)
-    assert atlas.cells == 64 and atlas.row_edges[-1] - atlas.row_edges[0] == atlas.rows
-    cells = [np.unravel_index(c, (8, 8)) for c in archive["cell"]]
-    low, left = min(row for row, _ in cells), min(column for _, column in cells)
-    # the rows and columns from the first to the last that hold an elite
-    assert atlas.rows == max(row for row, _ in cells) - low + 1
-    assert atlas.columns == max(column for _, column in cells) - left + 1
-    expected = {b: (r - low, c - left) for b, (r, c) in zip(archive["body_id"], cells)}
+    assert atlas.cells == 64 and atlas.column_edges[-1] - atlas.column_edges[0] == atlas.columns
+    cells = [np.unravel_index(c, (8, 8)) for c in archive["cell"]]  # (num_limbs, joints_ratio)
+    left, low = min(limbs for limbs, _ in cells), min(ratio for _, ratio in cells)
+    # num_limbs across, joints_ratio up: the columns and rows from the first to the last that
+    # hold an elite
+    assert atlas.columns == max(limbs for limbs, _ in cells) - left + 1
+    assert atlas.rows == max(ratio for _, ratio in cells) - low + 1
+    expected = {b: (r - low, c - left) for b, (c, r) in zip(archive["body_id"], cells)}
     assert {body.body_id: body.cell for body in gallery.bodies} == expected
     assert gallery.html.read_text(encoding="utf-8").count(DATA_URI) == len(expected)
     with Image.open(gallery.png) as image:  # each cell holds a picture of 100 pixels at least
@@ -227,15 +228,71 @@ def test_a_cvt_archive_is_binned_by_its_measures(tmp_path: Path) -> None:
     assert atlas.binned and atlas.cells == 16 and atlas.positions
     assert atlas.rows <= ATLAS_BINS and atlas.columns <= ATLAS_BINS
     archive = run.archive[run.archive["generation"] == run.archive["generation"].max()]
-    bins = {  # over the default ranges: num_limbs 0..8, joints_ratio 0..1
-        body_id: (min(int(limbs), 7), min(int(ratio * 8), 7))
+    bins = {  # (row, column) over the default ranges: joints_ratio 0..1 up, num_limbs 0..8 across
+        body_id: (min(int(ratio * 8), 7), min(int(limbs), 7))
         for body_id, (limbs, ratio) in zip(archive["body_id"], archive["measures"])
     }
     low = min(row for row, _ in bins.values())
     left = min(column for _, column in bins.values())
-    assert atlas.row_edges[0] == low and atlas.column_edges[0] == left / 8
+    assert atlas.row_edges[0] == low / 8 and atlas.column_edges[0] == left
     for body_id, (row, column) in atlas.positions.items():
         assert bins[body_id] == (row + low, column + left)
+
+
+def test_the_atlas_puts_the_first_measure_across_and_the_second_up(tmp_path: Path) -> None:
+    """As the report's heatmap and the Rerun viewer draw the archive: an elite in the highest
+    bin of the first measure and the lowest of the second is in the last column and the bottom
+    row, in the PNG and on the page."""
+    import re
+
+    import pandas as pd
+
+    from ariel.recording.analysis._gallery import Gallery, GalleryBody
+    from ariel.recording.analysis._gallery_html import gallery_html
+    from ariel.recording.analysis._gallery_select import archive_atlas
+
+    measures = ["num_limbs", "joints_ratio"]  # over 0..8 and 0..1, 8 bins each
+    described = {"kind": "grid", "measures": measures, "ranges": [[0, 8], [0, 1]], "bins": [8, 8]}
+    archive = pd.DataFrame(
+        {
+            "generation": [1, 1],
+            "body_id": ["corner", "other"],
+            "cell": [7 * 8 + 0, 0 * 8 + 3],  # num_limbs bin 7, ratio bin 0; bins 0 and 3
+            "fitness": [1.0, 0.5],
+            "grid": [[8, 8]] * 2,
+            "measures": [[7.5, 0.05], [0.5, 0.4]],
+        }
+    )
+    run = type("Run", (), {"archive": archive, "archive_description": described})()
+    atlas = archive_atlas(run, maximise=True)  # type: ignore[arg-type]
+    assert atlas is not None and (atlas.rows, atlas.columns) == (4, 8)
+    assert atlas.positions == {"corner": (0, 7), "other": (3, 0)}  # (row up, column across)
+    assert atlas.column_edges == tuple(range(9)) and atlas.row_edges == (0, 0.125, 0.25, 0.375, 0.5)
+
+    bodies = []
+    for body_id, colour in (("corner", (255, 0, 0)), ("other", (0, 0, 255))):
+        picture = tmp_path / f"{body_id}.png"
+        Image.new("RGB", (64, 64), colour).save(picture)
+        cell = atlas.positions[body_id]
+        bodies.append(GalleryBody(tmp_path, body_id, "e", 1, 1.0, {}, "", "view", picture, cell))
+    gallery = Gallery(tmp_path, "archive", "atlas", "", ("num_limbs", "joints_ratio"), bodies)
+    gallery.atlas = atlas
+    sheet = np.asarray(_gallery_sheet.atlas_sheet(gallery, 256).convert("RGB")).astype(int)
+    cell = _gallery_sheet._cell_size(atlas, 256)
+    left = _gallery_sheet.MARGIN + _gallery_sheet.LINE + 90
+    top = _gallery_sheet.MARGIN + 28 + _gallery_sheet.LINE + _gallery_sheet.GAP
+    for channel, (row, column) in ((0, (atlas.rows - 1, 7)), (2, (0, 0))):  # from the top
+        others = np.delete(sheet, channel, axis=-1).max(axis=-1)
+        ys, xs = np.nonzero((sheet[..., channel] > 200) & (others < 50))
+        assert ((ys.mean() - top) // cell, (xs.mean() - left) // cell) == (row, column)
+
+    page = gallery_html(gallery)
+    cards = re.findall(r'grid-row: (\d+); grid-column: (\d+)"><img [^>]*alt="body (\w+)"', page)
+    # the bins' rows 1 to 4 (4 the lowest; 5: the columns' bins), columns 2 to 9 (1: the rows')
+    assert {body: (int(r), int(c)) for r, c, body in cards} == {"corner": (4, 9), "other": (1, 2)}
+    assert 'style="grid-row: 5; grid-column: 9">7</div>' in page  # num_limbs' last bin
+    assert 'style="grid-row: 4; grid-column: 1">0 to 0.125</div>' in page
+    assert "columns: num_limbs" in page and "rows (growing upwards): joints_ratio" in page
 
 
 @pytest.mark.usefixtures("gl_available")

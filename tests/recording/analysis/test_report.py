@@ -362,3 +362,65 @@ def test_values_matplotlib_cannot_draw_leave_that_figure_out_with_a_note(
     written = [p.name for p in report.written]
     assert set(written) == set(FIGURES) - set(left_out)
     assert sorted(p.name for p in (crafted / "report").iterdir()) == sorted(written)
+
+
+# -- archive.png: measure 0 across, measure 1 up (as the Rerun viewer draws the archive) ------
+
+
+def _archive_axes(description: dict, cells: dict[int, float], tmp_path: Path):
+    """archive.png's heatmap of an archive holding ``cells`` (cell -> fitness), drawn alone."""
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from ariel.recording.analysis._report_archive import archive_figure
+
+    grid = description.get("bins") or [len(description.get("centroids", []))]
+    archive = pd.DataFrame(
+        {
+            "generation": [1] * len(cells),
+            "body_id": [f"b{c:06d}" for c in cells],
+            "cell": list(cells),
+            "fitness": list(cells.values()),
+            "grid": [list(grid)] * len(cells),
+        }
+    )
+    run = type("Run", (), {"archive": archive, "archive_description": description})()
+    run.config = {"task": {"fitness": "xy_displacement"}}
+    report = type("Report", (), {"run": run, "folder": tmp_path, "notes": []})()
+    saved = []
+    archive_figure(
+        report,  # type: ignore[arg-type]
+        True,
+        render=False,
+        figure=lambda width, height: Figure(figsize=(width, height)),
+        save=lambda figure, path, report: saved.append(figure),
+    )
+    return saved[0].axes[0]
+
+
+def test_the_archive_heatmap_puts_measure_0_across_and_measure_1_up(tmp_path: Path) -> None:
+    measures, ranges = ["num_limbs", "joints_ratio"], [[0.0, 8.0], [0.0, 1.0]]
+    # an 8 x 4 grid: (num_limbs bin 7, joints_ratio bin 0) is cell 28, (0, 3) is cell 3
+    grid = {"kind": "grid", "measures": measures, "ranges": ranges, "bins": [8, 4]}
+    axes = _archive_axes(grid, {28: 1.0, 3: 0.5}, tmp_path)
+    assert axes.get_xlabel().startswith("num_limbs") and axes.get_ylabel().startswith("joints")
+    assert all(float(t).is_integer() for t in axes.get_xticks())  # a count: whole numbers
+    (image,) = axes.get_images()
+    shown = np.asarray(image.get_array())
+    assert shown.shape == (4, 8) and tuple(image.get_extent()) == (0.0, 8.0, 0.0, 1.0)
+    assert shown[0, 7] == 1.0 and shown[3, 0] == 0.5  # origin lower: row 0 at the bottom
+    assert np.isnan(shown).sum() == 30
+
+    one = {"kind": "grid", "measures": measures[:1], "ranges": ranges[:1], "bins": [8]}
+    axes = _archive_axes(one, {7: 1.0}, tmp_path)
+    (image,) = axes.get_images()
+    assert np.asarray(image.get_array()).shape == (1, 8)  # a single band across
+    assert axes.get_xlabel().startswith("num_limbs") and axes.get_ylabel() == ""
+
+    centroids = [[7.5, 0.1], [0.5, 0.9]]  # high num_limbs, low joints_ratio; the other way
+    cvt = {"kind": "cvt", "measures": measures, "ranges": ranges, "centroids": centroids}
+    axes = _archive_axes(cvt, {0: 1.0, 1: 0.5}, tmp_path)
+    assert axes.get_xlabel().startswith("num_limbs") and axes.get_ylabel().startswith("joints")
+    shown = np.asarray(axes.get_images()[0].get_array())
+    assert shown[0, -1] == 1.0 and shown[-1, 0] == 0.5  # bottom right: cell 0; top left: 1
+    assert tuple(axes.get_images()[0].get_extent()) == (0.0, 8.0, 0.0, 1.0)
