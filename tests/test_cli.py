@@ -582,3 +582,38 @@ def test_a_reader_that_goes_away_ends_the_command_quietly(
         monkeypatch.setattr("sys.stdout", GoneReader(file.fileno()))
         assert main(["plugins"]) == 141
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize(
+    ("signum", "code", "line"), [(2, 130, "\ninterrupted"), (15, 143, "interrupted (SIGTERM)")]
+)
+def test_a_command_stopped_by_a_signal_says_so_in_one_line(
+    signum: int,
+    code: int,
+    line: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Ctrl-C or SIGTERM during `ariel report` (export, verify, gallery, ...): a 30- to 80-line
+    KeyboardInterrupt traceback before; the figure being written leaves no temporary."""
+    import os
+    import signal
+
+    import ariel.recording.analysis as analysis
+    from ariel.recording.store import atomic_write
+
+    target = tmp_path / "report" / "fitness.png"
+
+    def stopped(*args: object, **kwargs: object) -> None:
+        def write(temporary: Path) -> None:
+            temporary.write_bytes(b"half")
+            os.kill(os.getpid(), signum)  # the signal lands while the file is written
+
+        atomic_write(target, write)
+
+    monkeypatch.setattr(analysis, "make_report", stopped)
+    assert main(["report", str(tmp_path)]) == code
+    assert capsys.readouterr().err == line + "\n"
+    assert list(target.parent.iterdir()) == []  # no temporary left
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handlers put back

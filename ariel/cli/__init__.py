@@ -50,7 +50,8 @@ from ariel.cli._verify import EXIT_DAMAGED as EXIT_DAMAGED, add_verify_command
 from ariel.cli._view import add_view_command
 from ariel.cli._watch import add_watch_command
 from ariel.errors import ArielError
-from ariel.utils import gl_backend_error
+from ariel.utils import gl_backend_error, report_interrupted
+from ariel.utils.interrupts import stop_on_signals
 
 #: Each command's (or group of commands') sub-parser, in the order ``ariel --help`` lists them.
 COMMANDS = (
@@ -91,9 +92,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
-        return int(args.func(args))
+        # Ctrl-C, SIGTERM and SIGHUP stop every command as an exception: its files written so
+        # far stay whole and its temporaries are removed (`atomic_write`), in one line.
+        with stop_on_signals():
+            return int(args.func(args))
     except BrokenPipeError:  # `ariel runs | head -3`: the reader has what it wanted
         return _reader_gone()
+    except KeyboardInterrupt as exc:  # a command that has nothing to continue (report, ...)
+        return report_interrupted(exc, None)
     except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line
         return fail_with(exc)
     except OSError as exc:  # a path no file system takes: a name over 255 bytes, a link loop
