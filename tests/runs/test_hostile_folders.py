@@ -484,6 +484,28 @@ def test_a_finished_run_s_later_generations_and_unlisted_tables_are_damage(
     assert verify_run(run).ok
 
 
+def test_a_running_run_s_generations_in_flight_are_no_damage(tmp_path: Path) -> None:
+    """`ariel verify` while a run writes: run.json (updated last) lags the tables and manifests
+    of the next generations, which were called damage ("the run is finished") before."""
+    from ariel.recording import RunLock
+
+    run = _run(tmp_path / "run", generations=4)
+    edit_json(run / "run.json", lambda info: info.update(status="running", generations_done=2))
+    with RunLock(run):
+        result = verify_run(run)
+    assert result.ok and result.generations == 2
+    assert result.notes == [
+        f"the run is running (pid {os.getpid()} on host {os.uname().nodename}): its generations "
+        "from generation 2 on are being written and were not checked; verify it again when it "
+        "has stopped"
+    ]
+    # No process runs it: the generations after the one in flight are strays again.
+    assert verify_run(run).problems == [
+        "manifests/gen-000003.json is of a generation after the run's 2 finished one(s) (run.json's "
+        "generations_done; only generation 2 was in flight)"
+    ]
+
+
 def _generations(run: Path, total: int) -> Path:
     """``run`` with a config of ``total`` generations, its hash recomputed (as the probe did)."""
 

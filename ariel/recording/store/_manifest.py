@@ -175,11 +175,13 @@ def manifests_expected(run_dir: str | Path, info: Mapping[str, object]) -> tuple
     return True, f"run.json {why}{on_disk}"
 
 
-def after_the_last(done: int) -> str:
-    """The problem of a finished run's file of a generation past run.json's ``done``."""
+def after_the_last(done: int, *, finished: bool = True) -> str:
+    """The problem of a file of a generation past run.json's ``done``: of any such generation
+    in a ``finished`` run, of one after the generation in flight in a stopped one."""
+    why = "the run is finished" if finished else f"only generation {done} was in flight"
     return (
         f"is of a generation after the run's {done} finished one(s) (run.json's "
-        "generations_done; the run is finished)"
+        f"generations_done; {why})"
     )
 
 

@@ -20,6 +20,7 @@ import pyarrow.parquet as pq
 
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import within
+from ariel.recording.store._lock import lock_holder
 from ariel.recording.store._manifest import (
     MANIFEST_FORMAT,
     after_the_last,
@@ -112,6 +113,8 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
         ```
     """
     run_dir = Path(run_dir)
+    # Before run.json: a run that finishes between the two reads is then read as finished.
+    holder = lock_holder(run_dir) if generations is None else None
     try:
         info = RunFolder(run_dir).read_info()
     except DamagedRunError as exc:  # a readable run.json holding what no run writes (its id)
@@ -130,13 +133,16 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
         done = generations
     held = manifest_generations(run_dir)
     gens = _generations(run_dir, done, held, expected, resume=generations is not None)
+    running = _running(holder, info, done, result)
+    if running:  # the generations from `done` on are being written: not checked, not strays
+        gens = [g for g in gens if done is None or g < done]
     result.generations = done if done is not None else len(held)
     if done is not None:
         _check_missing(run_dir, done, [g for g in gens if g < done], expected, result)
     listed: set[str] = set()
     for generation in gens:
         _check_generation(run_dir, generation, expected, info, result, listed)
-    if generations is None and expected:
+    if generations is None and expected and not running:
         _check_strays(run_dir, info, done, held, listed, result)
     _check_run_json(run_dir, info, result)
     if len(result.problems) > MAX_LISTED:
@@ -158,6 +164,22 @@ def _generations(
         return sorted(found)
     before = {g for g in found if g < done}
     return sorted(before if resume or not expected else before | set(held))
+
+
+def _running(
+    holder: str | None, info: Mapping[str, object], done: int | None, result: VerifyResult
+) -> bool:
+    """Whether a process runs the run now (``holder`` holds the folder's lock, read before
+    run.json): its generations from run.json's ``done`` on are then being written (run.json
+    is updated last), so files of them are no damage; a note says they were not checked."""
+    if holder is None or info.get("status") == "finished":
+        return False
+    start = f"from generation {done} on" if done is not None else "after the finished ones"
+    result.notes.append(
+        f"the run is running ({holder}): its generations {start} are being written and "
+        "were not checked; verify it again when it has stopped"
+    )
+    return True
 
 
 def _more(count: int, what: str) -> str:
@@ -246,7 +268,8 @@ def _check_strays(
                 later.append(name)
     if later and done is not None:
         more = _more(len(later) - 1, "such file(s)")
-        result.problems.append(f"{later[0]} {after_the_last(done)}{more}")
+        finished = in_flight is None
+        result.problems.append(f"{later[0]} {after_the_last(done, finished=finished)}{more}")
     if unlisted:
         result.problems.append(
             f"{unlisted[0]} is in no manifest (its generation's manifest does not list it)"
