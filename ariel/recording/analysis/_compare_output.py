@@ -19,6 +19,8 @@ from ariel.recording.analysis._compare_html import write_html, write_markdown, w
 from ariel.recording.analysis._compare_measures import _best_curves, _samples
 from ariel.recording.analysis._compare_runs import RunCurve
 from ariel.recording.store import (
+    LOCK_NAME,
+    RunLock,
     UnsafePathError,
     atomic_write,
     csv_safe,
@@ -48,9 +50,10 @@ FILES = (
 
 
 def _is_ours(path: Path) -> bool:
-    """A file a comparison writes (or the temporary of one a killed comparison left)."""
+    """A file a comparison writes (or the temporary of one a killed comparison left, or the
+    lock of one writing)."""
     name = written_path(path)
-    return path.name in FILES or (name is not None and name.name in FILES)
+    return path.name in (*FILES, LOCK_NAME) or (name is not None and name.name in FILES)
 
 
 def _check_parents(out: Path) -> None:
@@ -105,8 +108,14 @@ def prepare_folder(out: Path) -> bool:
 def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path) -> None:
     """The figures, tables and pages of ``comparison`` into ``out`` (`prepare_folder`); an
     earlier comparison's files that this one does not write are removed."""
-    comparison.replaced = prepare_folder(out)
-    out.mkdir(parents=True, exist_ok=True)
+    prepare_folder(out)
+    # One comparison at a time in a folder: two writing at once left a mix of both.
+    with RunLock(out, create=True, kind="comparison"):
+        comparison.replaced = bool([p for p in out.iterdir() if p.name != LOCK_NAME])
+        _write_files(comparison, grouped, out)
+
+
+def _write_files(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path) -> None:
 
     def csv(frame: pd.DataFrame, name: str) -> None:
         atomic_write(out / name, lambda temporary: csv_safe(frame).to_csv(temporary, index=False))

@@ -86,6 +86,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         stored_graph_key as stored_graph_key,
     )
     from ariel.recording.store._lock import (
+        LOCK_NAME as LOCK_NAME,
         RunInUseError as RunInUseError,
         RunLock as RunLock,
         ensure_open_files as ensure_open_files,
@@ -165,6 +166,7 @@ _INTERNAL: dict[str, str] = {
     "RunSummary": "ariel.recording.store._load",
     "RunFolder": "ariel.recording.store._run_folder",
     "RunInUseError": "ariel.recording.store._lock",
+    "LOCK_NAME": "ariel.recording.store._lock",
     "RunLock": "ariel.recording.store._lock",
     "RunStorageError": "ariel.recording.store._run_folder",
     "RunWriter": "ariel.recording.store._rows",

@@ -112,9 +112,11 @@ def _holder_text(path: Path) -> str:
 CAMPAIGN_JSON = "campaign.json"
 
 
-def in_use_error(run_dir: Path, holder: str) -> RunInUseError:
-    """The one line for a run (or campaign) folder whose lock ``holder`` holds."""
-    kind = "campaign" if os.path.lexists(Path(run_dir) / CAMPAIGN_JSON) else "run"
+def in_use_error(run_dir: Path, holder: str, kind: str | None = None) -> RunInUseError:
+    """The one line for a run (or campaign, or ``kind``: "comparison") folder whose lock
+    ``holder`` holds."""
+    if kind is None:
+        kind = "campaign" if os.path.lexists(Path(run_dir) / CAMPAIGN_JSON) else "run"
     return RunInUseError(
         f"{kind} folder {str(run_dir)!r} is in use by {holder}; wait for that {kind} to end "
         "(or stop it), then try again"
@@ -190,6 +192,8 @@ class RunLock:
         create: Whether to make the folder when it is missing (a new run), and remove it
             again on release when it is still empty (a run that refused to start). With
             False (the default) a missing folder is an error (`FileNotFoundError`).
+        kind: What the folder is, for the "in use" line ("comparison"); None: a run, or a
+            campaign where the folder holds campaign.json.
 
     Raises:
         RunInUseError: On acquiring, when another process holds the lock.
@@ -197,10 +201,13 @@ class RunLock:
             or a hard link.
     """
 
-    def __init__(self, run_dir: str | Path, *, create: bool = False) -> None:
+    def __init__(
+        self, run_dir: str | Path, *, create: bool = False, kind: str | None = None
+    ) -> None:
         self.run_dir = Path(run_dir)
         self.path = self.run_dir / LOCK_NAME
         self.create = create
+        self.kind = kind
         self._fd: int | None = None
         self._made_folder = False
 
@@ -227,7 +234,7 @@ class RunLock:
             os.write(fd, f"pid {os.getpid()} on host {socket.gethostname()}\n".encode())
             self._fd = fd
             return self
-        raise in_use_error(self.run_dir, "another process")  # pragma: no cover - never settles
+        raise in_use_error(self.run_dir, "another process", self.kind)  # pragma: no cover
 
     def _open(self) -> int:
         """The lock file, created if missing, never through a link; `UnsafePathError` when it
@@ -276,7 +283,7 @@ class RunLock:
         holder = _holder_text(self.path)
         os.close(fd)
         self._cleanup_folder()
-        raise in_use_error(self.run_dir, holder)
+        raise in_use_error(self.run_dir, holder, self.kind)
 
     def release(self) -> None:
         if self._fd is None:

@@ -467,6 +467,23 @@ def test_a_linked_file_in_the_output_folder_is_replaced_not_followed(tmp_path: P
     assert "| final best | a | b |" in (out / "stats.md").read_text()
 
 
+def test_a_comparison_being_written_into_the_folder_refuses_a_second_one(
+    two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two compares with one --out at once both exited 0 and left a mix of their files."""
+    from ariel.recording import RunLock
+
+    long, short = two_runs
+    out = tmp_path / "compare"
+    with RunLock(out, create=True, kind="comparison"):  # another compare, still writing
+        assert exit_code(["compare", str(long), str(short), "--out", str(out)]) == 2
+        line = one_error_line(capsys)
+        assert f"comparison folder '{out}' is in use by pid " in line
+        assert [p.name for p in out.iterdir()] == [".lock"]
+    assert exit_code(["compare", str(long), str(short), "--out", str(out)]) == 0
+    assert (out / "compare.html").is_file() and not (out / ".lock").exists()
+
+
 def test_an_output_folder_of_other_files_or_a_file_is_refused_in_one_line(
     two_runs: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
