@@ -44,6 +44,7 @@ from ariel.recording.analysis._gallery_select import (
 )
 from ariel.recording.store import (
     Run,
+    RunLock,
     atomic_write,
     atomic_write_bytes,
     cannot_write,
@@ -260,6 +261,10 @@ def body_thumbnails(
     return found, scratch.notes
 
 
+#: How long a gallery waits for another writing into its folder (writing takes a moment).
+_WAIT_S = 30.0
+
+
 def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:
     """The sheet and the page, each written whole (`atomic_write`) inside ``root``."""
     # lazy: the page and the sheet import Pillow (PIL), a heavy optional library
@@ -269,9 +274,11 @@ def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:
     draw = atlas_sheet if gallery.atlas is not None else contact_sheet
     sheet = draw(gallery, THUMBNAIL_SIZE)
     png, html = folder / f"{stem}.png", folder / f"{stem}.html"
-    try:
-        atomic_write(png, lambda temporary: sheet.save(temporary, format="PNG"), root=root)
-        atomic_write_bytes(html, gallery_html(gallery).encode("utf-8"), root=root)
+    try:  # the pair from one gallery: two writing into one folder at once left a mix
+        refuse_symlinks(png, root)  # before the lock file is made in the folder
+        with RunLock(folder, create=True, kind="gallery", wait_s=_WAIT_S):
+            atomic_write(png, lambda temporary: sheet.save(temporary, format="PNG"), root=root)
+            atomic_write_bytes(html, gallery_html(gallery).encode("utf-8"), root=root)
     except OSError as exc:  # disk full, read-only: one line, the run itself is unchanged
         raise RunStorageError(f"{cannot_write(exc)}; the gallery is not finished") from exc
     gallery.png, gallery.html = png, html

@@ -194,6 +194,8 @@ class RunLock:
             False (the default) a missing folder is an error (`FileNotFoundError`).
         kind: What the folder is, for the "in use" line ("comparison"); None: a run, or a
             campaign where the folder holds campaign.json.
+        wait_s: How long to wait for another holder to let go before giving up (a writer
+            that holds it for a moment: two galleries into one folder); 0: at once.
 
     Raises:
         RunInUseError: On acquiring, when another process holds the lock.
@@ -202,12 +204,18 @@ class RunLock:
     """
 
     def __init__(
-        self, run_dir: str | Path, *, create: bool = False, kind: str | None = None
+        self,
+        run_dir: str | Path,
+        *,
+        create: bool = False,
+        kind: str | None = None,
+        wait_s: float = 0.0,
     ) -> None:
         self.run_dir = Path(run_dir)
         self.path = self.run_dir / LOCK_NAME
         self.create = create
         self.kind = kind
+        self.wait_s = wait_s
         self._fd: int | None = None
         self._made_folder = False
 
@@ -218,7 +226,14 @@ class RunLock:
             self.run_dir.mkdir(parents=True, exist_ok=True)
             self._made_folder = True
         for _ in range(100):
-            fd = self._open()
+            try:
+                fd = self._open()
+            except FileNotFoundError:  # the last holder made the folder and removed it empty
+                if not self.create:
+                    raise
+                self.run_dir.mkdir(parents=True, exist_ok=True)
+                self._made_folder = True
+                continue
             self._lock(fd)
             # The last holder deletes the file on release: a lock taken on a file that was
             # deleted meanwhile guards nothing, so take the one now at the path instead.
@@ -263,12 +278,13 @@ class RunLock:
     def _lock(self, fd: int) -> None:
         """Take the lock on ``fd``; raises (``fd`` closed) when the run is in use."""
         assert fcntl is not None  # `acquire` refuses to lock without it
-        for tries in range(_TRIES):
+        tries = max(_TRIES, round(self.wait_s / _PAUSE_S))
+        for attempt in range(tries):
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 return
             except BlockingIOError:
-                if tries + 1 < _TRIES:
+                if attempt + 1 < tries:
                     time.sleep(_PAUSE_S)
             except OSError as exc:
                 if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS):
