@@ -25,6 +25,7 @@ from ariel.recording.store import (
     atomic_write,
     csv_safe,
     fitness_label,
+    remove_temporaries,
     written_path,
 )
 
@@ -111,6 +112,8 @@ def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path
     prepare_folder(out)
     # One comparison at a time in a folder: two writing at once left a mix of both.
     with RunLock(out, create=True, kind="comparison"):
+        # Under the lock no other comparison writes here: a temporary is a killed one's.
+        list(remove_temporaries(out, deep=False))
         comparison.replaced = bool([p for p in out.iterdir() if p.name != LOCK_NAME])
         _write_files(comparison, grouped, out)
 

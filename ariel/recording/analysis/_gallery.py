@@ -54,6 +54,7 @@ from ariel.recording.store import (
     load_run,
     one_line,
     refuse_symlinks,
+    remove_temporaries,
 )
 from ariel.utils import ariel_line
 
@@ -265,6 +266,15 @@ def body_thumbnails(
 _WAIT_S = 30.0
 
 
+def _remove_leftovers(folder: Path) -> None:
+    """A killed gallery's temporaries in ``folder`` (under its lock none is another's) and
+    of its thumbnails (drawn without the lock: those an hour old)."""
+    list(remove_temporaries(folder, deep=False))
+    thumbnails = folder / "thumbnails"
+    if thumbnails.is_dir() and not thumbnails.is_symlink():
+        list(remove_temporaries(thumbnails, older_than_s=3600.0))
+
+
 def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:
     """The sheet and the page, each written whole (`atomic_write`) inside ``root``."""
     # lazy: the page and the sheet import Pillow (PIL), a heavy optional library
@@ -277,6 +287,7 @@ def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:
     try:  # the pair from one gallery: two writing into one folder at once left a mix
         refuse_symlinks(png, root)  # before the lock file is made in the folder
         with RunLock(folder, create=True, kind="gallery", wait_s=_WAIT_S):
+            _remove_leftovers(folder)
             atomic_write(png, lambda temporary: sheet.save(temporary, format="PNG"), root=root)
             atomic_write_bytes(html, gallery_html(gallery).encode("utf-8"), root=root)
     except OSError as exc:  # disk full, read-only: one line, the run itself is unchanged

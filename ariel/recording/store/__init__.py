@@ -57,6 +57,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         check_name_lengths as check_name_lengths,
         damaged as damaged,
         refuse_symlinks as refuse_symlinks,
+        remove_temporaries as remove_temporaries,
         require_free_space as require_free_space,
         written_path as written_path,
     )
@@ -235,6 +236,7 @@ _INTERNAL: dict[str, str] = {
     "read_table": "ariel.recording.store._tables",
     "recording_path": "ariel.recording.store._tables",
     "refuse_symlinks": "ariel.recording.store._files",
+    "remove_temporaries": "ariel.recording.store._files",
     "require_free_space": "ariel.recording.store._files",
     "run_path": "ariel.recording.store._campaign",
     "short_ascii": "ariel.recording.store._escape",

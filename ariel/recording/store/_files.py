@@ -19,6 +19,7 @@ import os
 import re
 import secrets
 import stat
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -212,17 +213,28 @@ def atomic_write_json(
     atomic_write_bytes(path, json_text(data).encode(), root=root)
 
 
-def remove_temporaries(folder: Path) -> Iterator[Path]:
+def remove_temporaries(
+    folder: Path, *, older_than_s: float = 0.0, deep: bool = True
+) -> Iterator[Path]:
     """Delete leftover temporary files under ``folder`` (a killed writer's); yields each.
 
-    Walks real folders only: a linked folder may lead out of the run folder."""
+    Walks real folders only: a linked folder may lead out of the run folder. ``older_than_s``:
+    only those last written longer ago than that (where another process may be writing one:
+    a writer holds its temporary for seconds); ``deep`` False: only ``folder``'s own."""
+    cutoff = time.time() - older_than_s
     for parent, folders, files in os.walk(folder, followlinks=False):
-        folders[:] = [name for name in folders if not os.path.islink(os.path.join(parent, name))]
+        folders[:] = (
+            []
+            if not deep
+            else [name for name in folders if not os.path.islink(os.path.join(parent, name))]
+        )
         for name in files:
             temporary = Path(parent, name)
             if written_path(temporary) is None:
                 continue
             with contextlib.suppress(OSError):
+                if older_than_s and temporary.lstat().st_mtime > cutoff:
+                    continue
                 temporary.unlink()
                 yield temporary
 

@@ -480,8 +480,12 @@ def test_a_comparison_being_written_into_the_folder_refuses_a_second_one(
         line = one_error_line(capsys)
         assert f"comparison folder '{out}' is in use by pid " in line
         assert [p.name for p in out.iterdir()] == [".lock"]
+    assert not out.exists()  # made for the lock, removed with it: it held nothing else
+    out.mkdir()
+    (out / ".stats.csv.0123abcd.tmp").write_text("half")  # a compare killed by SIGKILL
     assert exit_code(["compare", str(long), str(short), "--out", str(out)]) == 0
     assert (out / "compare.html").is_file() and not (out / ".lock").exists()
+    assert not list(out.glob(".*.tmp"))  # removed under the lock: no other compare writes
 
 
 def test_an_output_folder_of_other_files_or_a_file_is_refused_in_one_line(

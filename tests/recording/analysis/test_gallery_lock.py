@@ -38,3 +38,23 @@ def test_a_gallery_waits_for_another_writing_into_its_folder(
     monkeypatch.setattr(module, "_WAIT_S", 0.0)
     with RunLock(out, kind="gallery"), pytest.raises(RunInUseError, match="gallery folder"):
         make_gallery(run_dir, out=out, render=False)  # one that never lets go: one line
+
+
+def test_a_killed_gallery_s_temporaries_are_removed_by_the_next(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """A gallery killed with SIGKILL leaves ``.final.png.<token>.tmp``; a later gallery into
+    the folder used to leave it there for ever."""
+    import os
+
+    out = tmp_path / "sheets"
+    (out / "thumbnails").mkdir(parents=True)
+    (out / ".final.png.0123abcd.tmp").write_bytes(b"half")
+    old = out / "thumbnails" / ".b000001-256.png.0123abcd.tmp"
+    new = out / "thumbnails" / ".b000002-256.png.4567cdef.tmp"  # another gallery's, drawing
+    old.write_bytes(b"half")
+    new.write_bytes(b"half")
+    os.utime(old, (0, 0))
+    make_gallery(run_dir, out=out, render=False)
+    assert sorted(p.name for p in out.iterdir()) == ["final.html", "final.png", "thumbnails"]
+    assert [p.name for p in (out / "thumbnails").iterdir()] == [new.name]
