@@ -617,3 +617,22 @@ def test_a_command_stopped_by_a_signal_says_so_in_one_line(
     assert capsys.readouterr().err == line + "\n"
     assert list(target.parent.iterdir()) == []  # no temporary left
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handlers put back
+
+
+def test_a_ctrl_c_while_the_commands_load_is_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The ``ariel`` script's entry point: Ctrl-C in its first second printed an import
+    traceback."""
+    import types
+
+    class Loading(types.ModuleType):
+        def __getattr__(self, name: str) -> object:
+            raise KeyboardInterrupt  # as if pressed while `ariel.cli` is being imported
+
+    monkeypatch.setitem(sys.modules, "ariel.cli", Loading("ariel.cli"))
+    monkeypatch.delitem(sys.modules, "ariel._console", raising=False)
+    import ariel._console
+
+    assert ariel._console.main() == 130
+    assert capsys.readouterr().err == "\ninterrupted\n"
