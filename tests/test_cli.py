@@ -613,7 +613,13 @@ def test_a_command_stopped_by_a_signal_says_so_in_one_line(
         atomic_write(target, write)
 
     monkeypatch.setattr(analysis, "make_report", stopped)
-    assert main(["report", str(tmp_path)]) == code
+    # A shell's background job starts with SIGINT ignored, which `ariel` leaves alone: Ctrl-C
+    # as a terminal's foreground command has it.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        assert main(["report", str(tmp_path)]) == code
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert capsys.readouterr().err == line + "\n"
     assert list(target.parent.iterdir()) == []  # no temporary left
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handlers put back

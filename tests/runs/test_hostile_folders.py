@@ -37,6 +37,7 @@ from ariel.recording.store._campaign import NotACampaignError
 from ariel.recording.store._lock import in_use_error
 from ariel.recording.store._manifest import write_manifest
 from ariel.recording.store._run_folder import MAX_JSON_BYTES, MAX_JSON_DEPTH, RunFolder, json_data
+from ariel.recording.store._tables import body_schema, evaluation_schema, write_table
 from ariel.recording.store._verify import MAX_LISTED
 from ariel.runs import resume_campaign
 from ariel.runs._campaign_file import MAX_CONDITION_NAME, load_campaign_file
@@ -53,9 +54,7 @@ def _run(folder: Path, *, generations: int = 2, run_id: str = "hostile-s3") -> P
     digest = config_hash(config)
     for generation in range(generations):
         for table in ("evaluations", "bodies"):
-            (folder / table).mkdir(parents=True, exist_ok=True)
-            rows = pa.table({"run_id": [run_id], "generation": [generation]})
-            pq.write_table(rows, folder / table / f"gen-{generation:06d}.parquet")
+            write_table(folder, table, generation, _one_row(table, run_id, generation))
         write_manifest(folder, generation)
     RunFolder(folder).write_info(
         {
@@ -76,6 +75,22 @@ def _run(folder: Path, *, generations: int = 2, run_id: str = "hostile-s3") -> P
     )
     RunFolder(folder).save_checkpoint({"config_hash": digest, "generation": generations - 1})
     return folder
+
+
+def _one_row(table: str, run_id: str, generation: int) -> dict[str, list[object]]:
+    """One row of ``table`` with every column (a run's file has them all): its ids and flags
+    filled (a run never leaves them null), the rest null."""
+    schema = evaluation_schema() if table == "evaluations" else body_schema()
+    filled = {
+        "run_id": run_id,
+        "generation": generation,
+        "body_id": "b000000",
+        "eval_id": "b000000-i000-c000",
+        "status": "ok",
+        "is_new": True,
+        "selected": True,
+    }
+    return {f.name: [filled.get(f.name)] for f in schema}
 
 
 def _flip_a_bit(path: Path) -> None:
@@ -501,8 +516,8 @@ def test_a_running_run_s_generations_in_flight_are_no_damage(tmp_path: Path) -> 
     ]
     # No process runs it: the generations after the one in flight are strays again.
     assert verify_run(run).problems == [
-        "manifests/gen-000003.json is of a generation after the run's 2 finished one(s) (run.json's "
-        "generations_done; only generation 2 was in flight)"
+        "manifests/gen-000003.json is of a generation after the run's 2 finished one(s) "
+        "(run.json's generations_done; only generation 2 was in flight)"
     ]
 
 

@@ -48,6 +48,7 @@ from ariel.recording.store import (
     QD_COLUMNS,
     Run,
     evaluation_trajectory,
+    figure_label,
     fitness_label,
     integer_ticks,
     load_run,
@@ -154,7 +155,7 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
         axes.plot(gens, values, style, label=label, zorder=2)
     axes.set_xlabel("generation")
     integer_ticks(axes.xaxis)
-    axes.set_ylabel(fitness_label(fitness_fn, maximise))
+    axes.set_ylabel(figure_label(fitness_label(fitness_fn, maximise)))  # the config's name
     _title(axes, f"{_run_title(run)}: {title}")
     axes.grid(alpha=0.3)
     axes.legend(loc="best")

@@ -7,14 +7,14 @@ OpenGL is missing).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ariel.errors import DamagedRunError
 from ariel.recording.analysis._report_figures import _DPI, _figure, _run_title, _save, _title
 from ariel.recording.rerun import joint_labels, three_quarter_view
-from ariel.recording.store import Run
+from ariel.recording.store import Run, one_line
 from ariel.utils import mujoco_module
 
 if TYPE_CHECKING:
@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 def _trajectory_figures(report: Report, frames: pd.DataFrame) -> None:
     run, best = report.run, report.best
     assert best is not None
-    label = f"{best['eval_id']} (fitness {best['fitness']:.6g})"
+    label = f"{one_line(best['eval_id'])} (fitness {best['fitness']:.6g})"
     t = frames["t"].to_numpy()
     x, y = frames["core_x"].to_numpy(), frames["core_y"].to_numpy()
 
@@ -49,9 +49,14 @@ def _trajectory_figures(report: Report, frames: pd.DataFrame) -> None:
     if not names:
         report.notes.append("joints.png: left out (the best body has no joints)")
         return
-    labels = joint_labels(names, _graph_of(run, str(best["body_id"])))
-    target = np.array(frames["joint_target"].tolist(), dtype=float)
-    angle = np.array(frames["joint_angle"].tolist(), dtype=float)
+    labels = [one_line(n) for n in joint_labels(names, _graph_of(run, str(best["body_id"])))]
+    target, angle = (_joint_values(frames[name], len(names)) for name in JOINT_COLUMNS)
+    if target is None or angle is None:  # a changed table: the rest of the report stands
+        report.notes.append(
+            "joints.png: left out (the trajectories table's joint lists are not one value "
+            "per joint of the best body)"
+        )
+        return
     cols = min(3, len(names))
     rows = math.ceil(len(names) / cols)
     figure = _figure(4.2 * cols, 2.4 * rows + 0.8)
@@ -67,6 +72,20 @@ def _trajectory_figures(report: Report, frames: pd.DataFrame) -> None:
         if j == 0:
             axes.legend(loc="best", fontsize=8)
     _save(figure, report.folder / "joints.png", report)
+
+
+#: The trajectories table's joint signals: a list per frame, one value per joint.
+JOINT_COLUMNS = ("joint_target", "joint_angle")
+
+
+def _joint_values(column: Any, width: int) -> np.ndarray | None:
+    """``column`` (a Series: a joint signal of one evaluation's frames) as a frames x
+    ``width`` array; None where a frame has no list or one of another length (no run writes
+    one)."""
+    lists = column.tolist()
+    if any(values is None or len(values) != width for values in lists):
+        return None
+    return np.array(lists, dtype=float).reshape(len(lists), width)
 
 
 def _graph_of(run: Run, body_id: str) -> str | None:
@@ -123,8 +142,8 @@ def _body_image(report: Report, width: int = 800, height: int = 600) -> None:
     )
     _title(
         axes,
-        f"{_run_title(report.run)}: best body {best['body_id']} ({shape}), "
-        f"evaluation {best['eval_id']}",
+        f"{_run_title(report.run)}: best body {one_line(best['body_id'])} ({shape}), "
+        f"evaluation {one_line(best['eval_id'])}",
         fontsize=10,
     )
     _save(figure, report.folder / "best_body.png", report)

@@ -9,7 +9,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ariel.errors import RunStorageError
-from ariel.recording.store import Run, atomic_write, cannot_write, fitted, one_line
+from ariel.recording.store import (
+    Run,
+    atomic_write,
+    cannot_write,
+    figure_label,
+    fitted,
+    one_line,
+)
 from ariel.utils import ariel_line
 
 if TYPE_CHECKING:
@@ -73,9 +80,12 @@ def _run_title(run: Run) -> str:
 
 def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) -> None:
     """A title (of axes ``on``, or ``suptitle`` of figure ``on``) wrapped to fit the width it
-    has (`fitted`), so it is never clipped at the figure's edge. A ``$`` in it (a run id is
-    any text) is a dollar sign, not mathtext, which could fail to draw."""
-    text = text.replace("$", r"\$")
+    has (`fitted`), so it is never clipped at the figure's edge. Each of its lines is
+    escaped (`figure_label`: text from a run folder is any text): a control or bidi character
+    is drawn as its escape (``\\x1b``), a ``$`` as a dollar sign, not mathtext, which could
+    fail to draw. A name that may hold a line break of its own goes through `one_line`
+    first."""
+    text = "\n".join(figure_label(line) for line in text.split("\n"))
     if suptitle:
         on.suptitle(fitted(text, on.get_figwidth(), fontsize), fontsize=fontsize)
         return

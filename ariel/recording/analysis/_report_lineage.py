@@ -38,6 +38,7 @@ from ariel.recording.analysis._gallery import body_thumbnails
 from ariel.recording.analysis._report_figures import UNDRAWABLE, cannot_draw
 from ariel.recording.store import (
     Run,
+    figure_label,
     fitness_label,
     fitted,
     integer_ticks,
@@ -252,7 +253,7 @@ def _nodes(
             zorder=6,
         )
     fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
-    drawn.colorbar(points, ax=axes, label=fitness_label(fitness_fn, maximise))
+    drawn.colorbar(points, ax=axes, label=figure_label(fitness_label(fitness_fn, maximise)))
 
 
 def _title(
@@ -281,7 +282,7 @@ def _title(
             if chain
             else "a founder (no ancestors)"
         )
-    text = text.replace("$", r"\$")  # a run id is any text: no mathtext
+    text = "\n".join(map(figure_label, text.split("\n")))  # a run id is any text
     axes.set_title(fitted(text, drawn.get_figwidth() * 0.8, 11), fontsize=11)
 
 

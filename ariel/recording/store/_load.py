@@ -19,9 +19,10 @@ from ariel.evolution import archive_quality
 from ariel.plugins import body_encoders, fitness_functions
 from ariel.recording.store._archive import archive_cell_count, describe_archive
 from ariel.recording.store._escape import terminal_text
+from ariel.recording.store._files import damaged
 from ariel.recording.store._lineage import lineage
 from ariel.recording.store._lock import lock_is_free
-from ariel.recording.store._manifest import Manifest
+from ariel.recording.store._manifest import Manifest, relative
 from ariel.recording.store._run_folder import (
     DamagedRunError,
     JsonObject,
@@ -195,7 +196,11 @@ class Run:
         width = len(joints)
 
         def signal(name: str) -> np.ndarray:
-            values = frames.column(name).combine_chunks().flatten().to_numpy()
+            column = frames.column(name).combine_chunks()
+            values = column.flatten().to_numpy(zero_copy_only=False)
+            if column.null_count or values.size != frames.num_rows * width:  # no run writes it
+                problem = f"has {name} lists of evaluation {terminal_text(eval_id)} that are not"
+                raise damaged(self.path, relative(self.path, path), f"{problem} one per joint")
             return np.asarray(values, dtype=np.float64).reshape(frames.num_rows, width)
 
         data = np.hstack([signal("joint_target"), signal("joint_angle")])
@@ -385,8 +390,9 @@ def population_after_selection(bodies: Any) -> Any:
     Returns:
         Those rows, a DataFrame with the same columns and index labels.
     """
-    kept = bodies[bodies["selected"]]
-    return kept[kept["fitness"].map(math.isfinite)]
+    kept = bodies[bodies["selected"].eq(True)]  # a null (a table read unchecked): not kept
+    # A boolean mask even when no body is kept (an empty map is no mask: it picks columns)
+    return kept[kept["fitness"].map(math.isfinite).astype(bool)]
 
 
 def load_run(path: str | Path) -> Run:

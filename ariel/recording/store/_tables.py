@@ -20,6 +20,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ariel.errors import DamagedRunError
+from ariel.recording.store._escape import one_line
 from ariel.recording.store._files import atomic_write, damaged, within
 from ariel.recording.store._row_types import (
     COUNT_DESCRIPTORS,
@@ -85,6 +86,16 @@ def evaluation_schema() -> pa.Schema:
 #: Columns added after runs were recorded, and what an older file's rows read as.
 _ADDED_COLUMNS: dict[str, dict[str, object]] = {
     "evaluations": {"backend": "mujoco", "settle_seconds": 0.0}
+}
+
+#: Columns no writer leaves null in any row (ids, the generation, flags, a frame's time): a
+#: null in one is a crafted or damaged file, refused rather than read as something else.
+_NEVER_NULL: dict[str, tuple[str, ...]] = {
+    "evaluations": ("run_id", "generation", "body_id", "eval_id", "status"),
+    "bodies": ("run_id", "generation", "body_id", "is_new", "selected"),
+    "trajectories": ("generation", "eval_id", "t"),
+    "archive": ("generation", "cell", "body_id"),
+    "novelty": ("generation", "body_id", "in_archive"),
 }
 
 
@@ -308,15 +319,31 @@ def read_table(
 
 
 def _unreadable(run_dir: Path, path: Path, problem: str) -> Exception:
-
+    """The one line for file ``path`` of ``run_dir``; ``problem`` may quote the file's own
+    bytes (Arrow's parse errors do), so it is written as one line, escaped (`one_line`)."""
     name = path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else str(path)
-    return damaged(run_dir, name, problem)
+    return damaged(run_dir, name, one_line(problem))
 
 
 def _not_parquet(run_dir: Path, path: Path, exc: Exception) -> Exception:
-    first = (str(exc).splitlines() or [""])[0]
+    first = one_line((str(exc).splitlines() or [""])[0])
     problem = f"is not a readable Parquet table ({type(exc).__name__}: {first})"
     return _unreadable(run_dir, path, problem)
+
+
+def _column_problem(table: str, stored: set[str], part: pa.Table) -> str | None:
+    """What is wrong with the columns of a decoded run's file ``part`` of ``table``
+    (``stored``: the columns the file has); None when nothing is. A column the file lacks
+    that no older run lacked (`_ADDED_COLUMNS`): Arrow read it as nulls, which must not load
+    as the run's values. A null in a column every row of a run has a value in (`_NEVER_NULL`)."""
+    added = _ADDED_COLUMNS.get(table, {})
+    for name in part.column_names:
+        if name not in stored and name not in added:
+            return f"has no column {name!r} (every run writes it): crafted or damaged"
+    for name in _NEVER_NULL.get(table, ()):
+        if name in part.column_names and part.column(name).null_count:
+            return f"has a null {name!r} in its rows (no run writes one): crafted or damaged"
+    return None
 
 
 def read_file(
@@ -366,7 +393,7 @@ def read_file(
         raise _not_parquet(run_dir, path, exc) from None
     problem = run_id_problem(part, getattr(manifest, "run_id", None))
     if manifest is not None:  # a run's file (a bare table, in tests, may hold anything)
-        problem = problem or generation_problem(part, path)
+        problem = problem or generation_problem(part, path) or _column_problem(table, stored, part)
     if problem is not None:
         raise _unreadable(run_dir, path, problem)
     for name, value in _ADDED_COLUMNS.get(table, {}).items():

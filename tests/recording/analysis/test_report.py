@@ -424,3 +424,72 @@ def test_the_archive_heatmap_puts_measure_0_across_and_measure_1_up(tmp_path: Pa
     shown = np.asarray(axes.get_images()[0].get_array())
     assert shown[0, -1] == 1.0 and shown[-1, 0] == 0.5  # bottom right: cell 0; top left: 1
     assert tuple(axes.get_images()[0].get_extent()) == (0.0, 8.0, 0.0, 1.0)
+
+
+def _craft(run_dir: Path, crafted: Path, table: str, edit) -> Path:
+    """A copy of ``run_dir`` whose ``table`` files are ``edit``ed (a pyarrow table -> a
+    table), their manifests written again: `ariel verify` passes."""
+    import pyarrow.parquet as pq
+
+    from ariel.recording.store._manifest import write_manifest
+
+    if not crafted.exists():
+        shutil.copytree(run_dir, crafted)
+        shutil.rmtree(crafted / "report", ignore_errors=True)
+    for path in sorted((crafted / table).glob("gen-*.parquet")):
+        pq.write_table(edit(pq.read_table(path)), path)
+        write_manifest(crafted, int(path.stem.split("-")[1]))
+    return crafted
+
+
+def test_joint_lists_of_other_lengths_leave_joints_png_out_with_a_note(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """Before, lists of 0, None and 50 values: numpy's "inhomogeneous shape" traceback."""
+    import pyarrow as pa
+
+    def ragged(rows):
+        lists = [[] if i % 3 == 0 else None if i % 3 == 1 else [0.1] * 50 for i in range(len(rows))]
+        at = rows.schema.get_field_index("joint_angle")
+        return rows.set_column(at, "joint_angle", pa.array(lists, pa.list_(pa.float64())))
+
+    report = make_report(_craft(run_dir, tmp_path / "run", "trajectories", ragged), render=False)
+    assert "joints.png: left out (the trajectories table's joint lists are not one value " in (
+        "\n".join(report.notes)
+    )
+    written = [p.name for p in report.written]
+    assert "trajectory.png" in written and "joints.png" not in written
+
+
+EVIL = "\x1b[31m\u202e[/bold]$\\frac{$"
+
+
+def test_text_from_the_folder_is_drawn_escaped(run_dir: Path, tmp_path: Path) -> None:
+    """Crafted eval ids and joint names: drawn as escapes (no raw ESC for matplotlib to warn
+    about, no bidi override, no mathtext), every figure written."""
+    import warnings
+
+    import pyarrow as pa
+
+    def renamed(rows):
+        ids = pa.array([EVIL + i for i in rows.column("eval_id").to_pylist()])
+        rows = rows.set_column(rows.schema.get_field_index("eval_id"), "eval_id", ids)
+        if "joint_names" not in rows.column_names:
+            return rows
+        names = [[f"{EVIL}{j}" for j in range(len(n))] for n in rows["joint_names"].to_pylist()]
+        at = rows.schema.get_field_index("joint_names")
+        return rows.set_column(at, "joint_names", pa.array(names, pa.list_(pa.string())))
+
+    crafted = _craft(run_dir, tmp_path / "run", "evaluations", renamed)
+    _craft(run_dir, crafted, "trajectories", renamed)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = make_report(crafted, render=False)
+    assert not [w for w in caught if not str(w.message).isprintable()]
+    assert [p.name for p in report.written] == FIGURES
+    figure = report.figures["joints.png"]
+    texts = [figure.get_suptitle(), *(axes.get_title() for axes in figure.axes)]
+    texts.append(report.figures["trajectory.png"].axes[0].get_title())
+    for text in texts:
+        assert text.replace("\n", " ").isprintable(), text
+        assert r"\x1b[31m\u202e[/bold]\$\frac{\$" in text.replace("\n", ""), text
