@@ -43,6 +43,7 @@ from ariel.recording.analysis._gallery_select import (
     picks,
 )
 from ariel.recording.store import (
+    STALE_S,
     Run,
     RunLock,
     atomic_write,
@@ -268,11 +269,11 @@ _WAIT_S = 30.0
 
 def _remove_leftovers(folder: Path) -> None:
     """A killed gallery's temporaries in ``folder`` (under its lock none is another's) and
-    of its thumbnails (drawn without the lock: those an hour old)."""
+    of its thumbnails (drawn without the lock: the stale ones, `STALE_S`)."""
     list(remove_temporaries(folder, deep=False))
     thumbnails = folder / "thumbnails"
     if thumbnails.is_dir() and not thumbnails.is_symlink():
-        list(remove_temporaries(thumbnails, older_than_s=3600.0))
+        list(remove_temporaries(thumbnails, older_than_s=STALE_S))
 
 
 def _write(gallery: Gallery, folder: Path, root: Path, stem: str) -> None:

@@ -46,6 +46,7 @@ from ariel.recording.analysis._report_figures import (
 from ariel.recording.store import (
     DESCRIPTORS,
     QD_COLUMNS,
+    STALE_S,
     Run,
     evaluation_trajectory,
     figure_label,
@@ -55,6 +56,7 @@ from ariel.recording.store import (
     one_line,
     population_after_selection,
     refuse_symlinks,
+    remove_temporaries,
 )
 
 if TYPE_CHECKING:
@@ -253,6 +255,8 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
         report.folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise _cannot_write(exc, report.folder, report) from exc
+    # A killed report's temporaries (another report of the run may be writing its own now).
+    list(remove_temporaries(report.folder, older_than_s=STALE_S, deep=False))
     # lazy: they import matplotlib, PIL and scipy at their tops (a report being drawn)
     from ariel.recording.analysis import _report_archive, _report_lineage
 

@@ -50,6 +50,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         terminal_text as terminal_text,
     )
     from ariel.recording.store._files import (
+        STALE_S as STALE_S,
         UnsafePathError as UnsafePathError,
         atomic_write as atomic_write,
         atomic_write_bytes as atomic_write_bytes,
@@ -236,6 +237,7 @@ _INTERNAL: dict[str, str] = {
     "read_table": "ariel.recording.store._tables",
     "recording_path": "ariel.recording.store._tables",
     "refuse_symlinks": "ariel.recording.store._files",
+    "STALE_S": "ariel.recording.store._files",
     "remove_temporaries": "ariel.recording.store._files",
     "require_free_space": "ariel.recording.store._files",
     "run_path": "ariel.recording.store._campaign",

@@ -27,6 +27,7 @@ from ariel.errors import DamagedRunError, UnsafePathError
 from ariel.utils import ariel_line, replace_non_finite
 
 __all__ = [
+    "STALE_S",
     "UnsafePathError",
     "atomic_write",
     "atomic_write_bytes",
@@ -44,6 +45,9 @@ __all__ = [
 ]
 
 TEMP_SUFFIX = ".tmp"
+#: A temporary last written longer ago than this is a killed writer's (a writer holds its
+#: own for seconds): removed where another process may be writing beside it.
+STALE_S = 600.0
 #: A temporary's own part, between the file's name and `TEMP_SUFFIX`: random, so that two
 #: processes writing one file (two ``ariel report`` of a run) never share a temporary.
 _TOKEN = re.compile(r"\.[0-9a-f]{8}$")

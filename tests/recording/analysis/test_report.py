@@ -493,3 +493,20 @@ def test_text_from_the_folder_is_drawn_escaped(run_dir: Path, tmp_path: Path) ->
     for text in texts:
         assert text.replace("\n", " ").isprintable(), text
         assert r"\x1b[31m\u202e[/bold]\$\frac{\$" in text.replace("\n", ""), text
+
+
+def test_a_killed_report_s_stale_temporaries_are_removed_by_the_next(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """A report killed with SIGKILL leaves ``report/.fitness.png.<token>.tmp``; later reports
+    left it for ever. One another report may be writing now (recent) is left alone."""
+    import os
+
+    copy = Path(shutil.copytree(run_dir, tmp_path / "copy"))
+    stale = copy / "report" / ".morphology.png.0123abcd.tmp"
+    recent = copy / "report" / ".fitness.png.4567cdef.tmp"
+    stale.write_bytes(b"half")
+    recent.write_bytes(b"half")
+    os.utime(stale, (0, 0))
+    make_report(copy, render=False)
+    assert not stale.exists() and recent.exists()
