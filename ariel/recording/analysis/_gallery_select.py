@@ -22,7 +22,7 @@ import numpy as np
 
 from ariel.errors import ArielError
 from ariel.evolution import DEFAULT_RANGES
-from ariel.recording.store import Run, ancestors, archive_cell_count, lineage
+from ariel.recording.store import Run, ancestors, archive_cell_count, check_eval_id, lineage
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -158,23 +158,33 @@ def _lineage_of_best(run: Run) -> list[Pick]:
     ]
 
 
+def _checked(chosen: list[Pick]) -> list[Pick]:
+    """``chosen``, whose body ids are body ids (``b000012``); `DamagedRunError`, one line
+    naming the run folder, for one that is not (a crafted table's: no such text is drawn)."""
+    for pick in chosen:
+        check_eval_id(pick.body.get("body_id"), pick.run.path, body=True)
+    return chosen
+
+
 def picks(run: Run, of: str) -> list[Pick]:
-    """The bodies ``of`` shows of ``run``, in order (see the module docstring)."""
+    """The bodies ``of`` shows of ``run``, in order (see the module docstring); a body id
+    that is not one is `DamagedRunError`, one line."""
     if of == "final":
-        return _final(run)
+        return _checked(_final(run))
     if of in ("elites", "archive"):
-        return _elites(run)
-    return _lineage_of_best(run)
+        return _checked(_elites(run))
+    return _checked(_lineage_of_best(run))
 
 
 def campaign_picks(campaign: Campaign) -> list[Pick]:
-    """The best body of each run's final population, captioned ``condition, seed N``."""
+    """The best body of each run's final population, captioned ``condition, seed N``; a body
+    id that is not one is `DamagedRunError`, one line."""
     chosen = []
     for (condition, seed), run in campaign.runs.items():
         final = _final(run)
         if final:
             chosen.append(Pick(run, final[0].body, f"{condition}, seed {seed}", final[0].fitness))
-    return chosen
+    return _checked(chosen)
 
 
 def key_descriptors(run: Run) -> tuple[str, str]:

@@ -59,12 +59,21 @@ def descriptor_text(body: GalleryBody, names: Sequence[str]) -> str:
 
 
 def _fitted(draw: ImageDraw.ImageDraw, text: str, font: _Font, width: int) -> str:
-    """``text`` cut (with an ellipsis) to fit ``width`` pixels."""
-    if draw.textlength(text, font=font) <= width:
+    """``text`` cut (with an ellipsis) to fit ``width`` pixels: a text of more than ``width``
+    characters is cut to ``width`` first (a label holds no more than one a pixel; PIL refuses
+    a string of a million), then to the longest start that fits, found by halving (a few
+    measurements, not one per character)."""
+    if len(text) <= width and draw.textlength(text, font=font) <= width:
         return text
-    while text and draw.textlength(text + "…", font=font) > width:
-        text = text[:-1]
-    return text + "…"
+    text = text[:width]
+    fits, too_long = 0, len(text) + 1  # text[:fits] + "…" fits; text[:too_long] + "…" does not
+    while too_long - fits > 1:
+        middle = (fits + too_long) // 2
+        if draw.textlength(text[:middle] + "…", font=font) <= width:
+            fits = middle
+        else:
+            too_long = middle
+    return text[:fits] + "…"
 
 
 #: The largest cached thumbnail read back (pixels a side; they are drawn at 256): a crafted
@@ -212,6 +221,7 @@ def atlas_sheet(gallery: Gallery, size: int) -> Image.Image:
 def _vertical_text(sheet: Image.Image, text: str, at: tuple[float, float]) -> None:
     """``text`` turned a quarter left, its middle at ``at``'s height, its left at ``at``'s x."""
     font = _font(14)
+    text = _fitted(ImageDraw.Draw(sheet), text, font, sheet.height)  # a run.json's measure
     width = int(ImageDraw.Draw(sheet).textlength(text, font=font)) + 4
     label = Image.new("RGB", (width, LINE + 4), BACKGROUND)
     ImageDraw.Draw(label).text((2, 2), text, fill=INK, font=font)

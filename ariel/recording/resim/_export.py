@@ -14,15 +14,25 @@ it is for looking at.)
 A run folder is data, and so is what is exported from it: ``replay.py`` is the same text for
 every export (it reads the ids and values from ``controller.json`` when it runs), and the run
 id and evaluation id are checked against their shapes (`_ids`) before anything is written, so
-a crafted id is refused in one line instead of becoming code. Every file is written whole and
-never through a link (`_files.atomic_write`).
+a crafted id is refused in one line instead of becoming code; an error in ``replay.py`` is one
+escaped line, never a traceback. The names of the plugins are the run's config's (a row that
+names others, a negative seed, a body larger than the run's encoder makes: refused, one line,
+by `replay_task`).
+
+All or nothing: every file is written (whole, never through a link: `_files.atomic_write`)
+into a new hidden folder beside ``out``, ``.<name>.<random hex>.tmp``, which is then renamed
+to ``out`` (atomic onto a missing or empty folder); a failure or Ctrl-C removes it again, and
+a rename onto a folder another export made meanwhile is refused in one line.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
+import secrets
+import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -32,7 +42,6 @@ from ariel.errors import ArielError
 from ariel.plugins import body_encoders, worlds
 from ariel.recording import store
 from ariel.recording.resim._rebuild import (
-    _changed,
     _find_row,
     _require_plugins,
     cell_json,
@@ -65,27 +74,39 @@ _SCRIPT = '''\
 
 Which evaluation of which run, and what it recorded: controller.json. The replayed fitness is
 the run's fitness function on the frames the run recorded (robot.set_control keeps them).
+An error is printed as one line, its characters escaped (the folder is data: any text).
 """
 
+import sys
 from pathlib import Path
 
-import mujoco
 
-from ariel.recording import load_exported
-from ariel.utils.runners import simple_runner
+def main() -> None:
+    import mujoco
 
-robot = load_exported(Path(__file__).resolve().parent)  # genotype.json, controller.json
-mujoco.set_mjcb_control(robot.set_control)  # robot.controller, and the fitness's frames
-simple_runner(robot.model, robot.data, duration=robot.duration)
-mujoco.mj_kinematics(robot.model, robot.data)  # the final state's positions
-print("core at", robot.data.geom("{core}").xpos.tolist())
-print("recorded core at", robot.recorded_core)  # the run's record of the same path
-unit = " " + robot.fitness_unit if robot.fitness_unit else ""
-print(
-    f"replayed fitness {{robot.replayed_fitness()!r}}{{unit}} "
-    f"(recorded {{robot.fitness!r}}{{unit}}; {{robot.fitness_fn}})"
-)
-print("evaluation", robot.eval_id, "of run", robot.run_id)
+    from ariel.recording import load_exported
+    from ariel.utils.runners import simple_runner
+
+    robot = load_exported(Path(__file__).resolve().parent)  # genotype.json, controller.json
+    mujoco.set_mjcb_control(robot.set_control)  # robot.controller, and the fitness's frames
+    simple_runner(robot.model, robot.data, duration=robot.duration)
+    mujoco.mj_kinematics(robot.model, robot.data)  # the final state's positions
+    print("core at", robot.data.geom("{core}").xpos.tolist())
+    print("recorded core at", robot.recorded_core)  # the run's record of the same path
+    unit = " " + robot.fitness_unit if robot.fitness_unit else ""
+    print(
+        f"replayed fitness {{robot.replayed_fitness()!r}}{{unit}} "
+        f"(recorded {{robot.fitness!r}}{{unit}}; {{robot.fitness_fn}})"
+    )
+    print("evaluation", robot.eval_id, "of run", robot.run_id)
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Exception as error:  # one line, escaped: no traceback, no control character
+        message = type(error).__name__ + ": " + str(error)
+        sys.exit("replay.py: error: " + message.encode("unicode_escape").decode("ascii"))
 '''
 
 
@@ -104,11 +125,7 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     needs is not installed here.
     """
     out = Path(out)
-    if out.is_symlink():
-        raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
-    _check_way(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ExportError(f"{str(out)!r} exists and is not an empty folder; name a new one")
+    _check_out(out)
     run = load_checked(run_dir)
     run_id = check_run_id(run.info.get("run_id"), run.path)
     row = _find_row(run, eval_id)
@@ -119,16 +136,13 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
             f"built ({one_line(row.get('error') or 'build error')})"
         )
     _require_plugins(run)
-    task = replay_task(run, row, check_params=True)
-    try:
-        evaluation.build(task)  # the body the run built, or why it is not one now
-    except evaluation.BodyBuildError as exc:
-        problem = f"its body could not be built from the stored genotype ({one_line(exc)})"
-        raise _changed(run, row, "evaluations", problem) from None
+    # The row checked (ids, plugin names, seed, body size), and its body built, or why not.
+    task = replay_task(run, row, check_params=True, unbuildable=True)
     xml = _world_spec(task).to_xml()
+    body = run.config["body"]  # the run's encoder (a row naming another was refused)
     genotype = {  # as the run's encoder sees it (the task may ship the decoded graph instead)
-        "body_encoder": str(row["body_encoder"]),
-        "options": run.config.get("body", {}).get("options", {}),
+        "body_encoder": str(body["encoder"]),
+        "options": body.get("options", {}),
         "genotype": cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"]),
     }
     brain = {
@@ -163,6 +177,22 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
     return out
 
 
+def _check_out(out: Path) -> None:
+    """`ExportError` where ``out`` cannot be the export's folder: a symbolic link, behind one
+    that leads nowhere (`_check_way`), not an empty folder, or the folder this command runs
+    in (renamed onto, it would leave the shell in a removed folder)."""
+    if out.is_symlink():
+        raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
+    _check_way(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ExportError(f"{str(out)!r} exists and is not an empty folder; name a new one")
+    if out.exists() and os.path.samefile(out, os.curdir):
+        raise ExportError(
+            f"{str(out)!r} is the folder this command runs in: name a new folder (an export "
+            "is written whole beside it and then renamed into its place)"
+        )
+
+
 def _check_way(out: Path) -> None:
     """`ExportError` where a folder on the way to ``out`` cannot be one: a symbolic link that
     leads nowhere (dangling, or a loop), or a file."""
@@ -179,29 +209,92 @@ def _check_way(out: Path) -> None:
 
 
 def _write(out: Path, texts: dict[str, str]) -> None:
-    """Make ``out`` and write ``texts`` (file name -> text) into it, each whole; on a failed
-    write (disk full, read-only, no permission) the files written are removed again (and
-    ``out``, when made here), and `ExportError` names the file and why."""
-    made = not out.exists()
-    written: list[Path] = []
+    """Write ``texts`` (file name -> text) into a new hidden folder beside ``out``
+    (`_temporary_folder`), then rename it to ``out``: all the files or none. On any failure
+    (disk full, read-only, no permission; Ctrl-C) the hidden folder is removed again, and so
+    are the folders made on the way to it; `ExportError` names the file and why, or says that
+    another export made ``out`` meanwhile (a rename onto a folder that is not empty fails)."""
+    made = _make_parent(out.parent)
+    temporary: Path | None = None
     try:
-        out.mkdir(parents=True, exist_ok=True)
+        temporary = _temporary_folder(out)
         for name, text in texts.items():
             data = text.encode("utf-8")
-            path = out / name
             # From the store's face at each call, as before (tests stand in for it there).
             store.atomic_write(
-                path, lambda temporary, data=data: temporary.write_bytes(data), root=out
+                temporary / name, lambda path, data=data: path.write_bytes(data), root=temporary
             )
-            written.append(path)
+        _rename(temporary, out)
+    except BaseException as exc:
+        if temporary is not None:  # our own new folder (rmtree follows no link out of it)
+            shutil.rmtree(temporary, ignore_errors=True)
+        _remove_empty(made)
+        if isinstance(exc, OSError):
+            named = _named(exc, temporary, out)
+            raise ExportError(f"{cannot_write(named, out)}; nothing was exported") from exc
+        raise
+
+
+def _make_parent(parent: Path) -> list[Path]:
+    """Make ``parent`` and the folders on the way that are missing; those made, deepest
+    first (`ExportError` where one cannot be made)."""
+    missing = [folder for folder in [parent, *parent.parents] if not folder.exists()]
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        for path in written:  # no half export: all its files or none
-            with contextlib.suppress(OSError):
-                path.unlink()
-        if made:
-            with contextlib.suppress(OSError):
-                out.rmdir()
-        raise ExportError(f"{cannot_write(exc, out)}; nothing was exported") from exc
+        _remove_empty(missing)
+        raise ExportError(f"{cannot_write(exc, parent)}; nothing was exported") from exc
+    return missing
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove ``folders`` (deepest first) where they are empty folders."""
+    for folder in folders:
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+
+def _temporary_folder(out: Path) -> Path:
+    """A new folder ``.<out's name>.<random hex>.tmp`` beside ``out`` (made by ``mkdir``:
+    never one that was there); its name cut to fit a file name."""
+    name = os.fsencode(out.name)[:64]
+    for _ in range(8):
+        folder = out.parent / os.fsdecode(b"." + name + f".{secrets.token_hex(8)}.tmp".encode())
+        try:
+            folder.mkdir()
+        except FileExistsError:
+            continue
+        return folder
+    raise FileExistsError(errno.EEXIST, "no new temporary folder could be made", str(out))
+
+
+def _rename(temporary: Path, out: Path) -> None:
+    """Rename ``temporary`` to ``out``: atomic onto a missing or empty folder; `ExportError`
+    where ``out`` was made meanwhile and is no empty folder (another export, a file)."""
+    try:
+        os.rename(temporary, out)
+    except OSError as exc:
+        if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR, errno.EISDIR):
+            raise
+        raise ExportError(
+            f"{str(out)!r} was made meanwhile (by another export?) and is not an empty folder: "
+            "nothing was exported; name a new folder"
+        ) from None
+    with contextlib.suppress(OSError):  # the rename lasts a power cut
+        folder = os.open(out.parent, os.O_RDONLY)
+        try:
+            os.fsync(folder)
+        finally:
+            os.close(folder)
+
+
+def _named(exc: OSError, temporary: Path | None, out: Path) -> OSError:
+    """``exc``, naming the file in ``out`` that a file in ``temporary`` stands for."""
+    if temporary is not None and exc.filename is not None:
+        path = Path(os.fsdecode(exc.filename))
+        if path.parent == temporary:
+            exc.filename = str(out / path.name)
+    return exc
 
 
 def _recorded_core(run: Run, row: Mapping[str, object]) -> list[float] | None:

@@ -12,7 +12,6 @@ rebuild anything, report and gallery before they draw a body.
 
 from __future__ import annotations
 
-import contextlib
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -34,6 +33,7 @@ from ariel.errors import (
 )
 from ariel.evolution import ExperimentConfig, body_spec, evaluation_task, record_steps, shipped_body
 from ariel.plugins import REGISTRIES, body_encoders, controllers
+from ariel.recording.resim._row_checks import changed, check_body_size, check_row
 from ariel.recording.store import (
     Run,
     config_sections,
@@ -245,11 +245,7 @@ def cell_json(
         raise _changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
 
 
-def _changed(run: Run, row: Mapping[str, object], table: str, problem: str) -> DamagedRunError:
-    return DamagedRunError(
-        f"evaluation {short_ascii(row.get('eval_id'))} of run {str(run.path)!r}: {problem}; "
-        f"the {table} table was changed or damaged"
-    )
+_changed = changed  # the one line for a changed table's cell (`_row_checks`)
 
 
 def _row_params(row: Mapping[str, object]) -> np.ndarray | None:
@@ -290,7 +286,12 @@ def _check_params(
 
 
 def replay_task(
-    run: Run, row: Mapping[str, Any], *, graph: str | None = None, check_params: bool = False
+    run: Run,
+    row: Mapping[str, Any],
+    *,
+    graph: str | None = None,
+    check_params: bool = False,
+    unbuildable: bool | None = None,
 ) -> EvaluationTask:
     """The `EvaluationTask` the loop built for evaluation ``row`` of ``run``.
 
@@ -300,30 +301,62 @@ def replay_task(
     ``check_params`` (to re-simulate): `DamagedRunError` where the row's controller parameters
     are not as many finite numbers as its body's controller needs (a changed table); without
     it (to draw the body), parameters that are not a list of finite numbers are left out.
-    A genotype or graph cell that is not JSON is `DamagedRunError` either way.
+    ``unbuildable``: what a body that does not build is, where the row does not record that
+    it could not be built (status ``error``): a `DamagedRunError` naming the run folder, the
+    table, the evaluation and body and the encoder's reason (True: to draw or export it), or
+    the replay's result (False: `replay` says why); default ``not check_params``.
+    Either way a row whose cells are not what the loop wrote (`check_row`: ids, plugin names,
+    seed; a genotype or graph cell that is not JSON, or larger than a body of the run can be:
+    `check_body_size`) is `DamagedRunError`, before anything is built.
     """
     config = _experiment(run)
-    encoder = config.body.encoder
-    if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
-        check_options(run, ("world",), config)  # the graph is built without the encoder
-        spec = evaluation.BodySpec("graph", cell_json(run, row, "bodies", "graph", graph))
-    else:
-        check_options(run, BODY_PLUGINS, config)
-        genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
-        spec = shipped_body(config, body_spec(config, genotype))
-    fields: dict[str, object] = {
-        "seed": int(row["seed"]),
-        "eval_id": str(row["eval_id"]),
-    }
+    seed = check_row(run, row, config)
+    spec, table = _body(run, row, config, graph)
+    check_body_size(run, row, spec, config, table)
+    fields: dict[str, object] = {"seed": seed, "eval_id": str(row["eval_id"])}
     params = _row_params(row)
-    # An error row's body cannot be built: evaluating its task gives the same error again.
-    with contextlib.suppress(evaluation.BodyBuildError):
+    try:
         shape = evaluation_task(config, spec)
         model = evaluation.build(shape).model
+    except evaluation.BodyBuildError as exc:
+        damage = not check_params if unbuildable is None else unbuildable
+        # An error row's body cannot be built: evaluating its task gives the same error again.
+        if damage and row.get("status") != "error":
+            raise _unbuildable(run, row, table, exc) from None
+    else:
         fields["record_every"] = record_steps(config, model.opt.timestep)
         if check_params:
             _check_params(run, row, shape, model, params)
     return evaluation_task(config, spec, () if params is None else params, **fields)
+
+
+def _body(
+    run: Run, row: Mapping[str, Any], config: ExperimentConfig, graph: str | None
+) -> tuple[evaluation.BodySpec, str]:
+    """The body `replay_task` builds and the table it was read from: the stored robot graph
+    (``bodies``) where there is one and the encoder decodes to one, else the row's genotype
+    (``evaluations``; `check_body_size` before it is decoded)."""
+    encoder = config.body.encoder
+    if graph and encoder != "graph" and not hasattr(body_encoders.get(encoder), "build"):
+        check_options(run, ("world",), config)  # the graph is built without the encoder
+        return evaluation.BodySpec("graph", cell_json(run, row, "bodies", "graph", graph)), "bodies"
+    check_options(run, BODY_PLUGINS, config)
+    genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
+    check_body_size(run, row, body_spec(config, genotype), config, "evaluations")
+    return shipped_body(config, body_spec(config, genotype)), "evaluations"
+
+
+def _unbuildable(
+    run: Run, row: Mapping[str, Any], table: str, exc: BaseException
+) -> DamagedRunError:
+    """The one line for the body of ``row`` (from ``table``) that does not build, though the
+    run built it: the run folder, the evaluation and body, the encoder's reason."""
+    stored = "graph" if table == "bodies" else "genotype"
+    problem = (
+        f"its body {short_ascii(row.get('body_id'))} could not be built from the stored "
+        f"{stored} ({one_line(exc)})"
+    )
+    return _changed(run, row, table, problem)
 
 
 def _evaluate_as_stored(task: EvaluationTask, backend: object) -> EvaluationResult:

@@ -1,7 +1,12 @@
 """The shapes of the ids a run folder holds, checked where an id leaves the folder.
 
-An evaluation id is ``b<body number>-i<iteration>-c<candidate>`` (``b000052-i005-c002``,
-`ariel.evolution._bodies`). A run id is ``<experiment name>-<date>-<time>-s<seed>``
+A body id is ``b<body number>`` (``b000052``, `BODY_ID`), an evaluation id
+``b<body number>-i<iteration>-c<candidate>`` (``b000052-i005-c002``, `EVAL_ID`,
+`ariel.evolution._bodies`): ASCII digits only (``\\d`` would take ``b٠٠٠٠٠٣`` for body 3), 6 to
+`MOST_DIGITS` of them for a body (a run makes millions of bodies at most), 3 to `MOST_DIGITS`
+for an iteration and a candidate: a longer number (a crafted id of 4,301 digits, which
+``int()`` refuses) is refused in one line like any other crafted id. A run id is
+``<experiment name>-<date>-<time>-s<seed>``
 (``coevolve_flat-20261126-101500-s1``), the name of the folder ``ariel run --out`` made, or
 ``<campaign id>-<condition>-s<seed>``: letters, digits, spaces and ``. _ - + @ = , : ~ ( ) [ ]
 { } # % ! '`` (an apostrophe: ``--out "it's"``; no id is ever put into code), not starting with
@@ -21,16 +26,23 @@ from pathlib import Path
 from ariel.errors import ConfigError, DamagedRunError
 
 __all__ = [
+    "BODY_ID",
     "CAMPAIGN_ID",
     "EVAL_ID",
+    "MOST_DIGITS",
     "RUN_ID",
     "RUN_ID_RULE",
+    "check_body_id",
     "check_eval_id",
     "check_new_id",
     "check_run_id",
 ]
 
-EVAL_ID = re.compile(r"b\d{6,}-i\d{3,}-c\d{3,}")
+#: The most digits of a number in a body or evaluation id.
+MOST_DIGITS = 12
+#: A body id; its number is group 1.
+BODY_ID = re.compile(rf"b([0-9]{{6,{MOST_DIGITS}}})")
+EVAL_ID = re.compile(rf"{BODY_ID.pattern}-i[0-9]{{3,{MOST_DIGITS}}}-c[0-9]{{3,{MOST_DIGITS}}}")
 _RUN_ID_CHARS = r"\w.+@=,:~()\[\]{}#%!'-"
 RUN_ID = re.compile(rf"[{_RUN_ID_CHARS}][ {_RUN_ID_CHARS}]{{0,599}}")
 CAMPAIGN_ID = re.compile(rf"[{_RUN_ID_CHARS}][ {_RUN_ID_CHARS}]{{0,254}}")
@@ -45,15 +57,23 @@ def _shown(value: object) -> str:
     return text if len(text) <= _SHOWN else f"{text[: _SHOWN - 20]}...({len(str(value))} chars)"
 
 
-def check_eval_id(value: object, where: str | Path) -> str:
-    """``value`` where it is an evaluation id (`EVAL_ID`); else `DamagedRunError` naming
-    ``where`` (the run or export folder)."""
-    if isinstance(value, str) and EVAL_ID.fullmatch(value):
+def check_eval_id(value: object, where: str | Path, *, body: bool = False) -> str:
+    """``value`` where it is an evaluation id (`EVAL_ID`; ``body``: a body id, `BODY_ID`);
+    else `DamagedRunError` naming ``where`` (the run or export folder)."""
+    pattern, what, example = (
+        (BODY_ID, "a body", "b000012") if body else (EVAL_ID, "an evaluation", "b000012-i003-c005")
+    )
+    if isinstance(value, str) and pattern.fullmatch(value):
         return value
     raise DamagedRunError(
-        f"{str(where)!r} holds an evaluation id that is not one: {_shown(value)} (evaluation "
-        "ids look like b000012-i003-c005); the folder was changed by hand or crafted: refused"
+        f"{str(where)!r} holds {what} id that is not one: {_shown(value)} ({what.split()[-1]} "
+        f"ids look like {example}); the folder was changed by hand or crafted: refused"
     )
+
+
+def check_body_id(value: object, where: str | Path) -> str:
+    """``value`` where it is a body id (`BODY_ID`); else `DamagedRunError` naming ``where``."""
+    return check_eval_id(value, where, body=True)
 
 
 def check_run_id(value: object, where: str | Path) -> str:

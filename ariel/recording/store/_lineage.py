@@ -50,7 +50,9 @@ import pandas as pd
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.errors import DamagedRunError
+from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import atomic_write
+from ariel.recording.store._ids import BODY_ID
 
 if TYPE_CHECKING:
     from ariel.recording.store._campaign import Campaign
@@ -97,16 +99,17 @@ ALIVE_MARKS = ("", "inf", "none")
 #: ``ancestor_list`` of a taxon without ancestors, as the standard's example writes it.
 NO_ANCESTORS = "[none]"
 
-_BODY_ID = re.compile(r"b(\d{6,})")
 _ANCESTORS = re.compile(r"\[\s*(.*?)\s*\]")
 
 
 def _number(body_id: object, where: Path) -> int:
-    """The number in a body id (``b000052`` -> 52); `DamagedRunError` for anything else."""
-    found = _BODY_ID.fullmatch(body_id) if isinstance(body_id, str) else None
+    """The number in a body id (``b000052`` -> 52, `BODY_ID`: ASCII digits, not too many);
+    `DamagedRunError` for anything else."""
+    found = BODY_ID.fullmatch(body_id) if isinstance(body_id, str) else None
     if found is None:
         raise DamagedRunError(
-            f"{str(where)!r}: its bodies table holds a body id that is not one: {body_id!r} "
+            f"{str(where)!r}: its bodies table holds a body id that is not one: "
+            f"{short_ascii(body_id)} "
             "(body ids look like b000012); the folder was changed by hand or crafted"
         )
     return int(found.group(1))
