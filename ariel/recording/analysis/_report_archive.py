@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial import KDTree
 
+from ariel.errors import DamagedRunError
 from ariel.recording.rerun import CvtCells, archive_cells, archive_grid, three_quarter_view
 from ariel.recording.store import (
     DESCRIPTORS,
@@ -23,6 +24,7 @@ from ariel.recording.store import (
     descriptor_label,
     fitness_label,
     integer_ticks,
+    one_line,
 )
 from ariel.utils import mujoco_module
 
@@ -139,8 +141,8 @@ def archive_figure(
                 (row.body_id, row.fitness, _thumbnail(run, row.body_id))
                 for row in ranked.itertuples()
             ]
-        except RuntimeError as exc:  # no OpenGL backend here
-            note = f"archive.png: body thumbnails left out ({exc})"
+        except (RuntimeError, DamagedRunError) as exc:  # no OpenGL here; a body's row crafted
+            note = f"archive.png: body thumbnails left out ({one_line(exc)})"
     drawn = figure(11.0, 4.8 if images else 4.2)
     rows = 2 if images else 1
     columns = max(3, math.ceil(len(images) / 2)) if images else 1

@@ -59,7 +59,7 @@ _CHUNK = 1 << 20
 #: Keys of run.json that came with manifests: only an ariel that writes a manifest for every
 #: finished generation (and ``"manifests": 1``) writes them.
 _MANIFEST_ERA = ("segments", "maximise", "brain_only")
-_MANIFEST_NAME = re.compile(r"gen-\d{6}\.json")
+_MANIFEST_NAME = re.compile(r"gen-[0-9]{6}\.json")
 
 
 class _Entry(TypedDict):

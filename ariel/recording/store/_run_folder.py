@@ -375,7 +375,7 @@ class RunFolder:
         manifests = self.path / MANIFEST_DIR
         if manifests.is_dir() and not manifests.is_symlink():
             for path in sorted(manifests.iterdir()):
-                found = re.fullmatch(r"gen-(\d{6})\.json", path.name)
+                found = re.fullmatch(r"gen-([0-9]{6})\.json", path.name)
                 if found and int(found.group(1)) > generation:
                     with contextlib.suppress(FileNotFoundError):
                         path.unlink()
@@ -392,7 +392,7 @@ class RunFolder:
         recordings = self.path / "recordings"
         if recordings.is_dir() and not recordings.is_symlink():  # a link may lead elsewhere
             for folder in sorted(recordings.iterdir()):
-                found = re.fullmatch(r"gen-(\d{6})", folder.name)
+                found = re.fullmatch(r"gen-([0-9]{6})", folder.name)
                 if found and int(found.group(1)) > generation and folder.is_symlink():
                     folder.unlink()
                     removed.append(folder)

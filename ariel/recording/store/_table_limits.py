@@ -33,6 +33,7 @@ from ariel.evolution import ExperimentConfig, machine_memory
 from ariel.recording.store._escape import short_ascii
 
 __all__ = [
+    "GEN_FILE",
     "MEMORY_SHARE",
     "ROW_BYTES",
     "ROW_MARGIN",
@@ -46,7 +47,9 @@ __all__ = [
     "size_problem",
 ]
 
-_GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
+#: A generation's table file: six ASCII digits (``\d`` would take other scripts' digits too,
+#: and two names would then stand for one generation).
+GEN_FILE = re.compile(r"^gen-([0-9]{6})\.parquet$")
 _TABLES = ("evaluations", "bodies", "trajectories", "archive", "novelty")
 
 #: The row counts `row_limit` works out are the most the writers make; a file is refused only
@@ -151,7 +154,7 @@ def row_limit(config: Mapping[str, object] | None, table: str, generation: int) 
 
 
 def _table_of(path: Path) -> tuple[str, int] | None:
-    found = _GEN_FILE.match(path.name)
+    found = GEN_FILE.match(path.name)
     table = path.parent.name
     if found is None or table not in _TABLES:
         return None

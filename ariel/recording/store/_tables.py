@@ -10,7 +10,6 @@ after the generation. Each table's columns are declared once, by its row's class
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -33,6 +32,7 @@ from ariel.recording.store._row_types import (
     row_schema,
 )
 from ariel.recording.store._table_limits import (
+    GEN_FILE,
     ROW_MARGIN,
     generation_problem,
     row_limit,
@@ -76,7 +76,6 @@ __all__ = [
 TABLES: tuple[str, ...] = ("evaluations", "bodies", "trajectories", "archive", "novelty")
 #: Where each finished generation's manifest (its tables' sizes and SHA-256) lives.
 MANIFEST_DIR = "manifests"
-_GEN_FILE = re.compile(r"^gen-(\d{6})\.parquet$")
 
 
 def evaluation_schema() -> pa.Schema:
@@ -262,7 +261,7 @@ def table_generations(run_dir: Path, table: str) -> list[int]:
     folder = Path(run_dir) / table
     if not folder.is_dir():
         return []
-    found = (_GEN_FILE.match(p.name) for p in folder.iterdir())
+    found = (GEN_FILE.match(p.name) for p in folder.iterdir())
     return sorted(int(m.group(1)) for m in found if m)
 
 

@@ -345,3 +345,22 @@ def test_a_crafted_huge_thumbnail_is_drawn_as_missing(tmp_path: Path) -> None:
     tile = _gallery_sheet._thumbnail(types.SimpleNamespace(thumbnail=bomb), 64)  # type: ignore[arg-type]
     assert tile.size == (64, 64)
     assert tile.getpixel((0, 0)) == _gallery_sheet.EMPTY  # the grey "no thumbnail" tile
+
+
+def test_a_crafted_elite_leaves_the_report_s_archive_thumbnails_out_with_a_note(
+    fresh: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A damaged elite's row stopped the whole report in one line; now archive.png is drawn
+    without its thumbnails and a note says why."""
+    from ariel.errors import DamagedRunError
+    from ariel.recording import make_report
+    from ariel.recording.analysis import _report_archive
+
+    def damaged(run: object, body_id: str) -> None:
+        raise DamagedRunError(f"run folder 'x' is damaged: {body_id} \x1b[2J")
+
+    monkeypatch.setattr(_report_archive, "_thumbnail", damaged)
+    report = make_report(fresh, render=True)
+    assert fresh / "report" / "archive.png" in report.written
+    note = next(n for n in report.notes if n.startswith("archive.png: body thumbnails left out"))
+    assert "is damaged: b" in note and "\\x1b[2J" in note

@@ -122,3 +122,17 @@ def test_an_arrow_parse_error_quoting_the_file_is_escaped(run_dir: Path, tmp_pat
     message = str(raised.value)
     assert "Failed to parse string: '[/bold]\\x1b[2J\\u202e'" in message
     assert message.isprintable()
+
+
+def test_a_generation_file_named_with_other_scripts_digits_is_no_generation(
+    tmp_path: Path,
+) -> None:
+    """``\\d`` took Arabic-Indic digits: ``gen-٠٠٠٠٠١.parquet`` was read as generation 1
+    beside ``gen-000001.parquet``."""
+    from ariel.recording.store._tables import table_generations
+
+    folder = tmp_path / "evaluations"
+    folder.mkdir()
+    (folder / "gen-000001.parquet").write_bytes(b"")
+    (folder / "gen-\u0660\u0660\u0660\u0660\u0660\u0661.parquet").write_bytes(b"")
+    assert table_generations(tmp_path, "evaluations") == [1]
