@@ -642,3 +642,25 @@ def test_a_ctrl_c_while_the_commands_load_is_one_line(
 
     assert ariel._console.main() == 130
     assert capsys.readouterr().err == "\ninterrupted\n"
+
+
+def test_numpy_overflow_warnings_of_crafted_values_stay_off_the_terminal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A crafted fitness of 1e308 made `ariel report` print numpy's and matplotlib's
+    "overflow encountered" warnings, two lines each, beside its own one-line note."""
+    import warnings
+
+    import ariel.recording.analysis as analysis
+
+    def overflowing(*args: object, **kwargs: object) -> None:
+        numpy_code = {"__name__": "numpy._core._methods", "warnings": warnings}
+        exec("warnings.warn('overflow encountered in reduce', RuntimeWarning)", numpy_code)
+        warnings.warn("a warning of ours", UserWarning, stacklevel=1)  # still shown
+
+    monkeypatch.setattr(analysis, "make_report", overflowing)
+    monkeypatch.setattr(analysis, "print_report", lambda report: None)
+    with warnings.catch_warnings(record=True) as shown:
+        warnings.simplefilter("always")
+        assert main(["report", str(tmp_path)]) == 0
+    assert [str(w.message) for w in shown] == ["a warning of ours"]

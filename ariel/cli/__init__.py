@@ -20,6 +20,7 @@ import contextlib
 import os
 import signal
 import sys
+import warnings
 from collections.abc import Sequence
 
 from ariel import __version__
@@ -94,7 +95,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         # Ctrl-C, SIGTERM and SIGHUP stop every command as an exception: its files written so
         # far stay whole and its temporaries are removed (`atomic_write`), in one line.
-        with stop_on_signals():
+        with stop_on_signals(), warnings.catch_warnings():
+            _quiet_numerics()
             return int(args.func(args))
     except BrokenPipeError:  # `ariel runs | head -3`: the reader has what it wanted
         return _reader_gone()
@@ -122,3 +124,10 @@ def _reader_gone() -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
     return 128 + signal.SIGPIPE
+
+
+def _quiet_numerics() -> None:
+    """numpy's and matplotlib's "overflow encountered" warnings off: they come only from values
+    no run writes (a crafted fitness of 1e308), each two lines on stderr, where the command's
+    own note already says what it left out and why."""
+    warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"(numpy|matplotlib)\.")
