@@ -7,7 +7,7 @@ OpenGL is missing).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -50,7 +50,7 @@ def _trajectory_figures(report: Report, frames: pd.DataFrame) -> None:
         report.notes.append("joints.png: left out (the best body has no joints)")
         return
     labels = [one_line(n) for n in joint_labels(names, _graph_of(run, str(best["body_id"])))]
-    target, angle = (_joint_values(frames[name], len(names)) for name in JOINT_COLUMNS)
+    target, angle = (_joint_values(frames[name].tolist(), len(names)) for name in JOINT_COLUMNS)
     if target is None or angle is None:  # a changed table: the rest of the report stands
         report.notes.append(
             "joints.png: left out (the trajectories table's joint lists are not one value "
@@ -78,11 +78,10 @@ def _trajectory_figures(report: Report, frames: pd.DataFrame) -> None:
 JOINT_COLUMNS = ("joint_target", "joint_angle")
 
 
-def _joint_values(column: Any, width: int) -> np.ndarray | None:
-    """``column`` (a Series: a joint signal of one evaluation's frames) as a frames x
+def _joint_values(lists: list[list[float] | None], width: int) -> np.ndarray | None:
+    """``lists`` (a joint signal of one evaluation's frames, a list per frame) as a frames x
     ``width`` array; None where a frame has no list or one of another length (no run writes
     one)."""
-    lists = column.tolist()
     if any(values is None or len(values) != width for values in lists):
         return None
     return np.array(lists, dtype=float).reshape(len(lists), width)

@@ -234,11 +234,13 @@ def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[objec
 
 
 def cell_json(
-    run: Run, row: Mapping[str, object], table: str, column: str, text: str | bytes
+    run: Run, row: Mapping[str, object], table: str, column: str, text: object
 ) -> object:
     """The JSON in the cell ``column`` of ``table`` (``text``) for evaluation ``row`` of
     ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
-    that is not JSON is a changed table: `DamagedRunError`, one line."""
+    that is no JSON text is a changed table: `DamagedRunError`, one line."""
+    if not isinstance(text, str | bytes):
+        raise _changed(run, row, table, f"its {column} is {short_ascii(text, 40)}, not JSON text")
     try:
         return json_data(text)
     except (TypeError, ValueError) as exc:
@@ -331,7 +333,7 @@ def replay_task(
 
 
 def _body(
-    run: Run, row: Mapping[str, Any], config: ExperimentConfig, graph: str | None
+    run: Run, row: Mapping[str, object], config: ExperimentConfig, graph: str | None
 ) -> tuple[evaluation.BodySpec, str]:
     """The body `replay_task` builds and the table it was read from: the stored robot graph
     (``bodies``) where there is one and the encoder decodes to one, else the row's genotype
@@ -347,7 +349,7 @@ def _body(
 
 
 def _unbuildable(
-    run: Run, row: Mapping[str, Any], table: str, exc: BaseException
+    run: Run, row: Mapping[str, object], table: str, exc: BaseException
 ) -> DamagedRunError:
     """The one line for the body of ``row`` (from ``table``) that does not build, though the
     run built it: the run folder, the evaluation and body, the encoder's reason."""
