@@ -233,9 +233,7 @@ def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[objec
     return differences
 
 
-def cell_json(
-    run: Run, row: Mapping[str, object], table: str, column: str, text: object
-) -> object:
+def cell_json(run: Run, row: Mapping[str, object], table: str, column: str, text: object) -> object:
     """The JSON in the cell ``column`` of ``table`` (``text``) for evaluation ``row`` of
     ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
     that is no JSON text is a changed table: `DamagedRunError`, one line."""
