@@ -40,6 +40,7 @@ from ariel.recording.store._run_folder import (
     finished_generations,
 )
 from ariel.recording.store._table_limits import (
+    GEN_FILE,
     generation_problem,
     rows_problem,
     size_problem,
@@ -388,12 +389,32 @@ def _check_file(
 
 def _check_generations(path: Path) -> str | None:
     """What is wrong with the ``generation`` column of the table file ``path`` (none where it
-    does not decode: `_check_readable` or the reader says so)."""
+    does not decode: `_check_readable` or the reader says so). Read from the footer's
+    statistics where every row group has them (a min and max of the file's generation:
+    nothing decoded), else from the column."""
+    local = os.path.abspath(path)  # pyarrow would expand a leading "~"
     try:
-        part = pq.read_table(os.path.abspath(path), columns=["generation"])  # not "~" expanded
+        if _one_generation_in_footer(pq.read_metadata(local), path):
+            return None
+        part = pq.read_table(local, columns=["generation"])
     except Exception:
         return None
     return generation_problem(part, path)
+
+
+def _one_generation_in_footer(metadata: pq.FileMetaData, path: Path) -> bool:
+    """Whether the footer's statistics say every row's ``generation`` is the one in the file's
+    name (False: they do not, or cannot say: the column is then read)."""
+    found = GEN_FILE.match(path.name)
+    names = [metadata.schema.column(i).path for i in range(metadata.num_columns)]
+    if found is None or "generation" not in names:
+        return False
+    column, generation = names.index("generation"), int(found.group(1))
+    for group in range(metadata.num_row_groups):
+        stats = metadata.row_group(group).column(column).statistics
+        if stats is None or not stats.has_min_max or (stats.min, stats.max) != (generation,) * 2:
+            return False
+    return True
 
 
 def adopt_manifests(folder: RunFolder, generations: int) -> None:
