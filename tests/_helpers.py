@@ -128,6 +128,18 @@ def repo_env() -> dict[str, str]:
     return dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
 
 
+def run_replay_script(export_dir: Path, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """``python EXPORT_DIR/replay.py`` as a user runs it (in ``cwd``), its output captured."""
+    return subprocess.run(
+        [sys.executable, str(export_dir / "replay.py")],
+        cwd=cwd,
+        env=repo_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
 def plain(value: Any) -> Any:
     """Bit-exact, comparable form of a table cell (floats as hex, arrays as tuples)."""
     if isinstance(value, np.ndarray | list | tuple):

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -26,7 +24,13 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, repo_env, tiny_run_toml
+from _helpers import (
+    ariel_run,
+    exit_code,
+    one_error_line,
+    run_replay_script,
+    tiny_run_toml,
+)
 
 from ariel.errors import DamagedRunError
 from ariel.recording import load_run
@@ -183,14 +187,7 @@ def test_replay_py_prints_an_error_as_one_escaped_line(run_dir: Path, tmp_path: 
     genotype = json.loads((out / "genotype.json").read_text())
     genotype["body_encoder"] = HOSTILE  # an exported folder edited on its way
     (out / "genotype.json").write_text(json.dumps(genotype))
-    done = subprocess.run(
-        [sys.executable, str(out / "replay.py")],
-        cwd=tmp_path,
-        env=repo_env(),
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    done = run_replay_script(out, tmp_path)
     assert done.returncode == 1 and done.stdout == ""
     (line,) = done.stderr.splitlines()
     assert line.startswith("replay.py: error: UnknownPluginError: unknown body encoder")

@@ -7,14 +7,18 @@ from __future__ import annotations
 import ast
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, repo_env, tiny_run_toml
+from _helpers import (
+    ariel_run,
+    exit_code,
+    one_error_line,
+    run_replay_script,
+    tiny_run_toml,
+)
 
 from ariel.recording import load_run
 
@@ -53,15 +57,8 @@ def test_export_writes_mjcf_json_and_a_replay_script_that_follows_the_run(
     model = mujoco.MjModel.from_xml_path(str(out / "body.xml"))  # what MuJoCo's viewer loads
     assert model.nu == row["n_joints"]
 
-    done = subprocess.run(
-        [sys.executable, str(out / "replay.py")],
-        cwd=tmp_path,
-        env=repo_env(),
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=True,
-    )
+    done = run_replay_script(out, tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
     lines = done.stdout.splitlines()
     final = json.loads(lines[0].removeprefix("core at "))
     frames = run.trajectories[run.trajectories["eval_id"] == brain["eval_id"]].sort_values("t")
@@ -174,14 +171,7 @@ def test_a_crafted_id_in_an_exported_folder_runs_nothing(run_dir: Path, tmp_path
     brain = json.loads((out / "controller.json").read_text())
     brain["run_id"] = CRAFTED
     (out / "controller.json").write_text(json.dumps(brain))
-    done = subprocess.run(
-        [sys.executable, str(out / "replay.py")],
-        cwd=tmp_path,
-        env=repo_env(),
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    done = run_replay_script(out, tmp_path)
     assert done.returncode != 0 and not (tmp_path / "code-ran").exists()
     assert "holds a run id that is not one" in done.stderr.splitlines()[-1]
 
