@@ -33,6 +33,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
+from ariel.errors import NotARunError, RunStorageError
 from ariel.recording import resim
 from ariel.recording.analysis._gallery import add_report_gallery
 from ariel.recording.analysis._report_best import _body_image, _trajectory_figures
@@ -48,6 +49,7 @@ from ariel.recording.store import (
     QD_COLUMNS,
     STALE_S,
     Run,
+    RunFolder,
     evaluation_trajectory,
     figure_label,
     fitness_label,
@@ -58,6 +60,7 @@ from ariel.recording.store import (
     refuse_symlinks,
     remove_temporaries,
 )
+from ariel.utils import ariel_line
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -257,6 +260,36 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
         raise _cannot_write(exc, report.folder, report) from exc
     # A killed report's temporaries (another report of the run may be writing its own now).
     list(remove_temporaries(report.folder, older_than_s=STALE_S, deep=False))
+    try:
+        _draw(report, maximise, render)
+    except RunStorageError:  # e.g. report/ gone: the folder replaced by a new run meanwhile?
+        _refuse_if_replaced(run)
+        raise
+    _refuse_if_replaced(run)
+    return report
+
+
+def _refuse_if_replaced(run: Run) -> None:
+    """`NotARunError`, one line, when run.json now names another run than the one the report
+    drew (``ariel run --overwrite`` into the folder meanwhile): report/ may then hold figures
+    of both."""
+    try:
+        now = RunFolder(run.path).read_info()
+    except NotARunError:
+        now = {}
+    drawn = (run.info.get("run_id"), run.info.get("created"))
+    if (now.get("run_id"), now.get("created")) != drawn:
+        raise NotARunError(
+            f"run folder {str(run.path)!r} was replaced by another run while its report was "
+            "drawn (e.g. `ariel run --overwrite` into it): report/ may hold figures of both; "
+            f"make the report again: {ariel_line('report', run.path)}"
+        )
+
+
+def _draw(report: Report, maximise: bool, render: bool) -> None:
+    """Every figure of ``report`` (`make_report`'s), each written whole or left out with a
+    note."""
+    run = report.run
     # lazy: they import matplotlib, PIL and scipy at their tops (a report being drawn)
     from ariel.recording.analysis import _report_archive, _report_lineage
 
@@ -267,7 +300,7 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     add_report_gallery(report, render)
     if report.best is None:
         report.notes.append("trajectory.png, joints.png, best_body.png: no evaluation succeeded")
-        return report
+        return
     frames = evaluation_trajectory(run, report.best)
     if frames is None or not len(frames):
         report.notes.append(
@@ -280,7 +313,6 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
         _body_image(report)
     else:
         report.notes.append("best_body.png: left out (rendering off)")
-    return report
 
 
 def _table(title: TextType) -> Table:

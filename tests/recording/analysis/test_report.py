@@ -510,3 +510,26 @@ def test_a_killed_report_s_stale_temporaries_are_removed_by_the_next(
     os.utime(stale, (0, 0))
     make_report(copy, render=False)
     assert not stale.exists() and recent.exists()
+
+
+@pytest.mark.parametrize("fails", [False, True], ids=["drawn", "a-write-fails"])
+def test_a_run_replaced_while_its_report_is_drawn_is_said_in_one_line(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails: bool
+) -> None:
+    """`ariel run --overwrite` into the folder during `ariel report`: the report finished with
+    figures of both runs in report/ (or failed saying the run was unchanged)."""
+    from ariel.errors import NotARunError, RunStorageError
+    from ariel.recording.analysis import _report
+
+    copy = Path(shutil.copytree(run_dir, tmp_path / "copy"))
+
+    def overwritten(report: object, maximise: bool, render: bool) -> None:
+        info = json.loads((copy / "run.json").read_text())
+        info["created"] = "2099-01-01T00:00:00+00:00"  # a new run in the folder
+        (copy / "run.json").write_text(json.dumps(info))
+        if fails:
+            raise RunStorageError("cannot write 'report/fitness.png': No such file or directory")
+
+    monkeypatch.setattr(_report, "_draw", overwritten)
+    with pytest.raises(NotARunError, match=r"was replaced by another run while its report was"):
+        make_report(copy, render=False)
