@@ -321,18 +321,27 @@ def _check_run_json(run_dir: Path, info: Mapping[str, object], result: VerifyRes
         result.problems.append(f"{name} has a config_hash that is not run.json's")
 
 
-def _check_rows(path: Path, config: object) -> str | None:
+def _footer(path: Path) -> pq.FileMetaData | None:
+    """The Parquet footer of the table file ``path``; None where it does not decode (a run made
+    before manifests: `_check_readable` says so; else the reader does)."""
+    try:
+        return pq.read_metadata(os.path.abspath(path))  # pyarrow would expand a leading "~"
+    except Exception:
+        return None
+
+
+def _check_rows(path: Path, metadata: pq.FileMetaData | None, config: object) -> str | None:
     """A sound table file's row count and decoded size against what the run's config makes
-    (`rows_problem`, `size_problem`: its rows, not this machine's memory), from its footer (and
-    a dictionary's indices); a footer that does not decode is `_check_file`'s to say."""
+    (`rows_problem`, `size_problem`: its rows, not this machine's memory), from its footer
+    ``metadata`` (and a dictionary's indices)."""
+    if metadata is None:
+        return None
     config = config if isinstance(config, dict) else None
     try:
-        local = os.path.abspath(path)  # pyarrow would expand a leading "~"
-        metadata = pq.read_metadata(local)
         return rows_problem(config, path, metadata) or size_problem(
-            config, path, metadata, local, memory=False
+            config, path, metadata, os.path.abspath(path), memory=False
         )
-    except Exception:  # not Parquet: a run made before manifests says so when it is read
+    except Exception:  # not Parquet after all: a run made before manifests says so when read
         return None
 
 
@@ -374,7 +383,12 @@ def _check_file(
     result.files += 1
     if entry is None:
         result.bytes += path.stat().st_size
-        return _check_rows(path, config) or _check_readable(path) or _check_generations(path)
+        metadata = _footer(path)
+        return (
+            _check_rows(path, metadata, config)
+            or _check_readable(path)
+            or _check_generations(path, metadata)
+        )
     try:
         size, digest = sha256_file(path)
     except OSError as exc:
@@ -384,19 +398,21 @@ def _check_file(
         return f"has {size} bytes, not {entry[0]}"
     if digest != entry[1]:
         return "has other bytes than when it was written (SHA-256)"
-    return _check_rows(path, config) or _check_generations(path)
+    metadata = _footer(path)
+    return _check_rows(path, metadata, config) or _check_generations(path, metadata)
 
 
-def _check_generations(path: Path) -> str | None:
+def _check_generations(path: Path, metadata: pq.FileMetaData | None) -> str | None:
     """What is wrong with the ``generation`` column of the table file ``path`` (none where it
     does not decode: `_check_readable` or the reader says so). Read from the footer's
-    statistics where every row group has them (a min and max of the file's generation:
-    nothing decoded), else from the column."""
-    local = os.path.abspath(path)  # pyarrow would expand a leading "~"
+    statistics (``metadata``) where every row group has them (a min and max of the file's
+    generation: nothing decoded), else from the column."""
+    if metadata is None:
+        return None
     try:
-        if _one_generation_in_footer(pq.read_metadata(local), path):
+        if _one_generation_in_footer(metadata, path):
             return None
-        part = pq.read_table(local, columns=["generation"])
+        part = pq.read_table(os.path.abspath(path), columns=["generation"])  # not "~" expanded
     except Exception:
         return None
     return generation_problem(part, path)
