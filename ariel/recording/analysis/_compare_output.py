@@ -24,6 +24,7 @@ from ariel.recording.store import (
     UnsafePathError,
     atomic_write,
     csv_safe,
+    figure_label,
     fitness_label,
     remove_temporaries,
     written_path,
@@ -114,7 +115,7 @@ def _write(comparison: Comparison, grouped: dict[str, list[RunCurve]], out: Path
     with RunLock(out, create=True, kind="comparison"):
         # Under the lock no other comparison writes here: a temporary is a killed one's.
         list(remove_temporaries(out, deep=False))
-        comparison.replaced = bool([p for p in out.iterdir() if p.name != LOCK_NAME])
+        comparison.replaced = any(p.name != LOCK_NAME for p in out.iterdir())
         _write_files(comparison, grouped, out)
 
 
@@ -123,7 +124,9 @@ def _write_files(comparison: Comparison, grouped: dict[str, list[RunCurve]], out
     def csv(frame: pd.DataFrame, name: str) -> None:
         atomic_write(out / name, lambda temporary: csv_safe(frame).to_csv(temporary, index=False))
 
-    ylabel = fitness_label(comparison.fitness_fn, comparison.maximise, what="best fitness")
+    ylabel = figure_label(  # the runs' config's name: any text
+        fitness_label(comparison.fitness_fn, comparison.maximise, what="best fitness")
+    )
     finals = {name: s.values for name, s in _samples(comparison.runs, "final_best").items()}
     best = _best_curves(grouped, comparison.maximise, comparison.budget)
     comparison.figures = {

@@ -22,6 +22,7 @@ from ariel.recording.store import (
     Run,
     archive_cell_count,
     descriptor_label,
+    figure_label,
     fitness_label,
     integer_ticks,
     one_line,
@@ -157,7 +158,8 @@ def archive_figure(
         extent = (ranges[0][0], ranges[0][1], up[0], up[1])
         shown = axes.imshow(grid, origin="lower", aspect="auto", cmap="viridis", extent=extent)
     fitness_fn = str(run.config.get("task", {}).get("fitness", "fitness"))
-    drawn.colorbar(shown, ax=axes, label=fitness_label(fitness_fn, what="elite's fitness"))
+    label = figure_label(fitness_label(fitness_fn, what="elite's fitness"))  # the config's name
+    drawn.colorbar(shown, ax=axes, label=label)
     up_name = measures[1] if len(measures) > 1 else ""
     axes.set_xlabel(descriptor_label(measures[0]))
     axes.set_ylabel(descriptor_label(up_name) if up_name else "")
