@@ -159,7 +159,7 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
     try:
         rows = runs.campaign_status(args.campaign_dir)
     except NotARunError as exc:
-        return fail(terminal_text(exc))
+        return fail(str(exc))  # `fail` escapes it for the terminal
     # lazy: rich takes ~0.2 s to import, and every `ariel` command imports this module
     from ariel.cli._tables import print_campaign_status
 

@@ -85,7 +85,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         if args.viewer:
             replayed.view()
     except (ValueError, RuntimeError, ImportError) as exc:
-        return fail(terminal_text(str(exc).splitlines()[0]))
+        return fail(str(exc).splitlines()[0])  # `fail` escapes it for the terminal
     except OSError as exc:  # --rrd / --video onto a full disk, a read-only file system, ...
         return fail(cannot_write(exc))
     close = not replayed.exact and replayed.status == replayed.stored_status

@@ -37,7 +37,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     try:
         result = store.verify_run(args.run_dir)
     except NotARunError as exc:
-        return fail(terminal_text(exc))
+        return fail(str(exc))  # `fail` escapes it for the terminal
     for problem in result.problems:
         print(f"damaged: {terminal_text(problem)}")
     if result.unlisted:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ariel.errors import ArielError
 from ariel.evolution import DEFAULT_RANGES
-from ariel.recording.store import Run, ancestors, archive_cell_count, check_eval_id, lineage
+from ariel.recording.store import Run, ancestors, archive_cell_count, check_body_id, lineage
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -162,7 +162,7 @@ def _checked(chosen: list[Pick]) -> list[Pick]:
     """``chosen``, whose body ids are body ids (``b000012``); `DamagedRunError`, one line
     naming the run folder, for one that is not (a crafted table's: no such text is drawn)."""
     for pick in chosen:
-        check_eval_id(pick.body.get("body_id"), pick.run.path, body=True)
+        check_body_id(pick.body.get("body_id"), pick.run.path)
     return chosen
 
 

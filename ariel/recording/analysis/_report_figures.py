@@ -78,6 +78,12 @@ def _run_title(run: Run) -> str:
     return one_line(run.info.get("run_id") or run.path.name)
 
 
+def figure_lines(text: str) -> str:
+    """``text`` for a matplotlib title: each of its lines escaped (`figure_label`), the line
+    breaks kept."""
+    return "\n".join(figure_label(line) for line in text.split("\n"))
+
+
 def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) -> None:
     """A title (of axes ``on``, or ``suptitle`` of figure ``on``) wrapped to fit the width it
     has (`fitted`), so it is never clipped at the figure's edge. Each of its lines is
@@ -85,7 +91,7 @@ def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) 
     is drawn as its escape (``\\x1b``), a ``$`` as a dollar sign, not mathtext, which could
     fail to draw. A name that may hold a line break of its own goes through `one_line`
     first."""
-    text = "\n".join(figure_label(line) for line in text.split("\n"))
+    text = figure_lines(text)
     if suptitle:
         on.suptitle(fitted(text, on.get_figwidth(), fontsize), fontsize=fontsize)
         return

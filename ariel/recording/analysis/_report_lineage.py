@@ -35,7 +35,7 @@ from PIL import Image
 
 from ariel.errors import DamagedRunError
 from ariel.recording.analysis._gallery import body_thumbnails
-from ariel.recording.analysis._report_figures import UNDRAWABLE, cannot_draw
+from ariel.recording.analysis._report_figures import UNDRAWABLE, cannot_draw, figure_lines
 from ariel.recording.store import (
     Run,
     figure_label,
@@ -282,7 +282,7 @@ def _title(
             if chain
             else "a founder (no ancestors)"
         )
-    text = "\n".join(map(figure_label, text.split("\n")))  # a run id is any text
+    text = figure_lines(text)  # a run id is any text
     axes.set_title(fitted(text, drawn.get_figwidth() * 0.8, 11), fontsize=11)
 
 

@@ -280,12 +280,7 @@ def _rename(temporary: Path, out: Path) -> None:
             f"{str(out)!r} was made meanwhile (by another export?) and is not an empty folder: "
             "nothing was exported; name a new folder"
         ) from None
-    with contextlib.suppress(OSError):  # the rename lasts a power cut
-        folder = os.open(out.parent, os.O_RDONLY)
-        try:
-            os.fsync(folder)
-        finally:
-            os.close(folder)
+    store.fsync_folder(out.parent)  # the rename lasts a power cut
 
 
 def _named(exc: OSError, temporary: Path | None, out: Path) -> OSError:

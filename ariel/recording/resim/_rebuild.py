@@ -238,14 +238,11 @@ def cell_json(run: Run, row: Mapping[str, object], table: str, column: str, text
     ``run``, read with the guarded parser (`json_data`: no JSON nested out of stack); a cell
     that is no JSON text is a changed table: `DamagedRunError`, one line."""
     if not isinstance(text, str | bytes):
-        raise _changed(run, row, table, f"its {column} is {short_ascii(text, 40)}, not JSON text")
+        raise changed(run, row, table, f"its {column} is {short_ascii(text, 40)}, not JSON text")
     try:
         return json_data(text)
     except (TypeError, ValueError) as exc:
-        raise _changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
-
-
-_changed = changed  # the one line for a changed table's cell (`_row_checks`)
+        raise changed(run, row, table, f"its {column} is not readable JSON ({exc})") from None
 
 
 def _row_params(row: Mapping[str, object]) -> np.ndarray | None:
@@ -276,7 +273,7 @@ def _check_params(
         if params is not None
         else "controller parameters that are not a list of finite numbers"
     )
-    raise _changed(
+    raise changed(
         run,
         row,
         "evaluations",
@@ -342,8 +339,9 @@ def _body(
         return evaluation.BodySpec("graph", cell_json(run, row, "bodies", "graph", graph)), "bodies"
     check_options(run, BODY_PLUGINS, config)
     genotype = cell_json(run, row, "evaluations", "body_genotype", row["body_genotype"])
-    check_body_size(run, row, body_spec(config, genotype), config, "evaluations")
-    return shipped_body(config, body_spec(config, genotype)), "evaluations"
+    spec = body_spec(config, genotype)
+    check_body_size(run, row, spec, config, "evaluations")  # before it is decoded
+    return shipped_body(config, spec), "evaluations"
 
 
 def _unbuildable(
@@ -356,7 +354,7 @@ def _unbuildable(
         f"its body {short_ascii(row.get('body_id'))} could not be built from the stored "
         f"{stored} ({one_line(exc)})"
     )
-    return _changed(run, row, table, problem)
+    return changed(run, row, table, problem)
 
 
 def _evaluate_as_stored(task: EvaluationTask, backend: object) -> EvaluationResult:

@@ -39,7 +39,6 @@ from ariel.recording import resim
 from ariel.recording.rerun import write_evaluation_recording
 from ariel.recording.resim._rebuild import (
     BEST as BEST,
-    _changed,
     _evaluate_as_stored as _evaluate_as_stored,
     _find_row,
     _require_plugins,
@@ -48,6 +47,7 @@ from ariel.recording.resim._rebuild import (
     load_checked,
     replay_task,
 )
+from ariel.recording.resim._row_checks import changed
 from ariel.recording.store import (
     Run,
     check_eval_id,
@@ -205,7 +205,7 @@ class ReplayResult:
         if not graphs:
             return None
         if not isinstance(cell_json(self.run, self.row, "bodies", "graph", graphs[0]), dict):
-            raise _changed(self.run, self.row, "bodies", "its body's graph is not a JSON object")
+            raise changed(self.run, self.row, "bodies", "its body's graph is not a JSON object")
         return graphs[0]
 
     def write_rrd(self, path: str | Path) -> Path:

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 from ariel.errors import DamagedRunError
 from ariel.plugins import body_encoders
-from ariel.recording.store import check_eval_id, short_ascii
+from ariel.recording.store import check_body_id, check_eval_id, short_ascii
 
 if TYPE_CHECKING:
     from ariel.evaluation import BodySpec
@@ -59,7 +59,7 @@ def check_row(run: Run, row: Mapping[str, object], config: ExperimentConfig) -> 
     """`DamagedRunError` where ``row``'s ids, plugin names or seed are not what the loop
     wrote (see the module); else its seed."""
     eval_id = check_eval_id(row.get("eval_id"), run.path)
-    body_id = check_eval_id(row.get("body_id"), run.path, body=True)
+    body_id = check_body_id(row.get("body_id"), run.path)
     if not eval_id.startswith(body_id + "-"):  # b000012-i003-c005 evaluates body b000012
         raise changed(run, row, "evaluations", f"its body_id {body_id!r} is not its evaluation's")
     for column, (section, key) in _NAMES.items():

@@ -57,12 +57,14 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         cannot_write as cannot_write,
         check_name_lengths as check_name_lengths,
         damaged as damaged,
+        fsync_folder as fsync_folder,
         refuse_symlinks as refuse_symlinks,
         remove_temporaries as remove_temporaries,
         require_free_space as require_free_space,
         written_path as written_path,
     )
     from ariel.recording.store._ids import (
+        check_body_id as check_body_id,
         check_eval_id as check_eval_id,
         check_new_id as check_new_id,
         check_run_id as check_run_id,
@@ -187,6 +189,8 @@ _INTERNAL: dict[str, str] = {
     "cannot_write": "ariel.recording.store._files",
     "check_name_lengths": "ariel.recording.store._files",
     "damaged": "ariel.recording.store._files",
+    "fsync_folder": "ariel.recording.store._files",
+    "check_body_id": "ariel.recording.store._ids",
     "check_eval_id": "ariel.recording.store._ids",
     "config_sections": "ariel.recording.store._table_limits",
     "section_problem": "ariel.recording.store._table_limits",

@@ -35,6 +35,7 @@ __all__ = [
     "cannot_write",
     "check_name_lengths",
     "damaged",
+    "fsync_folder",
     "json_text",
     "read_regular_file",
     "refuse_symlinks",
@@ -115,7 +116,8 @@ def written_path(path: Path) -> Path | None:
     return None
 
 
-def _fsync_dir(folder: Path) -> None:
+def fsync_folder(folder: Path) -> None:
+    """Make a rename (or a new file) in ``folder`` last a power cut: fsync the folder."""
     with contextlib.suppress(OSError):  # not every file system lets a directory be opened
         fd = os.open(folder, os.O_RDONLY)
         try:
@@ -171,7 +173,7 @@ def atomic_write(
             raise OSError(number, os.strerror(number), str(path)) from exc
         raise
     if fsync:
-        _fsync_dir(path.parent)
+        fsync_folder(path.parent)
 
 
 def cannot_write(exc: OSError, path: str | os.PathLike[str] | None = None) -> str:

@@ -57,23 +57,27 @@ def _shown(value: object) -> str:
     return text if len(text) <= _SHOWN else f"{text[: _SHOWN - 20]}...({len(str(value))} chars)"
 
 
-def check_eval_id(value: object, where: str | Path, *, body: bool = False) -> str:
-    """``value`` where it is an evaluation id (`EVAL_ID`; ``body``: a body id, `BODY_ID`);
-    else `DamagedRunError` naming ``where`` (the run or export folder)."""
-    pattern, what, example = (
-        (BODY_ID, "a body", "b000012") if body else (EVAL_ID, "an evaluation", "b000012-i003-c005")
-    )
+def _checked(value: object, where: str | Path, pattern: re.Pattern[str], what: str) -> str:
+    """``value`` where ``pattern`` matches all of it; else `DamagedRunError` naming ``where``
+    and what ids of ``what`` ("body", "evaluation") look like."""
     if isinstance(value, str) and pattern.fullmatch(value):
         return value
+    article, example = ("a", "b000012") if what == "body" else ("an", "b000012-i003-c005")
     raise DamagedRunError(
-        f"{str(where)!r} holds {what} id that is not one: {_shown(value)} ({what.split()[-1]} "
+        f"{str(where)!r} holds {article} {what} id that is not one: {_shown(value)} ({what} "
         f"ids look like {example}); the folder was changed by hand or crafted: refused"
     )
 
 
+def check_eval_id(value: object, where: str | Path) -> str:
+    """``value`` where it is an evaluation id (`EVAL_ID`); else `DamagedRunError` naming
+    ``where`` (the run or export folder)."""
+    return _checked(value, where, EVAL_ID, "evaluation")
+
+
 def check_body_id(value: object, where: str | Path) -> str:
     """``value`` where it is a body id (`BODY_ID`); else `DamagedRunError` naming ``where``."""
-    return check_eval_id(value, where, body=True)
+    return _checked(value, where, BODY_ID, "body")
 
 
 def check_run_id(value: object, where: str | Path) -> str:

@@ -209,11 +209,12 @@ def lineage(run: Run) -> pd.DataFrame:
                 f"{str(run.path)!r}: body {body_id}'s rows in its bodies table are not a life "
                 "in the run's finished generations; the bodies table was changed or damaged"
             )
+        number = _number(body_id, run.path)
         parents = _parents(first["parent_ids"], known, body_id, run.path)
-        lives.append((_number(body_id, run.path), origin, parents))
+        lives.append((number, origin, parents))
         rows.append(
             {
-                "id": lives[-1][0],
+                "id": number,
                 "ancestor_list": format_ancestor_list(parents),
                 "origin_time": origin,
                 "destruction_time": destruction,

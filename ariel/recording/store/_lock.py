@@ -223,16 +223,14 @@ class RunLock:
         if fcntl is None:  # pragma: no cover - not POSIX
             return self
         if self.create and not self.run_dir.is_dir():
-            self.run_dir.mkdir(parents=True, exist_ok=True)
-            self._made_folder = True
+            self._make_folder()
         for _ in range(100):
             try:
                 fd = self._open()
             except FileNotFoundError:  # the last holder made the folder and removed it empty
                 if not self.create:
                     raise
-                self.run_dir.mkdir(parents=True, exist_ok=True)
-                self._made_folder = True
+                self._make_folder()
                 continue
             self._lock(fd)
             # The last holder deletes the file on release: a lock taken on a file that was
@@ -250,6 +248,11 @@ class RunLock:
             self._fd = fd
             return self
         raise in_use_error(self.run_dir, "another process", self.kind)  # pragma: no cover
+
+    def _make_folder(self) -> None:
+        """Make the missing folder (``create``), to remove again on release if still empty."""
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        self._made_folder = True
 
     def _open(self) -> int:
         """The lock file, created if missing, never through a link; `UnsafePathError` when it

@@ -38,6 +38,8 @@ RUN_FOLDER_NAMES = frozenset(
     {"run.json", LOCK_NAME, "checkpoints", MANIFEST_DIR, ERROR_LOG, *TABLES}
     | {"recordings", "run.rrd", "blueprint.rbl", "generation.rbl", "report", "gallery"}
 )
+#: What `_why_not` says of a folder holding a file no run writes (listed as left alone).
+_NOT_A_RUN_S = "which no run writes"
 #: `list_runs` statuses of a run that no process runs and that did not finish.
 PRUNABLE_STATUSES = ("failed", "interrupted", STOPPED)
 
@@ -85,10 +87,7 @@ def _why_not(summary: Mapping[str, Any]) -> str | None:
         return f"it holds {held}"
     foreign = _foreign(path)
     if foreign is not None:
-        return (
-            f"it holds {foreign!r}, which no run writes (move it out, or delete the folder "
-            "yourself)"
-        )
+        return f"it holds {foreign!r}, {_NOT_A_RUN_S} (move it out, or delete the folder yourself)"
     return None
 
 
@@ -102,7 +101,7 @@ def prunable_runs(root: str | Path) -> tuple[list[RunSummary], list[tuple[str, s
         if why is None:
             found.append(summary)
         elif summary["status"] in PRUNABLE_STATUSES and (
-            Path(summary["path"]).is_symlink() or "which no run writes" in why
+            Path(summary["path"]).is_symlink() or _NOT_A_RUN_S in why
         ):
             left_alone.append((summary["path"], why))
     return found, left_alone

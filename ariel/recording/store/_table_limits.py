@@ -50,7 +50,6 @@ __all__ = [
 #: A generation's table file: six ASCII digits (``\d`` would take other scripts' digits too,
 #: and two names would then stand for one generation).
 GEN_FILE = re.compile(r"^gen-([0-9]{6})\.parquet$")
-_TABLES = ("evaluations", "bodies", "trajectories", "archive", "novelty")
 
 #: The row counts `row_limit` works out are the most the writers make; a file is refused only
 #: past this many times that, so a miscount here never refuses a run's own records.
@@ -156,7 +155,7 @@ def row_limit(config: Mapping[str, object] | None, table: str, generation: int) 
 def _table_of(path: Path) -> tuple[str, int] | None:
     found = GEN_FILE.match(path.name)
     table = path.parent.name
-    if found is None or table not in _TABLES:
+    if found is None or table not in ROW_BYTES:  # a key per table
         return None
     return table, int(found.group(1))
 
@@ -300,13 +299,17 @@ def size_problem(
     )
 
 
+def _others(part: pa.Table, column: str, expected: object) -> list[object]:
+    """The values of ``column`` in ``part`` other than ``expected`` (none: no such column)."""
+    if column not in part.column_names:
+        return []
+    return [value for value in part.column(column).unique().to_pylist() if value != expected]
+
+
 def run_id_problem(part: pa.Table, run_id: object) -> str | None:
     """What is wrong with the ``run_id`` column of a decoded table ``part`` (the evaluations
     or bodies table; none: nothing) for a run whose run.json says ``run_id``."""
-    if "run_id" not in part.column_names or not isinstance(run_id, str):
-        return None
-    found = part.column("run_id").unique().to_pylist()
-    others = [value for value in found if value != run_id]
+    others = _others(part, "run_id", run_id) if isinstance(run_id, str) else []
     if not others:
         return None
     return (
@@ -320,10 +323,8 @@ def generation_problem(part: pa.Table, path: Path) -> str | None:
     file ``path`` (``TABLE/gen-NNNNNN.parquet``; another file: nothing): a row of another
     generation would be shown as one of this file's, and looked for in vain in its own."""
     found = _table_of(path)
-    if found is None or "generation" not in part.column_names:
-        return None
-    others = [g for g in part.column("generation").unique().to_pylist() if g != found[1]]
-    if not others:
+    others = _others(part, "generation", found[1]) if found is not None else []
+    if not others or found is None:
         return None
     return (
         f"has generation {short_ascii(others[0])} in its rows, its name {found[1]}: changed by "

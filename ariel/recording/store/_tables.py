@@ -285,8 +285,8 @@ def _check_footer(
         return
     if "crafted" in problem:
         raise _unreadable(run_dir, path, problem)
-    name = path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else path
-    raise DamagedRunError(f"run folder {str(run_dir)!r}: {name} {problem}")  # memory: no damage
+    # Too big for this machine's memory: no damage, so not `damaged`'s "restore the folder".
+    raise DamagedRunError(f"run folder {str(run_dir)!r}: {_name(run_dir, path)} {problem}")
 
 
 def read_table(
@@ -320,8 +320,12 @@ def read_table(
 def _unreadable(run_dir: Path, path: Path, problem: str) -> Exception:
     """The one line for file ``path`` of ``run_dir``; ``problem`` may quote the file's own
     bytes (Arrow's parse errors do), so it is written as one line, escaped (`one_line`)."""
-    name = path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else str(path)
-    return damaged(run_dir, name, one_line(problem))
+    return damaged(run_dir, _name(run_dir, path), one_line(problem))
+
+
+def _name(run_dir: Path, path: Path) -> str:
+    """``path`` as a line names it: relative to the run folder where it lies in it."""
+    return path.relative_to(run_dir).as_posix() if path.is_relative_to(run_dir) else str(path)
 
 
 def _not_parquet(run_dir: Path, path: Path, exc: Exception) -> Exception:

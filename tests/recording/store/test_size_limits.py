@@ -376,3 +376,11 @@ def test_the_soft_limit_is_raised_where_the_hard_one_allows() -> None:
     )
     assert done.returncode == 0, done.stderr
     assert int(done.stdout) >= 118 + 64 + 2 * 8
+
+
+def test_every_table_has_a_row_size() -> None:
+    """`ROW_BYTES` names the tables the limits apply to (`_table_of`): all of them."""
+    from ariel.recording.store._table_limits import ROW_BYTES
+    from ariel.recording.store._tables import TABLES
+
+    assert set(ROW_BYTES) == set(TABLES)
