@@ -364,3 +364,48 @@ def test_a_crafted_elite_leaves_the_report_s_archive_thumbnails_out_with_a_note(
     assert fresh / "report" / "archive.png" in report.written
     note = next(n for n in report.notes if n.startswith("archive.png: body thumbnails left out"))
     assert "is damaged: b" in note and "\\x1b[2J" in note
+
+
+# Two galleries writing into one folder at once: one waits for the other (its lock), so the
+# folder holds one gallery's PNG and page, never one's PNG with the other's page.
+
+
+def test_a_gallery_waits_for_another_writing_into_its_folder(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out = tmp_path / "sheets"
+    from ariel.recording import RunInUseError, RunLock
+
+    lock = RunLock(out, create=True, kind="gallery").acquire()  # another gallery, writing
+    import threading
+
+    threading.Timer(0.5, lock.release).start()
+    gallery = make_gallery(run_dir, out=out, render=False)  # waits, then writes
+    assert gallery.png == out / "final.png" and gallery.png.is_file()
+    assert sorted(p.name for p in out.iterdir()) == ["final.html", "final.png"]
+
+    import ariel.recording.analysis._gallery as module
+
+    monkeypatch.setattr(module, "_WAIT_S", 0.0)
+    with RunLock(out, kind="gallery"), pytest.raises(RunInUseError, match="gallery folder"):
+        make_gallery(run_dir, out=out, render=False)  # one that never lets go: one line
+
+
+def test_a_killed_gallery_s_temporaries_are_removed_by_the_next(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """A gallery killed with SIGKILL leaves ``.final.png.<token>.tmp``; a later gallery into
+    the folder used to leave it there for ever."""
+    import os
+
+    out = tmp_path / "sheets"
+    (out / "thumbnails").mkdir(parents=True)
+    (out / ".final.png.0123abcd.tmp").write_bytes(b"half")
+    old = out / "thumbnails" / ".b000001-256.png.0123abcd.tmp"
+    new = out / "thumbnails" / ".b000002-256.png.4567cdef.tmp"  # another gallery's, drawing
+    old.write_bytes(b"half")
+    new.write_bytes(b"half")
+    os.utime(old, (0, 0))
+    make_gallery(run_dir, out=out, render=False)
+    assert sorted(p.name for p in out.iterdir()) == ["final.html", "final.png", "thumbnails"]
+    assert [p.name for p in (out / "thumbnails").iterdir()] == [new.name]
