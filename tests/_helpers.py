@@ -69,6 +69,16 @@ def ariel_run(config: Path, out: Path, *extra: str) -> str:
     return printed.getvalue()
 
 
+def tiny_finished_run(factory: pytest.TempPathFactory, name: str, seed: int) -> Path:
+    """A finished `tiny_run_toml` run (``ariel run``, a few seconds), ``RUN`` in a new
+    temporary folder: for a module's fixture; copy it before changing it."""
+    folder = factory.mktemp(name)
+    config = folder / "tiny.toml"
+    config.write_text(tiny_run_toml(name, seed))
+    ariel_run(config, folder / "run")
+    return folder / "run"
+
+
 def interrupt_then_resume(
     config: dict[str, Any], out: Path, monkeypatch: pytest.MonkeyPatch, *, after: int
 ) -> None:

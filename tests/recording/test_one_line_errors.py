@@ -12,7 +12,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from _helpers import ariel_run, edit_json, exit_code, one_error_line, tiny_run_toml, with_run_id
+from _helpers import (
+    edit_json,
+    exit_code,
+    one_error_line,
+    tiny_finished_run,
+    with_run_id,
+)
 
 from ariel.errors import DamagedRunError
 from ariel.recording import load_run
@@ -22,11 +28,7 @@ DEEP = "[" * 100_000 + "]" * 100_000
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("one-line")
-    config = folder / "tiny.toml"
-    config.write_text(tiny_run_toml("one_line", 3))
-    ariel_run(config, folder / "run")
-    return folder / "run"
+    return tiny_finished_run(tmp_path_factory, "one_line", 3)
 
 
 @pytest.fixture

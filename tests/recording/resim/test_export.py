@@ -13,11 +13,10 @@ import mujoco
 import numpy as np
 import pytest
 from _helpers import (
-    ariel_run,
     exit_code,
     one_error_line,
     run_replay_script,
-    tiny_run_toml,
+    tiny_finished_run,
 )
 
 from ariel.recording import load_run
@@ -25,11 +24,7 @@ from ariel.recording import load_run
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("export")
-    config = folder / "tiny.toml"
-    config.write_text(tiny_run_toml("export", 7))
-    ariel_run(config, folder / "run")
-    return folder / "run"
+    return tiny_finished_run(tmp_path_factory, "export", 7)
 
 
 def test_export_writes_mjcf_json_and_a_replay_script_that_follows_the_run(

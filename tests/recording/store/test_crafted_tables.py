@@ -20,7 +20,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, tiny_run_toml
+from _helpers import exit_code, one_error_line, tiny_finished_run
 
 from ariel.recording import DamagedRunError, load_run, verify_run
 from ariel.recording.store._manifest import write_manifest
@@ -29,11 +29,7 @@ from ariel.recording.store._tables import read_table
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("crafted")
-    config = folder / "tiny.toml"
-    config.write_text(tiny_run_toml("crafted", 1))
-    ariel_run(config, folder / "run")
-    return folder / "run"
+    return tiny_finished_run(tmp_path_factory, "crafted", 1)
 
 
 def _crafted(

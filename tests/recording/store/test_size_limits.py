@@ -25,7 +25,13 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from _helpers import REPO, ariel_run, exit_code, one_error_line, repo_env, tiny_run_toml
+from _helpers import (
+    REPO,
+    exit_code,
+    one_error_line,
+    repo_env,
+    tiny_finished_run,
+)
 
 from ariel.errors import ConfigError, DamagedRunError
 from ariel.recording import load_run
@@ -41,11 +47,7 @@ TINY_CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A finished tiny run (2 generations of 2 + 2 bodies, popsize 2, 1 iteration, 0.3 s)."""
-    root = tmp_path_factory.mktemp("sizes")
-    config = root / "tiny.toml"
-    config.write_text(tiny_run_toml("sizes", 1))
-    ariel_run(config, root / "run")
-    return root / "run"
+    return tiny_finished_run(tmp_path_factory, "sizes", 1)
 
 
 def _config(run: Path) -> dict:

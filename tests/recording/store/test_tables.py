@@ -11,7 +11,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from _helpers import ariel_run, tiny_run_toml
+from _helpers import tiny_finished_run
 
 from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
 from ariel.recording import load_run
@@ -27,11 +27,7 @@ from ariel.recording.store._tables import (
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("tables")
-    config = folder / "tiny.toml"
-    config.write_text(tiny_run_toml("tables", 5))
-    ariel_run(config, folder / "run")
-    return folder / "run"
+    return tiny_finished_run(tmp_path_factory, "tables", 5)
 
 
 def _body_rows(schema: pa.Schema, modules: list) -> dict[str, list]:

@@ -10,7 +10,12 @@ import shutil
 from pathlib import Path
 
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, snapshot, tiny_run_toml
+from _helpers import (
+    exit_code,
+    one_error_line,
+    snapshot,
+    tiny_finished_run,
+)
 
 from ariel.cli import main
 from ariel.recording import DamagedRunError, load_run, verify_run
@@ -22,11 +27,7 @@ from ariel.recording.store._lock import RunLock
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A finished tiny co-evolution run (2 generations, serial): copy it before changing it."""
-    root = tmp_path_factory.mktemp("trust")
-    config = root / "tiny.toml"
-    config.write_text(tiny_run_toml("trust", 3))
-    ariel_run(config, root / "run")
-    return root / "run"
+    return tiny_finished_run(tmp_path_factory, "trust", 3)
 
 
 def _copy(run: Path, tmp_path: Path, name: str = "copy", *, status: str | None = None) -> Path:
