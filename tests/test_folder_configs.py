@@ -115,6 +115,8 @@ def test_a_config_section_that_is_no_table_is_one_line(
         line = one_error_line(capsys)
         assert f"run folder {str(copy)!r} is damaged: " in line, line
         assert f"run.json has task {value!r} in its config, not a section (a table)" in line
+    assert exit_code(["verify", str(copy)]) == 1  # said once, not once per table file
+    assert capsys.readouterr().out.count(f"run.json has task {value!r} in its config") == 1
 
 
 @pytest.fixture

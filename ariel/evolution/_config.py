@@ -11,7 +11,6 @@ import difflib
 import hashlib
 import json
 import math
-import stat
 import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -32,7 +31,7 @@ from ariel.errors import ConfigError
 from ariel.evaluation.executors import executor_kinds, known_kinds
 from ariel.evolution._genotype import is_genotype_file
 from ariel.evolution._toml import read_toml_file
-from ariel.utils import ariel_line
+from ariel.utils import ariel_line, file_kind
 
 __all__ = [
     "BodyConfig",
@@ -540,15 +539,7 @@ def _not_a_file(path: Path) -> str:
         return "not found"
     except OSError as exc:
         return f"cannot be read ({exc.strerror})"
-    kinds = (
-        (stat.S_ISDIR, "a folder"),
-        (stat.S_ISCHR, "a character device (like /dev/null)"),
-        (stat.S_ISBLK, "a block device"),
-        (stat.S_ISFIFO, "a named pipe (FIFO)"),
-        (stat.S_ISSOCK, "a socket"),
-    )
-    what = next((name for test, name in kinds if test(mode)), "not a regular file")
-    return f"is {what}, not a TOML file"
+    return f"is {file_kind(mode)}, not a TOML file"
 
 
 def _genotype_file_beside(data: dict[str, object], config_path: Path) -> dict[str, object]:

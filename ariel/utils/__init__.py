@@ -19,6 +19,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         report_interrupted as report_interrupted,
         shell_path as shell_path,
     )
+    from ariel.utils._file_kind import (
+        file_kind as file_kind,
+    )
     from ariel.utils._gl import (
         ensure_headless_gl as ensure_headless_gl,
         gl_backend_error as gl_backend_error,
@@ -42,6 +45,7 @@ _INTERNAL: dict[str, str] = {
     "ariel_command": "ariel.utils._commands",
     "ariel_line": "ariel.utils._commands",
     "ensure_headless_gl": "ariel.utils._gl",
+    "file_kind": "ariel.utils._file_kind",
     "gl_backend_error": "ariel.utils._gl",
     "has_display": "ariel.utils._gl",
     "in_notebook_kernel": "ariel.utils._notebook",

@@ -602,7 +602,7 @@ def _padded(path: Path) -> None:
 @pytest.mark.parametrize(
     ("make", "expected"),
     [
-        (_fifo, "not a regular file (a FIFO)"),
+        (_fifo, "a FIFO, not a regular file"),
         (
             lambda p: (p.unlink(), p.symlink_to("/dev/zero")),
             "a symbolic link out of the run folder",  # not opened at all
@@ -636,13 +636,14 @@ def test_a_manifest_checkpoint_or_campaign_json_that_is_a_fifo_is_one_line(
     assert exit_code(["verify", str(run)]) == 1
     out = capsys.readouterr().out
     assert (
-        "damaged: manifests/gen-000001.json is unreadable (ValueError: not a regular file (a" in out
+        "damaged: manifests/gen-000001.json is unreadable (ValueError: a FIFO, not a regular file)"
+        in out
     )
-    assert "damaged: checkpoints/state.json unreadable checkpoint (ValueError: not a regular" in out
+    assert "damaged: checkpoints/state.json unreadable checkpoint (ValueError: a FIFO, not a" in out
     _fifo(campaign / "campaign.json")
     for command in (["campaign", "status"], ["campaign", "resume", "--quiet"], ["compare"]):
         assert exit_code([*command, str(campaign)]) == 2, command
-        assert "unreadable campaign.json (not a regular file (a FIFO))" in one_error_line(capsys)
+        assert "unreadable campaign.json (a FIFO, not a regular file)" in one_error_line(capsys)
 
 
 def test_a_checkpoint_that_is_a_folder_is_not_taken_for_none(tmp_path: Path) -> None:
@@ -651,7 +652,9 @@ def test_a_checkpoint_that_is_a_folder_is_not_taken_for_none(tmp_path: Path) -> 
     run = _run(tmp_path / "run")
     RunFolder(run).checkpoint.unlink()
     RunFolder(run).checkpoint.mkdir()
-    with pytest.raises(NotARunError, match=r"unreadable checkpoint \(ValueError: not a regular"):
+    with pytest.raises(
+        NotARunError, match=r"unreadable checkpoint \(ValueError: a folder, not a regular file\)"
+    ):
         RunFolder(run).load_checkpoint()
 
 

@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from ariel.errors import DamagedRunError, UnsafePathError
-from ariel.utils import ariel_line, replace_non_finite
+from ariel.utils import ariel_line, file_kind, replace_non_finite
 
 __all__ = [
     "STALE_S",
@@ -245,15 +245,6 @@ def remove_temporaries(
                 yield temporary
 
 
-_KINDS = (
-    (stat.S_ISDIR, "a folder"),
-    (stat.S_ISFIFO, "a FIFO"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
-
-
 def _size(count: int) -> str:
     return f"{count / 2**20:,.0f} MiB" if count % 2**20 == 0 else f"{count:,} bytes"
 
@@ -264,15 +255,14 @@ def read_regular_file(path: str | os.PathLike[str], limit: int) -> bytes:
     A folder's file comes from anywhere: a FIFO would block a reader for ever, ``/dev/zero``
     (through a link) or a sparse 4 GB file would fill memory. So the file is opened without
     blocking (``O_NONBLOCK``: a FIFO opens at once), and anything but a regular file (``fstat``)
-    or a file of more than ``limit`` bytes is a `ValueError` (one line: ``not a regular file
-    (a FIFO)``, ``N MiB, more than the M MiB ...``). Missing or unreadable: `OSError`, as
+    or a file of more than ``limit`` bytes is a `ValueError` (one line: ``a FIFO, not a
+    regular file``, ``N MiB, more than the M MiB ...``). Missing or unreadable: `OSError`, as
     `open` raises it."""
     fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     info = os.fstat(fd)
     if not stat.S_ISREG(info.st_mode):
         os.close(fd)
-        kind = next((name for test, name in _KINDS if test(info.st_mode)), "not a plain file")
-        raise ValueError(f"not a regular file ({kind})")
+        raise ValueError(f"{file_kind(info.st_mode)}, not a regular file")
     with os.fdopen(fd, "rb") as file:
         data = b"" if info.st_size > limit else file.read(limit + 1)  # it may grow meanwhile
     if info.st_size > limit or len(data) > limit:

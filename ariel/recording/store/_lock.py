@@ -30,6 +30,7 @@ from pathlib import Path
 
 from ariel.errors import ConfigError, RunInUseError
 from ariel.recording.store._files import UnsafePathError, read_regular_file
+from ariel.utils import file_kind
 
 __all__ = [
     "CAMPAIGN_JSON",
@@ -268,14 +269,20 @@ class RunLock:
         if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:
             os.close(fd)
             self._cleanup_folder()
-            what = "not a plain file" if not stat.S_ISREG(info.st_mode) else "a hard link"
-            raise self._unsafe(what)
+            if stat.S_ISREG(info.st_mode):
+                raise self._unsafe("a hard link")
+            raise self._unsafe(file_kind(info.st_mode), outside=False)
         return fd
 
-    def _unsafe(self, what: str) -> UnsafePathError:
+    def _unsafe(self, what: str, *, outside: bool = True) -> UnsafePathError:
+        why = (
+            "which writing would change a file outside the run folder"
+            if outside
+            else ("not a file a run writes")
+        )
         return UnsafePathError(
-            f"refusing to use the lock file {str(self.path)!r}: it is {what}, which writing "
-            "would change a file outside the run folder; remove it and try again"
+            f"refusing to use the lock file {str(self.path)!r}: it is {what}, {why}; remove it "
+            "and try again"
         )
 
     def _lock(self, fd: int) -> None:

@@ -37,9 +37,11 @@ __all__ = [
     "MEMORY_SHARE",
     "ROW_BYTES",
     "ROW_MARGIN",
+    "MemoryProblem",
     "config_sections",
     "decoded_bytes",
     "generation_problem",
+    "limits_problem",
     "row_limit",
     "rows_problem",
     "run_id_problem",
@@ -160,14 +162,25 @@ def _table_of(path: Path) -> tuple[str, int] | None:
     return table, int(found.group(1))
 
 
+def limits_problem(config: Mapping[str, object] | None) -> str | None:
+    """What in a run's config (run.json's, plain data) keeps its tables' limits (`row_limit`)
+    from being worked out: ``has KEY VALUE in its config, ...`` (said of run.json) for a value
+    no ariel writes; None when fine. Checked once a run, before its tables' rows and sizes."""
+    try:
+        row_limit(config, "trajectories", 0)  # reads every key any table's limit reads
+    except ValueError as exc:
+        return f"{exc}: damaged or crafted, no table of it is loaded"
+    return None
+
+
 def rows_problem(
     config: Mapping[str, object] | None, path: Path, metadata: pq.FileMetaData
 ) -> str | None:
     """What is wrong with the row count of the table file ``path`` (``TABLE/gen-NNNNNN.parquet``,
     its Parquet footer ``metadata``) for a run of ``config``: ``has N rows; ...`` when it holds
-    more than `ROW_MARGIN` x `row_limit`, ``run.json has ...`` for a config no ariel writes;
-    None when it is fine. Reads the footer only: a crafted file of a few bytes a row (2,000,000
-    dictionary-encoded rows in 1 MB) is refused before gigabytes are decoded."""
+    more than `ROW_MARGIN` x `row_limit`; None when it is fine, or the config is one no ariel
+    writes (`limits_problem` says so). Reads the footer only: a crafted file of a few bytes a
+    row (2,000,000 dictionary-encoded rows in 1 MB) is refused before gigabytes are decoded."""
     found = _table_of(path)
     if found is None:
         return None
@@ -178,8 +191,8 @@ def rows_problem(
     )
     try:
         most = row_limit(config, table, generation)
-    except ValueError as exc:
-        return f"run.json {exc}: damaged or crafted, no table of it is loaded"
+    except ValueError:
+        return None  # `limits_problem` says so
     if rows <= ROW_MARGIN * most:
         return None
     return (
@@ -250,6 +263,11 @@ def _gb(count: float) -> str:
     return f"{count / 1e9:.2f} GB" if count >= 1e8 else f"{count / 1e6:.1f} MB"
 
 
+class MemoryProblem(str):
+    """A `size_problem` of a file its run's config allows that is too big for the memory free
+    on this machine: no damage (another machine may read it), so not said as damage."""
+
+
 def size_problem(
     config: Mapping[str, object] | None,
     path: Path,
@@ -261,9 +279,9 @@ def size_problem(
 ) -> str | None:
     """What is wrong with the decoded size of the table file ``path`` (its footer ``metadata``,
     its bytes ``source``) for a run of ``config``, reading ``columns`` (None: all): ``would take
-    ...`` when it is more than its rows can (`ROW_MARGIN` x `row_limit` x `ROW_BYTES`) or more
-    than `MEMORY_SHARE` of the memory free here (``memory``); None when fine (or no table's
-    file). Only
+    ...`` when it is more than its rows can (`ROW_MARGIN` x `row_limit` x `ROW_BYTES`), or a
+    `MemoryProblem` when more than `MEMORY_SHARE` of the memory free here (``memory``); None
+    when fine (or no table's file, or a config `limits_problem` refuses). Only
     dictionary-encoded strings are read (their indices), and only when they could matter."""
     found = _table_of(path)
     if found is None:
@@ -272,7 +290,7 @@ def size_problem(
     try:
         most = ROW_MARGIN * row_limit(config, table, generation) * ROW_BYTES[table]
     except ValueError:
-        return None  # `rows_problem` says so
+        return None  # `limits_problem` says so
     free = machine_memory() if memory else None
     limit = most if free is None else min(most, int(free * MEMORY_SHARE))
     size, dictionaries = decoded_bytes(metadata, columns)
@@ -293,7 +311,7 @@ def size_problem(
             f"would take {_gb(size)} decoded; the {rows} rows this run's config allows take at "
             f"most {_gb(most)}: damaged or crafted, not loaded"
         )
-    return (
+    return MemoryProblem(
         f"would take {_gb(size)} decoded, more than {MEMORY_SHARE:.0%} of the {_gb(free or 0)} "
         "of memory free here: not loaded"
     )

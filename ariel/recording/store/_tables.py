@@ -34,7 +34,9 @@ from ariel.recording.store._row_types import (
 from ariel.recording.store._table_limits import (
     GEN_FILE,
     ROW_MARGIN,
+    MemoryProblem,
     generation_problem,
+    limits_problem,
     row_limit,
     rows_problem,
     run_id_problem,
@@ -276,14 +278,15 @@ def _check_footer(
     """The rows and decoded size of a file about to be decoded (`rows_problem`,
     `size_problem`), for the run's config; `DamagedRunError` in one line else."""
     config = getattr(manifest, "config", None)
-    problem = rows_problem(config, path, metadata)
-    if problem is not None and problem.startswith("run.json "):
-        raise damaged(run_dir, *problem.split(" ", 1))
-    if problem is None:
-        problem = size_problem(config, path, metadata, pa.BufferReader(data), columns)
+    problem = limits_problem(config)
+    if problem is not None:
+        raise damaged(run_dir, "run.json", problem)
+    problem = rows_problem(config, path, metadata) or size_problem(
+        config, path, metadata, pa.BufferReader(data), columns
+    )
     if problem is None:
         return
-    if "crafted" in problem:
+    if not isinstance(problem, MemoryProblem):
         raise _unreadable(run_dir, path, problem)
     # Too big for this machine's memory: no damage, so not `damaged`'s "restore the folder".
     raise DamagedRunError(f"run folder {str(run_dir)!r}: {_name(run_dir, path)} {problem}")

@@ -42,6 +42,7 @@ from ariel.recording.store._run_folder import (
 from ariel.recording.store._table_limits import (
     GEN_FILE,
     generation_problem,
+    limits_problem,
     rows_problem,
     size_problem,
 )
@@ -230,10 +231,7 @@ def _check_generation(
     listed.update(entries)
     for name, entry in entries.items():
         problem = _check_file(run_dir, name, entry, result, info.get("config"))
-        if problem is not None and problem.startswith("run.json "):  # its config: once
-            if problem not in result.problems:
-                result.problems.append(problem)
-        elif problem is not None:
+        if problem is not None:
             result.problems.append(f"{name} {problem}")
         elif name.startswith("evaluations/") and not result.run_id_checked:
             _check_run_id(run_dir / name, info, result)
@@ -289,6 +287,9 @@ def _check_run_json(run_dir: Path, info: Mapping[str, object], result: VerifyRes
     if not isinstance(config, dict):
         result.problems.append(f"run.json has no config (its 'config' is {short_ascii(config)})")
         return
+    limits = limits_problem(config)
+    if limits is not None:
+        result.problems.append(f"run.json {limits}")
     if info.get("seed") != config.get("seed"):
         result.problems.append(
             f"run.json has seed {short_ascii(info.get('seed'))}, its config "

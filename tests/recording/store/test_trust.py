@@ -107,6 +107,16 @@ def test_a_hard_linked_lock_file_is_refused(tmp_path: Path) -> None:
     assert victim.read_text() == "precious\n"
 
 
+def test_a_lock_file_that_is_a_fifo_is_refused_naming_it(tmp_path: Path) -> None:
+    (tmp_path / "run").mkdir()
+    os.mkfifo(tmp_path / "run" / ".lock")
+    with (
+        pytest.raises(UnsafePathError, match=r"\.lock': it is a FIFO, not a file a run writes"),
+        RunLock(tmp_path / "run"),
+    ):
+        pass
+
+
 def test_report_replaces_a_linked_figure_and_refuses_a_linked_folder(
     finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
