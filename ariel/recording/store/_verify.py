@@ -44,6 +44,7 @@ from ariel.recording.store._table_limits import (
     generation_problem,
     limits_problem,
     rows_problem,
+    run_id_problem,
     size_problem,
 )
 from ariel.recording.store._tables import TABLES, generation_file, table_generations
@@ -234,7 +235,7 @@ def _check_generation(
         if problem is not None:
             result.problems.append(f"{name} {problem}")
         elif name.startswith("evaluations/") and not result.run_id_checked:
-            _check_run_id(run_dir / name, info, result)
+            _check_run_id(run_dir, name, info, result)
 
 
 def _check_strays(
@@ -346,20 +347,19 @@ def _check_rows(path: Path, metadata: pq.FileMetaData | None, config: object) ->
         return None
 
 
-def _check_run_id(path: Path, info: Mapping[str, object], result: VerifyResult) -> None:
-    """The ``run_id`` of a sound evaluations table's rows is run.json's."""
-    try:
-        table = pq.read_table(os.path.abspath(path), columns=["run_id"])  # not "~" expanded
-        ids = set(table.column("run_id").to_pylist())
+def _check_run_id(
+    run_dir: Path, name: str, info: Mapping[str, object], result: VerifyResult
+) -> None:
+    """The ``run_id`` of a sound evaluations table's rows is run.json's (`run_id_problem`, as
+    `load_run` checks it)."""
+    try:  # not "~" expanded
+        table = pq.read_table(os.path.abspath(run_dir / name), columns=["run_id"])
     except Exception:  # a table that does not decode: `_check_file` says so
         return
     result.run_id_checked = True
-    others = sorted(str(i) for i in ids if i != info.get("run_id"))
-    if others:
-        result.problems.append(
-            f"run.json has run_id {short_ascii(info.get('run_id'))}, its tables "
-            f"{short_ascii(others[0])}"
-        )
+    problem = run_id_problem(table, info.get("run_id"))
+    if problem is not None:
+        result.problems.append(f"{name} {problem}")
 
 
 def _problem(exc: DamagedRunError) -> str:
