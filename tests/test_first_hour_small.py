@@ -183,7 +183,7 @@ def test_a_campaign_file_an_experiment_file_and_a_campaign_folder_name_their_com
     assert line.endswith(f"ariel campaign run {campaign} (from Python: run_campaign)")
     assert exit_code(["campaign", "run", str(experiment), "--dry-run"]) == 2
     line = one_error_line(capsys)
-    assert "is an experiment file (it has generations, seed, body," in line
+    assert "is an experiment file (it has seed, generations, body," in line
     assert f"ariel run {experiment}, or name it as a campaign file's base" in line
     folder = tmp_path / "campaign"
     folder.mkdir()

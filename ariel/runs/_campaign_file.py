@@ -358,14 +358,16 @@ def load_campaign_file(
     return campaign_spec(data, beside=path.parent, overrides=overrides, max_runs=max_runs)
 
 
-#: Top-level keys of an experiment file that no campaign file has (it puts them in ``set``).
-_EXPERIMENT_KEYS = ("generations", "seed", "body", "brain", "world", "task", "record", "executor")
+def _experiment_keys() -> list[str]:
+    """Top-level keys of an experiment file that no campaign file has (it puts them in
+    ``set``), in the experiment's order."""
+    return [key for key in ExperimentConfig.model_fields if key not in _CampaignModel.model_fields]
 
 
 def _refuse_experiment_file(data: Mapping[str, object], path: Path) -> None:
     """`ConfigError` saying which command takes ``path`` when it is an experiment file (an
     easy mix-up: both are TOML files under experiments/), rather than "base: Field required"."""
-    found = [key for key in _EXPERIMENT_KEYS if key in data]
+    found = [key for key in _experiment_keys() if key in data]
     if "base" not in data and found:
         raise ConfigError(
             f"{str(path)!r} is an experiment file (it has {', '.join(found)}), not a campaign: "
