@@ -28,7 +28,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,7 +35,13 @@ from typing import TypedDict
 
 from ariel.recording.store._files import atomic_write_json, within
 from ariel.recording.store._run_folder import damaged, finished_generations, json_file
-from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file
+from ariel.recording.store._tables import (
+    MANIFEST_DIR,
+    TABLES,
+    generation_file,
+    manifest_file,
+    manifest_generations,
+)
 
 __all__ = [
     "MANIFEST_DIR",
@@ -59,7 +64,6 @@ _CHUNK = 1 << 20
 #: Keys of run.json that came with manifests: only an ariel that writes a manifest for every
 #: finished generation (and ``"manifests": 1``) writes them.
 _MANIFEST_ERA = ("segments", "maximise", "brain_only")
-_MANIFEST_NAME = re.compile(r"gen-[0-9]{6}\.json")
 
 
 class _Entry(TypedDict):
@@ -67,10 +71,6 @@ class _Entry(TypedDict):
 
     bytes: int
     sha256: str
-
-
-def manifest_file(run_dir: str | Path, generation: int) -> Path:
-    return Path(run_dir) / MANIFEST_DIR / f"gen-{int(generation):06d}.json"
 
 
 def relative(run_dir: Path, path: Path) -> str:
@@ -143,15 +143,6 @@ def _read_manifest(run_dir: Path, generation: int) -> dict[str, _Entry]:
         if listed not in files:
             raise damaged(run_dir, name, f"does not list {listed}")
     return files
-
-
-def manifest_generations(run_dir: str | Path) -> list[int]:
-    """The generations that manifests/ holds a ``gen-NNNNNN.json`` of, ascending."""
-    try:
-        names = [p.name for p in (Path(run_dir) / MANIFEST_DIR).iterdir()]
-    except OSError:
-        return []
-    return sorted(int(name[4:10]) for name in names if _MANIFEST_NAME.fullmatch(name))
 
 
 def manifests_expected(run_dir: str | Path, info: Mapping[str, object]) -> tuple[bool, str | None]:

@@ -13,7 +13,6 @@ import contextlib
 import errno
 import json
 import os
-import re
 import shutil
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -34,7 +33,16 @@ from ariel.recording.store._files import (
 from ariel.recording.store._ids import check_run_id
 from ariel.recording.store._lock import CAMPAIGN_JSON, LOCK_NAME, in_use_error, lock_holder
 from ariel.recording.store._provenance import software_segment
-from ariel.recording.store._tables import MANIFEST_DIR, TABLES, generation_file, table_generations
+from ariel.recording.store._tables import (
+    MANIFEST_DIR,
+    TABLES,
+    generation_file,
+    generation_recording_path,
+    manifest_file,
+    manifest_generations,
+    recording_generations,
+    table_generations,
+)
 from ariel.utils import ariel_line, nests_deeper_than
 
 __all__ = [
@@ -372,11 +380,10 @@ class RunFolder:
         ``generation``, and temporaries (resume)."""
 
         removed = list(remove_temporaries(self.path))
-        manifests = self.path / MANIFEST_DIR
-        if manifests.is_dir() and not manifests.is_symlink():
-            for path in sorted(manifests.iterdir()):
-                found = re.fullmatch(r"gen-([0-9]{6})\.json", path.name)
-                if found and int(found.group(1)) > generation:
+        if not (self.path / MANIFEST_DIR).is_symlink():
+            for gen in manifest_generations(self.path):
+                if gen > generation:
+                    path = manifest_file(self.path, gen)
                     with contextlib.suppress(FileNotFoundError):
                         path.unlink()
                     removed.append(path)
@@ -389,14 +396,14 @@ class RunFolder:
                     with contextlib.suppress(FileNotFoundError):
                         path.unlink()
                     removed.append(path)
-        recordings = self.path / "recordings"
-        if recordings.is_dir() and not recordings.is_symlink():  # a link may lead elsewhere
-            for folder in sorted(recordings.iterdir()):
-                found = re.fullmatch(r"gen-([0-9]{6})", folder.name)
-                if found and int(found.group(1)) > generation and folder.is_symlink():
-                    folder.unlink()
-                    removed.append(folder)
-                elif found and int(found.group(1)) > generation and folder.is_dir():
-                    shutil.rmtree(folder, ignore_errors=True)
-                    removed.append(folder)
+        if (self.path / "recordings").is_symlink():  # a link may lead elsewhere
+            return removed
+        for gen in recording_generations(self.path):
+            folder = generation_recording_path(self.path, gen).parent
+            if gen > generation and folder.is_symlink():
+                folder.unlink()
+                removed.append(folder)
+            elif gen > generation and folder.is_dir():
+                shutil.rmtree(folder, ignore_errors=True)
+                removed.append(folder)
         return removed

@@ -34,6 +34,7 @@ from ariel.recording.store._escape import short_ascii
 
 __all__ = [
     "GEN_FILE",
+    "GEN_NAME",
     "MEMORY_SHARE",
     "ROW_BYTES",
     "ROW_MARGIN",
@@ -49,9 +50,12 @@ __all__ = [
     "size_problem",
 ]
 
-#: A generation's table file: six ASCII digits (``\d`` would take other scripts' digits too,
-#: and two names would then stand for one generation).
-GEN_FILE = re.compile(r"^gen-([0-9]{6})\.parquet$")
+#: A generation's name in a run folder (``gen-NNNNNN``, then ``.parquet``, ``.json`` or nothing
+#: for a recordings folder): six ASCII digits (``\d`` would take other scripts' digits too, and
+#: two names would then stand for one generation).
+GEN_NAME = r"gen-([0-9]{6})"
+#: A generation's table file.
+GEN_FILE = re.compile(rf"^{GEN_NAME}\.parquet$")
 
 #: The row counts `row_limit` works out are the most the writers make; a file is refused only
 #: past this many times that, so a miscount here never refuses a run's own records.

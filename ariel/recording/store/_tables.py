@@ -10,6 +10,7 @@ after the generation. Each table's columns are declared once, by its row's class
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,7 +33,7 @@ from ariel.recording.store._row_types import (
     row_schema,
 )
 from ariel.recording.store._table_limits import (
-    GEN_FILE,
+    GEN_NAME,
     ROW_MARGIN,
     MemoryProblem,
     generation_problem,
@@ -62,8 +63,11 @@ __all__ = [
     "evaluation_trajectory",
     "generation_file",
     "generation_recording_path",
+    "manifest_file",
+    "manifest_generations",
     "read_file",
     "read_table",
+    "recording_generations",
     "recording_path",
     "row_limit",
     "rows_problem",
@@ -187,6 +191,31 @@ def generation_file(run_dir: Path, table: str, generation: int) -> Path:
     return Path(run_dir) / table / f"gen-{generation:06d}.parquet"
 
 
+def manifest_file(run_dir: str | Path, generation: int) -> Path:
+    return Path(run_dir) / MANIFEST_DIR / f"gen-{int(generation):06d}.json"
+
+
+def _numbered(folder: Path, suffix: str) -> list[int]:
+    """The generations ``folder`` holds a ``gen-NNNNNN<suffix>`` of, ascending (none: no
+    such folder)."""
+    try:
+        names = [path.name for path in folder.iterdir()]
+    except OSError:
+        return []
+    pattern = re.compile(rf"{GEN_NAME}{re.escape(suffix)}")
+    return sorted(int(m.group(1)) for m in map(pattern.fullmatch, names) if m)
+
+
+def manifest_generations(run_dir: str | Path) -> list[int]:
+    """The generations that manifests/ holds a ``gen-NNNNNN.json`` of, ascending."""
+    return _numbered(Path(run_dir) / MANIFEST_DIR, ".json")
+
+
+def recording_generations(run_dir: str | Path) -> list[int]:
+    """The generations that recordings/ holds a ``gen-NNNNNN`` folder (or link) of, ascending."""
+    return _numbered(Path(run_dir) / "recordings", "")
+
+
 def write_table(
     run_dir: Path, table: str, generation: int, columns: Mapping[str, Sequence[object] | pa.Array]
 ) -> Path:
@@ -260,11 +289,7 @@ def to_pandas(table: pa.Table) -> pd.DataFrame:
 
 def table_generations(run_dir: Path, table: str) -> list[int]:
     """Generations with a finished file of ``table``, ascending."""
-    folder = Path(run_dir) / table
-    if not folder.is_dir():
-        return []
-    found = (GEN_FILE.match(p.name) for p in folder.iterdir())
-    return sorted(int(m.group(1)) for m in found if m)
+    return _numbered(Path(run_dir) / table, ".parquet")
 
 
 def _check_footer(
