@@ -180,8 +180,9 @@ def _register_fitness(register, name: str, fn: Callable[..., Any]) -> None:
         (lambda record: "far", "returned str, not a float"),
         (lambda record: np.random.random(), "different values for the same record"),
         (lambda record: record.core_pos.fill(0.0), "read-only"),
+        (lambda record: 10**400, r"returned 100000000000\.\.\. \(401 digits\)"),
     ],
-    ids=["nan", "str", "random", "writes-the-record"],
+    ids=["nan", "str", "random", "writes-the-record", "an-int-no-float-holds"],
 )
 def test_broken_fitness_functions_are_caught(register, score: Callable, pattern: str) -> None:
     def broken(record: Any) -> Any:

@@ -423,7 +423,14 @@ def check_fitness(name: str, **options: Any) -> None:
         isinstance(value, numbers.Real) and not isinstance(value, bool),
         f"fn(record) returned {type(value).__name__}, not a float",
     )
-    check.expect(math.isfinite(value), f"fn(record) returned {value} for a normal run")
+    try:
+        finite = math.isfinite(value)
+    except OverflowError:  # an int of more than 308 digits: no float holds it
+        finite = False
+    shown = (
+        str(value) if len(str(value)) <= 24 else f"{str(value)[:12]}... ({len(str(value))} digits)"
+    )
+    check.expect(finite, f"fn(record) returned {shown} for a normal run")
     check.expect(value == again, "fn(record) gave different values for the same record")
     task = dataclasses.replace(run, fitness=name, fitness_options=options)
     with check.step("evaluating the gecko"):

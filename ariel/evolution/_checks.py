@@ -108,13 +108,14 @@ def check_plugins(config: ExperimentConfig) -> None:
         check_world,
     )
 
-    checks = (
-        ("body.options", check_body_encoder, config.body.encoder, config.body.options),
-        ("world.options", check_world, config.world.name, config.world.options),
-        ("brain.options", check_controller, config.brain.controller, config.brain.options),
-        ("task.options", check_fitness, config.task.fitness, config.task.options),
+    checks = (  # the key named: the plugin's options where there are any, else the plugin
+        ("body.encoder", check_body_encoder, config.body.encoder, config.body.options),
+        ("world.name", check_world, config.world.name, config.world.options),
+        ("brain.controller", check_controller, config.brain.controller, config.brain.options),
+        ("task.fitness", check_fitness, config.task.fitness, config.task.options),
     )
-    for key, check, name, options in checks:
+    for plugin_key, check, name, options in checks:
+        key = f"{plugin_key.split('.')[0]}.options" if options else plugin_key
         token = json.dumps([check.__name__, name, options], sort_keys=True, default=repr)
         if token in _CHECKED:
             continue

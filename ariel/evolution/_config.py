@@ -13,6 +13,7 @@ import json
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
+from os import PathLike
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -30,10 +31,11 @@ from pydantic import (
 from ariel.errors import ConfigError
 from ariel.evaluation.executors import executor_kinds, known_kinds
 from ariel.evolution._genotype import is_genotype_file
-from ariel.evolution._toml import read_toml_file
-from ariel.utils import ariel_line, file_kind
+from ariel.evolution._toml import MAX_TOML_DEPTH, read_toml_file
+from ariel.utils import ariel_line, file_kind, nests_deeper_than, strings_argument
 
 __all__ = [
+    "MAX_GENERATIONS",
     "BodyConfig",
     "BrainConfig",
     "ConfigError",
@@ -62,6 +64,10 @@ Int = Annotated[int, Strict()]
 Float = Annotated[float, Strict()]
 Bool = Annotated[bool, Strict()]
 Str = Annotated[str, Strict()]
+
+#: The most generations a run has: a generation's files are named with six digits
+#: (``gen-NNNNNN.parquet``), so generation 999,999 is the last one a folder can hold.
+MAX_GENERATIONS = 1_000_000
 
 #: A duration in seconds: positive and finite.
 Seconds = Annotated[Float, Field(gt=0.0), AfterValidator(_finite_seconds)]
@@ -264,7 +270,8 @@ class ExperimentConfig(_Section):
         description: Free text.
         seed: The run seed, 0 <= seed < 2**63; every random decision of the run derives from
             it.
-        generations: Generations, >= 1, counting the random first generation too.
+        generations: Generations, >= 1, counting the random first generation too; at most
+            `MAX_GENERATIONS` (a generation's files are named with six digits).
         body: The body optimizer's section, ``[body]``.
         brain: The brain learners' section, ``[brain]``.
         world: The world's section, ``[world]``.
@@ -276,7 +283,7 @@ class ExperimentConfig(_Section):
     name: Str = Field(default="experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
     description: Str = ""
     seed: Int = Field(default=0, ge=0, lt=2**63)
-    generations: Int = Field(default=10, ge=1)
+    generations: Int = Field(default=10, ge=1, le=MAX_GENERATIONS)
     body: BodyConfig = Field(default_factory=BodyConfig)
     brain: BrainConfig = Field(default_factory=BrainConfig)
     world: WorldConfig = Field(default_factory=WorldConfig)
@@ -374,26 +381,37 @@ def _validate(data: Mapping[str, object]) -> ExperimentConfig:
 # --------------------------------------------------------------------------------------------
 
 
-def _parse_value(text: str) -> object:
-    """A TOML value (``8``, ``true``, ``"flat"``, ``[0, 0, 0]``); anything else is a string."""
+def _parse_value(text: str, key: str) -> object:
+    """A TOML value (``8``, ``true``, ``"flat"``, ``[0, 0, 0]``); anything else is a string.
+    `ConfigError` for a value nested deeper than a TOML file may be (`MAX_TOML_DEPTH`)."""
     try:
-        return tomllib.loads(f"value = {text}")["value"]
+        value = tomllib.loads(f"value = {text}")["value"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:  # tomllib recurses per nested array or inline table
+        value = None
+    if value is None or nests_deeper_than(value, MAX_TOML_DEPTH):
+        raise ConfigError(f"--set {key}: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
+    return value
 
 
 def apply_overrides(data: Mapping[str, object], overrides: Sequence[str]) -> dict[str, Any]:
     """Apply ``key=value`` overrides (dotted keys) to raw config data; the key must exist.
 
-    Keys under an ``options`` table are free (plugins define them).
+    Keys under an ``options`` table are free (plugins define them). `TypeError` for overrides
+    that are not a list of strings; `ConfigError` for a malformed one, and for data nested
+    deeper than a TOML file may be (`MAX_TOML_DEPTH`).
     """
+    overrides = strings_argument("overrides", overrides, "brain.popsize=16")
+    if nests_deeper_than(dict(data), MAX_TOML_DEPTH):  # before json recurses through it
+        raise ConfigError(f"config: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
     result = json.loads(json.dumps(dict(data)))  # deep copy of plain data
     for item in overrides:
         key, sep, text = item.partition("=")
         key = key.strip()
         if not sep or not key:
             raise ConfigError(f"--set {item!r}: expected key=value, e.g. brain.popsize=16")
-        set_value(result, key, _parse_value(text.strip()), f"--set {key}")
+        set_value(result, key, _parse_value(text.strip(), key), f"--set {key}")
     return result
 
 
@@ -500,6 +518,11 @@ def load_config(
         print(config.generations, config.brain.popsize)  # 3 16
         ```
     """
+    if not isinstance(source, ExperimentConfig | Mapping | str | PathLike | None):
+        raise TypeError(
+            "config must be an ExperimentConfig, a TOML file's path, a dict or None (the "
+            f"default experiment), not {type(source).__name__}"
+        )
     if isinstance(source, ExperimentConfig):
         data: Mapping[str, object] = source.to_plain()
     elif isinstance(source, Mapping):

@@ -62,6 +62,8 @@ def read_genotype_file(path: str | Path) -> object:
         raise ConfigError(f"{where}: unreadable ({exc.strerror})") from None
     except ValueError as exc:
         raise ConfigError(f"{where}: not valid JSON ({exc})") from None
+    except RecursionError:  # json recurses per nested array or object
+        raise ConfigError(f"{where}: not a genotype (its JSON nests too deeply)") from None
 
 
 def check_genotype(genotype: object, encoder: BodyEncoder, where: str = "body.genotype") -> None:

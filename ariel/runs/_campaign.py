@@ -49,7 +49,14 @@ from ariel.runs._experiment import new_progress, noted_on_interrupt
 from ariel.runs._prepare import PreparedRun, executor_settings, prepare_run, resume_settings
 from ariel.runs._result import RunResult
 from ariel.runs._session import RunSession, drive
-from ariel.utils import accept_aliases, ariel_line
+from ariel.utils import (
+    accept_aliases,
+    ariel_line,
+    flag_argument,
+    path_argument,
+    strings_argument,
+)
+from ariel.utils.interrupts import stop_on_signals
 
 __all__ = ["CampaignResult", "campaign_status", "resume_campaign", "run_campaign"]
 
@@ -161,8 +168,9 @@ def run_campaign(
 ) -> CampaignResult:
     """Run every condition x seed of the campaign ``file`` into a new campaign folder.
 
-    Everything is validated before anything is written. Ctrl-C (or SIGTERM) raises
-    `KeyboardInterrupt` with ``campaign_dir`` set to the folder to pass to `resume_campaign`.
+    Everything is validated before anything is written. Ctrl-C (or SIGTERM or SIGHUP, as in
+    `run_experiment`) raises `KeyboardInterrupt` with ``campaign_dir`` set to the folder to
+    pass to `resume_campaign`.
 
     Args:
         file: The campaign TOML file (its base experiment, seeds and conditions;
@@ -183,6 +191,7 @@ def run_campaign(
 
     Raises:
         ConfigError: For a bad campaign file, override, config or executor setting.
+        TypeError: For an argument of the wrong type (``progress="no"``: True, False or None).
         FileExistsError: When ``out`` exists and is not an empty folder.
         RunStorageError: When the campaign folder cannot be written.
 
@@ -208,7 +217,11 @@ def run_campaign(
                 print(row["condition"], row["seed"], row["status"], row["best_fitness"])
         ```
     """
-    spec = load_campaign_file(file, tuple(overrides))
+    file = path_argument("file", file, function="run_campaign")
+    out = path_argument("out", out, function="run_campaign") if out is not None else None
+    flag_argument("progress", progress, none=True, function="run_campaign")
+    overrides = strings_argument("overrides", overrides, "generations=3", function="run_campaign")
+    spec = load_campaign_file(file, overrides)
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers, address=address)
     _check_open_files(len(spec.configs), settings)
@@ -223,6 +236,7 @@ def run_campaign(
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
         write_campaign_info(path, info)
+        locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
         for run in runs:
             folder = path / run_path(run.condition, run.seed)
@@ -274,7 +288,8 @@ def resume_campaign(
         ConfigError: When the campaign's stored config cannot be read, or for a bad executor
             setting.
     """
-    path = Path(campaign_dir)
+    path = path_argument("campaign_dir", campaign_dir, function="resume_campaign")
+    flag_argument("progress", progress, none=True, function="resume_campaign")
     info = read_campaign_info(path)
     try:
         first = ExperimentConfig.from_plain(info["runs"][0]["config"])
@@ -291,6 +306,7 @@ def resume_campaign(
     )
     with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
+        locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
         runs, skipped, damaged = _unfinished_runs(path, info, locks, settings)
         if not runs and damaged:

@@ -37,7 +37,8 @@ from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_geno
 )
 from ariel.runs._result import RunResult
 from ariel.runs._session import RunSession, drive, resumable
-from ariel.utils import accept_aliases
+from ariel.utils import accept_aliases, flag_argument, path_argument
+from ariel.utils.interrupts import stop_on_signals
 
 __all__ = [
     "RunResult",
@@ -105,8 +106,9 @@ def run_experiment(
 
     Everything is validated before anything is written.
 
-    Ctrl-C (or SIGTERM) raises `KeyboardInterrupt` with ``run_dir`` set to the folder to pass
-    to `resume_experiment`. A script that calls this at its top level without
+    Ctrl-C (or SIGTERM or SIGHUP, unless this process ignores or handles it itself, as
+    ``nohup`` does SIGHUP) raises `KeyboardInterrupt` with ``run_dir`` set to the folder to pass
+    to `resume_experiment`; the run's status is then ``interrupted``. A script that calls this at its top level without
     ``if __name__ == "__main__":``, on the local executor: its workers say so on stderr, and the
     script ends (`SystemExit`, code 2) leaving no run folder.
 
@@ -132,6 +134,7 @@ def run_experiment(
 
     Raises:
         ConfigError: For a bad config, override, executor setting or plugin option.
+        TypeError: For an argument of the wrong type (``overwrite="no"``: True or False).
         FileExistsError: When ``out`` exists and is not a folder, or is a non-empty folder
             and ``overwrite`` is False or it is not a run folder.
         RunInUseError: When another process runs in ``out``.
@@ -156,6 +159,9 @@ def run_experiment(
         ```
     """
     refuse_in_spawned_child()  # a script without a __main__ guard, re-run by a pool worker
+    out = path_argument("out", out, function="run_experiment") if out is not None else None
+    flag_argument("overwrite", overwrite, function="run_experiment")
+    flag_argument("progress", progress, none=True, function="run_experiment")
     config = load_config(config, overrides)
     settings = executor_settings(config, kind=executor, workers=workers, address=address)
     prepared = prepare_run(config, settings)
@@ -169,7 +175,7 @@ def run_experiment(
         with storage_errors(path), contextlib.ExitStack() as locks:
             # The lock is held for the whole run.
             session = RunSession.create(prepared, path, run_id, locks, overwrite=overwrite)
-            with noted_on_interrupt("run_dir", session.folder.path):
+            with stop_on_signals(), noted_on_interrupt("run_dir", session.folder.path):
                 return _drive(session, progress)
     except Exception as exc:
         if not _worker_cannot_start(exc):
@@ -251,7 +257,8 @@ def resume_experiment(
         RunInUseError: When another process runs (or resumes) the run.
         ConfigError: For a bad executor setting.
     """
-    folder = RunFolder(run_dir)
+    folder = RunFolder(path_argument("run_dir", run_dir, function="resume_experiment"))
+    flag_argument("progress", progress, none=True, function="resume_experiment")
     info, config, _ = resumable(folder)
     # Unless told otherwise, continue on the kind of executor the run last ran on (results do
     # not depend on it), but never on a Dask scheduler the folder names: only on one passed here.
@@ -266,5 +273,5 @@ def resume_experiment(
     with storage_errors(folder.path), contextlib.ExitStack() as locks:
         # Checked again under the lock: another resume may have run (or finished) the run.
         session = RunSession.reopen(folder, locks, settings)
-        with noted_on_interrupt("run_dir", folder.path):
+        with stop_on_signals(), noted_on_interrupt("run_dir", folder.path):
             return _drive(session, progress)

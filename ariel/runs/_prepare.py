@@ -149,6 +149,36 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
     return Plugins(encoder, controller, fitness, optimizer)
 
 
+def _check_plugins_reach_workers(config: ExperimentConfig, settings: ExecutorConfig) -> None:
+    """Worker processes know a plugin by importing the module that registers it: one defined
+    in a notebook or an interactive session (module ``__main__``, no file) is unknown to
+    them, and so is one defined in a script to the workers of a Dask scheduler (they never
+    import the script). Refused before anything is written, rather than failing the run's
+    first evaluation."""
+    kind = executor_kind(settings.kind)
+    if kind.one_worker is not None:  # the calls run in this process
+        return
+    main = sys.modules.get("__main__")
+    remote = kind.takes_address and settings.address is not None
+    if not remote and getattr(main, "__file__", None):  # a script: workers import it
+        return
+    named = [
+        ("body.encoder", body_encoders, config.body.encoder),
+        ("brain.controller", controllers, config.brain.controller),
+        ("world.name", worlds, config.world.name),
+        ("task.fitness", fitness_functions, config.task.fitness),
+    ]
+    for key, registry, name in named:
+        if getattr(registry.get(name), "__module__", None) != "__main__":
+            continue
+        where = "in this script" if remote else "in this notebook (or interactive session)"
+        raise ConfigError(
+            f"{key}: {registry.label} {name!r} is defined {where}, which the {settings.kind} "
+            "executor's worker processes cannot import: define it in a module and import "
+            'that (docs/plugins.md), or run on executor "serial"'
+        )
+
+
 def _read_genotype_file(config: ExperimentConfig, encoder: BodyEncoder) -> ExperimentConfig:
     """The config holding the genotype itself when ``body.genotype`` names a file (checked)."""
     if not is_genotype_file(config.body.genotype):
@@ -264,6 +294,7 @@ def prepare_run(config: ExperimentConfig, settings: ExecutorConfig | None = None
     it checked: `ConfigError` naming the key."""
     settings = executor_settings(config) if settings is None else settings
     plugins = resolve_plugins(config)
+    _check_plugins_reach_workers(config, settings)
     config = _read_genotype_file(config, plugins.encoder)
     brain_only = is_brain_only(config, plugins.encoder)
     genotype = None

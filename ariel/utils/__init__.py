@@ -11,6 +11,11 @@ from typing import TYPE_CHECKING
 from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
+    from ariel.utils._arguments import (
+        flag_argument as flag_argument,
+        path_argument as path_argument,
+        strings_argument as strings_argument,
+    )
     from ariel.utils._commands import (
         ariel_command as ariel_command,
         ariel_line as ariel_line,
@@ -46,16 +51,19 @@ _INTERNAL: dict[str, str] = {
     "ariel_line": "ariel.utils._commands",
     "ensure_headless_gl": "ariel.utils._gl",
     "file_kind": "ariel.utils._file_kind",
+    "flag_argument": "ariel.utils._arguments",
     "gl_backend_error": "ariel.utils._gl",
     "has_display": "ariel.utils._gl",
     "in_notebook_kernel": "ariel.utils._notebook",
     "load_run_command": "ariel.utils._commands",
     "mujoco_module": "ariel.utils._gl",
     "nests_deeper_than": "ariel.utils._json",
+    "path_argument": "ariel.utils._arguments",
     "python_command": "ariel.utils._commands",
     "replace_non_finite": "ariel.utils._json",
     "report_interrupted": "ariel.utils._commands",
     "shell_path": "ariel.utils._commands",
+    "strings_argument": "ariel.utils._arguments",
 }
 
 __getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -9,7 +9,10 @@ catches the interrupt (the ``ariel`` command) leaves the ``with`` block, which c
 
 SIGTERM (a batch system, ``kill``) and SIGHUP (a closed terminal or SSH session) stop a run as
 Ctrl-C does: status ``interrupted``, the lock released, resumable. Once: a second signal
-meanwhile ends the process at once, as Python's own handling of a second Ctrl-C would.
+meanwhile ends the process at once, as Python's own handling of a second Ctrl-C would. A
+signal that is ignored or handled by someone else when the run starts is left to them: ``nohup``
+ignores SIGHUP (the run must outlive the terminal), a Jupyter kernel handles Ctrl-C, a batch
+framework may handle SIGTERM itself.
 
 Some code must not be left midway: a C++ extension that is being imported (torch sets up its
 distributed package in C++, and a Python exception raised inside that aborts the whole process
@@ -42,6 +45,7 @@ STOPPED_EXIT = 75
 
 _pending: int | None = None  # the signal number taken and not yet acted on
 _deferring = 0  # how many `signals_deferred` blocks the main thread is in
+_active = False  # whether a `stop_on_signals` block has its handlers installed
 
 
 class Interrupted(KeyboardInterrupt):
@@ -115,22 +119,26 @@ def signals_deferred() -> Iterator[None]:
 
 
 def _signals() -> list[signal.Signals]:
-    wanted = [signal.SIGTERM, getattr(signal, "SIGHUP", None)]
-    # Ctrl-C only where Python's own handler has it: a Jupyter kernel or an embedding
-    # application that installed its own keeps it.
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-        wanted.insert(0, signal.SIGINT)
-    return [s for s in wanted if s is not None]
+    """The stop signals whose handling is still Python's default: Ctrl-C raising
+    `KeyboardInterrupt`, SIGTERM and SIGHUP ending the process. Ignored (``nohup``'s SIGHUP) or
+    handled by someone else (a Jupyter kernel's Ctrl-C), a signal is left as it is."""
+    defaults = [
+        (signal.SIGINT, signal.default_int_handler),
+        (signal.SIGTERM, signal.SIG_DFL),
+        (getattr(signal, "SIGHUP", None), signal.SIG_DFL),
+    ]
+    return [s for s, default in defaults if s is not None and signal.getsignal(s) == default]
 
 
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[None]:
     """Within: SIGINT, SIGTERM and SIGHUP raise `Interrupted` and stay noted until the block
-    is left (see the module docstring). Outside the main thread, nothing changes.
+    is left (see the module docstring). Outside the main thread, nothing changes; within
+    another such block, neither (the outer one has them).
 
-    SIGINT is taken only where Python's default Ctrl-C handler is installed (not, e.g., in a
-    Jupyter kernel); SIGHUP only where the platform has it. The previous handlers are put back
-    on leaving.
+    Each signal is taken only where its handling is Python's default (`_signals`: not nohup's
+    ignored SIGHUP, not a Jupyter kernel's Ctrl-C); SIGHUP only where the platform has it.
+    The previous handlers are put back on leaving.
 
     Yields:
         None, once the handlers are installed.
@@ -138,8 +146,8 @@ def stop_on_signals() -> Iterator[None]:
     Raises:
         Interrupted: Inside the block, when one of the signals arrives.
     """
-    global _pending
-    if threading.current_thread() is not threading.main_thread():
+    global _pending, _active
+    if _active or threading.current_thread() is not threading.main_thread():
         yield  # signal dispositions can only be changed from the main thread
         return
     wanted = _signals()
@@ -154,9 +162,10 @@ def stop_on_signals() -> Iterator[None]:
             raise Interrupted(signum)  # else `signals_deferred` raises it on leaving
 
     previous = {number: signal.signal(number, interrupt) for number in wanted}
+    _active = True
     try:
         yield
     finally:
-        _pending = None
+        _pending, _active = None, False
         for number, handler in previous.items():
             signal.signal(number, handler)

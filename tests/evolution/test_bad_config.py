@@ -123,7 +123,7 @@ def test_a_plugin_that_fails_its_check_stops_the_run_before_it_starts(
     argv = ["run", str(tiny), "--out", str(out), "--quiet", "--set", "task.fitness=test_always_nan"]
     assert exit_code(argv) == 2
     line = one_error_line(capsys)
-    assert "task.options: the plugin check failed: fitness function 'test_always_nan'" in line
+    assert "task.fitness: the plugin check failed: fitness function 'test_always_nan'" in line
     assert not out.exists()
 
 

@@ -43,6 +43,7 @@ def test_default_config_is_the_flat_coevolution() -> None:
         ({"brain": {"popsize": 0}}, r"^brain.popsize: must be greater than or equal to 2"),
         ({"body": {"population": -1}}, r"^body.population: must be greater than or equal to 1"),
         ({"generations": 0}, r"^generations: must be greater than or equal to 1 \(got 0\)"),
+        ({"generations": 10**20}, r"^generations: must be less than or equal to 1000000 \(got"),
         ({"task": {"duration": -1.0}}, r"^task.duration: must be greater than 0"),
         ({"record": {"rate_hz": 0}}, r"^record.rate_hz: must be greater than 0"),
         ({"brain": {"control_period": 0}}, r"^brain.control_period: must be greater than"),

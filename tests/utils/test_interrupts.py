@@ -38,3 +38,27 @@ def test_nested_blocks_raise_when_the_outermost_is_left() -> None:
 def test_outside_stop_on_signals_nothing_is_raised() -> None:
     with signals_deferred():
         pass  # no signal noted: leaving raises nothing
+
+
+def test_a_signal_ignored_or_handled_elsewhere_is_left_so() -> None:
+    """Under ``nohup`` SIGHUP is ignored: a closed terminal must not stop the run. A handler
+    of the caller's own keeps the signal; an inner block leaves the outer one's handlers."""
+    seen: list[int] = []
+    before = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    term_before = signal.signal(signal.SIGTERM, lambda signum, frame: seen.append(signum))
+    try:
+        with stop_on_signals():
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGHUP)  # ignored: nothing happens
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):
+                pass
+        assert seen == [signal.SIGTERM]
+    finally:
+        signal.signal(signal.SIGHUP, before)
+        signal.signal(signal.SIGTERM, term_before)
+    with stop_on_signals():
+        outer = signal.getsignal(signal.SIGTERM)
+        with stop_on_signals():
+            assert signal.getsignal(signal.SIGTERM) is outer
+        assert signal.getsignal(signal.SIGTERM) is outer  # not put back by the inner block

@@ -8,7 +8,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ariel.errors import PluginFailedError
+from ariel.errors import PluginFailedError, UnknownPluginError
 from ariel.evolution import ERROR_LOG, ExperimentConfig, plugin_named
 from ariel.recording.store._files import atomic_write_bytes
 from ariel.utils import ariel_line
@@ -34,8 +34,17 @@ def plugin_failure(
         atomic_write_bytes(log, f"evaluation {task.eval_id}\n{text}".encode(), root=run_dir)
     except (OSError, ValueError):  # the folder cannot take it: the line alone must do
         where = ""
+    plugin = plugin_named(config, text)
+    if isinstance(exc, UnknownPluginError):  # checked here, so unknown to the worker alone
+        return PluginFailedError(
+            f"evaluation {task.eval_id}: a worker process does not know a plugin this process "
+            f"knows ({first}): it was registered where workers do not run it (under `if "
+            '__name__ == "__main__":`, in a notebook cell): register it at the top level of '
+            "the script or of a module it imports (docs/plugins.md), or run on executor "
+            f'"serial"; the run stopped, its finished generations are kept{where}'
+        )
     return PluginFailedError(
-        f"{plugin_named(config, text)} failed in evaluation {task.eval_id}: {first}{where}; "
+        f"{plugin} failed in evaluation {task.eval_id}: {first}{where}; "
         f"the run stopped, its finished generations are kept: fix the plugin, then "
         f"{ariel_line('resume', run_dir)}"
     )

@@ -169,7 +169,7 @@ def lineage(run: Run) -> pd.DataFrame:
 
     Args:
         run: A run's records (`ariel.recording.load_run`); its ``bodies`` and ``evaluations``
-            tables are read.
+            tables are read. A folder's path is a `TypeError` saying to load it.
 
     Returns:
         A DataFrame with one row per body ever evaluated, ordered by ``id``: the
@@ -179,6 +179,7 @@ def lineage(run: Run) -> pd.DataFrame:
         generations (``"generations"``), for `lineage_statistics`.
 
     Raises:
+        TypeError: For what is not a run (a path: ``lineage(load_run(path))``).
         DamagedRunError: When a body id is not one (or two share a number), or a parent is
             not a body of the run.
 
@@ -190,7 +191,9 @@ def lineage(run: Run) -> pd.DataFrame:
         write_lineage_csv(frame, "my-run-phylogeny.csv")  # or: ariel export RUN --lineage FILE
         ```
     """
-
+    if not hasattr(run, "bodies"):  # a path: the run is read by load_run, once, checked
+        what = f"the path {str(run)!r}" if isinstance(run, str | os.PathLike) else type(run)
+        raise TypeError(f"lineage takes a run, load_run(path), not {what}")
     bodies = run.bodies.sort_values("generation", kind="stable")
     done = _evaluations_done(run)
     last_generation = run.generations_done - 1
@@ -331,6 +334,16 @@ def _missing(value: object) -> bool:
     return value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value))
 
 
+def _check_lineage(frame: object, columns: tuple[str, ...]) -> None:
+    """`TypeError` in one line unless ``frame`` is a DataFrame with ``columns``."""
+    wanted = f"pass lineage(run), or a frame with columns {', '.join(columns)}"
+    if not isinstance(frame, pd.DataFrame):
+        raise TypeError(f"not a lineage but a {type(frame).__name__}: {wanted}")
+    missing = [column for column in columns if column not in frame.columns]
+    if missing:
+        raise TypeError(f"not a lineage: the frame has no column {missing[0]!r}; {wanted}")
+
+
 def _parent_map(frame: pd.DataFrame) -> dict[int, list[int]]:
     """id -> its ancestors' ids, from ``ancestor_list``."""
     return {
@@ -354,6 +367,7 @@ def ancestors(frame: pd.DataFrame, id: int | str) -> list[int]:
     Raises:
         KeyError: When ``frame`` has no such taxon.
     """
+    _check_lineage(frame, ("id", "ancestor_list", *(("body_id",) if isinstance(id, str) else ())))
     if isinstance(id, str):
         found = frame.loc[frame["body_id"] == id, "id"]
         if not len(found):
@@ -456,6 +470,7 @@ def lineage_statistics(
         print(stats[["generation", "surviving_lineages", "best_depth"]])
         ```
     """
+    _check_lineage(frame, ("id", "ancestor_list", "origin_time", "destruction_time", "fitness"))
     if maximise is None:
         maximise = frame.attrs.get("maximise")
         if not isinstance(maximise, bool):

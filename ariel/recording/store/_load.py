@@ -31,6 +31,7 @@ from ariel.recording.store._run_folder import (
     finished_generations,
 )
 from ariel.recording.store._tables import generation_file, read_file, read_table, to_pandas
+from ariel.utils import path_argument
 
 #: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
 FAILED_STATUSES = ("error", "unstable", "invalid")
@@ -428,7 +429,7 @@ def load_run(path: str | Path) -> Run:
         ```
     """
 
-    folder = RunFolder(path)
+    folder = RunFolder(path_argument("path", path, function="load_run"))
     info = folder.read_info()
     return Run(path=folder.path, info=info, manifest=Manifest.load(folder.path, info))
 
@@ -466,7 +467,7 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
         listed with status `UNREADABLE`. Empty when ``root`` is not a folder.
     """
 
-    root = Path(root)
+    root = path_argument("root", root, function="list_runs")
     if not root.is_dir():
         return []
     found = []

@@ -46,16 +46,19 @@ def git_commit() -> str | None:
     source = Path(__file__).resolve().parents[3]  # ariel/recording/store/ -> the checkout
     if not (source / ".git").exists():
         return None
+    # --no-optional-locks: `status` would otherwise take .git/index.lock to refresh the index,
+    # a write outside the run folder that can fail the user's own git command meanwhile.
+    git = ["git", "--no-optional-locks", "-C", str(source)]
     try:
         out = subprocess.run(
-            ["git", "-C", str(source), "rev-parse", "HEAD"],
+            [*git, "rev-parse", "HEAD"],
             capture_output=True,
             text=True,
             timeout=5,
             check=True,
         )
         dirty = subprocess.run(
-            ["git", "-C", str(source), "status", "--porcelain", "--untracked-files=no"],
+            [*git, "status", "--porcelain", "--untracked-files=no"],
             capture_output=True,
             text=True,
             timeout=5,

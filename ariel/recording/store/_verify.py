@@ -48,6 +48,7 @@ from ariel.recording.store._table_limits import (
     size_problem,
 )
 from ariel.recording.store._tables import TABLES, generation_file, table_generations
+from ariel.utils import path_argument
 
 __all__ = ["MAX_LISTED", "VerifyResult", "adopt_manifests", "verify_run"]
 
@@ -115,7 +116,13 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
         print(result.ok, result.files, result.problems)
         ```
     """
-    run_dir = Path(run_dir)
+    run_dir = path_argument("run_dir", run_dir, function="verify_run")
+    if generations is not None and (
+        not isinstance(generations, int) or isinstance(generations, bool) or generations < 0
+    ):
+        raise ValueError(
+            f"verify_run: generations must be None or a whole number >= 0, not {generations!r}"
+        )
     # Before run.json: a run that finishes between the two reads is then read as finished.
     holder = lock_holder(run_dir) if generations is None else None
     try:

@@ -175,6 +175,15 @@ def test_ancestors_are_listed_nearest_first_each_once() -> None:
         ancestors(frame, 99)
 
 
+def test_a_run_folder_or_what_is_no_lineage_is_one_line(run) -> None:
+    with pytest.raises(TypeError, match=r"^lineage takes a run, load_run\(path\), not the path '"):
+        lineage(str(run.path))  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"not a lineage: the frame has no column 'id'; pass "):
+        ancestors(run.evaluations, 1)
+    with pytest.raises(TypeError, match=r"not a lineage but a str: pass lineage\(run\)"):
+        lineage_statistics("data/runs/x", maximise=True)  # type: ignore[arg-type]
+
+
 def test_a_campaigns_statistics_are_one_table_by_run_id() -> None:
     frame = hand_made()
     stats = lineage_statistics_by_run({"a-s1": frame, "a-s2": frame}, maximise=True)

@@ -308,3 +308,24 @@ def test_a_resume_records_the_software_that_ran_it(finished: Path, tmp_path: Pat
     assert [s["kind"] for s in segments] == ["run", "resume"]
     assert segments[1]["versions"] == software_versions()  # read now, not copied
     assert segments[1]["from_generation"] == 2
+
+
+def test_the_git_commit_of_a_run_takes_no_lock_in_the_checkout(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`git status` refreshes .git/index under .git/index.lock unless told not to: a write
+    outside the run folder, which a git command of the user's can fail on meanwhile."""
+    from ariel.recording.store._provenance import git_commit
+
+    source = Path(__file__).resolve().parents[3]
+    if not (source / ".git").exists():
+        pytest.skip("not run from a git checkout")
+    calls = tmp_path / "calls"
+    fake = tmp_path / "bin" / "git"
+    fake.parent.mkdir()
+    fake.write_text(f'#!/bin/sh\necho "$@" >> {calls}\necho 0123abc\n')
+    fake.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{fake.parent}{os.pathsep}{os.environ['PATH']}")
+    assert git_commit() == "0123abc-dirty"  # the fake's `status` output counts as changes
+    lines = calls.read_text().splitlines()
+    assert len(lines) == 2 and all(line.startswith("--no-optional-locks ") for line in lines)

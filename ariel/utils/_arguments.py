@@ -1,0 +1,54 @@
+"""Checks of a Python call's arguments that a type checker would catch, for the scripts and
+notebooks that have none: a wrong type is one line naming the function, the argument and what
+it takes (`TypeError`), rather than an error from deep inside, or a truthy ``"no"`` read as
+True (``overwrite="no"`` must not replace a run)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+__all__ = ["flag_argument", "path_argument", "strings_argument"]
+
+
+def _shown(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{type(value).__name__} {text[:37]}..."
+
+
+def _refused(function: str, name: str, what: str, value: object) -> TypeError:
+    where = f"{function}: {name}" if function else name
+    return TypeError(f"{where} must be {what}, not {_shown(value)}")
+
+
+def path_argument(name: str, value: object, *, function: str = "") -> Path:
+    """``value`` as a `Path`: a `str` or an `os.PathLike` (a `pathlib.Path`)."""
+    if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
+        return Path(value)  # an os.PathLike of bytes: Path says so itself
+    raise _refused(function, name, "a path (a str or pathlib.Path)", value)
+
+
+def flag_argument(
+    name: str, value: object, *, none: bool = False, function: str = ""
+) -> bool | None:
+    """``value`` when it is True or False (or None, where ``none`` allows it)."""
+    if isinstance(value, bool) or (none and value is None):
+        return value
+    raise _refused(function, name, "True, False or None" if none else "True or False", value)
+
+
+def strings_argument(
+    name: str, value: object, example: str, *, function: str = ""
+) -> tuple[str, ...]:
+    """``value`` as a tuple of strings: a list or tuple of `str`, never one `str` (iterated,
+    it would be read a character at a time)."""
+    if isinstance(value, str | bytes) or not isinstance(value, Iterable):
+        raise _refused(function, name, f"a list of strings such as [{example!r}]", value)
+    items = tuple(value)
+    for item in items:
+        if not isinstance(item, str):
+            raise _refused(
+                function, f"{name}[{items.index(item)}]", f"a string such as {example!r}", item
+            )
+    return items
