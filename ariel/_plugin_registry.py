@@ -59,6 +59,13 @@ _packages_lock = threading.Lock()
 _packages_cache: dict[str, list[str]] | None = None
 
 
+def _path_and_distribution(path: str) -> str:
+    """``module:attr (name==version)``, or the path alone where no installed distribution
+    provides the module (a script's, a missing one's)."""
+    found = _distribution_of_module(path.partition(":")[0])
+    return f"{path} ({found})" if found is not None else path
+
+
 def _distribution_of_module(module: str) -> str | None:
     """``name==version`` of the installed distribution providing ``module``, if any."""
     global _packages_cache
@@ -356,7 +363,7 @@ class Registry(Generic[T]):
         return self._load(
             name,
             lambda: _resolve(path),
-            lambda: f"{path} ({_distribution_of_module(path.partition(':')[0])})",
+            lambda: _path_and_distribution(path),
         )
 
     def _load(self, name: str, load: Callable[[], Any], where: Callable[[], str]) -> Any:
