@@ -30,10 +30,12 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         RecordConfig as RecordConfig,
         TaskConfig as TaskConfig,
         WorldConfig as WorldConfig,
-        load_config as load_config,
     )
     from ariel.evolution._ga import (
         GeneticAlgorithm as GeneticAlgorithm,
+    )
+    from ariel.evolution._load_config import (
+        load_config as load_config,
     )
     from ariel.evolution._map_elites import (
         MapElites as MapElites,
@@ -160,7 +162,7 @@ _LAZY: dict[str, str] = {
     "RecordConfig": "ariel.evolution._config",
     "TaskConfig": "ariel.evolution._config",
     "WorldConfig": "ariel.evolution._config",
-    "load_config": "ariel.evolution._config",
+    "load_config": "ariel.evolution._load_config",
     "BrainRun": "ariel.evolution._brain",
     "BrainOptimizer": "ariel.evolution._brain",
     "ToldHistory": "ariel.evolution._brain",

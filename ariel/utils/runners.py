@@ -20,6 +20,19 @@ class _SupportsSetControl(Protocol):
     def set_control(self, model: mujoco.MjModel, data: mujoco.MjData) -> None: ...
 
 
+def _seconds(duration: object) -> float:
+    """``duration`` as a float: an int, float, numpy scalar or one-element array/tensor; a bool
+    or a string (which ``float`` would read) is refused in one line."""
+    dtype = str(getattr(duration, "dtype", ""))
+    if not (isinstance(duration, bool | str | bytes) or dtype in ("bool", "torch.bool")):
+        try:
+            return float(duration)  # type: ignore[arg-type]
+        except (TypeError, ValueError, RuntimeError):
+            pass
+    shown = f"{type(duration).__name__} {duration!r}".splitlines()[0]
+    raise TypeError(f"duration must be a number of seconds (an int or a float), not {shown}")
+
+
 def num_steps(model: mujoco.MjModel, duration: float) -> int:
     """``round(duration / model.opt.timestep)``, with one-line errors for bad input.
 
@@ -31,10 +44,11 @@ def num_steps(model: mujoco.MjModel, duration: float) -> int:
         The number of physics steps that simulate ``duration`` seconds.
 
     Raises:
+        TypeError: If ``duration`` is not a number (a string or a bool, say).
         ValueError: If ``duration`` is NaN, negative or infinite, or the timestep is not
             positive.
     """
-    duration = float(duration)
+    duration = _seconds(duration)
     if math.isnan(duration) or duration < 0:
         raise ValueError(f"duration must be a number >= 0 seconds; got {duration}")
     if math.isinf(duration):
@@ -64,6 +78,7 @@ def simple_runner(
             not depend on it.
 
     Raises:
+        TypeError: If ``duration`` is not a number (see `num_steps`).
         ValueError: If ``duration`` or ``steps_per_loop`` is out of range (see `num_steps`).
     """
     total = num_steps(model, duration)
@@ -103,6 +118,7 @@ def thread_safe_runner(
         duration: Simulated time in seconds (finite, >= 0).
 
     Raises:
+        TypeError: If ``duration`` is not a number (see `num_steps`).
         ValueError: If ``duration`` is out of range (see `num_steps`).
     """
     total = num_steps(model, duration)

@@ -11,7 +11,7 @@ Tutorial API (upstream ARIEL §12)::
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import mujoco
@@ -20,6 +20,32 @@ import numpy as np
 __all__ = ["Tracker"]
 
 logger = logging.getLogger(__name__)
+
+
+def _attributes_of(obj_type: Any) -> tuple[str, ...] | None:
+    """The attributes ``data.bind`` gives an object of this type (``mjOBJ_GEOM``: ``xpos``,
+    ``xmat``, ...), from MuJoCo's binding class; None where MuJoCo has none to read."""
+    try:
+        kind = mujoco.mjtObj(obj_type).name.removeprefix("mjOBJ_").capitalize()
+    except (TypeError, ValueError):
+        return None
+    views = getattr(mujoco._structs, f"_MjData{kind}Views", None)
+    return None if views is None else tuple(n for n in dir(views) if not n.startswith("_"))
+
+
+def _check_attributes(obj_type: Any, attributes: list[str]) -> None:
+    allowed = _attributes_of(obj_type)
+    for attribute in attributes:
+        if not isinstance(attribute, str):
+            raise TypeError(
+                "Tracker: observable_attributes must be a list of attribute names such as "
+                f"['xpos']; it holds {type(attribute).__name__} {attribute!r}"
+            )
+        if allowed is not None and attribute not in allowed:
+            raise ValueError(
+                f"Tracker: observable_attributes has {attribute!r}, which a bound "
+                f"{getattr(obj_type, 'name', obj_type)} lacks; allowed: {', '.join(allowed)}"
+            )
 
 
 class Tracker:
@@ -38,6 +64,8 @@ class Tracker:
 
     Raises:
         TypeError: If ``observable_attributes`` is a single string.
+        ValueError: If it names an attribute that objects of this type lack (the message
+            lists the allowed ones: ``xpos``, ``xmat``, ``xquat`` for geoms).
     """
 
     def __init__(
@@ -54,16 +82,19 @@ class Tracker:
                 logger.info(
                     "Tracker: no object type/name given; tracking geoms whose name contains 'core'"
                 )
-        if isinstance(observable_attributes, str):
+        if isinstance(observable_attributes, str) or not isinstance(
+            observable_attributes, Iterable | None
+        ):
             raise TypeError(
-                f"observable_attributes must be a list of names, e.g. ['xpos']; "
-                f"got the string {observable_attributes!r}"
+                f"Tracker: observable_attributes must be a list of names, e.g. ['xpos']; "
+                f"got {type(observable_attributes).__name__} {observable_attributes!r}"
             )
         self.mujoco_obj_to_find = mujoco_obj_to_find
         self.name_to_bind = name_to_bind
         self.observable_attributes: list[str] = (
             ["xpos"] if observable_attributes is None else list(observable_attributes)
         )
+        _check_attributes(mujoco_obj_to_find, self.observable_attributes)
         self.history: dict[str, dict[int, list[Any]]] = {}
         self.geoms: list[Any] = []
         self.to_track: list[Any] | None = None

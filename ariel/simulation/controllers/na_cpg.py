@@ -21,6 +21,7 @@ upstream ARIEL (see docs/decisions.md, Control):
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping, Sequence
 from os import PathLike
 from typing import Any
@@ -60,18 +61,51 @@ def create_fully_connected_adjacency(num_nodes: int) -> dict[int, list[int]]:
         other node.
 
     Raises:
+        TypeError: If ``num_nodes`` is not an int (e.g. ``model.nu``).
         ValueError: If ``num_nodes`` is negative.
     """
+    if isinstance(num_nodes, bool) or not isinstance(num_nodes, numbers.Integral):
+        raise TypeError(
+            f"create_fully_connected_adjacency: num_nodes must be an int >= 0 (e.g. model.nu), "
+            f"not {type(num_nodes).__name__} {num_nodes!r}"
+        )
     if num_nodes < 0:
         raise ValueError(f"num_nodes must be >= 0; got {num_nodes}")
+    num_nodes = int(num_nodes)
     return {i: [j for j in range(num_nodes) if j != i] for i in range(num_nodes)}
+
+
+def _check_seed(seed: Any) -> int | None:
+    """``seed`` as an int in torch's range (or None), or a one-line ValueError."""
+    if seed is None:
+        return None
+    if (
+        isinstance(seed, numbers.Integral)
+        and not isinstance(seed, bool)
+        and -(2**63) <= seed < 2**64
+    ):
+        return int(seed)
+    raise ValueError(f"NaCPG: seed must be None or an int (torch's seed range), not {seed!r}")
+
+
+def _seconds(value: Any, what: str) -> float:
+    """A number (int, float, numpy scalar, one-element array or tensor) as a float; a bool, a
+    string or anything else is refused in one line (``float("1")`` would read a string)."""
+    dtype = str(getattr(value, "dtype", ""))
+    if not (isinstance(value, bool | str | bytes) or dtype in ("bool", "torch.bool")):
+        try:
+            return float(value)
+        except (TypeError, ValueError, RuntimeError):
+            pass
+    shown = f"{type(value).__name__} {value!r}".splitlines()[0]
+    raise TypeError(f"{what} must be a number (int, float or a one-element tensor), not {shown}")
 
 
 def _initial_draws(n: int, seed: int | None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """A network's random start: its parameters as one flat buffer (groups phase, w,
     amplitudes, ha, b), its initial ``xy`` and ``xy_dot_old``. From a private generator when
     seeded; torch's global RNG otherwise (docs/decisions.md)."""
-    generator = None if seed is None else torch.Generator().manual_seed(int(seed))
+    generator = None if seed is None else torch.Generator().manual_seed(seed)
 
     def uniform(low: float, high: float, *shape: int) -> torch.Tensor:
         draw = torch.rand(*shape, generator=generator, dtype=torch.float64)
@@ -131,9 +165,10 @@ class NaCPG(nn.Module):
 
     Raises:
         TypeError: If ``adjacency_dict`` is not a mapping.
+        TypeError: If ``dt`` or ``alpha`` is not a number.
         ValueError: If ``adjacency_dict`` has keys other than ``0 .. n-1`` or lists an
-            unknown node, ``dt`` or ``alpha`` is out of range, or ``hard_bounds`` is not a pair
-            with ``low <= high``.
+            unknown node, ``dt`` or ``alpha`` is out of range, ``hard_bounds`` is not a pair
+            with ``low <= high``, or ``seed`` is neither None nor an int.
 
     Example:
         ```python
@@ -155,6 +190,9 @@ class NaCPG(nn.Module):
         seed: int | None = None,
     ) -> None:
         super().__init__()
+        seed = _check_seed(seed)
+        dt = _seconds(dt, "NaCPG: dt")
+        alpha = _seconds(alpha, "NaCPG: alpha")
         if not isinstance(adjacency_dict, Mapping):
             raise TypeError(
                 "adjacency_dict must be a dict {node: [neighbours]}, e.g. "
@@ -332,14 +370,19 @@ class NaCPG(nn.Module):
 
     # -- dynamics --------------------------------------------------------------------------
     def forward(self, time: float | None = None) -> torch.Tensor:
-        """Joint targets at simulated ``time`` (float32, ``(n,)``); ``None`` = one more step."""
+        """Joint targets at simulated ``time`` (float32, ``(n,)``); ``None`` = one more step.
+
+        ``time`` is a number of seconds >= 0: an int, float, numpy scalar or one-element
+        tensor (``data.time``); a string or bool is refused (TypeError)."""
         kernel = self._current_kernel()
         if time is None:
             target = self._step + 1
         else:
-            t = float(time)
-            if math.isnan(t):
-                raise ValueError("NaCPG.forward(time): time is NaN")
+            t = time if type(time) is float else _seconds(time, "NaCPG.forward: time")
+            if not math.isfinite(t):
+                raise ValueError(
+                    f"NaCPG.forward(time): time must be finite, not NaN or inf; got {t}"
+                )
             target = math.floor(t / self.dt + STEP_TOLERANCE)
             if target < 0:
                 raise ValueError(f"NaCPG.forward(time): time must be >= 0; got {t}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Sequence
 from typing import Any
 
@@ -13,6 +14,15 @@ __all__ = ["DEFAULT_TERRAIN_SEED", "RuggedTerrainWorld"]
 
 #: Terrain worlds are reproducible by default; pass `seed=` for another terrain.
 DEFAULT_TERRAIN_SEED = 42
+
+
+def _check_seed(world: str, seed: Any) -> int | None:
+    """``seed`` as an int (or None), or a one-line ValueError naming the world and argument."""
+    if seed is None:
+        return None
+    if isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0:
+        return int(seed)
+    raise ValueError(f"{world}: seed must be None or an int >= 0, not {seed!r}")
 
 
 class RuggedTerrainWorld(CompoundWorld):
@@ -45,7 +55,8 @@ class RuggedTerrainWorld(CompoundWorld):
         load_precompiled: accepted for compatibility with upstream ARIEL and ignored.
 
     Raises:
-        ValueError: an option's value is not allowed (see `CompoundWorld`).
+        ValueError: an option's value is not allowed (see `CompoundWorld`), or ``seed`` is
+            neither None nor an int >= 0.
     """
 
     name = "rugged-world"
@@ -69,6 +80,7 @@ class RuggedTerrainWorld(CompoundWorld):
         mujoco_config: Any = None,
         load_precompiled: bool = True,
     ) -> None:
+        seed = _check_seed(type(self).__name__, seed)
         self.seed = seed
         self.scale_of_noise = scale_of_noise
         self.normalize = normalize

@@ -23,15 +23,25 @@ from ariel.body_phenotypes.robogen_lite.config import (
 )
 from ariel.ec.genotypes.nde.numpy_forward import validate_genotype
 
-__all__ = ["NeuralDevelopmentalEncoding"]
+__all__ = ["MAX_GENES", "MAX_MODULES", "NeuralDevelopmentalEncoding"]
+
+#: The most modules an NDE describes: the `nde` body encoder's limit (``encoder.MAX_MODULES``,
+#: which imports this module, so the value is repeated here). The connection layer has
+#: 128 x N x N x 6 weights: 200 modules take about 120 MB.
+MAX_MODULES = 200
+#: The most genes a chromosome may have (``encoder.MAX_GENES``; 64 first-layer weights a gene).
+MAX_GENES = 4096
 
 
-def _check_positive_int(name: str, value: Any) -> int:
+def _check_positive_int(name: str, value: Any, limit: int) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        msg = f"{name} must be an int >= 1; got {type(value).__name__} {value!r}"
+        msg = f"{name} must be an int from 1 to {limit}; got {type(value).__name__} {value!r}"
         raise TypeError(msg)
     if value < 1:
         msg = f"{name} must be >= 1; got {value}"
+        raise ValueError(msg)
+    if value > limit:
+        msg = f"{name} must be <= {limit} (the NDE's weights grow with it); got {value}"
         raise ValueError(msg)
     return int(value)
 
@@ -58,26 +68,31 @@ class NeuralDevelopmentalEncoding(nn.Module):
     them reproducible); with a seed they come from a private generator, bit for bit.
 
     Args:
-        number_of_modules: N, the number of modules the output matrices describe (>= 1).
-        genotype_size: G, the genes per chromosome (>= 1).
+        number_of_modules: N, the number of modules the output matrices describe (1 to
+            `MAX_MODULES`).
+        genotype_size: G, the genes per chromosome (1 to `MAX_GENES`).
         seed: ``None`` (weights from torch's global RNG) or an integer >= 0 (a private
             generator; the global RNG is left untouched).
 
     Raises:
         TypeError: ``number_of_modules`` or ``genotype_size`` is not an integer.
-        ValueError: ``number_of_modules`` or ``genotype_size`` is < 1, or ``seed`` is neither
-            ``None`` nor an integer >= 0.
+        ValueError: ``number_of_modules`` or ``genotype_size`` is out of range, or ``seed`` is
+            neither ``None`` nor an integer >= 0.
     """
 
     def __init__(
         self, number_of_modules: int, genotype_size: int = 64, seed: int | None = None
     ) -> None:
         super().__init__()
-        n = _check_positive_int("number_of_modules", number_of_modules)
-        g = _check_positive_int("genotype_size", genotype_size)
+        n = _check_positive_int("number_of_modules", number_of_modules, MAX_MODULES)
+        g = _check_positive_int("genotype_size", genotype_size, MAX_GENES)
         if seed is not None:
-            if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-                msg = f"seed must be None or an int >= 0; got {seed!r}"
+            if (
+                isinstance(seed, bool)
+                or not isinstance(seed, numbers.Integral)
+                or not 0 <= seed < 2**64
+            ):
+                msg = f"seed must be None or an int from 0 to 2**64 - 1; got {seed!r}"
                 raise ValueError(msg)
             seed = int(seed)
         self.number_of_modules = n
