@@ -184,10 +184,11 @@ def test_a_declared_string_that_cannot_load_fails_on_use_only() -> None:
             "marked": f"{__name__}:marked_fitness",
         },
     )
+    # no "(None)" after a module that no installed distribution provides
     with pytest.raises(
         PluginLoadError,
-        match=r"^could not load fitness function 'missing_module' from ariel_test_nowhere_mod:thing:"
-        r" ModuleNotFoundError",  # no "(None)" for a module no distribution provides
+        match=r"^could not load fitness function 'missing_module' from "
+        r"ariel_test_nowhere_mod:thing: ModuleNotFoundError",
     ):
         registry.get("missing_module")
     with pytest.raises(PluginLoadError, match=rf"'missing_attr' from {__name__}:does_not_exist"):

@@ -108,9 +108,9 @@ def run_experiment(
 
     Ctrl-C (or SIGTERM or SIGHUP, unless this process ignores or handles it itself, as
     ``nohup`` does SIGHUP) raises `KeyboardInterrupt` with ``run_dir`` set to the folder to pass
-    to `resume_experiment`; the run's status is then ``interrupted``. A script that calls this at its top level without
-    ``if __name__ == "__main__":``, on the local executor: its workers say so on stderr, and the
-    script ends (`SystemExit`, code 2) leaving no run folder.
+    to `resume_experiment`; the run's status is then ``interrupted``. A script that calls this
+    at its top level without ``if __name__ == "__main__":``, on the local executor: its workers
+    say so on stderr, and the script ends (`SystemExit`, code 2) leaving no run folder.
 
     Args:
         config: A config object, a TOML path, a dict, or None for the default experiment (as
