@@ -37,7 +37,9 @@ def add_gallery_command(sub: SubParsers) -> None:
         "cached in RUN/gallery/thumbnails/) and write OF.png (a contact sheet: body id, "
         "fitness, two key descriptors) and OF.html (the pictures embedded, each body's "
         "descriptors and the `ariel view` command that opens it) to RUN/gallery/. A campaign: "
-        "the best body of each run's final population, in CAMPAIGN/gallery/.",
+        "the best body of each run's final population, in CAMPAIGN/gallery/. At most "
+        "200 bodies are shown: of more, the best by fitness (a lineage: the best body and its "
+        "nearest ancestors).",
     )
     p.add_argument("folder", metavar="RUN|CAMPAIGN", help="a run or campaign folder")
     p.add_argument(
@@ -63,7 +65,9 @@ def add_gallery_command(sub: SubParsers) -> None:
 def _cmd_gallery(args: argparse.Namespace) -> int:
     # before mujoco is imported: it draws off-screen (EGL)
     headless_unless_display("MUJOCO_GL=disable to write the gallery without pictures")
-    gallery = analysis.make_gallery(args.folder, of=args.of, out=args.out, workers=args.workers)
+    gallery = analysis.make_gallery(
+        args.folder, of=args.of, out=args.out, workers=args.workers, progress=True
+    )
     drawn = f"thumbnails: {gallery.drawn} drawn, {gallery.reused} reused from before"
     print(terminal_text(f"{gallery.title}; {drawn}"))
     for note in gallery.notes:  # e.g. why the thumbnails are missing: one line each

@@ -24,6 +24,7 @@ from ariel.errors import RunStorageError
 from ariel.evaluation import default_workers
 from ariel.recording import resim
 from ariel.recording.analysis import _gallery_render
+from ariel.recording.analysis._gallery_progress import ThumbnailProgress
 from ariel.recording.analysis._gallery_render import (
     THUMBNAIL_SIZE,
     ThumbnailJob,
@@ -32,10 +33,13 @@ from ariel.recording.analysis._gallery_render import (
 )
 from ariel.recording.analysis._gallery_select import (
     KEY_DESCRIPTORS,
+    MOST_SHOWN,
     OF,
     Atlas,
     GalleryError,
     Pick,
+    _cap_text,
+    _capped,
     _last_rows,
     archive_atlas,
     campaign_picks,
@@ -63,6 +67,7 @@ if TYPE_CHECKING:
     from ariel.recording.analysis._report import Report
 
 __all__ = [
+    "MOST_SHOWN",
     "OF",
     "Gallery",
     "GalleryBody",
@@ -147,38 +152,46 @@ def _run_name(run: Run) -> str:
     return one_line(run_id if isinstance(run_id, str) and run_id else run.path.name)
 
 
-def _subtitle(run: Run, key: tuple[str, str]) -> str:
+def _subtitle(run: Run, key: tuple[str, str], capped: str = "") -> str:
     fitness = fitness_label(str(run.config.get("task", {}).get("fitness", "")), run.maximise)
-    return f"{fitness}; each label: body id, fitness, {key[0]}, {key[1]}"
+    labels = f"{fitness}; each label: body id, fitness, {key[0]}, {key[1]}"
+    return f"{labels}; {capped}" if capped else labels
 
 
-def _title(run: Run, of: str, chosen: list[Pick], atlas: Atlas | None) -> str:
+def _title(run: Run, of: str, chosen: list[Pick], atlas: Atlas | None, total: int) -> str:
     generation = run.generations_done - 1
     if generation < 0 or not chosen:
         why = "no finished generation yet" if generation < 0 else "no body with a fitness"
         return f"{_run_name(run)}: {why}"
     if of == "final":
-        what = f"the population after generation {generation}, best first ({_bodies(chosen)})"
+        what = f"the population after generation {generation}, best first "
+        what += f"({_bodies(chosen, total)})"
     elif of == "elites":
         what = f"the archive's elites after generation {generation}, best first "
-        what += f"({_bodies(chosen)})"
+        what += f"({_bodies(chosen, total)})"
     elif of == "archive" and atlas is not None:
         share = f"{atlas.filled / atlas.cells:.0%}" if atlas.cells else "-"
         what = f"the archive after generation {generation}: {atlas.filled} of {atlas.cells} "
         what += f"cells ({share})" + (", placed by their measures" if atlas.binned else "")
+        what += f", the best {len(chosen)} shown" if len(chosen) < total else ""
     elif of == "archive":
-        what = f"the archive's elites after generation {generation} ({_bodies(chosen)})"
+        what = f"the archive's elites after generation {generation} ({_bodies(chosen, total)})"
     else:
-        ancestors = len(chosen) - 1
+        ancestors, nearest = total - 1, "nearest " if len(chosen) < total else ""
         what = (
-            f"the best body and its {ancestors} ancestor(s), oldest first"
+            f"the best body and its {nearest}{len(chosen) - 1} of {ancestors} ancestors, "
+            "oldest first"
+            if nearest
+            else f"the best body and its {ancestors} ancestor(s), oldest first"
             if ancestors > 0
             else "the best body (a founder: no ancestors)"
         )
     return f"{_run_name(run)}: {what}"
 
 
-def _bodies(chosen: list[Pick]) -> str:
+def _bodies(chosen: list[Pick], total: int) -> str:
+    if len(chosen) < total:
+        return f"the best {len(chosen)} of {total} bodies"
     return f"{len(chosen)} bod{'y' if len(chosen) == 1 else 'ies'}"
 
 
@@ -212,7 +225,12 @@ def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> G
 
 
 def _thumbnails(
-    gallery: Gallery, chosen: list[Pick], *, workers: int | None, render: bool
+    gallery: Gallery,
+    chosen: list[Pick],
+    *,
+    workers: int | None,
+    render: bool,
+    progress: bool | None = False,
 ) -> list[Path | None]:
     """Each pick's thumbnail (None: not drawn), drawing those not drawn before."""
     paths: list[Path | None] = []
@@ -235,9 +253,11 @@ def _thumbnails(
     if problem is not None:
         gallery.notes.append(f"{len(jobs)} thumbnail(s) left out: {problem}")
         return [None if str(path) in jobs else path for path in paths]
-    drawn = _gallery_render.render_thumbnails(
-        list(jobs.values()), workers=workers or default_workers(), runs=runs
-    )
+    workers = min(workers or default_workers(), len(jobs) // _gallery_render.PER_WORKER or 1)
+    with ThumbnailProgress(len(jobs), workers=workers, show=progress) as shown:
+        drawn = _gallery_render.render_thumbnails(
+            list(jobs.values()), workers=workers, runs=runs, on_done=shown.advance
+        )
     for path, why in drawn.items():
         if why is not None:
             gallery.notes.append(f"{jobs[path].body_id}: no thumbnail ({why})")
@@ -303,16 +323,9 @@ def _finish(
     ``where`` (the folder, the folder nothing is written outside of, the files' stem)."""
     thumbnails = _thumbnails(gallery, chosen, **drawing)
     positions = gallery.atlas.positions if gallery.atlas is not None else None
-    hidden = 0
     for pick, thumbnail in zip(chosen, thumbnails, strict=True):
-        body_id = str(pick.body["body_id"])
-        if positions is not None and body_id not in positions:
-            hidden += 1  # a better elite holds its place in the atlas
-            continue
-        cell = positions[body_id] if positions is not None else None
+        cell = positions[str(pick.body["body_id"])] if positions is not None else None
         gallery.bodies.append(_body(pick, thumbnail, cell))
-    if hidden:
-        gallery.notes.append(f"{hidden} elite(s) share an atlas cell with a better one: not shown")
     _write(gallery, *where)
     return gallery
 
@@ -321,12 +334,24 @@ def _run_gallery(run: Run, of: str) -> tuple[Gallery, list[Pick]]:
     resim.check_config(run)  # a section that is no table: one line, before it is read
     chosen = picks(run, of)
     atlas = archive_atlas(run, run.maximise) if of == "archive" else None
+    hidden = 0
+    if atlas is not None:  # an elite whose place a better one holds is neither drawn nor shown
+        placed = [pick for pick in chosen if str(pick.body["body_id"]) in atlas.positions]
+        chosen, hidden = placed, len(chosen) - len(placed)
+    shown = _capped(chosen, of, run.maximise)
     key = key_descriptors(run)
-    gallery = Gallery(run.path, of, _title(run, of, chosen, atlas), _subtitle(run, key), key)
+    title = _title(run, of, shown, atlas, len(chosen))
+    gallery = Gallery(
+        run.path, of, title, _subtitle(run, key, _cap_text(len(shown), len(chosen))), key
+    )
     gallery.atlas = atlas
-    if of == "archive" and atlas is None:
+    if of == "archive" and atlas is None and chosen:
         gallery.notes.append("no atlas: the archive has fewer than two measures")
-    return gallery, chosen
+    if hidden:
+        gallery.notes.append(f"{hidden} elite(s) share an atlas cell with a better one: not shown")
+    if len(shown) < len(chosen):
+        gallery.notes.append(f"{len(chosen)} bodies: {_cap_text(len(shown), len(chosen))}")
+    return gallery, shown
 
 
 def _campaign_gallery(path: Path) -> tuple[Gallery, list[Pick]]:
@@ -336,13 +361,33 @@ def _campaign_gallery(path: Path) -> tuple[Gallery, list[Pick]]:
     chosen = campaign_picks(campaign)
     name = one_line(campaign.info.get("campaign_id") or path.name)
     runs = list(campaign.runs.values())
+    shown = _capped(chosen, "final", runs[0].maximise) if runs else chosen
     key = key_descriptors(runs[0]) if runs else ("num_modules", "num_hinges")
-    subtitle = _subtitle(runs[0], key) if runs else ""
-    title = f"{name}: the best body of each run's final population ({len(chosen)} runs)"
+    capped = _cap_text(len(shown), len(chosen))
+    subtitle = _subtitle(runs[0], key, capped) if runs else ""
+    title = f"{name}: the best body of {_campaign_what([pick.run for pick in chosen])}"
     gallery = Gallery(path, "final", title, subtitle, key)
     if len(chosen) < len(runs):
         gallery.notes.append(f"{len(runs) - len(chosen)} run(s) without a finished generation")
-    return gallery, chosen
+    if capped:
+        gallery.notes.append(f"{len(chosen)} runs: {capped}")
+    return gallery, shown
+
+
+def _campaign_what(runs: list[Run]) -> str:
+    """Whose best body a campaign's gallery shows: each run's final population, or, where
+    runs have not finished (killed, still running), their last finished generation's."""
+    unfinished = [run for run in runs if run.info.get("status") != "finished"]
+    if not unfinished:
+        return f"each run's final population ({len(runs)} runs)"
+    done = [run.generations_done for run in unfinished]
+    spread = f"{min(done)}" if min(done) == max(done) else f"{min(done)} to {max(done)}"
+    planned = {run.config.get("generations") for run in unfinished}
+    of = f" of {one_line(planned.pop())}" if len(planned) == 1 else ""
+    return (
+        f"each run's population after its last finished generation ({len(runs)} runs, "
+        f"{len(unfinished)} not finished: {spread}{of} generations done)"
+    )
 
 
 def make_gallery(
@@ -352,6 +397,7 @@ def make_gallery(
     out: str | Path | None = None,
     workers: int | None = None,
     render: bool = True,
+    progress: bool | None = None,
 ) -> Gallery:
     """Draw the bodies of a run (or a campaign) side by side: a PNG and an HTML page.
 
@@ -377,6 +423,13 @@ def make_gallery(
             8 thumbnails per process are drawn in this one: a process takes a second or two
             to start.
         render: False draws no thumbnail (those already drawn are still shown).
+        progress: Whether to show how many thumbnails are drawn while they are (on stdout:
+            a bar on a terminal, else a line at every tenth of many); None: only where
+            someone watches (a terminal, a notebook).
+
+    At most `MOST_SHOWN` bodies are shown (the sheet stays an image viewers open): of more,
+    the best by fitness (a lineage: the best body and its nearest ancestors); the title,
+    the subtitle and `Gallery.notes` say so.
 
     Returns:
         What was shown and written: the bodies (with their thumbnails), the PNG and HTML
@@ -421,11 +474,17 @@ def make_gallery(
         gallery, chosen = _run_gallery(load_run(source), of)
     root = Path(out) if out is not None else source
     folder = Path(out) if out is not None else source / "gallery"
-    return _finish(gallery, chosen, (folder, root, of), workers=workers, render=render)
+    where = (folder, root, of)
+    return _finish(gallery, chosen, where, workers=workers, render=render, progress=progress)
 
 
 def report_gallery(
-    run: Run, folder: str | Path, *, render: bool = True, workers: int | None = None
+    run: Run,
+    folder: str | Path,
+    *,
+    render: bool = True,
+    workers: int | None = None,
+    progress: bool | None = None,
 ) -> Gallery:
     """The final population's gallery of ``run``, for `ariel report` to embed.
 
@@ -439,6 +498,7 @@ def report_gallery(
             is written through a symbolic link between the two.
         render: False draws no thumbnail (those already drawn are still shown).
         workers: Processes that draw the thumbnails at most (None: one per CPU).
+        progress: As `make_gallery`'s (None: only where someone watches).
 
     Returns:
         The gallery: ``png`` for the report's written files, ``notes`` (one line per thing
@@ -446,7 +506,7 @@ def report_gallery(
     """
     gallery, chosen = _run_gallery(run, "final")
     where = (Path(folder), Path(run.path), "gallery")
-    return _finish(gallery, chosen, where, workers=workers, render=render)
+    return _finish(gallery, chosen, where, workers=workers, render=render, progress=progress)
 
 
 def add_report_gallery(report: Report, render: bool) -> None:

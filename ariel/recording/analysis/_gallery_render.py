@@ -23,8 +23,8 @@ import contextlib
 import hashlib
 import multiprocessing
 import re
-from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -37,6 +37,8 @@ from ariel.recording.store import Run, atomic_write, cannot_write, load_run
 from ariel.utils import gl_backend_error, mujoco_module
 
 if TYPE_CHECKING:
+    from multiprocessing.queues import SimpleQueue
+
     import mujoco  # lazy: loads its GL backend (MUJOCO_GL) on import
     import pandas as pd
     from PIL import Image
@@ -233,11 +235,32 @@ def _tables(run: Run) -> tuple[pd.DataFrame, pd.DataFrame]:
     return bodies, evaluations
 
 
+#: A pool worker's queue of finished thumbnails (`_report_to`), which the parent reads to
+#: show progress while the chunks are drawn: a chunk's result only comes back at its end.
+_FINISHED: SimpleQueue[int] | None = None
+
+
+def _report_to(queue: SimpleQueue[int]) -> None:
+    """A pool worker's initializer: put a token into ``queue`` per thumbnail finished."""
+    global _FINISHED
+    _FINISHED = queue
+
+
+def _finished(on_done: Callable[[int], None] | None) -> None:
+    if on_done is not None:
+        on_done(1)
+    elif _FINISHED is not None:
+        _FINISHED.put(1)
+
+
 def _render_chunk(
-    jobs: Sequence[ThumbnailJob], runs: dict[str, Run] | None = None
+    jobs: Sequence[ThumbnailJob],
+    runs: dict[str, Run] | None = None,
+    on_done: Callable[[int], None] | None = None,
 ) -> list[tuple[str, str | None]]:
     """Draw ``jobs`` with one painter: ``(path, None)`` per thumbnail written, ``(path, why)``
-    per body that could not be drawn. ``runs``: run path -> `Run` already loaded."""
+    per body that could not be drawn. ``runs``: run path -> `Run` already loaded;
+    ``on_done(1)`` after each thumbnail (in a pool worker: a token on its queue)."""
     runs = dict(runs or {})
     tables: dict[str, tuple[pd.DataFrame, pd.DataFrame]] = {}
     done: list[tuple[str, str | None]] = []
@@ -264,6 +287,7 @@ def _render_chunk(
                 done.append((job.path, _reason(exc)))
             else:
                 done.append((job.path, None))
+            _finished(on_done)
     finally:
         painter.close()
     return done
@@ -281,24 +305,38 @@ def _chunks(jobs: Sequence[ThumbnailJob], workers: int) -> list[list[ThumbnailJo
 
 
 def render_thumbnails(
-    jobs: Sequence[ThumbnailJob], *, workers: int, runs: dict[str, Run] | None = None
+    jobs: Sequence[ThumbnailJob],
+    *,
+    workers: int,
+    runs: dict[str, Run] | None = None,
+    on_done: Callable[[int], None] | None = None,
 ) -> dict[str, str | None]:
     """Draw every job's thumbnail: path -> None (written) or why it could not be drawn.
 
     ``workers`` processes at most, `PER_WORKER` thumbnails each at least; what makes one
     chunk only is drawn in this process, with the runs in ``runs`` (run path -> `Run`).
+    ``on_done(n)``: called in this process as thumbnails finish (n of them), for progress.
     """
     chunks = _chunks(jobs, workers) if jobs else []
     if len(chunks) <= 1:
         try:
-            return dict(_render_chunk(jobs, runs))
+            return dict(_render_chunk(jobs, runs, on_done))
         except RuntimeError as exc:  # no GL context after all
             return {job.path: _reason(exc) for job in jobs}
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    finished: SimpleQueue[int] = (
+        context.SimpleQueue()
+    )  # passed at each worker's start, as queues must be
     drawn: dict[str, str | None] = {}
-    with ProcessPoolExecutor(max_workers=len(chunks), mp_context=context) as pool:
+    with ProcessPoolExecutor(
+        max_workers=len(chunks), mp_context=context, initializer=_report_to, initargs=(finished,)
+    ) as pool:
         futures = [pool.submit(_render_chunk, chunk) for chunk in chunks]
+        pending = set(futures)
+        while pending:  # progress as the workers' tokens come in
+            pending = wait(pending, timeout=0.25)[1]
+            _drain(finished, on_done)
         for chunk, future in zip(chunks, futures, strict=True):
             try:
                 drawn.update(future.result())
@@ -306,3 +344,13 @@ def render_thumbnails(
                 # does not load there, or a worker that died (BrokenProcessPool)
                 drawn.update((job.path, _reason(exc)) for job in chunk)
     return drawn
+
+
+def _drain(queue: SimpleQueue[int], on_done: Callable[[int], None] | None) -> None:
+    """Take the tokens in ``queue`` now, and tell ``on_done`` how many."""
+    count = 0
+    while not queue.empty():
+        queue.get()
+        count += 1
+    if count and on_done is not None:
+        on_done(count)

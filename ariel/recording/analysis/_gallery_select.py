@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ATLAS_BINS",
+    "MOST_SHOWN",
     "OF",
     "Atlas",
     "GalleryError",
@@ -117,7 +118,12 @@ def _final(run: Run) -> list[Pick]:
 
 
 def _last_archive(run: Run) -> pd.DataFrame:
+    """The archive after the last finished generation: empty for a MAP-Elites (or novelty)
+    run before its first (as ``final`` shows no population then); `GalleryError` for a run
+    that keeps no archive."""
     archive = run.archive
+    if not len(archive) and run.generations_done < 1 and _keeps_archive(run):
+        return archive  # no elites yet: the gallery says "no finished generation yet"
     if not len(archive):
         raise GalleryError(
             f"run {str(run.path)!r} has no MAP-Elites archive: --of elites and --of archive "
@@ -126,9 +132,20 @@ def _last_archive(run: Run) -> pd.DataFrame:
     return archive[archive["generation"] == archive["generation"].max()]
 
 
+def _keeps_archive(run: Run) -> bool:
+    """Whether run.json describes an archive (a MAP-Elites or novelty run), elites or not."""
+    try:
+        return getattr(run, "archive_description", None) is not None
+    except (LookupError, ValueError, TypeError):  # a run.json that does not describe it
+        return False
+
+
 def _elites(run: Run) -> list[Pick]:
+    last = _last_archive(run)
+    if not len(last):
+        return []
     bodies = _last_rows(run)
-    archive = _ordered(_last_archive(run), run.maximise)
+    archive = _ordered(last, run.maximise)
     return [
         Pick(run, bodies.loc[body_id].to_dict(), fitness=float(fitness))
         for body_id, fitness in zip(archive["body_id"], archive["fitness"], strict=True)
@@ -174,6 +191,36 @@ def picks(run: Run, of: str) -> list[Pick]:
     if of in ("elites", "archive"):
         return _checked(_elites(run))
     return _checked(_lineage_of_best(run))
+
+
+#: The most bodies one gallery shows: 200 thumbnails in rows of 6 make a sheet of about 1,600
+#: x 11,000 pixels (18 Mpx, Pillow opens up to 89 Mpx) and a page of a few MB. A bigger
+#: population (or archive) shows its best 200 by fitness, a longer lineage the best body and
+#: its nearest ancestors; the title, the subtitle and a note say so.
+MOST_SHOWN = 200
+
+
+def _fitness_rank(pick: Pick, maximise: bool) -> tuple[bool, float]:
+    finite = math.isfinite(pick.fitness)
+    return (not finite, (-pick.fitness if maximise else pick.fitness) if finite else 0.0)
+
+
+def _capped(chosen: list[Pick], of: str, maximise: bool) -> list[Pick]:
+    """At most `MOST_SHOWN` of ``chosen``, in their order: the best by fitness (a lineage: the
+    last, the best body and its nearest ancestors)."""
+    if len(chosen) <= MOST_SHOWN:
+        return chosen
+    if of == "lineage-of-best":  # oldest first: the best body is the last
+        return chosen[-MOST_SHOWN:]
+    ranked = sorted(range(len(chosen)), key=lambda k: _fitness_rank(chosen[k], maximise))
+    return [chosen[k] for k in sorted(ranked[:MOST_SHOWN])]
+
+
+def _cap_text(shown: int, total: int) -> str:
+    """The subtitle's and the note's words for a capped gallery ("" for one that is not)."""
+    if shown >= total:
+        return ""
+    return f"the best {shown} of {total} shown (a gallery shows at most {MOST_SHOWN})"
 
 
 def campaign_picks(campaign: Campaign) -> list[Pick]:
@@ -246,9 +293,13 @@ def _binned(values: np.ndarray, low: float, high: float, bins: int) -> np.ndarra
 
 
 def archive_atlas(run: Run, maximise: bool) -> Atlas | None:
-    """Where each elite of ``run``'s last archive goes (None: fewer than two measures)."""
+    """Where each elite of ``run``'s last archive goes (None: fewer than two measures, or
+    no finished generation yet)."""
+    last = _last_archive(run)
+    if not len(last):  # no finished generation yet: no elites to place
+        return None
     measures, ranges, kind = _axes(run)
-    archive = _ordered(_last_archive(run), maximise)  # best first: it keeps its position
+    archive = _ordered(last, maximise)  # best first: it keeps its position
     grid = [int(n) for n in archive["grid"].iloc[0]]
     if len(measures) < 2 or any(len(m) < 2 for m in archive["measures"]):
         return None

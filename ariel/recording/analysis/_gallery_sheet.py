@@ -99,13 +99,45 @@ def _thumbnail(body: GalleryBody, size: int) -> Image.Image:
     return tile
 
 
-def _title(draw: ImageDraw.ImageDraw, title: str, subtitle: str, width: int) -> int:
-    """The title and subtitle at the top; returns the height they take."""
-    draw.text((MARGIN, MARGIN), _fitted(draw, title, _font(20), width), fill=INK, font=_font(20))
-    draw.text(
-        (MARGIN, MARGIN + 28), _fitted(draw, subtitle, _font(14), width), fill=FAINT, font=_font(14)
-    )
-    return MARGIN + 28 + LINE + GAP
+TITLE_LINE = 28  # pixels a line of the title takes (LINE: one of the subtitle)
+#: Lines the title and the subtitle wrap to at most (the last is cut where they need more).
+TITLE_LINES, SUBTITLE_LINES = 2, 3
+
+
+def _wrapped(draw: ImageDraw.ImageDraw, text: str, font: _Font, width: int, most: int) -> list[str]:
+    """``text`` in lines of at most ``width`` pixels, broken between words, at most ``most``
+    of them (the last cut with an ellipsis); a word wider than a line is cut."""
+    words = text[: most * width].split(" ")  # a line holds no more than one a pixel
+    lines: list[str] = []
+    for word in words:
+        joined = f"{lines[-1]} {word}" if lines else word
+        if lines and draw.textlength(joined, font=font) <= width:
+            lines[-1] = joined
+        elif len(lines) < most:
+            lines.append(word)
+        else:  # no room for another line: the rest goes on the last, which is then cut
+            lines[-1] = joined
+    return [_fitted(draw, line, font, width) for line in lines]
+
+
+def _header(title: str, subtitle: str, width: int) -> tuple[list[str], list[str], int]:
+    """The title's and the subtitle's lines (wrapped to ``width`` pixels) and the height the
+    two take, with the gap below them."""
+    measure = ImageDraw.Draw(Image.new("RGB", (1, 1)))
+    titles = _wrapped(measure, title, _font(20), width, TITLE_LINES)
+    subtitles = _wrapped(measure, subtitle, _font(14), width, SUBTITLE_LINES)
+    height = MARGIN + TITLE_LINE * len(titles) + LINE * max(1, len(subtitles)) + GAP
+    return titles, subtitles, height
+
+
+def _title(draw: ImageDraw.ImageDraw, header: tuple[list[str], list[str], int]) -> None:
+    """The title and subtitle lines (`_header`) at the top."""
+    titles, subtitles, _ = header
+    for k, line in enumerate(titles):
+        draw.text((MARGIN, MARGIN + k * TITLE_LINE), line, fill=INK, font=_font(20))
+    below = MARGIN + len(titles) * TITLE_LINE
+    for k, line in enumerate(subtitles):
+        draw.text((MARGIN, below + k * LINE), line, fill=FAINT, font=_font(14))
 
 
 def sheet_grid(count: int) -> tuple[int, int]:
@@ -121,11 +153,12 @@ def contact_sheet(gallery: Gallery, size: int) -> Image.Image:
     columns, rows = sheet_grid(len(bodies))
     label = 3 * LINE + 6
     width = max(2 * MARGIN + columns * size + (columns - 1) * GAP, 640)
-    top = MARGIN + 28 + LINE + GAP
+    header = _header(gallery.title, gallery.subtitle, width - 2 * MARGIN)
+    top = header[2]
     height = top + rows * (size + label + GAP) + MARGIN
     sheet = Image.new("RGB", (width, height), BACKGROUND)
     draw = ImageDraw.Draw(sheet)
-    _title(draw, gallery.title, gallery.subtitle, width - 2 * MARGIN)
+    _title(draw, header)
     if not bodies:
         draw.text((MARGIN, top), "no bodies to show", fill=FAINT, font=_font(14))
     bold, small = _font(15), _font(13)
@@ -207,12 +240,13 @@ def atlas_sheet(gallery: Gallery, size: int) -> Image.Image:
     """``gallery``'s elites at their cells (``gallery.atlas``), with both measures' bins."""
     assert gallery.atlas is not None  # an archive's gallery (`_gallery._write` checks)
     atlas, cell = gallery.atlas, _cell_size(gallery.atlas, size)
-    top = MARGIN + 28 + LINE + GAP
     left = MARGIN + LINE + 90  # the second measure's name, turned, then its bins
     width = max(left + atlas.columns * cell + MARGIN, 640)
+    header = _header(gallery.title, gallery.subtitle, width - 2 * MARGIN)
+    top = header[2]
     height = top + atlas.rows * cell + 2 * LINE + GAP + MARGIN
     sheet = Image.new("RGB", (width, height), BACKGROUND)
-    _title(ImageDraw.Draw(sheet), gallery.title, gallery.subtitle, width - 2 * MARGIN)
+    _title(ImageDraw.Draw(sheet), header)
     _atlas_axes(sheet, atlas, (left, top), cell)
     _atlas_bodies(sheet, gallery, (left, top), cell)
     return sheet

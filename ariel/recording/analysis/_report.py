@@ -48,11 +48,13 @@ from ariel.recording.store import (
     DESCRIPTORS,
     QD_COLUMNS,
     STALE_S,
+    STOPPED,
     Run,
     RunFolder,
     evaluation_trajectory,
     figure_label,
     fitness_label,
+    holder_gone,
     integer_ticks,
     load_run,
     one_line,
@@ -111,6 +113,33 @@ class Report:
         return self.run.path / "report"
 
 
+def _optimizer(run: Run) -> str:
+    """The run's body optimizer, as its config names it (``map_elites``, ``novelty``, ...)."""
+    body = run.config.get("body", {})
+    return str(body.get("optimizer", "")) if isinstance(body, dict) else ""
+
+
+#: The heading of the archive's table, by optimizer, and what a line under it says: novelty
+#: search keeps two archives, and the table is about the grid every body also goes to
+#: (`ariel.evolution._novelty`), not the novelty archive that selection uses.
+ARCHIVE_HEADINGS = {
+    "map_elites": ("MAP-Elites archive after each generation", ""),
+    "novelty": (
+        "result archive after each generation",
+        "result archive: the best body of each cell of the measures' grid, as MAP-Elites "
+        "keeps it (the novelty archive, which selection uses, is another)",
+    ),
+}
+
+
+def _status(run: Run) -> str:
+    """run.json's status, `STOPPED` for a "running" run whose process is gone (SIGKILL, out
+    of memory), as `ariel runs` says; read from ``.lock`` without taking it (`holder_gone`),
+    so a report never holds up a run that starts meanwhile."""
+    status = str(run.info.get("status", "?"))
+    return STOPPED if status == "running" and holder_gone(run.path) else status
+
+
 def _best_row(run: Run, maximise: bool) -> dict[str, Any] | None:
     evals = run.evaluations
     ok = evals[evals["fitness"].map(math.isfinite)]
@@ -154,7 +183,7 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
             (table["best_fitness"].to_numpy(dtype=float), "best", "-oC2"),
         ]
         title = "fitness of the population after selection"
-        if len(run.archive):
+        if _optimizer(run) == "map_elites":  # its population is the archive; novelty's is not
             title += " (the archive's elites)"
     for values, label, style in lines:
         axes.plot(gens, values, style, label=label, zorder=2)
@@ -328,7 +357,10 @@ def _table(title: TextType) -> Table:
 def _print_archive_table(report: Report, console: Console) -> None:
     """Per generation: the archive's coverage, QD-score and normalised QD-score."""
     offset = report.run.qd_offset
-    table = _table("MAP-Elites archive after each generation")
+    heading, said = ARCHIVE_HEADINGS.get(
+        _optimizer(report.run), ("archive after each generation", "")
+    )
+    table = _table(heading)
     for column in ("generation", *QD_COLUMNS):
         table.add_column(column, justify="right", no_wrap=True, min_width=10)
     for row in report.table[["generation", *QD_COLUMNS]].itertuples(index=False):
@@ -339,6 +371,8 @@ def _print_archive_table(report: Report, console: Console) -> None:
             *(f"{v:.6g}" if math.isfinite(v) else "-" for v in (score, norm)),
         )
     console.print(table)
+    if said:
+        console.print(said, highlight=False)
     if offset is None:
         console.print(
             "qd_score: none (a run of a minimised fitness made before run.json recorded its "
@@ -360,7 +394,7 @@ def print_report(report: Report, console: Console | None = None) -> None:
         if not console.is_terminal:  # a file or a pipe: no need to fit 80 columns
             console = Console(width=120)
     run = report.run
-    status = run.info.get("status", "?")
+    status = _status(run)
     done, total = run.generations_done, run.config.get("generations", "?")
     title = f"{_run_title(run)}: {one_line(status)}, {done}/{one_line(total)} generations"
     table = _table(Text(title))  # Text: a run id's [bold] is no markup

@@ -92,6 +92,19 @@ def ancestry_layout(shown: set[int], parents: dict[int, list[int]]) -> dict[int,
     return rows
 
 
+def _row_pitch(drawn: Figure, rows: int) -> float:
+    """Points between two rows of the tree (the axes take the figure's height less about 1.8
+    inches of title, axis and legend). Dots, lines and the margins are sized by it: with
+    hundreds of bodies (a row a point or two apart) dots of their usual size and black rims
+    made one solid bar, and the best body's star was clipped at the top."""
+    return max(0.1, (drawn.get_figheight() - 1.8) * 72 / (rows + 1.6))
+
+
+def _dot(size: float, pitch: float) -> float:
+    """A marker area (points squared) of at most ``size``, about as wide as 1.5 rows."""
+    return min(size, max(2.5, 1.5 * pitch) ** 2)  # neighbours may touch, not hide each other
+
+
 def _best(frame: pd.DataFrame, alive: list[int], maximise: bool) -> int | None:
     """The final population's body of the best finite fitness (the lowest id on a tie)."""
     fitness = dict(zip(frame["id"].astype(int), frame["fitness"].astype(float)))
@@ -171,6 +184,8 @@ def _draw(
     spans = _spans(frame, last)
     chain = {best, *_ancestors(best, parents)} if best is not None else set()
     axes = drawn.add_subplot()
+    pitch = _row_pitch(drawn, len(rows))
+    thin = 1.0 if pitch >= 4 else 0.5  # crowded rows: thinner, fainter lines
     lives, edges, crossed, red = [], [], [], []
     for node, y in rows.items():
         origin, final = spans[node]
@@ -182,11 +197,10 @@ def _draw(
             (edges if k == 0 else crossed).append(segment)
             if node in chain and parent in chain:
                 red += [[(spans[parent][0], rows[parent]), (start, rows[parent])], segment]
-    axes.add_collection(LineCollection(lives, colors="0.8", linewidths=1.0, zorder=1))
-    axes.add_collection(LineCollection(edges, colors=_EDGE, linewidths=0.9, zorder=2))
-    axes.add_collection(
-        LineCollection(crossed, colors=_EDGE, linewidths=0.8, linestyles=":", zorder=2)
-    )
+    axes.add_collection(LineCollection(lives, colors="0.8", linewidths=thin, zorder=1))
+    faint = {"colors": _EDGE, "alpha": thin, "zorder": 2}
+    axes.add_collection(LineCollection(edges, linewidths=0.9 * thin, **faint))
+    axes.add_collection(LineCollection(crossed, linewidths=0.8 * thin, linestyles=":", **faint))
     axes.add_collection(LineCollection(red, colors=_CHAIN, linewidths=2.4, zorder=3))
     _nodes(drawn, axes, frame, rows, alive, maximise, best, run)
     shown = [  # (whether the figure has it, its legend entry)
@@ -200,7 +214,8 @@ def _draw(
     handles = [handle for present, handle in shown if present]
     drawn.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=8)
     axes.set_xlim(-0.6, last + 0.6)
-    axes.set_ylim(max(rows.values()) + 0.8, -0.8)  # the first row on top
+    margin = max(0.8, 10 / pitch)  # rows: room for half the best body's star
+    axes.set_ylim(max(rows.values()) + margin, -margin)  # the first row on top
     axes.set_xlabel("generation")
     integer_ticks(axes.xaxis)
     axes.set_yticks([])
@@ -234,10 +249,20 @@ def _nodes(
     final = np.isin(ids, alive)
     cmap = "viridis" if maximise else "viridis_r"
     norm = Normalize(*(np.nanmin(f[ok]), np.nanmax(f[ok])) if ok.any() else (0, 1))
-    axes.scatter(x[~ok], y[~ok], marker="x", color="0.5", s=16, zorder=4)
+    pitch = _row_pitch(drawn, len(rows))
+    axes.scatter(x[~ok], y[~ok], marker="x", color="0.5", s=_dot(16, pitch), zorder=4)
+    rim = 1.0 if pitch >= 6 else 0.3  # crowded: a black rim would hide the colour
     for mask, size, edge in ((~final & ok, 20, "none"), (final & ok, 34, "black")):
         points = axes.scatter(
-            x[mask], y[mask], c=f[mask], cmap=cmap, norm=norm, s=size, edgecolors=edge, zorder=5
+            x[mask],
+            y[mask],
+            c=f[mask],
+            cmap=cmap,
+            norm=norm,
+            s=_dot(size, pitch),
+            edgecolors=edge,
+            linewidths=rim,
+            zorder=5,
         )
     if best is not None:
         axes.scatter(

@@ -19,6 +19,7 @@ import shutil
 import signal
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from ariel.errors import BrowserError
@@ -35,6 +36,11 @@ def find_chromium() -> Path:
     if override:
         if not Path(override).is_file():
             raise BrowserError(f"ARIEL_CHROMIUM={override} is not a file")
+        if not os.access(override, os.X_OK):
+            raise BrowserError(
+                f"ARIEL_CHROMIUM {override!r} cannot be run (Permission denied: not "
+                "executable); point it at Chromium or Google Chrome"
+            )
         return Path(override)
     for name in CANDIDATES:
         found = shutil.which(name)
@@ -63,28 +69,14 @@ class HeadlessChromium:
             os.dup2(a, 3)
             os.dup2(b, 4)
 
-        self.proc = subprocess.Popen(
-            [
-                str(binary or find_chromium()),
-                "--headless",
-                "--no-sandbox",  # root in containers; the page is our own localhost viewer
-                "--disable-gpu",  # WebGL falls back to software rendering
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                "--no-first-run",
-                f"--user-data-dir={profile}",
-                f"--window-size={size[0]},{size[1]}",
-                "--remote-debugging-pipe",
-                "about:blank",
-            ],
-            preexec_fn=fds,
-            close_fds=False,
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
-        )
+        browser = str(binary or find_chromium())
+        try:
+            self.proc = self._start(browser, profile, size, fds)
+        except OSError as exc:  # not executable, not a program (ENOEXEC), gone
+            for fd in (to_chrome, self._write, self._read, from_chrome):
+                os.close(fd)
+            reason = exc.strerror or type(exc).__name__
+            raise BrowserError(f"the browser {browser!r} cannot be run ({reason})") from None
         os.close(to_chrome)
         os.close(from_chrome)
         self._buffer = b""
@@ -103,6 +95,33 @@ class HeadlessChromium:
             height=size[1],
             deviceScaleFactor=1,
             mobile=False,
+        )
+
+    @staticmethod
+    def _start(
+        browser: str, profile: Path, size: tuple[int, int], fds: Callable[[], None]
+    ) -> subprocess.Popen[bytes]:
+        return subprocess.Popen(
+            [
+                browser,
+                "--headless",
+                "--no-sandbox",  # root in containers; the page is our own localhost viewer
+                "--disable-gpu",  # WebGL falls back to software rendering
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--no-first-run",
+                f"--user-data-dir={profile}",
+                f"--window-size={size[0]},{size[1]}",
+                "--remote-debugging-pipe",
+                "about:blank",
+            ],
+            preexec_fn=fds,
+            close_fds=False,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
         )
 
     def __enter__(self) -> HeadlessChromium:

@@ -28,6 +28,11 @@ from ariel.recording.store import (
     read_campaign_info,
     recording_path,
 )
+from ariel.recording.viewer._rerun_files import (
+    check_rerun_files,
+    recording_problem,
+    rerun_file_problem,
+)
 from ariel.utils import ariel_line
 
 if TYPE_CHECKING:
@@ -110,7 +115,9 @@ def select_recordings(
         raise ViewError("choose one of --best, --generation and EVAL_ID")
     _refuse_links(Path(run_dir))
     if (Path(run_dir) / "campaign.json").is_file():
-        return _campaign_selection(Path(run_dir), best, generation, eval_id)
+        chosen = _campaign_selection(Path(run_dir), best, generation, eval_id)
+        check_rerun_files(chosen.files, chosen.run_dir)  # as a run's, below
+        return chosen
     try:
         run = load_run(run_dir)
     except NotARunError as exc:
@@ -123,10 +130,15 @@ def select_recordings(
     ):
         raise _no_recordings(run)
     if eval_id is not None:
-        return _evaluation_selection(run, run_dir, eval_id, layout)
-    if generation is not None:
-        return _generation_of_run(run, generation, layout)
-    return _ranked_selection(run, best, layout)
+        chosen = _evaluation_selection(run, run_dir, eval_id, layout)
+    elif generation is not None:
+        chosen = _generation_of_run(run, generation, layout)
+    else:
+        chosen = _ranked_selection(run, best, layout)
+    # A run's own layout is replaced by one written for the view (`_prepared`): not read.
+    shown = chosen.recordings if chosen.beside_run else chosen.files
+    check_rerun_files(shown, folder)  # a damaged file: one line, never the viewer's traceback
+    return chosen
 
 
 def _refuse_links(folder: Path) -> None:
@@ -163,12 +175,15 @@ def _evaluation_selection(
         shown = eval_id if len(eval_id) <= 60 else f"{eval_id[:40]}...({len(eval_id)} characters)"
         raise ViewError(f"not an evaluation id: {shown!r} (ids look like b000012-i003-c005)")
     found = sorted((folder / RECORDINGS).glob(f"gen-*/{eval_id}.rrd"))
-    if found:
+    problem = recording_problem(found[0]) if found else None
+    if found and problem is None:
         return _beside_run(run, *_with_body_poses(run, eval_id, found[0]), layout)
     known = run.evaluations["eval_id"] == eval_id
     if known.any():
         generation_of = int(run.evaluations.loc[known, "generation"].iloc[0])
-        return _replayed_or_generation(run, eval_id, generation_of, layout)
+        where = found[0].relative_to(folder) if found else None
+        why = f"has no sound recording ({where} {problem})" if found else "has no recording"
+        return _replayed_or_generation(run, eval_id, generation_of, layout, why)
     raise ViewError(
         f"no evaluation {eval_id} in {folder} (ids look like b000012-i003-c005; "
         f"{ariel_line('view', run_dir, '--best', 5)} opens the 5 best)"
@@ -219,7 +234,10 @@ def _ranked_selection(run: Run, best: int | None, layout: Path | None) -> Select
         picked.append(overview)
         parts.append(f"the best evaluation {overview.stem}")
     run_rrd = folder / RUN_RECORDING
-    if run_rrd.is_file():
+    damaged = run_rrd.is_file() and rerun_file_problem(run_rrd)
+    if damaged and overview is not None:  # the view opens the best evaluation's copy: go on
+        print(f"ariel: {RUN_RECORDING} {damaged}; showing the best evaluation", file=sys.stderr)
+    elif run_rrd.is_file():  # damaged and alone: refused in one line by the caller's check
         picked.append(run_rrd)
         parts.append(RUN_RECORDING)
     if not picked:
@@ -231,8 +249,6 @@ def _ranked_selection(run: Run, best: int | None, layout: Path | None) -> Select
 def _best_recording(run: Run, path: Path) -> Path | None:
     """The best evaluation's recording: its own, else its 3D replay made on demand; None (with
     a note) where neither can be had."""
-    if path.is_file():
-        return path
     try:
         return _own_or_replayed(run, path)
     except ViewError as exc:
@@ -242,14 +258,20 @@ def _best_recording(run: Run, path: Path) -> Path | None:
 
 def _own_or_replayed(run: Run, path: Path) -> Path:
     """An evaluation's own recording, else its 3D replay made on demand (an evaluation that
-    was not an elite is recorded in its generation's ``evaluations.rrd`` only)."""
-    if path.is_file():
+    was not an elite is recorded in its generation's ``evaluations.rrd`` only; a damaged
+    recording, or another evaluation's copied over it, is replaced the same way, with a
+    note)."""
+    problem = recording_problem(path) if path.is_file() else "is not recorded"
+    if problem is None:
         return path
+    where = path.relative_to(run.path)
     try:
-        return _replay(run, path.stem)
+        made = _replay(run, path.stem)
     except (MissingPluginError, ValueError) as exc:
-        where = path.relative_to(run.path)
-        raise ViewError(f"{where} is not recorded and cannot be replayed: {exc}") from None
+        raise ViewError(f"{where} {problem} and cannot be replayed: {exc}") from None
+    if path.is_file():
+        print(f"ariel: {where} {problem}; showing its 3D replay instead", file=sys.stderr)
+    return made
 
 
 def _replay(run: Run, eval_id: str) -> Path:
@@ -262,25 +284,27 @@ def _replay(run: Run, eval_id: str) -> Path:
 
 
 def _replayed_or_generation(
-    run: Run, eval_id: str, generation: int, blueprint: Path | None
+    run: Run, eval_id: str, generation: int, blueprint: Path | None, why: str
 ) -> Selection:
-    """An evaluation without its own recording: its 3D replay made on demand, else (without
-    the run's plugins) its generation's recording of every evaluation, with a note."""
+    """An evaluation without its own recording (``why``: "has no recording", or what is
+    wrong with its file): its 3D replay made on demand, else (without the run's plugins) its
+    generation's recording of every evaluation, with a note."""
     shared = generation_recording_path(run.path, generation)
     try:
         made = _replay(run, eval_id)
     except (MissingPluginError, ValueError) as exc:
         if not shared.is_file():
-            raise ViewError(
-                f"evaluation {eval_id} has no recording and no 3D replay: {exc}"
-            ) from None
+            raise ViewError(f"evaluation {eval_id} {why} and no 3D replay: {exc}") from None
         print(
-            f"ariel: no 3D replay of {eval_id}: {exc}; showing its generation's recording",
+            f"ariel: evaluation {eval_id} {why} and no 3D replay: {exc}; showing its "
+            "generation's recording",
             file=sys.stderr,
         )
         return _generation_selection(
             run, generation, f"generation {generation}'s evaluations ({eval_id} among them)"
         )
+    if why != "has no recording":
+        print(f"ariel: evaluation {eval_id} {why}; showing its 3D replay", file=sys.stderr)
     return Selection(
         run.path,
         (made,),

@@ -130,7 +130,7 @@ def _prepared(selection: Selection, *, panels: bool = True) -> Iterator[Selectio
         generations = _run_series(run)
         sources = (selection.overview,) if selection.overview else selection.recordings
         recordings = tuple(
-            write_view_recording(
+            _view_copy(
                 scratch / f"{k:03d}" / path.name,  # one folder each: names may repeat
                 path,
                 generations,
@@ -158,6 +158,18 @@ def _prepared(selection: Selection, *, panels: bool = True) -> Iterator[Selectio
         )
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _view_copy(path: Path, recording: Path, *args: object, **kwargs: object) -> Path:
+    """`write_view_recording`, where a recording Rerun cannot read (damaged after it was
+    checked, or in a way the check does not see) is one line naming it, not a traceback."""
+    try:
+        return write_view_recording(path, recording, *args, **kwargs)  # type: ignore[arg-type]
+    except RuntimeError as exc:  # Rerun's reader fails with RuntimeError
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise ViewError(
+            f"{str(recording)!r} cannot be read by Rerun ({reason}); restore it from a copy"
+        ) from None
 
 
 def native_command(selection: Selection) -> list[str]:

@@ -26,6 +26,7 @@ from rerun.chunk import Chunk, RrdReader
 from ariel.errors import UnknownEvaluationError
 from ariel.recording.resim import replay
 from ariel.recording.store import NotARunError, check_eval_id, recording_path
+from ariel.recording.viewer._rerun_files import recording_problem
 
 __all__ = ["BestBody", "fresh_chunks"]
 
@@ -50,10 +51,13 @@ def fresh_chunks(chunks: Iterable[Chunk], prefix: str) -> list[Chunk]:
 
 def _poses_of(path: Path) -> list[Chunk] | None:
     """The chunks of an evaluation's recording at ``path`` when it holds the bodies' poses
-    over time (a 3D replay), else None (no file, an unreadable one, a robot standing still)."""
+    over time (a 3D replay), else None (no file, an unreadable one, another evaluation's
+    copied over it, a robot standing still)."""
+    if recording_problem(path) is not None:  # checked quietly: no Rerun warning printed
+        return None
     try:
         chunks = RrdReader(path).stream().to_chunks()
-    except Exception:  # missing, empty after a power cut, not a recording
+    except Exception:  # replaced since it was checked
         return None
     moving = any(c.entity_path == "/world/robot" and not c.is_static for c in chunks)
     return chunks if moving else None

@@ -51,6 +51,7 @@ from ariel.recording.store import (
     read_campaign_info,
     terminal_text,
 )
+from ariel.recording.viewer._unreadable import UNREADABLE
 from ariel.recording.viewer._watch_run import FINAL, _read_generation
 
 if TYPE_CHECKING:
@@ -83,6 +84,7 @@ class _Run:
     stat: tuple[int, int, int] | None = None  # run.json's (mtime, size, inode) when last read
     info: Any = None  # run.json when last read
     checked: bool = True  # its generations have manifests (all but runs made before them)
+    damaged: str = ""  # its next generation cannot be read though the run has ended
 
     @property
     def best_fitness(self) -> float:
@@ -229,10 +231,14 @@ class CampaignSource:
         if run.info is None:
             return []
         chunks: list[Chunk] = []
+        run.damaged = ""
         while self._ready(run):
             config = run.info.get("config")
-            tables = _read_generation(run.path, run.generations, config, run.checked)
-            if tables is None:
+            try:
+                tables = _read_generation(run.path, run.generations, config, run.checked)
+            except UNREADABLE:  # being written; a run that has ended: damaged, said in its row
+                if run.status in (*FINAL, STOPPED):
+                    run.damaged = f"generation {run.generations} damaged"
                 break
             chunks += self._curve(run, tables["evaluations"])
             chunks += self._best_body(run, tables["bodies"], run.generations)
@@ -296,8 +302,9 @@ class CampaignSource:
         for run in self._runs.values():
             total = run.total if isinstance(run.total, int) else "?"
             best = f"{run.best_fitness:.6g}" if math.isfinite(run.best_fitness) else "-"
+            status = f"{run.status} ({run.damaged})" if run.damaged else run.status
             lines.append(
-                f"| {cell(run.condition)} | {run.seed} | {cell(run.status)} | "
+                f"| {cell(run.condition)} | {run.seed} | {cell(status)} | "
                 f"{run.generations}/{total} | {run.evaluations} | {best} |"
             )
         if self._best:

@@ -2,7 +2,9 @@
 
 A generation is shown once its manifest (``manifests/gen-NNNNNN.json``, written after its
 tables) is there and its tables are what it lists; until then it is skipped, silently, and a
-later poll finds it. Only the new generation's tables are read (evaluations and bodies, a
+later poll finds it. Once the run has ended, a generation that still cannot be read (or whose
+manifest is missing) is damage: one line (`ariel.recording.viewer._unreadable`), never a
+wait for ever. Only the new generation's tables are read (evaluations and bodies, a
 MAP-Elites run's archive), never the whole run's. Nothing is written in or beside the folder
 and its lock is never taken: a 3D replay made on demand goes to a `tempfile` folder.
 
@@ -72,6 +74,7 @@ from ariel.recording.store import (
     to_pandas,
 )
 from ariel.recording.viewer._archive_panel import archive_beside
+from ariel.recording.viewer._unreadable import UNREADABLE, Unreadable, missing_manifest
 from ariel.recording.viewer._watch_body import BestBody
 
 if TYPE_CHECKING:
@@ -92,31 +95,29 @@ _EVALUATION_COLUMNS = ["generation", "eval_id", "body_id", "fitness", "status"]
 
 def _read_generation(
     folder: Path, generation: int, config: JsonObject, checked: bool
-) -> dict[str, pd.DataFrame] | None:
+) -> dict[str, pd.DataFrame]:
     """Generation ``generation``'s tables (``evaluations``, ``bodies``, a MAP-Elites run's
-    ``archive``) as DataFrames, checked against its manifest; None while it is not complete
-    (no manifest yet, or its files are not what the manifest lists)."""
+    ``archive``) as DataFrames, checked against its manifest; raises one of `UNREADABLE`
+    while it is not complete (no manifest yet, or its files are not what the manifest
+    lists), or where it is damaged."""
 
     columns = {
         "evaluations": _EVALUATION_COLUMNS,
         "bodies": [*_BODY_COLUMNS, "fitness", "selected", *DESCRIPTOR_NAMES],
         "archive": None,
     }
-    try:
-        files = manifest_entries(folder, generation, checked)
-        manifest = Manifest(folder, generation + 1, checked, files, config)
-        for name, entry in files.items():
-            manifest.check_present(name, entry)
-        listed = {folder / name for name in files}
-        tables = {}
-        for table, wanted in columns.items():
-            path = generation_file(folder, table, generation)
-            if table == "archive" and path not in listed and not (not checked and path.exists()):
-                continue
-            part = read_file(folder, path, table, manifest=manifest, columns=wanted)
-            tables[table] = to_pandas(part)
-    except (NotARunError, OSError):
-        return None
+    files = manifest_entries(folder, generation, checked)
+    manifest = Manifest(folder, generation + 1, checked, files, config)
+    for name, entry in files.items():
+        manifest.check_present(name, entry)
+    listed = {folder / name for name in files}
+    tables = {}
+    for table, wanted in columns.items():
+        path = generation_file(folder, table, generation)
+        if table == "archive" and path not in listed and not (not checked and path.exists()):
+            continue
+        part = read_file(folder, path, table, manifest=manifest, columns=wanted)
+        tables[table] = to_pandas(part)
     return tables
 
 
@@ -161,6 +162,7 @@ class RunSource:
         self._total = _total_evaluations(self.config, bool(self.info.get("brain_only")))
         self._started = False
         self._progress = ""
+        self._unreadable = Unreadable(self.path)
 
     # -- the Source protocol ---------------------------------------------------------------
 
@@ -183,11 +185,16 @@ class RunSource:
             self._started = logged = True
         before = self.shown
         while self._ready(self.shown):
-            tables = _read_generation(self.path, self.shown, self.config, self.checked)
-            if tables is None:
+            try:
+                tables = _read_generation(self.path, self.shown, self.config, self.checked)
+            except UNREADABLE as exc:  # being written; once the run has ended, damaged
+                self._unreadable.meet(self.shown, exc, ended=self._ended())
                 break
             self._log_generation(rec, self.shown, tables)
             self.shown += 1
+        done = int(self.info.get("generations_done", 0) or 0)
+        if self.shown < done and not self._ready(self.shown) and self._ended():
+            raise missing_manifest(self.path, self.shown, done)  # else it waits for ever
         if self.shown > before:  # the bar charts once for all the new generations
             rec.send_chunks(run_summary_chunks(self._summary))
             logged = True

@@ -178,14 +178,16 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
                 return
             with HeadlessChromium(Path(scratch), size=size, binary=chromium) as browser:
                 browser.open(web_url(web_port, grpc))
-                atomic_write_bytes(out, wait_for_drawing(browser, settle_s))
-            taken.append(str(out))
-        except BrowserError as exc:
+                picture = wait_for_drawing(browser, settle_s)
+        except BrowserError as exc:  # a browser that cannot start is said so, not a write
             raise ViewError(f"--screenshot: {exc}") from None
-        except OSError as exc:  # full, read-only, or a folder like /proc that takes no file
-            raise ViewError(f"--screenshot: {cannot_write(exc, out)}") from None
         finally:
             _terminate(proc)
+        try:
+            atomic_write_bytes(out, picture)
+        except OSError as exc:  # full, read-only, or a folder like /proc that takes no file
+            raise ViewError(f"--screenshot: {cannot_write(exc, out)}") from None
+        taken.append(str(out))
 
     try:
         code = _run_child(web_command(selection, web_port, grpc), when_started=capture)

@@ -235,7 +235,7 @@ def test_a_killed_run_reports_its_finished_generations_only(run_dir: Path, tmp_p
     assert report.table["generation"].tolist() == [0, 1]
     assert report.best["generation"] <= 1
     assert [p.name for p in report.written] == FIGURES
-    assert "running, 2/3 generations" in _table_text(report)
+    assert "stopped (killed?), 2/3 generations" in _table_text(report)  # as `ariel runs`
 
 
 def test_a_run_without_finished_generations_writes_nothing(run_dir: Path, tmp_path: Path) -> None:
