@@ -19,6 +19,24 @@ def add_set_option(p: argparse.ArgumentParser, help_text: str) -> None:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=help_text)
 
 
+class _OneAddress(argparse.Action):
+    """``--address``, refusing its old name ``--scheduler`` beside it: which of two addresses
+    was meant cannot be guessed (argparse would silently take the last)."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        first = getattr(namespace, "_address_option", None)
+        if first is not None and first != option_string:
+            parser.error("--address and --scheduler (its old name) name one setting: give one")
+        namespace._address_option = option_string
+        setattr(namespace, self.dest, values)
+
+
 def add_executor_options(p: argparse.ArgumentParser) -> None:
     """``--executor``, ``--workers``, ``--address``, ``--quiet``, and the live view's
     ``--live`` and ``--web`` (the commands that run evolution take both)."""
@@ -33,6 +51,7 @@ def add_executor_options(p: argparse.ArgumentParser) -> None:
         "--address",
         "--scheduler",  # its old name, still accepted
         dest="address",
+        action=_OneAddress,
         metavar="ADDRESS",
         help="the address of a running Dask scheduler, e.g. tcp://host:8786 (with --executor "
         "dask; --scheduler is its old name)",

@@ -87,7 +87,7 @@ def test_resume_never_connects_to_the_scheduler_a_run_json_names(
 
 
 def test_the_old_name_scheduler_still_gives_the_address(
-    campaign: Path, monkeypatch: pytest.MonkeyPatch
+    campaign: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from ariel.runs import run_campaign, run_experiment
 
@@ -110,6 +110,10 @@ def test_the_old_name_scheduler_still_gives_the_address(
     ]:
         with pytest.raises(TypeError, match=f"{entry.__name__}\\(\\) {both}"):
             entry(where, address="tcp://127.0.0.1:1", scheduler="tcp://127.0.0.1:1")
+    capsys.readouterr()  # the flags' two names: argparse alone would take the last, unsaid
+    flags = ["--address", "tcp://127.0.0.1:1", "--scheduler", "tcp://127.0.0.1:2"]
+    assert exit_code(["resume", str(run_dir), "--quiet", *flags]) == 2
+    assert "--address and --scheduler (its old name) name one setting" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
