@@ -116,3 +116,22 @@ def test_a_plugin_the_workers_never_registered_is_named_so_not_blamed(tmp_path: 
     assert "a worker process does not know a plugin this process knows" in line
     assert 'under `if __name__ == "__main__":`' in line and "fix the plugin" not in line
     assert (tmp_path / "error.log").is_file() and "\n" not in line
+
+
+@pytest.mark.parametrize("after_run_json", [True, False])
+def test_an_interrupt_while_the_folder_is_made_names_it_once_run_json_is_there(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_run_json: bool
+) -> None:
+    """Ctrl-C between run.json and the first generation printed no resume hint (the folder
+    resumes from generation 0); before run.json there is nothing to resume."""
+    from ariel.recording.store import RunFolder
+
+    def interrupted(*args: Any, **kwargs: Any) -> None:
+        raise KeyboardInterrupt
+
+    where = "start_segment" if after_run_json else "create"
+    monkeypatch.setattr(RunFolder, where, interrupted)
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt) as info:
+        ariel.run_experiment(out=out, executor="serial", progress=False)
+    assert getattr(info.value, "run_dir", None) == (out if after_run_json else None)

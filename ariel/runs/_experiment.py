@@ -172,11 +172,16 @@ def run_experiment(
     check_new_id(run_id)
     RunFolder.check_new(path, overwrite=overwrite)
     try:
-        with storage_errors(path), contextlib.ExitStack() as locks:
-            # The lock is held for the whole run.
+        # The lock is held for the whole run. An interrupt once run.json is written (even
+        # before the first generation) names the folder: it resumes from there.
+        with (
+            storage_errors(path),
+            contextlib.ExitStack() as locks,
+            stop_on_signals(),
+            noted_on_interrupt("run_dir", path, once="run.json"),
+        ):
             session = RunSession.create(prepared, path, run_id, locks, overwrite=overwrite)
-            with stop_on_signals(), noted_on_interrupt("run_dir", session.folder.path):
-                return _drive(session, progress)
+            return _drive(session, progress)
     except Exception as exc:
         if not _worker_cannot_start(exc):
             raise
@@ -196,14 +201,16 @@ def _end_script_without_main_guard(path: Path, progress: bool | None) -> NoRetur
 
 
 @contextlib.contextmanager
-def noted_on_interrupt(name: str, folder: Path) -> Iterator[None]:
+def noted_on_interrupt(name: str, folder: Path, once: str | None = None) -> Iterator[None]:
     """A `KeyboardInterrupt` (Ctrl-C, SIGTERM) that leaves the block carries ``folder`` as its
     attribute ``name`` (``run_dir``, ``campaign_dir``): what to resume, for the ``ariel``
-    command's hint and for a script or notebook."""
+    command's hint and for a script or notebook; with ``once``, only once the folder holds
+    that file (before it, there is nothing to resume)."""
     try:
         yield
     except KeyboardInterrupt as exc:
-        setattr(exc, name, folder)
+        if once is None or (folder / once).is_file():
+            setattr(exc, name, folder)
         raise
 
 
