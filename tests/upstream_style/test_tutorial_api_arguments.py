@@ -13,7 +13,11 @@ import torch
 from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
 from ariel.ec.genotypes.nde.encoder import MAX_MODULES
 from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
-from ariel.simulation.environments import RuggedTerrainWorld
+from ariel.simulation.environments import (
+    AmphitheatreTerrainWorld,
+    CraterTerrainWorld,
+    RuggedTerrainWorld,
+)
 from ariel.utils.runners import simple_runner
 from ariel.utils.tracker import Tracker
 
@@ -27,13 +31,11 @@ def _refused(
 
 
 @pytest.mark.parametrize("seed", ["x", -1, 1.5, True])
-def test_rugged_world_seed(seed: object) -> None:
-    _refused(
-        ValueError,
-        "RuggedTerrainWorld: seed must be None or an int >= 0",
-        RuggedTerrainWorld,
-        seed=seed,
-    )
+@pytest.mark.parametrize(
+    "world", [RuggedTerrainWorld, CraterTerrainWorld, AmphitheatreTerrainWorld]
+)
+def test_terrain_world_seed(world: type, seed: object) -> None:
+    _refused(ValueError, f"{world.__name__}: seed must be None or an int >= 0", world, seed=seed)
 
 
 def test_nacpg_seed_and_adjacency_size() -> None:

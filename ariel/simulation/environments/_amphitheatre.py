@@ -7,7 +7,7 @@ from typing import Any
 
 from ariel.simulation.environments._base import as_dims, as_vector
 from ariel.simulation.environments._compound import TERRAIN_COLOR, CompoundWorld
-from ariel.simulation.environments._rugged import DEFAULT_TERRAIN_SEED
+from ariel.simulation.environments._rugged import DEFAULT_TERRAIN_SEED, check_seed
 from ariel.simulation.environments.heightmaps import amphitheatre_heightmap
 
 __all__ = ["AmphitheatreTerrainWorld"]
@@ -96,7 +96,7 @@ class AmphitheatreTerrainWorld(CompoundWorld):
         inner_radius, outer_radius = _radii(
             inner_radius, outer_radius, ring_inner_radius, ring_outer_radius
         )
-        self.seed = seed
+        self.seed = seed = check_seed(type(self).__name__, seed)
         self.inner_radius = inner_radius
         self.outer_radius = outer_radius
         self.height_of_noise = height_of_noise

@@ -7,7 +7,7 @@ from typing import Any
 
 from ariel.simulation.environments._base import as_dims
 from ariel.simulation.environments._compound import TERRAIN_COLOR, CompoundWorld
-from ariel.simulation.environments._rugged import DEFAULT_TERRAIN_SEED
+from ariel.simulation.environments._rugged import DEFAULT_TERRAIN_SEED, check_seed
 from ariel.simulation.environments.heightmaps import crater_heightmap
 
 __all__ = ["CraterTerrainWorld"]
@@ -71,7 +71,7 @@ class CraterTerrainWorld(CompoundWorld):
         mujoco_config: Any = None,
         load_precompiled: bool = True,
     ) -> None:
-        self.seed = seed
+        self.seed = seed = check_seed(type(self).__name__, seed)
         self.height_of_noise = height_of_noise
         self.scale_of_noise = scale_of_noise
         self.normalize = normalize

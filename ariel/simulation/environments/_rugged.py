@@ -10,13 +10,13 @@ from ariel.simulation.environments._base import as_dims
 from ariel.simulation.environments._compound import TERRAIN_COLOR, CompoundWorld
 from ariel.simulation.environments.heightmaps import rugged_heightmap, smooth_edges_heightmap
 
-__all__ = ["DEFAULT_TERRAIN_SEED", "RuggedTerrainWorld"]
+__all__ = ["DEFAULT_TERRAIN_SEED", "RuggedTerrainWorld", "check_seed"]
 
 #: Terrain worlds are reproducible by default; pass `seed=` for another terrain.
 DEFAULT_TERRAIN_SEED = 42
 
 
-def _check_seed(world: str, seed: Any) -> int | None:
+def check_seed(world: str, seed: Any) -> int | None:
     """``seed`` as an int (or None), or a one-line ValueError naming the world and argument."""
     if seed is None:
         return None
@@ -80,7 +80,7 @@ class RuggedTerrainWorld(CompoundWorld):
         mujoco_config: Any = None,
         load_precompiled: bool = True,
     ) -> None:
-        seed = _check_seed(type(self).__name__, seed)
+        seed = check_seed(type(self).__name__, seed)
         self.seed = seed
         self.scale_of_noise = scale_of_noise
         self.normalize = normalize
