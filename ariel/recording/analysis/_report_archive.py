@@ -168,7 +168,13 @@ def archive_figure(
             integer_ticks(axis)
     coverage = len(archive) / archive_cell_count(description)
     kind = "CVT archive" if description["kind"] == "cvt" else "archive"
-    axes.set_title(f"{kind} after generation {last}: {len(archive)} cells ({coverage:.0%})")
+    title = f"after generation {last}: {len(archive)} cells ({coverage:.0%})"
+    body = run.config.get("body", {})
+    if isinstance(body, dict) and body.get("optimizer") == "novelty":  # it keeps two archives
+        title = f"result {kind} {title}\nthe best body per cell (not the novelty archive)"
+    else:
+        title = f"{kind} {title}"
+    axes.set_title(title)
     for k, (body_id, fitness, image) in enumerate(images):
         thumb = drawn.add_subplot(spec[k // columns, 1 + k % columns])
         thumb.imshow(np.asarray(image))

@@ -57,6 +57,9 @@ def test_a_novelty_report_does_not_call_its_population_the_archive_s_elites(
     title = report.figures["fitness.png"].axes[0].get_title()
     assert "fitness of the population after selection" in title
     assert "elites" not in title
+    archive = report.figures["archive.png"].axes[0].get_title()
+    assert archive.startswith("result archive after generation 1: ")
+    assert archive.endswith("\nthe best body per cell (not the novelty archive)")
     text = _printed(report)
     assert "MAP-Elites" not in text.split("result archive:")[0]
     assert "result archive after each generation" in text
