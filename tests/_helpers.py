@@ -354,3 +354,26 @@ def two_branches() -> Any:
         },
         [(0, 1, "RIGHT"), (1, 2, "FRONT"), (0, 3, "FRONT"), (3, 4, "LEFT"), (3, 5, "RIGHT")],
     )
+
+
+#: A MAP-Elites run of a few seconds: one generation, a 4 x 4 archive, recordings on.
+TINY_QD = {
+    "name": "tiny-qd",
+    "seed": 5,
+    "generations": 1,
+    "body": {
+        "options": {"number_of_modules": 6},
+        "population": 2,
+        "offspring": 2,
+        "optimizer": "map_elites",
+        "optimizer_options": {
+            "measures": ["num_limbs", "joints_ratio"],
+            "bins": [4, 4],
+            "ranges": [[0, 4], [0, 1]],
+        },
+    },
+    "brain": {"popsize": 2, "iterations": 1},
+    "task": {"duration": 0.3},
+    "executor": {"kind": "serial"},
+    "record": {"rerun": True},
+}

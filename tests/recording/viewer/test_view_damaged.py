@@ -16,35 +16,13 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 
-from _helpers import exit_code, one_error_line, repo_env  # noqa: E402
+from _helpers import TINY_QD, exit_code, one_error_line, repo_env  # noqa: E402
 
 from ariel.errors import ArielError, BrowserError, ViewError  # noqa: E402
 from ariel.evolution import run_experiment  # noqa: E402
 from ariel.recording import load_run  # noqa: E402
 from ariel.recording.viewer._browser import HeadlessChromium, find_chromium  # noqa: E402
 from ariel.recording.viewer._select import best_evaluations, select_recordings  # noqa: E402
-
-# A MAP-Elites run of a few seconds (as test_view_panels' TINY_QD): own recordings of elites.
-TINY_QD = {
-    "name": "tiny-qd",
-    "seed": 5,
-    "generations": 1,
-    "body": {
-        "options": {"number_of_modules": 6},
-        "population": 2,
-        "offspring": 2,
-        "optimizer": "map_elites",
-        "optimizer_options": {
-            "measures": ["num_limbs", "joints_ratio"],
-            "bins": [4, 4],
-            "ranges": [[0, 4], [0, 1]],
-        },
-    },
-    "brain": {"popsize": 2, "iterations": 1},
-    "task": {"duration": 0.3},
-    "executor": {"kind": "serial"},
-    "record": {"rerun": True},
-}
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 
-from _helpers import two_branches  # noqa: E402 - the same robot graph as test_joint_names
+from _helpers import TINY_QD, two_branches  # noqa: E402 - two_branches: test_joint_names' graph
 
 from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain  # noqa: E402
 from ariel.evolution import run_experiment  # noqa: E402
@@ -35,27 +35,6 @@ from ariel.recording.rerun._rerun import (  # noqa: E402
 from ariel.recording.store._axes import fitness_unit  # noqa: E402
 from ariel.recording.viewer._view import _archive_beside, _prepared, select_recordings  # noqa: E402
 
-# A MAP-Elites run of a few seconds: one generation, a 4 x 4 archive, recordings on.
-TINY_QD = {
-    "name": "tiny-qd",
-    "seed": 5,
-    "generations": 1,
-    "body": {
-        "options": {"number_of_modules": 6},
-        "population": 2,
-        "offspring": 2,
-        "optimizer": "map_elites",
-        "optimizer_options": {
-            "measures": ["num_limbs", "joints_ratio"],
-            "bins": [4, 4],
-            "ranges": [[0, 4], [0, 1]],
-        },
-    },
-    "brain": {"popsize": 2, "iterations": 1},
-    "task": {"duration": 0.3},
-    "executor": {"kind": "serial"},
-    "record": {"rerun": True},
-}
 BAR_VIEWS = {
     "best_fitness": "best fitness{unit} per generation",
     "mean_fitness": "mean fitness{unit} per generation",
