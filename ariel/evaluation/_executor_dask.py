@@ -10,12 +10,10 @@ made. Re-exported by `ariel.evaluation.executors`.
 from __future__ import annotations
 
 import concurrent.futures as cf
-import contextlib
 import contextvars
 import logging
 import math
 import os
-import signal
 import sys
 import threading
 import time
@@ -24,6 +22,12 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 from ariel.errors import CallTimeoutError, ConfigError, WorkerLostError
+from ariel.evaluation._dask_connect import connect_scheduler, distributed_module
+from ariel.evaluation._dask_local import (
+    check_open_files,
+    drop_gc_diagnosis,
+    stop_signals_left_to_driver,
+)
 from ariel.evaluation._dask_logs import DaskLogs, quiet_cancel_race
 from ariel.evaluation._executor_base import EvaluationExecutor, worker_environment
 from ariel.evaluation._threads import default_workers
@@ -43,8 +47,6 @@ __all__ = [
 
 R = TypeVar("R")
 P = ParamSpec("P")
-
-_DASK_MISSING = "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
 
 #: Seconds a Dask run waits with no worker at all before it stops (resumable): on a
 #: ``LocalCluster`` (its workers were killed, or could not start again) and on a scheduler you
@@ -251,24 +253,6 @@ def _no_worker_timeout(given: float | None, default: float) -> float:
     return float(value)
 
 
-@contextlib.contextmanager
-def _workers_ignore_sigint() -> Iterator[None]:
-    """Processes started inside ignore Ctrl-C: it reaches the whole process group, and the
-    driver, which catches it, closes the cluster; Dask's workers would each print a traceback.
-
-    A process started with SIGINT ignored keeps it ignored (Python installs its KeyboardInterrupt
-    handler only over the default one), and so do the processes it starts.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield  # signal dispositions can only be changed from the main thread
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
 def _make_dask(
     workers: int | None,
     address: str | Client | Cluster | None,
@@ -278,16 +262,15 @@ def _make_dask(
     no_worker_timeout: float | None = None,
     **cluster_options: Any,
 ) -> DaskExecutor:
-    try:
-        from distributed import Client, LocalCluster  # lazy: heavy optional library
-    except ImportError as exc:
-        raise ImportError(_DASK_MISSING) from exc
+    distributed = distributed_module()
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     if address is None:
         settings = _cluster_settings(workers, max_retries, blas_threads, cluster_options)
         limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_LOCAL)  # before starting
+        check_open_files(settings["n_workers"])
         logs = DaskLogs().hold()  # its workers' deaths are the run's to report, in one line
         try:
-            with _workers_ignore_sigint():
+            with stop_signals_left_to_driver():
                 cluster = LocalCluster(**settings)
         except Exception as exc:
             logs.release()
@@ -299,6 +282,7 @@ def _make_dask(
             logs.release()
             raise
         try:
+            drop_gc_diagnosis(distributed)
             client = Client(cluster)
         except BaseException:
             cluster.close()
@@ -319,8 +303,9 @@ def _make_dask(
     limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_SCHEDULER)
     if isinstance(address, Client):  # the caller owns it
         return DaskExecutor(address, close_client=False, no_worker_timeout=limit)
-    # An address such as "tcp://host:8786", or a cluster object (e.g. a SLURMCluster).
-    return DaskExecutor(Client(address), no_worker_timeout=limit)
+    if isinstance(address, str):  # "tcp://host:8786": checked, reached in bounded time
+        return DaskExecutor(connect_scheduler(address), no_worker_timeout=limit)
+    return DaskExecutor(Client(address), no_worker_timeout=limit)  # e.g. a SLURMCluster
 
 
 def _cluster_settings(

@@ -30,6 +30,8 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Protocol, TypeVar
 
 from ariel.errors import CallTimeoutError, WarpUnavailableError, WorkerLostError
+from ariel.evaluation._dask_connect import address_problem
+from ariel.evaluation._dask_local import open_files_problem
 from ariel.evaluation._executor_base import (
     BatchExecutor as BatchExecutor,
     EvaluationExecutor as EvaluationExecutor,
@@ -207,6 +209,16 @@ class DaskKind(ExecutorKind):
                 "executor.workers: sizes a local cluster; with executor.address the "
                 "cluster's own workers are used (scale the cluster instead)"
             )
+        # Before anything is written: the address's form (connecting comes later), and the
+        # open files a local cluster of that many workers needs.
+        if settings.address is not None:
+            problem = address_problem(settings.address)
+            if problem is not None:
+                raise ExecutorSettingsError(f"executor.address: {problem}")
+        else:
+            problem = open_files_problem(settings.workers or default_workers())
+            if problem is not None:
+                raise ExecutorSettingsError(f"executor.workers: {problem}")
 
     def planned_workers(self, settings: ExecutorSettings) -> tuple[int, bool]:
         return settings.workers or default_workers(), settings.address is None

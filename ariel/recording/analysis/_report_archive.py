@@ -117,6 +117,18 @@ def _cvt(axes: Axes, archive: pd.DataFrame, description: JsonObject) -> AxesImag
     return shown
 
 
+def _title(run: Run, archive: pd.DataFrame, description: JsonObject, last: int) -> str:
+    """``archive after generation N: C cells (P%)``; a novelty run keeps two archives, and
+    this one is its result archive, not the novelty archive selection uses."""
+    coverage = len(archive) / archive_cell_count(description)
+    kind = "CVT archive" if description["kind"] == "cvt" else "archive"
+    title = f"after generation {last}: {len(archive)} cells ({coverage:.0%})"
+    body = run.config.get("body", {})
+    if isinstance(body, dict) and body.get("optimizer") == "novelty":
+        return f"result {kind} {title}\nthe best body per cell (not the novelty archive)"
+    return f"{kind} {title}"
+
+
 def archive_figure(
     report: Report,
     maximise: bool,
@@ -166,15 +178,7 @@ def archive_figure(
     for axis, measure in ((axes.xaxis, measures[0]), (axes.yaxis, up_name)):
         if DESCRIPTORS.get(measure, ("", False))[1]:  # a count: whole-number ticks
             integer_ticks(axis)
-    coverage = len(archive) / archive_cell_count(description)
-    kind = "CVT archive" if description["kind"] == "cvt" else "archive"
-    title = f"after generation {last}: {len(archive)} cells ({coverage:.0%})"
-    body = run.config.get("body", {})
-    if isinstance(body, dict) and body.get("optimizer") == "novelty":  # it keeps two archives
-        title = f"result {kind} {title}\nthe best body per cell (not the novelty archive)"
-    else:
-        title = f"{kind} {title}"
-    axes.set_title(title)
+    axes.set_title(_title(run, archive, description, last))
     for k, (body_id, fitness, image) in enumerate(images):
         thumb = drawn.add_subplot(spec[k // columns, 1 + k % columns])
         thumb.imshow(np.asarray(image))

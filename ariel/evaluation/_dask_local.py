@@ -1,0 +1,104 @@
+"""Starting a ``LocalCluster`` of ours: what its processes inherit, and whether it can fit.
+
+`stop_signals_left_to_driver`: the cluster's processes ignore Ctrl-C and SIGHUP, which a
+terminal sends to every process of the job; the driver catches them and closes the cluster.
+`check_open_files`: a cluster too big for this process's open-file limit is refused in one
+line before it starts (else Dask logs ``Too many open files`` for every worker, by the
+hundred thousand lines, and the run waits).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from multiprocessing import resource_tracker
+from types import ModuleType
+
+from ariel.errors import ConfigError
+
+try:
+    import resource
+except ImportError:  # pragma: no cover - not POSIX
+    resource = None  # type: ignore[assignment]
+
+__all__ = [
+    "OPEN_FILES_BESIDE_DASK",
+    "OPEN_FILES_PER_DASK_WORKER",
+    "check_open_files",
+    "drop_gc_diagnosis",
+    "open_files_problem",
+    "stop_signals_left_to_driver",
+]
+
+#: Open files the driver holds for each worker of its ``LocalCluster`` (its nanny's pipes and
+#: sockets, the client's and scheduler's connections): measured 10 with 1, 2 and 4 workers.
+OPEN_FILES_PER_DASK_WORKER = 12
+#: Open files for the rest of a run beside the cluster (records, locks, the scheduler, imports).
+OPEN_FILES_BESIDE_DASK = 128
+
+
+def check_open_files(workers: int) -> None:
+    """`open_files_problem` as an error: `ConfigError` in one line, starting ``workers:``."""
+    problem = open_files_problem(workers)
+    if problem is not None:
+        raise ConfigError(f"workers: {problem}")
+
+
+def open_files_problem(workers: int) -> str | None:
+    """Whether this process may hold the open files a ``LocalCluster`` of ``workers`` needs:
+    None when it may (the soft limit, ``ulimit -n``, raised towards the hard one where it is
+    lower), else why not, naming the most workers that fit (one line, no key)."""
+    if resource is None:  # pragma: no cover - not POSIX
+        return None
+    needed = OPEN_FILES_BESIDE_DASK + OPEN_FILES_PER_DASK_WORKER * workers
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft == resource.RLIM_INFINITY or soft >= needed:
+        return None
+    if hard == resource.RLIM_INFINITY or hard >= needed:
+        with contextlib.suppress(ValueError, OSError):
+            resource.setrlimit(resource.RLIMIT_NOFILE, (needed, hard))
+            return None
+    most = soft if hard == resource.RLIM_INFINITY else max(soft, hard)
+    fits = max(0, (most - OPEN_FILES_BESIDE_DASK) // OPEN_FILES_PER_DASK_WORKER)
+    return (
+        f"a local Dask cluster of {workers} workers needs about {needed} open files; the "
+        f"limit is {most} (ulimit -n): use at most {fits} workers, or raise the limit"
+    )
+
+
+@contextlib.contextmanager
+def stop_signals_left_to_driver() -> Iterator[None]:
+    """Processes started inside ignore Ctrl-C (SIGINT) and SIGHUP: a terminal sends them to
+    the whole process group, and the driver, which catches them, closes the cluster; Dask's
+    workers would each print a traceback, and multiprocessing's resource tracker, killed by
+    SIGHUP, would be started again and print one for every name it no longer knows.
+
+    A process started with a signal ignored keeps it ignored (Python installs its own
+    handlers only over the default ones), and so do the processes it starts. The resource
+    tracker is started here (if it is not running yet) so that it inherits this too. SIGTERM
+    is left alone: Dask's nannies stop their workers with it.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal dispositions can only be changed from the main thread
+        return
+    numbers = [signal.SIGINT, *([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])]
+    previous = {number: signal.signal(number, signal.SIG_IGN) for number in numbers}
+    try:
+        with contextlib.suppress(Exception):  # no tracker (Windows): nothing to protect
+            resource_tracker.ensure_running()
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def drop_gc_diagnosis(distributed: ModuleType) -> None:
+    """Stop the scheduler of our ``LocalCluster`` (it runs in this, the driver's, process)
+    timing every garbage collection from a `gc` callback: a Ctrl-C, SIGTERM or SIGHUP that
+    lands in that callback is printed by Python as "Exception ignored" with a traceback
+    (`ariel.utils.interrupts`), around the run's one line. It only logs long pauses, which
+    are held back while the cluster runs anyway. Closing the scheduler later is then a no-op."""
+    with contextlib.suppress(AttributeError):  # a Dask without it: nothing to drop
+        distributed.gc.disable_gc_diagnosis(force=True)

@@ -1,0 +1,180 @@
+"""A Dask executor that cannot start or reach its cluster, or whose terminal closes: one line,
+never a traceback, never a silent wait (docs/executors.md, "dask")."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from _helpers import repo_env, tiny_run_toml
+
+from ariel.errors import ConfigError
+from ariel.evaluation import make_executor
+
+pytest.importorskip("distributed")
+
+
+def _within(seconds: float, call: object) -> BaseException | None:
+    """Run ``call()`` in a thread; fail the test if it has not ended in ``seconds`` (the old
+    code waited for ever). Returns what it raised, None if nothing."""
+    outcome: dict[str, BaseException] = {}
+
+    def target() -> None:
+        try:
+            call()  # type: ignore[operator]
+        except BaseException as exc:
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    assert not thread.is_alive(), f"still waiting after {seconds} s"
+    return outcome.get("error")
+
+
+@pytest.fixture
+def silent_listener() -> Iterator[str]:
+    """A TCP port where something that is not Dask listens: it takes connections (the
+    kernel's backlog does) and never says a word."""
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen(8)
+        yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+
+
+@pytest.mark.parametrize(
+    ("address", "said"),
+    [
+        ("garbage", "is not a Dask scheduler address"),
+        ("http://127.0.0.1:80", "http:// is not a Dask transport"),
+        ("tcp://127.0.0.1:99999", "the port must be 1 to 65535"),
+    ],
+)
+def test_a_malformed_address_is_one_line_naming_what_is_allowed(address: str, said: str) -> None:
+    with pytest.raises(ConfigError) as caught:
+        make_executor("dask", address=address)
+    message = str(caught.value)
+    assert said in message and "HOST:PORT" in message and "\n" not in message
+
+
+def test_a_malformed_address_or_too_many_workers_are_refused_before_a_folder_is_made(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The executor is made after the run folder: a bad address left a `failed` folder."""
+    from _helpers import exit_code, one_error_line
+
+    from ariel.evaluation import _dask_local
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("dask_refused", 1))
+    out = tmp_path / "run"
+    run = ["run", str(config), "--out", str(out), "--quiet", "--executor", "dask"]
+    assert exit_code([*run, "--address", "garbage"]) == 2
+    assert "executor.address: 'garbage' is not a Dask scheduler address" in one_error_line(capsys)
+    monkeypatch.setattr(_dask_local, "OPEN_FILES_PER_DASK_WORKER", 10**9)  # no limit fits
+    assert exit_code([*run, "--workers", "2"]) == 2
+    assert "executor.workers: a local Dask cluster of 2 workers needs" in one_error_line(capsys)
+    assert not out.exists()
+
+
+def test_an_address_where_nothing_or_no_dask_answers_is_one_line_in_bounded_time(
+    silent_listener: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from ariel.evaluation import _dask_connect
+
+    monkeypatch.setattr(_dask_connect, "CONNECT_SECONDS", 1.0)
+    error = _within(20, lambda: make_executor("dask", address=silent_listener))
+    assert isinstance(error, ConfigError), error
+    assert f"no Dask scheduler answered at {silent_listener}" in str(error)
+    with socket.socket() as closed:  # a port nothing listens on
+        closed.bind(("127.0.0.1", 0))
+        refused = f"tcp://127.0.0.1:{closed.getsockname()[1]}"
+    error = _within(20, lambda: make_executor("dask", address=refused))
+    assert isinstance(error, ConfigError), error
+    # Dask retries a refused connection until its own timeout; the 1-s limit may end it first
+    said = (f"cannot reach the Dask scheduler at {refused}: OSError", f"answered at {refused}")
+    assert any(text in str(error) for text in said), error
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="needs RLIMIT_NOFILE")
+def test_a_local_cluster_over_the_open_file_limit_is_refused_before_it_starts() -> None:
+    script = textwrap.dedent(
+        """
+        import resource
+        resource.setrlimit(resource.RLIMIT_NOFILE, (300, 300))
+        from ariel.evaluation import make_executor
+        if __name__ == "__main__":
+            try:
+                make_executor("dask", workers=40)
+            except ValueError as exc:
+                print(type(exc).__name__, exc)
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=repo_env(),
+    )
+    assert done.stdout.startswith("ConfigError workers: a local Dask cluster of 40 workers"), (
+        done.stdout + done.stderr[-2000:]
+    )
+    assert "use at most" in done.stdout and "ulimit -n" in done.stdout
+    assert done.stderr == "", done.stderr[-2000:]  # no Dask log line, no worker started
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="needs POSIX signals")
+def test_sighup_to_a_dask_run_group_is_one_line(tmp_path: Path) -> None:
+    config = tmp_path / "dask.toml"
+    toml = tiny_run_toml("dask_hup", 1, generations=200).replace('"serial"', '"dask"')
+    config.write_text(toml + "workers = 2\n")
+    run_dir, log = tmp_path / "run", tmp_path / "output.txt"
+    with log.open("wb") as out:
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "ariel.cli",
+                "run",
+                str(config),
+                "--out",
+                str(run_dir),
+                "--quiet",
+            ],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,  # its own process group, as a terminal's job
+            env=repo_env(),
+        )
+        try:
+            deadline = time.monotonic() + 240
+            while time.monotonic() < deadline and process.poll() is None:
+                info = run_dir / "run.json"
+                if info.is_file() and json.loads(info.read_text()).get("generations_done", 0):
+                    break  # the cluster runs generation 2
+                time.sleep(0.2)
+            assert process.poll() is None, log.read_text()
+            os.killpg(process.pid, signal.SIGHUP)  # what a closing terminal does
+            code = process.wait(timeout=120)
+        finally:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGKILL)
+    output = log.read_text()
+    assert code == 128 + signal.SIGHUP, (code, output[-3000:])
+    lines = output.strip().splitlines()
+    assert len(lines) == 1 and re.match(r"interrupted \(SIGHUP\); continue it with", lines[0]), (
+        output[-3000:]
+    )
+    assert json.loads((run_dir / "run.json").read_text())["status"] == "interrupted"
