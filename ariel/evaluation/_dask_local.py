@@ -12,9 +12,11 @@ from __future__ import annotations
 import contextlib
 import signal
 import threading
+import time
 from collections.abc import Iterator
 from multiprocessing import resource_tracker
 from types import ModuleType
+from typing import Any
 
 from ariel.errors import ConfigError
 
@@ -26,11 +28,19 @@ except ImportError:  # pragma: no cover - not POSIX
 __all__ = [
     "OPEN_FILES_BESIDE_DASK",
     "OPEN_FILES_PER_DASK_WORKER",
+    "SILENT_WORKER_SECONDS",
+    "answering_workers",
     "check_open_files",
     "drop_gc_diagnosis",
     "open_files_problem",
     "stop_signals_left_to_driver",
 ]
+
+#: A worker of our ``LocalCluster`` whose heartbeat the scheduler has not had for this long
+#: counts as gone: a frozen process (SIGSTOP, or C code holding the GIL) keeps its connection
+#: and its tasks, and Dask would wait for it for its worker-ttl (5 minutes) each time. Workers
+#: beat every second or so.
+SILENT_WORKER_SECONDS = 30.0
 
 #: Open files the driver holds for each worker of its ``LocalCluster`` (its nanny's pipes and
 #: sockets, the client's and scheduler's connections): measured 10 with 1, 2 and 4 workers.
@@ -102,3 +112,16 @@ def drop_gc_diagnosis(distributed: ModuleType) -> None:
     are held back while the cluster runs anyway. Closing the scheduler later is then a no-op."""
     with contextlib.suppress(AttributeError):  # a Dask without it: nothing to drop
         distributed.gc.disable_gc_diagnosis(force=True)
+
+
+def answering_workers(client: Any, now: float | None = None) -> int:
+    """The workers of ``client``'s cluster whose last heartbeat is under
+    `SILENT_WORKER_SECONDS` old (``now``: the scheduler's clock, `time.time` on this machine;
+    for our ``LocalCluster`` only: a scheduler elsewhere may keep another clock)."""
+    workers = client.scheduler_info(n_workers=-1).get("workers", {})
+    now = time.time() if now is None else now
+    return sum(
+        1
+        for worker in workers.values()
+        if now - float(worker.get("last_seen", now)) < SILENT_WORKER_SECONDS
+    )

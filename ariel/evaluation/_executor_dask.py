@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 from ariel.errors import CallTimeoutError, ConfigError, WorkerLostError
 from ariel.evaluation._dask_connect import connect_scheduler, distributed_module
 from ariel.evaluation._dask_local import (
+    SILENT_WORKER_SECONDS,
+    answering_workers,
     check_open_files,
     drop_gc_diagnosis,
     stop_signals_left_to_driver,
@@ -132,8 +134,12 @@ class DaskExecutor(EvaluationExecutor):
         note on stderr (a batch queue may be slow to start workers). None while workers are
         there."""
         trouble = ""
-        try:
-            count = len(self.client.nthreads())
+        try:  # our own cluster's frozen workers count as none (`answering_workers`)
+            count = (
+                answering_workers(self.client)
+                if self.cluster is not None
+                else len(self.client.nthreads())
+            )
         except Exception as exc:  # the scheduler is gone or does not answer: no worker either
             count, trouble = 0, f"the Dask scheduler does not answer ({type(exc).__name__})"
         now = time.monotonic()
@@ -147,8 +153,9 @@ class DaskExecutor(EvaluationExecutor):
             if not trouble:
                 address = getattr(self.client.scheduler, "address", None)
                 trouble = (
-                    "the local Dask cluster has lost all its workers (killed, or they could "
-                    f"not start again){self.logs.cause() if self.logs is not None else ''}"
+                    "the local Dask cluster has lost all its workers (killed, frozen for "
+                    f"{_duration(SILENT_WORKER_SECONDS)}, or they could not start again)"
+                    f"{self.logs.cause() if self.logs is not None else ''}"
                     if self.cluster is not None
                     else f"none is connected to the Dask scheduler {address}"
                 )

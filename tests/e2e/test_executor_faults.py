@@ -390,7 +390,12 @@ def test_dask_stalled_counts_from_the_last_time_a_worker_was_there(monkeypatch) 
         def nthreads(self) -> dict[str, int]:
             return dict(self.workers)
 
+        def scheduler_info(self, n_workers: int) -> dict[str, Any]:
+            heard = time.time() - self.silent_for
+            return {"workers": {name: {"last_seen": heard} for name in self.workers}}
+
     client = Client()
+    client.silent_for = 0.0
     executor = DaskExecutor(client, cluster=object(), no_worker_timeout=0.3)  # type: ignore[arg-type]
     assert executor.stalled() is None  # no worker: the clock starts
     client.workers = {"w": 1}
@@ -399,10 +404,19 @@ def test_dask_stalled_counts_from_the_last_time_a_worker_was_there(monkeypatch) 
     client.workers = {}
     assert executor.stalled() is None
     time.sleep(0.4)
-    assert executor.stalled() == (
-        "no Dask worker for 0 s: the local Dask cluster has lost all its workers (killed, or "
-        "they could not start again)"
+    lost = (
+        "no Dask worker for 0 s: the local Dask cluster has lost all its workers (killed, "
+        "frozen for 30 s, or they could not start again)"
     )
+    assert executor.stalled() == lost
+    # A frozen worker (SIGSTOP) keeps its connection, not its heartbeat: it counts as gone.
+    client.workers, client.silent_for = {"w": 1}, 31.0
+    executor = DaskExecutor(client, cluster=object(), no_worker_timeout=0.3)  # type: ignore[arg-type]
+    assert executor.stalled() is None
+    time.sleep(0.4)
+    assert executor.stalled() == lost
+    client.silent_for = 1.0
+    assert executor.stalled() is None
     monkeypatch.setenv("ARIEL_NO_WORKER_TIMEOUT", "soon")
     with pytest.raises(ConfigError, match=r"ARIEL_NO_WORKER_TIMEOUT: .* > 0 or inf .*'soon'"):
         DaskExecutor(client)  # type: ignore[arg-type]
@@ -452,8 +466,8 @@ def test_a_dask_run_whose_workers_are_all_gone_stops_and_resumes(
     assert len(lines) == 1, errors  # no empty line first: no ^C to end a line after
     assert re.fullmatch(
         r"interrupted: no Dask worker for 3 s: the local Dask cluster has lost all its workers "
-        r"\(killed, or they could not start again\); the run stopped at generation 1; "
-        r"continue it with: \S*ariel resume \S+",
+        r"\(killed, frozen for 30 s, or they could not start again\); the run stopped at "
+        r"generation 1; continue it with: \S*ariel resume \S+",
         lines[0],
     ), lines
     info = json.loads((run_dir / "run.json").read_text())
