@@ -13,8 +13,10 @@ import json
 import math
 import os
 import re
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -377,3 +379,30 @@ TINY_QD = {
     "executor": {"kind": "serial"},
     "record": {"rerun": True},
 }
+
+
+def signal_run_group(config: Path, run_dir: Path, log: Path, signum: int, *extra: str) -> int:
+    """``ariel run CONFIG --out RUN_DIR *EXTRA`` in its own process group (a terminal's job), its
+    output into ``log``; once generation 0 is done, ``signum`` to the whole group, as a
+    terminal sends Ctrl-C or SIGHUP. Returns the exit code."""
+    with log.open("wb") as out:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "ariel.cli", "run", str(config), "--out", str(run_dir), *extra],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+            env=repo_env(),
+        )
+        try:
+            deadline = time.monotonic() + 240
+            while time.monotonic() < deadline and process.poll() is None:
+                info = run_dir / "run.json"
+                if info.is_file() and json.loads(info.read_text()).get("generations_done", 0):
+                    break  # the workers are busy with generation 1
+                time.sleep(0.2)
+            assert process.poll() is None, log.read_text()
+            os.killpg(process.pid, signum)
+            return process.wait(timeout=120)
+        finally:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGKILL)

@@ -4,7 +4,6 @@ never a traceback, never a silent wait (docs/executors.md, "dask")."""
 from __future__ import annotations
 
 import json
-import os
 import re
 import signal
 import socket
@@ -12,12 +11,11 @@ import subprocess
 import sys
 import textwrap
 import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from _helpers import repo_env, tiny_run_toml
+from _helpers import repo_env, signal_run_group, tiny_run_toml
 
 from ariel.errors import ConfigError
 from ariel.evaluation import make_executor
@@ -141,36 +139,7 @@ def test_sighup_to_a_dask_run_group_is_one_line(tmp_path: Path) -> None:
     toml = tiny_run_toml("dask_hup", 1, generations=200).replace('"serial"', '"dask"')
     config.write_text(toml + "workers = 2\n")
     run_dir, log = tmp_path / "run", tmp_path / "output.txt"
-    with log.open("wb") as out:
-        process = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "ariel.cli",
-                "run",
-                str(config),
-                "--out",
-                str(run_dir),
-                "--quiet",
-            ],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,  # its own process group, as a terminal's job
-            env=repo_env(),
-        )
-        try:
-            deadline = time.monotonic() + 240
-            while time.monotonic() < deadline and process.poll() is None:
-                info = run_dir / "run.json"
-                if info.is_file() and json.loads(info.read_text()).get("generations_done", 0):
-                    break  # the cluster runs generation 2
-                time.sleep(0.2)
-            assert process.poll() is None, log.read_text()
-            os.killpg(process.pid, signal.SIGHUP)  # what a closing terminal does
-            code = process.wait(timeout=120)
-        finally:
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGKILL)
+    code = signal_run_group(config, run_dir, log, signal.SIGHUP, "--quiet")  # a closing terminal
     output = log.read_text()
     assert code == 128 + signal.SIGHUP, (code, output[-3000:])
     lines = output.strip().splitlines()

@@ -8,13 +8,10 @@ import json
 import os
 import re
 import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
-from _helpers import repo_env
+from _helpers import signal_run_group
 
 pytest.importorskip("distributed")
 
@@ -44,28 +41,8 @@ def test_ctrl_c_on_a_dask_run_prints_no_worker_tracebacks(tmp_path: Path) -> Non
     config = tmp_path / "dask.toml"
     config.write_text(CONFIG)
     run_dir, log = tmp_path / "run", tmp_path / "output.txt"
-    with log.open("wb") as out:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "ariel.cli", "run", str(config), "--out", str(run_dir)],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,  # its own process group, as a terminal's job
-            env=repo_env(),
-        )
-        try:
-            deadline = time.monotonic() + 240
-            while time.monotonic() < deadline and process.poll() is None:
-                info = run_dir / "run.json"
-                if info.is_file() and json.loads(info.read_text()).get("generations_done", 0):
-                    break  # the workers are busy with generation 1
-                time.sleep(0.2)
-            assert process.poll() is None, log.read_text()
-            os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
-            code = process.wait(timeout=120)
-            assert code == 130, (code, log.read_text()[-3000:])
-        finally:
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGKILL)
+    code = signal_run_group(config, run_dir, log, signal.SIGINT)  # what Ctrl-C in a terminal does
+    assert code == 130, (code, log.read_text()[-3000:])
     output = log.read_text()
     assert re.search(r"interrupted; continue it with: \S*ariel resume", output), output[-3000:]
     assert "Traceback" not in output and "KeyboardInterrupt" not in output, output[-3000:]
