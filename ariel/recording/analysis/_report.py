@@ -38,6 +38,7 @@ from ariel.recording import resim
 from ariel.recording.analysis._gallery import add_report_gallery
 from ariel.recording.analysis._report_best import _body_image, _trajectory_figures
 from ariel.recording.analysis._report_figures import (
+    _body_optimizer,
     _cannot_write,
     _figure,
     _run_title,
@@ -113,12 +114,6 @@ class Report:
         return self.run.path / "report"
 
 
-def _optimizer(run: Run) -> str:
-    """The run's body optimizer, as its config names it (``map_elites``, ``novelty``, ...)."""
-    body = run.config.get("body", {})
-    return str(body.get("optimizer", "")) if isinstance(body, dict) else ""
-
-
 #: The heading of the archive's table, by optimizer, and what a line under it says: novelty
 #: search keeps two archives, and the table is about the grid every body also goes to
 #: (`ariel.evolution._novelty`), not the novelty archive that selection uses.
@@ -183,7 +178,7 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
             (table["best_fitness"].to_numpy(dtype=float), "best", "-oC2"),
         ]
         title = "fitness of the population after selection"
-        if _optimizer(run) == "map_elites":  # its population is the archive; novelty's is not
+        if _body_optimizer(run) == "map_elites":  # its population is the archive; novelty's is not
             title += " (the archive's elites)"
     for values, label, style in lines:
         axes.plot(gens, values, style, label=label, zorder=2)
@@ -358,7 +353,7 @@ def _print_archive_table(report: Report, console: Console) -> None:
     """Per generation: the archive's coverage, QD-score and normalised QD-score."""
     offset = report.run.qd_offset
     heading, said = ARCHIVE_HEADINGS.get(
-        _optimizer(report.run), ("archive after each generation", "")
+        _body_optimizer(report.run), ("archive after each generation", "")
     )
     table = _table(heading)
     for column in ("generation", *QD_COLUMNS):

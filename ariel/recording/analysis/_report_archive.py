@@ -16,6 +16,7 @@ import numpy as np
 from scipy.spatial import KDTree
 
 from ariel.errors import DamagedRunError
+from ariel.recording.analysis._report_figures import _body_optimizer
 from ariel.recording.rerun import CvtCells, archive_cells, archive_grid, three_quarter_view
 from ariel.recording.store import (
     DESCRIPTORS,
@@ -123,8 +124,7 @@ def _title(run: Run, archive: pd.DataFrame, description: JsonObject, last: int) 
     coverage = len(archive) / archive_cell_count(description)
     kind = "CVT archive" if description["kind"] == "cvt" else "archive"
     title = f"after generation {last}: {len(archive)} cells ({coverage:.0%})"
-    body = run.config.get("body", {})
-    if isinstance(body, dict) and body.get("optimizer") == "novelty":
+    if _body_optimizer(run) == "novelty":
         return f"result {kind} {title}\nthe best body per cell (not the novelty archive)"
     return f"{kind} {title}"
 

@@ -17,11 +17,11 @@ import warnings
 from collections.abc import Iterable
 from pathlib import Path
 
-from rerun.chunk import RrdReader
+from rerun.chunk import Chunk, RrdReader
 
 from ariel.errors import ViewError
 
-__all__ = ["check_rerun_files", "recording_problem", "rerun_file_problem"]
+__all__ = ["check_rerun_files", "recording_chunks", "recording_problem", "rerun_file_problem"]
 
 #: Files whose recording id is not their stem (an evaluation's recording's is its eval id).
 _NAMED_OTHERWISE = ("run.rrd", "evaluations.rrd", "campaign.rrd")
@@ -35,6 +35,36 @@ def _reason(exc: BaseException, path: Path) -> str:
     return text[:200]
 
 
+def _read(
+    path: Path, *, layout: bool, recording_id: str | None, decode: bool
+) -> tuple[str | None, list[Chunk]]:
+    """`rerun_file_problem`'s answer for ``path``, and its first store's chunks where
+    ``decode`` read them (else none)."""
+    try:
+        with path.open("rb") as file:
+            head = file.read(4)
+    except OSError as exc:
+        return f"cannot be read: {exc.strerror or type(exc).__name__}", []
+    if not head.startswith(b"RRF"):
+        return "is not a Rerun file (it does not start with Rerun's RRF header)", []
+    chunks: list[Chunk] = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            reader = RrdReader(path)
+            stores = reader.blueprints() if layout else reader.recordings()
+            if stores and decode:
+                chunks = reader.stream(store=stores[0]).to_chunks()
+        except Exception as exc:  # Rerun says RuntimeError; any failure to read is damage
+            return f"is not a readable Rerun file ({_reason(exc, path)})", []
+    if not stores:
+        return f"holds no {'layout' if layout else 'recording'}", []
+    found = stores[0].recording_id
+    if recording_id is not None and found != recording_id:
+        return f"holds recording {found!r} where {recording_id!r} belongs (another's file)", []
+    return None, chunks
+
+
 def rerun_file_problem(
     path: str | os.PathLike[str],
     *,
@@ -46,35 +76,21 @@ def rerun_file_problem(
     as a predicate ("is not a Rerun file (...)"); None when nothing is. ``recording_id``:
     the id its recording must have. ``decode``: read every chunk too (for small files).
     Rerun's warnings (a file without a footer) are kept quiet: what matters is said here."""
-    path = Path(path)
-    try:
-        with path.open("rb") as file:
-            head = file.read(4)
-    except OSError as exc:
-        return f"cannot be read: {exc.strerror or type(exc).__name__}"
-    if not head.startswith(b"RRF"):
-        return "is not a Rerun file (it does not start with Rerun's RRF header)"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            reader = RrdReader(path)
-            stores = reader.blueprints() if layout else reader.recordings()
-            if stores and decode:
-                reader.stream(store=stores[0]).to_chunks()
-        except Exception as exc:  # Rerun says RuntimeError; any failure to read is damage
-            return f"is not a readable Rerun file ({_reason(exc, path)})"
-    if not stores:
-        return f"holds no {'layout' if layout else 'recording'}"
-    found = stores[0].recording_id
-    if recording_id is not None and found != recording_id:
-        return f"holds recording {found!r} where {recording_id!r} belongs (another's file)"
-    return None
+    return _read(Path(path), layout=layout, recording_id=recording_id, decode=decode)[0]
 
 
 def recording_problem(path: str | os.PathLike[str]) -> str | None:
     """`rerun_file_problem` of an evaluation's recording: decoded whole, its recording id
     its eval id (the file's stem), as every writer of one names it."""
     return rerun_file_problem(path, recording_id=Path(path).stem, decode=True)
+
+
+def recording_chunks(path: str | os.PathLike[str]) -> list[Chunk] | None:
+    """The chunks of an evaluation's recording, decoded once; None where it is not sound
+    (`recording_problem` says why)."""
+    path = Path(path)
+    problem, chunks = _read(path, layout=False, recording_id=path.stem, decode=True)
+    return None if problem is not None else chunks
 
 
 def _what_to_do(path: Path) -> str:

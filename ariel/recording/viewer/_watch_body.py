@@ -21,12 +21,12 @@ from typing import Any
 
 import numpy as np
 import rerun as rr
-from rerun.chunk import Chunk, RrdReader
+from rerun.chunk import Chunk
 
 from ariel.errors import UnknownEvaluationError
 from ariel.recording.resim import replay
 from ariel.recording.store import NotARunError, check_eval_id, recording_path
-from ariel.recording.viewer._rerun_files import recording_problem
+from ariel.recording.viewer._rerun_files import recording_chunks
 
 __all__ = ["BestBody", "fresh_chunks"]
 
@@ -53,11 +53,8 @@ def _poses_of(path: Path) -> list[Chunk] | None:
     """The chunks of an evaluation's recording at ``path`` when it holds the bodies' poses
     over time (a 3D replay), else None (no file, an unreadable one, another evaluation's
     copied over it, a robot standing still)."""
-    if recording_problem(path) is not None:  # checked quietly: no Rerun warning printed
-        return None
-    try:
-        chunks = RrdReader(path).stream().to_chunks()
-    except Exception:  # replaced since it was checked
+    chunks = recording_chunks(path)  # read quietly: no Rerun warning printed
+    if chunks is None:
         return None
     moving = any(c.entity_path == "/world/robot" and not c.is_static for c in chunks)
     return chunks if moving else None
