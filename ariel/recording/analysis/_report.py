@@ -129,8 +129,7 @@ ARCHIVE_HEADINGS = {
 
 def _status(run: Run) -> str:
     """run.json's status, `STOPPED` for a "running" run whose process is gone (SIGKILL, out
-    of memory), as `ariel runs` says; read from ``.lock`` without taking it (`holder_gone`),
-    so a report never holds up a run that starts meanwhile."""
+    of memory), as `ariel runs` says (`holder_gone`)."""
     status = str(run.info.get("status", "?"))
     return STOPPED if status == "running" and holder_gone(run.path) else status
 

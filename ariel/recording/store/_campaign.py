@@ -32,7 +32,7 @@ from ariel.recording.store._files import atomic_write_json
 from ariel.recording.store._ids import CAMPAIGN_ID, RUN_ID, RUN_ID_RULE
 from ariel.recording.store._lineage import campaign_lineages
 from ariel.recording.store._load import STOPPED, Run, load_run
-from ariel.recording.store._lock import CAMPAIGN_JSON, lock_is_free
+from ariel.recording.store._lock import CAMPAIGN_JSON, holder_gone
 from ariel.recording.store._run_folder import JsonObject, NotARunError, json_file
 
 __all__ = [
@@ -344,7 +344,7 @@ class Campaign:
             status = info.get("status", "not started")
             if run is None and os.path.lexists(self.path / entry["path"] / "run.json"):
                 status = DAMAGED  # load_campaign left it out: `ariel verify` it
-            if status == "running" and lock_is_free(self.path / entry["path"]):
+            if status == "running" and holder_gone(self.path / entry["path"]):
                 status = STOPPED
             best = info.get("best_fitness")
             evaluations = info.get("evaluations_done", 0)

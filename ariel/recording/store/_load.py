@@ -21,7 +21,7 @@ from ariel.recording.store._archive import archive_cell_count, describe_archive
 from ariel.recording.store._escape import terminal_text
 from ariel.recording.store._files import damaged
 from ariel.recording.store._lineage import lineage
-from ariel.recording.store._lock import lock_is_free
+from ariel.recording.store._lock import holder_gone
 from ariel.recording.store._manifest import Manifest, relative
 from ariel.recording.store._run_folder import (
     DamagedRunError,
@@ -481,7 +481,7 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
             if not (child / "run.json").exists():
                 continue  # not a run folder at all
             summary = _unreadable(child)  # one bad run.json must not hide the others
-        if summary["status"] == "running" and lock_is_free(child):
+        if summary["status"] == "running" and holder_gone(child):
             summary["status"] = STOPPED
         found.append(summary)
     return found

@@ -41,7 +41,6 @@ __all__ = [
     "holder_gone",
     "in_use_error",
     "lock_holder",
-    "lock_is_free",
 ]
 
 LOCK_NAME = ".lock"
@@ -154,14 +153,18 @@ def lock_holder(run_dir: str | Path) -> str | None:
 
 
 def holder_gone(run_dir: str | Path) -> bool:
-    """Whether the process that ran the folder is surely gone, read from ``.lock`` without
-    touching the lock (no probe, so a run starting meanwhile is never refused): no file (a
-    run holds one while it runs), or one naming a process of this host that no longer exists.
-    Another host's process, or an unreadable file: False (nothing known from here)."""
+    """Whether the process that ran the folder is surely gone: the one rule for showing a run
+    whose run.json says "running" as stopped (``ariel runs``, campaign status, report, watch).
+
+    Its lock is free (the kernel frees a killed process's lock at once; the probe holds a
+    shared lock for microseconds, which a starting run waits out). Where this file system
+    cannot tell, ``.lock`` is read instead: gone when it names a process of this host that no
+    longer exists. Another host's process, or an unreadable file: False (nothing known)."""
+    state, _ = _probe(run_dir)
+    if state != "unknown":
+        return state == "free"
     try:
         words = _lock_text(Path(run_dir) / LOCK_NAME).split()
-    except FileNotFoundError:
-        return True
     except (OSError, ValueError):
         return False
     # as `RunLock.acquire` writes it: "pid N on host H"
@@ -174,11 +177,6 @@ def holder_gone(run_dir: str | Path) -> bool:
     except (OSError, ValueError):
         return False
     return False
-
-
-def lock_is_free(run_dir: str | Path) -> bool:
-    """True when surely no process holds the run folder's lock (False: held, or unknown)."""
-    return _probe(run_dir)[0] == "free"
 
 
 class RunLock:

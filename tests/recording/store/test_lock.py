@@ -209,5 +209,11 @@ def test_runs_calls_a_run_stopped_only_when_its_lock_is_surely_free(
     with RunLock(tmp_path / "r"):
         assert [r["status"] for r in list_runs(tmp_path)] == ["running"]
     assert [r["status"] for r in list_runs(tmp_path)] == ["stopped (killed?)"]
+    # a free .lock naming a live process (its pid reused since): the free lock decides
+    (tmp_path / "r" / LOCK_NAME).write_text(f"pid {os.getpid()} on host {socket.gethostname()}")
+    assert [r["status"] for r in list_runs(tmp_path)] == ["stopped (killed?)"]
+    assert lock_module.holder_gone(tmp_path / "r")  # the one rule report and watch use too
     monkeypatch.setattr(lock_module, "fcntl", None)  # a platform that cannot tell
-    assert [r["status"] for r in list_runs(tmp_path)] == ["running"]
+    assert [r["status"] for r in list_runs(tmp_path)] == ["running"]  # that process lives
+    (tmp_path / "r" / LOCK_NAME).write_text(f"pid {2**22 + 7} on host {socket.gethostname()}")
+    assert [r["status"] for r in list_runs(tmp_path)] == ["stopped (killed?)"]  # no such pid

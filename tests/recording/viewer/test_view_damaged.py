@@ -20,7 +20,7 @@ from _helpers import TINY_QD, exit_code, one_error_line, repo_env  # noqa: E402
 
 from ariel.errors import ArielError, BrowserError, ViewError  # noqa: E402
 from ariel.evolution import run_experiment  # noqa: E402
-from ariel.recording import load_run  # noqa: E402
+from ariel.recording import RunLock, load_run  # noqa: E402
 from ariel.recording.viewer._browser import HeadlessChromium, find_chromium  # noqa: E402
 from ariel.recording.viewer._select import best_evaluations, select_recordings  # noqa: E402
 
@@ -155,9 +155,9 @@ def test_a_running_run_s_unreadable_generation_is_a_note_and_the_watch_goes_on(
     os.truncate(copy / "evaluations" / "gen-000000.parquet", 1000)
     info = json.loads((copy / "run.json").read_text())
     (copy / "run.json").write_text(json.dumps({**info, "status": "running"}))
-    (copy / ".lock").write_text(f"pid {os.getpid()} on host {os.uname().nodename}\n")
     monkeypatch.setattr(unreadable, "NOTE_AFTER_S", 0.0)
-    _poll_once(copy)  # no error: a running run's generation may be being written
+    with RunLock(copy):  # its run holds the lock
+        _poll_once(copy)  # no error: a running run's generation may be being written
     err = capsys.readouterr().err
     assert "generation 0" in err and "cannot be read yet" in err and len(err.splitlines()) == 1
 
