@@ -75,8 +75,32 @@ def rerun_file_problem(
     """What is wrong with the Rerun file at ``path`` (a recording; ``layout``: a blueprint),
     as a predicate ("is not a Rerun file (...)"); None when nothing is. ``recording_id``:
     the id its recording must have. ``decode``: read every chunk too (for small files).
-    Rerun's warnings (a file without a footer) are kept quiet: what matters is said here."""
-    return _read(Path(path), layout=layout, recording_id=recording_id, decode=decode)[0]
+    Rerun's warnings (a file without a footer) are kept quiet: what matters is said here.
+    A file found sound is not read again while it stays as it was (`_SOUND`): a view checks
+    the best evaluation's recording while choosing it and again before opening it."""
+    path = Path(path)
+    try:
+        info = path.stat()
+    except OSError:
+        info = None
+    key = None
+    if info is not None:
+        identity = (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns)
+        key = (str(path.absolute()), *identity, layout, recording_id)
+    if key is not None and key in _SOUND and (_SOUND[key] or not decode):
+        return None
+    problem = _read(path, layout=layout, recording_id=recording_id, decode=decode)[0]
+    if problem is None and key is not None:
+        if len(_SOUND) >= _SOUND_MAX:
+            _SOUND.clear()
+        _SOUND[key] = decode or _SOUND.get(key, False)
+    return problem
+
+
+#: Files found sound in this process, by path, identity, size, time and how they were read
+#: (value: decoded whole); a changed file has another key and is read again.
+_SOUND: dict[tuple[object, ...], bool] = {}
+_SOUND_MAX = 4096
 
 
 def recording_problem(path: str | os.PathLike[str]) -> str | None:

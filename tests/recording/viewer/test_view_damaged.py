@@ -70,6 +70,27 @@ def test_a_damaged_evaluation_recording_is_re_simulated_with_a_note(
     assert "RerunWarning" not in err
 
 
+def test_each_recording_is_read_once_to_choose_and_check_it(
+    copy: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import ariel.recording.viewer._rerun_files as rerun_files
+
+    reads: list[str] = []
+    real = rerun_files._read
+    monkeypatch.setattr(
+        rerun_files, "_read", lambda path, **kw: reads.append(path.name) or real(path, **kw)
+    )
+    chosen = select_recordings(copy)
+    assert chosen.overview is not None and sorted(reads) == sorted({*reads})
+    assert chosen.overview.name in reads and "run.rrd" in reads
+    reads.clear()
+    select_recordings(copy, eval_id=chosen.overview.stem)
+    assert reads == []  # unchanged since: not read again
+    os.utime(chosen.overview, ns=(1, 1))  # changed: read again
+    select_recordings(copy, eval_id=chosen.overview.stem)
+    assert reads == [chosen.overview.name]
+
+
 def test_another_evaluation_s_recording_copied_over_is_not_shown_as_this_one(
     copy: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
