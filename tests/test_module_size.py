@@ -21,7 +21,7 @@ MAX_LINES, MAX_FUNCTION = 400, 60
 
 # path -> its code lines when listed; "path:function" -> the function's code lines when listed.
 MODULES_OVER = {
-    "simulation/controllers/cpg_kernel.py": 444,
+    "simulation/controllers/cpg_kernel.py": 448,
     "simulation/environments/_base.py": 458,
 }
 FUNCTIONS_OVER: dict[str, int] = {}

@@ -12,6 +12,7 @@ from ariel.utils.lazy import lazy_face
 
 if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.utils._arguments import (
+        count_argument as count_argument,
         flag_argument as flag_argument,
         path_argument as path_argument,
         strings_argument as strings_argument,
@@ -49,6 +50,7 @@ _INTERNAL: dict[str, str] = {
     "accept_aliases": "ariel.utils._keywords",
     "ariel_command": "ariel.utils._commands",
     "ariel_line": "ariel.utils._commands",
+    "count_argument": "ariel.utils._arguments",
     "ensure_headless_gl": "ariel.utils._gl",
     "file_kind": "ariel.utils._file_kind",
     "flag_argument": "ariel.utils._arguments",

@@ -5,11 +5,12 @@ True (``overwrite="no"`` must not replace a run)."""
 
 from __future__ import annotations
 
+import numbers
 import os
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["flag_argument", "path_argument", "strings_argument"]
+__all__ = ["count_argument", "flag_argument", "path_argument", "strings_argument"]
 
 
 def _shown(value: object) -> str:
@@ -52,3 +53,16 @@ def strings_argument(
                 function, f"{name}[{items.index(item)}]", f"a string such as {example!r}", item
             )
     return items
+
+
+def count_argument(name: str, value: object, *, maximum: int, function: str = "") -> int:
+    """``value`` as a whole number from 0 to ``maximum``: an int (a NumPy integer too, never a
+    bool or a str), `TypeError` otherwise; `ValueError` outside that range (a count that
+    would take all memory before saying anything)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise _refused(function, name, f"an int from 0 to {maximum}", value)
+    count = int(value)
+    if not 0 <= count <= maximum:
+        where = f"{function}: {name}" if function else name
+        raise ValueError(f"{where} must be from 0 to {maximum}, not {count}")
+    return count

@@ -12,6 +12,7 @@ import torch
 
 from ariel.ec.genotypes.nde import NeuralDevelopmentalEncoding
 from ariel.ec.genotypes.nde.encoder import MAX_MODULES
+from ariel.simulation.controllers.cpg_kernel import MAX_CPG_NODES, fully_connected_adjacency_matrix
 from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
 from ariel.simulation.environments import (
     AmphitheatreTerrainWorld,
@@ -40,8 +41,16 @@ def test_terrain_world_seed(world: type, seed: object) -> None:
 
 def test_nacpg_seed_and_adjacency_size() -> None:
     _refused(ValueError, "NaCPG: seed must be None or an int", NaCPG, {0: []}, seed="x")
-    _refused(TypeError, "num_nodes must be an int >= 0", create_fully_connected_adjacency, "8")
+    for make, name in (
+        (create_fully_connected_adjacency, "num_nodes"),
+        (fully_connected_adjacency_matrix, "n"),
+    ):
+        for bad in ("8", 2.0, True):
+            _refused(TypeError, f"{name} must be an int from 0 to {MAX_CPG_NODES}", make, bad)
+        for bad in (-1, MAX_CPG_NODES + 1, 10**9):  # 10**9 nodes: 10**18 couplings, no memory
+            _refused(ValueError, f"{name} must be from 0 to {MAX_CPG_NODES}", make, bad)
     assert create_fully_connected_adjacency(np.int64(2)) == {0: [1], 1: [0]}
+    assert fully_connected_adjacency_matrix(np.int64(2)).tolist() == [[0, 1], [1, 0]]
 
 
 def test_nde_number_of_modules_has_the_encoders_limit() -> None:

@@ -65,6 +65,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ariel.utils import count_argument
+
 try:  # the clip ufunc itself: one C call, unlike the np.clip Python wrapper
     from numpy._core.umath import clip as _clip_ufunc
 except ImportError:  # pragma: no cover - numpy < 2.0
@@ -74,6 +76,7 @@ __all__ = [
     "DEFAULT_HARD_BOUNDS",
     "DERIVATIVE_CLAMP",
     "EPSILON",
+    "MAX_CPG_NODES",
     "NUM_PARAMETER_GROUPS",
     "PARAMETER_GROUPS",
     "STEP_TOLERANCE",
@@ -99,6 +102,8 @@ DERIVATIVE_CLAMP = 10.0
 STEP_TOLERANCE = 1e-9
 """Added to ``t / dt`` before flooring, so accumulated float time lands on the right step."""
 DEFAULT_HARD_BOUNDS = (-math.pi / 2, math.pi / 2)
+#: The most nodes (actuators) a full coupling is made for: the NDE's biggest body has 200.
+MAX_CPG_NODES = 1024
 
 
 class CPGState(NamedTuple):
@@ -127,10 +132,10 @@ def fully_connected_adjacency_matrix(n: int) -> np.ndarray:
         ``1 - eye(n)``, float64.
 
     Raises:
-        ValueError: If ``n`` is negative.
+        TypeError: If ``n`` is not an int.
+        ValueError: If ``n`` is negative or over `MAX_CPG_NODES`.
     """
-    if n < 0:
-        raise ValueError(f"number of nodes must be >= 0, got {n}")
+    n = count_argument("n", n, maximum=MAX_CPG_NODES, function="fully_connected_adjacency_matrix")
     return 1.0 - np.eye(n)
 
 

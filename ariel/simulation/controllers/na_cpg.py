@@ -33,6 +33,7 @@ from torch import nn
 from ariel.simulation.controllers.cpg_kernel import (
     DEFAULT_HARD_BOUNDS,
     EPSILON,
+    MAX_CPG_NODES,
     NUM_PARAMETER_GROUPS,
     PARAMETER_GROUPS,
     STEP_TOLERANCE,
@@ -43,6 +44,7 @@ from ariel.simulation.controllers.cpg_kernel import (
     _outputs,
     adjacency_matrix,
 )
+from ariel.utils import count_argument
 
 __all__ = ["NaCPG", "create_fully_connected_adjacency"]
 
@@ -62,16 +64,11 @@ def create_fully_connected_adjacency(num_nodes: int) -> dict[int, list[int]]:
 
     Raises:
         TypeError: If ``num_nodes`` is not an int (e.g. ``model.nu``).
-        ValueError: If ``num_nodes`` is negative.
+        ValueError: If ``num_nodes`` is negative or over `MAX_CPG_NODES` (1024).
     """
-    if isinstance(num_nodes, bool) or not isinstance(num_nodes, numbers.Integral):
-        raise TypeError(
-            f"create_fully_connected_adjacency: num_nodes must be an int >= 0 (e.g. model.nu), "
-            f"not {type(num_nodes).__name__} {num_nodes!r}"
-        )
-    if num_nodes < 0:
-        raise ValueError(f"num_nodes must be >= 0; got {num_nodes}")
-    num_nodes = int(num_nodes)
+    num_nodes = count_argument(
+        "num_nodes", num_nodes, maximum=MAX_CPG_NODES, function="create_fully_connected_adjacency"
+    )
     return {i: [j for j in range(num_nodes) if j != i] for i in range(num_nodes)}
 
 
