@@ -99,6 +99,7 @@ __all__ = [
     "fitness_functions",
     "plugin_provenance",
     "refresh_all",
+    "script_plugins",
     "worlds",
 ]
 
@@ -220,6 +221,30 @@ def plugin_provenance(names: Mapping[str, str]) -> dict[str, dict[str, str | Non
             raise ValueError(f"unknown plugin kind '{kind}'; known: {', '.join(REGISTRIES)}")
         result[kind] = REGISTRIES[kind].provenance(name)
     return result
+
+
+def script_plugins(provenance: object) -> list[tuple[str, str]]:
+    """The plugins of a run that a new process (``ariel resume``) does not know: registered
+    by a script, a notebook or a module of its own, rather than ariel's own or an installed
+    entry point, as run.json's ``plugins`` (`plugin_provenance`) recorded them.
+
+    Args:
+        provenance: run.json's ``plugins``: for each kind, ``{"kind", "name", "source",
+            "object", ...}``; anything else (an older or crafted run.json) counts as none.
+
+    Returns:
+        Each such plugin's kind (a key of `REGISTRIES`) and name, in the kinds' order.
+    """
+    found = []
+    entries = provenance.values() if isinstance(provenance, Mapping) else ()
+    for entry in entries:
+        if not isinstance(entry, Mapping) or entry.get("source") != "registered":
+            continue
+        kind, name = entry.get("kind"), entry.get("name")
+        module = str(entry.get("object", "")).partition(":")[0]
+        if kind in REGISTRIES and isinstance(name, str) and module.partition(".")[0] != "ariel":
+            found.append((kind, name))
+    return found
 
 
 # The checkers' home is `ariel.evaluation` (they run the engine, a layer above this one); the

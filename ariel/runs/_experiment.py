@@ -12,10 +12,11 @@ import contextlib
 import datetime as _dt
 import shutil
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from ariel.errors import ConfigError
 from ariel.evaluation import WorkerCannotStartError
 from ariel.evolution import (
     ExperimentConfig,
@@ -26,6 +27,7 @@ from ariel.evolution import (
     refuse_in_spawned_child,
     shows_progress,
 )
+from ariel.plugins import REGISTRIES, script_plugins
 from ariel.recording.store import RunFolder, check_new_id, storage_errors
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
     PreparedRun,
@@ -262,11 +264,13 @@ def resume_experiment(
         ValueError: When the run is already finished, or its config cannot be read or was
             edited after the run started.
         RunInUseError: When another process runs (or resumes) the run.
-        ConfigError: For a bad executor setting.
+        ConfigError: For a bad executor setting, or a plugin the run's script registered
+            that is not registered here.
     """
     folder = RunFolder(path_argument("run_dir", run_dir, function="resume_experiment"))
     flag_argument("progress", progress, none=True, function="resume_experiment")
     info, config, _ = resumable(folder)
+    _check_script_plugins_known(folder.path, info)
     # Unless told otherwise, continue on the kind of executor the run last ran on (results do
     # not depend on it), but never on a Dask scheduler the folder names: only on one passed here.
     settings = resume_settings(
@@ -282,3 +286,17 @@ def resume_experiment(
         session = RunSession.reopen(folder, locks, settings)
         with stop_on_signals(), noted_on_interrupt("run_dir", folder.path):
             return _drive(session, progress)
+
+
+def _check_script_plugins_known(run_dir: Path, info: Mapping[str, Any]) -> None:
+    """A plugin the run's script (or notebook) registered, unknown here (``ariel resume``, or
+    a script that no longer registers it): `ConfigError` saying where to resume from, rather
+    than only that the name is unknown."""
+    for kind, name in script_plugins(info.get("plugins")):
+        if name not in REGISTRIES[kind]:
+            raise ConfigError(
+                f"{REGISTRIES[kind].label} {name[:60]!r} of run {str(run_dir)!r} was registered "
+                "by the script (or notebook) that made the run, and is not registered here: "
+                f"resume the run from that script, resume_experiment({str(run_dir)!r}), after "
+                "it registers the plugin"
+            )

@@ -21,7 +21,6 @@ from _helpers import ariel_run, exit_code, one_error_line, repo_env, tiny_run_to
 from ariel.cli import main
 from ariel.plugins import fitness_function, fitness_functions
 from ariel.recording import load_run
-from ariel.utils._commands import ariel_line
 
 
 @pytest.fixture
@@ -147,9 +146,20 @@ def test_a_plugin_failing_during_a_run_stops_it_in_one_line_resumable(
         r"fitness function 'test_fails_late' failed in evaluation b\d{6}-i000-c\d{3}", line
     )
     assert "ZeroDivisionError: the plugin's own bug" in line and "error.log" in line
-    assert line.endswith(f"fix the plugin, then {ariel_line('resume', out)}"), line  # pasteable
+    # registered by this module, not ariel's nor an entry point: `ariel resume` would not
+    # know it, so the hint names the script's way (pasted, the CLI line failed: unknown plugin)
+    assert line.endswith(
+        f"fix the plugin, then resume_experiment({str(out)!r}) in the script that registers "
+        "its fitness function 'test_fails_late' (the ariel command does not know it)"
+    ), line
     assert "Traceback" in (out / "error.log").read_text()
     assert json.loads((out / "run.json").read_text())["status"] == "failed"
+    plugin = fitness_functions.unregister("test_fails_late")  # as in a new `ariel resume`
+    assert exit_code(["resume", str(out), "--quiet"]) == 2
+    line = one_error_line(capsys)
+    assert "fitness function 'test_fails_late'" in line and "registered by the script" in line
+    assert f"resume_experiment({str(out)!r})" in line
+    fitness_functions.register("test_fails_late", plugin)
     broken["on"] = False  # the plugin fixed
     assert main(["resume", str(out), "--quiet"]) == 0
     assert load_run(out).info["status"] == "finished"

@@ -8,9 +8,10 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ariel.errors import PluginFailedError, UnknownPluginError
+from ariel.errors import NotARunError, PluginFailedError, UnknownPluginError
 from ariel.evolution import ERROR_LOG, ExperimentConfig, plugin_named
 from ariel.recording.store._files import atomic_write_bytes
+from ariel.recording.store._run_folder import RunFolder, resume_line
 from ariel.utils import ariel_line
 
 if TYPE_CHECKING:
@@ -43,8 +44,11 @@ def plugin_failure(
             "the script or of a module it imports (docs/plugins.md), or run on executor "
             f'"serial"; the run stopped, its finished generations are kept{where}'
         )
+    try:
+        resume = resume_line(Path(run_dir), RunFolder(run_dir).read_info())
+    except NotARunError:
+        resume = ariel_line("resume", run_dir)
     return PluginFailedError(
         f"{plugin} failed in evaluation {task.eval_id}: {first}{where}; "
-        f"the run stopped, its finished generations are kept: fix the plugin, then "
-        f"{ariel_line('resume', run_dir)}"
+        f"the run stopped, its finished generations are kept: fix the plugin, then {resume}"
     )

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, TypeAlias
 
 from ariel.errors import DamagedRunError, NotARunError, RunStorageError
+from ariel.plugins import REGISTRIES, script_plugins
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import (
     atomic_write_bytes,
@@ -59,6 +60,7 @@ __all__ = [
     "finished_generations",
     "json_data",
     "json_file",
+    "resume_line",
     "storage_errors",
 ]
 
@@ -180,7 +182,7 @@ def _storage_message(exc: OSError, run_dir: Path) -> str | None:
         return f"{problem}; {bad}"
     return (
         f"{problem}; the run stopped, its {done} finished generation(s) are kept: "
-        f"make room (or fix the folder), then continue with: {ariel_line('resume', run_dir)}"
+        f"make room (or fix the folder), then continue with: {resume_line(run_dir, info)}"
     )
 
 
@@ -203,12 +205,26 @@ def _instead(path: Path) -> str:
     """What to do about an existing folder at ``path``: replace or continue a run, or choose
     another folder (the command to paste where there is one)."""
     try:
-        status = RunFolder(path).read_info().get("status")
+        info = RunFolder(path).read_info()
     except NotARunError:
         return "choose another --out (it is not an ariel run folder: --overwrite leaves it alone)"
-    if status == "finished":
+    if info.get("status") == "finished":
         return "pass --overwrite to replace it, or choose another --out"
-    return f"pass --overwrite to replace it, or continue it with: {ariel_line('resume', path)}"
+    return f"pass --overwrite to replace it, or continue it with: {resume_line(path, info)}"
+
+
+def resume_line(run_dir: Path, info: Mapping[str, Any]) -> str:
+    """How to continue the run at ``run_dir`` (run.json ``info``), to paste: ``ariel resume
+    RUN``; where a plugin of the run was registered by a script or notebook, which the ariel
+    command does not know (`script_plugins`), ``resume_experiment`` from that script."""
+    found = script_plugins(info.get("plugins"))
+    if not found:
+        return ariel_line("resume", run_dir)
+    kind, name = found[0]
+    return (
+        f"resume_experiment({str(run_dir)!r}) in the script that registers its "
+        f"{REGISTRIES[kind].label} {name[:60]!r} (the ariel command does not know it)"
+    )
 
 
 class RunFolder:
