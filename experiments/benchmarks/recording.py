@@ -32,7 +32,7 @@ Prints a table, then as the last line one JSON object with ``recording_overhead_
 ``projected_default_folder_bytes`` and context.
 
     python experiments/benchmarks/recording.py [--generations 10] [--population 8]
-        [--offspring 8] [--popsize 8] [--iterations 6] [--duration 8] [--bodies elites]
+        [--offspring 8] [--popsize 4] [--iterations 12] [--duration 8] [--bodies elites]
         [--workers N] [--repeats 1] [--seed 1] [--quick]
 """
 

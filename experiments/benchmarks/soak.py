@@ -37,7 +37,7 @@ Prints a table per generation and a summary, then as the last line one JSON obje
 ``driver_fds_first``, ``driver_fds_last`` and more.
 
     python experiments/benchmarks/soak.py [--generations 10] [--population 8] [--offspring 8]
-        [--popsize 8] [--iterations 6] [--duration 8] [--bodies all] [--executor local]
+        [--popsize 4] [--iterations 12] [--duration 8] [--bodies all] [--executor local]
         [--workers N] [--seed 1] [--interval 1.0] [--out DIR] [--quick]
 """
 
