@@ -3,7 +3,8 @@ campaigns (`load_campaign`, `compare`, `write_campaign_recording`), `make_report
 `make_gallery` (a run's bodies side by side: a PNG contact sheet and an HTML page),
 `joint_labels` (joint names for people), the lineage in the ALife phylogeny format (`lineage`,
 `write_lineage_csv`, `lineage_statistics`, `lineage_statistics_by_run`, `ancestors`),
-`load_exported` (an `ariel export` folder's robot),
+`load_exported` (an `ariel export` folder's robot), `table_schema` (a table's Arrow schema,
+to read a table folder with pandas or pyarrow),
 `watch` (a live view of a running run or campaign), and the Rerun writers
 (`write_evaluation_recording`, `write_generation_recording`, `write_run_recording`,
 `write_blueprint`).
@@ -63,6 +64,7 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         load_campaign as load_campaign,
         load_run as load_run,
         population_after_selection as population_after_selection,
+        table_schema as table_schema,
         verify_run as verify_run,
         write_lineage_csv as write_lineage_csv,
     )
@@ -87,6 +89,7 @@ _LAZY: dict[str, str] = {
     "DamagedRunError": "ariel.recording.store",
     "UnsafePathError": "ariel.recording.store",
     "verify_run": "ariel.recording.store",
+    "table_schema": "ariel.recording.store",
     "RunFolder": "ariel.recording.store",
     "RunStorageError": "ariel.recording.store",
     "RunInUseError": "ariel.recording.store",

@@ -144,6 +144,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         read_file as read_file,
         read_table as read_table,
         recording_path as recording_path,
+        table_schema as table_schema,
         to_pandas as to_pandas,
     )
     from ariel.recording.store._verify import (
@@ -248,6 +249,7 @@ _INTERNAL: dict[str, str] = {
     "short_ascii": "ariel.recording.store._escape",
     "software_versions": "ariel.recording.store._provenance",
     "storage_errors": "ariel.recording.store._run_folder",
+    "table_schema": "ariel.recording.store._tables",
     "terminal_text": "ariel.recording.store._escape",
     "to_pandas": "ariel.recording.store._tables",
     "verify_run": "ariel.recording.store._verify",

@@ -72,6 +72,7 @@ __all__ = [
     "row_limit",
     "rows_problem",
     "table_generations",
+    "table_schema",
     "to_pandas",
     "trajectory_columns",
     "trajectory_schema",
@@ -167,6 +168,29 @@ _SCHEMAS = {
     "archive": archive_schema,
     "novelty": novelty_schema,
 }
+
+
+def table_schema(table: str) -> pa.Schema:
+    """The Arrow schema of one of a run's tables, as `load_run` reads it.
+
+    A whole table folder reads as one dataset with it where pandas or pyarrow would refuse
+    the folder: a ``trajectories`` folder's files may hold the joint lists as fixed-size lists
+    in one generation and variable lists in another
+    (``pandas.read_parquet("RUN/trajectories", schema=table_schema("trajectories"))``).
+
+    Args:
+        table: One of ``evaluations``, ``bodies``, ``trajectories``, ``archive``,
+            ``novelty``.
+
+    Returns:
+        The table's columns and their types (joint lists as variable lists).
+
+    Raises:
+        ValueError: For another name.
+    """
+    if table not in _SCHEMAS:
+        raise ValueError(f"no table {str(table)[:40]!r}; the tables: {', '.join(TABLES)}")
+    return _SCHEMAS[table]()
 
 
 def recording_path(run_dir: str | Path, generation: int, eval_id: str) -> Path:

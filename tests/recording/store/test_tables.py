@@ -14,7 +14,7 @@ import pytest
 from _helpers import tiny_finished_run
 
 from ariel.body_phenotypes.robogen_lite.descriptors import DESCRIPTOR_NAMES
-from ariel.recording import load_run
+from ariel.recording import load_run, table_schema
 from ariel.recording.store._tables import (
     COUNT_DESCRIPTORS,
     body_schema,
@@ -105,6 +105,15 @@ def test_joint_lists_are_fixed_size_where_every_row_has_as_many_joints(tmp_path:
     assert every.schema.field("joint_target").type == pa.list_(pa.float64())
     assert every.column("joint_target").to_pylist()[-1] == [1.0]
     assert every.column("joint_target").to_pylist()[:2] == [[0.0, 1.0], [2.0, 3.0]]
+    # pandas refuses the folder as it is (fixed-size and variable lists), reads it with the
+    # table's schema (docs/records.md)
+    folder = tmp_path / "trajectories"
+    with pytest.raises(pa.ArrowInvalid):
+        pd.read_parquet(folder)
+    frame = pd.read_parquet(folder, schema=table_schema("trajectories"))
+    assert len(frame) == every.num_rows and list(frame["joint_target"].iloc[-1]) == [1.0]
+    with pytest.raises(ValueError, match="no table 'trajectory'; the tables: evaluations"):
+        table_schema("trajectory")
 
 
 def test_joint_signals_are_a_time_by_joint_frame(run_dir: Path) -> None:
