@@ -132,7 +132,6 @@ def trajectory_columns(
     number, about a million a generation) they left the driver's heap larger after every
     generation (soak benchmark).
     """
-
     counts = [int(result.time.size) for _, result in frames]
     rows = np.repeat(np.arange(len(frames), dtype=np.int64), counts)
 
