@@ -19,7 +19,7 @@ import pandas as pd
 
 from ariel.recording.analysis._compare_design import MEASURES, QD_COLUMNS
 from ariel.recording.analysis._compare_lineage import LINEAGE_MEASURES, measures
-from ariel.recording.analysis._compare_stats import ALPHA
+from ariel.recording.analysis._compare_stats import ALPHA, NOT_DETECTABLE
 from ariel.recording.store import (
     atomic_write,
     html_text,
@@ -83,6 +83,15 @@ def _paired_wins(row: dict[str, Any]) -> str:
     return f"{share * pairs:g} of {pairs:g}"
 
 
+def _effect(row: dict[str, Any], paired: bool) -> str:
+    """The effect's size; in a paired design with the number it sizes (A's share of the
+    signed ranks), which A12 is not."""
+    share = row.get("effect_size", math.nan)
+    if not paired or row["effect"] == NOT_DETECTABLE or not isinstance(share, float):
+        return row["effect"]
+    return row["effect"] if math.isnan(share) else f"{row['effect']} (ranks {share:.2f})"
+
+
 def _test(row: dict[str, Any]) -> str:
     pairs = row.get("n_pairs")
     return f"{row['test']}, {pairs} pairs" if pairs is not None else row["test"]
@@ -102,7 +111,7 @@ def format_stats(stats: pd.DataFrame, *, paired: bool = False) -> list[list[str]
             _test(row),
             _number(row["p_holm"]),
             _a12_with_n(row),
-            row["effect"],
+            _effect(row, paired),
             row["better"],
         ]
         if paired:
@@ -189,16 +198,23 @@ def _note(comparison: Comparison, escape: Callable[[object], str] = str) -> str:
         f"Fitness: {escape(comparison.fitness_fn)} ({direction} is better). Every run is "
         f"compared at {n} evaluations: final best = its best fitness after them; AUC = the mean "
         f"of its best fitness so far over evaluations 1..{n} (the area under the best-so-far "
-        f"curve / N, in the fitness's unit; {direction} is better too). A12 = P(a run of A "
+        "curve / N; before a run's first finished evaluation, the worst fitness of the runs "
+        f"compared; in the fitness's unit, {direction} is better too). A12 = P(a run of A "
         "beats a run of B), ties half; 0.5 = no effect; n: runs per condition. Tests: "
-        f"{comparison.tests.describe()}. better: the better condition where p (Holm) < "
-        f"{ALPHA:g}. An effect is labelled (small, medium, large) only where the test could "
-        f"reach p (Holm) < {ALPHA:g} with these n. CIs: 95 % percentile bootstrap"
-        + (", resampling seeds." if comparison.tests.paired else ".")
+        f"{comparison.tests.describe()}. better: the condition the test finds better where "
+        f"p (Holm) < {ALPHA:g}. An effect is labelled (small, medium, large) only where the "
+        f"test could reach p (Holm) < {ALPHA:g} with these n"
+        + (_PAIRED_NOTE if comparison.tests.paired else ". CIs: 95 % percentile bootstrap.")
         + (_LINEAGE_NOTE.format(n=n) if _has_lineage(comparison) else "")
     )
 
 
+_PAIRED_NOTE = (
+    "; in this paired design it sizes the Wilcoxon test's own effect, A's share of the "
+    "signed ranks (ranks: 0.5 = no lean, 1 = A better on every seed that differs), with "
+    "A12's limits. A - B and its CI (95 % percentile bootstrap, resampling seeds) are on the "
+    "seeds both conditions have."
+)
 _LINEAGE_NOTE = (
     " Lineage (co-evolution runs), after the last generation within the {n} evaluations: "
     "surviving lineages = the founders (bodies of a random genotype) with a descendant in "

@@ -25,6 +25,7 @@ from ariel.recording.analysis._compare_stats import (
     pairing_notes,
     pairwise_table,
     small_n_warning,
+    tied_pairs_note,
 )
 from ariel.recording.store import best_so_far, on_grid
 
@@ -53,14 +54,41 @@ def _best_curves(
     return curves
 
 
-def _measures(curve: RunCurve, maximise: bool, budget: int) -> dict[str, float]:
-    """A run's best so far after ``budget`` evaluations and the mean of its best so far over
-    evaluations 1..budget (from its first finished evaluation on); NaN without one."""
+def _finished(curve: RunCurve, budget: int) -> np.ndarray:
+    """The fitness of the run's finished evaluations among its first ``budget`` (in the order
+    `best_so_far` counts them)."""
+    ordered = curve.evaluations.sort_values(["generation", "eval_id"], kind="stable")
+    ordered = ordered.iloc[:budget]
+    fitness = ordered["fitness"].to_numpy(dtype=np.float64)
+    return fitness[(ordered["status"] == "ok").to_numpy() & np.isfinite(fitness)]
+
+
+def _worst(curves: Sequence[RunCurve], maximise: bool, budget: int) -> float:
+    """The worst fitness any of ``curves``' finished evaluations had within ``budget`` (NaN
+    without one): what `_measures` counts before a run's first finished evaluation."""
+    found = [_finished(c, budget) for c in curves]
+    values = np.concatenate(found) if found else np.array([])
+    if not len(values):
+        return math.nan
+    return float(values.min() if maximise else values.max())
+
+
+def _measures(
+    curve: RunCurve, maximise: bool, budget: int, worst: float | None = None
+) -> dict[str, float]:
+    """A run's best so far after ``budget`` evaluations, and its AUC: the area under its
+    best-so-far curve over evaluations 1..budget divided by their number, where the curve
+    stands at ``worst`` before the run's first finished evaluation (default: the run's own
+    worst finished fitness; `compare` gives the worst of all runs compared). NaN without a
+    finished evaluation."""
     _, best = best_so_far(curve.evaluations, maximise)
     best = best[:budget]
     final = float(best[-1]) if len(best) == budget else math.nan
-    finite = best[np.isfinite(best)]
-    return {"final_best": final, "auc": float(finite.mean()) if len(finite) else math.nan}
+    finite = np.isfinite(best)
+    if not finite.any():
+        return {"final_best": final, "auc": math.nan}
+    floor = _worst([curve], maximise, budget) if worst is None or math.isnan(worst) else worst
+    return {"final_best": final, "auc": float(np.where(finite, best, floor).mean())}
 
 
 def _qd_at_budget(curve: RunCurve, budget: int) -> dict[str, float]:
@@ -79,13 +107,14 @@ def _qd_at_budget(curve: RunCurve, budget: int) -> dict[str, float]:
 def _run_rows(
     curves: Sequence[RunCurve], truncated: Sequence[RunCurve], maximise: bool, budget: int
 ) -> list[dict[str, Any]]:
+    worst = _worst(truncated, maximise, budget)
     return [
         {
             "condition": whole.condition,
             "seed": whole.seed,
             "evaluations": len(whole.evaluations),
             "compared_at": budget,
-            **_measures(cut, maximise, budget),
+            **_measures(cut, maximise, budget, worst),
             **_qd_at_budget(whole, budget),
             **lineages.at_budget(whole, budget),
             "path": whole.path,
@@ -134,7 +163,8 @@ def _statistics(
     first = [r for r in rows if r["measure"] == "final best"]
     sizes = runs.groupby("condition", sort=False).size().to_dict()
     notes = [
-        small_n_warning(first, sizes, choice, omnibus[0] if omnibus else None),
+        small_n_warning(rows, sizes, choice, omnibus),  # rows: "final best" first
+        tied_pairs_note(rows),
         *pairing_notes(first),
     ]
     return rows, omnibus, [n for n in notes if n]

@@ -7,13 +7,17 @@ guard rails those papers ask for (Arcuri & Briand 2011; Bartz-Beielstein et al. 
   of conditions on the seeds both have, and the Friedman test across all conditions when
   there are more than two (on the seeds every condition has). Independent samples (a
   campaign with ``seeding = "independent"``, or plain run folders): the Mann-Whitney U test
-  per pair, Kruskal-Wallis across all. All two-sided. p-values of the pairs are
-  Holm-corrected over all pairs of a measure (Holm 1979).
-- Per pair: the difference of the medians with its bootstrap CI (paired designs resample
-  seeds, not runs), and the Vargha-Delaney A12 effect size (Vargha & Delaney 2000): the chance
-  that a run of the first condition beats one of the second, ties counting half, "beats"
-  meaning better in the fitness's direction (so a minimised fitness compares correctly).
-  Paired designs add the share of seeds on which the first condition is better.
+  per pair, Kruskal-Wallis across all. All two-sided; the pairs' tests exact, ties
+  included (`_compare_exact`). p-values of the pairs are Holm-corrected over all pairs of a
+  measure (Holm 1979).
+- Per pair: the difference of the medians with its bootstrap CI, both on the sample the test
+  uses (paired designs: the seeds both conditions have, resampled as seeds), and the
+  Vargha-Delaney A12 effect size (Vargha & Delaney 2000): the chance that a run of the first
+  condition beats one of the second, ties counting half, "beats" meaning better in the
+  fitness's direction (so a minimised fitness compares correctly). Paired designs add the
+  share of seeds on which the first condition is better, and their effect (``effect_size``,
+  labelled) is the Wilcoxon test's own: the better side's share of the signed ranks.
+- ``better`` follows the test: the side its p comes from.
 - Small samples are said, not hidden: `min_p_value` is the smallest p a test can give with the
   samples' sizes (`holm_floor`: after Holm), and an effect gets no size label ("large", ...)
   where that smallest p is not below `ALPHA`: no test could have detected it.
@@ -37,6 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.stats import bootstrap, mannwhitneyu
 
+from ariel.recording.analysis._compare_exact import signed_rank_share
 from ariel.recording.analysis._compare_samples import (
     Design as Design,
     Sample as Sample,
@@ -44,8 +49,7 @@ from ariel.recording.analysis._compare_samples import (
     paired_values,
 )
 from ariel.recording.analysis._compare_tests import (
-    _mann_whitney_p,
-    _wilcoxon_p,
+    PairTest,
     holm,
     holm_floor,
     max_kruskal_h as max_kruskal_h,
@@ -55,6 +59,7 @@ from ariel.recording.analysis._compare_tests import (
     min_p_wilcoxon,
     omnibus_test as omnibus_test,
     pair_p_value as pair_p_value,
+    pair_test,
 )
 
 __all__ = [
@@ -80,6 +85,7 @@ __all__ = [
     "pairing_notes",
     "pairwise_table",
     "small_n_warning",
+    "tied_pairs_note",
 ]
 
 ALPHA = 0.05
@@ -89,6 +95,12 @@ RESAMPLES = 2000
 FEW_RUNS = 5
 #: The effect label where no test could reach p < `ALPHA` with the samples' sizes.
 NOT_DETECTABLE = "— (n too small)"
+#: Vargha and Delaney's limits of A12's distance from 0.5: below 0.06 negligible, below 0.14
+#: small, below 0.21 medium (A12 0.56, 0.64, 0.71, and symmetrically 0.44, 0.36, 0.29).
+EFFECT_LIMITS = ((0.06, "negligible"), (0.14, "small"), (0.21, "medium"))
+#: Floating-point slack at a limit: A12 = 0.71 (0.71 - 0.5 = 0.20999999999999996) is large,
+#: as 0.29 is.
+_SLACK = 1e-9
 _SEED = 20240514
 
 
@@ -176,12 +188,14 @@ def paired_wins(x: np.ndarray, y: np.ndarray, *, maximise: bool) -> float:
 
 
 def effect_label(value: float) -> str:
-    """Vargha and Delaney's magnitude of A12 (0.5: no effect; symmetric around it)."""
+    """Vargha and Delaney's magnitude of A12 (0.5: no effect; symmetric around it): below
+    0.56 negligible, below 0.64 small, below 0.71 medium, else large (`EFFECT_LIMITS`; a value
+    at a limit, up to float error, takes the larger label on either side of 0.5)."""
     if math.isnan(value):
         return "-"
     distance = abs(value - 0.5)
-    for limit, label in ((0.06, "negligible"), (0.14, "small"), (0.21, "medium")):
-        if distance < limit:
+    for limit, label in EFFECT_LIMITS:
+        if distance < limit - _SLACK:
             return label
     return "large"
 
@@ -208,31 +222,41 @@ def _summary(values: np.ndarray, suffix: str) -> dict[str, float]:
     return {f"{key}_{suffix}": value for key, value in location(values).items()}
 
 
+def _better(names: tuple[str, str], test: PairTest, maximise: bool) -> str:
+    """The better of ``names`` by the test's direction (higher values where ``maximise``)."""
+    lean = test.direction if maximise else -test.direction
+    return names[0] if lean > 0 else names[1] if lean < 0 else "-"
+
+
 def _pair_row(
     names: tuple[str, str], a: Sample, b: Sample, *, maximise: bool, paired: bool
-) -> dict[str, Any]:
-    """One pair's numbers, before the Holm correction (see `pairwise_table`)."""
+) -> tuple[dict[str, Any], str]:
+    """One pair's numbers, before the Holm correction, and the better of the two should the
+    test's p (Holm) be below `ALPHA` (see `pairwise_table`). The difference and its CI are of
+    the sample the test uses: in a paired design the seeds both have."""
     x, y = paired_values(a, b) if paired else (a.values, b.values)
     low, high = median_difference_ci(x, y, paired=paired)
-    pairs = len(x) if paired else None
-    return {
+    test = pair_test(x, y, paired=paired)
+    row = {
         "a": names[0],
         "b": names[1],
         "n_a": len(a),
         "n_b": len(b),
-        "n_pairs": pairs,
+        "n_pairs": len(x) if paired else None,
+        "n_tested": test.tested if paired else None,
         **_summary(a.values, "a"),
         **_summary(b.values, "b"),
-        "difference": float(np.median(a.values) - np.median(b.values))
-        if len(a) and len(b)
-        else math.nan,
+        "difference": float(np.median(x) - np.median(y)) if len(x) and len(y) else math.nan,
         "ci_low": low,
         "ci_high": high,
-        "p_value": _wilcoxon_p(x, y) if paired else _mann_whitney_p(x, y),
-        "min_p": min_p_wilcoxon(len(x)) if paired else min_p_mann_whitney(len(a), len(b)),
+        "p_value": test.p,
+        "min_p": test.min_p,
         "a12": a12(a.values, b.values, maximise=maximise),
         "paired_wins": paired_wins(x, y, maximise=maximise) if paired else math.nan,
     }
+    oriented = (x - y if maximise else y - x) if paired else None
+    row["effect_size"] = row["a12"] if oriented is None else signed_rank_share(oriented)
+    return row, _better(names, test, maximise)
 
 
 def pairwise_table(
@@ -245,34 +269,32 @@ def pairwise_table(
     """One row per pair of conditions (in the given order) for one ``measure``.
 
     ``samples``: condition -> `Sample` (or plain values, seeds 0, 1, ...). Columns: ``n_a``,
-    ``n_b`` (runs), ``n_pairs`` (seeds both have; paired only), median / mean / sd of each,
-    difference of the medians (a - b) with its CI, the test and its p (raw, ``p_holm`` over
-    the pairs), ``min_p`` / ``p_floor``: the smallest raw / Holm p reachable with these
-    sizes, A12 (a beats b), ``paired_wins`` (share of seeds a is better on), ``effect`` (its
-    size, or `NOT_DETECTABLE`), and ``better``: the better condition where p (Holm) <
-    `ALPHA`, else ``-``.
+    ``n_b`` (runs), ``n_pairs`` (seeds both have; paired only), ``n_tested`` (of those, the
+    seeds whose values differ: what the Wilcoxon test rests on), median / mean / sd of each
+    (all its runs), the difference of the medians (a - b; paired: on the seeds both have) with
+    its CI, the test and its p (raw, ``p_holm`` over the pairs), ``min_p`` / ``p_floor``: the
+    smallest raw / Holm p reachable with these sizes, A12 (a run of a beats one of b, all
+    runs), ``paired_wins`` (share of seeds a is better on), ``effect_size`` (what ``effect``
+    sizes: A12, or in a paired design a's share of the signed ranks, `signed_rank_share`),
+    ``effect`` (its size, or `NOT_DETECTABLE`), and ``better``: the condition the test finds
+    better where p (Holm) < `ALPHA`, else ``-``.
     """
     found = {name: as_sample(s) for name, s in samples.items()}
-    rows = [
-        {
-            "measure": measure,
-            **_pair_row(
-                (first, second), found[first], found[second], maximise=maximise, paired=paired
-            ),
-        }
+    pairs = [
+        _pair_row((first, second), found[first], found[second], maximise=maximise, paired=paired)
         for first, second in itertools.combinations(found, 2)
     ]
+    rows = [{"measure": measure, **row} for row, _ in pairs]
     test = "Wilcoxon signed-rank" if paired else "Mann-Whitney U"
     adjusted = holm(np.array([row["p_value"] for row in rows]))
     floors = holm_floor([row["min_p"] for row in rows])
-    for row, p, floor in zip(rows, adjusted, floors):
+    for row, (_, better), p, floor in zip(rows, pairs, adjusted, floors):
         row["test"] = test
         row["p_holm"] = float(p)
         row["p_floor"] = float(floor)
         detectable = math.isfinite(floor) and floor < ALPHA
-        row["effect"] = effect_label(row["a12"]) if detectable else NOT_DETECTABLE
-        significant = math.isfinite(p) and p < ALPHA
-        row["better"] = (row["a"] if row["a12"] > 0.5 else row["b"]) if significant else "-"
+        row["effect"] = effect_label(row["effect_size"]) if detectable else NOT_DETECTABLE
+        row["better"] = better if math.isfinite(p) and p < ALPHA else "-"
     return rows
 
 
@@ -282,42 +304,95 @@ def pairwise_table(
 
 
 def _sizes_text(row: Mapping[str, Any]) -> str:
-    if row.get("n_pairs") is not None:
-        return f"{row['n_pairs']} pair{'s' if row['n_pairs'] != 1 else ''}"
+    pairs = row.get("n_pairs")
+    if pairs is not None:
+        return f"{pairs} pair{'s' if pairs != 1 else ''}"
     return f"{row['n_a']} vs {row['n_b']} runs"
+
+
+def _size_floor(row: Mapping[str, Any]) -> float:
+    """The smallest p a pair's test can give with its sizes alone, whatever the values (a
+    paired test's own ``min_p`` also leaves out the seeds that tie)."""
+    pairs = row.get("n_pairs")
+    return min_p_wilcoxon(pairs) if pairs is not None else row["min_p"]
+
+
+def _reach(
+    rows: Sequence[Mapping[str, Any]], omnibus: Sequence[Mapping[str, Any]], test: str
+) -> str:
+    """What no p shown can go below `ALPHA` means for the reader: over every measure's pairs
+    and omnibus tests, not the quoted ones alone."""
+    pairs_cannot = all(r["p_floor"] >= ALPHA for r in rows if math.isfinite(r["p_floor"]))
+    omnibus_can = any(o["min_p"] < ALPHA for o in omnibus if math.isfinite(o["min_p"]))
+    if pairs_cannot and not omnibus_can:
+        return f": no difference can reach p < {ALPHA:g}, effect sizes are not labelled"
+    if pairs_cannot:
+        return (
+            f": no pair of conditions can reach p < {ALPHA:g} (only the {test} test across "
+            "all can), effect sizes are not labelled"
+        )
+    if any(r["p_floor"] >= ALPHA for r in rows):
+        return f": pairs that cannot reach p < {ALPHA:g} get no effect size label"
+    return ""
 
 
 def small_n_warning(
     rows: Sequence[Mapping[str, Any]],
     runs_per_condition: Mapping[str, int],
     choice: Design,
-    omnibus: Mapping[str, Any] | None = None,
+    omnibus: Mapping[str, Any] | Sequence[Mapping[str, Any]] | None = None,
 ) -> str | None:
     """One line where a condition has fewer than `FEW_RUNS` runs: the smallest p the chosen
-    tests can give with these sizes (for the most limited pair; after Holm; the omnibus's)."""
+    tests can give with these sizes whatever the values (for the most limited pair of the
+    first measure in ``rows``; after Holm; the omnibus's, the lowest of ``omnibus``), and
+    what is possible, judged over every p of ``rows`` and ``omnibus`` (every measure's; a
+    paired pair's seeds that tie count out, `tied_pairs_note`)."""
     if not rows or min(runs_per_condition.values(), default=FEW_RUNS) >= FEW_RUNS:
         return None
+    tests = [omnibus] if isinstance(omnibus, Mapping) else list(omnibus or [])
+    tests = [o for o in tests if math.isfinite(o["min_p"])]
     text = f"fewer than {FEW_RUNS} runs per condition (fewest: {min(runs_per_condition.values())})"
     testable = [r for r in rows if math.isfinite(r["min_p"])]
     if not testable:
         return f"{text}: no pair of conditions has runs on both sides to test"
-    weakest = max(testable, key=lambda r: r["min_p"])
+    first = [r for r in testable if r["measure"] == testable[0]["measure"]]
+    floors = [_size_floor(r) for r in first]
+    weakest = int(np.argmax(floors))
     text += (
-        f": {choice.pairwise} cannot give p below {weakest['min_p']:.3g} "
-        f"({_sizes_text(weakest)}, exact, two-sided), {weakest['p_floor']:.3g} after Holm over "
-        f"{len(testable)} pair{'s' if len(testable) != 1 else ''}"
+        f": {choice.pairwise} cannot give p below {floors[weakest]:.3g} "
+        f"({_sizes_text(first[weakest])}, exact, two-sided), "
+        f"{holm_floor(floors)[weakest]:.3g} after Holm over "
+        f"{len(first)} pair{'s' if len(first) != 1 else ''}"
     )
-    if omnibus is not None and math.isfinite(omnibus["min_p"]):
+    if tests:
+        lowest = min(tests, key=lambda o: o["min_p"])
         unit = "seeds" if choice.paired else "runs"
         text += (
-            f"; {omnibus['test']} not below {omnibus['min_p']:.3g} (chi-square, "
-            f"{omnibus['k']} conditions, {omnibus['n']} {unit})"
+            f"; {lowest['test']} not below {lowest['min_p']:.3g} (chi-square, "
+            f"{lowest['k']} conditions, {lowest['n']} {unit})"
         )
-    if all(r["p_floor"] >= ALPHA for r in testable):
-        text += f": no difference can reach p < {ALPHA:g}, effect sizes are not labelled"
-    elif weakest["p_floor"] >= ALPHA:
-        text += f": pairs that cannot reach p < {ALPHA:g} get no effect size label"
-    return text
+    return text + _reach(testable, tests, choice.omnibus)
+
+
+def tied_pairs_note(rows: Sequence[Mapping[str, Any]]) -> str | None:
+    """One line naming the paired comparisons that seeds with equal values (dropped by the
+    Wilcoxon test) leave unable to reach p < `ALPHA`, though their number of pairs could
+    have: they get no effect size label."""
+    lost = [
+        f"{r['measure']} {r['a']} vs {r['b']} ({r['n_tested']} of {r['n_pairs']} seeds differ)"
+        for r in rows
+        if r.get("n_tested") is not None
+        and r["n_tested"] < r["n_pairs"]
+        and r["p_floor"] >= ALPHA
+        and min_p_wilcoxon(r["n_pairs"]) < ALPHA
+    ]
+    if not lost:
+        return None
+    return (
+        f"seeds on which both conditions have the same value do not count in the Wilcoxon "
+        f"test, so these cannot reach p < {ALPHA:g} and get no effect size label: "
+        + "; ".join(lost)
+    )
 
 
 def pairing_notes(rows: Sequence[Mapping[str, Any]]) -> list[str]:

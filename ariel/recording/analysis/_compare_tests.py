@@ -1,8 +1,9 @@
 """The tests of `ariel compare` and what they can reach: the two-sided p of a pair of conditions
-(Wilcoxon signed-rank on the seeds both have where the design is paired, else Mann-Whitney U),
-the omnibus test across more than two (Friedman, else Kruskal-Wallis), the smallest p each test
-can give with the samples' sizes, and Holm's correction over the pairs of a measure (with the
-smallest Holm p a family could reach, `holm_floor`).
+(Wilcoxon signed-rank on the seeds both have where the design is paired, else Mann-Whitney U;
+both exact, ties included: `_compare_exact`), the omnibus test across more than two (Friedman,
+else Kruskal-Wallis), the smallest p each test can give with the samples' sizes, and Holm's
+correction over the pairs of a measure (with the smallest Holm p a family could reach,
+`holm_floor`).
 """
 
 from __future__ import annotations
@@ -11,15 +12,17 @@ import itertools
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.stats import chi2, friedmanchisquare, kruskal, mannwhitneyu, wilcoxon
+from scipy.stats import chi2, friedmanchisquare, kruskal
 
+from ariel.recording.analysis._compare_exact import exact_mann_whitney, exact_wilcoxon
 from ariel.recording.analysis._compare_samples import Sample, as_sample, paired_values
 
 __all__ = [
+    "PairTest",
     "holm",
     "holm_floor",
     "max_kruskal_h",
@@ -29,6 +32,7 @@ __all__ = [
     "min_p_wilcoxon",
     "omnibus_test",
     "pair_p_value",
+    "pair_test",
 ]
 
 
@@ -36,35 +40,51 @@ def _no_evidence(p: float) -> float:
     return 1.0 if math.isnan(p) else p  # every value tied: no evidence of a difference
 
 
-def _mann_whitney_p(a: np.ndarray, b: np.ndarray) -> float:
-    if len(a) == 0 or len(b) == 0:
-        return math.nan
-    return _no_evidence(float(mannwhitneyu(a, b, alternative="two-sided").pvalue))
+def _at_least(p: float, floor: float) -> float:
+    """``p``, or ``floor`` where ``p`` is below it by float rounding alone (the floors are
+    proven bounds: a test's p reaches its floor, never passes it)."""
+    if math.isfinite(p) and math.isfinite(floor) and floor * (1 - 1e-9) <= p < floor:
+        return floor
+    return p
 
 
-def _wilcoxon_p(x: np.ndarray, y: np.ndarray) -> float:
-    differences = x - y
-    if len(differences) == 0:
-        return math.nan
-    if not differences.any():
-        return 1.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return _no_evidence(float(wilcoxon(differences, alternative="two-sided").pvalue))  # pyright: ignore[reportAttributeAccessIssue]  # scipy makes the result class at run time
+class PairTest(NamedTuple):
+    """A pair's test: its two-sided ``p``, its ``direction`` (+1: the first condition's
+    values are higher, -1: lower, 0: neither), the values it rests on (``tested``: the
+    non-zero differences of a paired test, else all runs) and the smallest p those allow."""
+
+    p: float
+    direction: int
+    tested: int
+    min_p: float
+
+
+def pair_test(x: np.ndarray, y: np.ndarray, *, paired: bool) -> PairTest:
+    """The exact test of ``x`` against ``y``: Wilcoxon signed-rank on ``x - y`` (``paired``:
+    in step, seed by seed; zero differences dropped, so they do not count towards its smallest
+    p either), else Mann-Whitney U."""
+    if paired:
+        p, direction, tested = exact_wilcoxon(x - y)
+        floor = min_p_wilcoxon(tested) if tested else (1.0 if len(x) else math.nan)
+        return PairTest(_at_least(p, floor), direction, tested, floor)
+    p, direction = exact_mann_whitney(x, y)
+    floor = min_p_mann_whitney(len(x), len(y))
+    return PairTest(_at_least(p, floor), direction, len(x) + len(y), floor)
 
 
 def pair_p_value(a: Sample | ArrayLike, b: Sample | ArrayLike, *, paired: bool) -> float:
     """Two-sided p of a pair of conditions: Wilcoxon signed-rank on the seeds both have
-    (``paired``), else Mann-Whitney U on all their runs. NaN without data."""
+    (``paired``), else Mann-Whitney U on all their runs; exact, ties included. NaN without
+    data."""
     a, b = as_sample(a), as_sample(b)
-    if paired:
-        return _wilcoxon_p(*paired_values(a, b))
-    return _mann_whitney_p(a.values, b.values)
+    return pair_test(*(paired_values(a, b) if paired else (a.values, b.values)), paired=paired).p
 
 
 def min_p_mann_whitney(n_a: int, n_b: int) -> float:
-    """The smallest two-sided p of the exact Mann-Whitney U test (no ties): the two most
-    extreme of the C(n_a + n_b, n_a) equally likely rank splits, 2 / C(n_a + n_b, n_a)."""
+    """The smallest two-sided p of the exact Mann-Whitney U test: the two most extreme of the
+    C(n_a + n_b, n_a) equally likely rank splits, 2 / C(n_a + n_b, n_a). Ties cannot go below
+    it: each one-sided tail holds the observed split, and the two-sided p is twice the
+    smaller."""
     if n_a < 1 or n_b < 1:
         return math.nan
     return min(1.0, 2.0 / math.comb(n_a + n_b, n_a))
@@ -72,7 +92,8 @@ def min_p_mann_whitney(n_a: int, n_b: int) -> float:
 
 def min_p_wilcoxon(pairs: int) -> float:
     """The smallest two-sided p of the exact Wilcoxon signed-rank test on ``pairs`` non-zero
-    differences: all of one sign, 2 of the 2^n equally likely sign patterns, 2 / 2^n."""
+    differences (zero differences are dropped by the test): all of one sign, 2 of the 2^n
+    equally likely sign patterns, 2 / 2^n; ties cannot go below it."""
     if pairs < 1:
         return math.nan
     return min(1.0, 2.0 / 2.0**pairs)
@@ -81,8 +102,9 @@ def min_p_wilcoxon(pairs: int) -> float:
 def min_p_friedman(conditions: int, blocks: int) -> float:
     """The smallest p of the Friedman test as scipy computes it (chi-square with k - 1
     degrees of freedom): at its largest statistic, n (k - 1), every seed ranking the
-    conditions the same way. (The exact permutation test's smallest p, 1 / (k!)^(n - 1),
-    differs: above it for k = 3, n = 2, below it for larger k or n.)"""
+    conditions the same way; scipy's tie correction cannot take it higher. (The exact
+    permutation test's smallest p, 1 / (k!)^(n - 1), differs: above it for k = 3, n = 2,
+    below it for larger k or n.)"""
     if conditions < 3 or blocks < 1:
         return math.nan
     return float(chi2.sf(blocks * (conditions - 1), conditions - 1))
@@ -108,11 +130,13 @@ def max_kruskal_h(sizes: Sequence[int]) -> float:
 
 def min_p_kruskal(sizes: Sequence[int]) -> float:
     """The smallest p of the Kruskal-Wallis test as scipy computes it (chi-square with k - 1
-    degrees of freedom) at `max_kruskal_h`."""
+    degrees of freedom, ties corrected) at the largest H it can give: N - 1 for N runs, where
+    every condition's runs tie among themselves and differ from the others'. (Without ties H
+    cannot pass `max_kruskal_h`; the tie correction can take it up to N - 1.)"""
     sizes = [n for n in sizes if n > 0]
-    if len(sizes) < 2:
+    if len(sizes) < 2 or sum(sizes) < 2:
         return math.nan
-    return float(chi2.sf(max_kruskal_h(sizes), len(sizes) - 1))
+    return float(chi2.sf(sum(sizes) - 1, len(sizes) - 1))
 
 
 def holm_floor(min_p: Sequence[float]) -> np.ndarray:
@@ -170,6 +194,6 @@ def omnibus_test(
         "k": len(found),
         "n": n,
         "statistic": float(statistic),
-        "p_value": _no_evidence(float(p)) if n else math.nan,
+        "p_value": _at_least(_no_evidence(float(p)), floor) if n else math.nan,
         "min_p": floor,
     }

@@ -9,6 +9,7 @@ import itertools
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats
 
@@ -16,8 +17,10 @@ from ariel.recording.analysis._compare_stats import (
     NOT_DETECTABLE,
     Design,
     Sample,
+    effect_label,
     holm,
     holm_floor,
+    max_kruskal_h,
     min_p_friedman,
     min_p_kruskal,
     min_p_mann_whitney,
@@ -27,6 +30,7 @@ from ariel.recording.analysis._compare_stats import (
     pairing_notes,
     pairwise_table,
     small_n_warning,
+    tied_pairs_note,
 )
 
 SEEDS = list(range(1, 11))
@@ -89,12 +93,20 @@ def test_the_smallest_p_is_what_scipy_gives_at_the_extreme() -> None:
         assert min_p_wilcoxon(n) == pytest.approx(stats.wilcoxon(np.arange(1, n + 1)).pvalue)
     concordant = [np.full(4, rank, dtype=float) + np.arange(4) * 10 for rank in range(3)]
     assert min_p_friedman(3, 4) == pytest.approx(stats.friedmanchisquare(*concordant).pvalue)
-    # Kruskal-Wallis, groups of 1, 3 and 2: every split of the ranks 1..6, the smallest p
+    # Kruskal-Wallis, groups of 1, 3 and 2: every split of the ranks 1..6 (no ties) stays at
+    # or above chi-square at `max_kruskal_h`; with ties (every value 0, 1 or 2) scipy's tie
+    # correction takes H up to N - 1 = 5, the floor stated
     sizes, smallest = (1, 3, 2), 1.0
     for order in itertools.permutations(range(6)):
         groups = np.split(np.array(order, dtype=float), np.cumsum(sizes)[:-1])
         smallest = min(smallest, stats.kruskal(*groups).pvalue)
-    assert min_p_kruskal(sizes) == pytest.approx(smallest)
+    assert stats.chi2.sf(max_kruskal_h(sizes), 2) == pytest.approx(smallest)
+    tied = 1.0
+    for values in itertools.product(range(3), repeat=6):
+        if len(set(values)) > 1:
+            groups = np.split(np.array(values, dtype=float), np.cumsum(sizes)[:-1])
+            tied = min(tied, stats.kruskal(*groups).pvalue)
+    assert min_p_kruskal(sizes) == pytest.approx(tied) and tied < smallest
 
 
 def test_holm_floor_is_m_times_the_smallest_or_a_test_s_own() -> None:
@@ -166,3 +178,174 @@ def test_the_omnibus_test_is_friedman_for_shared_seeds_and_kruskal_for_independe
     tied = {c: Sample.of(np.ones(3), SEEDS[:3]) for c in "abc"}
     assert omnibus_test(tied, paired=True)["p_value"] == 1.0
     assert omnibus_test(tied, paired=False)["p_value"] == 1.0
+
+
+# --------------------------------------------------------------------------------------------
+# Regressions of the numbers audit (each failed on the code before it)
+# --------------------------------------------------------------------------------------------
+
+
+def _brute_mann_whitney(a: np.ndarray, b: np.ndarray) -> float:
+    """Two-sided exact p by enumerating every split of the midranks: twice the smaller tail."""
+    ranks = stats.rankdata(np.concatenate([a, b]))
+    sums = np.array(
+        [ranks[list(c)].sum() for c in itertools.combinations(range(len(ranks)), len(a))]
+    )
+    observed = ranks[: len(a)].sum()
+    tails = (sums >= observed - 1e-9).mean(), (sums <= observed + 1e-9).mean()
+    return min(1.0, 2 * min(tails))
+
+
+def _brute_wilcoxon(differences: np.ndarray) -> float:
+    """Two-sided exact p by enumerating every sign pattern of the non-zero differences."""
+    d = differences[differences != 0]
+    ranks = stats.rankdata(np.abs(d))
+    signs = (np.arange(2 ** len(d))[:, None] >> np.arange(len(d))) & 1
+    sums = (signs * ranks).sum(axis=1)
+    observed = ranks[d > 0].sum()
+    tails = (sums >= observed - 1e-9).mean(), (sums <= observed + 1e-9).mean()
+    return min(1.0, 2 * min(tails))
+
+
+def test_tied_values_get_the_exact_p_never_below_the_floor_stated() -> None:
+    """F1: scipy's Mann-Whitney U goes asymptotic with ties (3 vs 3: p 0.047 under a floor of
+    0.1, and "better" named); the exact p counts every split of the midranks."""
+    (row,) = pairwise_table(
+        {"A": Sample.of([2, 2, 2]), "B": Sample.of([4, 4, 4])}, maximise=True, paired=False
+    )
+    assert row["p_value"] == pytest.approx(0.1) and row["min_p"] == pytest.approx(0.1)
+    assert row["better"] == "-" and row["effect"] == NOT_DETECTABLE
+    exact = stats.permutation_test(
+        ([2.0, 2, 2], [4.0, 4, 4]),
+        lambda x, y, axis: np.mean(x, axis=axis) - np.mean(y, axis=axis),
+        permutation_type="independent",
+        n_resamples=9999,  # more than the 20 splits: scipy enumerates them all
+        vectorized=True,
+    )
+    assert row["p_value"] == pytest.approx(exact.pvalue)
+    big, small = np.array([2.0, 2, 1, 2, 2, 2]), np.array([4.0, 4])  # the audit's 6 vs 2
+    (row,) = pairwise_table({"big": big, "small": small}, maximise=True, paired=False)
+    assert row["p_value"] == pytest.approx(2 / 28) and row["min_p"] == pytest.approx(2 / 28)
+    assert row["better"] == "-"
+    rng = np.random.default_rng(7)
+    for _ in range(60):  # small samples with many ties, against brute force
+        n_a, n_b = rng.integers(1, 6, 2)
+        a, b = rng.integers(0, 3, n_a).astype(float), rng.integers(0, 3, n_b).astype(float)
+        p = pair_p_value(a, b, paired=False)
+        assert p >= min_p_mann_whitney(n_a, n_b)
+        if len(set(np.concatenate([a, b]))) > 1:
+            assert p == pytest.approx(_brute_mann_whitney(a, b))
+        d = rng.integers(-2, 3, int(n_a) + 3).astype(float)
+        p = pair_p_value(d, np.zeros(len(d)), paired=True)
+        if d.any():
+            assert p == pytest.approx(_brute_wilcoxon(d))
+            assert p >= min_p_wilcoxon(int((d != 0).sum()))
+    # the omnibus test stays at or above its floor when ties push H to its largest
+    for groups in ([[1, 1, 1], [2, 2, 2], [3, 3, 3]], [[2, 2, 1, 2, 2, 2], [4, 4], [2]]):
+        found = omnibus_test({str(i): g for i, g in enumerate(groups)}, paired=False)
+        assert found is not None and found["p_value"] >= found["min_p"]
+
+
+def test_in_a_paired_design_better_and_the_effect_follow_the_wilcoxon_test() -> None:
+    """F2: A beats B by 0.1 on 19 of 20 seeds and loses one badly: Wilcoxon finds A better,
+    the pooled A12 leans to B (0.475); better and the effect must be the test's."""
+    y = np.arange(1.0, 21.0)
+    x = y + 0.1
+    x[-1] = -100.0
+    (row,) = pairwise_table({"A": Sample.of(x), "B": Sample.of(y)}, maximise=True, paired=True)
+    assert row["better"] == "A" and row["a12"] == pytest.approx(0.475)
+    assert row["p_value"] == pytest.approx(_brute_wilcoxon(x - y))  # 0.00059: exact, ties
+    assert row["paired_wins"] == pytest.approx(0.95)
+    assert row["effect_size"] == pytest.approx(190 / 210)  # W+ / (W+ + W-)
+    assert row["effect"] == "large"
+    (row,) = pairwise_table({"A": Sample.of(x), "B": Sample.of(y)}, maximise=False, paired=True)
+    assert row["better"] == "B" and row["effect_size"] == pytest.approx(20 / 210)
+
+
+def test_seeds_that_tie_do_not_count_towards_the_wilcoxon_floor() -> None:
+    """F3: 3 of 6 differences are 0; scipy's Wilcoxon drops them, so its p cannot go below
+    2 / 2^3 = 0.25 and no effect may be labelled; a note says so."""
+    x = np.array([1.0, 2, 3, 4, 5, 6])
+    y = x.copy()
+    y[:3] -= 0.5
+    (row,) = pairwise_table({"A": Sample.of(x), "B": Sample.of(y)}, maximise=True, paired=True)
+    assert (row["n_pairs"], row["n_tested"]) == (6, 3)
+    assert row["min_p"] == pytest.approx(0.25) and row["p_value"] == pytest.approx(0.25)
+    assert row["effect"] == NOT_DETECTABLE
+    note = tied_pairs_note([row])
+    assert note is not None and "final best A vs B (3 of 6 seeds differ)" in note
+
+
+def test_a_paired_estimate_and_its_ci_rest_on_the_same_seeds() -> None:
+    """F4: B's seeds 3-5 failed; the difference of the medians is of the 2 seeds both have,
+    the sample its CI resamples, so it lies inside it."""
+    a = Sample.of([0.0, 1, 10, 10, 10], seeds=[1, 2, 3, 4, 5])
+    b = Sample.of([5.0, 5], seeds=[1, 2])
+    (row,) = pairwise_table({"A": a, "B": b}, maximise=True, paired=True)
+    assert row["difference"] == pytest.approx(-4.5)
+    assert row["ci_low"] <= row["difference"] <= row["ci_high"]
+    assert row["effect_size"] == 0.0 and row["paired_wins"] == 0.0  # A lost on both pairs
+
+
+def test_effect_labels_are_symmetric_at_vargha_delaney_s_limits() -> None:
+    """F5: A12 = 0.71 is large, as 0.29 is, in either order and fitness direction."""
+    a = np.arange(10.0)
+    b = np.array([-1, -1, -1, -1, -1, -1, 1.5, 6.5, 10, 10])  # U = 71 of 100
+    for first, second, maximise in ((a, b, True), (b, a, True), (a, b, False), (b, a, False)):
+        samples = {"A": Sample.of(first), "B": Sample.of(second)}
+        (row,) = pairwise_table(samples, maximise=maximise)
+        assert row["a12"] == pytest.approx(0.71) or row["a12"] == pytest.approx(0.29)
+        assert row["effect"] == "large"
+    for value, label in ((0.56, "small"), (0.44, "small"), (0.64, "medium"), (0.36, "medium")):
+        assert effect_label(value) == label
+    assert effect_label(0.5599) == "negligible" and effect_label(0.7099) == "medium"
+
+
+def test_the_warning_does_not_deny_an_omnibus_p_below_alpha() -> None:
+    """F6: 3 conditions x 3 shared seeds: no pair can reach 0.05, but Friedman can (0.0498,
+    reached when every seed ranks the conditions alike); the warning must not say that no
+    difference can."""
+    samples = {c: Sample.of(np.arange(3) * 10.0 + i, SEEDS[:3]) for i, c in enumerate("abc")}
+    rows = pairwise_table(samples, maximise=True, paired=True)
+    omnibus = omnibus_test(samples, paired=True)
+    assert omnibus is not None and omnibus["p_value"] == pytest.approx(0.0498, abs=1e-4)
+    line = small_n_warning(rows, {c: 3 for c in "abc"}, Design(True), omnibus)
+    assert line is not None and "no difference can reach" not in line
+    assert "no pair of conditions can reach p < 0.05 (only the Friedman test" in line
+    assert all(r["effect"] == NOT_DETECTABLE for r in rows)
+    # and the judgement covers every measure's pairs, not the first measure's alone: 3 vs 3
+    # runs cannot reach 0.05 (0.1), 4 vs 4 can (2 / 70)
+    weak = pairwise_table({"a": [1, 2, 3], "b": [4, 5, 6]}, maximise=True, measure="one")
+    strong = pairwise_table({"a": [1, 2, 3, 4], "b": [5, 6, 7, 8]}, maximise=True)
+    line = small_n_warning(weak + strong, {"a": 4, "b": 4}, Design(False))
+    assert line is not None and "cannot give p below 0.1 (3 vs 3 runs" in line
+    assert "no difference can reach" not in line and line.endswith("get no effect size label")
+    assert strong[0]["better"] == "b" and strong[0]["effect"] == "large"
+
+
+def test_auc_counts_failed_evaluations_before_the_first_finished_one() -> None:
+    """F7: one AUC, the area under the best-so-far curve over evaluations 1..N divided by N;
+    before a run's first finished evaluation the curve stands at the worst fitness any
+    compared run finished with."""
+    from ariel.recording.analysis._compare_measures import _measures, _run_rows
+    from ariel.recording.analysis._compare_runs import RunCurve
+
+    def curve(seed: int, fitness: list[float], status: list[str]) -> RunCurve:
+        evaluations = pd.DataFrame(
+            {
+                "generation": 0,
+                "eval_id": [f"b{i:06d}-i000-c000" for i in range(len(fitness))],
+                "fitness": fitness,
+                "status": status,
+            }
+        )
+        return RunCurve("c", seed, evaluations)
+
+    late = curve(1, [-np.inf] * 8 + [1.0, 1.0], ["error"] * 8 + ["ok", "ok"])
+    steady = curve(2, [0.9, 0.2] + [0.9] * 8, ["ok"] * 10)
+    rows = _run_rows([late, steady], [late, steady], True, 10)
+    assert [r["final_best"] for r in rows] == [1.0, 0.9]
+    assert rows[0]["auc"] == pytest.approx((8 * 0.2 + 2 * 1.0) / 10)  # worst finished: 0.2
+    assert rows[1]["auc"] == pytest.approx(0.9)
+    assert _measures(late, True, 10)["auc"] == pytest.approx(1.0)  # alone: its own worst
+    assert _measures(late, False, 10, worst=3.0)["auc"] == pytest.approx((8 * 3 + 2) / 10)
