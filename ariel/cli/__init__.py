@@ -47,6 +47,7 @@ from ariel.cli._run import (
     add_run_command,
 )
 from ariel.cli._runs import add_runs_command
+from ariel.cli._streams import cwd_problem, lost_output_line, standard_output
 from ariel.cli._verify import EXIT_DAMAGED as EXIT_DAMAGED, add_verify_command
 from ariel.cli._view import add_view_command
 from ariel.cli._watch import add_watch_command
@@ -92,6 +93,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    problem = cwd_problem()
+    if problem is not None:
+        return fail(problem)
+    with standard_output() as output:
+        code = _run_command(args)
+    if output.lost is not None:
+        return fail(lost_output_line(output.lost))
+    return code
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    """The command ``args`` chose; what it raises on purpose as one line (and exit code)."""
     try:
         # Ctrl-C, SIGTERM and SIGHUP stop every command as an exception: its files written so
         # far stay whole and its temporaries are removed (`atomic_write`), in one line.

@@ -38,7 +38,7 @@ from ariel.evolution._events import (
     GenerationStarted,
     RunEvent,
 )
-from ariel.utils import in_notebook_kernel
+from ariel.utils import in_notebook_kernel, is_terminal
 
 __all__ = [
     "Progress",
@@ -121,7 +121,7 @@ class Progress:
         self.done = done
         self.enabled = enabled
         self.stream = stream if stream is not None else sys.stdout
-        self.live = enabled and (self.stream.isatty() if live is None else live)
+        self.live = enabled and (is_terminal(self.stream) if live is None else live)
         self._start = time.perf_counter()
         self._start_done = done
         self._generation = 0

@@ -17,6 +17,7 @@ import time
 from typing import Any, TextIO
 
 from ariel.evolution import Progress, RunEnded, RunEvent, eta_text, fmt_value, live_bars
+from ariel.utils import is_terminal
 
 __all__ = ["CampaignProgress", "RunProgress"]
 
@@ -39,7 +40,7 @@ class CampaignProgress:
         self.runs, self.total, self.done, self.finished = runs, total, done, 0
         self.enabled, self.interval = enabled, interval
         self.stream = stream if stream is not None else sys.stdout
-        self.live = enabled and (self.stream.isatty() if live is None else live)
+        self.live = enabled and (is_terminal(self.stream) if live is None else live)
         self._start, self._start_done = time.perf_counter(), done
         self._last_line = -float("inf")
         self._rich: Any = None

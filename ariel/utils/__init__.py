@@ -43,6 +43,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.utils._notebook import (
         in_notebook_kernel as in_notebook_kernel,
+        is_terminal as is_terminal,
     )
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
@@ -57,6 +58,7 @@ _INTERNAL: dict[str, str] = {
     "gl_backend_error": "ariel.utils._gl",
     "has_display": "ariel.utils._gl",
     "in_notebook_kernel": "ariel.utils._notebook",
+    "is_terminal": "ariel.utils._notebook",
     "load_run_command": "ariel.utils._commands",
     "mujoco_module": "ariel.utils._gl",
     "nests_deeper_than": "ariel.utils._json",

@@ -1,11 +1,11 @@
-"""Whether this process is a Jupyter (IPython) kernel: progress output and `ariel watch`'s
-viewer choose their form by it."""
+"""Whether this process is a Jupyter (IPython) kernel, and whether a stream is a terminal:
+progress output and `ariel watch`'s viewer choose their form by them."""
 
 from __future__ import annotations
 
 import sys
 
-__all__ = ["in_notebook_kernel"]
+__all__ = ["in_notebook_kernel", "is_terminal"]
 
 
 def in_notebook_kernel() -> bool:
@@ -17,3 +17,12 @@ def in_notebook_kernel() -> bool:
     except Exception:  # a half-imported or odd IPython: not a notebook
         return False
     return getattr(shell, "kernel", None) is not None
+
+
+def is_terminal(stream: object) -> bool:
+    """Whether ``stream`` is a terminal: False for None (a script started with stdout closed,
+    ``>&-``), a closed stream, or a stand-in without ``isatty``."""
+    try:
+        return bool(stream.isatty())  # type: ignore[attr-defined]
+    except (AttributeError, ValueError, OSError):
+        return False

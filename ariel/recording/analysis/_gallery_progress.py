@@ -21,6 +21,7 @@ from rich.progress import (
 )
 
 from ariel.evolution import shows_progress
+from ariel.utils import is_terminal
 
 __all__ = ["LINES_FROM", "ThumbnailProgress"]
 
@@ -45,10 +46,7 @@ class ThumbnailProgress:
         self._next_line = 0  # the count at which a pipe gets its next line
 
     def _terminal(self) -> bool:
-        try:
-            return self.stream.isatty()
-        except (AttributeError, ValueError):  # a stand-in stream, or closed
-            return False
+        return is_terminal(self.stream)
 
     def __enter__(self) -> ThumbnailProgress:
         if not self.show or not self.total:

@@ -1,0 +1,98 @@
+"""The command's standard output, made safe for the command: what it prints is not its data.
+
+- A closed stdout or stderr (``ariel run >&-``) reads as ``os.devnull``, not as None (which
+  crashed the progress display before the run began).
+- A character stdout's encoding cannot hold (a folder named ``é`` under ``LC_ALL=C``) is
+  written escaped (``\\xe9``), as Python writes stderr, rather than ending the command.
+- A stdout that fails (a full device, an I/O error) does not stop the command: a run goes on
+  to its end, its records whole; what was printed is lost, and the command ends with one line
+  that says so (`Output.lost`), never blaming the run folder for stdout's disk.
+  ``BrokenPipeError`` (``ariel runs | head``) still ends the command quietly, as before.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from collections.abc import Iterator
+from typing import Any
+
+__all__ = ["Output", "cwd_problem", "lost_output_line", "standard_output"]
+
+
+class Output:
+    """``sys.stdout`` while a command runs: writes pass through until one fails, then go
+    nowhere; the first failure is kept in ``lost``."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+        self.lost: OSError | None = None
+
+    def write(self, text: str) -> int:
+        self._guarded(self._stream.write, text)
+        return len(text)
+
+    def flush(self) -> None:
+        self._guarded(self._stream.flush)
+
+    def _guarded(self, call: Any, *args: object) -> None:
+        if self.lost is not None:
+            return
+        try:
+            call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            self.lost = exc
+            # What stays in the stream's buffer would fail again at exit ("Exception ignored
+            # ... OSError"): from now on the descriptor writes to nowhere.
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, self._stream.fileno())
+                os.close(devnull)
+
+    def __getattr__(self, name: str) -> Any:  # isatty, fileno, encoding, buffer, ...
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def standard_output() -> Iterator[Output]:
+    """``sys.stdout`` as an `Output` for the ``with`` block (closed streams as ``os.devnull``,
+    characters its encoding lacks escaped), the stream before it restored after."""
+    for name in ("stdout", "stderr"):
+        if getattr(sys, name) is None:
+            setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115 - kept for the process
+    before = sys.stdout
+    with contextlib.suppress(AttributeError, ValueError, OSError):
+        before.reconfigure(errors="backslashreplace")  # pyright: ignore[reportAttributeAccessIssue]
+    output = Output(before)
+    sys.stdout = output  # pyright: ignore[reportAttributeAccessIssue]
+    try:
+        yield output
+        output.flush()
+    finally:
+        sys.stdout = before
+
+
+def lost_output_line(exc: OSError) -> str:
+    """The one line for a stdout that failed: what the command printed is lost (its files are
+    not: they are written elsewhere)."""
+    why = exc.strerror or type(exc).__name__
+    return (
+        f"cannot write to standard output: {why}; what the command printed there is lost "
+        "(send it to a file with room, or pass --quiet where the command takes it)"
+    )
+
+
+def cwd_problem() -> str | None:
+    """The line for a current folder that no longer exists (deleted while a shell stood in it),
+    where relative paths, and libraries that make paths absolute, fail; None when it exists."""
+    try:
+        os.getcwd()
+    except OSError as exc:
+        return (
+            f"the current folder cannot be used ({exc.strerror}: deleted, or not readable): "
+            "cd to another folder and run the command again"
+        )
+    return None
