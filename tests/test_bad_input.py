@@ -333,6 +333,7 @@ CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
         (["run", "{base}", "--out", f"sub/{LONG}", "--quiet"], "File name too long"),
         (["campaign", "run", "{long}.toml"], "File name too long"),
         (["runs", LONG], "File name too long"),
+        (["runs", "{deep}"], "a whole path has at most 4096 bytes"),  # every name short
         (["view", LONG], "File name too long"),
         (["export", LONG, "best", "out"], "File name too long"),
         (["run", "{base}", "--out", "loop/x", "--quiet"], "Too many levels of symbolic links"),
@@ -343,7 +344,8 @@ CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
         (["campaign", "run", str(CAMPAIGN), "--out", "a\\b"], "campaign id 'a\\\\b' (the name"),
     ],
     ids=[
-        *("run-out", "campaign-file", "runs", "view", "export", "run-out-loop", "report-loop"),
+        *("run-out", "campaign-file", "runs", "runs-deep", "view", "export"),
+        *("run-out-loop", "report-loop"),
         *("run-id", "campaign-id"),
     ],
 )
@@ -359,7 +361,8 @@ def test_path_no_file_system_takes_or_no_id(
     (tmp_path / "loop").symlink_to("loop2")
     (tmp_path / "loop2").symlink_to("loop")
     listing = sorted(p.name for p in tmp_path.iterdir())
-    argv = [part.format(base="base.toml", long=LONG) for part in command]
+    deep = "/".join(["d" * 200] * 21)
+    argv = [part.format(base="base.toml", long=LONG, deep=deep) for part in command]
     assert exit_code(argv) == 2
     line = one_error_line(capsys)
     assert message in line, line

@@ -6,6 +6,7 @@ and choosing an off-screen GL backend before a command that renders imports mujo
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import os
 import sys
@@ -70,12 +71,26 @@ def path_error(exc: OSError) -> str | None:
     if exc.errno not in _PATH_ERRNOS:
         return None
     name = os.fsdecode(exc.filename) if exc.filename is not None else "a path"
+    limit = _name_limit(name) if exc.errno == errno.ENAMETOOLONG else ""
     if len(name) > 80:
         name = f"{name[:60]}...{name[-16:]} ({len(os.fsencode(name))} bytes)"
-    limit = (
-        " (a file or folder name has at most 255 bytes)" if exc.errno == errno.ENAMETOOLONG else ""
-    )
     return f"{name!r}: {os.strerror(exc.errno)}{limit}"
+
+
+def _name_limit(name: str) -> str:
+    """Which limit a name too long broke: one of its parts over 255 bytes, else (every part
+    short) the whole path, the current folder's included, over PATH_MAX."""
+    parts = os.fsencode(name).split(b"/")
+    if name == "a path" or any(len(part) > 255 for part in parts):
+        return " (a file or folder name has at most 255 bytes)"
+    most = 4096  # Linux's PATH_MAX, the terminating NUL included
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        name = os.path.abspath(name)
+        most = os.pathconf("/", "PC_PATH_MAX")
+    return (
+        f" (a whole path has at most {most} bytes; this one, from /, "
+        f"{len(os.fsencode(name))}: run from a shallower folder, or choose a shorter --out)"
+    )
 
 
 def headless_unless_display(without: str) -> None:
