@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 from ariel._version import __version__
 from ariel.errors import DuplicatePluginError, PluginLoadError, UnknownPluginError
+from ariel.utils import gl_backend_error
 
 if TYPE_CHECKING:
     import importlib.metadata
@@ -372,6 +373,9 @@ class Registry(Generic[T]):
         try:
             obj = load()
         except Exception as exc:
+            gl = gl_backend_error(exc)  # MUJOCO_GL failed mujoco's import: not the plugin's
+            if gl is not None:
+                raise gl from exc
             raise PluginLoadError(
                 f"could not load {self.label} '{name}' from {where()}: {type(exc).__name__}: {exc}"
             ) from exc

@@ -551,6 +551,27 @@ def test_a_gl_backend_that_cannot_load_is_one_line_exit_2(
     assert not (tmp_path / "best.mp4").exists()
 
 
+def test_a_mujoco_gl_typo_is_said_as_one_not_blamed_on_a_plugin(
+    finished_run, tmp_path: Path
+) -> None:
+    """`MUJOCO_GL=garbage` made `run` say "could not load controller 'na_cpg'" and `report`
+    "could not load world 'flat'": the plugin's import had failed in `import mujoco`."""
+    env = _headless_env(tmp_path, MUJOCO_GL="garbage")
+    for argv in (["run", "--out", "r", "--quiet"], ["report", str(finished_run[0])]):
+        done = subprocess.run(
+            [sys.executable, "-m", "ariel.cli", *argv],
+            capture_output=True,
+            text=True,
+            timeout=180,
+            env=env,
+            cwd=tmp_path,
+        )
+        lines = [line for line in done.stderr.splitlines() if line.strip()]
+        assert done.returncode == 2 and len(lines) == 1, done.stderr
+        assert "MUJOCO_GL='garbage' is not an OpenGL backend MuJoCo knows" in lines[0]
+    assert not (tmp_path / "r").exists()
+
+
 def test_a_folder_named_like_an_option_is_pasteable_in_the_hints() -> None:
     """`ariel run --out=-y` printed `ariel report -y`, which argparse reads as an option."""
     from ariel.cli import _how_to_look

@@ -78,10 +78,22 @@ def ensure_headless_gl(backend: str = "egl", *, without: str = "leave rendering 
     return True
 
 
+#: MUJOCO_GL's values MuJoCo takes on some system ("<unset>" stands for unset here).
+_BACKENDS = (
+    *("<unset>", "egl", "osmesa", "glfw", "glx", "cgl", "wgl"),
+    *("enable", "enabled", "on", "true", "1", "disable", "disabled", "off", "false", "0"),
+)
+
+
 def _no_gl_error(cause: BaseException | None, *, importing: bool = False) -> GLBackendError:
     """The one line: what to install, how to go without rendering where this process chose the
     backend (else, for a failed ``import mujoco``: unset ``MUJOCO_GL``), and the cause."""
     backend = os.environ.get("MUJOCO_GL") or "<unset>"
+    if backend.lower().strip() not in _BACKENDS:  # a typo, not a missing library
+        return GLBackendError(
+            f"MUJOCO_GL={backend[:40]!r} is not an OpenGL backend MuJoCo knows: set it to "
+            "egl, osmesa or glfw (cgl, wgl on macOS, Windows), or unset it"
+        )
     message = NO_GL_MESSAGE.format(backend=backend)
     if _chosen:
         message += f", or {_chosen}"
