@@ -17,9 +17,9 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
+from ariel import utils  # its face: `gl_backend_error` is loaded on a failure only
 from ariel._version import __version__
 from ariel.errors import DuplicatePluginError, PluginLoadError, UnknownPluginError
-from ariel.utils import gl_backend_error
 
 if TYPE_CHECKING:
     import importlib.metadata
@@ -373,7 +373,7 @@ class Registry(Generic[T]):
         try:
             obj = load()
         except Exception as exc:
-            gl = gl_backend_error(exc)  # MUJOCO_GL failed mujoco's import: not the plugin's
+            gl = utils.gl_backend_error(exc)  # MUJOCO_GL failed mujoco's import, not the plugin
             if gl is not None:
                 raise gl from exc
             raise PluginLoadError(
