@@ -288,7 +288,7 @@ def resume_experiment(
             return _drive(session, progress)
 
 
-def _check_script_plugins_known(run_dir: Path, info: Mapping[str, Any]) -> None:
+def _check_script_plugins_known(run_dir: Path, info: Mapping[str, object]) -> None:
     """A plugin the run's script (or notebook) registered, unknown here (``ariel resume``, or
     a script that no longer registers it): `ConfigError` saying where to resume from, rather
     than only that the name is unknown."""

@@ -13,13 +13,13 @@ import base64
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from ariel.recording.analysis._compare_design import MEASURES, QD_COLUMNS
 from ariel.recording.analysis._compare_lineage import LINEAGE_MEASURES, measures
-from ariel.recording.analysis._compare_stats import ALPHA, NOT_DETECTABLE
+from ariel.recording.analysis._compare_stats import ALPHA, NOT_DETECTABLE, RowDict
 from ariel.recording.store import (
     atomic_write,
     html_text,
@@ -70,20 +70,20 @@ def _median_mean_sd(median: float, mean: float, sd: float) -> str:
     return f"{_number(median)} ({_number(mean)} ± {_number(sd)})"
 
 
-def _a12_with_n(row: dict[str, Any]) -> str:
+def _a12_with_n(row: RowDict) -> str:
     value = row["a12"]
     shown = "-" if math.isnan(value) else f"{value:.2f}"
     return f"{shown} (n={row['n_a']} vs {row['n_b']})"
 
 
-def _paired_wins(row: dict[str, Any]) -> str:
+def _paired_wins(row: RowDict) -> str:
     pairs, share = row.get("n_pairs"), row.get("paired_wins", math.nan)
     if pairs is None or not pairs or math.isnan(share):
         return "-"
     return f"{share * pairs:g} of {pairs:g}"
 
 
-def _effect(row: dict[str, Any], paired: bool) -> str:
+def _effect(row: RowDict, paired: bool) -> str:
     """The effect's size; in a paired design with the number it sizes (A's share of the
     signed ranks), which A12 is not."""
     share = row.get("effect_size", math.nan)
@@ -92,7 +92,7 @@ def _effect(row: dict[str, Any], paired: bool) -> str:
     return row["effect"] if math.isnan(share) else f"{row['effect']} (ranks {share:.2f})"
 
 
-def _test(row: dict[str, Any]) -> str:
+def _test(row: RowDict) -> str:
     pairs = row.get("n_pairs")
     return f"{row['test']}, {pairs} pairs" if pairs is not None else row["test"]
 
@@ -133,9 +133,7 @@ def stats_frame(comparison: Comparison) -> pd.DataFrame:
     return pd.DataFrame(format_stats(comparison.stats, paired=paired), columns=_stats_head(paired))
 
 
-def _measure_rows(
-    records: list[dict[str, Any]], measure: str, column: str
-) -> list[tuple[str, list[str]]]:
+def _measure_rows(records: list[RowDict], measure: str, column: str) -> list[tuple[str, list[str]]]:
     """A measure's rows of the summary: its median, and its mean ± sd, per condition."""
     return [
         (f"{measure}: median", [_number(r[f"{column}_median"]) for r in records]),

@@ -35,7 +35,7 @@ import itertools
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -67,6 +67,8 @@ __all__ = [
     "FEW_RUNS",
     "NOT_DETECTABLE",
     "Design",
+    "Row",
+    "RowDict",
     "Sample",
     "a12",
     "effect_label",
@@ -87,6 +89,11 @@ __all__ = [
     "small_n_warning",
     "tied_pairs_note",
 ]
+
+#: One row of a table of `ariel compare` (column -> value), as its CSV holds it; `RowDict`: one
+#: being made.
+Row: TypeAlias = Mapping[str, Any]
+RowDict: TypeAlias = dict[str, Any]
 
 ALPHA = 0.05
 CONFIDENCE = 0.95
@@ -230,7 +237,7 @@ def _better(names: tuple[str, str], test: PairTest, maximise: bool) -> str:
 
 def _pair_row(
     names: tuple[str, str], a: Sample, b: Sample, *, maximise: bool, paired: bool
-) -> tuple[dict[str, Any], str]:
+) -> tuple[RowDict, str]:
     """One pair's numbers, before the Holm correction, and the better of the two should the
     test's p (Holm) be below `ALPHA` (see `pairwise_table`). The difference and its CI are of
     the sample the test uses: in a paired design the seeds both have."""
@@ -265,7 +272,7 @@ def pairwise_table(
     maximise: bool,
     paired: bool = False,
     measure: str = "final best",
-) -> list[dict[str, Any]]:
+) -> list[RowDict]:
     """One row per pair of conditions (in the given order) for one ``measure``.
 
     ``samples``: condition -> `Sample` (or plain values, seeds 0, 1, ...). Columns: ``n_a``,
@@ -303,23 +310,21 @@ def pairwise_table(
 # --------------------------------------------------------------------------------------------
 
 
-def _sizes_text(row: Mapping[str, Any]) -> str:
+def _sizes_text(row: Row) -> str:
     pairs = row.get("n_pairs")
     if pairs is not None:
         return f"{pairs} pair{'s' if pairs != 1 else ''}"
     return f"{row['n_a']} vs {row['n_b']} runs"
 
 
-def _size_floor(row: Mapping[str, Any]) -> float:
+def _size_floor(row: Row) -> float:
     """The smallest p a pair's test can give with its sizes alone, whatever the values (a
     paired test's own ``min_p`` also leaves out the seeds that tie)."""
     pairs = row.get("n_pairs")
     return min_p_wilcoxon(pairs) if pairs is not None else row["min_p"]
 
 
-def _reach(
-    rows: Sequence[Mapping[str, Any]], omnibus: Sequence[Mapping[str, Any]], test: str
-) -> str:
+def _reach(rows: Sequence[Row], omnibus: Sequence[Row], test: str) -> str:
     """What no p shown can go below `ALPHA` means for the reader: over every measure's pairs
     and omnibus tests, not the quoted ones alone."""
     pairs_cannot = all(r["p_floor"] >= ALPHA for r in rows if math.isfinite(r["p_floor"]))
@@ -337,10 +342,10 @@ def _reach(
 
 
 def small_n_warning(
-    rows: Sequence[Mapping[str, Any]],
+    rows: Sequence[Row],
     runs_per_condition: Mapping[str, int],
     choice: Design,
-    omnibus: Mapping[str, Any] | Sequence[Mapping[str, Any]] | None = None,
+    omnibus: Row | Sequence[Row] | None = None,
 ) -> str | None:
     """One line where a condition has fewer than `FEW_RUNS` runs: the smallest p the chosen
     tests can give with these sizes whatever the values (for the most limited pair of the
@@ -374,7 +379,7 @@ def small_n_warning(
     return text + _reach(testable, tests, choice.omnibus)
 
 
-def tied_pairs_note(rows: Sequence[Mapping[str, Any]]) -> str | None:
+def tied_pairs_note(rows: Sequence[Row]) -> str | None:
     """One line naming the paired comparisons that seeds with equal values (dropped by the
     Wilcoxon test) leave unable to reach p < `ALPHA`, though their number of pairs could
     have: they get no effect size label."""
@@ -395,7 +400,7 @@ def tied_pairs_note(rows: Sequence[Mapping[str, Any]]) -> str | None:
     )
 
 
-def pairing_notes(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+def pairing_notes(rows: Sequence[Row]) -> list[str]:
     """One line per pair that was paired on fewer seeds than it has runs (a failed run)."""
     notes = []
     for row in rows:

@@ -213,7 +213,7 @@ def _instead(path: Path) -> str:
     return f"pass --overwrite to replace it, or continue it with: {resume_line(path, info)}"
 
 
-def resume_line(run_dir: Path, info: Mapping[str, Any]) -> str:
+def resume_line(run_dir: Path, info: Mapping[str, object]) -> str:
     """How to continue the run at ``run_dir`` (run.json ``info``), to paste: ``ariel resume
     RUN``; where a plugin of the run was registered by a script or notebook, which the ariel
     command does not know (`script_plugins`), ``resume_experiment`` from that script."""
