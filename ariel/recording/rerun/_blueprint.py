@@ -1,6 +1,7 @@
 """The run's viewer layout (``blueprint.rbl``, `write_blueprint`): an evaluation's robot,
 morphology and joints beside the run's fitness and diversity per generation (and a MAP-Elites
-archive), and `save_blueprint`, which writes any layout whole.
+archive), and `save_blueprint`, which writes any layout whole (encoded in memory by
+`blueprint_bytes`, written by `atomic_write`).
 """
 
 from __future__ import annotations
@@ -13,14 +14,12 @@ from ariel.recording.rerun._archive import archive_view
 from ariel.recording.rerun._chunks import APPLICATION_ID, rerun_module
 from ariel.recording.rerun._lineage import lineage_view
 from ariel.recording.rerun._views import robot_view, summary_bars
-from ariel.recording.store import atomic_write, require_free_space
+from ariel.recording.store import atomic_write_bytes
 
 if TYPE_CHECKING:
     from rerun.blueprint import Blueprint, BlueprintPart, Container, ContainerLike, View
 
-__all__ = ["blueprint", "save_blueprint", "write_blueprint"]
-
-_BLUEPRINT_ROOM = 1 << 20  # bytes free before a blueprint (~70 kB) is written
+__all__ = ["blueprint", "blueprint_bytes", "save_blueprint", "write_blueprint"]
 
 
 def blueprint(
@@ -161,20 +160,41 @@ def write_blueprint(
 
 
 def save_blueprint(path: str | os.PathLike[str], layout: Blueprint, application_id: str) -> Path:
-    """Write the blueprint ``layout`` for ``application_id`` whole to ``path``."""
+    """Write the blueprint ``layout`` for ``application_id`` whole to ``path``.
+
+    Rerun encodes it in memory (`blueprint_bytes`) and the bytes are written here, under
+    `atomic_write`'s temporary, so a failed write (disk full, quota, file too large, I/O error)
+    is an `OSError` naming ``path``, and nothing but that temporary (removed) is ever made.
+    Rerun's own writer (``Blueprint.save``, a file sink) only logs a failed write, leaves a cut
+    file and then waits for ever for the dead sink's flush, deaf to Ctrl-C and SIGTERM.
+    """
     path = Path(path)
-
-    def write(temporary: Path) -> None:
-        # Rerun's blueprint writer logs a full disk and leaves a cut file: check first.
-        require_free_space(temporary.parent, _BLUEPRINT_ROOM)
-        # Rerun writes blueprints to paths ending in .rbl only: build beside, then move.
-        staging = temporary.with_name(temporary.name + ".rbl")
-        try:
-            layout.save(application_id, str(staging))
-            os.replace(staging, temporary)
-        finally:
-            if staging.exists():
-                staging.unlink()
-
-    atomic_write(path, write)
+    data = blueprint_bytes(layout, application_id)
+    atomic_write_bytes(path, data)
     return path
+
+
+def blueprint_bytes(layout: Blueprint, application_id: str) -> bytes:
+    """The bytes of a blueprint file (``.rbl``) of ``layout``, as ``Blueprint.save`` writes one:
+    the blueprint's store (application id ``application_id``), then the command that makes it
+    the application's active and default layout.
+
+    Public API only: `RecordingStream.send_blueprint` hands the blueprint's messages and that
+    command to a carrier recording's sink, here a memory sink. The sink first receives the
+    carrier's own store info (an empty recording), drained and dropped before the blueprint is
+    sent, so that the bytes hold the blueprint alone (tests/recording/rerun/
+    test_write_failures.py checks this against ``Blueprint.save``'s file, should Rerun change).
+    """
+    rr = rerun_module()
+    carrier = rr.RecordingStream(
+        application_id, make_default=False, make_thread_default=False, send_properties=False
+    )
+    if not rr.is_enabled(carrier):  # the RERUN environment variable switches every stream off
+        raise RuntimeError("Rerun is switched off (RERUN=off): it encodes no blueprint")
+    sink = carrier.memory_recording()
+    sink.drain_as_bytes()  # the carrier's store info: not the blueprint's
+    carrier.send_blueprint(layout, make_active=True, make_default=True)
+    data = sink.drain_as_bytes()
+    if not data.startswith(b"RRF"):
+        raise RuntimeError(f"Rerun encoded no blueprint file ({len(data)} bytes)")
+    return data

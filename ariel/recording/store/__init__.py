@@ -60,7 +60,6 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         fsync_folder as fsync_folder,
         refuse_symlinks as refuse_symlinks,
         remove_temporaries as remove_temporaries,
-        require_free_space as require_free_space,
         written_path as written_path,
     )
     from ariel.recording.store._ids import (
@@ -244,7 +243,6 @@ _INTERNAL: dict[str, str] = {
     "refuse_symlinks": "ariel.recording.store._files",
     "STALE_S": "ariel.recording.store._files",
     "remove_temporaries": "ariel.recording.store._files",
-    "require_free_space": "ariel.recording.store._files",
     "run_path": "ariel.recording.store._campaign",
     "short_ascii": "ariel.recording.store._escape",
     "software_versions": "ariel.recording.store._provenance",

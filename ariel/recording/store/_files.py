@@ -40,7 +40,6 @@ __all__ = [
     "read_regular_file",
     "refuse_symlinks",
     "remove_temporaries",
-    "require_free_space",
     "within",
     "written_path",
 ]
@@ -53,6 +52,9 @@ STALE_S = 600.0
 #: processes writing one file (two ``ariel report`` of a run) never share a temporary.
 _TOKEN = re.compile(r"\.[0-9a-f]{8}$")
 _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+#: Added to a temporary's name where earlier versions had Rerun write a blueprint (Rerun
+#: writes blueprints only to names ending in ``.rbl``); ariel now writes its bytes itself.
+_LEGACY_BLUEPRINT_SUFFIX = ".rbl"
 
 
 def within(path: str | os.PathLike[str], root: str | os.PathLike[str]) -> bool:
@@ -108,8 +110,9 @@ def written_path(path: Path) -> Path | None:
     """The file a temporary stands for (`_temporary`'s inverse); None for any other name.
 
     ``.NAME.TOKEN.tmp`` stands for ``NAME``, and so does ``.NAME.tmp`` (the temporaries of
-    versions before the token, left by a killed writer)."""
-    name = path.name
+    versions before the token, left by a killed writer), and ``.NAME.TOKEN.tmp.rbl`` (where
+    earlier versions had Rerun write a blueprint, left by a killed or stuck writer)."""
+    name = path.name.removesuffix(_LEGACY_BLUEPRINT_SUFFIX)
     if name.startswith(".") and name.endswith(TEMP_SUFFIX) and len(name) > 1 + len(TEMP_SUFFIX):
         written = name[1 : -len(TEMP_SUFFIX)]
         return path.with_name(_TOKEN.sub("", written) if _TOKEN.search(written[1:]) else written)
@@ -187,17 +190,6 @@ def cannot_write(exc: OSError, path: str | os.PathLike[str] | None = None) -> st
     shown = written_path(shown) or shown
     reason = os.strerror(exc.errno) if exc.errno else (exc.strerror or type(exc).__name__)
     return f"cannot write {str(shown)!r}: {reason}"
-
-
-def require_free_space(folder: Path, needed: int) -> None:
-    """Raise ``OSError(ENOSPC)`` when ``folder``'s file system has less than ``needed`` bytes
-    free, for writers that report a full disk only in a log (Rerun's blueprint writer)."""
-    try:
-        stats = os.statvfs(folder)
-    except (OSError, AttributeError):  # unknown: let the write itself find out
-        return
-    if stats.f_bavail * stats.f_frsize < needed:
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(folder))
 
 
 def atomic_write_bytes(
