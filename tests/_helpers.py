@@ -406,3 +406,22 @@ def signal_run_group(config: Path, run_dir: Path, log: Path, signum: int, *extra
         finally:
             if process.poll() is None:
                 os.killpg(process.pid, signal.SIGKILL)
+
+
+@contextlib.contextmanager
+def x_display() -> Any:
+    """A ``DISPLAY`` value that answers as an X server's does to `has_display` (a TCP socket
+    listening on 127.0.0.1, port 6000 + N), for tests of the windowed paths with stand-in
+    viewers; no X server is run."""
+    import socket
+
+    listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    with listener:
+        for port in range(6100, 6900):
+            try:
+                listener.bind(("127.0.0.1", port))
+                break
+            except OSError:
+                continue
+        listener.listen(8)
+        yield f"127.0.0.1:{port - 6000}"

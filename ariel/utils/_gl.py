@@ -21,7 +21,9 @@ from it is safe before ``mujoco`` has been imported.
 from __future__ import annotations
 
 import os
+import socket
 import sys
+from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING
 
@@ -177,8 +179,39 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
 
 
 def has_display() -> bool:
-    """Whether an interactive window can open here (Linux and other X11/Wayland systems:
-    ``DISPLAY`` or ``WAYLAND_DISPLAY``; macOS and Windows always)."""
+    """Whether an interactive window can open here: macOS and Windows always; elsewhere a
+    ``WAYLAND_DISPLAY`` or ``DISPLAY`` that answers. A variable alone is not trusted: a stale
+    ``DISPLAY`` (left by ``ssh -X``, tmux or screen) made rendering try GLFW, print its
+    warnings and fail, where EGL would have drawn."""
     if sys.platform in ("darwin", "win32"):
         return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return _wayland_answers(os.environ.get("WAYLAND_DISPLAY")) or _x_answers(
+        os.environ.get("DISPLAY")
+    )
+
+
+def _wayland_answers(name: str | None) -> bool:
+    """The compositor's socket exists (absolute, or in ``XDG_RUNTIME_DIR``)."""
+    if not name:
+        return False
+    path = Path(name) if os.path.isabs(name) else Path(os.environ.get("XDG_RUNTIME_DIR", "/"), name)
+    return path.is_socket()
+
+
+def _x_answers(display: str | None) -> bool:
+    """An X server listens at ``display`` (``[host]:N[.S]``): the local socket of display N,
+    or, for a host (``localhost:10.0``, as ``ssh -X`` sets it), TCP port 6000 + N."""
+    if not display or ":" not in display:
+        return False
+    host, _, rest = display.rpartition(":")
+    number = rest.partition(".")[0]
+    if not number.isdigit():
+        return False
+    if host in ("", "unix") or host.startswith("/"):  # a local socket (a path: XQuartz's form)
+        local = Path(host) if host.startswith("/") else Path(f"/tmp/.X11-unix/X{number}")
+        return local.is_socket() or (host.startswith("/") and Path(display).is_socket())
+    try:
+        with socket.create_connection((host, 6000 + int(number)), timeout=0.5):
+            return True
+    except (OSError, ValueError, OverflowError):
+        return False

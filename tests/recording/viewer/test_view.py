@@ -16,6 +16,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,7 @@ from ariel.recording.viewer._view import (
     select_recordings,
     web_url,
 )
-from tests._helpers import ServedWebViewer, exit_code
+from tests._helpers import ServedWebViewer, exit_code, x_display
 
 CHROMIUM = Path("/usr/bin/chromium")
 # A small co-evolution run (like TINY in tests/evolution/test_loop.py): 3 generations, no
@@ -305,11 +306,23 @@ def test_bad_input_is_one_line_exit_2(recorded_run: Path, tmp_path: Path) -> Non
 # --- the native viewer (a stand-in binary: there is no display here) ------------------------
 
 
+_DISPLAY: list[str] = []
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _answering_display() -> Iterator[None]:
+    """A DISPLAY that answers (`x_display`): the native viewer's tests stand in for one."""
+    with x_display() as display:
+        _DISPLAY.append(display)
+        yield
+        _DISPLAY.clear()
+
+
 def _fake_rerun(tmp_path: Path, body: str) -> dict[str, str]:
     script = tmp_path / "fake-rerun"
     script.write_text(f'#!/bin/sh\necho $$ > {tmp_path}/pid\necho "$@" > {tmp_path}/argv\n{body}\n')
     script.chmod(0o755)
-    return {**_no_display_env(), "DISPLAY": ":99", "RERUN_CLI_PATH": str(script)}
+    return {**_no_display_env(), "DISPLAY": _DISPLAY[0], "RERUN_CLI_PATH": str(script)}
 
 
 def test_native_viewer_gets_the_recordings_and_the_blueprint(recorded_run: Path, tmp_path):

@@ -1,0 +1,34 @@
+"""`has_display` trusts no variable alone: a stale ``DISPLAY`` (``ssh -X`` gone, tmux, screen)
+made `replay --video` try GLFW and fail with its warnings where EGL would have drawn."""
+
+from __future__ import annotations
+
+import socket
+import sys
+from pathlib import Path
+
+import pytest
+from _helpers import x_display
+
+from ariel.utils import has_display
+
+pytestmark = pytest.mark.skipif(sys.platform in ("darwin", "win32"), reason="X11/Wayland only")
+
+
+def test_a_display_counts_only_when_it_answers(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    for stale in (":4321", "unix:4321", "127.0.0.1:899.0", "nonsense", ""):
+        monkeypatch.setenv("DISPLAY", stale)
+        assert not has_display(), stale
+    with x_display() as answering:
+        monkeypatch.setenv("DISPLAY", answering)
+        assert has_display()
+    monkeypatch.delenv("DISPLAY")
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    monkeypatch.setenv("WAYLAND_DISPLAY", "wayland-7")
+    assert not has_display()  # no compositor's socket
+    with socket.socket(socket.AF_UNIX) as compositor:
+        compositor.bind(str(tmp_path / "wayland-7"))
+        assert has_display()
