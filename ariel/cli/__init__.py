@@ -47,7 +47,12 @@ from ariel.cli._run import (
     add_run_command,
 )
 from ariel.cli._runs import add_runs_command
-from ariel.cli._streams import cwd_problem, lost_output_line, standard_output
+from ariel.cli._streams import (
+    cwd_problem,
+    lost_output_line,
+    open_files_problem,
+    standard_output,
+)
 from ariel.cli._verify import EXIT_DAMAGED as EXIT_DAMAGED, add_verify_command
 from ariel.cli._view import add_view_command
 from ariel.cli._watch import add_watch_command
@@ -93,7 +98,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
-    problem = cwd_problem()
+    problem = cwd_problem() or open_files_problem()
     if problem is not None:
         return fail(problem)
     with standard_output() as output:

@@ -18,7 +18,9 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["Output", "cwd_problem", "lost_output_line", "standard_output"]
+from ariel.utils import MIN_OPEN_FILES, open_files_short
+
+__all__ = ["Output", "cwd_problem", "lost_output_line", "open_files_problem", "standard_output"]
 
 
 class Output:
@@ -96,3 +98,16 @@ def cwd_problem() -> str | None:
             "cd to another folder and run the command again"
         )
     return None
+
+
+def open_files_problem() -> str | None:
+    """The line for a process that may open fewer files than any command needs (``ulimit -n``
+    below `MIN_OPEN_FILES`, its hard limit too: Rerun's import alone aborted the process
+    with a 170-line panic); None where it may (the soft limit raised where it was lower)."""
+    most = open_files_short(MIN_OPEN_FILES)
+    if most is None:
+        return None
+    return (
+        f"this process may open only {most} files at once (ulimit -n); ariel needs at least "
+        f"{MIN_OPEN_FILES}: raise the limit (ulimit -n {MIN_OPEN_FILES * 4}) and run again"
+    )

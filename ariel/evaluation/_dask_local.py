@@ -19,11 +19,7 @@ from types import ModuleType
 from typing import Any
 
 from ariel.errors import ConfigError
-
-try:
-    import resource
-except ImportError:  # pragma: no cover - not POSIX
-    resource = None  # type: ignore[assignment]
+from ariel.utils import open_files_short
 
 __all__ = [
     "OPEN_FILES_BESIDE_DASK",
@@ -60,17 +56,10 @@ def open_files_problem(workers: int) -> str | None:
     """Whether this process may hold the open files a ``LocalCluster`` of ``workers`` needs:
     None when it may (the soft limit, ``ulimit -n``, raised towards the hard one where it is
     lower), else why not, naming the most workers that fit (one line, no key)."""
-    if resource is None:  # pragma: no cover - not POSIX
-        return None
     needed = OPEN_FILES_BESIDE_DASK + OPEN_FILES_PER_DASK_WORKER * workers
-    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
-    if soft == resource.RLIM_INFINITY or soft >= needed:
+    most = open_files_short(needed)
+    if most is None:
         return None
-    if hard == resource.RLIM_INFINITY or hard >= needed:
-        with contextlib.suppress(ValueError, OSError):
-            resource.setrlimit(resource.RLIMIT_NOFILE, (needed, hard))
-            return None
-    most = soft if hard == resource.RLIM_INFINITY else max(soft, hard)
     fits = max(0, (most - OPEN_FILES_BESIDE_DASK) // OPEN_FILES_PER_DASK_WORKER)
     return (
         f"a local Dask cluster of {workers} workers needs about {needed} open files; the "

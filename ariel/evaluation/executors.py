@@ -63,7 +63,7 @@ from ariel.evaluation._threads import (
 )
 from ariel.evaluation._warp_runtime import check_device, warp_modules
 from ariel.plugins import Registry
-from ariel.utils import accept_aliases
+from ariel.utils import MIN_OPEN_FILES, accept_aliases, open_files_short
 
 __all__ = [
     "DEFAULT_MAX_RETRIES",
@@ -135,6 +135,11 @@ class ExecutorSettingsError(ValueError):
     """Bad executor settings; the message starts with the config key (``executor.workers: ...``)."""
 
 
+#: Open files the driver holds for each worker of the local pool (pipes, the fork server's
+#: and the result queue's): about 3 measured; with room to spare.
+OPEN_FILES_PER_LOCAL_WORKER = 8
+
+
 class ExecutorKind:
     """One executor kind: how its ``[executor]`` settings are checked, how many batches it runs
     at once, and how it is built. Register a subclass under its name (the entry-point group
@@ -190,6 +195,19 @@ class SerialKind(ExecutorKind):
 
 class LocalKind(ExecutorKind):
     """``local``: a process pool on this machine."""
+
+    def check(self, settings: ExecutorSettings) -> None:
+        # Before anything is written: a pool too big for ``ulimit -n`` failed in the fork
+        # server with its traceback, before the one line.
+        workers = settings.workers or default_workers()
+        most = open_files_short(MIN_OPEN_FILES + OPEN_FILES_PER_LOCAL_WORKER * workers)
+        if most is not None:
+            fits = max(1, (most - MIN_OPEN_FILES) // OPEN_FILES_PER_LOCAL_WORKER)
+            raise ExecutorSettingsError(
+                f"executor.workers: a local pool of {workers} workers needs about "
+                f"{MIN_OPEN_FILES + OPEN_FILES_PER_LOCAL_WORKER * workers} open files; the "
+                f"limit is {most} (ulimit -n): use at most {fits} workers, or raise the limit"
+            )
 
     def options(self, settings: ExecutorSettings) -> dict[str, Any]:
         return {"workers": settings.workers, "max_retries": settings.max_retries}

@@ -45,6 +45,10 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         in_notebook_kernel as in_notebook_kernel,
         is_terminal as is_terminal,
     )
+    from ariel.utils._open_files import (
+        MIN_OPEN_FILES as MIN_OPEN_FILES,
+        open_files_short as open_files_short,
+    )
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
@@ -61,7 +65,9 @@ _INTERNAL: dict[str, str] = {
     "is_terminal": "ariel.utils._notebook",
     "load_run_command": "ariel.utils._commands",
     "mujoco_module": "ariel.utils._gl",
+    "MIN_OPEN_FILES": "ariel.utils._open_files",
     "nests_deeper_than": "ariel.utils._json",
+    "open_files_short": "ariel.utils._open_files",
     "path_argument": "ariel.utils._arguments",
     "python_command": "ariel.utils._commands",
     "replace_non_finite": "ariel.utils._json",

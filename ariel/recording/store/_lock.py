@@ -30,7 +30,7 @@ from pathlib import Path
 
 from ariel.errors import ConfigError, RunInUseError
 from ariel.recording.store._files import UnsafePathError, read_regular_file
-from ariel.utils import file_kind
+from ariel.utils import file_kind, open_files_short
 
 __all__ = [
     "CAMPAIGN_JSON",
@@ -57,11 +57,6 @@ try:
 except ImportError:  # pragma: no cover - not POSIX
     fcntl = None  # type: ignore[assignment]
 
-try:
-    import resource
-except ImportError:  # pragma: no cover - not POSIX
-    resource = None  # type: ignore[assignment]
-
 
 #: Open files a campaign process needs besides its runs' locks: Python and its libraries, the
 #: campaign's own lock, the files a generation writes (measured: about 15 with a serial
@@ -76,18 +71,10 @@ def ensure_open_files(runs: int, workers: int = 1) -> None:
     (one lock each, held throughout, and `OPEN_FILES_BESIDE_RUNS` + `OPEN_FILES_PER_WORKER` x
     ``workers``): raise the soft limit on open files (``ulimit -n``) towards the hard one where
     it is lower, else `ConfigError` in one line, before anything is written."""
-    if resource is None:  # pragma: no cover - not POSIX
-        return
     needed = runs + OPEN_FILES_BESIDE_RUNS + OPEN_FILES_PER_WORKER * max(workers, 1)
-    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
-    if soft == resource.RLIM_INFINITY or soft >= needed:
+    most = open_files_short(needed)
+    if most is None:
         return
-    if hard == resource.RLIM_INFINITY or hard >= needed:
-        wanted = 2 * needed if hard == resource.RLIM_INFINITY else min(hard, 2 * needed)
-        with contextlib.suppress(ValueError, OSError):
-            resource.setrlimit(resource.RLIMIT_NOFILE, (wanted, hard))
-            return
-    most = soft if hard == resource.RLIM_INFINITY else max(soft, hard)  # ulimit -n reaches
     raise ConfigError(
         f"this campaign needs about {needed} open files ({runs} runs at once, a lock file "
         f"each, and {needed - runs} for the rest); the limit is {most} (ulimit -n): raise it "

@@ -380,6 +380,37 @@ def test_the_soft_limit_is_raised_where_the_hard_one_allows() -> None:
     assert int(done.stdout) >= 118 + 64 + 2 * 8
 
 
+@pytest.mark.parametrize(
+    ("soft", "extra", "said"),
+    [
+        (
+            100,
+            ["--executor", "local", "--workers", "8"],
+            "a local pool of 8 workers needs "
+            "about 128 open files; the limit is 100 (ulimit -n): use at most 4 workers",
+        ),
+        (
+            20,
+            [],
+            "this process may open only 20 files at once (ulimit -n); ariel needs at least 64",
+        ),
+    ],
+    ids=["local-pool", "any-command"],
+)
+def test_too_few_open_files_for_a_run_is_one_line_before_anything_is_written(
+    tmp_path: Path, soft: int, extra: list[str], said: str
+) -> None:
+    """Under ``ulimit -n 20`` the local pool's fork server printed its traceback before the
+    line, and Rerun's import aborts the process (a 170-line panic) below about 26."""
+    out = tmp_path / "out"
+    argv = ["run", "--out", str(out), "--quiet", *extra]
+    done = _under_limit(f"from ariel.cli import main\nsys.exit(main({argv!r}))\n", soft)
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and said in lines[0], done.stderr
+    assert not out.exists()
+
+
 def test_every_table_has_a_row_size() -> None:
     """`ROW_BYTES` names the tables the limits apply to (`_table_of`): all of them."""
     from ariel.recording.store._table_limits import ROW_BYTES
