@@ -15,7 +15,7 @@ generation's records before the writer saves its checkpoint, and run.json follow
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
@@ -244,6 +244,7 @@ def run_info(prepared: PreparedRun, run_id: str) -> dict[str, Any]:
         "seed": config.seed,
         "config": config.to_plain(),
         "config_hash": config_hash(config),
+        "results_version": RESULTS_VERSION,
         "versions": software_versions(),
         "git_commit": git_commit(),
         "plugins": provenance,
@@ -256,11 +257,37 @@ def run_info(prepared: PreparedRun, run_id: str) -> dict[str, Any]:
     }
 
 
+#: Which records a config gives. Raised whenever a change makes one config give other
+#: records (the golden records regenerated on purpose); run.json keeps the maker's. A run is
+#: resumed only by an ariel of its own version: generations of two algorithms in one run
+#: would match neither's uninterrupted run.
+RESULTS_VERSION = 1
+
+
+def results_version(info: Mapping[str, object]) -> object:
+    """The results version of the ariel that made the run (run.json ``info``): its
+    ``results_version``; before that key, 1 where its config has ``task.settle`` (added by the
+    change that made version 1: settling, the NA-CPG's starting amplitude), else 0."""
+    if "results_version" in info:
+        return info["results_version"]
+    config = info.get("config")
+    task = config.get("task") if isinstance(config, dict) else None
+    return 1 if isinstance(task, dict) and "settle" in task else 0
+
+
 def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:
     """run.json, config and checkpoint of a run that may be resumed; `ValueError` else."""
     info = folder.read_info()
     if info.get("status") == "finished":
         raise ValueError(f"run {str(folder.path)!r} is already finished; nothing to resume")
+    made = results_version(info)
+    if made != RESULTS_VERSION:
+        raise ValueError(
+            f"run {str(folder.path)!r} was made by an ariel whose results differ from this "
+            f"one's (results version {str(made)[:20]}; this ariel's: {RESULTS_VERSION}): "
+            "resuming it here would mix two algorithms in one run; finish it with the ariel "
+            "that made it (run.json's git_commit), or start a new run of its config"
+        )
     try:
         config = ExperimentConfig.from_plain(info["config"])
     except (KeyError, ConfigError) as exc:

@@ -279,3 +279,35 @@ def test_campaign_file_seeds_are_strict_integers(seeds: str, tmp_path: Path) -> 
     file.write_text(f'base = {{ name = "t" }}\nseed_count = {seeds[1:-1]}\n')
     with pytest.raises(ConfigError, match=r"^seed_count: must be a valid integer \(got "):
         load_campaign_file(file)
+
+
+# --- a run made by an ariel whose results differ ---------------------------------------------
+
+
+def _made_before_version_1(info: dict[str, Any]) -> None:
+    """run.json as an ariel from before task.settle wrote it (results version 0)."""
+    info.pop("results_version")
+    info["config"]["task"].pop("settle")
+
+
+@pytest.mark.parametrize(
+    "made_by",
+    [lambda info: info.update(results_version=0), _made_before_version_1],
+    ids=["version-0", "before-the-key"],
+)
+def test_a_run_of_another_results_version_is_not_resumed(
+    campaign: Path, made_by: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Resumed, a run killed under the old algorithm went on under the new one: generations
+    of two algorithms in one run, matching neither, without a word."""
+    from ariel.runs._session import RESULTS_VERSION, results_version
+
+    run = next(campaign.glob("runs/*/*"))
+    assert results_version(json.loads((run / "run.json").read_text())) == RESULTS_VERSION
+    edit_json(run / "run.json", made_by)
+    before = _tree(run)
+    assert exit_code(["resume", str(run), "--quiet"]) == 2
+    line = one_error_line(capsys)
+    assert "was made by an ariel whose results differ from this one's (results version 0;" in line
+    assert "would mix two algorithms" in line
+    assert _tree(run) == before  # nothing written, not even a segment
