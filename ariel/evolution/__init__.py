@@ -135,6 +135,10 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         DEFAULT_RANGES as DEFAULT_RANGES,
         archive_quality as archive_quality,
     )
+    from ariel.evolution._results_version import (
+        RESULTS_VERSION as RESULTS_VERSION,
+        results_version as results_version,
+    )
     from ariel.evolution._scheduler import (
         run_groups as run_groups,
     )
@@ -193,6 +197,8 @@ __all__ = sorted(_LAZY)
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
+    "RESULTS_VERSION": "ariel.evolution._results_version",
+    "results_version": "ariel.evolution._results_version",
     "BatchEvaluated": "ariel.evolution._events",
     "BodyFailed": "ariel.evolution._events",
     "CheckpointDue": "ariel.evolution._events",

@@ -15,13 +15,14 @@ generation's records before the writer saves its checkpoint, and run.json follow
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ariel.evolution import (
+    RESULTS_VERSION,
     CheckpointDue,
     ConfigError,
     ExecutorConfig,
@@ -33,6 +34,7 @@ from ariel.evolution import (
     RunObserver,
     RunStarted,
     config_hash,
+    results_version,
     run_groups,
     state_from_plain,
 )
@@ -255,24 +257,6 @@ def run_info(prepared: PreparedRun, run_id: str) -> dict[str, Any]:
         "brain_only": prepared.brain_only,
         "manifests": MANIFEST_FORMAT,
     }
-
-
-#: Which records a config gives. Raised whenever a change makes one config give other
-#: records (the golden records regenerated on purpose); run.json keeps the maker's. A run is
-#: resumed only by an ariel of its own version: generations of two algorithms in one run
-#: would match neither's uninterrupted run.
-RESULTS_VERSION = 1
-
-
-def results_version(info: Mapping[str, object]) -> object:
-    """The results version of the ariel that made the run (run.json ``info``): its
-    ``results_version``; before that key, 1 where its config has ``task.settle`` (added by the
-    change that made version 1: settling, the NA-CPG's starting amplitude), else 0."""
-    if "results_version" in info:
-        return info["results_version"]
-    config = info.get("config")
-    task = config.get("task") if isinstance(config, dict) else None
-    return 1 if isinstance(task, dict) and "settle" in task else 0
 
 
 def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:

@@ -300,7 +300,7 @@ def test_a_run_of_another_results_version_is_not_resumed(
 ) -> None:
     """Resumed, a run killed under the old algorithm went on under the new one: generations
     of two algorithms in one run, matching neither, without a word."""
-    from ariel.runs._session import RESULTS_VERSION, results_version
+    from ariel.evolution import RESULTS_VERSION, results_version
 
     run = next(campaign.glob("runs/*/*"))
     assert results_version(json.loads((run / "run.json").read_text())) == RESULTS_VERSION

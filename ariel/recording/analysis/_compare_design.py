@@ -14,10 +14,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
+
+from ariel.errors import ConfigError
+from ariel.evolution import ExperimentConfig
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -179,7 +183,11 @@ def _flat(config: Mapping[str, object], prefix: str = "") -> dict[str, str]:
 
 def condition_settings(config: Mapping[str, object]) -> dict[str, str]:
     """A run config as dotted key -> JSON value (a plugin's ``options`` as one value), less
-    what does not make a condition: seed, name, description and the executor."""
+    what does not make a condition: seed, name, description and the executor. Keys added
+    since an older run was made read as they behaved then (`ExperimentConfig.from_plain`):
+    an old run is not another condition for lacking ``task.settle``."""
+    with contextlib.suppress(ConfigError, TypeError, ValueError):
+        config = ExperimentConfig.from_plain(config).to_plain()
     return {
         k: v
         for k, v in _flat(config).items()

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
+from ariel.evolution import results_version
 from ariel.recording.analysis import _compare_lineage as lineages
 from ariel.recording.analysis._compare_design import (
     QD_COLUMNS,
@@ -311,7 +312,11 @@ def _folder_runs(
             f"{group[0][1].info.get('run_id')!r}: a copy); counted once"
         )
     runs = [run for _, run in kept]
-    flats = [condition_settings(run.config) for run in runs]
+    # A run of another results version is another condition, whatever its config says.
+    flats = [
+        {**condition_settings(run.config), "results_version": str(results_version(run.info))}
+        for run in runs
+    ]
     keys = sorted({k for f in flats for k in f})
     differing = [k for k in keys if len({f.get(k) for f in flats}) > 1]
     if labels is not None:

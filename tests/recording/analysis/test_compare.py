@@ -638,6 +638,30 @@ def test_labels_name_the_conditions_of_run_folders(
     assert "each condition named by --label" in readme
 
 
+def test_runs_of_another_results_version_are_another_condition(
+    two_runs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A run made by an ariel whose results differ is not pooled with today's for having the
+    same config (nor told apart by keys it lacks: settle=- for a run from before task.settle,
+    which compare reads as the 0 it was)."""
+    from ariel.recording.analysis._compare_design import condition_settings
+
+    long, _ = two_runs
+    old = tmp_path / "old"
+    shutil.copytree(long, old)
+    info = json.loads((old / "run.json").read_text())
+    info["results_version"] = 0
+    info["created"] = "2001-01-01T00:00:00+00:00"  # another run, not a copy
+    (old / "run.json").write_text(json.dumps(info))
+    out = tmp_path / "out"
+    assert main(["compare", str(long), str(old), "--out", str(out)]) == 0
+    runs = pd.read_csv(out / "runs.csv")
+    assert sorted(runs["condition"]) == ["results_version=0", "results_version=1"]
+    without = {**info["config"], "task": {k: v for k, v in info["config"]["task"].items()}}
+    without["task"].pop("settle")
+    assert condition_settings(without)["task.settle"] == "0.0"  # the neutral value it had
+
+
 @pytest.mark.parametrize(
     ("labels", "expected"),
     [
