@@ -28,6 +28,7 @@ from ariel.simulation.tasks.gait_learning import (
 )
 from ariel.simulation.tasks.targeted_locomotion import distance_to_target as _distance_to_target
 from ariel.simulation.tasks.turning_in_place import turning_in_place as _turning_in_place
+from ariel.utils import whole_numbers
 
 if TYPE_CHECKING:
     from ariel.evaluation._results import TrajectoryRecord
@@ -175,7 +176,8 @@ class MLPController:
     controller's options (a task's ``controller_options``).
 
     Args:
-        hidden: Number of hidden tanh units, h (default 16); at least 1, else `ValueError`.
+        hidden: Number of hidden tanh units, h (default 16): an int (else `TypeError`), at
+            least 1 (else `ValueError`).
         output_scale: Largest joint target, in radians: outputs lie in
             ``(-output_scale, output_scale)`` (default π/2).
     """
@@ -183,6 +185,7 @@ class MLPController:
     open_loop = False
 
     def __init__(self, *, hidden: int = 16, output_scale: float = math.pi / 2) -> None:
+        whole_numbers(hidden=hidden)
         if int(hidden) < 1:
             raise ValueError(f"hidden must be >= 1, not {hidden!r}")
         self.hidden = int(hidden)

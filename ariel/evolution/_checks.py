@@ -208,9 +208,29 @@ def check_resources(
     raise ConfigError(
         f"{_largest_key(c)}: one generation would need about {needed / _GIB:.1f} GiB of memory "
         f"({'; '.join(parts)}); this machine has {available / _GIB:.1f} GiB available: "
-        "shorten task.duration, lower record.rate_hz or the population sizes, or set "
-        "record.trajectories = false"
+        f"{_remedies(kept, running)}"
     )
+
+
+def _remedies(kept: int, running: int) -> str:
+    """What would make the estimate smaller, for the parts it has: the kept frames (only with
+    ``record.trajectories``), the physics states of the evaluations at once, the compiled
+    bodies (always)."""
+    remedies = []
+    if kept or running:
+        remedies.append("shorten task.duration")
+    if running:
+        remedies.append("run fewer evaluations at once (lower executor.workers or brain.popsize)")
+    if kept:
+        remedies += [
+            "lower record.rate_hz or the population sizes",
+            "set record.trajectories = false",
+        ]
+    else:
+        remedies.append("lower the population sizes")
+    if len(remedies) == 1:
+        return remedies[0]
+    return ", ".join(remedies[:-1]) + (", or " if len(remedies) > 2 else " or ") + remedies[-1]
 
 
 def _largest_key(config: ExperimentConfig) -> str:
@@ -238,6 +258,7 @@ def plugin_named(config: ExperimentConfig, text: str) -> str:
         f"controller {config.brain.controller!r}",
         f"world {config.world.name!r}",
         f"body encoder {config.body.encoder!r}",
+        f"brain optimizer {config.brain.optimizer!r}",
     )
     # The engine notes "raised by <plugin>" on what a plugin raised; else a message naming one.
     found = [label for label in labels if f"raised by {label}" in text]

@@ -4,6 +4,14 @@ pycma draws its samples from ``numpy.random``'s global generator unless given ``
 several runs progressing side by side that would make each run depend on the others' timing.
 So every learner owns its generator (`_Randn`), seeded from the body's seed. Its state is what
 it was told (`ToldHistory`); restoring tells a fresh learner the same again (`replay_told`).
+
+pycma's defaults are kept, with one exception where they cannot work (`_options`): from 300
+parameters (``cma.evolution_strategy.TPA_dimension``) pycma adapts the step size by two-point
+adaptation, which injects two candidates into every later iteration; with its selective mirrors
+(``CMA_mirrors``, on below popsize 6) that is three injected candidates, and at popsize 2 the
+second `tell` raises ("Found unused injected direction/solutions"). There the learner keeps the
+cumulative step-size adaptation pycma uses below 300 parameters (``AdaptSigma``); its first
+`ask` is the same. (``CMA_mirrors = 0`` would not do: pycma refuses popsize 2 without a mirror.)
 """
 
 from __future__ import annotations
@@ -13,6 +21,8 @@ import warnings
 
 import cma
 import numpy as np
+from cma.evolution_strategy import TPA_dimension
+from cma.sigma_adaptation import CMAAdaptSigmaCSA
 
 from ariel.evolution._brain import ToldHistory, ToldState, penalised_cost, replay_told
 
@@ -27,6 +37,15 @@ class _Randn:
 
     def __call__(self, *shape: int) -> np.ndarray:
         return self.rng.standard_normal(shape)
+
+
+def _options(n_params: int, popsize: int) -> dict[str, object]:
+    """pycma options beyond the defaults that a learner of ``n_params`` needs (see the module
+    docstring): none, but at popsize 2 from ``TPA_dimension`` parameters on, where two-point
+    step-size adaptation's two injected candidates and a selective mirror do not fit."""
+    if popsize < 3 and n_params >= TPA_dimension:
+        return {"AdaptSigma": CMAAdaptSigmaCSA}
+    return {}
 
 
 class CMAES:
@@ -58,6 +77,7 @@ class CMAES:
             "verb_log": 0,  # no outcmaes/ files
             "verb_disp": 0,
             "CMA_diagonal": False,
+            **_options(np.size(x0), popsize),
         }
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

@@ -111,7 +111,10 @@ class BrainWork:
         run = self.job.run
         if run.iteration >= self.job.target:
             return None
-        self._params = run.ask()
+        try:
+            self._params = run.ask()
+        except Exception as exc:
+            raise self._learner_failed(exc) from exc
         driver = self.driver
         self._tasks = driver.factory.batch_tasks(self.job, self._params, driver.record_bodies)
         return self._tasks
@@ -120,7 +123,10 @@ class BrainWork:
         job, driver = self.job, self.driver
         iteration = job.run.iteration
         assert self._params is not None  # the scheduler tells a batch that next_batch gave
-        improved = job.run.tell(self._params, np.array([r.fitness for r in results]))
+        try:
+            improved = job.run.tell(self._params, np.array([r.fitness for r in results]))
+        except Exception as exc:
+            raise self._learner_failed(exc) from exc
         body = job.body
         body.evaluations += len(results)
         if improved is not None:
@@ -143,6 +149,16 @@ class BrainWork:
                 best=driver.best_so_far(),
             )
         )
+
+    def _learner_failed(self, exc: Exception) -> BaseException:
+        """What stops the run when the brain optimizer raised asking for or told the batch of
+        this iteration: the driver's `plugin_error` for the batch's first evaluation, ``exc``
+        noted as raised by the brain optimizer (so the one line names it)."""
+        exc.add_note(f"raised by brain optimizer {self.driver.config.brain.optimizer!r}")
+        job = self.job
+        first = np.zeros((1, job.run.n_params))  # the batch's first task, as it is named
+        task = self.driver.factory.batch_tasks(job, first, record_bodies=False)[0]
+        return self.driver.plugin_error(task, exc)
 
     def failed_result(self, task: EvaluationTask, reason: str) -> EvaluationResult:
         worst = self.driver.plugins.worst

@@ -82,7 +82,15 @@ class Nevergrad:
         cls = _optimizer_class(method)
         if budget is not None and (type(budget) is not int or budget < 1):
             raise ValueError(f"budget must be a whole number of evaluations >= 1 (got {budget!r})")
-        self.maximise, self.popsize = maximise, popsize
+        if getattr(cls, "no_parallelization", False) and popsize > 1:
+            # Checked before making it: nevergrad's own refusal leaves a half-made optimizer
+            # whose __del__ prints a traceback, and names an internal class.
+            raise ValueError(
+                f"method {method!r} evaluates one candidate at a time (nevergrad: no "
+                f"parallelization), but brain.popsize asks for {popsize} an iteration: choose "
+                f"a method that takes several, e.g. {DEFAULT_METHOD!r}, 'CMA' or 'NGOpt'"
+            )
+        self.maximise, self.popsize, self.method, self.budget = maximise, popsize, method, budget
         self.history = ToldHistory()
         parameters = ng.p.Array(init=np.asarray(x0, dtype=np.float64)).set_mutation(sigma=sigma0)
         parameters.random_state = np.random.RandomState(np.random.MT19937(seed))
@@ -92,9 +100,22 @@ class Nevergrad:
         self._asked: list[Parameter] = []  # the candidates of the last ask, to tell
 
     def ask(self) -> np.ndarray:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            self._asked = [self._optimizer.ask() for _ in range(self.popsize)]
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                self._asked = [self._optimizer.ask() for _ in range(self.popsize)]
+        except (AssertionError, TypeError) as exc:
+            if self.budget is not None or self.history.told:
+                raise
+            # NGOpt and the sampling searches (LHSSearch, ScrHammersleySearch...) plan with a
+            # budget and fail their first ask without one: say so rather than nevergrad's
+            # bare AssertionError.
+            shown = (f"{type(exc).__name__}: {exc}".splitlines() or [""])[0]
+            raise ValueError(
+                f"method {self.method!r} needs a budget (its first ask without one raised "
+                f"{shown.strip()}): give it one in brain.optimizer_options, e.g. budget = "
+                "brain.popsize x brain.iterations (x generations in a brain-only run)"
+            ) from exc
         return np.array([c.value for c in self._asked], dtype=np.float64)
 
     def tell(self, params: np.ndarray, fitness: np.ndarray) -> None:

@@ -37,6 +37,7 @@ from ariel.evolution import (
     is_brain_only,
     is_genotype_file,
     read_genotype_file,
+    record_steps,
 )
 from ariel.plugins import (
     BodyEncoder,
@@ -50,6 +51,7 @@ from ariel.plugins import (
     worlds,
 )
 from ariel.recording.store import short_ascii
+from ariel.simulation.tasks.gait_learning import window_count_error
 from ariel.utils import ariel_line
 
 __all__ = [
@@ -78,10 +80,37 @@ def _make(key: str, registry: Registry[Any], name: str, options: dict[str, Any])
         raise ConfigError(f"{options_key}: {registry.label} '{name}': {exc}") from None
 
 
-def _check_fitness_options(config: ExperimentConfig, fitness: FitnessFunction) -> None:
+def _check_fitness_options(
+    config: ExperimentConfig, fitness: FitnessFunction, world: object
+) -> None:
     exc = fitness_options_error(fitness, config.task.options)
     if exc is not None:
         raise ConfigError(f"task.options: fitness function '{config.task.fitness}': {exc}")
+    _check_windows(config, getattr(world, "timestep", None))
+
+
+def _check_windows(config: ExperimentConfig, timestep: object) -> None:
+    """``sustained_displacement``'s ``window`` against this run's recorded path (its span and
+    frames, from ``task.duration``, ``record.rate_hz`` and the world's ``timestep``): the
+    function refuses a window that cuts it into too many pieces (`window_count_error`), which
+    would otherwise stop the run at its first evaluation, or take all memory."""
+    window = config.task.options.get("window", 1.0)
+    if (
+        config.task.fitness != "sustained_displacement"
+        or not isinstance(timestep, float)
+        or not isinstance(window, int | float)
+        or isinstance(window, bool)
+        or not window > 0  # the function's own message says what a window must be
+    ):
+        return
+    steps = max(1, round(config.task.duration / timestep))  # as the engine's `num_steps`
+    samples = steps // record_steps(config, timestep) + 1
+    error = window_count_error(steps * timestep * (1 + 1e-9), samples, float(window))
+    if error is not None:
+        raise ConfigError(
+            f"task.options: fitness function 'sustained_displacement': {error} (task.duration "
+            f"{config.task.duration:g} s, {samples} recorded frames)"
+        )
 
 
 def _optimizer_factory(
@@ -109,7 +138,8 @@ def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
     """``brain.optimizer`` is a registered brain optimizer that takes ``optimizer_options``:
     one is made here for a two-parameter body (each body makes its own during the run), with
     at most 64 candidates (a popsize too big for this machine is the memory check's to refuse:
-    pycma allocates per candidate)."""
+    pycma allocates per candidate), and asked, told and asked again, as ``ariel plugins
+    --check`` does (a Nevergrad method that needs a budget fails its first ask without one)."""
     brain = config.brain
     try:
         factory = brain_optimizers.get(brain.optimizer)
@@ -123,10 +153,28 @@ def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
             "learner x0, popsize, sigma0, seed and maximise (brain.popsize, brain.sigma0)"
         )
     try:
-        factory(x0=np.zeros(2), seed=1, **keywords, **brain.optimizer_options)
+        learner = factory(x0=np.zeros(2), seed=1, **keywords, **brain.optimizer_options)
     except (TypeError, ValueError) as exc:
         first = (str(exc).splitlines() or [""])[0]
         raise ConfigError(f"brain.optimizer_options: {brain.optimizer!r}: {first}") from None
+    key = f"brain.optimizer_options: {brain.optimizer!r}: the plugin check failed"
+    step = "ask()"
+    try:
+        params = np.asarray(learner.ask(), dtype=np.float64)
+        if params.shape != (keywords["popsize"], 2):
+            raise ConfigError(
+                f"{key}: ask() gave shape {params.shape}, not (popsize, parameters) = "
+                f"({keywords['popsize']}, 2)"
+            )
+        step = "tell(...)"
+        learner.tell(params, -np.sum(params**2, axis=1))
+        step = "ask() after tell(...)"
+        learner.ask()
+    except ConfigError:
+        raise
+    except Exception as exc:  # any: the learner's own code
+        first = (f"{type(exc).__name__}: {exc}".splitlines() or [""])[0]
+        raise ConfigError(f"{key}: {step} raised {first}") from None
 
 
 def resolve_plugins(config: ExperimentConfig) -> Plugins:
@@ -135,12 +183,12 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
     controller = _make(
         "brain.controller", controllers, config.brain.controller, config.brain.options
     )
-    _make("world.name", worlds, config.world.name, config.world.options)
+    world = _make("world.name", worlds, config.world.name, config.world.options)
     try:
         fitness = fitness_functions.get(config.task.fitness)
     except (KeyError, ValueError, ImportError) as exc:
         raise ConfigError(f"task.fitness: {exc}") from None
-    _check_fitness_options(config, fitness)
+    _check_fitness_options(config, fitness, world)
     if config.body.genotype is not None and not is_genotype_file(config.body.genotype):
         check_genotype(config.body.genotype, encoder)  # a file is checked as it is read
     maximise = bool(fitness.maximise)

@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         flag_argument as flag_argument,
         path_argument as path_argument,
         strings_argument as strings_argument,
+        whole_numbers as whole_numbers,
     )
     from ariel.utils._commands import (
         ariel_command as ariel_command,
@@ -74,6 +75,7 @@ _INTERNAL: dict[str, str] = {
     "report_interrupted": "ariel.utils._commands",
     "shell_path": "ariel.utils._commands",
     "strings_argument": "ariel.utils._arguments",
+    "whole_numbers": "ariel.utils._arguments",
 }
 
 __getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -10,7 +10,13 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["count_argument", "flag_argument", "path_argument", "strings_argument"]
+__all__ = [
+    "count_argument",
+    "flag_argument",
+    "path_argument",
+    "strings_argument",
+    "whole_numbers",
+]
 
 
 def _shown(value: object) -> str:
@@ -66,3 +72,12 @@ def count_argument(name: str, value: object, *, maximum: int, function: str = ""
         where = f"{function}: {name}" if function else name
         raise ValueError(f"{where} must be from 0 to {maximum}, not {count}")
     return count
+
+
+def whole_numbers(**options: object) -> None:
+    """Refuse any of ``options`` (name=value) that is not an int (a NumPy integer too): a bool,
+    a float or a str is never truncated, as run.json records an option as it was given;
+    `TypeError` naming the option."""
+    for name, value in options.items():
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise TypeError(f"{name} must be a whole number (an int), not {_shown(value)}")

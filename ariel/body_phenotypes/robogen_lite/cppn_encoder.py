@@ -27,6 +27,7 @@ from ariel.body_phenotypes.robogen_lite.decoders.cppn_best_first import (
     CPPN_OUTPUTS,
     MorphologyDecoderBestFirst,
 )
+from ariel.utils import whole_numbers
 
 __all__ = ["CPPNEncoder", "structural_id"]
 
@@ -73,6 +74,8 @@ class CPPNEncoder:
             bias (> 0).
 
     Raises:
+        TypeError: If ``max_modules`` or ``initial_mutations`` is not an int (a float or a
+            string is never truncated).
         ValueError: If an option is out of the range given above.
     """
 
@@ -89,7 +92,8 @@ class CPPNEncoder:
         weight_rate: float = 0.5,
         weight_std: float = 0.5,
     ) -> None:
-        if isinstance(max_modules, bool) or int(max_modules) < 1:
+        whole_numbers(max_modules=max_modules, initial_mutations=initial_mutations)
+        if int(max_modules) < 1:
             raise ValueError(f"max_modules must be an int >= 1, not {max_modules!r}")
         if int(initial_mutations) < 0:
             raise ValueError(f"initial_mutations must be >= 0, not {initial_mutations!r}")

@@ -48,7 +48,12 @@ def plugin_failure(
         resume = resume_line(Path(run_dir), RunFolder(run_dir).read_info())
     except NotARunError:
         resume = ariel_line("resume", run_dir)
+    # A brain optimizer fails asking for or told a batch, not in one of its evaluations.
+    learner = plugin.startswith("brain optimizer")
+    at = (
+        f"at the batch of evaluation {task.eval_id}" if learner else f"in evaluation {task.eval_id}"
+    )
     return PluginFailedError(
-        f"{plugin} failed in evaluation {task.eval_id}: {first}{where}; "
+        f"{plugin} failed {at}: {first}{where}; "
         f"the run stopped, its finished generations are kept: fix the plugin, then {resume}"
     )

@@ -5,7 +5,18 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["sustained_displacement", "x_speed", "xy_displacement", "y_speed"]
+__all__ = [
+    "MAX_WINDOWS",
+    "sustained_displacement",
+    "window_count_error",
+    "x_speed",
+    "xy_displacement",
+    "y_speed",
+]
+
+MAX_WINDOWS = 100_000
+"""`sustained_displacement` cuts a path into at most this many windows, or one a sample where
+the path has more samples: each window holds a few arrays' entries."""
 
 
 def _planar(point: ArrayLike, name: str) -> np.ndarray:
@@ -70,6 +81,31 @@ def y_speed(xy1: ArrayLike, xy2: ArrayLike, dt: float) -> float:
     return float(abs(_planar(xy2, "xy2")[1] - _planar(xy1, "xy1")[1]) / dt)
 
 
+def window_count_error(span: float, samples: int, window: float) -> str | None:
+    """Why `sustained_displacement` refuses ``window`` on a path, or None when it takes it.
+
+    The windows (``span / window``) must number at most the larger of `MAX_WINDOWS` and
+    ``samples``: more windows than samples measure nothing more, and a tiny window would take
+    all memory.
+
+    Args:
+        span: the path's duration in seconds (last sample time minus first).
+        samples: the path's number of samples.
+        window: the window length in seconds (> 0).
+
+    Returns:
+        One line saying how many windows that is and the shortest window allowed, or None.
+    """
+    allowed = max(MAX_WINDOWS, int(samples))
+    if not span / window > allowed + 1e-9:  # a float, never an int: no overflow
+        return None
+    return (
+        f"window {window!r} s cuts the {span:.6g} s path into {span / window:.3g} windows, more "
+        f"than the {allowed} allowed (the larger of {MAX_WINDOWS} and the path's samples): "
+        f"give a window of at least {span / allowed:.3g} s"
+    )
+
+
 def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0) -> float:
     """Planar displacement at the path's typical pace: robust to one late fall or lunge.
 
@@ -82,7 +118,8 @@ def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0)
     Args:
         times: the ``T`` sample times in seconds, ascending.
         xy: the path, ``(T, 2+)`` positions in metres (columns past x and y are ignored).
-        window: the window length in seconds (> 0).
+        window: the window length in seconds (> 0): at most `MAX_WINDOWS` windows in the
+            span, or as many as the path has samples (`window_count_error`).
 
     Returns:
         The displacement in metres. Never negative (a typical window going nowhere or
@@ -90,7 +127,8 @@ def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0)
             and an empty path 0.0.
 
     Raises:
-        ValueError: ``xy`` is not ``(T, 2+)`` with ``T = len(times)``, or ``window <= 0``.
+        ValueError: ``xy`` is not ``(T, 2+)`` with ``T = len(times)``, ``window <= 0``, or
+            ``window`` so short that the span holds more windows than allowed.
 
     Example:
         ```python
@@ -111,6 +149,9 @@ def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0)
     if not window > 0:
         raise ValueError(f"window must be > 0 seconds, not {window!r}")
     span = float(t[-1] - t[0]) if t.size else 0.0
+    too_many = window_count_error(span, t.size, window)
+    if too_many is not None:
+        raise ValueError(too_many)
     count = int(np.floor(span / window + 1e-9))
     if count < 1:
         return xy_displacement(path[0], path[-1]) if t.size else 0.0

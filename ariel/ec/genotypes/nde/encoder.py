@@ -15,6 +15,7 @@ import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.decoders import HighProbabilityDecoder
 from ariel.ec.genotypes.nde.numpy_forward import nde_forward_numpy
+from ariel.utils import whole_numbers
 from ariel.utils.interrupts import signals_deferred
 
 __all__ = ["NDEEncoder"]
@@ -63,6 +64,8 @@ class NDEEncoder:
             them; the expected fraction perturbed).
 
     Raises:
+        TypeError: ``number_of_modules``, ``genotype_size`` or ``nde_seed`` is not an int
+            (a float or a string is never truncated).
         ValueError: ``number_of_modules`` outside 2 to `MAX_MODULES`, ``genotype_size``
             outside 1 to `MAX_GENES`, or ``mutation_rate`` outside [0, 1].
     """
@@ -79,6 +82,9 @@ class NDEEncoder:
         mutation_std: float = 0.1,
         mutation_rate: float = 1.0,
     ) -> None:
+        whole_numbers(
+            number_of_modules=number_of_modules, genotype_size=genotype_size, nde_seed=nde_seed
+        )
         if not 2 <= int(number_of_modules) <= MAX_MODULES:
             raise ValueError(
                 f"number_of_modules must be 2 to {MAX_MODULES}, not {number_of_modules!r} (the "

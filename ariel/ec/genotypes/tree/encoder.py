@@ -17,6 +17,7 @@ from ariel.body_phenotypes.robogen_lite.config import IDX_OF_CORE
 from ariel.ec.genotypes.tree import operators as ops
 from ariel.ec.genotypes.tree.tree_genome import TreeGenome
 from ariel.ec.genotypes.tree.validation import validate_genome_dict
+from ariel.utils import whole_numbers
 
 __all__ = ["TreeEncoder"]
 
@@ -42,17 +43,19 @@ class TreeEncoder:
             bodies have a size drawn uniformly in between.
 
     Raises:
-        ValueError: ``max_modules`` < 1, or ``min_modules`` outside [1, ``max_modules``]
-            (booleans are refused for both).
+        TypeError: ``max_modules`` or ``min_modules`` is not an int (a bool, a float or a
+            string: never truncated).
+        ValueError: ``max_modules`` < 1, or ``min_modules`` outside [1, ``max_modules``].
     """
 
     name = "tree"
     evolvable = True
 
     def __init__(self, *, max_modules: int = 20, min_modules: int = 2) -> None:
-        if isinstance(max_modules, bool) or int(max_modules) < 1:
+        whole_numbers(max_modules=max_modules, min_modules=min_modules)
+        if int(max_modules) < 1:
             raise ValueError(f"max_modules must be an int >= 1, not {max_modules!r}")
-        if isinstance(min_modules, bool) or not 1 <= int(min_modules) <= int(max_modules):
+        if not 1 <= int(min_modules) <= int(max_modules):
             raise ValueError(
                 f"min_modules must be an int in [1, max_modules={max_modules}], not {min_modules!r}"
             )

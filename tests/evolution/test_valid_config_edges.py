@@ -1,0 +1,223 @@
+"""Configs the validator accepts that used to crash (probe I): CMA-ES at popsize 2 on 300+
+parameters, a brain optimizer raising during a run, Nevergrad methods that need a budget or
+take one candidate at a time, a tiny ``sustained_displacement`` window, the memory check's
+advice, and plugin integer options given as floats or strings. Each runs, or is refused in one
+line before anything is written (a failure during a run: one line and RUN/error.log)."""
+
+from __future__ import annotations
+
+import gc
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from _helpers import exit_code, one_error_line, tiny_run_toml
+
+from ariel.evolution import ConfigError, load_config
+from ariel.evolution._checks import check_resources
+from ariel.evolution._cmaes import CMAES
+from ariel.evolution._nevergrad import Nevergrad
+from ariel.plugins import body_encoders, brain_optimizers, controllers
+from ariel.recording import load_run
+from ariel.runs._prepare import resolve_plugins
+from ariel.simulation.tasks.gait_learning import MAX_WINDOWS, sustained_displacement
+
+
+@pytest.fixture
+def tiny(tmp_path: Path) -> Path:
+    path = tmp_path / "tiny.toml"
+    path.write_text(tiny_run_toml("edge", 1, generations=1))
+    return path
+
+
+# --- F1: CMA-ES at popsize 2 -----------------------------------------------------------------
+
+
+def _tells(learner: CMAES, times: int) -> None:
+    for k in range(times):
+        x = learner.ask()
+        learner.tell(x, -np.sum(x**2, axis=1) - k)
+
+
+@pytest.mark.parametrize("n_params", [300, 1000])
+def test_cma_es_at_popsize_2_learns_on_300_parameters_and_more(n_params: int) -> None:
+    """pycma's two-point step-size adaptation (from 300 parameters) and its selective mirror
+    are three injected candidates: the second tell raised at popsize 2."""
+    _tells(CMAES(x0=np.zeros(n_params), popsize=2, sigma0=0.5, seed=1, maximise=True), 4)
+
+
+@pytest.mark.parametrize(("n_params", "popsize"), [(299, 2), (300, 3), (300, 6), (5, 2)])
+def test_cma_es_keeps_pycma_s_defaults_where_they_work(n_params: int, popsize: int) -> None:
+    """The same candidates as pycma with ariel's options alone: records of configs that ran
+    before do not change."""
+    import cma
+
+    from ariel.evolution._cmaes import _Randn
+
+    learner = CMAES(x0=np.zeros(n_params), popsize=popsize, sigma0=0.5, seed=3, maximise=False)
+    options = {
+        "popsize": popsize,
+        "seed": np.nan,
+        "randn": _Randn(np.random.default_rng(3)),
+        "verbose": -9,
+        "verb_log": 0,
+        "verb_disp": 0,
+        "CMA_diagonal": False,
+    }
+    plain = cma.CMAEvolutionStrategy(np.zeros(n_params), 0.5, options)
+    for k in range(3):
+        x = learner.ask()
+        assert x.tobytes() == np.array(plain.ask(), dtype=np.float64).tobytes()
+        cost = np.sum(x**2, axis=1) + k
+        learner.tell(x, cost)
+        plain.tell(list(x), cost.tolist())
+
+
+class _FailsSecondTell(CMAES):
+    """CMA-ES that raises on its second tell of a real body (the pre-run check's learner has
+    two parameters and passes)."""
+
+    def tell(self, params: np.ndarray, fitness: np.ndarray) -> None:
+        if params.shape[1] > 2 and self.history.told:
+            raise RuntimeError("the learner's own bug")
+        super().tell(params, fitness)
+
+
+@pytest.fixture
+def failing_learner():
+    brain_optimizers.register("test_fails_tell", _FailsSecondTell)
+    yield "test_fails_tell"
+    brain_optimizers.unregister("test_fails_tell")
+
+
+def test_a_brain_optimizer_failing_during_a_run_stops_it_in_one_line_with_error_log(
+    tiny: Path, tmp_path: Path, failing_learner: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    argv = ["run", str(tiny), "--out", str(out), "--quiet"]
+    argv += ["--set", f"brain.optimizer={failing_learner}", "--set", "brain.iterations=2"]
+    assert exit_code(argv) == 2
+    line = one_error_line(capsys)
+    assert f"brain optimizer '{failing_learner}' failed at the batch of evaluation b" in line
+    assert "RuntimeError: the learner's own bug" in line and "error.log" in line, line
+    log = (out / "error.log").read_text()
+    assert "Traceback" in log and f"raised by brain optimizer '{failing_learner}'" in log
+    assert load_run(out).info["status"] == "failed"
+
+
+# --- F2, F4: Nevergrad methods refused before anything is written ----------------------------
+
+
+@pytest.mark.parametrize(
+    ("method", "message"),
+    [
+        ("NGOpt", r"ask\(\) raised ValueError: method 'NGOpt' needs a budget"),
+        ("ScrHammersleySearch", r"method 'ScrHammersleySearch' needs a budget"),
+        ("LHSSearch", r"method 'LHSSearch' needs a budget"),
+        ("Cobyla", r"'nevergrad': method 'Cobyla' evaluates one candidate at a time"),
+        ("NelderMead", r"'nevergrad': method 'NelderMead' evaluates one candidate at a time"),
+    ],
+)
+def test_a_nevergrad_method_that_cannot_run_is_one_config_error(method: str, message: str) -> None:
+    unraisable: list[Any] = []
+    hook, sys.unraisablehook = sys.unraisablehook, unraisable.append
+    try:
+        config = load_config(
+            {}, ["brain.optimizer=nevergrad", f"brain.optimizer_options={{method='{method}'}}"]
+        )
+        with pytest.raises(ConfigError, match=r"^brain\.optimizer_options: .*" + message) as e:
+            resolve_plugins(config)
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
+    assert "\n" not in str(e.value) and "_NonObjectMinimizeBase" not in str(e.value)
+    assert not unraisable  # nevergrad's half-made optimizer printed a traceback from __del__
+
+
+def test_a_nevergrad_method_given_its_budget_still_runs() -> None:
+    learner = Nevergrad(
+        x0=np.zeros(3), popsize=2, sigma0=0.5, seed=1, maximise=True, method="LHSSearch", budget=8
+    )
+    x = learner.ask()
+    learner.tell(x, -np.sum(x**2, axis=1))
+    assert learner.ask().shape == (2, 3)
+
+
+# --- F3: sustained_displacement's window -----------------------------------------------------
+
+
+def test_a_window_cutting_the_path_into_too_many_pieces_is_refused() -> None:
+    times = np.linspace(0.0, 1.0, 11)
+    xy = np.stack([times, np.zeros_like(times)], axis=1)
+    assert sustained_displacement(times, xy, window=1.0 / MAX_WINDOWS) == pytest.approx(1.0)
+    with pytest.raises(ValueError, match=r"^window 1e-07 s cuts the 1 s path into 1e\+07"):
+        sustained_displacement(times, xy, window=1e-7)
+    many = np.linspace(0.0, 1.0, 2 * MAX_WINDOWS + 1)  # as many windows as samples: fine
+    path = np.stack([many, np.zeros_like(many)], axis=1)
+    assert sustained_displacement(many, path, window=0.5 / MAX_WINDOWS) == pytest.approx(1.0)
+
+
+def test_a_tiny_window_is_one_config_error_before_the_plugin_check() -> None:
+    config = load_config({}, ["task.fitness=sustained_displacement", "task.options={window=1e-7}"])
+    with pytest.raises(ConfigError) as caught:
+        resolve_plugins(config)
+    line = str(caught.value)
+    assert line.startswith("task.options: fitness function 'sustained_displacement': window")
+    assert "give a window of at least" in line and "\n" not in line
+
+
+# --- F5: the memory check's advice fits the cause --------------------------------------------
+
+
+def test_the_memory_advice_leaves_out_trajectories_when_none_are_kept(monkeypatch) -> None:
+    monkeypatch.setattr("ariel.evolution._checks.machine_memory", lambda: 1)
+    config = load_config({}, ["record.trajectories=false", "body.options={number_of_modules=6}"])
+    encoder = body_encoders.make(config.body.encoder, **config.body.options)
+    with pytest.raises(ConfigError) as caught:
+        check_resources(config, encoder, brain_only=False, capacity=2, local_workers=True)
+    advice = str(caught.value).split("available: ")[1]
+    assert "record.trajectories" not in advice and "record.rate_hz" not in advice
+    assert "fewer evaluations at once" in advice
+    on = load_config({}, ["body.options={number_of_modules=6}"])
+    with pytest.raises(ConfigError, match=r"or set record\.trajectories = false$"):
+        check_resources(on, encoder, brain_only=False, capacity=2, local_workers=True)
+
+
+# --- F6: integer plugin options are never truncated ------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("registry", "name", "options", "option"),
+    [
+        (body_encoders, "nde", {"number_of_modules": 6.7}, "number_of_modules"),
+        (body_encoders, "nde", {"number_of_modules": 6.0}, "number_of_modules"),
+        (body_encoders, "nde", {"genotype_size": "64"}, "genotype_size"),
+        (body_encoders, "cppn", {"max_modules": 5.5}, "max_modules"),
+        (body_encoders, "cppn", {"initial_mutations": 1.5}, "initial_mutations"),
+        (body_encoders, "tree", {"max_modules": "5"}, "max_modules"),
+        (body_encoders, "tree", {"min_modules": 2.5}, "min_modules"),
+        (body_encoders, "tree", {"max_modules": True}, "max_modules"),
+        (controllers, "mlp", {"hidden": 2.5}, "hidden"),
+    ],
+)
+def test_an_integer_plugin_option_is_never_truncated(
+    registry: Any, name: str, options: dict[str, object], option: str
+) -> None:
+    with pytest.raises(TypeError, match=rf"^{option} must be a whole number \(an int\), not "):
+        registry.make(name, **options)
+
+
+def test_a_float_module_count_is_one_line_and_writes_nothing(
+    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    argv = ["run", str(tiny), "--out", str(out), "--quiet"]
+    assert exit_code([*argv, "--set", "body.options={number_of_modules=6.7}"]) == 2
+    line = one_error_line(capsys)
+    assert line.endswith(
+        "body.options: body encoder 'nde': number_of_modules must be a whole number (an int), "
+        "not 6.7"
+    ), line
+    assert not out.exists()
