@@ -494,6 +494,20 @@ def _headless_env(tmp_path: Path, *, no_egl: bool = False, **extra: str) -> dict
     return {**env, **extra}
 
 
+def _ariel_in(
+    folder: Path, env: dict[str, str], argv: list[str]
+) -> subprocess.CompletedProcess[str]:
+    """``ariel argv`` in a child process in ``folder`` with ``env``."""
+    return subprocess.run(
+        [sys.executable, "-m", "ariel.cli", *argv],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        env=env,
+        cwd=folder,
+    )
+
+
 def test_replay_and_report_that_render_nothing_choose_no_gl_backend(
     finished_run, tmp_path: Path
 ) -> None:
@@ -532,14 +546,7 @@ def test_a_gl_backend_that_cannot_load_is_one_line_exit_2(
     argv = ["replay", str(finished_run[0]), "best"]
     argv += ["--video", str(tmp_path / "best.mp4")] if video else []
     env = _headless_env(tmp_path, no_egl=True, **({"MUJOCO_GL": user_gl} if user_gl else {}))
-    done = subprocess.run(
-        [sys.executable, "-m", "ariel.cli", *argv],
-        capture_output=True,
-        text=True,
-        timeout=180,
-        env=env,
-        cwd=tmp_path,
-    )
+    done = _ariel_in(tmp_path, env, argv)
     if hint is None:  # nothing rendered: no GL library loaded, nothing fails
         assert done.returncode == 0, done.stderr
         assert "identical: yes, bit for bit" in done.stdout
@@ -558,14 +565,7 @@ def test_a_mujoco_gl_typo_is_said_as_one_not_blamed_on_a_plugin(
     "could not load world 'flat'": the plugin's import had failed in `import mujoco`."""
     env = _headless_env(tmp_path, MUJOCO_GL="garbage")
     for argv in (["run", "--out", "r", "--quiet"], ["report", str(finished_run[0])]):
-        done = subprocess.run(
-            [sys.executable, "-m", "ariel.cli", *argv],
-            capture_output=True,
-            text=True,
-            timeout=180,
-            env=env,
-            cwd=tmp_path,
-        )
+        done = _ariel_in(tmp_path, env, argv)
         lines = [line for line in done.stderr.splitlines() if line.strip()]
         assert done.returncode == 2 and len(lines) == 1, done.stderr
         assert "MUJOCO_GL='garbage' is not an OpenGL backend MuJoCo knows" in lines[0]
