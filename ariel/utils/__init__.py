@@ -14,6 +14,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.utils._arguments import (
         count_argument as count_argument,
         flag_argument as flag_argument,
+        number_argument as number_argument,
         path_argument as path_argument,
         strings_argument as strings_argument,
         whole_numbers as whole_numbers,
@@ -68,6 +69,7 @@ _INTERNAL: dict[str, str] = {
     "mujoco_module": "ariel.utils._gl",
     "MIN_OPEN_FILES": "ariel.utils._open_files",
     "nests_deeper_than": "ariel.utils._json",
+    "number_argument": "ariel.utils._arguments",
     "open_files_short": "ariel.utils._open_files",
     "path_argument": "ariel.utils._arguments",
     "python_command": "ariel.utils._commands",

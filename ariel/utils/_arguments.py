@@ -13,6 +13,7 @@ from pathlib import Path
 __all__ = [
     "count_argument",
     "flag_argument",
+    "number_argument",
     "path_argument",
     "strings_argument",
     "whole_numbers",
@@ -61,11 +62,16 @@ def strings_argument(
     return items
 
 
+def _is_int(value: object) -> bool:
+    """An int or a NumPy integer; not a bool (an int to Python), a float or a str."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
 def count_argument(name: str, value: object, *, maximum: int, function: str = "") -> int:
     """``value`` as a whole number from 0 to ``maximum``: an int (a NumPy integer too, never a
     bool or a str), `TypeError` otherwise; `ValueError` outside that range (a count that
     would take all memory before saying anything)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+    if not _is_int(value):
         raise _refused(function, name, f"an int from 0 to {maximum}", value)
     count = int(value)
     if not 0 <= count <= maximum:
@@ -79,5 +85,21 @@ def whole_numbers(**options: object) -> None:
     a float or a str is never truncated, as run.json records an option as it was given;
     `TypeError` naming the option."""
     for name, value in options.items():
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        if not _is_int(value):
             raise TypeError(f"{name} must be a whole number (an int), not {_shown(value)}")
+
+
+def number_argument(
+    name: str, value: object, *, what: str = "a number (int, float or a one-element tensor)"
+) -> float:
+    """``value`` as a float: an int, float, numpy scalar or one-element array or tensor; a
+    bool or a string (which ``float`` would read) is refused, `TypeError` naming ``name`` and
+    ``what`` it must be."""
+    dtype = str(getattr(value, "dtype", ""))
+    if not (isinstance(value, bool | str | bytes) or dtype in ("bool", "torch.bool")):
+        try:
+            return float(value)  # type: ignore[arg-type]
+        except (TypeError, ValueError, RuntimeError):
+            pass
+    shown = f"{type(value).__name__} {value!r}".splitlines()[0]
+    raise TypeError(f"{name} must be {what}, not {shown}")

@@ -13,24 +13,13 @@ from typing import Protocol
 
 import mujoco
 
+from ariel.utils._arguments import number_argument
+
 __all__ = ["num_steps", "simple_runner", "thread_safe_runner"]
 
 
 class _SupportsSetControl(Protocol):
     def set_control(self, model: mujoco.MjModel, data: mujoco.MjData) -> None: ...
-
-
-def _seconds(duration: object) -> float:
-    """``duration`` as a float: an int, float, numpy scalar or one-element array/tensor; a bool
-    or a string (which ``float`` would read) is refused in one line."""
-    dtype = str(getattr(duration, "dtype", ""))
-    if not (isinstance(duration, bool | str | bytes) or dtype in ("bool", "torch.bool")):
-        try:
-            return float(duration)  # type: ignore[arg-type]
-        except (TypeError, ValueError, RuntimeError):
-            pass
-    shown = f"{type(duration).__name__} {duration!r}".splitlines()[0]
-    raise TypeError(f"duration must be a number of seconds (an int or a float), not {shown}")
 
 
 def num_steps(model: mujoco.MjModel, duration: float) -> int:
@@ -48,7 +37,7 @@ def num_steps(model: mujoco.MjModel, duration: float) -> int:
         ValueError: If ``duration`` is NaN, negative or infinite, or the timestep is not
             positive.
     """
-    duration = _seconds(duration)
+    duration = number_argument("duration", duration, what="a number of seconds (an int or a float)")
     if math.isnan(duration) or duration < 0:
         raise ValueError(f"duration must be a number >= 0 seconds; got {duration}")
     if math.isinf(duration):

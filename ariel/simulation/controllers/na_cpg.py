@@ -44,7 +44,7 @@ from ariel.simulation.controllers.cpg_kernel import (
     _outputs,
     adjacency_matrix,
 )
-from ariel.utils import count_argument
+from ariel.utils import count_argument, number_argument
 
 __all__ = ["NaCPG", "create_fully_connected_adjacency"]
 
@@ -83,19 +83,6 @@ def _check_seed(seed: Any) -> int | None:
     ):
         return int(seed)
     raise ValueError(f"NaCPG: seed must be None or an int (torch's seed range), not {seed!r}")
-
-
-def _seconds(value: Any, what: str) -> float:
-    """A number (int, float, numpy scalar, one-element array or tensor) as a float; a bool, a
-    string or anything else is refused in one line (``float("1")`` would read a string)."""
-    dtype = str(getattr(value, "dtype", ""))
-    if not (isinstance(value, bool | str | bytes) or dtype in ("bool", "torch.bool")):
-        try:
-            return float(value)
-        except (TypeError, ValueError, RuntimeError):
-            pass
-    shown = f"{type(value).__name__} {value!r}".splitlines()[0]
-    raise TypeError(f"{what} must be a number (int, float or a one-element tensor), not {shown}")
 
 
 def _initial_draws(n: int, seed: int | None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -188,8 +175,8 @@ class NaCPG(nn.Module):
     ) -> None:
         super().__init__()
         seed = _check_seed(seed)
-        dt = _seconds(dt, "NaCPG: dt")
-        alpha = _seconds(alpha, "NaCPG: alpha")
+        dt = number_argument("NaCPG: dt", dt)
+        alpha = number_argument("NaCPG: alpha", alpha)
         if not isinstance(adjacency_dict, Mapping):
             raise TypeError(
                 "adjacency_dict must be a dict {node: [neighbours]}, e.g. "
@@ -375,7 +362,7 @@ class NaCPG(nn.Module):
         if time is None:
             target = self._step + 1
         else:
-            t = time if type(time) is float else _seconds(time, "NaCPG.forward: time")
+            t = time if type(time) is float else number_argument("NaCPG.forward: time", time)
             if not math.isfinite(t):
                 raise ValueError(
                     f"NaCPG.forward(time): time must be finite, not NaN or inf; got {t}"
