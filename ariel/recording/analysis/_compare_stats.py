@@ -345,17 +345,16 @@ def small_n_warning(
     rows: Sequence[Row],
     runs_per_condition: Mapping[str, int],
     choice: Design,
-    omnibus: Row | Sequence[Row] | None = None,
+    omnibus: Sequence[Row] = (),
 ) -> str | None:
     """One line where a condition has fewer than `FEW_RUNS` runs: the smallest p the chosen
     tests can give with these sizes whatever the values (for the most limited pair of the
-    first measure in ``rows``; after Holm; the omnibus's, the lowest of ``omnibus``), and
+    first measure in ``rows``; after Holm; the lowest of the ``omnibus`` tests), and
     what is possible, judged over every p of ``rows`` and ``omnibus`` (every measure's; a
     paired pair's seeds that tie count out, `tied_pairs_note`)."""
     if not rows or min(runs_per_condition.values(), default=FEW_RUNS) >= FEW_RUNS:
         return None
-    tests = [omnibus] if isinstance(omnibus, Mapping) else list(omnibus or [])
-    tests = [o for o in tests if math.isfinite(o["min_p"])]
+    tests = [o for o in omnibus if math.isfinite(o["min_p"])]
     text = f"fewer than {FEW_RUNS} runs per condition (fewest: {min(runs_per_condition.values())})"
     testable = [r for r in rows if math.isfinite(r["min_p"])]
     if not testable:

@@ -309,7 +309,7 @@ def test_the_warning_does_not_deny_an_omnibus_p_below_alpha() -> None:
     rows = pairwise_table(samples, maximise=True, paired=True)
     omnibus = omnibus_test(samples, paired=True)
     assert omnibus is not None and omnibus["p_value"] == pytest.approx(0.0498, abs=1e-4)
-    line = small_n_warning(rows, {c: 3 for c in "abc"}, Design(True), omnibus)
+    line = small_n_warning(rows, {c: 3 for c in "abc"}, Design(True), [omnibus])
     assert line is not None and "no difference can reach" not in line
     assert "no pair of conditions can reach p < 0.05 (only the Friedman test" in line
     assert all(r["effect"] == NOT_DETECTABLE for r in rows)
