@@ -17,7 +17,7 @@ import ariel
 from ariel.errors import ConfigError, UnknownPluginError
 from ariel.evolution import load_config
 from ariel.plugins import fitness_function, fitness_functions
-from ariel.recording import list_runs, load_run, verify_run
+from ariel.recording import compare, list_runs, load_run, verify_run
 from ariel.recording.store._failures import plugin_failure
 from ariel.runs import resume_campaign, resume_experiment, run_campaign
 
@@ -46,6 +46,9 @@ def _deep(levels: int) -> list[Any]:
         (lambda out: load_run(None), "load_run: path must be a path (a str or pathlib.Path), n"),
         (lambda out: list_runs(5), "list_runs: root must be a path (a str or pathlib.Path), no"),
         (lambda out: verify_run(None), "verify_run: run_dir must be a path"),
+        # One folder as a str was read a character at a time ("'c' is not a run folder").
+        (lambda out: compare(str(out)), "compare: paths must be a list of paths such as ['"),
+        (lambda out: compare([out, 3]), "compare: paths[1] must be a path (a str or pathlib."),
     ],
 )
 def test_an_argument_of_the_wrong_type_is_one_line_naming_it(

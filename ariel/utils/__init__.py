@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         flag_argument as flag_argument,
         number_argument as number_argument,
         path_argument as path_argument,
+        paths_argument as paths_argument,
         strings_argument as strings_argument,
         whole_numbers as whole_numbers,
     )
@@ -72,6 +73,7 @@ _INTERNAL: dict[str, str] = {
     "number_argument": "ariel.utils._arguments",
     "open_files_short": "ariel.utils._open_files",
     "path_argument": "ariel.utils._arguments",
+    "paths_argument": "ariel.utils._arguments",
     "python_command": "ariel.utils._commands",
     "replace_non_finite": "ariel.utils._json",
     "report_interrupted": "ariel.utils._commands",

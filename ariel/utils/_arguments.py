@@ -15,6 +15,7 @@ __all__ = [
     "flag_argument",
     "number_argument",
     "path_argument",
+    "paths_argument",
     "strings_argument",
     "whole_numbers",
 ]
@@ -35,6 +36,15 @@ def path_argument(name: str, value: object, *, function: str = "") -> Path:
     if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
         return Path(value)  # an os.PathLike of bytes: Path says so itself
     raise _refused(function, name, "a path (a str or pathlib.Path)", value)
+
+
+def paths_argument(name: str, value: object, *, function: str = "") -> list[Path]:
+    """``value`` as a list of `Path`: a list or tuple of paths, never one path (a `str`
+    iterated would be read a character at a time)."""
+    if isinstance(value, str | bytes | os.PathLike) or not isinstance(value, Iterable):
+        raise _refused(function, name, "a list of paths such as ['data/runs/RUN']", value)
+    items = list(value)
+    return [path_argument(f"{name}[{i}]", item, function=function) for i, item in enumerate(items)]
 
 
 def flag_argument(

@@ -117,6 +117,8 @@ def test_each_run_s_records_equal_a_lone_run_of_its_config_bit_for_bit(
 def test_load_campaign_joins_the_tables_with_condition_and_seed(campaign: Path) -> None:
     loaded = load_campaign(campaign)
     assert loaded.conditions == ["fresh", "inherit"] and loaded.seeds == [1, 2]
+    # One line, as Run's (it printed all of campaign.json, every run's config included).
+    assert repr(loaded) == f"<Campaign {campaign.name}: 2 conditions x 2 seeds, 4 runs loaded>"
     assert loaded.maximise is True
     for table in ("evaluations", "bodies", "generations"):
         frame = getattr(loaded, table)

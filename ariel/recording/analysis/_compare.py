@@ -81,6 +81,7 @@ from ariel.recording.analysis._compare_runs import (
 )
 from ariel.recording.analysis._compare_stats import Design
 from ariel.recording.store import is_campaign
+from ariel.utils import paths_argument
 
 __all__ = [
     "MEASURES",
@@ -310,7 +311,7 @@ def compare(
         print(comparison.notes)
         ```
     """
-    paths = [Path(p) for p in paths]
+    paths = paths_argument("paths", paths, function="compare")
     if not paths:
         raise CompareError("give a campaign folder or run folders to compare")
     if write and out is not None:

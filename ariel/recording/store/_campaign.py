@@ -52,7 +52,6 @@ __all__ = [
 CAMPAIGN_FORMAT = 1
 CAMPAIGN_RRD = "campaign.rrd"
 
-
 #: `Campaign.status` of a run whose folder holds a run.json that does not load (damaged).
 DAMAGED = "damaged"
 
@@ -122,11 +121,9 @@ def _is_seed(value: object) -> TypeGuard[int]:
 
 
 def _is_condition(value: object) -> TypeGuard[str]:
-    return (
-        isinstance(value, str)
-        and len(value) <= MAX_CONDITION_NAME
-        and _CONDITION.fullmatch(value) is not None
-    )
+    if not isinstance(value, str):
+        return False
+    return len(value) <= MAX_CONDITION_NAME and _CONDITION.fullmatch(value) is not None
 
 
 def _check_conditions(file: Path, info: Mapping[str, object]) -> None:
@@ -259,6 +256,13 @@ class Campaign:
     info: JsonObject
     runs: dict[tuple[str, int], Run] = field(default_factory=dict)
     damaged: dict[tuple[str, int], str] = field(default_factory=dict)
+
+    def __repr__(self) -> str:  # one line, as Run's (campaign.json is in ``info``)
+        name, damaged = self.path.name, f", {len(self.damaged)} damaged" * bool(self.damaged)
+        return (
+            f"<Campaign {name}: {len(self.conditions)} conditions x {len(self.seeds)} seeds, "
+            f"{len(self.runs)} runs loaded{damaged}>"
+        )
 
     @property
     def conditions(self) -> list[str]:

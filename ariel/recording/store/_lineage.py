@@ -530,6 +530,11 @@ def lineage_statistics_by_run(
     Returns:
         The runs' statistics one after another, a ``run_id`` column first.
     """
+    if not isinstance(frames, Mapping):
+        raise TypeError(
+            f"lineage_statistics_by_run takes run id -> lineage (a dict, as "
+            f"campaign_lineages(campaign) makes), not a {type(frames).__name__}"
+        )
     tables = []
     for run_id, frame in frames.items():
         table = lineage_statistics(frame, maximise=maximise, generations=generations)

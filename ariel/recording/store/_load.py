@@ -421,7 +421,7 @@ def load_run(path: str | Path) -> Run:
         ```python
         from ariel.recording import list_runs, load_run
 
-        run = load_run(list_runs()[-1]["path"])  # a run folder under data/runs
+        run = load_run(list_runs()[-1]["path"])  # the last run by name under ./data/runs
         print(run)  # <Run ID: STATUS, DONE/GENERATIONS generations, N evaluations, ...>
         print(run.generations[["generation", "best_fitness", "mean_fitness"]])
         best = run.evaluations.sort_values("fitness", ascending=not run.maximise).iloc[0]
@@ -458,13 +458,16 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
     ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
 
     Args:
-        root: The folder holding run folders; ``data/runs`` by default.
+        root: The folder holding run folders; ``data/runs`` by default, relative to the
+            current folder (a notebook in analysis/ gives ``"../data/runs"``).
 
     Returns:
-        One dict per run folder, sorted by folder name, with keys ``path``, ``run_id``,
-        ``status``, ``generations_done``, ``generations``, ``evaluations``, ``best_fitness``
-        (None when none yet) and ``created``. A folder whose run.json cannot be read is
-        listed with status `UNREADABLE`. Empty when ``root`` is not a folder.
+        One dict per run folder, sorted by folder name (``<experiment>-<date>-<time>-s<seed>``
+        by default: the newest is ``max(..., key=lambda r: r["created"] or "")``), with keys
+        ``path``, ``run_id``, ``status``, ``generations_done``, ``generations``,
+        ``evaluations``, ``best_fitness`` (None when none yet) and ``created``. A folder
+        whose run.json cannot be read is listed with status `UNREADABLE`. Empty when
+        ``root`` is not a folder.
     """
 
     root = path_argument("root", root, function="list_runs")

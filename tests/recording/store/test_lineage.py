@@ -190,6 +190,8 @@ def test_a_campaigns_statistics_are_one_table_by_run_id() -> None:
     assert stats.columns[0] == "run_id"
     assert stats["run_id"].tolist() == ["a-s1"] * 4 + ["a-s2"] * 4
     assert stats["surviving_lineages"].tolist() == [2, 2, 2, 1] * 2
+    with pytest.raises(TypeError, match=r"takes run id -> lineage \(a dict, as campaign_line"):
+        lineage_statistics_by_run([frame])  # type: ignore[arg-type]
 
 
 def test_a_cycle_is_refused() -> None:
