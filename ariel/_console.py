@@ -18,6 +18,6 @@ except KeyboardInterrupt:  # pressed while loading: `main` says so
 def main() -> int:
     """Run the command in ``sys.argv`` (`ariel.cli.main`)."""
     if _run is None:
-        print("\ninterrupted", file=sys.stderr)
+        print("\ninterrupted" if sys.stderr.isatty() else "interrupted", file=sys.stderr)
         return 130
     return _run()

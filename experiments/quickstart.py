@@ -19,6 +19,7 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import NoReturn
 
 from ariel.utils._gl import ensure_headless_gl
 
@@ -51,23 +52,52 @@ from ariel.utils.video_recorder import VideoRecorder
 STEPS_PER_SNAPSHOT = 25
 
 
+#: The longest simulated run (--duration) and video (--video-seconds): an hour of simulated time
+#: is minutes of wall time and a trajectory of 72,000 points; beyond it, a typo.
+MAX_SECONDS = 3600.0
+
+
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line, as the ariel commands' (the message and where to get help)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _folder(text: str) -> Path:
+    if not text:  # Path("") is the current folder
+        raise argparse.ArgumentTypeError("an empty path; give a folder such as data/quickstart")
+    return Path(text)
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = _Parser(description=__doc__.split("\n\n")[0])
     default = " (default: %(default)s)"
-    parser.add_argument("--duration", type=float, default=15.0, help="simulated seconds" + default)
-    parser.add_argument("--seed", type=int, default=42, help="seed of the CPG parameters" + default)
     parser.add_argument(
-        "--out", type=Path, default=Path("data/quickstart"), help="output folder" + default
+        "--duration", type=float, default=15.0, metavar="SECONDS", help="simulated time" + default
     )
     parser.add_argument(
-        "--video-seconds", type=float, default=5.0, help="length of the video in seconds" + default
+        "--seed", type=int, default=42, metavar="N", help="seed of the CPG parameters" + default
+    )
+    parser.add_argument(
+        "--out",
+        type=_folder,
+        default=Path("data/quickstart"),
+        metavar="DIR",
+        help="output folder" + default,
+    )
+    parser.add_argument(
+        "--video-seconds", type=float, default=5.0, metavar="SECONDS", help="video length" + default
     )
     parser.add_argument("--no-video", action="store_true", help="skip the video (no OpenGL)")
     args = parser.parse_args(argv)
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        parser.error(f"--duration must be > 0 seconds, got {args.duration}")
-    if not (math.isfinite(args.video_seconds) and args.video_seconds > 0):
-        parser.error(f"--video-seconds must be > 0, got {args.video_seconds}")
+    for flag, seconds in (("--duration", args.duration), ("--video-seconds", args.video_seconds)):
+        if not (math.isfinite(seconds) and 0 < seconds <= MAX_SECONDS):
+            parser.error(
+                f"{flag} must be above 0 and at most {MAX_SECONDS:g} seconds, not {seconds}"
+            )
+    if args.out.exists() and not args.out.is_dir():
+        parser.error(f"--out {str(args.out)!r} is a file, not a folder")
     return args
 
 
@@ -125,7 +155,14 @@ def plot_trajectory(xyz: np.ndarray, displacement: float, title: str, path: Path
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # a read-only place, a file on the way, ...
+        print(
+            f"{sys.argv[0]}: error: cannot make --out {str(out)!r}: {exc.strerror or exc}",
+            file=sys.stderr,
+        )
+        return 2
     print("ARIEL quick-start tutorial flow: gecko + NA-CPG on SimpleFlatWorld")
 
     start = time.perf_counter()

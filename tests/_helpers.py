@@ -122,7 +122,7 @@ def one_error_line(
     err = captured.err
     lines = err.splitlines()
     assert len(lines) == 1 and err.endswith("\n"), f"expected one line on stderr, got {err!r}"
-    prefix = r"ariel( [a-z]+)?: error: " if subcommand else r"ariel: error: "
+    prefix = r"ariel( [a-z]+){0,2}: error: " if subcommand else r"ariel: error: "
     assert re.match(prefix, lines[0]), lines[0]
     if quiet:
         assert captured.out == ""

@@ -65,7 +65,21 @@ RUN_CASES: dict[str, RunCase] = {
         "brain.iterations: must be a valid integer",
         BASE.replace("iterations = 1", 'iterations = "many"'),
     ),
-    "type-table": RunCase("world: must be a valid dictionary", _edit(BASE, "", "world = 3")),
+    "type-table": RunCase(
+        "world: must be a table ([world] in TOML, a dict) (got 3)", _edit(BASE, "", "world = 3")
+    ),
+    # pydantic's own words ("Field required", a regular expression): the config's instead
+    "spawn-short": RunCase(
+        "task.spawn_position: too few values (got [1])", _edit(BASE, "task", "spawn_position = [1]")
+    ),
+    "spawn-long": RunCase(
+        "task.spawn_position: too many values, at most 3",
+        _edit(BASE, "task", "spawn_position = [1, 2, 3, 4]"),
+    ),
+    "name-pattern": RunCase(
+        "name: must be letters, digits, _ . - only (got 'a b')",
+        BASE.replace('name = "badinput"', 'name = "a b"'),
+    ),
     "type-spawn": RunCase("task.spawn_position", _edit(BASE, "task", 'spawn_position = "origin"')),
     "type-bool": RunCase(
         "brain.inherit: must be a valid boolean", _edit(BASE, "brain", "inherit = 7")
@@ -292,6 +306,22 @@ FOLDER_CASES: dict[str, tuple[Callable[[Path, Path], Path], list[str], str]] = {
         "no evaluation '../../etc/passwd'",
     ),
     "replay-not-a-run": (_not_a_run, ["replay", "{run}", "best"], "is not an ariel run folder"),
+    # A replay's file inside the run replaced run.json or a table (refused before simulating).
+    "replay-video-over-run-json": (
+        lambda f, t: _copy(f, t),
+        ["replay", "{run}", "best", "--video", "{run}/run.json"],
+        "/run.json' is inside the run folder '",
+    ),
+    "replay-rrd-over-a-table": (
+        lambda f, t: _copy(f, t),
+        ["replay", "{run}", "best", "--rrd", "{run}/sub/../evaluations/gen-000000.parquet"],
+        "--rrd: '",
+    ),
+    "replay-video-a-folder": (
+        lambda f, t: _copy(f, t),
+        ["replay", "{run}", "best", "--video", "{run}/.."],
+        "/..' is a folder; give a FILE",
+    ),
     "report-not-a-run": (_not_a_run, ["report", "{run}"], "is not an ariel run folder"),
 }
 
@@ -385,3 +415,29 @@ def test_an_error_line_is_escaped_and_cut(
     assert exit_code(["config", "show", str(config)]) == 2
     line = one_error_line(capsys)
     assert len(line) < 2100 and "characters in all)" in line, len(line)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        # '' is the current folder to the file system: `runs ''` listed it, `gallery --out ''`
+        # wrote into it, `run --out ''` said "'.' already exists".
+        (["runs", ""], "ariel runs: error: an empty argument (''); give a path or value"),
+        (["gallery", "r", "--out", ""], "ariel gallery: error: --out: an empty value; give a"),
+        (["run", "--out="], "ariel run: error: --out: an empty value; give a path or value"),
+        # An unknown flag after a command pointed at `ariel --help`.
+        (["run", "--bogus"], "ariel run: error: unrecognized arguments: --bogus (see ariel run"),
+        (["campaign", "run", "f.toml", "--overwrite"], "(see ariel campaign run --help)"),
+    ],
+)
+def test_an_empty_or_unknown_argument_is_the_command_s_usage_error(
+    argv: list[str],
+    message: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert exit_code(argv) == 2
+    assert message in one_error_line(capsys, subcommand=True, quiet=True)
+    assert list(tmp_path.iterdir()) == []

@@ -448,6 +448,10 @@ def test_report_prints_every_generation_and_the_files_it_wrote(
     for name in ("fitness", "morphology", "trajectory", "joints"):
         path = out / "report" / f"{name}.png"
         assert f"wrote {path}" in lines and path.is_file()
+    # Said first, each file as it is written (a long report was silent until its end).
+    assert lines[0] == f"drawing the report of {out} (2 generations)"
+    assert lines[1].startswith("wrote ")
+    assert lines.index(f"wrote {out / 'report' / 'fitness.png'}") < header
     assert "best_body.png: left out (rendering off)" in lines
 
 
@@ -583,10 +587,14 @@ def test_a_folder_named_like_an_option_is_pasteable_in_the_hints() -> None:
 
 
 def test_a_reader_that_goes_away_ends_the_command_quietly(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    finished_run,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     """``ariel plugins | head -1``: a BrokenPipeError traceback before; now exit code 141 (as
-    SIGPIPE would end it) and nothing on stderr."""
+    SIGPIPE would end it) and nothing on stderr. Commands printing rich tables (report,
+    compare) ended in rich's SystemExit(1), which means damage or no replay elsewhere."""
 
     class GoneReader(io.StringIO):
         def __init__(self, fd: int) -> None:
@@ -602,11 +610,12 @@ def test_a_reader_that_goes_away_ends_the_command_quietly(
     with open(tmp_path / "stdout", "w") as file:
         monkeypatch.setattr("sys.stdout", GoneReader(file.fileno()))
         assert main(["plugins"]) == 141
+        assert main(["report", str(finished_run[0]), "--no-render"]) == 141
     assert capsys.readouterr().err == ""
 
 
 @pytest.mark.parametrize(
-    ("signum", "code", "line"), [(2, 130, "\ninterrupted"), (15, 143, "interrupted (SIGTERM)")]
+    ("signum", "code", "line"), [(2, 130, "interrupted"), (15, 143, "interrupted (SIGTERM)")]
 )
 def test_a_command_stopped_by_a_signal_says_so_in_one_line(
     signum: int,
@@ -646,6 +655,23 @@ def test_a_command_stopped_by_a_signal_says_so_in_one_line(
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handlers put back
 
 
+def test_a_new_line_before_interrupted_only_where_a_terminal_echoed_ctrl_c(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``timeout -s INT`` or stderr in a file: "interrupted" came after an empty line, which
+    is there only for the ``^C`` a terminal echoes."""
+    from ariel.utils import report_interrupted
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    for stream, expected in ((io.StringIO(), "interrupted\n"), (Terminal(), "\ninterrupted\n")):
+        monkeypatch.setattr("sys.stderr", stream)
+        assert report_interrupted(KeyboardInterrupt(), None) == 130
+        assert stream.getvalue() == expected
+
+
 def test_a_ctrl_c_while_the_commands_load_is_one_line(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -662,7 +688,8 @@ def test_a_ctrl_c_while_the_commands_load_is_one_line(
     import ariel._console
 
     assert ariel._console.main() == 130
-    assert capsys.readouterr().err == "\ninterrupted\n"
+    # No terminal echoed ^C (stderr is captured): the line alone, no empty line before it.
+    assert capsys.readouterr().err == "interrupted\n"
 
 
 def test_numpy_overflow_warnings_of_crafted_values_stay_off_the_terminal(
@@ -680,7 +707,7 @@ def test_numpy_overflow_warnings_of_crafted_values_stay_off_the_terminal(
         warnings.warn("a warning of ours", UserWarning, stacklevel=1)  # still shown
 
     monkeypatch.setattr(analysis, "make_report", overflowing)
-    monkeypatch.setattr(analysis, "print_report", lambda report: None)
+    monkeypatch.setattr(analysis, "print_report", lambda report, **_: None)
     with warnings.catch_warnings(record=True) as shown:
         warnings.simplefilter("always")
         assert main(["report", str(tmp_path)]) == 0

@@ -203,10 +203,10 @@ def test_quickstart_help_is_the_scripts(capsys: pytest.CaptureFixture[str]) -> N
     assert out.startswith("usage: ariel quickstart") and "--duration" in out
     out = " ".join(out.split("options:", 1)[1].split())  # argparse wraps at the terminal width
     for option, default in (
-        ("--duration DURATION", "15.0"),
-        ("--seed SEED", "42"),
-        ("--out OUT", "data/quickstart"),
-        ("--video-seconds VIDEO_SECONDS", "5.0"),
+        ("--duration SECONDS", "15.0"),
+        ("--seed N", "42"),
+        ("--out DIR", "data/quickstart"),
+        ("--video-seconds SECONDS", "5.0"),
     ):
         help_text = out.split(option, 1)[1].split(" --", 1)[0]
         assert f"(default: {default})" in help_text, (option, help_text)

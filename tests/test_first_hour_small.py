@@ -86,6 +86,10 @@ def test_prune_asks_and_deletes_only_runs_without_a_finished_generation(
     monkeypatch.setattr("sys.stdin", io.StringIO(""))  # no answer at all: no
     assert main(["runs", str(root), "--prune"]) == 0
     assert all(runs[name].exists() for name in PRUNED)
+    monkeypatch.setattr("sys.stdin", None)  # no stdin (`<&-`): input() raised RuntimeError
+    assert main(["runs", str(root), "--prune"]) == 0
+    assert "nothing deleted" in capsys.readouterr().out
+    assert all(runs[name].exists() for name in PRUNED)
 
     monkeypatch.setattr("sys.stdin", io.StringIO("y\n"))
     assert main(["runs", str(root), "--prune"]) == 0
@@ -193,3 +197,12 @@ def test_a_campaign_file_an_experiment_file_and_a_campaign_folder_name_their_com
     assert "is not an ariel run folder (a campaign folder: its runs are under runs/" in line
     assert f"ariel campaign status {folder} lists them" in line
     assert list(tmp_path.iterdir()) == [folder]  # nothing written
+    # A run folder given to `runs`, a folder given to `campaign run`: "no runs under RUN" and
+    # "campaign file 'DIR' not found" before.
+    run = _run_folder(tmp_path / "runs" / "one", "finished")
+    assert exit_code(["runs", str(run)]) == 2
+    line = one_error_line(capsys)
+    assert f"{str(run)!r} is a run folder; list the folder that holds it: " in line
+    assert line.endswith(f"ariel runs {run.parent}")
+    assert exit_code(["campaign", "run", str(folder)]) == 2
+    assert f"campaign file {str(folder)!r} is a folder, not a TOML file" in one_error_line(capsys)

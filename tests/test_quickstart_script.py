@@ -67,7 +67,22 @@ def test_quickstart_script_is_seeded(tmp_path: Path) -> None:
     assert lines[0] == lines[1]
 
 
-def test_quickstart_script_rejects_bad_duration(tmp_path: Path) -> None:
-    result = _run("--duration", "-1", "--out", "o", cwd=tmp_path)
-    assert result.returncode == 2
-    assert "--duration must be > 0" in result.stderr
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--duration", "-1"], "--duration must be above 0 and at most 3600 seconds, not -1.0"),
+        (["--duration", "1e20"], "--duration must be above 0 and at most 3600 seconds, not 1e"),
+        (["--seed", "x"], "argument --seed: invalid int value: 'x'"),
+        (["--out", ""], "argument --out: an empty path; give a folder such as data/quickstart"),
+        (["--out", "a-file"], "--out 'a-file' is a file, not a folder"),
+    ],
+)
+def test_quickstart_script_refuses_bad_options_in_one_line(
+    tmp_path: Path, args: list[str], message: str
+) -> None:
+    """Each was one line and exit 2 (not a usage block, a FileExistsError traceback or an
+    unbounded run), before anything is simulated."""
+    (tmp_path / "a-file").write_text("")
+    result = _run("--no-video", "--out", "o", *args, cwd=tmp_path)
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr.count("\n") == 1 and message in result.stderr, result.stderr

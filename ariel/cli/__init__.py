@@ -90,11 +90,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args, unknown = parser.parse_known_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    args, unknown = parser.parse_known_args(words)
     if getattr(args, "func", None) is cmd_quickstart:
         args.rest = unknown  # the quick-start script's own options, in their order
-    elif unknown:
-        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    else:
+        command = _command_parser(parser, args)  # its usage error names it and its --help
+        if unknown:
+            command.error(f"unrecognized arguments: {' '.join(unknown)}")
+        empty = _empty_argument(words)
+        if empty is not None:
+            command.error(empty)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
@@ -108,6 +114,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     return code
 
 
+def _command_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Parser:
+    """The parser of the (sub-)command ``args`` chose: ``ariel campaign run``'s, not ``ariel``'s."""
+    current = parser
+    while True:
+        subs = [a for a in current._actions if isinstance(a, argparse._SubParsersAction)]
+        chosen = getattr(args, subs[0].dest, None) if subs else None
+        if chosen not in (subs[0].choices if subs else {}):
+            return current  # type: ignore[return-value]  # every parser here is a Parser
+        current = subs[0].choices[chosen]
+
+
+def _empty_argument(words: list[str]) -> str | None:
+    """What an empty argument ('') is, or None: a path given as '' is the current folder to
+    the file system (`runs ''` listed it, `gallery --out ''` wrote into it), and a value given
+    as '' is a typo (an unset shell variable: ``--out "$DIR"``)."""
+    for i, word in enumerate(words):
+        flag, equals, value = word.partition("=")
+        if word == "" or (word.startswith("--") and equals and not value):
+            before = words[i - 1] if word == "" and i and words[i - 1].startswith("-") else None
+            named = flag if word else before
+            what = f"{named}: an empty value" if named else "an empty argument ('')"
+            return f"{what}; give a path or value (an unset shell variable?)"
+    return None
+
+
 def _run_command(args: argparse.Namespace) -> int:
     """The command ``args`` chose; what it raises on purpose as one line (and exit code)."""
     try:
@@ -118,6 +149,10 @@ def _run_command(args: argparse.Namespace) -> int:
             return int(args.func(args))
     except BrokenPipeError:  # `ariel runs | head -3`: the reader has what it wanted
         return _reader_gone()
+    except SystemExit as exc:  # rich's tables end a broken pipe in SystemExit(1), not 141
+        if exc.code == 1 and isinstance(exc.__context__, BrokenPipeError):
+            return _reader_gone()
+        raise
     except KeyboardInterrupt as exc:  # a command that has nothing to continue (report, ...)
         return report_interrupted(exc, None)
     except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line

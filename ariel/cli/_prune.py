@@ -34,10 +34,10 @@ def prune_runs(folder: Path, *, yes: bool) -> int:
     if not yes:
         try:
             answer = input(f"delete {'it' if len(found) == 1 else 'them'}? [y/N] ")
-        except EOFError:  # no answer (stdin closed): no
+        except (EOFError, RuntimeError):  # no answer (at the end of stdin, or none: `<&-`): no
             answer = ""
-        if not sys.stdin.isatty():  # a piped answer is not echoed: end the question's line
-            print()
+        if sys.stdin is None or not sys.stdin.isatty():  # a piped answer is not echoed
+            print()  # end the question's line
         if answer.strip().lower() not in ("y", "yes"):
             print("nothing deleted")
             return 0

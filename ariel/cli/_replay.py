@@ -47,6 +47,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             "--viewer needs a display (DISPLAY is not set); write a video with --video FILE "
             "or a Rerun recording with --rrd FILE instead"
         )
+    for flag, path in (("--rrd", args.rrd), ("--video", args.video)):
+        problem = None if path is None else resim.output_problem(args.run_dir, path)
+        if problem is not None:  # before minutes of simulation, not after
+            return fail(f"{flag}: {problem}")
     if args.video:  # replay() imports mujoco to re-simulate: the backend is chosen first
         headless_unless_display("run without --video")
     replayed = resim.replay(args.run_dir, args.eval_id)
@@ -70,16 +74,16 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         for name, (then, now) in replayed.version_differences.items():
             _say(f"  {name}: the run used {then}, this replay {now}")
     try:
-        if args.rrd or args.video or args.viewer:
+        if args.rrd is not None or args.video is not None or args.viewer:
             dense = replayed.full_rate()
             print(
                 f"full rate (every physics step, {len(dense.time)} frames): fitness "
                 f"{float(dense.fitness)!r}"
             )
-        if args.rrd:
+        if args.rrd is not None:
             replaced = _replaces(args.rrd)
             _say(f"wrote {replayed.write_rrd(args.rrd)}{replaced}")
-        if args.video:
+        if args.video is not None:
             replaced = _replaces(args.video)
             _say(f"wrote {replayed.write_video(args.video)}{replaced}")
         if args.viewer:

@@ -31,6 +31,11 @@ def add_report_command(sub: SubParsers) -> None:
 def _cmd_report(args: argparse.Namespace) -> int:
     if not args.no_render:  # loading the run imports mujoco (body descriptors) before it renders
         headless_unless_display("run with --no-render")
-    report = analysis.make_report(args.run_dir, render=not args.no_render)
-    analysis.print_report(report)
+    report = analysis.make_report(args.run_dir, render=not args.no_render, announce=_say)
+    analysis.print_report(report, written=False)
     return 0
+
+
+def _say(line: str) -> None:
+    """As it happens: a report of many generations takes a while."""
+    print(line, flush=True)

@@ -15,6 +15,7 @@ from ariel import recording
 from ariel.cli._common import DEFAULT_RUNS, fail
 from ariel.cli._prune import prune_runs
 from ariel.recording.store import UNREADABLE, is_campaign, terminal_text
+from ariel.utils import ariel_line
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -52,6 +53,11 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     if args.prune:
         return prune_runs(folder, yes=args.yes)
     campaign = is_campaign(folder)
+    if not campaign and (folder / "run.json").is_file():  # "no runs under RUN" misled
+        return fail(
+            f"{str(folder)!r} is a run folder; list the folder that holds it: "
+            f"{ariel_line('runs', folder.parent)}"
+        )
     runs = _campaign_runs(folder) if campaign else recording.list_runs(folder)
     if not runs:
         print(f"no runs under {terminal_text(folder)}")

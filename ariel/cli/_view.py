@@ -72,7 +72,11 @@ def add_view_command(sub: SubParsers) -> None:
     p.add_argument("eval_id", nargs="?", metavar="EVAL_ID", help="one evaluation")
     which = p.add_mutually_exclusive_group()
     which.add_argument(
-        "--best", type=positive_int, metavar="K", help="the K best evaluations of the run"
+        "--best",
+        type=positive_int,
+        metavar="K",
+        help="the K best evaluations of the run (default, without EVAL_ID or --generation: "
+        "the best one)",
     )
     which.add_argument(
         "--generation",

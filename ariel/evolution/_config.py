@@ -25,6 +25,7 @@ from pydantic import (
     ValidationError,
     model_validator,
 )
+from pydantic_core import ErrorDetails
 
 from ariel.errors import ConfigError
 from ariel.evaluation.executors import executor_kinds, known_kinds
@@ -257,6 +258,10 @@ class ExecutorConfig(_Section):
         return data
 
 
+#: What an experiment's ``name`` may hold: it is part of its run ids and folder names.
+NAME_PATTERN = r"^[A-Za-z0-9_.-]+$"
+
+
 class ExperimentConfig(_Section):
     """One experiment: the whole validated config, as `load_config` makes it.
 
@@ -276,7 +281,7 @@ class ExperimentConfig(_Section):
         executor: Where evaluations run, ``[executor]`` (it never enters the config hash).
     """
 
-    name: Str = Field(default="experiment", min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    name: Str = Field(default="experiment", min_length=1, pattern=NAME_PATTERN)
     description: Str = ""
     seed: Int = Field(default=0, ge=0, lt=2**63)
     generations: Int = Field(default=10, ge=1, le=MAX_GENERATIONS)
@@ -349,6 +354,9 @@ def _one_line(error: ValidationError) -> str:
         text = f"unknown key '{key}'; allowed: {', '.join(allowed)}"
         close = difflib.get_close_matches(loc[-1], allowed, n=1)
         return text + (f"; did you mean '{'.'.join([*loc[:-1], close[0]])}'?" if close else "")
+    plain = _plain_words(first, loc)
+    if plain is not None:
+        return plain
     message = first["msg"]
     for prefix in ("Value error, ", "Input should be "):
         if message.startswith(prefix):
@@ -359,6 +367,22 @@ def _one_line(error: ValidationError) -> str:
         # Strict types: say what the value was, e.g. a quoted "3" is a string in TOML.
         shown = f" (got {given!r}, {TOML_KIND.get(type(given), type(given).__name__)})"
     return f"{key}: {message}{shown}"
+
+
+def _plain_words(first: ErrorDetails, loc: list[str]) -> str | None:
+    """pydantic's words where they are its own rather than the config's ("Field required" for
+    a list too short, a regular expression, "instance of BodyConfig"); else None."""
+    given, kind = first.get("input"), first["type"]
+    if kind == "missing" and loc and loc[-1].isdigit():  # a tuple's item: the list is short
+        return f"{'.'.join(loc[:-1])}: too few values (got {given!r})"
+    if kind == "too_long":
+        most = first.get("ctx", {}).get("max_length")
+        return f"{'.'.join(loc)}: too many values, at most {most} (got {given!r})"
+    if kind == "string_pattern_mismatch" and first.get("ctx", {}).get("pattern") == NAME_PATTERN:
+        return f"{'.'.join(loc)}: must be letters, digits, _ . - only (got {given!r})"
+    if kind == "model_type":  # a section given as a value
+        return f"{'.'.join(loc)}: must be a table ([{loc[-1]}] in TOML, a dict) (got {given!r})"
+    return None
 
 
 TYPE_ERRORS = {"int_type", "float_type", "bool_type", "string_type"}

@@ -351,6 +351,8 @@ def load_campaign_file(
     """Read and validate a campaign TOML file (see the module docstring); ``max_runs``: as
     `campaign_spec`'s."""
     path = Path(path)
+    if path.is_dir():  # `ariel run DIR` says the same of an experiment file
+        raise ConfigError(f"campaign file {str(path)!r} is a folder, not a TOML file")
     if not path.is_file():
         raise ConfigError(f"campaign file {str(path)!r} not found")
     data = read_toml_file(path)

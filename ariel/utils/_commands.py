@@ -127,7 +127,9 @@ def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> 
     """
     hint = f"; continue it with: {ariel_line(*resume, Path(str(folder)))}" if folder else ""
     code, how = exit_status(exc)
-    # After Ctrl-C, a new line first: the terminal has echoed ^C on this one.
-    lead = "\n" if code == 128 + signal.SIGINT else ""
+    # After Ctrl-C on a terminal, a new line first: it has echoed ^C on this one (a SIGINT
+    # from elsewhere, or stderr in a file, echoed nothing: the line alone).
+    echoed = code == 128 + signal.SIGINT and getattr(sys.stderr, "isatty", bool)()
+    lead = "\n" if echoed else ""
     print(f"{lead}interrupted{how}{hint}", file=sys.stderr)
     return code

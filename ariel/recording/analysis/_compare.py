@@ -213,7 +213,7 @@ def compare_runs(
         omnibus=pd.DataFrame(omnibus),
         budget=budget,
         tests=choice,
-        notes=[n for n in (*notes, budget_note, *found_notes) if n],
+        notes=[n for n in (*notes, budget_note, *found_notes, _alone(grouped)) if n],
         about=describe(
             source or Source(),
             seeds={name: [c.seed for c in group] for name, group in grouped.items()},
@@ -252,6 +252,14 @@ _REASONS = {
     "independent samples",
     "folders": "plain run folders have no campaign design: independent samples",
 }
+
+
+def _alone(grouped: Mapping[str, object]) -> str:
+    """The note for a comparison of one condition (``ariel compare RUN``, or runs of one
+    config): an empty table of pairs, said in words."""
+    if len(grouped) != 1:
+        return ""
+    return f"one condition ({next(iter(grouped))}): no pair of conditions to test, only its summary"
 
 
 def compare(

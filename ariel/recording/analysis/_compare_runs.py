@@ -30,6 +30,7 @@ from ariel.recording.store import (
     fitness_maximise,
     load_campaign,
     load_run,
+    one_line,
     short_ascii,
 )
 
@@ -254,6 +255,12 @@ def _settings_text(keys: Sequence[str], flats: Sequence[Mapping[str, str]]) -> s
     return ", ".join(parts)
 
 
+def _shown_label(name: object) -> str:
+    """A refused label as typed ('é', not '\\xe9'), one line and cut: it came from the
+    command line, in the terminal's own characters."""
+    return short_ascii(name) if not isinstance(name, str) else f"'{one_line(name[:60])}'"
+
+
 def _checked_labels(labels: Mapping[str | Path, str], paths: Sequence[Path]) -> dict[str, str]:
     """``labels`` (run folder -> condition name) by resolved path, checked: every label a
     name (`LABEL`), every folder one of ``paths``, one label per folder, every folder
@@ -263,7 +270,8 @@ def _checked_labels(labels: Mapping[str | Path, str], paths: Sequence[Path]) -> 
     for folder, name in labels.items():
         if not isinstance(name, str) or not LABEL.fullmatch(name):
             raise CompareError(
-                f"--label {short_ascii(name)}: a label is 1 to 64 letters, digits, '_', '.' or '-'"
+                f"--label {_shown_label(name)}: a label is 1 to 64 ASCII letters, digits, '_', "
+                "'.' or '-'"
             )
         resolved = os.path.realpath(folder)
         if resolved not in given:
@@ -339,7 +347,7 @@ def _folder_runs(
         overrides=overrides if differing else {},
         base=f"none: plain run folders, each condition named {how}",
     )
-    return f"{len(runs)} runs", source, found, notes
+    return f"{len(runs)} run{'s' * (len(runs) != 1)}", source, found, notes
 
 
 def _direction(runs: Sequence[Run]) -> tuple[bool, str]:

@@ -519,5 +519,7 @@ def add_report_gallery(report: Report, render: bool) -> None:
         report.notes.append("gallery.png, gallery.html: left out (rendering off)")
     else:
         gallery = report_gallery(report.run, report.folder)
-        report.written += [path for path in (gallery.png, gallery.html) if path is not None]
+        for path in (gallery.png, gallery.html):
+            if path is not None:
+                report.wrote(path)
         report.notes += gallery.notes

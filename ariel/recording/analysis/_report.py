@@ -22,6 +22,7 @@ caller's matplotlib backend.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -100,6 +101,8 @@ class Report:
             gallery (``gallery.png``, ``gallery.html``: `ariel gallery`).
         notes: one line per figure left out, and why.
         figures: file name (``fitness.png``) -> its matplotlib `Figure`, to show or restyle.
+        announce: told a line as drawing starts and as each file is written (`make_report`'s),
+            or None.
     """
 
     run: Run
@@ -108,6 +111,13 @@ class Report:
     written: list[Path] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     figures: dict[str, Figure] = field(default_factory=dict, repr=False)
+    announce: Callable[[str], None] | None = field(default=None, repr=False)
+
+    def wrote(self, path: Path) -> None:
+        """Add ``path`` to the files written, and say so (``announce``)."""
+        self.written.append(path)
+        if self.announce is not None:
+            self.announce(f"wrote {one_line(path)}")
 
     @property
     def folder(self) -> Path:
@@ -233,7 +243,9 @@ def _morphology_figure(report: Report) -> None:
 # --------------------------------------------------------------------------------------------
 
 
-def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
+def make_report(
+    run_dir: str | Path, *, render: bool = True, announce: Callable[[str], None] | None = None
+) -> Report:
     """Write the report figures of the run in ``run_dir`` to ``RUN_DIR/report/``.
 
     A run without a finished generation gets no figures (a note says so); a figure that
@@ -243,6 +255,8 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     Args:
         run_dir: The run folder.
         render: False leaves out the rendered image of the best body (no OpenGL needed).
+        announce: Told a line when drawing starts and one as each file is written (``ariel
+            report`` prints them: a report of many generations is not silent), or None.
 
     Returns:
         What was found and written: the per-generation table, the best evaluation's row,
@@ -272,7 +286,7 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
     quality = [c for c in QD_COLUMNS if c in generations.columns]  # a MAP-Elites run
     table = generations[[*TABLE_COLUMNS, *quality]]
     maximise = run.maximise if len(run.evaluations) else True
-    report = Report(run=run, table=table, best=_best_row(run, maximise))
+    report = Report(run=run, table=table, best=_best_row(run, maximise), announce=announce)
     if not len(table):
         report.notes.append("no finished generation yet: no figures")
         return report
@@ -283,6 +297,9 @@ def make_report(run_dir: str | Path, *, render: bool = True) -> Report:
         raise _cannot_write(exc, report.folder, report) from exc
     # A killed report's temporaries (another report of the run may be writing its own now).
     list(remove_temporaries(report.folder, older_than_s=STALE_S, deep=False))
+    if announce is not None:
+        count = f"{len(table)} generation{'s' * (len(table) != 1)}"
+        announce(f"drawing the report of {one_line(run_dir)} ({count})")
     try:
         _draw(report, maximise, render)
     except RunStorageError:  # e.g. report/ gone: the folder replaced by a new run meanwhile?
@@ -381,8 +398,9 @@ def _print_archive_table(report: Report, console: Console) -> None:
         )
 
 
-def print_report(report: Report, console: Console | None = None) -> None:
-    """The per-generation table, the best evaluation, the files written and the notes."""
+def print_report(report: Report, console: Console | None = None, *, written: bool = True) -> None:
+    """The per-generation table, the best evaluation, the files written (unless ``written``
+    is False: they were announced as they were written) and the notes."""
     if console is None:
         console = Console()
         if not console.is_terminal:  # a file or a pipe: no need to fit 80 columns
@@ -422,7 +440,7 @@ def print_report(report: Report, console: Console | None = None) -> None:
             ),
             highlight=False,
         )
-    for path in report.written:  # Text: no markup in a folder's name or a note
+    for path in report.written if written else []:  # Text: no markup in a name or a note
         console.print(Text(f"wrote {one_line(path)}"), highlight=False, soft_wrap=True)
     for note in report.notes:
         console.print(Text(one_line(note)), highlight=False, soft_wrap=True)

@@ -77,8 +77,8 @@ def _save(figure: Figure, path: Path, report: Report) -> None:
     except UNDRAWABLE as exc:
         report.notes.append(cannot_draw(path.name, exc))
         return
-    report.written.append(path)
     report.figures[path.name] = figure
+    report.wrote(path)
 
 
 def _run_title(run: Run) -> str:

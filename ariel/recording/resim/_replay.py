@@ -66,12 +66,38 @@ __all__ = [
     "UnknownEvaluationError",
     "has_body_poses",
     "on_demand_recording",
+    "output_problem",
     "replay",
 ]
 
 #: Where `on_demand_recording` keeps the 3D replays it makes, inside the generation's folder
 #: of recordings (so a resume that discards the generation discards them too).
 REPLAYS = "replays"
+
+
+def output_problem(run_dir: str | Path, path: str | Path) -> str | None:
+    """Why ``path`` cannot take a replay's file (`ReplayResult.write_rrd`, ``write_video``),
+    or None: an empty name, a folder, or a place inside the run folder ``run_dir``, whose
+    records a replay never writes over (run.json replaced by an MP4 is a run lost)."""
+    if not str(path):
+        return "an empty file name; give a FILE outside the run folder"
+    target = Path(path)
+    if target.is_dir():
+        return f"{str(path)!r} is a folder; give a FILE (the folder may hold it: DIR/NAME)"
+    folder, resolved = Path(run_dir).resolve(), target.resolve()
+    if resolved == folder or folder in resolved.parents:
+        return (
+            f"{str(path)!r} is inside the run folder {str(run_dir)!r}, whose records are never "
+            "written over: give a FILE outside it"
+        )
+    return None
+
+
+def _writable(run_dir: Path, path: str | Path) -> Path:
+    problem = output_problem(run_dir, path)
+    if problem is not None:
+        raise ValueError(problem)
+    return Path(path)
 
 
 def _fitness_bits(value: float) -> bytes:
@@ -209,10 +235,11 @@ class ReplayResult:
         return graphs[0]
 
     def write_rrd(self, path: str | Path) -> Path:
-        """A Rerun recording of the full-rate replay (3D bodies over time, joints, graph)."""
+        """A Rerun recording of the full-rate replay (3D bodies over time, joints, graph);
+        `ValueError` for a ``path`` that `output_problem` refuses (inside the run folder)."""
+        path = _writable(self.run.path, path)
         self._need_body("a recording")
         dense = self.full_rate()
-        path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         return write_evaluation_recording(
             path,
@@ -231,7 +258,9 @@ class ReplayResult:
 
         mujoco is imported already (the replay simulated), so it renders with the backend
         ``MUJOCO_GL`` named then (`ariel replay --video` sets egl first where no display is
-        set); one that fails is `ariel.utils.create_renderer`'s one line."""
+        set); one that fails is `ariel.utils.create_renderer`'s one line. `ValueError` for a
+        ``path`` that `output_problem` refuses (inside the run folder)."""
+        path = _writable(self.run.path, path)
         return resim.replay_video(self, path, width=width, height=height, fps=fps)
 
     def view(self, *, loop: bool = True) -> None:

@@ -302,8 +302,8 @@ def _check(source: Source, viewer: str, save: str | os.PathLike[str] | None, pol
             raise ViewError(f"--save must name an .rrd file, not {str(save)!r}")
         if out == folder or folder in out.parents:
             raise ViewError(f"--save {str(save)!r} is in the watched folder: it is never written")
-        if not out.parent.is_dir():
-            raise ViewError(f"--save: folder {str(out.parent)!r} does not exist")
+        if not out.parent.is_dir():  # named as given (relative), as every path printed is
+            raise ViewError(f"--save: folder {str(Path(save).parent)!r} does not exist")
 
 
 def watch(

@@ -18,7 +18,7 @@ import pytest
 from _helpers import exit_code, one_error_line, snapshot
 
 from ariel.cli import main
-from ariel.recording import load_run
+from ariel.recording import compare, load_run
 from ariel.recording.analysis._compare import RunCurve, compare_runs
 from ariel.recording.analysis._compare_design import CompareError, check_comparable
 from ariel.recording.analysis._compare_stats import NOT_DETECTABLE, a12, holm, pairwise_table
@@ -665,8 +665,9 @@ def test_runs_of_another_results_version_are_another_condition(
 @pytest.mark.parametrize(
     ("labels", "expected"),
     [
-        (["bad name={long}", "b={short}"], "--label 'bad name': a label is 1 to 64 letters"),
-        (["{x65}={long}", "b={short}"], "a label is 1 to 64 letters"),
+        (["bad name={long}", "b={short}"], "--label 'bad name': a label is 1 to 64 ASCII let"),
+        (["{x65}={long}", "b={short}"], "a label is 1 to 64 ASCII letters"),
+        (["é={long}", "b={short}"], "--label 'é': a label is 1 to 64 ASCII letters"),  # not \xe9
         (["a[red]={long}", "b={short}"], "--label 'a[red]': a label is"),
         (["a={long}"], "has no --label: label every run folder or none"),
         (["a={long}", "b={short}", "c={nowhere}"], "that folder is not one of the run folders"),
@@ -897,3 +898,14 @@ def test_a_compare_stopped_by_sigterm_says_so_in_one_line(
     monkeypatch.setattr(analysis, "compare", stopped)
     assert main(["compare", *map(str, two_runs), "--out", str(tmp_path / "out")]) == 143
     assert capsys.readouterr().err.splitlines() == ["interrupted (SIGTERM)"]  # one line
+
+
+def test_one_condition_is_said_in_words(two_runs: tuple[Path, Path]) -> None:
+    """``ariel compare RUN``: an empty table of pairs under "1 runs:", and no word on why."""
+    comparison = compare([two_runs[0]], write=False)
+    assert comparison.title == "1 run" and comparison.stats.empty
+    assert any(
+        note.startswith("one condition (")
+        and note.endswith("no pair of conditions to test, only its summary")
+        for note in comparison.notes
+    )

@@ -307,9 +307,14 @@ def test_web_listens_on_localhost_only_and_ctrl_c_ends_it_cleanly(live: dict) ->
         (["{tmp}/missing"], "does not exist"),
         (["{run}", "--no-viewer"], "--save"),
         (["{run}", "--no-viewer", "--save", "{run}/live.rrd"], "in the watched folder"),
+        # named as given, not made absolute (every other path printed is relative)
+        (["{run}", "--no-viewer", "--save", "nope/x.rrd"], "--save: folder 'nope' does not"),
     ],
 )
-def test_bad_input_is_one_line_exit_2(live: dict, tmp_path: Path, capsys, args, message) -> None:
+def test_bad_input_is_one_line_exit_2(
+    live: dict, tmp_path: Path, capsys, args, message, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
     words = [a.format(tmp=tmp_path, run=live["run"]) for a in args]
     assert main(["watch", *words]) == 2
     err = capsys.readouterr().err
