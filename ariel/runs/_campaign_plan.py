@@ -6,12 +6,14 @@ of random brains on a few random bodies of its encoder (the fixed body of a brai
 this process's threads, and scales each condition's evaluations by it over the workers. It
 leaves out what a run adds to the physics (CMA-ES, records, Rerun, shipping to workers: the
 ratio `experiments/benchmarks/coevolution.py` measures) and how the bodies evolve (bigger
-or smaller bodies simulate slower or faster), so it is a figure to plan with, not a promise:
-83 min for `default_vs_baselines.toml` on 2 cores, which took 70.
+or smaller bodies simulate slower or faster), so it is a figure to plan with, not a promise.
+Where other work keeps the machine busy (its load average), a second line scales it to that
+load (`busy_factor`).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -154,7 +156,27 @@ def plan_text(plan: CampaignPlan) -> list[str]:
             "random bodies timed here; other work on the machine, the loop and records add to "
             "it, evolved bodies may be slower or faster)"
         )
+        busy = busy_factor(plan.workers)
+        if busy is not None:
+            load, cores, factor = busy
+            lines.append(
+                f"  this machine is busy now (load {load:.1f} on {cores} cores): at this load, "
+                f"about {_duration(seconds * factor)}"
+            )
     return lines
+
+
+def busy_factor(workers: int) -> tuple[float, int, float] | None:
+    """(load, cores, how many times longer) where the machine's other work (the 1-minute load
+    average) would leave ``workers`` processes less than a core each, else None (no load
+    average on this system, or room for them): each then gets cores / (load + workers)."""
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):  # Windows; a system that does not say
+        return None
+    cores = os.cpu_count() or 1
+    factor = (load + workers) / cores
+    return (load, cores, factor) if factor > 1.2 else None
 
 
 def _duration(seconds: float) -> str:

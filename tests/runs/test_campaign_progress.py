@@ -78,6 +78,7 @@ def test_a_dry_run_says_what_the_campaign_will_do_and_writes_nothing(
     assert lines[1].startswith("  fresh: seeds 1..2 (2 runs) x 12 evaluations of 0.3 s, ")
     assert lines[3] == "total: 48 evaluations on 2 workers"
     assert lines[4].startswith("estimate: about ")
+    assert len(lines) == 5 or lines[5].startswith("  this machine is busy now (load ")
     assert list(tmp_path.iterdir()) == []
     # A bad file is refused as a real run would refuse it.
     assert exit_code(["campaign", "run", str(TINY), "--dry-run", "--set", "brain.popsize=0"]) == 2
@@ -93,3 +94,31 @@ def test_the_campaign_line_prints_a_folder_name_with_control_sequences_as_text(
     run_campaign(TINY, out=out, progress=True, overrides=["generations=1"])
     printed = capsys.readouterr().out
     assert "\x1b" not in printed and "d\\x1b[2J/camp" in printed
+
+
+def test_a_busy_machine_s_estimate_is_scaled_to_its_load(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The estimate was for idle cores only: 2 min said, 7 taken at a load of 5 on 2 cores."""
+    from ariel.runs._campaign_plan import CampaignPlan, plan_text
+
+    plan = CampaignPlan(
+        "c",
+        workers=2,
+        rows=[
+            {
+                "condition": "a",
+                "seeds": [1],
+                "evaluations": 60,
+                "simulated_seconds": 1.0,
+                "seconds_per_evaluation": 2.0,
+            }
+        ],
+    )
+    monkeypatch.setattr("os.cpu_count", lambda: 2)
+    monkeypatch.setattr("os.getloadavg", lambda: (4.0, 4.0, 4.0))
+    lines = plan_text(plan)
+    assert lines[-2].startswith("estimate: about 1 min with the cores to itself")
+    assert (
+        lines[-1] == "  this machine is busy now (load 4.0 on 2 cores): at this load, about 3 min"
+    )
+    monkeypatch.setattr("os.getloadavg", lambda: (0.1, 0.1, 0.1))  # room for the 2 workers
+    assert plan_text(plan)[-1].startswith("estimate: about 1 min")

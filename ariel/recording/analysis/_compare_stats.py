@@ -347,20 +347,27 @@ def small_n_warning(
     choice: Design,
     omnibus: Sequence[Row] = (),
 ) -> str | None:
-    """One line where a condition has fewer than `FEW_RUNS` runs: the smallest p the chosen
-    tests can give with these sizes whatever the values (for the most limited pair of the
-    first measure in ``rows``; after Holm; the lowest of the ``omnibus`` tests), and
-    what is possible, judged over every p of ``rows`` and ``omnibus`` (every measure's; a
-    paired pair's seeds that tie count out, `tied_pairs_note`)."""
-    if not rows or min(runs_per_condition.values(), default=FEW_RUNS) >= FEW_RUNS:
+    """One line where a condition has fewer than `FEW_RUNS` runs, or where the sizes alone
+    keep a pair from reaching p < `ALPHA` after Holm (5 paired seeds: the Wilcoxon test's
+    floor is 2/2^5 = 0.0625): the smallest p the chosen tests can give with these sizes
+    whatever the values (for the most limited pair of the first measure in ``rows``; after
+    Holm; the lowest of the ``omnibus`` tests), and what is possible, judged over every p of
+    ``rows`` and ``omnibus`` (every measure's; a paired pair's seeds that tie count out,
+    `tied_pairs_note`)."""
+    fewest = min(runs_per_condition.values(), default=FEW_RUNS)
+    testable = [r for r in rows if math.isfinite(r["min_p"])]
+    first = [r for r in testable if r.get("measure") == testable[0].get("measure")]
+    floors = [_size_floor(r) for r in first]
+    short = any(p >= ALPHA for p in holm_floor(floors))
+    if not rows or (fewest >= FEW_RUNS and not short):
         return None
     tests = [o for o in omnibus if math.isfinite(o["min_p"])]
-    text = f"fewer than {FEW_RUNS} runs per condition (fewest: {min(runs_per_condition.values())})"
-    testable = [r for r in rows if math.isfinite(r["min_p"])]
+    if fewest < FEW_RUNS:
+        text = f"fewer than {FEW_RUNS} runs per condition (fewest: {fewest})"
+    else:
+        text = f"too few runs per condition for these tests (fewest: {fewest})"
     if not testable:
         return f"{text}: no pair of conditions has runs on both sides to test"
-    first = [r for r in testable if r["measure"] == testable[0]["measure"]]
-    floors = [_size_floor(r) for r in first]
     weakest = int(np.argmax(floors))
     text += (
         f": {choice.pairwise} cannot give p below {floors[weakest]:.3g} "

@@ -153,6 +153,22 @@ def test_effects_are_labelled_where_the_test_can_reach_significance() -> None:
     assert small_n_warning(rows, {"a": 5, "b": 5}, Design(False)) is None
 
 
+def test_five_paired_seeds_are_warned_of_though_not_fewer_than_5() -> None:
+    """The shipped inheritance campaign (5 shared seeds) could never be significant, and no
+    warning said so: it came only below 5 runs per condition."""
+    samples = {c: Sample.of(np.arange(5) + 10.0 * i, SEEDS[:5]) for i, c in enumerate("ab")}
+    rows = pairwise_table(samples, maximise=True, paired=True)
+    line = small_n_warning(rows, {"a": 5, "b": 5}, Design(True))
+    assert line is not None and line.startswith(
+        "too few runs per condition for these tests (fewest: 5): Wilcoxon signed-rank cannot "
+        "give p below 0.0625 (5 pairs"
+    )
+    assert line.endswith("no difference can reach p < 0.05, effect sizes are not labelled")
+    six = {c: Sample.of(np.arange(6) + 10.0 * i, SEEDS[:6]) for i, c in enumerate("ab")}
+    rows = pairwise_table(six, maximise=True, paired=True)
+    assert small_n_warning(rows, {"a": 6, "b": 6}, Design(True)) is None
+
+
 def test_pairs_use_the_seeds_both_conditions_have_and_say_so() -> None:
     samples = {
         "a": Sample.of([1.0, 2.0, 3.0, 4.0, 5.0], [1, 2, 3, 4, 5]),
