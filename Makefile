@@ -27,7 +27,7 @@ SETUP_LOG := $(VENV)/setup.log
 LOGGED = >>$(SETUP_LOG) 2>&1 || { tail -n 40 $(SETUP_LOG); echo "setup failed: see $(SETUP_LOG)"; exit 1; }
 
 $(VENV)/.stamp-setup: pyproject.toml Makefile
-	@echo "setting up $(VENV): ariel and its dependencies$(if $(WITH_GPU),, for the CPU (the GPU extra: make gpu)) (pip's log: $(SETUP_LOG))"
+	@echo "setting up $(VENV): ariel and its dependencies$(if $(WITH_GPU),, for the CPU (the GPU extra: make gpu)) (about 3 minutes; pip's log: $(SETUP_LOG))"
 	@$(PYTHON) -m venv $(VENV)
 	@: >$(SETUP_LOG)
 	@$(PIP) install --upgrade pip $(LOGGED)

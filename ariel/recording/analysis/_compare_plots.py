@@ -200,6 +200,9 @@ def _bin_means(evaluations: pd.DataFrame, descriptor: str, edges: np.ndarray) ->
     return means
 
 
+#: Each condition's line in ``lineages.png``, in order: told apart where their medians are equal.
+_DASHES = ("-", "--", ":", "-.")
+
 #: The panels of ``lineages.png``: `Comparison.runs` column -> (title, y label).
 LINEAGE_PANELS = {
     "surviving_lineages": ("surviving lineages", "lineages (founders with a living descendant)"),
@@ -218,11 +221,24 @@ def lineages_figure(
     plt = _pyplot()
     names = [column for column in LINEAGE_PANELS if column in series]
     figure, grid = plt.subplots(1, len(names), figsize=(5.6 * len(names), 4.6), squeeze=False)
-    colours = _colours(list(dict.fromkeys(c for s in series.values() for c in s)))
+    conditions = list(dict.fromkeys(c for s in series.values() for c in s))
+    colours = _colours(conditions)
+    # Equal medians drew one condition's line over the other's: each its own dash; and a dot
+    # at the final value (the last generation's, at the budget: a step of no width).
+    dashes = {c: _DASHES[i % len(_DASHES)] for i, c in enumerate(conditions)}
     for axes, column in zip(grid.flat, names):
         for condition, (x, median, low, high) in series[column].items():
             colour, label = colours[condition], figure_label(condition)
-            axes.plot(x, median, color=colour, label=label, linewidth=1.8, drawstyle="steps-post")
+            axes.plot(
+                x,
+                median,
+                color=colour,
+                label=label,
+                linewidth=1.8,
+                drawstyle="steps-post",
+                linestyle=dashes[condition],
+            )
+            axes.plot(x[-1:], median[-1:], "o", color=colour, markersize=5)  # the final value
             axes.fill_between(x, low, high, color=colour, alpha=_BAND_ALPHA, lw=0, step="post")
         title, ylabel = LINEAGE_PANELS[column]
         axes.set_title(title)

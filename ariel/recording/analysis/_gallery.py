@@ -13,6 +13,7 @@ drawn (no OpenGL), both are written without pictures and a note says why.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -88,6 +89,7 @@ class GalleryBody:
         body_id: its id (``b000012``).
         eval_id: its best evaluation, the one ``command`` opens.
         generation: the last finished generation it took part in.
+        born: the generation it was born in (None where the bodies table does not say).
         fitness: its fitness (an archive's elite: the archive's).
         descriptors: its morphology descriptors, name -> value (None where unknown).
         caption: what it is here: ``best`` or ``born 3`` in a lineage, ``default, seed 21``
@@ -110,6 +112,7 @@ class GalleryBody:
     command: str
     thumbnail: Path | None
     cell: tuple[int, int] | None = None
+    born: int | None = None
 
 
 @dataclass
@@ -221,7 +224,12 @@ def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> G
         command=_command(pick.run, str(body["best_eval_id"])),
         thumbnail=thumbnail,
         cell=cell,
+        born=_born(body.get("born_generation")),
     )
+
+
+def _born(value: object) -> int | None:
+    return int(value) if isinstance(value, numbers.Integral) else None  # <NA>: None
 
 
 def _thumbnails(

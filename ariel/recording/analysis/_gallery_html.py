@@ -50,6 +50,13 @@ def _image(body: GalleryBody) -> str:
     return '<div class="none">no thumbnail</div>'
 
 
+def _when(body: GalleryBody) -> str:
+    """When the body lived: born in one generation, shown as it was after another (every card
+    of a sheet said "generation 4", the sheet's, whatever the body's age)."""
+    born = f"born in generation {body.born}, " if body.born is not None else ""
+    return f"{born}as after generation {body.generation}"
+
+
 def _card(body: GalleryBody, key: tuple[str, str], style: str = "") -> str:
     caption = f' <span class="caption">({html_text(body.caption)})</span>' if body.caption else ""
     every = ", ".join(
@@ -58,7 +65,7 @@ def _card(body: GalleryBody, key: tuple[str, str], style: str = "") -> str:
     return (
         f'<div class="card"{style}>{_image(body)}'
         f'<div class="id">{html_text(body.body_id)}{caption}</div>'
-        f"<div>fitness {number_text(body.fitness)} · generation {body.generation}</div>"
+        f"<div>fitness {number_text(body.fitness)} · {_when(body)}</div>"
         f'<div class="key">{html_text(descriptor_text(body, key))}</div>'
         f"<details><summary>descriptors</summary>{every}</details>"
         f'<code title="paste into a shell">{html_text(body.command)}</code></div>'

@@ -107,6 +107,13 @@ def test_final_and_lineage_of_best_show_their_bodies(run_dir: Path) -> None:
     html = family.html.read_text(encoding="utf-8")
     for body in family.bodies:  # each with the command that opens it
         assert f"replay {run_dir} {body.eval_id}" in html
+    # Each card its body's birth (every card said the sheet's generation alone).
+    born = run.bodies.drop_duplicates("body_id").set_index("body_id")["born_generation"]
+    for body in family.bodies:
+        assert body.born == born[body.body_id]
+        when = f"born in generation {body.born}, as after generation {body.generation}"
+        assert when in html
+    assert len({body.born for body in family.bodies}) > 1
 
 
 @pytest.mark.usefixtures("gl_available")

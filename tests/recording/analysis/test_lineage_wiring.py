@@ -190,3 +190,22 @@ def test_the_report_draws_the_ancestry_of_the_final_population(
     stub = SimpleNamespace(run=SimpleNamespace(brain_only=True), notes=[])
     lineage_figure(stub, True, figure=None, save=None)
     assert stub.notes == ["lineage.png: left out (brain-only run: one fixed body)"]
+
+
+def test_equal_lineage_curves_stay_apart_and_end_in_a_dot(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Two conditions with the same medians drew one line over the other (one condition
+    missing from the plot), and the last generation's value was a step of no width."""
+    from ariel.recording.analysis import _compare_plots
+
+    drawn = {}
+    monkeypatch.setattr(_compare_plots, "_save", lambda figure, path: drawn.setdefault("f", figure))
+    x, y = np.array([10.0, 20.0, 30.0]), np.array([4.0, 4.0, 3.0])
+    same = (x, y, y, y)
+    _compare_plots.lineages_figure({"surviving_lineages": {"a": same, "b": same}}, tmp_path / "l")
+    lines = drawn["f"].axes[0].get_lines()
+    steps = [line for line in lines if line.get_drawstyle() == "steps-post"]
+    assert len({line.get_linestyle() for line in steps}) == 2
+    dots = [line for line in lines if line.get_marker() == "o"]
+    assert [tuple(line.get_xydata()[-1]) for line in dots] == [(30.0, 3.0)] * 2
