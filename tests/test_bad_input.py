@@ -317,6 +317,12 @@ FOLDER_CASES: dict[str, tuple[Callable[[Path, Path], Path], list[str], str]] = {
         ["replay", "{run}", "best", "--rrd", "{run}/sub/../evaluations/gen-000000.parquet"],
         "--rrd: '",
     ),
+    # As root, the replaced "file" was /dev/null itself: a regular file from then on.
+    "replay-rrd-over-a-device": (
+        lambda f, t: _copy(f, t),
+        ["replay", "{run}", "best", "--rrd", "/dev/null"],
+        "--rrd: '/dev/null' is a character device such as /dev/null, which is never replaced",
+    ),
     "replay-video-a-folder": (
         lambda f, t: _copy(f, t),
         ["replay", "{run}", "best", "--video", "{run}/.."],

@@ -373,6 +373,10 @@ def test_a_flipped_manifests_flag_does_not_switch_verification_off(
         load_run(run)
 
 
+#: The keys of run.json that came with manifests, before ``plugins`` and ``results_version``.
+_BEFORE_PLUGINS = ("segments", "maximise", "brain_only")
+
+
 def test_a_missing_manifests_flag_with_keys_that_came_with_manifests_is_damage(
     tmp_path: Path,
 ) -> None:
@@ -384,6 +388,12 @@ def test_a_missing_manifests_flag_with_keys_that_came_with_manifests_is_damage(
     assert result.problems[0].startswith("run.json has no 'manifests' but has 'segments'")
     assert "manifests/gen-000000.json is missing (generation 0 is finished)" in result.problems[1]
     with pytest.raises(DamagedRunError, match=r"run\.json has no 'manifests' but has 'segments'"):
+        load_run(run)
+    # The keys that came later than manifests count too (the three above deleted as well,
+    # verification was off and a changed table loaded).
+    edit_json(run / "run.json", lambda info: info.update(results_version=1))  # as a run's
+    edit_json(run / "run.json", lambda info: [info.pop(k) for k in _BEFORE_PLUGINS])
+    with pytest.raises(DamagedRunError, match=r"has no 'manifests' but has 'results_version'"):
         load_run(run)
 
 
@@ -695,6 +705,29 @@ def test_a_table_s_run_id_must_be_run_json_s(tmp_path: Path) -> None:
         load_run(run).evaluations  # noqa: B018
     line = "has run_id '../../x' in its rows, run.json 'hostile-s3': changed by hand or crafted"
     assert any(line in problem for problem in verify_run(run).problems)
+
+
+@pytest.mark.parametrize(
+    ("table", "column", "value", "said"),
+    [
+        ("evaluations", "eval_id", "b000003-i000-c001+x", "has eval_id 'b000003-i000-c001+x', not"),
+        ("bodies", "best_eval_id", "../x", "has best_eval_id '../x', not an id"),
+        ("bodies", "body_id", "b1", "has body_id 'b1', not an id"),
+        ("bodies", "status", "=HYPERLINK(1)", "has status '=HYPERLINK(1)', not one a run writes"),
+    ],
+)
+def test_a_table_s_ids_and_statuses_must_be_what_a_run_writes(
+    tmp_path: Path, table: str, column: str, value: str, said: str
+) -> None:
+    """A crafted id (manifest rewritten) passed verify and load: report printed it, the
+    lineage CSV carried a formula; only export, replay and view refused it, one by one."""
+    run = _run(tmp_path / "run")
+    rows = pa.table({"run_id": ["hostile-s3"], "generation": [1], column: [value]})
+    pq.write_table(rows, run / table / "gen-000001.parquet")
+    write_manifest(run, 1)
+    with pytest.raises(DamagedRunError, match=re.escape(said)):
+        getattr(load_run(run), table)
+    assert any(said in problem for problem in verify_run(run).problems)
 
 
 def test_a_table_s_generation_column_must_be_its_file_s(tmp_path: Path) -> None:

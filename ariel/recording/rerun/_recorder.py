@@ -71,6 +71,7 @@ from ariel.recording.store import (
     generation_recording_path,
     read_table,
     recording_path,
+    refuse_symlinks,
 )
 
 if TYPE_CHECKING:
@@ -163,6 +164,8 @@ class RerunRecorder:
         # MAP-Elites: fitness per cell (`archive_cells`)
         self._archives: dict[int, np.ndarray | CvtCells] = {}
         self._lineage = Lineage(maximise=maximise)
+        self._real: set[Path] = set()  # folders found to be no symbolic link (`_inside`)
+        refuse_symlinks(self.run_dir / "recordings" / "gen-000000", self.run_dir)  # at once
         # per generation: the lineage graph so far
         self._lineages: dict[int, list[AsComponents]] = {}
         self._described: dict[str, Any] | None = None  # run.json's archive description
@@ -254,7 +257,7 @@ class RerunRecorder:
         if not (self.bodies == "all" or (self.bodies == "elites" and new_best)):
             return None  # in the generation's recording only
         return write_evaluation_recording(
-            recording_path(self.run_dir, generation, task.eval_id),
+            self._inside(recording_path(self.run_dir, generation, task.eval_id)),
             model=model,
             body_names=result.body_names,
             result=result,
@@ -274,7 +277,7 @@ class RerunRecorder:
         if not self._blueprint:
             self.write_blueprint()
         write_generation_recording(
-            generation_recording_path(self.run_dir, generation),
+            self._inside(generation_recording_path(self.run_dir, generation)),
             self._traces.pop(generation, []),
             run_id=self.run_id,
             generation=generation,
@@ -341,6 +344,15 @@ class RerunRecorder:
             with contextlib.suppress(NotARunError):
                 self._described = describe_archive(RunFolder(self.run_dir).read_info(), None)
         return self._described
+
+    def _inside(self, path: Path) -> Path:
+        """``path``, once no folder between the run folder and it is a symbolic link
+        (`refuse_symlinks`: a received folder's ``recordings`` linked elsewhere took a resumed
+        run's recordings there); each folder is looked at once."""
+        if path.parent not in self._real:
+            refuse_symlinks(path, self.run_dir)
+            self._real.add(path.parent)
+        return path
 
     def write_blueprint(self) -> Path:
         """Write the layouts: ``blueprint.rbl`` (evaluations, run.rrd) and ``generation.rbl``

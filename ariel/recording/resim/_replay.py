@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import stat
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -54,6 +55,7 @@ from ariel.recording.store import (
     recording_path,
     refuse_symlinks,
 )
+from ariel.utils import file_kind
 
 if TYPE_CHECKING:
     import mujoco
@@ -77,13 +79,20 @@ REPLAYS = "replays"
 
 def output_problem(run_dir: str | Path, path: str | Path) -> str | None:
     """Why ``path`` cannot take a replay's file (`ReplayResult.write_rrd`, ``write_video``),
-    or None: an empty name, a folder, or a place inside the run folder ``run_dir``, whose
-    records a replay never writes over (run.json replaced by an MP4 is a run lost)."""
+    or None: an empty name, a folder or anything else that is not a regular file (a regular
+    file there is replaced), or a place inside the run folder ``run_dir``, whose records a
+    replay never writes over (run.json replaced by an MP4 is a run lost)."""
     if not str(path):
         return "an empty file name; give a FILE outside the run folder"
     target = Path(path)
     if target.is_dir():
         return f"{str(path)!r} is a folder; give a FILE (the folder may hold it: DIR/NAME)"
+    try:
+        mode = target.stat().st_mode
+    except OSError:  # not there yet (or a link to nothing): the file is made
+        mode = stat.S_IFREG
+    if not stat.S_ISREG(mode):  # /dev/null replaced by a regular file, run as root
+        return f"{str(path)!r} is {file_kind(mode)}, which is never replaced; give a FILE"
     folder, resolved = Path(run_dir).resolve(), target.resolve()
     if resolved == folder or folder in resolved.parents:
         return (

@@ -107,7 +107,13 @@ FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 
 
 def _cell(value: object) -> object:
-    if isinstance(value, str) and value.startswith(FORMULA_STARTS) and not _plain(value):
+    if not isinstance(value, str):
+        return value
+    # `cat runs.csv`: no ESC from a folder's name reaches a terminal; a line break or a tab
+    # stays data (a tab-led cell is quoted as a formula below)
+    if not value.isprintable():
+        value = "".join(c if c.isprintable() or c in "\n\t" else one_line(c) for c in value)
+    if value.startswith(FORMULA_STARTS) and not _plain(value):
         return "'" + value
     return value
 
@@ -126,7 +132,8 @@ def _plain(text: str) -> bool:
 
 def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
     """A copy of ``frame`` whose text cells that a spreadsheet would read as a formula start
-    with ``'`` (numbers are left alone: ``-0.5`` stays a number)."""
+    with ``'`` (numbers are left alone: ``-0.5`` stays a number), control characters other
+    than a line break or a tab (data) written as their escapes (`one_line`)."""
     # Every store module imports this one, and only a CSV of a DataFrame needs pandas:
     # lazy: pandas is slow to import (~0.5 s), which would slow every `load_run`
     from pandas.api.types import is_object_dtype, is_string_dtype

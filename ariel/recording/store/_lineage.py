@@ -50,7 +50,7 @@ import pandas as pd
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.errors import DamagedRunError
-from ariel.recording.store._escape import short_ascii
+from ariel.recording.store._escape import csv_safe, short_ascii
 from ariel.recording.store._files import atomic_write
 from ariel.recording.store._ids import BODY_ID
 
@@ -325,7 +325,7 @@ def write_lineage_csv(
     for column in ("destruction_time", "destruction_evaluation"):
         if column in table.columns:
             table[column] = [still_alive if _missing(v) else str(int(v)) for v in table[column]]
-    text = table.to_csv(index=False, lineterminator="\n")
+    text = csv_safe(table).to_csv(index=False, lineterminator="\n")
     atomic_write(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
     return path
 

@@ -63,7 +63,7 @@ _REQUIRED = ("evaluations", "bodies")
 _CHUNK = 1 << 20
 #: Keys of run.json that came with manifests: only an ariel that writes a manifest for every
 #: finished generation (and ``"manifests": 1``) writes them.
-_MANIFEST_ERA = ("segments", "maximise", "brain_only")
+_MANIFEST_ERA = ("segments", "maximise", "brain_only", "plugins", "results_version")
 
 
 class _Entry(TypedDict):

@@ -29,8 +29,10 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
+from ariel.evaluation import FAILED_STATUSES
 from ariel.evolution import ExperimentConfig, machine_memory
 from ariel.recording.store._escape import short_ascii
+from ariel.recording.store._ids import BODY_ID, EVAL_ID
 
 __all__ = [
     "GEN_FILE",
@@ -42,9 +44,11 @@ __all__ = [
     "config_sections",
     "decoded_bytes",
     "generation_problem",
+    "id_problem",
     "limits_problem",
     "row_limit",
     "rows_problem",
+    "rows_problem_of",
     "run_id_problem",
     "section_problem",
     "size_problem",
@@ -352,3 +356,39 @@ def generation_problem(part: pa.Table, path: Path) -> str | None:
         f"has generation {short_ascii(others[0])} in its rows, its name {found[1]}: changed by "
         "hand or crafted, not loaded"
     )
+
+
+#: The shape each id column's values must have; ``best_eval_id`` is also "" (no best yet).
+_ID_COLUMNS = {"eval_id": EVAL_ID, "body_id": BODY_ID, "best_eval_id": EVAL_ID}
+#: What a row's ``status`` may be (records.md): an evaluation's, a body's ("ok" or "error").
+_STATUSES = frozenset(("ok", *FAILED_STATUSES))
+
+
+def id_problem(part: pa.Table) -> str | None:
+    """What is wrong with the id and status columns of a decoded table ``part`` (none:
+    nothing): an id that is not one (a crafted ``eval_id`` reached `report`'s lines and the
+    lineage CSV; `export`, `replay` and `view` refuse it one by one) or a status no run writes
+    (a CSV formula, control characters)."""
+    for column, pattern in _ID_COLUMNS.items():
+        if column not in part.column_names:
+            continue
+        for value in part.column(column).unique().to_pylist():
+            if value is None or (value == "" and column == "best_eval_id"):
+                continue  # null says nothing (no run writes it); "": no best evaluation yet
+            if not (isinstance(value, str) and pattern.fullmatch(value)):
+                return f"has {column} {short_ascii(value)}, not an id: changed by hand or crafted"
+    if "status" in part.column_names:
+        for value in part.column("status").unique().to_pylist():
+            if value is not None and value not in _STATUSES:
+                return (
+                    f"has status {short_ascii(value)}, not one a run writes "
+                    f"({', '.join(sorted(_STATUSES))}): changed by hand or crafted"
+                )
+    return None
+
+
+def rows_problem_of(part: pa.Table, path: Path, run_id: object) -> str | None:
+    """What is wrong with the rows of a run's decoded table ``part`` read from ``path``: their
+    run id (`run_id_problem`), generation (`generation_problem`), ids and statuses
+    (`id_problem`); None: nothing."""
+    return run_id_problem(part, run_id) or generation_problem(part, path) or id_problem(part)

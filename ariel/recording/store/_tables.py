@@ -36,11 +36,10 @@ from ariel.recording.store._table_limits import (
     GEN_NAME,
     ROW_MARGIN,
     MemoryProblem,
-    generation_problem,
     limits_problem,
     row_limit,
     rows_problem,
-    run_id_problem,
+    rows_problem_of,
     size_problem,
 )
 
@@ -445,9 +444,10 @@ def read_file(
         part = pq.read_table(pa.BufferReader(data), schema=schema, filters=filters)
     except (pa.ArrowException, OSError, ValueError) as exc:
         raise _not_parquet(run_dir, path, exc) from None
-    problem = run_id_problem(part, getattr(manifest, "run_id", None))
-    if manifest is not None:  # a run's file (a bare table, in tests, may hold anything)
-        problem = problem or generation_problem(part, path) or _column_problem(table, stored, part)
+    problem = None
+    if manifest is not None:  # a run's file holds what a run writes (a bare table: anything)
+        problem = rows_problem_of(part, path, manifest.run_id)
+        problem = problem or _column_problem(table, stored, part)
     if problem is not None:
         raise _unreadable(run_dir, path, problem)
     for name, value in _ADDED_COLUMNS.get(table, {}).items():

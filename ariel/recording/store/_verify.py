@@ -42,6 +42,7 @@ from ariel.recording.store._run_folder import (
 from ariel.recording.store._table_limits import (
     GEN_FILE,
     generation_problem,
+    id_problem,
     limits_problem,
     rows_problem,
     run_id_problem,
@@ -241,8 +242,8 @@ def _check_generation(
         problem = _check_file(run_dir, name, entry, result, info.get("config"))
         if problem is not None:
             result.problems.append(f"{name} {problem}")
-        elif name.startswith("evaluations/") and not result.run_id_checked:
-            _check_run_id(run_dir, name, info, result)
+        elif name.startswith(("evaluations/", "bodies/")):
+            _check_ids(run_dir, name, info, result)
 
 
 def _check_strays(
@@ -354,17 +355,19 @@ def _check_rows(path: Path, metadata: pq.FileMetaData | None, config: object) ->
         return None
 
 
-def _check_run_id(
-    run_dir: Path, name: str, info: Mapping[str, object], result: VerifyResult
-) -> None:
-    """The ``run_id`` of a sound evaluations table's rows is run.json's (`run_id_problem`, as
-    `load_run` checks it)."""
+def _check_ids(run_dir: Path, name: str, info: Mapping[str, object], result: VerifyResult) -> None:
+    """The ids and statuses of a sound evaluations or bodies table's rows: the ``run_id``
+    run.json's (`run_id_problem`), each id an id and each status one a run writes
+    (`id_problem`), as `load_run` checks them."""
+    wanted = ["run_id", "eval_id", "body_id", "best_eval_id", "status"]
     try:  # not "~" expanded
-        table = pq.read_table(os.path.abspath(run_dir / name), columns=["run_id"])
+        path = os.path.abspath(run_dir / name)
+        present = [c for c in wanted if c in pq.read_schema(path).names]
+        table = pq.read_table(path, columns=present)
     except Exception:  # a table that does not decode: `_check_file` says so
         return
     result.run_id_checked = True
-    problem = run_id_problem(table, info.get("run_id"))
+    problem = run_id_problem(table, info.get("run_id")) or id_problem(table)
     if problem is not None:
         result.problems.append(f"{name} {problem}")
 

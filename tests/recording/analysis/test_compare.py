@@ -533,6 +533,8 @@ def test_names_from_folders_are_escaped_for_each_medium(
     conditions = pd.read_csv(tmp_path / "c" / "runs.csv")["condition"].tolist()
     assert """'=HYPERLINK("http://x","y")""" in conditions
     assert CRAFTED in conditions  # a CSV cell holds the newline as data, quoted
+    assert "\x1b" not in (tmp_path / "c" / "runs.csv").read_text()  # `cat runs.csv` is safe
+    assert "[/bold]$\\frac{$ \\x1b[2J\\x1b]0;t\\x07" in conditions
     assert set(result.figures) >= {"best_so_far", "final_best"}  # mathtext drew as text
 
     _print_frame(result.summary_table(), f"{result.title}: per condition")

@@ -214,3 +214,28 @@ def test_ariel_run_past_a_file_size_limit_says_one_line_and_resume_finishes(
     assert json.loads((out / "run.json").read_text())["status"] == "finished"
     assert rerun_file_problem(out / "blueprint.rbl", layout=True) is None
     assert not [p.name for p in out.rglob(".*") if p.name != ".lock"]
+
+
+def test_a_linked_recordings_folder_is_refused_before_anything_is_recorded(
+    tmp_path: Path,
+) -> None:
+    """A received run folder whose ``recordings`` links elsewhere: a resumed run wrote its new
+    generations' recordings there, outside the run folder."""
+    from ariel.evolution import ExperimentConfig
+    from ariel.recording.rerun._recorder import RerunRecorder
+    from ariel.recording.store import UnsafePathError
+
+    run, outside = tmp_path / "run", tmp_path / "outside"
+    run.mkdir()
+    outside.mkdir()
+    (run / "recordings").symlink_to(outside)
+    config = ExperimentConfig.from_plain({})
+    with pytest.raises(UnsafePathError, match=r"'.*/run/recordings' is a symbolic link \(to"):
+        RerunRecorder(run, run_id="r", bodies="all", maximise=True, config=config)
+    (run / "recordings").unlink()
+    (run / "recordings").mkdir()
+    recorder = RerunRecorder(run, run_id="r", bodies="all", maximise=True, config=config)
+    (run / "recordings" / "gen-000003").symlink_to(outside)  # a later generation's folder
+    with pytest.raises(UnsafePathError, match=r"/gen-000003' is a symbolic link"):
+        recorder._inside(run / "recordings" / "gen-000003" / "evaluations.rrd")
+    assert list(outside.iterdir()) == []

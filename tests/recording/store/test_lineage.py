@@ -120,6 +120,12 @@ def test_the_csv_is_the_standards_and_is_never_overwritten_unasked(tmp_path: Pat
     write_lineage_csv(frame, path, overwrite=True, still_alive="none")
     assert path.read_text().splitlines()[7].startswith("6,[3],3,none,")
     assert [p.name for p in tmp_path.iterdir()] == ["phylogeny.csv"]  # no temporary left
+    # A text cell a spreadsheet would run, or that clears a terminal, is written inert (as
+    # compare's CSVs are): before, a crafted status reached the file as it was.
+    frame["status"] = ['=HYPERLINK("x")\x1b[2J'] + ["ok"] * (len(frame) - 1)
+    write_lineage_csv(frame, path, overwrite=True)
+    text = path.read_text()
+    assert "\x1b" not in text and '"\'=HYPERLINK(""x"")\\x1b[2J"' in text
 
 
 def test_ancestor_lists_read_the_forms_tools_write() -> None:

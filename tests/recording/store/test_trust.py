@@ -211,7 +211,7 @@ def _as_made_before_manifests(run: Path) -> None:
     came with them (a run.json with them, or a manifests/ folder, is checked against them)."""
     shutil.rmtree(run / "manifests")
     info = json.loads((run / "run.json").read_text())
-    for key in ("manifests", "segments", "maximise", "brain_only"):
+    for key in ("manifests", "segments", "maximise", "brain_only", "plugins", "results_version"):
         del info[key]
     (run / "run.json").write_text(json.dumps(info))
 
