@@ -447,3 +447,16 @@ def test_an_empty_or_unknown_argument_is_the_command_s_usage_error(
     assert exit_code(argv) == 2
     assert message in one_error_line(capsys, subcommand=True, quiet=True)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_the_user_names_may_go_through_a_linked_folder_of_theirs(
+    finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--lineage linkdir/l.csv`` was refused as if it were a run folder's file ("a run
+    folder's files are written only inside it"); on macOS /tmp itself is a link."""
+    real, link = tmp_path / "real", tmp_path / "link"
+    real.mkdir()
+    link.symlink_to(real)
+    assert exit_code(["export", str(finished_run), "--lineage", str(link / "l.csv")]) == 0
+    assert f"wrote {link / 'l.csv'}: the lineage of " in capsys.readouterr().out
+    assert (real / "l.csv").is_file() and not (real / "l.csv").is_symlink()

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from ariel import recording
 from ariel.cli._common import fail
 from ariel.recording import resim
-from ariel.recording.store import cannot_write, terminal_text
+from ariel.recording.store import cannot_write, terminal_text, user_file
 from ariel.utils import python_command
 
 if TYPE_CHECKING:
@@ -79,7 +79,7 @@ def _export_lineage(run_dir: str, path: Path) -> int:
     """The run's lineage (`ariel.recording.Run.lineage`) as the standard's CSV at ``path``."""
     frame = recording.load_run(run_dir).lineage()
     try:
-        recording.write_lineage_csv(frame, path)
+        recording.write_lineage_csv(frame, user_file(path))
     except FileExistsError:  # made since the check in _cmd_export
         return fail(_exists(path))
     except OSError as exc:  # no permission, a full disk, a file where a folder goes

@@ -82,10 +82,12 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             )
         if args.rrd is not None:
             replaced = _replaces(args.rrd)
-            _say(f"wrote {replayed.write_rrd(args.rrd)}{replaced}")
+            replayed.write_rrd(args.rrd)
+            _say(f"wrote {args.rrd}{replaced}")  # as named (its folder's links resolved there)
         if args.video is not None:
             replaced = _replaces(args.video)
-            _say(f"wrote {replayed.write_video(args.video)}{replaced}")
+            replayed.write_video(args.video)
+            _say(f"wrote {args.video}{replaced}")
         if args.viewer:
             replayed.view()
     except (ValueError, RuntimeError, ImportError) as exc:

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 from ariel import recording
 from ariel.cli._common import DEFAULT_RUNS, fail
 from ariel.cli._prune import prune_runs
-from ariel.recording.store import UNREADABLE, is_campaign, terminal_text
+from ariel.recording.store import UNREADABLE, is_campaign, read_campaign_info, terminal_text
 from ariel.utils import ariel_line
 
 if TYPE_CHECKING:
@@ -58,6 +58,8 @@ def _cmd_runs(args: argparse.Namespace) -> int:
             f"{str(folder)!r} is a run folder; list the folder that holds it: "
             f"{ariel_line('runs', folder.parent)}"
         )
+    if campaign:
+        read_campaign_info(folder)  # a campaign.json refused elsewhere is refused here: one line
     runs = _campaign_runs(folder) if campaign else recording.list_runs(folder)
     if not runs:
         print(f"no runs under {terminal_text(folder)}")

@@ -158,7 +158,8 @@ def test_a_deep_campaign_json_is_one_line(
     campaign: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     (campaign / "campaign.json").write_text(DEEP)
-    for command in (["campaign", "status"], ["campaign", "resume", "--quiet"], ["compare"]):
+    commands = (["campaign", "status"], ["campaign", "resume", "--quiet"], ["compare"], ["runs"])
+    for command in commands:  # `runs` listed the runs of a campaign.json refused elsewhere
         assert exit_code([*command, str(campaign)]) == 2, command
         assert "unreadable campaign.json (JSON nested more than 100" in one_error_line(capsys)
 
@@ -331,6 +332,11 @@ def test_campaign_status_names_a_run_that_does_not_load(
     )
     assert exit_code(["campaign", "status", str(campaign)]) == 0
     assert "damaged" in capsys.readouterr().out
+    # The campaign's gallery named nothing it left out.
+    from ariel.recording.analysis._gallery import _campaign_gallery
+
+    notes = _campaign_gallery(campaign)[0].notes
+    assert any(note.startswith("condition inherit seed 2: left out (") for note in notes)
 
 
 def test_compare_names_a_damaged_run_of_a_campaign_instead_of_leaving_it_out(
@@ -655,7 +661,8 @@ def test_a_manifest_checkpoint_or_campaign_json_that_is_a_fifo_is_one_line(
     )
     assert "damaged: checkpoints/state.json unreadable checkpoint (ValueError: a FIFO, not a" in out
     _fifo(campaign / "campaign.json")
-    for command in (["campaign", "status"], ["campaign", "resume", "--quiet"], ["compare"]):
+    commands = (["campaign", "status"], ["campaign", "resume", "--quiet"], ["compare"], ["runs"])
+    for command in commands:  # `runs` listed the runs of a campaign.json refused elsewhere
         assert exit_code([*command, str(campaign)]) == 2, command
         assert "unreadable campaign.json (a FIFO, not a regular file)" in one_error_line(capsys)
 

@@ -377,6 +377,8 @@ def _campaign_gallery(path: Path) -> tuple[Gallery, list[Pick]]:
     gallery = Gallery(path, "final", title, subtitle, key)
     if len(chosen) < len(runs):
         gallery.notes.append(f"{len(runs) - len(chosen)} run(s) without a finished generation")
+    for (condition, seed), why in campaign.damaged.items():  # named, never left out unsaid
+        gallery.notes.append(f"condition {one_line(condition)} seed {seed}: left out ({why})")
     if capped:
         gallery.notes.append(f"{len(chosen)} runs: {capped}")
     return gallery, shown

@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from PIL import Image
 
 __all__ = [
+    "LARGEST_THUMBNAIL",
     "THUMBNAIL_SIZE",
     "ThumbnailJob",
     "cached_thumbnail",
@@ -84,14 +85,23 @@ def _digest(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()[:16]
 
 
+#: The largest cached thumbnail read back (pixels a side; they are drawn at 256): a crafted
+#: PNG of 60,000 x 60,000 pixels is a few KB on disk and GBs decoded (in the sheet, and in
+#: every browser that opens the gallery's page).
+LARGEST_THUMBNAIL = 2048
+
+
 def cached_thumbnail(path: Path) -> bytes | None:
-    """The PNG at ``path`` when it is a regular file (not a link) that starts like one."""
+    """The PNG at ``path`` when it is a regular file (not a link) that starts like one, of at
+    most `LARGEST_THUMBNAIL` pixels a side (its IHDR header says)."""
     if path.is_symlink() or not path.is_file():
         return None
     with contextlib.suppress(OSError):
         data = path.read_bytes()
-        if data.startswith(_PNG):
-            return data
+        if data.startswith(_PNG) and data[12:16] == b"IHDR":
+            width, height = int.from_bytes(data[16:20]), int.from_bytes(data[20:24])
+            if max(width, height) <= LARGEST_THUMBNAIL:
+                return data
     return None
 
 

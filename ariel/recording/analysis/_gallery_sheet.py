@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from PIL import Image, ImageDraw, ImageFont
 
+from ariel.recording.analysis._gallery_render import LARGEST_THUMBNAIL
 from ariel.recording.store import DESCRIPTORS, descriptor_label
 
 if TYPE_CHECKING:
@@ -74,11 +75,6 @@ def _fitted(draw: ImageDraw.ImageDraw, text: str, font: _Font, width: int) -> st
         else:
             too_long = middle
     return text[:fits] + "…"
-
-
-#: The largest cached thumbnail read back (pixels a side; they are drawn at 256): a crafted
-#: PNG of 60,000 x 60,000 pixels is a few KB on disk and GBs decoded.
-LARGEST_THUMBNAIL = 2048
 
 
 def _thumbnail(body: GalleryBody, size: int) -> Image.Image:

@@ -54,6 +54,7 @@ from ariel.recording.store import (
     check_eval_id,
     recording_path,
     refuse_symlinks,
+    user_file,
 )
 from ariel.utils import file_kind
 
@@ -106,7 +107,7 @@ def _writable(run_dir: Path, path: str | Path) -> Path:
     problem = output_problem(run_dir, path)
     if problem is not None:
         raise ValueError(problem)
-    return Path(path)
+    return user_file(path)
 
 
 def _fitness_bits(value: float) -> bytes:

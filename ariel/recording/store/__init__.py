@@ -60,6 +60,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         fsync_folder as fsync_folder,
         refuse_symlinks as refuse_symlinks,
         remove_temporaries as remove_temporaries,
+        user_file as user_file,
         written_path as written_path,
     )
     from ariel.recording.store._ids import (
@@ -241,6 +242,7 @@ _INTERNAL: dict[str, str] = {
     "read_table": "ariel.recording.store._tables",
     "recording_path": "ariel.recording.store._tables",
     "refuse_symlinks": "ariel.recording.store._files",
+    "user_file": "ariel.recording.store._files",
     "STALE_S": "ariel.recording.store._files",
     "remove_temporaries": "ariel.recording.store._files",
     "run_path": "ariel.recording.store._campaign",

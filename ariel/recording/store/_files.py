@@ -40,6 +40,7 @@ __all__ = [
     "read_regular_file",
     "refuse_symlinks",
     "remove_temporaries",
+    "user_file",
     "within",
     "written_path",
 ]
@@ -61,6 +62,16 @@ def within(path: str | os.PathLike[str], root: str | os.PathLike[str]) -> bool:
     """``path``, with every link resolved, lies in ``root`` (also resolved), or is it."""
     path, root = Path(os.path.realpath(path)), Path(os.path.realpath(root))
     return path == root or root in path.parents
+
+
+def user_file(path: str | os.PathLike[str]) -> Path:
+    """A file the user named outside any run folder (``--lineage FILE``, ``--rrd FILE``,
+    ``--screenshot FILE``): its folder with every link resolved (the links on the way are
+    theirs: on macOS ``/tmp`` is one), its own name kept (a link there is replaced, never
+    written through). Writers check the folder a file goes in for links (`refuse_symlinks`):
+    that guards run folders, and refused these."""
+    path = Path(path)
+    return Path(os.path.realpath(path.parent)) / path.name
 
 
 def refuse_symlinks(path: str | os.PathLike[str], root: str | os.PathLike[str] | None) -> None:

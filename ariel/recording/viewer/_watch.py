@@ -31,6 +31,7 @@ import rerun as rr
 
 from ariel.errors import NotARunError, ViewError
 from ariel.recording.rerun import APPLICATION_ID
+from ariel.recording.store import one_line
 from ariel.recording.viewer._child import _terminate, die_with_parent, rerun_binary
 from ariel.recording.viewer._watch_run import RunSource
 from ariel.recording.viewer._web import (
@@ -163,7 +164,10 @@ class Watcher:
             self.rec.set_log_tick_enabled(False)
             if save is not None:
                 sinks.append(rr.FileSink(str(save)))
-            self.rec.set_sinks(*sinks)
+            try:
+                self.rec.set_sinks(*sinks)
+            except RuntimeError as exc:  # the file sink's first write: a full disk, a quota
+                raise ViewError(f"cannot write --save {str(save)!r}: {one_line(exc)}") from None
             rr.send_recording_name(f"live: {name}", recording=self.rec)
             self.rec.send_blueprint(source.blueprint(), make_active=True, make_default=True)
             if viewer == "notebook":

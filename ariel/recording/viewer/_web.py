@@ -23,7 +23,7 @@ from urllib.parse import quote
 
 from ariel.errors import ViewError
 from ariel.recording.rerun import write_campaign_blueprint, write_generation_blueprint
-from ariel.recording.store import atomic_write_bytes, cannot_write, terminal_text
+from ariel.recording.store import atomic_write_bytes, cannot_write, terminal_text, user_file
 from ariel.recording.viewer._browser import BrowserError, HeadlessChromium, find_chromium
 from ariel.recording.viewer._child import _run_child, _terminate, rerun_binary
 from ariel.recording.viewer._select import Selection
@@ -184,7 +184,7 @@ def _screenshot(selection: Selection, out: Path, size: tuple[int, int], settle_s
         finally:
             _terminate(proc)
         try:
-            atomic_write_bytes(out, picture)
+            atomic_write_bytes(user_file(out), picture)
         except OSError as exc:  # full, read-only, or a folder like /proc that takes no file
             raise ViewError(f"--screenshot: {cannot_write(exc, out)}") from None
         taken.append(str(out))

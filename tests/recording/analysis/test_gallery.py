@@ -352,6 +352,13 @@ def test_a_crafted_huge_thumbnail_is_drawn_as_missing(tmp_path: Path) -> None:
     tile = _gallery_sheet._thumbnail(types.SimpleNamespace(thumbnail=bomb), 64)  # type: ignore[arg-type]
     assert tile.size == (64, 64)
     assert tile.getpixel((0, 0)) == _gallery_sheet.EMPTY  # the grey "no thumbnail" tile
+    # The page embedded it as it was (3.6 gigapixels for the browser): "no thumbnail" too.
+    from ariel.recording.analysis._gallery_render import cached_thumbnail
+
+    assert cached_thumbnail(bomb) is None
+    small = struct.pack(">IIBBBBB", 256, 256, 8, 2, 0, 0, 0)
+    bomb.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", small) + chunk(b"IEND", b""))
+    assert cached_thumbnail(bomb) == bomb.read_bytes()
 
 
 def test_a_crafted_elite_leaves_the_report_s_archive_thumbnails_out_with_a_note(

@@ -358,3 +358,22 @@ def test_without_a_display_the_hint_is_the_web_command_to_paste(
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert f"serve it to a browser instead: {ariel_line('watch', live['run'], '--web')} " in err
+
+
+def test_a_save_file_that_cannot_be_written_is_one_line(
+    live: dict, tmp_path: Path, capsys, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A full disk under --save: Rerun's RuntimeError from set_sinks, a traceback, exit 1."""
+    import rerun as rr
+
+    def full(self: object, *sinks: object) -> None:
+        raise RuntimeError("Failed to encode LogMsg: Failed to write: No space left on device")
+
+    monkeypatch.setattr(rr.RecordingStream, "set_sinks", full)
+    save = tmp_path / "w.rrd"
+    assert main(["watch", str(live["run"]), "--no-viewer", "--save", str(save)]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        f"ariel: error: cannot write --save {str(save)!r}: Failed to encode LogMsg: Failed to "
+        "write: No space left on device\n"
+    )
