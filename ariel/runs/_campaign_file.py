@@ -245,8 +245,15 @@ def _conditions(model: _CampaignModel) -> list[Condition]:
     seen: set[str] = set()
     for condition in conditions:
         if condition.name in seen:
+            made = (
+                " (made from grid values, which keep letters, digits, _ . - only: give those "
+                "conditions names with [[condition]] entries)"
+                if points
+                else ""
+            )
             raise ConfigError(
-                f"condition: duplicate name '{condition.name}'; every condition needs its own"
+                f"condition: duplicate name '{condition.name}'{made}; every condition needs its "
+                "own"
             )
         seen.add(condition.name)
     return conditions

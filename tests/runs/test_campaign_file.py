@@ -73,6 +73,10 @@ CASES = {
         '[[condition]]\nname = "x"\n[[condition]]\nname = "x"\n',
         "condition: duplicate name 'x'",
     ),
+    "grid values that make one name": (
+        '[grid]\n"description" = ["a!b", "a?b"]\n',
+        "condition: duplicate name 'description-a-b' (made from grid values, which keep ",
+    ),
     "a grid key that does not exist": (
         '[grid]\n"brain.popsiz" = [2, 4]\n',
         "grid: 'brain.popsiz': no such key; keys under brain:",

@@ -122,3 +122,26 @@ def test_a_busy_machine_s_estimate_is_scaled_to_its_load(monkeypatch: pytest.Mon
     )
     monkeypatch.setattr("os.getloadavg", lambda: (0.1, 0.1, 0.1))  # room for the 2 workers
     assert plan_text(plan)[-1].startswith("estimate: about 1 min")
+
+
+def test_a_dry_run_of_many_conditions_times_a_few(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A grid of 1,000 conditions was still being timed after minutes, a second each."""
+    from ariel.runs import _campaign_plan
+
+    timed = []
+    monkeypatch.setattr(_campaign_plan, "MOST_TIMED", 2)
+    monkeypatch.setattr(
+        _campaign_plan, "_seconds_per_evaluation", lambda run: timed.append(run) or 0.5
+    )
+    file = tmp_path / "grid.toml"
+    file.write_text(
+        'base = { name = "g", generations = 1, executor = { kind = "serial" } }\nseeds = [1]\n'
+        '[grid]\n"brain.popsize" = [2, 4, 6, 8, 10]\n'
+    )
+    plan = _campaign_plan.campaign_plan(file)
+    assert len(timed) == 2 and len(plan.rows) == 5
+    lines = _campaign_plan.plan_text(plan)
+    assert lines[5].endswith("ms per evaluation here (the timed conditions' mean)")
+    assert "  (the first 2 of 5 conditions timed; the others counted at their mean)" in lines
