@@ -252,8 +252,7 @@ def _conditions(model: _CampaignModel) -> list[Condition]:
                 else ""
             )
             raise ConfigError(
-                f"condition: duplicate name '{condition.name}'{made}; every condition needs its "
-                "own"
+                f"condition: duplicate name '{condition.name}'{made}; every condition needs its own"
             )
         seen.add(condition.name)
     return conditions
