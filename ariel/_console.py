@@ -18,6 +18,7 @@ except KeyboardInterrupt:  # pressed while loading: `main` says so
 def main() -> int:
     """Run the command in ``sys.argv`` (`ariel.cli.main`)."""
     if _run is None:
-        print("\ninterrupted" if sys.stderr.isatty() else "interrupted", file=sys.stderr)
+        echoed = getattr(sys.stderr, "isatty", bool)()  # a terminal echoed ^C on this line
+        print("\ninterrupted" if echoed else "interrupted", file=sys.stderr)
         return 130
     return _run()

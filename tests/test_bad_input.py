@@ -460,3 +460,17 @@ def test_a_file_the_user_names_may_go_through_a_linked_folder_of_theirs(
     assert exit_code(["export", str(finished_run), "--lineage", str(link / "l.csv")]) == 0
     assert f"wrote {link / 'l.csv'}: the lineage of " in capsys.readouterr().out
     assert (real / "l.csv").is_file() and not (real / "l.csv").is_symlink()
+
+
+def test_a_replay_s_output_is_refused_before_anything_is_simulated(
+    finished_run: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--video DIR` used to fail after the whole replay, naming a temporary path."""
+    from ariel.recording import resim
+
+    def never(*args: object) -> None:
+        raise AssertionError("simulated before the output was checked")
+
+    monkeypatch.setattr(resim, "replay", never)
+    assert exit_code(["replay", str(finished_run), "best", "--video", str(finished_run)]) == 2
+    assert "is a folder; give a FILE" in one_error_line(capsys, quiet=True)

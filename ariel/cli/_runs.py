@@ -56,7 +56,7 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     if not campaign and (folder / "run.json").is_file():  # "no runs under RUN" misled
         return fail(
             f"{str(folder)!r} is a run folder; list the folder that holds it: "
-            f"{ariel_line('runs', folder.parent)}"
+            f"{ariel_line('runs', _parent(folder))}"
         )
     if campaign:
         read_campaign_info(folder)  # a campaign.json refused elsewhere is refused here: one line
@@ -94,6 +94,12 @@ def _shown_name(run: RunSummary, campaign: bool) -> str:
     if campaign or name == run["run_id"]:
         return terminal_text(run["run_id"])
     return f"{terminal_text(name)} (run id {terminal_text(run['run_id'])})"
+
+
+def _parent(folder: Path) -> Path:
+    """The folder holding ``folder``: ``..`` for ``.`` and ``..`` (pathlib takes ``.`` for
+    its own parent)."""
+    return folder.parent if folder.name not in ("", "..") else folder / ".."
 
 
 def _campaign_runs(folder: Path) -> list[RunSummary]:

@@ -119,6 +119,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         is_genotype_file as is_genotype_file,
         read_genotype_file as read_genotype_file,
     )
+    from ariel.evolution._load_config import (
+        not_a_file as not_a_file,
+    )
     from ariel.evolution._optimizer_checks import (
         check_body_optimizer as check_body_optimizer,
         check_brain_optimizer as check_brain_optimizer,
@@ -197,6 +200,7 @@ __all__ = sorted(_LAZY)
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
+    "not_a_file": "ariel.evolution._load_config",
     "RESULTS_VERSION": "ariel.evolution._results_version",
     "results_version": "ariel.evolution._results_version",
     "BatchEvaluated": "ariel.evolution._events",

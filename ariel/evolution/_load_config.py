@@ -63,7 +63,7 @@ def load_config(
         if source is None and not path.is_file():  # an installed package without experiments/
             return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
         if not path.is_file():  # never opened: reading a FIFO would wait forever
-            raise ConfigError(f"config file {str(path)!r} {_not_a_file(path)}")
+            raise ConfigError(f"config file {str(path)!r} {not_a_file(path)}")
         data = read_toml_file(path)
         _refuse_campaign_file(data, path)
         data = _genotype_file_beside(data, path)
@@ -85,7 +85,7 @@ def _refuse_campaign_file(data: Mapping[str, object], path: Path) -> None:
         )
 
 
-def _not_a_file(path: Path) -> str:
+def not_a_file(path: Path) -> str:
     """What ``path`` is instead of a TOML file, e.g. ``is a folder``."""
     try:
         mode = path.stat().st_mode

@@ -61,6 +61,7 @@ from ariel.evolution import (
     apply_overrides,
     check_key,
     load_config,
+    not_a_file,
     read_toml_file,
     set_value,
 )
@@ -245,10 +246,11 @@ def _conditions(model: _CampaignModel) -> list[Condition]:
     seen: set[str] = set()
     for condition in conditions:
         if condition.name in seen:
+            grid_clash = len({p.name for p in points}) < len(points)
             made = (
                 " (made from grid values, which keep letters, digits, _ . - only: give those "
                 "conditions names with [[condition]] entries)"
-                if points
+                if grid_clash
                 else ""
             )
             raise ConfigError(
@@ -357,10 +359,8 @@ def load_campaign_file(
     """Read and validate a campaign TOML file (see the module docstring); ``max_runs``: as
     `campaign_spec`'s."""
     path = Path(path)
-    if path.is_dir():  # `ariel run DIR` says the same of an experiment file
-        raise ConfigError(f"campaign file {str(path)!r} is a folder, not a TOML file")
-    if not path.is_file():
-        raise ConfigError(f"campaign file {str(path)!r} not found")
+    if not path.is_file():  # as `ariel run` says of an experiment file: never opened
+        raise ConfigError(f"campaign file {str(path)!r} {not_a_file(path)}")
     data = read_toml_file(path)
     _refuse_experiment_file(data, path)
     return campaign_spec(data, beside=path.parent, overrides=overrides, max_runs=max_runs)

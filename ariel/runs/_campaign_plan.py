@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ariel.errors import BodyBuildError
+from ariel.evaluation import default_workers
 from ariel.evaluation.executors import planned_workers
 from ariel.evolution import (
     body_spec,
@@ -47,6 +48,7 @@ class CampaignPlan:
     name: str
     workers: int
     rows: list[dict[str, Any]] = field(default_factory=list)
+    local: bool = True  # the workers run on this machine (its load says how busy they are)
 
     @property
     def runs(self) -> int:
@@ -84,7 +86,8 @@ def campaign_plan(
     spec = load_campaign_file(file, overrides)
     first = next(iter(spec.configs.values()))
     settings = executor_settings(first, kind=executor, workers=workers)
-    plan = CampaignPlan(spec.name, planned_workers(settings)[0])
+    workers, here = planned_workers(settings)
+    plan = CampaignPlan(spec.name, workers, local=here)
     prepared = {key: prepare_run(config, settings) for key, config in spec.configs.items()}
     if timed and on_timing is not None:
         on_timing()
@@ -103,11 +106,12 @@ def campaign_plan(
             row["seconds_per_evaluation"] = _seconds_per_evaluation(run)
         seen[condition] = row
         plan.rows.append(row)
-    timings = [
-        row["seconds_per_evaluation"] for row in plan.rows if "seconds_per_evaluation" in row
-    ]
+    timed_rows = [row for row in plan.rows if "seconds_per_evaluation" in row]
+    # per simulated second: a grid over task.duration scales with it
+    rate = sum(r["seconds_per_evaluation"] / r["simulated_seconds"] for r in timed_rows)
     for row in plan.rows[MOST_TIMED:] if timed else []:  # the timed ones' mean
-        row["seconds_per_evaluation"], row["at_mean"] = sum(timings) / len(timings), True
+        row["seconds_per_evaluation"] = rate / len(timed_rows) * row["simulated_seconds"]
+        row["at_mean"] = True
     return plan
 
 
@@ -170,7 +174,7 @@ def plan_text(plan: CampaignPlan) -> list[str]:
             "random bodies timed here; other work on the machine, the loop and records add to "
             "it, evolved bodies may be slower or faster)"
         )
-        busy = busy_factor(plan.workers)
+        busy = busy_factor(plan.workers) if plan.local else None
         if busy is not None:
             load, cores, factor = busy
             lines.append(
@@ -182,14 +186,18 @@ def plan_text(plan: CampaignPlan) -> list[str]:
 
 def busy_factor(workers: int) -> tuple[float, int, float] | None:
     """(load, cores, how many times longer) where the machine's other work (the 1-minute load
-    average) would leave ``workers`` processes less than a core each, else None (no load
-    average on this system, or room for them): each then gets cores / (load + workers)."""
+    average) leaves ``workers`` processes at least a fifth less CPU than they would get on
+    their own, else None (no load average on this system, or room for them). Each gets
+    cores / (load + workers) of a core, at most one; on their own, cores / workers. The
+    timing the dry run has just done adds to the load: a slight overstatement."""
     try:
         load = os.getloadavg()[0]
     except (AttributeError, OSError):  # Windows; a system that does not say
         return None
-    cores = os.cpu_count() or 1
-    factor = (load + workers) / cores
+    cores = default_workers()  # the CPUs this process may use (its affinity mask)
+    alone = min(1.0, cores / workers)
+    shared = min(1.0, cores / (load + workers))
+    factor = alone / shared
     return (load, cores, factor) if factor > 1.2 else None
 
 

@@ -69,6 +69,7 @@ def test_a_dry_run_says_what_the_campaign_will_do_and_writes_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("os.getloadavg", lambda: (0.0, 0.0, 0.0))
     args = ["campaign", "run", str(TINY), "--dry-run", "--executor", "local", "--workers", "2"]
     args += ["--set", "generations=3"]
     assert main(args) == 0
@@ -77,8 +78,7 @@ def test_a_dry_run_says_what_the_campaign_will_do_and_writes_nothing(
     # 3 generations of 2 + 2 bodies, brains of popsize 2 x 1 iteration: (2 + 2 * 2) * 2 = 12
     assert lines[1].startswith("  fresh: seeds 1..2 (2 runs) x 12 evaluations of 0.3 s, ")
     assert lines[3] == "total: 48 evaluations on 2 workers"
-    assert lines[4].startswith("estimate: about ")
-    assert len(lines) == 5 or lines[5].startswith("  this machine is busy now (load ")
+    assert lines[4].startswith("estimate: about ") and len(lines) == 5  # an idle machine
     assert list(tmp_path.iterdir()) == []
     # A bad file is refused as a real run would refuse it.
     assert exit_code(["campaign", "run", str(TINY), "--dry-run", "--set", "brain.popsize=0"]) == 2
@@ -98,30 +98,25 @@ def test_the_campaign_line_prints_a_folder_name_with_control_sequences_as_text(
 
 def test_a_busy_machine_s_estimate_is_scaled_to_its_load(monkeypatch: pytest.MonkeyPatch) -> None:
     """The estimate was for idle cores only: 2 min said, 7 taken at a load of 5 on 2 cores."""
+    from ariel.runs import _campaign_plan
     from ariel.runs._campaign_plan import CampaignPlan, plan_text
 
-    plan = CampaignPlan(
-        "c",
-        workers=2,
-        rows=[
-            {
-                "condition": "a",
-                "seeds": [1],
-                "evaluations": 60,
-                "simulated_seconds": 1.0,
-                "seconds_per_evaluation": 2.0,
-            }
-        ],
-    )
-    monkeypatch.setattr("os.cpu_count", lambda: 2)
+    row = {"condition": "a", "seeds": [1], "evaluations": 60, "simulated_seconds": 1.0}
+    plan = CampaignPlan("c", workers=2, rows=[{**row, "seconds_per_evaluation": 2.0}])
+    monkeypatch.setattr(_campaign_plan, "default_workers", lambda: 2)
     monkeypatch.setattr("os.getloadavg", lambda: (4.0, 4.0, 4.0))
     lines = plan_text(plan)
     assert lines[-2].startswith("estimate: about 1 min with the cores to itself")
-    assert (
-        lines[-1] == "  this machine is busy now (load 4.0 on 2 cores): at this load, about 3 min"
-    )
+    busy = "  this machine is busy now (load 4.0 on 2 cores): at this load, about 3 min"
+    assert lines[-1] == busy
+    plan.local = False  # a cluster's workers: this machine's load says nothing of them
+    assert plan_text(plan)[-1].startswith("estimate: about 1 min")
+    plan.local = True
     monkeypatch.setattr("os.getloadavg", lambda: (0.1, 0.1, 0.1))  # room for the 2 workers
     assert plan_text(plan)[-1].startswith("estimate: about 1 min")
+    plan.workers = 8  # more workers than cores on an idle machine: not "busy"
+    monkeypatch.setattr("os.getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert plan_text(plan)[-1].startswith("estimate: about ")
 
 
 def test_a_dry_run_of_many_conditions_times_a_few(
@@ -133,15 +128,19 @@ def test_a_dry_run_of_many_conditions_times_a_few(
     timed = []
     monkeypatch.setattr(_campaign_plan, "MOST_TIMED", 2)
     monkeypatch.setattr(
-        _campaign_plan, "_seconds_per_evaluation", lambda run: timed.append(run) or 0.5
+        _campaign_plan,
+        "_seconds_per_evaluation",
+        lambda run: timed.append(run) or 0.1 * run.config.task.duration,
     )
     file = tmp_path / "grid.toml"
     file.write_text(
         'base = { name = "g", generations = 1, executor = { kind = "serial" } }\nseeds = [1]\n'
-        '[grid]\n"brain.popsize" = [2, 4, 6, 8, 10]\n'
+        '[grid]\n"task.duration" = [1.0, 3.0, 5.0, 7.0, 10.0]\n'
     )
     plan = _campaign_plan.campaign_plan(file)
     assert len(timed) == 2 and len(plan.rows) == 5
+    # The mean per simulated second, times each condition's own duration.
+    assert plan.rows[4]["seconds_per_evaluation"] == pytest.approx(1.0)
     lines = _campaign_plan.plan_text(plan)
     assert lines[5].endswith("ms per evaluation here (the timed conditions' mean)")
     assert "  (the first 2 of 5 conditions timed; the others counted at their mean)" in lines

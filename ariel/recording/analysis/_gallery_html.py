@@ -9,6 +9,7 @@ from __future__ import annotations
 import base64
 from typing import TYPE_CHECKING
 
+from ariel.recording.analysis._gallery_render import cached_thumbnail
 from ariel.recording.analysis._gallery_sheet import bin_text, descriptor_text, number_text
 from ariel.recording.store import DESCRIPTORS, descriptor_label, html_text
 
@@ -38,16 +39,12 @@ code { display: block; margin-top: 6px; padding: 4px 6px; background: #f1f3f5; b
 
 def _image(body: GalleryBody) -> str:
     """``body``'s thumbnail as an ``<img>`` with a data URI, or a box that says it has none."""
-    if body.thumbnail is not None:
-        try:
-            data = body.thumbnail.read_bytes()
-        except OSError:
-            data = b""
-        if data.startswith(b"\x89PNG"):
-            encoded = base64.b64encode(data).decode("ascii")
-            alt = html_text(f"body {body.body_id}")
-            return f'<img src="data:image/png;base64,{encoded}" alt="{alt}">'
-    return '<div class="none">no thumbnail</div>'
+    data = cached_thumbnail(body.thumbnail) if body.thumbnail is not None else None
+    if data is None:  # not what the sheet would draw: a PNG of thumbnail size, no link
+        return '<div class="none">no thumbnail</div>'
+    encoded = base64.b64encode(data).decode("ascii")
+    alt = html_text(f"body {body.body_id}")
+    return f'<img src="data:image/png;base64,{encoded}" alt="{alt}">'
 
 
 def _when(body: GalleryBody) -> str:

@@ -306,6 +306,7 @@ def make_report(
         _refuse_if_replaced(run)
         raise
     _refuse_if_replaced(run)
+    report.announce = None  # told while drawing only: the report returned says nothing more
     return report
 
 

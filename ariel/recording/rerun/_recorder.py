@@ -164,8 +164,10 @@ class RerunRecorder:
         # MAP-Elites: fitness per cell (`archive_cells`)
         self._archives: dict[int, np.ndarray | CvtCells] = {}
         self._lineage = Lineage(maximise=maximise)
-        self._real: set[Path] = set()  # folders found to be no symbolic link (`_inside`)
-        refuse_symlinks(self.run_dir / "recordings" / "gen-000000", self.run_dir)  # at once
+        # A received folder's linked recordings/ took a resumed run's recordings elsewhere: it
+        # is refused before any evaluation (a linked gen-NNNNNN/ is refused by the writer,
+        # `atomic_write`, which checks the folder a file goes in).
+        refuse_symlinks(self.run_dir / "recordings" / "gen-000000", self.run_dir)
         # per generation: the lineage graph so far
         self._lineages: dict[int, list[AsComponents]] = {}
         self._described: dict[str, Any] | None = None  # run.json's archive description
@@ -257,7 +259,7 @@ class RerunRecorder:
         if not (self.bodies == "all" or (self.bodies == "elites" and new_best)):
             return None  # in the generation's recording only
         return write_evaluation_recording(
-            self._inside(recording_path(self.run_dir, generation, task.eval_id)),
+            recording_path(self.run_dir, generation, task.eval_id),
             model=model,
             body_names=result.body_names,
             result=result,
@@ -277,7 +279,7 @@ class RerunRecorder:
         if not self._blueprint:
             self.write_blueprint()
         write_generation_recording(
-            self._inside(generation_recording_path(self.run_dir, generation)),
+            generation_recording_path(self.run_dir, generation),
             self._traces.pop(generation, []),
             run_id=self.run_id,
             generation=generation,
@@ -344,15 +346,6 @@ class RerunRecorder:
             with contextlib.suppress(NotARunError):
                 self._described = describe_archive(RunFolder(self.run_dir).read_info(), None)
         return self._described
-
-    def _inside(self, path: Path) -> Path:
-        """``path``, once no folder between the run folder and it is a symbolic link
-        (`refuse_symlinks`: a received folder's ``recordings`` linked elsewhere took a resumed
-        run's recordings there); each folder is looked at once."""
-        if path.parent not in self._real:
-            refuse_symlinks(path, self.run_dir)
-            self._real.add(path.parent)
-        return path
 
     def write_blueprint(self) -> Path:
         """Write the layouts: ``blueprint.rbl`` (evaluations, run.rrd) and ``generation.rbl``

@@ -55,6 +55,7 @@ from ariel.recording.store import (
     recording_path,
     refuse_symlinks,
     user_file,
+    within,
 )
 from ariel.utils import file_kind
 
@@ -94,8 +95,7 @@ def output_problem(run_dir: str | Path, path: str | Path) -> str | None:
         mode = stat.S_IFREG
     if not stat.S_ISREG(mode):  # /dev/null replaced by a regular file, run as root
         return f"{str(path)!r} is {file_kind(mode)}, which is never replaced; give a FILE"
-    folder, resolved = Path(run_dir).resolve(), target.resolve()
-    if resolved == folder or folder in resolved.parents:
+    if within(target, run_dir):
         return (
             f"{str(path)!r} is inside the run folder {str(run_dir)!r}, whose records are never "
             "written over: give a FILE outside it"

@@ -61,6 +61,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         refuse_symlinks as refuse_symlinks,
         remove_temporaries as remove_temporaries,
         user_file as user_file,
+        within as within,
         written_path as written_path,
     )
     from ariel.recording.store._ids import (
@@ -243,6 +244,7 @@ _INTERNAL: dict[str, str] = {
     "recording_path": "ariel.recording.store._tables",
     "refuse_symlinks": "ariel.recording.store._files",
     "user_file": "ariel.recording.store._files",
+    "within": "ariel.recording.store._files",
     "STALE_S": "ariel.recording.store._files",
     "remove_temporaries": "ariel.recording.store._files",
     "run_path": "ariel.recording.store._campaign",

@@ -33,9 +33,6 @@ from ariel.recording.store._run_folder import (
 from ariel.recording.store._tables import generation_file, read_file, read_table, to_pandas
 from ariel.utils import path_argument
 
-#: Evaluation statuses that are failures, each counted per generation (`Run.generations`).
-FAILED_STATUSES = ("error", "unstable", "invalid")
-
 __all__ = [
     "QD_COLUMNS",
     "Run",

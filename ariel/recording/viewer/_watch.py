@@ -167,6 +167,8 @@ class Watcher:
             try:
                 self.rec.set_sinks(*sinks)
             except RuntimeError as exc:  # the file sink's first write: a full disk, a quota
+                if save is None:
+                    raise
                 raise ViewError(f"cannot write --save {str(save)!r}: {one_line(exc)}") from None
             rr.send_recording_name(f"live: {name}", recording=self.rec)
             self.rec.send_blueprint(source.blueprint(), make_active=True, make_default=True)

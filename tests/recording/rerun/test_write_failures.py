@@ -234,8 +234,5 @@ def test_a_linked_recordings_folder_is_refused_before_anything_is_recorded(
         RerunRecorder(run, run_id="r", bodies="all", maximise=True, config=config)
     (run / "recordings").unlink()
     (run / "recordings").mkdir()
-    recorder = RerunRecorder(run, run_id="r", bodies="all", maximise=True, config=config)
-    (run / "recordings" / "gen-000003").symlink_to(outside)  # a later generation's folder
-    with pytest.raises(UnsafePathError, match=r"/gen-000003' is a symbolic link"):
-        recorder._inside(run / "recordings" / "gen-000003" / "evaluations.rrd")
+    RerunRecorder(run, run_id="r", bodies="all", maximise=True, config=config)  # a real one
     assert list(outside.iterdir()) == []
