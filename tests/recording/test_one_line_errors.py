@@ -307,8 +307,8 @@ def test_a_crafted_eval_id_never_names_a_file_outside_the_run(copy: Path) -> Non
     recordings = copy / "recordings" / "gen-000000"
     recordings.mkdir(parents=True)
     (recordings / "b000000-i000-c000.rrd").write_bytes(b"")  # a run with recordings
-    with pytest.raises(DamagedRunError, match="holds an evaluation id that is not one"):
-        select_recordings(copy, best=1)  # ariel view RUN --best 1
+    with pytest.raises(DamagedRunError, match=r"has eval_id '(\.\./)+outside', not an id"):
+        select_recordings(copy, best=1)  # ariel view RUN --best 1: refused on load
     with pytest.raises(DamagedRunError, match="holds an evaluation id that is not one"):
         replay_recording_path(copy, 0, "../../../../outside")  # where a replay is cached
 

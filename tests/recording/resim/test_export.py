@@ -153,7 +153,7 @@ def test_a_crafted_eval_id_is_refused_in_one_line(
     write_manifest(copy, generation)
     assert exit_code(["export", str(copy), "best", str(tmp_path / "x")]) == 2
     line = one_error_line(capsys)
-    assert "holds an evaluation id that is not one: " in line and "code-ran" in line
+    assert "has eval_id " in line and "code-ran" in line and "not an id" in line
     assert not (tmp_path / "x").exists()
 
 
