@@ -36,6 +36,7 @@ import mujoco
 import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko
+from ariel.recording.store import records_folder_of
 from ariel.simulation.controllers.controller import Controller
 from ariel.simulation.controllers.na_cpg import (
     NaCPG,
@@ -98,6 +99,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
             )
     if args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {str(args.out)!r} is a file, not a folder")
+    records = records_folder_of(args.out)
+    if records is not None:  # its files are a run's or a campaign's records alone
+        parser.error(f"--out {str(args.out)!r} is inside the run or campaign {str(records)!r}")
     return args
 
 

@@ -11,7 +11,9 @@ evaluation id.
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -310,7 +312,7 @@ FOLDER_CASES: dict[str, tuple[Callable[[Path, Path], Path], list[str], str]] = {
     "replay-video-over-run-json": (
         lambda f, t: _copy(f, t),
         ["replay", "{run}", "best", "--video", "{run}/run.json"],
-        "/run.json' is inside the run folder '",
+        "/run.json' is inside the run or campaign folder '",
     ),
     "replay-rrd-over-a-table": (
         lambda f, t: _copy(f, t),
@@ -474,3 +476,21 @@ def test_a_replay_s_output_is_refused_before_anything_is_simulated(
     monkeypatch.setattr(resim, "replay", never)
     assert exit_code(["replay", str(finished_run), "best", "--video", str(finished_run)]) == 2
     assert "is a folder; give a FILE" in one_error_line(capsys, quiet=True)
+
+
+def test_no_output_the_user_names_lands_in_any_run_folder(
+    finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`replay A best --rrd B/run.json` replaced run B's run.json with a recording (the check
+    covered the replayed run alone); `view --screenshot` replaced a FIFO."""
+    other = _copy(finished_run, tmp_path)
+    before = snapshot(other)
+    argv = ["replay", str(finished_run), "best", "--rrd", str(other / "run.json")]
+    assert exit_code(argv) == 2
+    assert "is inside the run or campaign folder" in one_error_line(capsys, quiet=True)
+    assert snapshot(other) == before
+    fifo = tmp_path / "shot.png"
+    os.mkfifo(fifo)
+    assert exit_code(["view", str(finished_run), "--screenshot", str(fifo)]) == 2
+    assert "is a FIFO, which is never replaced" in one_error_line(capsys, subcommand=True)
+    assert stat.S_ISFIFO(fifo.lstat().st_mode)

@@ -86,3 +86,13 @@ def test_quickstart_script_refuses_bad_options_in_one_line(
     result = _run("--no-video", "--out", "o", *args, cwd=tmp_path)
     assert result.returncode == 2 and result.stdout == ""
     assert result.stderr.count("\n") == 1 and message in result.stderr, result.stderr
+
+
+def test_quickstart_never_writes_into_a_run_folder(tmp_path: Path) -> None:
+    """`--out RUN` put its PNG and MP4 among a run's records."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "run.json").write_text("{}")
+    result = _run("--no-video", "--out", str(run / "sub"), cwd=tmp_path)
+    assert result.returncode == 2 and "is inside the run or campaign" in result.stderr
+    assert sorted(p.name for p in run.iterdir()) == ["run.json"]

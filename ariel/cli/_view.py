@@ -15,6 +15,7 @@ from ariel.cli._common import Parser
 from ariel.cli._options import add_web_viewer_options
 from ariel.cli._types import integer_at_least, positive_int
 from ariel.recording import viewer
+from ariel.recording.store import output_file_problem
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -46,6 +47,9 @@ def _png_path(text: str) -> Path:
         raise argparse.ArgumentTypeError(f"folder {str(path.parent)!r} does not exist")
     if not os.access(path.parent, os.W_OK):  # a read-only file system: said before drawing
         raise argparse.ArgumentTypeError(f"folder {str(path.parent)!r} cannot be written")
+    problem = output_file_problem(path)  # a FIFO, a folder, a run's report/fitness.png
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
     return path
 
 

@@ -377,6 +377,10 @@ def test_a_flipped_manifests_flag_does_not_switch_verification_off(
     assert out.splitlines()[-1].startswith("2 damaged file(s): ")
     with pytest.raises(DamagedRunError, match=r"run\.json has 'manifests': 0"):
         load_run(run)
+    for value in ('"no"', "2", "true"):  # truthy, but not what a run writes either
+        (run / "run.json").write_text(text.replace('"manifests": 1', f'"manifests": {value}'))
+        with pytest.raises(DamagedRunError, match=rf"run\.json has 'manifests': {value}, a"):
+            load_run(run)
 
 
 #: The keys of run.json that came with manifests, before ``plugins`` and ``results_version``.
@@ -721,6 +725,7 @@ def test_a_table_s_run_id_must_be_run_json_s(tmp_path: Path) -> None:
         ("bodies", "best_eval_id", "../x", "has best_eval_id '../x', not an id"),
         ("bodies", "body_id", "b1", "has body_id 'b1', not an id"),
         ("bodies", "status", "=HYPERLINK(1)", "has status '=HYPERLINK(1)', not one a run writes"),
+        ("bodies", "parent_ids", ["b000001", "=1+1"], "has parent_ids '=1+1', not a body id"),
     ],
 )
 def test_a_table_s_ids_and_statuses_must_be_what_a_run_writes(

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import stat
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -52,12 +51,12 @@ from ariel.recording.resim._row_checks import changed
 from ariel.recording.store import (
     Run,
     check_eval_id,
+    output_file_problem,
     recording_path,
     refuse_symlinks,
     user_file,
     within,
 )
-from ariel.utils import file_kind
 
 if TYPE_CHECKING:
     import mujoco
@@ -81,26 +80,15 @@ REPLAYS = "replays"
 
 def output_problem(run_dir: str | Path, path: str | Path) -> str | None:
     """Why ``path`` cannot take a replay's file (`ReplayResult.write_rrd`, ``write_video``),
-    or None: an empty name, a folder or anything else that is not a regular file (a regular
-    file there is replaced), or a place inside the run folder ``run_dir``, whose records a
-    replay never writes over (run.json replaced by an MP4 is a run lost)."""
-    if not str(path):
-        return "an empty file name; give a FILE outside the run folder"
-    target = Path(path)
-    if target.is_dir():
-        return f"{str(path)!r} is a folder; give a FILE (the folder may hold it: DIR/NAME)"
-    try:
-        mode = target.stat().st_mode
-    except OSError:  # not there yet (or a link to nothing): the file is made
-        mode = stat.S_IFREG
-    if not stat.S_ISREG(mode):  # /dev/null replaced by a regular file, run as root
-        return f"{str(path)!r} is {file_kind(mode)}, which is never replaced; give a FILE"
-    if within(target, run_dir):
-        return (
+    or None: `output_file_problem`'s reasons (inside any run or campaign folder among them),
+    and a place inside the run folder ``run_dir`` (even one without its run.json)."""
+    problem = output_file_problem(path)
+    if problem is None and within(path, run_dir):
+        problem = (
             f"{str(path)!r} is inside the run folder {str(run_dir)!r}, whose records are never "
             "written over: give a FILE outside it"
         )
-    return None
+    return problem
 
 
 def _writable(run_dir: Path, path: str | Path) -> Path:

@@ -64,6 +64,46 @@ def within(path: str | os.PathLike[str], root: str | os.PathLike[str]) -> bool:
     return path == root or root in path.parents
 
 
+#: What marks a folder as records (a run's, a campaign's): a file the user names is never
+#: written inside one (`output_file_problem`).
+_RECORD_MARKS = ("run.json", "campaign.json")
+
+
+def records_folder_of(path: str | os.PathLike[str]) -> Path | None:
+    """The run or campaign folder ``path`` lies in (links resolved), or None."""
+    resolved = Path(os.path.realpath(path))
+    for folder in (resolved, *resolved.parents):
+        if any(os.path.lexists(folder / mark) for mark in _RECORD_MARKS):
+            return folder
+    return None
+
+
+def output_file_problem(path: str | os.PathLike[str]) -> str | None:
+    """Why ``path``, a file the user names for a command to write (``--rrd``, ``--video``,
+    ``--screenshot``), cannot take it, or None: an empty name or one ending in ``/``, a
+    folder, anything but a regular file there (a regular one is replaced: /dev/null was,
+    run as root), or a place inside a run or campaign folder, whose records no command
+    writes over (run.json replaced by an MP4 is a run lost)."""
+    text = os.fspath(path)
+    if not text or text.endswith(os.sep):
+        return "an empty file name; give a FILE" if not text else f"{text!r} names a folder"
+    if os.path.isdir(text):
+        return f"{text!r} is a folder; give a FILE (the folder may hold it: DIR/NAME)"
+    try:
+        mode = os.stat(text).st_mode
+    except OSError:  # not there yet (or a link to nothing): the file is made
+        mode = stat.S_IFREG
+    if not stat.S_ISREG(mode):
+        return f"{text!r} is {file_kind(mode)}, which is never replaced; give a FILE"
+    records = records_folder_of(text)
+    if records is not None:
+        return (
+            f"{text!r} is inside the run or campaign folder {str(records)!r}, whose records "
+            "are never written over: give a FILE outside it"
+        )
+    return None
+
+
 def user_file(path: str | os.PathLike[str]) -> Path:
     """A file the user named outside any run folder (``--lineage FILE``, ``--rrd FILE``,
     ``--screenshot FILE``): its folder with every link resolved (the links on the way are

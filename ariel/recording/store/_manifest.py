@@ -151,7 +151,7 @@ def manifests_expected(run_dir: str | Path, info: Mapping[str, object]) -> tuple
     ...``). Only a run.json of a run made before manifests (no ``"manifests"``, none of the keys
     that came with them) has its tables checked without them."""
     flag = info.get("manifests")
-    if flag:
+    if type(flag) is int and flag == 1:  # what a run writes ("yes", 2 or true: crafted)
         return True, None
     era = [key for key in _MANIFEST_ERA if key in info]
     if "manifests" not in info and not era:

@@ -377,6 +377,15 @@ def id_problem(part: pa.Table) -> str | None:
                 continue  # null says nothing (no run writes it); "": no best evaluation yet
             if not (isinstance(value, str) and pattern.fullmatch(value)):
                 return f"has {column} {short_ascii(value)}, not an id: changed by hand or crafted"
+    if "parent_ids" in part.column_names:  # a list of body ids per row
+        chunks = part.column("parent_ids").chunks
+        parents = {value for chunk in chunks for value in chunk.flatten().unique().to_pylist()}
+        for value in parents:
+            if value is not None and not (isinstance(value, str) and BODY_ID.fullmatch(value)):
+                return (
+                    f"has parent_ids {short_ascii(value)}, not a body id: changed by hand or "
+                    "crafted"
+                )
     if "status" in part.column_names:
         for value in part.column("status").unique().to_pylist():
             if value is not None and value not in _STATUSES:
