@@ -5,8 +5,9 @@ traceback."""
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
+
+from ariel.utils import report_interrupted  # the interrupt's one line, as every command's
 
 _run: Callable[[], int] | None
 try:
@@ -18,7 +19,5 @@ except KeyboardInterrupt:  # pressed while loading: `main` says so
 def main() -> int:
     """Run the command in ``sys.argv`` (`ariel.cli.main`)."""
     if _run is None:
-        echoed = getattr(sys.stderr, "isatty", bool)()  # a terminal echoed ^C on this line
-        print("\ninterrupted" if echoed else "interrupted", file=sys.stderr)
-        return 130
+        return report_interrupted(KeyboardInterrupt(), None)
     return _run()

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 from ariel.cli._common import fail, headless_unless_display
 from ariel.recording import resim
-from ariel.recording.store import cannot_write, terminal_text
+from ariel.recording.store import cannot_write, output_file_problem, terminal_text
 from ariel.utils import has_display
 
 if TYPE_CHECKING:
@@ -48,7 +48,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             "or a Rerun recording with --rrd FILE instead"
         )
     for flag, path in (("--rrd", args.rrd), ("--video", args.video)):
-        problem = None if path is None else resim.output_problem(args.run_dir, path)
+        problem = None if path is None else output_file_problem(path)
         if problem is not None:  # before minutes of simulation, not after
             return fail(f"{flag}: {problem}")
     if args.video:  # replay() imports mujoco to re-simulate: the backend is chosen first

@@ -162,7 +162,7 @@ def plan_text(plan: CampaignPlan) -> list[str]:
         )
     workers = f"{plan.workers} worker{'' if plan.workers == 1 else 's'}"
     lines.append(f"total: {plan.evaluations} evaluations on {workers}")
-    if plan.estimate_seconds is not None and len(plan.rows) > MOST_TIMED:
+    if any(row.get("at_mean") for row in plan.rows):
         lines.append(
             f"  (the first {MOST_TIMED} of {len(plan.rows)} conditions timed; the others "
             "counted at their mean)"

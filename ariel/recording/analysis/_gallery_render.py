@@ -44,7 +44,6 @@ if TYPE_CHECKING:
     from PIL import Image
 
 __all__ = [
-    "LARGEST_THUMBNAIL",
     "THUMBNAIL_SIZE",
     "ThumbnailJob",
     "cached_thumbnail",

@@ -6,6 +6,7 @@ thumbnail gets a grey tile that says so."""
 
 from __future__ import annotations
 
+import io
 import math
 import warnings
 from collections.abc import Sequence
@@ -13,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from PIL import Image, ImageDraw, ImageFont
 
-from ariel.recording.analysis._gallery_render import LARGEST_THUMBNAIL
+from ariel.recording.analysis._gallery_render import cached_thumbnail
 from ariel.recording.store import DESCRIPTORS, descriptor_label
 
 if TYPE_CHECKING:
@@ -79,16 +80,16 @@ def _fitted(draw: ImageDraw.ImageDraw, text: str, font: _Font, width: int) -> st
 
 def _thumbnail(body: GalleryBody, size: int) -> Image.Image:
     """``body``'s thumbnail at ``size`` pixels, or a grey tile saying it has none."""
-    if body.thumbnail is not None:
+    # what the page embeds too: a PNG of thumbnail size (its header says), no link
+    data = cached_thumbnail(body.thumbnail) if body.thumbnail is not None else None
+    if data is not None:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", Image.DecompressionBombWarning)
-                with Image.open(body.thumbnail) as image:  # reads the header only
-                    if max(image.size) > LARGEST_THUMBNAIL:
-                        raise ValueError(f"{image.size} pixels: not a thumbnail")
+                with Image.open(io.BytesIO(data)) as image:
                     return image.convert("RGB").resize((size, size), Image.Resampling.LANCZOS)
         except (OSError, ValueError, Image.DecompressionBombError, Image.DecompressionBombWarning):
-            pass  # damaged or crafted: drawn as missing
+            pass  # damaged past its header: drawn as missing
     tile = Image.new("RGB", (size, size), EMPTY)
     draw = ImageDraw.Draw(tile)
     draw.text((size / 2, size / 2), "no thumbnail", fill=FAINT, font=_font(13), anchor="mm")

@@ -28,7 +28,6 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         UnknownEvaluationError as UnknownEvaluationError,
         has_body_poses as has_body_poses,
         on_demand_recording as on_demand_recording,
-        output_problem as output_problem,
         replay as replay,
         replay_task as replay_task,
     )
@@ -53,7 +52,6 @@ _INTERNAL: dict[str, str] = {
     "has_body_poses": "ariel.recording.resim._replay",
     "load_exported": "ariel.recording.resim._exported",
     "on_demand_recording": "ariel.recording.resim._replay",
-    "output_problem": "ariel.recording.resim._replay",
     "play_replay": "ariel.recording.resim._replay_window",
     "replay": "ariel.recording.resim._replay",
     "replay_task": "ariel.recording.resim._replay",

@@ -55,7 +55,6 @@ from ariel.recording.store import (
     recording_path,
     refuse_symlinks,
     user_file,
-    within,
 )
 
 if TYPE_CHECKING:
@@ -69,7 +68,6 @@ __all__ = [
     "UnknownEvaluationError",
     "has_body_poses",
     "on_demand_recording",
-    "output_problem",
     "replay",
 ]
 
@@ -78,21 +76,8 @@ __all__ = [
 REPLAYS = "replays"
 
 
-def output_problem(run_dir: str | Path, path: str | Path) -> str | None:
-    """Why ``path`` cannot take a replay's file (`ReplayResult.write_rrd`, ``write_video``),
-    or None: `output_file_problem`'s reasons (inside any run or campaign folder among them),
-    and a place inside the run folder ``run_dir`` (even one without its run.json)."""
+def _writable(path: str | Path) -> Path:
     problem = output_file_problem(path)
-    if problem is None and within(path, run_dir):
-        problem = (
-            f"{str(path)!r} is inside the run folder {str(run_dir)!r}, whose records are never "
-            "written over: give a FILE outside it"
-        )
-    return problem
-
-
-def _writable(run_dir: Path, path: str | Path) -> Path:
-    problem = output_problem(run_dir, path)
     if problem is not None:
         raise ValueError(problem)
     return user_file(path)
@@ -234,8 +219,8 @@ class ReplayResult:
 
     def write_rrd(self, path: str | Path) -> Path:
         """A Rerun recording of the full-rate replay (3D bodies over time, joints, graph);
-        `ValueError` for a ``path`` that `output_problem` refuses (inside the run folder)."""
-        path = _writable(self.run.path, path)
+        `ValueError` for a ``path`` that `output_file_problem` refuses (inside a run folder)."""
+        path = _writable(path)
         self._need_body("a recording")
         dense = self.full_rate()
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -257,8 +242,8 @@ class ReplayResult:
         mujoco is imported already (the replay simulated), so it renders with the backend
         ``MUJOCO_GL`` named then (`ariel replay --video` sets egl first where no display is
         set); one that fails is `ariel.utils.create_renderer`'s one line. `ValueError` for a
-        ``path`` that `output_problem` refuses (inside the run folder)."""
-        path = _writable(self.run.path, path)
+        ``path`` that `output_file_problem` refuses (inside a run folder)."""
+        path = _writable(path)
         return resim.replay_video(self, path, width=width, height=height, fps=fps)
 
     def view(self, *, loop: bool = True) -> None:

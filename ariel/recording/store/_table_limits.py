@@ -37,6 +37,7 @@ from ariel.recording.store._ids import BODY_ID, EVAL_ID
 __all__ = [
     "GEN_FILE",
     "GEN_NAME",
+    "ID_PROBLEM_COLUMNS",
     "MEMORY_SHARE",
     "ROW_BYTES",
     "ROW_MARGIN",
@@ -360,6 +361,8 @@ def generation_problem(part: pa.Table, path: Path) -> str | None:
 
 #: The shape each id column's values must have; ``best_eval_id`` is also "" (no best yet).
 _ID_COLUMNS = {"eval_id": EVAL_ID, "body_id": BODY_ID, "best_eval_id": EVAL_ID}
+#: The columns `id_problem` reads (`ariel verify` reads only these, with ``run_id``).
+ID_PROBLEM_COLUMNS = (*_ID_COLUMNS, "parent_ids", "status")
 #: What a row's ``status`` may be (records.md): an evaluation's, a body's ("ok" or "error").
 _STATUSES = frozenset(("ok", *FAILED_STATUSES))
 

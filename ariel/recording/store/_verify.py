@@ -41,6 +41,7 @@ from ariel.recording.store._run_folder import (
 )
 from ariel.recording.store._table_limits import (
     GEN_FILE,
+    ID_PROBLEM_COLUMNS,
     generation_problem,
     id_problem,
     limits_problem,
@@ -359,7 +360,7 @@ def _check_ids(run_dir: Path, name: str, info: Mapping[str, object], result: Ver
     """The ids and statuses of a sound evaluations or bodies table's rows: the ``run_id``
     run.json's (`run_id_problem`), each id an id and each status one a run writes
     (`id_problem`), as `load_run` checks them."""
-    wanted = ["run_id", "eval_id", "body_id", "best_eval_id", "parent_ids", "status"]
+    wanted = ["run_id", *ID_PROBLEM_COLUMNS]
     try:  # not "~" expanded
         path = os.path.abspath(run_dir / name)
         present = [c for c in wanted if c in pq.read_schema(path).names]
