@@ -52,6 +52,8 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     )
     from ariel.evolution._optimizer_checks import (
         check_all as check_all,
+        check_body_optimizer as check_body_optimizer,
+        check_brain_optimizer as check_brain_optimizer,
     )
     from ariel.evolution._random_search import (
         RandomSearch as RandomSearch,
@@ -122,10 +124,6 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.evolution._load_config import (
         not_a_file as not_a_file,
     )
-    from ariel.evolution._optimizer_checks import (
-        check_body_optimizer as check_body_optimizer,
-        check_brain_optimizer as check_brain_optimizer,
-    )
     from ariel.evolution._progress import (
         Progress as Progress,
         eta_text as eta_text,
@@ -182,6 +180,8 @@ _LAZY: dict[str, str] = {
     "Proposal": "ariel.evolution._optimizer",
     # Every plugin checked, optimizers included (`ariel plugins --check`, ariel.plugins.check_all)
     "check_all": "ariel.evolution._optimizer_checks",
+    "check_body_optimizer": "ariel.evolution._optimizer_checks",
+    "check_brain_optimizer": "ariel.evolution._optimizer_checks",
     "GeneticAlgorithm": "ariel.evolution._ga",
     "MapElites": "ariel.evolution._map_elites",
     "NoveltySearch": "ariel.evolution._novelty",
@@ -228,8 +228,6 @@ _INTERNAL: dict[str, str] = {
     "archive_quality": "ariel.evolution._qd",
     "body_spec": "ariel.evolution._tasks",
     "budget": "ariel.evolution._driver",
-    "check_body_optimizer": "ariel.evolution._optimizer_checks",
-    "check_brain_optimizer": "ariel.evolution._optimizer_checks",
     "check_genotype": "ariel.evolution._genotype",
     "check_key": "ariel.evolution._config",
     "check_plugins": "ariel.evolution._checks",

@@ -245,6 +245,13 @@ class BrainRun:
                 f"{params.shape}; the run needs ({self.popsize}, {self.n_params}): "
                 "popsize x parameters"
             )
+        if not np.isfinite(params).all():  # a task's params must be finite: name the learner
+            rows = np.flatnonzero(~np.isfinite(params).all(axis=1))
+            raise ValueError(
+                f"brain optimizer {self.optimizer!r} asked for candidates with NaN or inf "
+                f"(candidate {', '.join(map(str, rows[:3].tolist()))}"
+                f"{', ...' if len(rows) > 3 else ''}); every parameter must be finite"
+            )
         return params
 
     def tell(self, params: np.ndarray, fitness: np.ndarray) -> int | None:

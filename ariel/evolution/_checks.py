@@ -3,8 +3,9 @@
 * `refuse_in_spawned_child`: ``run_experiment`` called from the top level of a script that a
   process pool's worker imports again (spawn / forkserver start methods re-run ``__main__``
   without ``if __name__ == "__main__":``) would start a run in every worker.
-* `check_plugins`: the ``ariel plugins --check`` checks of the configured plugins, with the
-  config's options (cached per process: a campaign checks each plugin once).
+* `check_plugins`: the ``ariel plugins --check`` checks of the configured plugins, body and
+  brain optimizers included, with the config's options (cached per process: a campaign checks
+  each plugin once, and a plugin registered again under its name is checked again).
 * `check_resources`: the memory one generation needs, estimated from a sample body of the
   experiment, against what this machine has.
 * `plugin_failure`: a plugin that raises during a run stops it with one line naming the plugin
@@ -16,6 +17,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ariel.errors import PluginFailedError
@@ -95,35 +97,50 @@ def _importing_main_again() -> bool:
 # --------------------------------------------------------------------------------------------
 
 
+# (config table, the plugin's key, its options' key, `ariel.plugins`' checker and registry)
+_CHECKED_PLUGINS = (
+    ("body", "encoder", "options", "check_body_encoder", "body_encoders"),
+    ("world", "name", "options", "check_world", "worlds"),
+    ("brain", "controller", "options", "check_controller", "controllers"),
+    ("task", "fitness", "options", "check_fitness", "fitness_functions"),
+    ("body", "optimizer", "optimizer_options", "check_body_optimizer", "body_optimizers"),
+    ("brain", "optimizer", "optimizer_options", "check_brain_optimizer", "brain_optimizers"),
+)
+
+
 def check_plugins(config: ExperimentConfig) -> None:
     """Run the plugin checkers (`ariel.plugins.check_*`) on the plugins ``config`` names, with
     its options; the first failure is a `ConfigError` naming the plugin and the problem."""
     # ariel.recording.store._failures imports this module, for ERROR_LOG and plugin_named
     # lazy: the checkers run the engine: mujoco and the GL backend (ariel.utils._gl)
-    from ariel.plugins import (
-        PluginCheckError,
-        check_body_encoder,
-        check_controller,
-        check_fitness,
-        check_world,
-    )
+    from ariel import plugins
 
-    checks = (  # the key named: the plugin's options where there are any, else the plugin
-        ("body.encoder", check_body_encoder, config.body.encoder, config.body.options),
-        ("world.name", check_world, config.world.name, config.world.options),
-        ("brain.controller", check_controller, config.brain.controller, config.brain.options),
-        ("task.fitness", check_fitness, config.task.fitness, config.task.options),
-    )
-    for plugin_key, check, name, options in checks:
-        key = f"{plugin_key.split('.')[0]}.options" if options else plugin_key
-        token = json.dumps([check.__name__, name, options], sort_keys=True, default=repr)
+    for table_name, plugin_key, options_key, checker, registry in _CHECKED_PLUGINS:
+        table = getattr(config, table_name)
+        name, options = getattr(table, plugin_key), getattr(table, options_key)
+        # The key named: the plugin's options where there are any, else the plugin's own key.
+        key = f"{table_name}.{options_key if options else plugin_key}"
+        # With what is registered under the name now: a plugin registered again (a notebook
+        # cell run again after an edit, replace=True) is checked again.
+        registered = _registered_id(getattr(plugins, registry).get, name)
+        token = json.dumps([checker, name, options, registered], sort_keys=True, default=repr)
         if token in _CHECKED:
             continue
+        check = getattr(plugins, checker)
         try:
             check(name, **options)
-        except PluginCheckError as exc:
+        except plugins.PluginCheckError as exc:
             raise ConfigError(f"{key}: the plugin check failed: {exc}") from None
         _CHECKED.add(token)
+
+
+def _registered_id(get: Callable[[str], object], name: str) -> int | None:
+    """The identity of what a registry's ``get`` gives for ``name`` (None: it cannot load
+    it; the check then says why)."""
+    try:
+        return id(get(name))
+    except (KeyError, ValueError, ImportError):
+        return None
 
 
 # --------------------------------------------------------------------------------------------
@@ -259,6 +276,7 @@ def plugin_named(config: ExperimentConfig, text: str) -> str:
         f"world {config.world.name!r}",
         f"body encoder {config.body.encoder!r}",
         f"brain optimizer {config.brain.optimizer!r}",
+        f"body optimizer {config.body.optimizer!r}",
     )
     # The engine notes "raised by <plugin>" on what a plugin raised; else a message naming one.
     found = [label for label in labels if f"raised by {label}" in text]

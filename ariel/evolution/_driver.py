@@ -17,6 +17,7 @@ progress display in a run, wired by `ariel.runs`).
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections import Counter
@@ -171,7 +172,7 @@ class BrainWork:
         self.driver.emit(FlushDue())
 
 
-def _unchanged(task: EvaluationTask, exc: BaseException) -> BaseException:
+def _unchanged(task: EvaluationTask | None, exc: BaseException) -> BaseException:
     return exc
 
 
@@ -186,7 +187,8 @@ class RunDriver:
         state: The checkpoint to continue from, or None for a new run.
         record_bodies: Whether evaluations return the bodies' poses (for recordings).
         plugin_error: ``(task, exc) -> the exception that stops the run`` when a plugin
-            raised in an evaluation (the records writer logs it); None: ``exc`` itself.
+            raised in an evaluation (the records writer logs it; task None: the body
+            optimizer raised, or a learner's state is not plain data); None: ``exc`` itself.
     """
 
     def __init__(
@@ -197,7 +199,7 @@ class RunDriver:
         state: LoopState | None = None,
         *,
         record_bodies: bool = False,
-        plugin_error: Callable[[EvaluationTask, BaseException], BaseException] | None = None,
+        plugin_error: Callable[[EvaluationTask | None, BaseException], BaseException] | None = None,
     ) -> None:
         self.config, self.plugins, self.observers = config, plugins, list(observers)
         self.record_bodies = record_bodies
@@ -304,7 +306,11 @@ class RunDriver:
         parents = optimizer.population
         count = config.body.offspring if parents else config.body.population
         children = []
-        for proposal in optimizer.ask(count):
+        try:
+            proposals = list(optimizer.ask(count))
+        except Exception as exc:  # any: the optimizer's own code
+            raise self._optimizer_failed(exc) from exc
+        for proposal in proposals:
             body = factory.new_body(
                 state.next_body, proposal.genotype, proposal.parent_ids, generation
             )
@@ -333,9 +339,12 @@ class RunDriver:
         if self.optimizer is None:
             rows = [(children[0], generation == 0, True)]
         else:
-            self.optimizer.tell(children)
-            state.population = self.optimizer.population
-            state.optimizer = self.optimizer.state()
+            try:
+                self.optimizer.tell(children)
+                state.population = self.optimizer.population
+                state.optimizer = self.optimizer.state()
+            except Exception as exc:  # any: the optimizer's own code
+                raise self._optimizer_failed(exc) from exc
             kept = {b.body_id for b in state.population}
             new = {b.body_id for b in children}
             rows = [(b, b.body_id in new, b.body_id in kept) for b in parents + children]
@@ -363,9 +372,14 @@ class RunDriver:
         stats = getattr(self.optimizer, "stats", None) if qd else None
         # What readers need to compute the QD-score as the run did (`load_run`, `report`).
         offset = getattr(self.optimizer, "qd_offset", None) if qd else None
+        try:  # the learner's or optimizer's state must be plain data, as the checkpoint is
+            plain = state_to_plain(state)
+            json.dumps(plain, allow_nan=False)
+        except Exception as exc:  # any: a brain-only run's learner gives its state here
+            raise self._optimizer_failed(exc, "its state() is not plain data (JSON)") from exc
         return CheckpointDue(
             generation=generation,
-            state=state_to_plain(state),
+            state=plain,
             evaluations_done=state.evaluations_done,
             best=best,
             mean=mean,
@@ -375,6 +389,18 @@ class RunDriver:
             archive_stats=stats() if stats else None,
             qd_offset=None if offset is None else float(offset),
         )
+
+    def _optimizer_failed(self, exc: Exception, what: str = "") -> BaseException:
+        """What stops the run when the body optimizer (a brain-only run's brain optimizer, for
+        its state) raised: the driver's `plugin_error` with no evaluation, ``exc`` noted as
+        raised by that optimizer (so the one line names it)."""
+        config = self.config
+        if self.brain_only:
+            label = f"brain optimizer {config.brain.optimizer!r}"
+        else:
+            label = f"body optimizer {config.body.optimizer!r}"
+        exc.add_note(f"raised by {label}{': ' + what if what else ''}")
+        return self.plugin_error(None, exc)
 
     @property
     def wall_seconds(self) -> float:

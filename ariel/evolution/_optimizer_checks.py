@@ -135,7 +135,22 @@ def _check_description(check: Checker, optimizer: Any) -> None:
 
 
 def check_body_optimizer(name: str, **options: object) -> None:
-    """Check body optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
+    """Check body optimizer ``name`` made with ``options``; raise `PluginCheckError` if broken.
+
+    Three generations of four bodies on made-up genotypes (milliseconds, no physics): it asks
+    for as many genotypes as asked, as plain data, with parents from its population; keeps
+    only bodies it was told about; asks the same for the same seed; and its plain-data
+    ``state()`` restores to the same next ``ask``. A run checks its own this way before
+    anything is written.
+
+    Args:
+        name: The body optimizer's registry name (an entry point's name works too).
+        **options: Keyword arguments passed to its factory (``body.optimizer_options``).
+
+    Raises:
+        PluginCheckError: The first broken part of the contract, in one line naming the plugin
+            (an exception raised by the optimizer itself, or an unknown ``name``, included).
+    """
     check = Checker("body optimizer", name)
     with check.step("loading it"):
         factory = body_optimizers.get(name)
@@ -197,7 +212,21 @@ def _learn(
 
 
 def check_brain_optimizer(name: str, **options: object) -> None:
-    """Check brain optimizer ``name`` made with ``options``; `PluginCheckError` on a fault."""
+    """Check brain optimizer ``name`` made with ``options``; raise `PluginCheckError` if broken.
+
+    Four iterations of a made-up fitness of five parameters, one candidate failing with NaN:
+    it asks for ``popsize`` finite candidates, asks the same for the same seed, and its
+    plain-data ``state()`` restores to the same next ``ask``. A run checks its own this way
+    before anything is written.
+
+    Args:
+        name: The brain optimizer's registry name (an entry point's name works too).
+        **options: Keyword arguments passed to its factory (``brain.optimizer_options``).
+
+    Raises:
+        PluginCheckError: The first broken part of the contract, in one line naming the plugin
+            (an exception raised by the learner itself, or an unknown ``name``, included).
+    """
     check = Checker("brain optimizer", name)
     with check.step("loading it"):
         factory = brain_optimizers.get(name)

@@ -7,6 +7,7 @@ written.
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -208,7 +209,14 @@ def _check_plugins_reach_workers(config: ExperimentConfig, settings: ExecutorCon
         return
     main = sys.modules.get("__main__")
     remote = kind.takes_address and settings.address is not None
-    if not remote and getattr(main, "__file__", None):  # a script: workers import it
+    script = getattr(main, "__file__", None)
+    if not remote and script and not os.path.isfile(script):  # `python - < file`: <stdin>
+        raise ConfigError(
+            f"executor.kind: this script was read from {script}, which the {settings.kind} "
+            "executor's worker processes cannot import again: save it to a file and run that, "
+            'or run on executor "serial"'
+        )
+    if not remote and script:  # a script: workers import it
         return
     named = [
         ("body.encoder", body_encoders, config.body.encoder),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gc
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -15,11 +16,20 @@ import numpy as np
 import pytest
 from _helpers import exit_code, one_error_line, tiny_run_toml
 
+from ariel.evaluation import CHECK_SEED
 from ariel.evolution import ConfigError, load_config
-from ariel.evolution._checks import check_resources
+from ariel.evolution._checks import check_plugins, check_resources
 from ariel.evolution._cmaes import CMAES
+from ariel.evolution._ga import GeneticAlgorithm
 from ariel.evolution._nevergrad import Nevergrad
-from ariel.plugins import body_encoders, brain_optimizers, controllers
+from ariel.plugins import (
+    body_encoders,
+    body_optimizers,
+    brain_optimizers,
+    controllers,
+    fitness_function,
+    fitness_functions,
+)
 from ariel.recording import load_run
 from ariel.runs._prepare import resolve_plugins
 from ariel.simulation.tasks.gait_learning import MAX_WINDOWS, sustained_displacement
@@ -76,11 +86,15 @@ def test_cma_es_keeps_pycma_s_defaults_where_they_work(n_params: int, popsize: i
 
 
 class _FailsSecondTell(CMAES):
-    """CMA-ES that raises on its second tell of a real body (the pre-run check's learner has
-    two parameters and passes)."""
+    """CMA-ES that raises on its second tell in a run (the pre-run checks' learners have the
+    checks' seeds and pass)."""
+
+    def __init__(self, *, seed: int, **keywords: Any) -> None:
+        super().__init__(seed=seed, **keywords)
+        self.in_a_run = seed not in (1, CHECK_SEED)
 
     def tell(self, params: np.ndarray, fitness: np.ndarray) -> None:
-        if params.shape[1] > 2 and self.history.told:
+        if self.in_a_run and self.history.told:
             raise RuntimeError("the learner's own bug")
         super().tell(params, fitness)
 
@@ -105,6 +119,124 @@ def test_a_brain_optimizer_failing_during_a_run_stops_it_in_one_line_with_error_
     log = (out / "error.log").read_text()
     assert "Traceback" in log and f"raised by brain optimizer '{failing_learner}'" in log
     assert load_run(out).info["status"] == "failed"
+
+
+class _StateOfObjects(GeneticAlgorithm):
+    """A GA whose state in a run holds an object JSON cannot store (the check's passes)."""
+
+    def __init__(self, *, seed: int, **keywords: Any) -> None:
+        super().__init__(seed=seed, **keywords)
+        self.in_a_run = seed != CHECK_SEED
+
+    def state(self) -> Any:
+        return {**super().state(), "bad": object()} if self.in_a_run else super().state()
+
+
+def test_a_body_optimizer_failing_during_a_run_stops_it_in_one_line_with_error_log(
+    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Its state is not plain data: one line naming it (a traceback before), resumable."""
+    body_optimizers.register("test_state_of_objects", _StateOfObjects)
+    try:
+        out = tmp_path / "out"
+        argv = ["run", str(tiny), "--out", str(out), "--quiet"]
+        assert exit_code([*argv, "--set", "body.optimizer=test_state_of_objects"]) == 2
+    finally:
+        body_optimizers.unregister("test_state_of_objects")
+    line = one_error_line(capsys)
+    assert line.startswith(
+        "ariel: error: body optimizer 'test_state_of_objects' failed between evaluations "
+        "(its state() is not plain data (JSON)): TypeError: Object of type object"
+    ), line
+    assert "error.log" in line and "resume_experiment(" in line, line
+    assert "raised by body optimizer" in (out / "error.log").read_text()
+    assert load_run(out).info["status"] == "failed"
+
+
+class _NanCandidates(CMAES):
+    def ask(self) -> np.ndarray:
+        return np.full_like(super().ask(), np.nan)
+
+
+def test_a_learner_asking_for_non_finite_candidates_is_named() -> None:
+    """Not the evaluation task's "controller params contain NaN" from deep in the driver."""
+    from ariel.evolution._brain import BrainRun
+
+    brain_optimizers.register("test_nan_candidates", _NanCandidates)
+    try:
+        run = BrainRun(2, 3, True, np.zeros(2), 0.5, 1, optimizer="test_nan_candidates")
+        with pytest.raises(ValueError, match=r"^brain optimizer 'test_nan_candidates' asked for "):
+            run.ask()
+    finally:
+        brain_optimizers.unregister("test_nan_candidates")
+
+
+class _GlobalHill(CMAES):
+    def ask(self) -> np.ndarray:
+        return super().ask() + np.random.normal(0.0, 0.1)
+
+
+class _GlobalGA(GeneticAlgorithm):
+    def ask(self, n: int) -> list[Any]:
+        first, *rest = super().ask(n)
+        return [replace(first, genotype=np.random.random(4).tolist()), *rest]
+
+
+@pytest.mark.parametrize(
+    ("kind", "plugin", "message"),
+    [
+        ("brain", _GlobalHill, "asks for different candidates with the same seed"),
+        ("body", _GlobalGA, "asks for different genotypes with the same seed"),
+    ],
+)
+def test_a_run_checks_its_optimizers_before_anything_is_written(
+    kind: str, plugin: Any, message: str
+) -> None:
+    """The `ariel plugins --check` checks of the body and brain optimizers, as of the others:
+    one drawing from numpy's global generator made runs that differ for the same seed."""
+    registry = brain_optimizers if kind == "brain" else body_optimizers
+    registry.register("test_global", plugin)
+    try:
+        config = load_config({}, [f"{kind}.optimizer=test_global"])
+        with pytest.raises(ConfigError, match=rf"^{kind}\.optimizer: .*{message}"):
+            check_plugins(config)
+    finally:
+        registry.unregister("test_global")
+
+
+def test_a_plugin_registered_again_under_its_name_is_checked_again() -> None:
+    """A notebook cell run again after an edit (replace=True): checked anew, not cached."""
+
+    def good(record: Any) -> float:
+        return 1.0
+
+    def bad(record: Any) -> str:
+        return "high"
+
+    fitness_functions.register("test_edited", fitness_function(maximise=True)(good))
+    try:
+        config = load_config({}, ["task.fitness=test_edited"])
+        check_plugins(config)
+        fitness_functions.register(
+            "test_edited", fitness_function(maximise=True)(bad), replace=True
+        )
+        with pytest.raises(ConfigError, match=r"^task\.fitness: the plugin check failed"):
+            check_plugins(config)
+    finally:
+        fitness_functions.unregister("test_edited")
+
+
+def test_a_script_read_from_standard_input_is_refused_for_worker_processes(monkeypatch) -> None:
+    """`python - < script.py`: forkserver's workers would try to run the file '<stdin>' and
+    die, every evaluation an error row; refused before anything is written."""
+    from ariel.runs._prepare import _check_plugins_reach_workers, executor_settings
+
+    monkeypatch.setattr(sys.modules["__main__"], "__file__", "<stdin>", raising=False)
+    config = load_config({}, ["executor.kind=local", "executor.workers=1"])
+    with pytest.raises(ConfigError, match=r"^executor\.kind: this script was read from <stdin>"):
+        _check_plugins_reach_workers(config, executor_settings(config))
+    serial = load_config({}, ["executor.kind=serial"])
+    _check_plugins_reach_workers(serial, executor_settings(serial))  # runs in this process
 
 
 # --- F2, F4: Nevergrad methods refused before anything is written ----------------------------

@@ -21,10 +21,15 @@ __all__ = ["plugin_failure"]
 
 
 def plugin_failure(
-    run_dir: str | Path, config: ExperimentConfig, task: EvaluationTask, exc: BaseException
+    run_dir: str | Path,
+    config: ExperimentConfig,
+    task: EvaluationTask | None,
+    exc: BaseException,
 ) -> PluginFailedError:
-    """The `PluginFailedError` for ``exc``, raised evaluating ``task``; writes the full
-    traceback (with the worker's, when it came from one) to ``RUN/error.log`` first."""
+    """The `PluginFailedError` for ``exc``, raised evaluating ``task`` (None: raised by the
+    body optimizer, or a learner's state that is not plain data, between evaluations);
+    writes the full traceback (with the worker's, when it came from one) to ``RUN/error.log``
+    first."""
     if isinstance(exc, BrokenProcessPool):  # the pool, not an evaluation, failed
         return PluginFailedError(f"the executor's workers failed: {exc}")
     first = (f"{type(exc).__name__}: {exc}".splitlines() or [""])[0]
@@ -32,11 +37,14 @@ def plugin_failure(
     log = Path(run_dir) / ERROR_LOG
     where = f"; full traceback in {log}"
     try:
-        atomic_write_bytes(log, f"evaluation {task.eval_id}\n{text}".encode(), root=run_dir)
+        head = "between evaluations" if task is None else f"evaluation {task.eval_id}"
+        atomic_write_bytes(log, f"{head}\n{text}".encode(), root=run_dir)
     except (OSError, ValueError):  # the folder cannot take it: the line alone must do
         where = ""
     plugin = plugin_named(config, text)
-    if isinstance(exc, UnknownPluginError):  # checked here, so unknown to the worker alone
+    if (
+        isinstance(exc, UnknownPluginError) and task is not None
+    ):  # checked here, so unknown to the worker alone
         return PluginFailedError(
             f"evaluation {task.eval_id}: a worker process does not know a plugin this process "
             f"knows ({first}): it was registered where workers do not run it (under `if "
@@ -48,11 +56,16 @@ def plugin_failure(
         resume = resume_line(Path(run_dir), RunFolder(run_dir).read_info())
     except NotARunError:
         resume = ariel_line("resume", run_dir)
-    # A brain optimizer fails asking for or told a batch, not in one of its evaluations.
-    learner = plugin.startswith("brain optimizer")
-    at = (
-        f"at the batch of evaluation {task.eval_id}" if learner else f"in evaluation {task.eval_id}"
-    )
+    # A brain optimizer fails asking for or told a batch, not in one of its evaluations; the
+    # body optimizer between generations (its note says what it gave, where that was wrong).
+    if task is None:
+        notes = [n for n in getattr(exc, "__notes__", ()) if n.startswith(f"raised by {plugin}")]
+        what = notes[-1].partition(": ")[2] if notes else ""
+        at = f"between evaluations ({what})" if what else "between evaluations"
+    elif plugin.startswith("brain optimizer"):
+        at = f"at the batch of evaluation {task.eval_id}"
+    else:
+        at = f"in evaluation {task.eval_id}"
     return PluginFailedError(
         f"{plugin} failed {at}: {first}{where}; "
         f"the run stopped, its finished generations are kept: fix the plugin, then {resume}"

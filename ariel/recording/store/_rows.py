@@ -240,7 +240,7 @@ class RunWriter:
         self._rows.clear()
         self._frames.clear()
 
-    def plugin_failed(self, task: EvaluationTask, exc: BaseException) -> BaseException:
+    def plugin_failed(self, task: EvaluationTask | None, exc: BaseException) -> BaseException:
         """The one-line error that stops the run (the traceback goes to RUN/error.log)."""
         # lazy: loads the evaluation engine, needed only when a plugin has failed
         from ariel.recording.store._failures import plugin_failure
