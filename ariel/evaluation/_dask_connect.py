@@ -28,6 +28,7 @@ __all__ = [
     "SCHEMES",
     "DaskAddressError",
     "address_problem",
+    "check_scheduler",
     "connect_scheduler",
     "distributed_module",
 ]
@@ -97,15 +98,25 @@ def connect_scheduler(address: str) -> Client:
         DaskAddressError: The address is malformed, nothing listens there, or what listens
             does not answer as a Dask scheduler in time.
     """
+    check_scheduler(address)
+    try:
+        return distributed_module().Client(address, timeout=CONNECT_SECONDS)
+    except (OSError, ValueError) as exc:  # gone between the question and the client
+        raise DaskAddressError(_unreachable(address, exc)) from None
+
+
+def check_scheduler(address: str) -> None:
+    """A Dask scheduler answers at ``address`` within `CONNECT_SECONDS` (`DaskAddressError`:
+    one line why not); asked before a run or campaign folder is made, and by
+    `connect_scheduler`."""
     problem = address_problem(address)
     if problem is not None:
         raise DaskAddressError(f"address: {problem}")
-    distributed = distributed_module()
-    _ask_identity(distributed, address)
-    try:
-        return distributed.Client(address, timeout=CONNECT_SECONDS)
-    except (OSError, ValueError) as exc:  # gone between the question and the client
-        raise DaskAddressError(_unreachable(address, exc)) from None
+    _ask_identity(distributed_module(), address)
+
+
+class _NotDaskError(Exception):
+    """What answered could not be read as a Dask message (a server of another protocol)."""
 
 
 def _ask_identity(distributed: ModuleType, address: str) -> None:
@@ -129,6 +140,11 @@ def _ask_identity(distributed: ModuleType, address: str) -> None:
             f"address: no Dask scheduler answered at {address} within {CONNECT_SECONDS:g} s "
             "(is it running, and is it a Dask scheduler that listens there?)"
         )
+    if isinstance(error, _NotDaskError):
+        raise DaskAddressError(
+            f"address: {address} is not a Dask scheduler (what answered there does not speak "
+            f"Dask's protocol: {type(error.__cause__).__name__})"
+        )
     if isinstance(error, BaseException):
         raise DaskAddressError(_unreachable(address, error)) from None
     identity = outcome.get("identity")
@@ -141,12 +157,17 @@ def _ask_identity(distributed: ModuleType, address: str) -> None:
 async def _identity(distributed: ModuleType, address: str) -> object:
     # Security from Dask's configuration, as a Client would take it (tls:// needs it).
     arguments = distributed.Security().get_connection_args("client")
-    comm = await distributed.connect(address, timeout=CONNECT_SECONDS, **arguments)
     try:
-        await comm.write({"op": "identity", "reply": True})
-        return await comm.read()
-    finally:
-        comm.abort()
+        comm = await distributed.connect(address, timeout=CONNECT_SECONDS, **arguments)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+    except (OSError, TimeoutError):  # refused, closed, unreachable; or no answer in time
+        raise
+    except Exception as exc:  # any: e.g. an SSH banner read as a frame length (MemoryError)
+        raise _NotDaskError() from exc
 
 
 def _unreachable(address: str, exc: BaseException) -> str:

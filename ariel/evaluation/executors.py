@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Protocol, TypeVar
 
 from ariel.errors import CallTimeoutError, WarpUnavailableError, WorkerLostError
-from ariel.evaluation._dask_connect import address_problem
+from ariel.evaluation._dask_connect import address_problem, check_scheduler, distributed_module
 from ariel.evaluation._dask_local import open_files_problem
 from ariel.evaluation._executor_base import (
     BatchExecutor as BatchExecutor,
@@ -155,6 +155,11 @@ class ExecutorKind:
     def check(self, settings: ExecutorSettings) -> None:
         """Checks of this kind's own settings, before anything runs (`ExecutorSettingsError`)."""
 
+    def reach(self, settings: ExecutorSettings) -> None:
+        """Whatever the kind connects to answers: called before a new run or campaign folder
+        is made (the `dask` kind asks the scheduler at ``executor.address`` who it is); one
+        line why not, as the error its executor would raise connecting."""
+
     def planned_workers(self, settings: ExecutorSettings) -> tuple[int, bool]:
         """Batches run at once, and whether they run on this machine."""
         if self.one_worker is not None:
@@ -227,8 +232,12 @@ class DaskKind(ExecutorKind):
                 "executor.workers: sizes a local cluster; with executor.address the "
                 "cluster's own workers are used (scale the cluster instead)"
             )
-        # Before anything is written: the address's form (connecting comes later), and the
-        # open files a local cluster of that many workers needs.
+        # Before anything is written: Dask itself, the address's form (connecting is
+        # `reach`'s), and the open files a local cluster of that many workers needs.
+        try:
+            distributed_module()
+        except ImportError as exc:
+            raise ExecutorSettingsError(f"executor.kind: {exc}") from None
         if settings.address is not None:
             problem = address_problem(settings.address)
             if problem is not None:
@@ -237,6 +246,10 @@ class DaskKind(ExecutorKind):
             problem = open_files_problem(settings.workers or default_workers())
             if problem is not None:
                 raise ExecutorSettingsError(f"executor.workers: {problem}")
+
+    def reach(self, settings: ExecutorSettings) -> None:
+        if settings.address is not None:
+            check_scheduler(settings.address)
 
     def planned_workers(self, settings: ExecutorSettings) -> tuple[int, bool]:
         return settings.workers or default_workers(), settings.address is None

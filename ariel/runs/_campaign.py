@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from ariel.errors import ArielError, DamagedRunError
-from ariel.evaluation.executors import planned_workers
+from ariel.evaluation.executors import executor_kind, planned_workers
 from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows_progress
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
 from ariel.recording.store import (
@@ -233,6 +233,7 @@ def run_campaign(
         run_id = check_new_id(f"{campaign_id}-{condition}-s{seed}")
         runs.append(_Run(condition, seed, run_id, prepare_run(config, settings)))
     _check_new_folder(path)
+    executor_kind(settings.kind).reach(settings)  # a scheduler that never answers: no folder
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
         write_campaign_info(path, info)

@@ -18,6 +18,7 @@ from typing import Any, NoReturn
 
 from ariel.errors import ConfigError
 from ariel.evaluation import WorkerCannotStartError
+from ariel.evaluation.executors import executor_kind
 from ariel.evolution import (
     ExperimentConfig,
     LoopState,
@@ -173,6 +174,7 @@ def run_experiment(
         run_id = path.name or run_id
     check_new_id(run_id)
     RunFolder.check_new(path, overwrite=overwrite)
+    executor_kind(settings.kind).reach(settings)  # a scheduler that never answers: no folder
     try:
         # The lock is held for the whole run. An interrupt once run.json is written (even
         # before the first generation) names the folder: it resumes from there.

@@ -105,6 +105,85 @@ def test_an_address_where_nothing_or_no_dask_answers_is_one_line_in_bounded_time
     assert any(text in str(error) for text in said), error
 
 
+@pytest.fixture
+def banner_server() -> Iterator[str]:
+    """A TCP port where a server of another protocol greets first (as SSH does): Dask read
+    the banner as a frame length and failed allocating 2.8 EiB ("cannot reach ...")."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+
+    def greet() -> None:
+        while True:
+            try:
+                peer, _ = server.accept()
+                peer.sendall(b"SSH-2.0-OpenSSH_9.6p1 Ubuntu-3ubuntu13\r\n")
+            except OSError:
+                return
+
+    threading.Thread(target=greet, daemon=True).start()
+    yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    server.close()
+
+
+def test_a_server_of_another_protocol_is_not_a_dask_scheduler(banner_server: str) -> None:
+    error = _within(20, lambda: make_executor("dask", address=banner_server))
+    assert isinstance(error, ConfigError), error
+    assert str(error) == (
+        f"address: {banner_server} is not a Dask scheduler (what answered there does not "
+        "speak Dask's protocol: MemoryError)"
+    )
+
+
+def test_a_scheduler_that_does_not_answer_leaves_no_run_or_campaign_folder(
+    tmp_path: Path,
+    silent_listener: str,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Asked before the folder is made: a `failed` run (or a campaign of them) was left, and
+    the same command then said the folder exists."""
+    from _helpers import exit_code, one_error_line
+
+    from ariel.evaluation import _dask_connect
+
+    monkeypatch.setattr(_dask_connect, "CONNECT_SECONDS", 1.0)
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("dask_silent", 1))
+    campaign = tmp_path / "c.toml"
+    campaign.write_text(f'name = "c"\nbase = "{config.name}"\nseed_count = 1\n')
+    for command in (["run", str(config)], ["campaign", "run", str(campaign)]):
+        out = tmp_path / "out"
+        argv = [*command, "--out", str(out), "--quiet", "--executor", "dask"]
+        assert exit_code([*argv, "--address", silent_listener]) == 2
+        assert "no Dask scheduler answered" in one_error_line(capsys)
+        assert not out.exists()
+
+
+def test_without_dask_the_dask_executor_is_one_line_and_no_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A traceback and a `failed` run folder before."""
+    from _helpers import exit_code, one_error_line
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("no_dask", 1))
+    out = tmp_path / "run"
+    saved = {name: sys.modules.pop(name) for name in list(sys.modules) if name == "distributed"}
+    sys.modules["distributed"] = None  # type: ignore[assignment]  # import raises ImportError
+    try:
+        assert exit_code(["run", str(config), "--out", str(out), "--executor", "dask"]) == 2
+    finally:
+        del sys.modules["distributed"]
+        sys.modules.update(saved)
+    line = one_error_line(capsys)
+    assert line == (
+        "ariel: error: executor.kind: Dask executor needs the optional extra: pip install "
+        "'ariel[distributed]'"
+    ), line
+    assert not out.exists()
+
+
 @pytest.mark.skipif(sys.platform == "win32", reason="needs RLIMIT_NOFILE")
 def test_a_local_cluster_over_the_open_file_limit_is_refused_before_it_starts() -> None:
     script = textwrap.dedent(
