@@ -254,10 +254,15 @@ def _thumbnails(
     if not jobs:
         return list(paths)
     runs = {str(pick.run.path): pick.run for pick in chosen}
+    problem = None if render else "rendering off"
     for run_path in dict.fromkeys(job.run_path for job in jobs.values()) if render else ():
+        problem = resim.missing_plugin(runs[run_path])  # not installed here: none drawn
+        if problem is not None:
+            break
         # drawing makes each body's encoder and world: options they reject are one line
         resim.check_options(runs[run_path], resim.BODY_PLUGINS)
-    problem = _gallery_render.gl_problem() if render else "rendering off"
+    if problem is None and render:
+        problem = _gallery_render.gl_problem()
     if problem is not None:
         gallery.notes.append(f"{len(jobs)} thumbnail(s) left out: {problem}")
         return [None if str(path) in jobs else path for path in paths]

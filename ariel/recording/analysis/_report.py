@@ -280,13 +280,17 @@ def make_report(
     """
     run = load_run(run_dir)
     resim.check_config(run)  # a section that is no table: one line, before it is read
-    if render:  # drawing a body makes its encoder and world with the run's options
+    missing = resim.missing_plugin(run) if render else None
+    if render and missing is None:  # drawing a body makes its encoder and world
         resim.check_options(run, resim.BODY_PLUGINS)
     generations = run.generations
     quality = [c for c in QD_COLUMNS if c in generations.columns]  # a MAP-Elites run
     table = generations[[*TABLE_COLUMNS, *quality]]
     maximise = run.maximise if len(run.evaluations) else True
     report = Report(run=run, table=table, best=_best_row(run, maximise), announce=announce)
+    if missing is not None:  # the tables' figures need no plugin: drawn, the bodies left out
+        report.notes.append(f"rendering off: {missing}, which draws the run's bodies")
+        render = False
     if not len(table):
         report.notes.append("no finished generation yet: no figures")
         return report

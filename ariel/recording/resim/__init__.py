@@ -22,6 +22,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         BODY_PLUGINS as BODY_PLUGINS,
         check_config as check_config,
         check_options as check_options,
+        missing_plugin as missing_plugin,
     )
     from ariel.recording.resim._replay import (
         ReplayResult as ReplayResult,
@@ -47,6 +48,7 @@ _INTERNAL: dict[str, str] = {
     "UnknownEvaluationError": "ariel.recording.resim._replay",
     "check_config": "ariel.recording.resim._rebuild",
     "check_options": "ariel.recording.resim._rebuild",
+    "missing_plugin": "ariel.recording.resim._rebuild",
     "drive_replay": "ariel.recording.resim._replay_video",
     "export": "ariel.recording.resim._export",
     "has_body_poses": "ariel.recording.resim._replay",

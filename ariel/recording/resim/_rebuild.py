@@ -60,6 +60,7 @@ __all__ = [
     "check_config",
     "check_options",
     "load_checked",
+    "missing_plugin",
     "replay_task",
 ]
 
@@ -145,6 +146,21 @@ def check_options(
                 f"{one_line(exc)}; run.json was changed, or this {registry.label} is not the "
                 "one that made the run"
             ) from None
+
+
+def missing_plugin(run: Run, kinds: Sequence[str] = BODY_PLUGINS) -> str | None:
+    """Why the run's plugins of ``kinds`` cannot be made here, in words (the first not
+    installed, or not loading); None when all of them load. Report and gallery then draw
+    what needs no body."""
+    config = _experiment(run)
+    for kind in kinds:
+        section, key = _PLUGIN_KEYS[kind]
+        name, registry = getattr(getattr(config, section), key), REGISTRIES[kind]
+        try:
+            registry.get(name)
+        except (KeyError, ValueError, ImportError):
+            return f"{registry.label} {short_ascii(name)} is not installed here (or does not load)"
+    return None
 
 
 def _require_plugins(run: Run) -> None:

@@ -267,6 +267,26 @@ def test_a_copied_run_reports_into_the_copy(run_dir: Path, tmp_path: Path) -> No
     assert matplotlib.get_backend() == backend  # drawn on Agg canvases, pyplot untouched
 
 
+def test_a_run_whose_body_encoder_is_not_installed_reports_without_its_bodies(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """The tables' figures need no plugin (report and gallery refused the whole run)."""
+    from ariel.recording.analysis import make_gallery
+
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("report", "gallery"))
+    info = json.loads((copy / "run.json").read_text())
+    info["config"]["body"]["encoder"] = "encoder_under_test"
+    (copy / "run.json").write_text(json.dumps(info))
+    report = make_report(copy)  # render=True: the bodies would be drawn
+    missing = "body encoder 'encoder_under_test' is not installed here (or does not load)"
+    assert report.notes[0] == f"rendering off: {missing}, which draws the run's bodies"
+    assert [path.name for path in report.written] == FIGURES
+    gallery = make_gallery(copy, progress=False)
+    assert any(note.endswith(f"thumbnail(s) left out: {missing}") for note in gallery.notes)
+    assert (copy / "gallery" / "final.png").is_file()
+
+
 def test_without_opengl_the_body_image_is_left_out_with_a_note(
     run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
