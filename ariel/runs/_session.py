@@ -38,7 +38,7 @@ from ariel.evolution import (
     run_groups,
     state_from_plain,
 )
-from ariel.plugins import plugin_provenance
+from ariel.plugins import REGISTRIES, plugin_provenance
 from ariel.recording import rerun
 from ariel.recording.store import (
     MANIFEST_FORMAT,
@@ -50,6 +50,7 @@ from ariel.recording.store import (
     finished_generations,
     git_commit,
     now,
+    short_ascii,
     software_versions,
 )
 from ariel.runs._prepare import PreparedRun, prepare_run
@@ -131,6 +132,7 @@ class RunSession:
         locks.enter_context(RunLock(folder.path))
         info, config, state = resumable(folder)
         prepared = prepare_run(config, settings)
+        _check_same_plugins(folder.path, info, prepared)
         adopt_manifests(folder, state.generation + 1 if state is not None else 0)
         folder.discard_after(state.generation if state is not None else -1)
         folder.start_segment("resume")
@@ -292,6 +294,38 @@ def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, Loop
         if problem:
             raise NotARunError(f"{folder.checkpoint}: unreadable checkpoint ({problem})")
     return info, config, state
+
+
+def _check_same_plugins(run_dir: Path, info: dict[str, Any], prepared: PreparedRun) -> None:
+    """`ConfigError` when a plugin of the user's own (not ariel's) registered under the run's
+    name is another object than the one run.json's ``plugins`` recorded, or the fitness now
+    runs the other way: a resume would mix two plugins in one run (a notebook that registers
+    an edited function again under the name with ``replace=True``)."""
+    stored = info.get("plugins")
+    for kind, entry in stored.items() if isinstance(stored, dict) else ():
+        if kind not in REGISTRIES or not isinstance(entry, dict):
+            continue
+        was, name = entry.get("object"), entry.get("name")
+        if not (isinstance(was, str) and isinstance(name, str)) or was.startswith("ariel."):
+            continue  # ariel's own plugins may move between modules from version to version
+        now = str(plugin_provenance({kind: name})[kind].get("object"))
+        if "__main__" in (was.partition(":")[0], now.partition(":")[0]):  # a script, run
+            was, now = was.partition(":")[2], now.partition(":")[2]  # as itself or imported
+        if now != was:
+            raise ConfigError(
+                f"{REGISTRIES[kind].label} {short_ascii(name)} is {short_ascii(now, 200)} "
+                f"here, but run {str(run_dir)!r} was made with {short_ascii(was, 200)}: resuming "
+                "would mix two plugins in one run; register the one that made it, or start a "
+                "new run"
+            )
+    maximise = prepared.plugins.maximise
+    if isinstance(info.get("maximise"), bool) and info["maximise"] != maximise:
+        raise ConfigError(
+            f"fitness function {short_ascii(prepared.config.task.fitness)} is "
+            f"{'maximised' if maximise else 'minimised'} here, but run {str(run_dir)!r} "
+            f"{'maximised' if info['maximise'] else 'minimised'} it: resuming would mix two "
+            "fitness directions in one run; register the one that made it"
+        )
 
 
 def _state_problem(state: LoopState, config: ExperimentConfig, done: int) -> str | None:

@@ -159,7 +159,23 @@ def test_a_plugin_failing_during_a_run_stops_it_in_one_line_resumable(
     line = one_error_line(capsys)
     assert "fitness function 'test_fails_late'" in line and "registered by the script" in line
     assert f"resume_experiment({str(out)!r})" in line
-    fitness_functions.register("test_fails_late", plugin)
+    # Another function under the name (a notebook cell edited and run again): refused, the
+    # run went on with it before; and the same function made to minimise.
+    @fitness_function(maximise=True)
+    def another(record: Any) -> float:
+        return 0.0
+
+    fitness_functions.register("test_fails_late", another)
+    assert exit_code(["resume", str(out), "--quiet"]) == 2
+    line = one_error_line(capsys)
+    assert line.startswith("ariel: error: fitness function 'test_fails_late' is '"), line
+    assert "another' here, but run" in line and "resuming would mix two plugins" in line, line
+    plugin.maximise = False
+    fitness_functions.register("test_fails_late", plugin, replace=True)
+    assert exit_code(["resume", str(out), "--quiet"]) == 2
+    assert "is minimised here, but run" in one_error_line(capsys)
+    plugin.maximise = True
+    fitness_functions.register("test_fails_late", plugin, replace=True)
     broken["on"] = False  # the plugin fixed
     assert main(["resume", str(out), "--quiet"]) == 0
     assert load_run(out).info["status"] == "finished"
