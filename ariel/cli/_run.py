@@ -57,9 +57,10 @@ def add_resume_command(sub: SubParsers) -> None:
     p.set_defaults(func=_cmd_resume)
 
 
-def _how_to_look(path: Path) -> str:
+def _how_to_look(path: Path, best: bool = True) -> str:
     """The commands to look at a finished run, each working when pasted into a new shell here
-    (the environment's ``ariel`` and python named by path: `ariel.utils._commands`)."""
+    (the environment's ``ariel`` and python named by path: `ariel.utils._commands`); without
+    a ``best`` evaluation (every one failed), none to replay it."""
     ariel = ariel_command()
     quoted = shell_path(path)
     recorded = (path / "run.rrd").is_file() or (path / "recordings").is_dir()
@@ -67,7 +68,7 @@ def _how_to_look(path: Path) -> str:
         (f"{ariel} report {quoted}", f"summary table and figures in {quoted}/report"),
         # record.rerun = false: nothing to view
         *([(f"{ariel} view {quoted}", "Rerun viewer (--web on a headless node)")] * recorded),
-        (f"{ariel} replay {quoted} best", "re-simulate the best evaluation"),
+        *([(f"{ariel} replay {quoted} best", "re-simulate the best evaluation")] * best),
         (f"{ariel} runs {shell_path(path.parent)}", "every run there: status, best"),
     ]
     tables = ["evaluations", "bodies", "trajectories"]
@@ -86,13 +87,14 @@ def _how_to_look(path: Path) -> str:
 
 def _print_result(result: RunResult) -> None:
     r = result
-    print(
-        f"{r.status}: {r.run_id}: best fitness {r.best_fitness:.6g} "
-        f"(body {r.best_body_id}, evaluation {r.best_eval_id or '-'}), "
-        f"{r.evaluations} evaluations in {r.wall_seconds:.1f} s"
+    best = (
+        f"best fitness {r.best_fitness:.6g} (body {r.best_body_id}, evaluation {r.best_eval_id})"
+        if r.best_eval_id
+        else "no evaluation succeeded (the evaluations table's status and error say why)"
     )
+    print(f"{r.status}: {r.run_id}: {best}, {r.evaluations} evaluations in {r.wall_seconds:.1f} s")
     print(f"run folder: {r.run_dir}")
-    print(_how_to_look(Path(r.run_dir)))
+    print(_how_to_look(Path(r.run_dir), best=bool(r.best_eval_id)))
 
 
 def _run_guarded(start: Callable[[], RunResult], path_hint: str | None) -> int:

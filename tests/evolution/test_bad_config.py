@@ -97,7 +97,19 @@ def test_a_nan_fitness_is_invalid_with_its_value_and_run_json_stays_json(
 
     fitness_plugin("test_late_nan", late_nan)
     out = tmp_path / "out"
-    ariel_run(tiny, out, "--set", "task.fitness=test_late_nan", "--set", "task.duration=0.6")
+    printed = ariel_run(
+        tiny, out, "--set", "task.fitness=test_late_nan", "--set", "task.duration=0.6"
+    )
+    # No best: said, and no `replay RUN best` hint that cannot work when pasted.
+    assert ": no evaluation succeeded (the evaluations table's status and error say why)" in printed
+    assert " best " not in printed.replace("# ", "") and "replay" not in printed, printed
+    from ariel.recording import replay
+    from ariel.recording.resim import UnknownEvaluationError
+
+    with pytest.raises(
+        UnknownEvaluationError, match="has a finite fitness, so none is 'best'; give an"
+    ):
+        replay(out, "best")
     run = load_run(out)
     evaluations = run.evaluations
     assert set(evaluations["status"]) == {"invalid"}
@@ -159,6 +171,7 @@ def test_a_plugin_failing_during_a_run_stops_it_in_one_line_resumable(
     line = one_error_line(capsys)
     assert "fitness function 'test_fails_late'" in line and "registered by the script" in line
     assert f"resume_experiment({str(out)!r})" in line
+
     # Another function under the name (a notebook cell edited and run again): refused, the
     # run went on with it before; and the same function made to minimise.
     @fitness_function(maximise=True)

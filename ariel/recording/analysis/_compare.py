@@ -53,6 +53,7 @@ from ariel.recording.analysis._compare_design import (
     common_budget,
     describe,
     first_evaluations,
+    run_state_notes,
     shared_settings,
 )
 from ariel.recording.analysis._compare_html import omnibus_frame, stats_frame, summary_frame
@@ -213,7 +214,11 @@ def compare_runs(
         omnibus=pd.DataFrame(omnibus),
         budget=budget,
         tests=choice,
-        notes=[n for n in (*notes, budget_note, *found_notes, _alone(grouped)) if n],
+        notes=[
+            n
+            for n in (*notes, *run_state_notes(curves), budget_note, *found_notes, _alone(grouped))
+            if n
+        ],
         about=describe(
             source or Source(),
             seeds={name: [c.seed for c in group] for name, group in grouped.items()},

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
+from collections import Counter
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -25,6 +27,8 @@ from ariel.evolution import ExperimentConfig
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from ariel.recording.analysis._compare_runs import RunCurve
 
 __all__ = [
     "MEASURED_BY",
@@ -38,6 +42,7 @@ __all__ = [
     "describe",
     "evaluation_order",
     "first_evaluations",
+    "run_state_notes",
     "shared_settings",
     "whole_generations",
 ]
@@ -151,6 +156,32 @@ def common_budget(
         f"the runs made {smallest:,} to {largest:,} evaluations: compared at {budget:,} "
         f"evaluations per run ({how})"
     )
+
+
+def run_state_notes(curves: Sequence[RunCurve]) -> list[str]:
+    """Warnings about runs that are not what a finished comparison reads as: runs not finished
+    (a campaign still going, or stopped; all at one generation, the budgets do not differ and
+    nothing else says so), and runs of which no evaluation succeeded (their fitness measures
+    are missing from the tests)."""
+    notes = []
+    label = {id(c): f"{c.condition} seed {c.seed}" for c in curves}
+    # (a curve without run.json, `compare_runs` on tables of your own, has no status)
+    unfinished = [c for c in curves if c.info.get("status", "finished") != "finished"]
+    if unfinished:
+        states = Counter(str(c.info.get("status"))[:20] for c in unfinished)
+        said = ", ".join(f"{count} {state}" for state, count in sorted(states.items()))
+        notes.append(
+            f"{len(unfinished)} of {len(curves)} runs are not finished ({said}): compared at "
+            "the generations they have finished; compare again once they finish"
+        )
+    failed = [c for c in curves if not c.evaluations["fitness"].map(math.isfinite).any()]
+    if failed:
+        names = ", ".join(label[id(c)] for c in failed[:5]) + (", ..." if len(failed) > 5 else "")
+        notes.append(
+            f"{len(failed)} run(s) have no successful evaluation ({names}): their fitness "
+            "measures are missing from the tests (their evaluations' status and error say why)"
+        )
+    return notes
 
 
 # --------------------------------------------------------------------------------------------

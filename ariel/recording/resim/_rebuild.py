@@ -210,15 +210,17 @@ def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
             return found.iloc[0].to_dict()
 
     quoted = str(run.path)
-    where = (
-        f"no finished generation in run {quoted!r} yet"
-        if not len(evals)
-        else f"no evaluation {eval_id!r} in the finished generations of run {quoted!r}"
-    )
-    listing = 'r.evaluations[["generation", "eval_id", "fitness"]].to_string(index=False)'
+    ids = "ids look like b000012-i003-c005 ('best' for the best one)"
+    if not len(evals):
+        where = f"no finished generation in run {quoted!r} yet"
+    elif eval_id == BEST:  # every evaluation failed: the best is none of them
+        where = f"no evaluation of run {quoted!r} has a finite fitness, so none is 'best'"
+        ids = "give an evaluation's id to replay a failed one"
+    else:
+        where = f"no evaluation {eval_id!r} in the finished generations of run {quoted!r}"
+    listing = 'r.evaluations[["generation", "eval_id", "status", "fitness"]].to_string(index=False)'
     raise UnknownEvaluationError(
-        f"{where}; ids look like b000012-i003-c005 ('best' for the best one); list them with "
-        f"{load_run_command(run.path, what=listing)}"
+        f"{where}; {ids}; list them with {load_run_command(run.path, what=listing)}"
     )
 
 

@@ -52,6 +52,31 @@ def synthetic_run(
     return RunCurve(condition, seed, frame)
 
 
+def test_unfinished_runs_and_runs_without_a_success_are_warned_about() -> None:
+    """A stopped campaign (its runs all at one generation) read as a finished one, and runs of
+    which every evaluation failed were left out of the tests without a word."""
+    runs = [synthetic_run(c, seed, 1.0) for c in ("a", "b") for seed in (1, 2)]
+    runs[0].info.update(status="interrupted")
+    runs[1].info.update(status="running")
+    runs[2].info.update(status="finished")
+    runs[3].evaluations["fitness"] = -math.inf
+    runs[3].evaluations["status"] = "error"
+    notes = compare_runs(runs, None, maximise=True, write=False).notes
+    assert notes[:2] == [
+        "2 of 4 runs are not finished (1 interrupted, 1 running): compared at the generations "
+        "they have finished; compare again once they finish",
+        "1 run(s) have no successful evaluation (b seed 2): their fitness measures are missing "
+        "from the tests (their evaluations' status and error say why)",
+    ]
+    for run in runs:
+        run.info.update(status="finished")
+    runs[3].evaluations["fitness"] = 1.0
+    assert not any(
+        "finished" in n or "success" in n
+        for n in compare_runs(runs, None, maximise=True, write=False).notes
+    )
+
+
 def test_best_so_far_follows_the_direction_and_skips_failures() -> None:
     frame = pd.DataFrame(
         {
