@@ -25,9 +25,11 @@ from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
 from ariel.recording.store import (
     CAMPAIGN_JSON,
+    LOCK_NAME,
     Campaign,
     NotARunError,
     RunFolder,
+    RunInUseError,
     RunLock,
     check_name_lengths,
     check_new_id,
@@ -125,7 +127,9 @@ def new_campaign_id(name: str) -> str:
     return f"{name}-{_dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
 
 
-def _check_new_folder(path: Path) -> None:
+def _check_new_folder(path: Path, *, locked: bool = False) -> None:
+    """``path`` is no folder yet, or an empty one (``locked``: this process holds its lock,
+    which it has just made). A folder in use by another campaign run is said so, as a run's."""
     check_name_lengths(path)
     if path.is_symlink():  # never made or written through: a dangling one would be followed
         raise FileExistsError(
@@ -134,7 +138,10 @@ def _check_new_folder(path: Path) -> None:
         )
     if path.exists() and not path.is_dir():
         raise FileExistsError(f"output {str(path)!r} is a file; choose another --out")
-    if path.exists() and any(path.iterdir()):
+    if not locked and os.path.lexists(path / LOCK_NAME):
+        with RunLock(path):  # RunInUseError, one line, while another process runs it
+            pass  # else a stale lock (of a killed process): taken, and gone on release
+    if path.exists() and any(p.name != LOCK_NAME or not locked for p in path.iterdir()):
         raise FileExistsError(
             f"campaign folder {str(path)!r} already exists; choose another --out, or "
             f"{_existing_campaign_hint(path)}"
@@ -236,6 +243,7 @@ def run_campaign(
     executor_kind(settings.kind).reach(settings)  # a scheduler that never answers: no folder
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
+        _check_new_folder(path, locked=True)  # again: another campaign run may have begun
         write_campaign_info(path, info)
         locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
@@ -370,6 +378,9 @@ def _unfinished_run(
         run.session = RunSession.create(prepared, folder.path, run.run_id, locks, overwrite=True)
         return run
     if folder.read_info().get("status") == "finished":
+        if os.path.lexists(folder.path / LOCK_NAME):  # the campaign was killed after it ended
+            with contextlib.suppress(RunInUseError), RunLock(folder.path):
+                pass  # taken and released at once: the stale .lock goes
         return None
     session = RunSession.reopen(folder, locks, settings)
     return _Run(condition, seed, session.run_id, session.prepared, session)

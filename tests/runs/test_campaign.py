@@ -271,11 +271,52 @@ def test_an_interrupted_campaign_resumes_to_the_records_of_an_uninterrupted_one(
     statuses = {(r["condition"], r["seed"]): r["status"] for r in load_campaign(out).status()}
     assert sorted(statuses.values()) == ["finished", "finished", "interrupted", "interrupted"]
     assert json.loads((out / "campaign.json").read_text())["status"] == "interrupted"
+    # A campaign killed (SIGKILL) after a run finished leaves that run's .lock: resume clears it.
+    finished = [key for key, status in statuses.items() if status == "finished"]
+    stale = out / f"runs/condition={finished[0][0]}/seed={finished[0][1]}/.lock"
+    stale.write_text("pid 999999999 on host gone\n")
     resumed = resume_campaign(out)
     assert resumed.status == "finished" and resumed.skipped == 2 and len(resumed.runs) == 2
+    assert not list(out.rglob(".lock"))
     assert campaign_digests(out) == campaign_digests(campaign)
     with pytest.raises(ValueError, match="already finished"):
         resume_campaign(out)
+
+
+def test_a_second_campaign_run_into_a_folder_in_use_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It said the folder exists and to `campaign resume` it, which then said "in use"."""
+    from ariel.recording.store import RunLock
+
+    out = tmp_path / "tiny"
+    with RunLock(out, create=True):  # a campaign run that has just begun
+        (out / "campaign.json").write_text("{}")
+        assert exit_code(["campaign", "run", str(TINY), "--out", str(out), "--quiet"]) == 2
+    line = one_error_line(capsys)
+    assert line.startswith(f"ariel: error: campaign folder {str(out)!r} is in use by pid "), line
+    assert sorted(p.name for p in out.iterdir()) == ["campaign.json"]
+
+
+def test_a_campaign_made_in_the_folder_meanwhile_is_not_overwritten(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The folder is checked again under its lock: another `campaign run` that made it
+    between the first check and the lock kept its campaign.json (it was replaced)."""
+    from ariel.runs import _campaign
+
+    out = tmp_path / "tiny"
+    original = _campaign.campaign_info
+
+    def made_meanwhile(*args, **kwargs):
+        out.mkdir()
+        (out / "campaign.json").write_text("theirs")
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(_campaign, "campaign_info", made_meanwhile)
+    assert exit_code(["campaign", "run", str(TINY), "--out", str(out), "--quiet"]) == 2
+    assert "already exists" in one_error_line(capsys)
+    assert (out / "campaign.json").read_text() == "theirs" and not (out / "runs").exists()
 
 
 def test_sigterm_stops_a_campaign_command_like_ctrl_c(
