@@ -75,7 +75,8 @@ test-soak: setup gl
 # or an API name mkdocstrings cannot resolve fails it). It runs the tutorials and the analysis
 # notebooks, on a small run and campaign it makes first under .cache/docs/ (a few minutes the
 # first time; reused after). Open site/index.html, or `make docs-serve` for a live preview.
-DOCS_ENV := $(GL_ENV) MPLBACKEND=Agg NO_MKDOCS_2_WARNING=1
+# No MPLBACKEND: the notebooks' kernels then draw inline (Agg made plt.show() draw nothing).
+DOCS_ENV := $(GL_ENV) NO_MKDOCS_2_WARNING=1
 docs: setup gl
 	$(DOCS_ENV) $(VENV)/bin/mkdocs build --strict
 	@echo "the site is in site/: open site/index.html, or run make docs-serve"

@@ -64,3 +64,30 @@ def test_first_cell_is_an_h1_title(name: str) -> None:
     assert first.cell_type == "markdown", f"{name}: the first cell is not Markdown"
     lines = [line for line in first.source.splitlines() if line.strip()]
     assert lines and lines[0].startswith("# "), f"{name}: the first cell has no H1 title"
+
+
+def test_the_docs_build_s_kernels_draw_the_tutorials_figures_inline() -> None:
+    """`make docs` ran the notebooks with MPLBACKEND=Agg, under which a kernel's
+    ``plt.show()`` draws nothing: the quick-start tutorial's trajectory plot was missing from
+    the site. A cell like the tutorial's, run with the build's environment, shows a PNG."""
+    import os
+    import re
+
+    nbclient = pytest.importorskip("nbclient", reason="nbclient comes with the docs extra")
+    makefile = (Path(__file__).resolve().parents[2] / "Makefile").read_text()
+    line = re.search(r"^DOCS_ENV := (.*)$", makefile, re.MULTILINE)
+    assert line is not None
+    given = dict(word.split("=", 1) for word in line.group(1).split() if "=" in word)
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"} | given
+    cell = "import matplotlib.pyplot as plt\nplt.plot([0, 1], [0, 1])\nplt.show()"
+    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(cell)])
+    saved = dict(os.environ)
+    os.environ.clear()
+    os.environ.update(env)  # the kernel is started with this process's environment
+    try:
+        nbclient.NotebookClient(notebook, timeout=120, kernel_name="python3").execute()
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
+    outputs = notebook.cells[0].outputs
+    assert any("image/png" in output.get("data", {}) for output in outputs), outputs
