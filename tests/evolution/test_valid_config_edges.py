@@ -291,6 +291,17 @@ def test_a_window_cutting_the_path_into_too_many_pieces_is_refused() -> None:
     assert sustained_displacement(many, path, window=0.5 / MAX_WINDOWS) == pytest.approx(1.0)
 
 
+@pytest.mark.parametrize("span", [3.0, 3.0 + 1e-12, 1.0 + 3e-10, 7.123456])
+def test_the_shortest_window_the_message_names_is_taken_when_pasted(span: float) -> None:
+    """It was rounded to nearest: 3 s of path gave 'at least 3e-05 s', which was refused."""
+    from ariel.simulation.tasks.gait_learning import window_count_error
+
+    message = window_count_error(span, 31, 1e-7)
+    assert message is not None
+    shortest = float(message.rpartition("at least ")[2].removesuffix(" s"))
+    assert window_count_error(span, 31, shortest) is None, (span, shortest)
+
+
 def test_a_tiny_window_is_one_config_error_before_the_plugin_check() -> None:
     config = load_config({}, ["task.fitness=sustained_displacement", "task.options={window=1e-7}"])
     with pytest.raises(ConfigError) as caught:

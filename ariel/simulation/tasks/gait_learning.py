@@ -102,8 +102,15 @@ def window_count_error(span: float, samples: int, window: float) -> str | None:
     return (
         f"window {window!r} s cuts the {span:.6g} s path into {span / window:.3g} windows, more "
         f"than the {allowed} allowed (the larger of {MAX_WINDOWS} and the path's samples): "
-        f"give a window of at least {span / allowed:.3g} s"
+        f"give a window of at least {_rounded_up(span / allowed):.3g} s"
     )
+
+
+def _rounded_up(value: float) -> float:
+    """``value`` rounded up to three significant digits: the shortest window named in the
+    message must itself be taken when pasted (rounded to nearest, it could be refused)."""
+    step = 10.0 ** (np.floor(np.log10(value)) - 2)
+    return float(np.ceil(value / step) * step)
 
 
 def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0) -> float:
