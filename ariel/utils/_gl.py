@@ -4,17 +4,17 @@ MuJoCo picks its OpenGL backend from the ``MUJOCO_GL`` environment variable when
 first imported (``egl`` or ``osmesa`` for headless machines, ``glfw`` for a desktop), and
 imports that backend with itself. Setting it later has no effect, so ``make run``/``make test``
 and ``tests/conftest.py`` set ``MUJOCO_GL=egl`` before anything imports ``mujoco``. The
-``ariel`` command calls :func:`ensure_headless_gl` only where it renders (``replay --video``,
+``ariel`` command calls `ensure_headless_gl` only where it renders (``replay --video``,
 ``report`` without ``--no-render``) and no display is set: a command that draws nothing loads
 no GL library. Scripts that render can call it as their very first action.
 
 A backend that does not work is one line, `ariel.errors.GLBackendError`, naming what to install
-or set: :func:`create_renderer` raises it when no GL context can be made, and
-:func:`gl_backend_error` makes it from an ``import mujoco`` that failed inside the backend
+or set: `create_renderer` raises it when no GL context can be made, and
+`gl_backend_error` makes it from an ``import mujoco`` that failed inside the backend
 (``MUJOCO_GL=egl`` with PyOpenGL installed but no libEGL raises ``AttributeError`` there, even
 where nothing is rendered); the ``ariel`` command prints it (exit code 2).
 
-This module imports ``mujoco`` only inside functions, so calling :func:`ensure_headless_gl`
+This module imports ``mujoco`` only inside functions, so calling `ensure_headless_gl`
 from it is safe before ``mujoco`` has been imported.
 """
 

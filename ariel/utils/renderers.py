@@ -300,7 +300,7 @@ def tracking_video_renderer(
     tracking_azimuth: float = 135,
     tracking_elevation: float = -30,
 ) -> None:
-    """Like :func:`video_renderer`, with a camera that follows the robot's core body.
+    """Like `video_renderer`, with a camera that follows the robot's core body.
 
     The camera starts on the centre of mass of the tracked body's subtree (the whole robot
     when that is its core) and moves with it. The model's cameras are not used.
@@ -309,7 +309,7 @@ def tracking_video_renderer(
         model: The compiled model.
         data: The model's data; it is reset, then stepped.
         duration: Simulated seconds to record (> 0).
-        video_recorder: Where the frames go (see :func:`video_renderer`); None: a
+        video_recorder: Where the frames go (see `video_renderer`); None: a
             ``VideoRecorder()``. It is released at the end.
         geom_to_track: Name of the BODY to follow (despite the parameter's upstream name);
             if there is none, the first body whose name contains ``"core"`` (e.g.

@@ -23,8 +23,8 @@ class VideoRecorder:
     """Record frames to ``<output_folder>/<file_name>_<UTC YYYYmmdd_HHMMSS>.mp4``.
 
     Frames are RGB ``uint8`` arrays of shape ``(height, width, 3)``. The ffmpeg process starts
-    on the first :meth:`write`, so a recorder that never receives a frame leaves no file.
-    Use it as a context manager or call :meth:`release` to finish the file.
+    on the first `write`, so a recorder that never receives a frame leaves no file.
+    Use it as a context manager or call `release` to finish the file.
 
     Args:
         file_name: Stem of the file name, a plain name without folders (a suffix such as

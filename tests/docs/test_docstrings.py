@@ -144,3 +144,20 @@ def test_every_public_function_and_class_documents_its_parameters(package) -> No
     loaded, _ = package
     problems = [p for path, obj in _public_objects() for p in _missing(path, obj, loaded)]
     assert not problems, f"{len(problems)} incomplete docstrings:\n" + "\n".join(problems)
+
+
+def test_no_sphinx_roles_reach_the_api_reference() -> None:
+    """The reference reads Google-style docstrings: ``:func:`x``` was shown as literal text
+    (Markdown backticks, `x`, are what it renders)."""
+    import re
+    from pathlib import Path
+
+    role = re.compile(r":(?:func|meth|class|mod|attr|obj|data|exc):`")
+    ariel = Path(__file__).resolve().parents[2] / "ariel"
+    found = [
+        f"{path.relative_to(ariel.parent)}:{number}"
+        for path in sorted(ariel.rglob("*.py"))
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if role.search(line)
+    ]
+    assert not found, found

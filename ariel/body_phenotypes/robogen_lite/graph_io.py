@@ -113,7 +113,7 @@ def save_graph_as_json(graph: nx.DiGraph, save_file: str | Path | None = None) -
 
 
 def load_graph_from_json(load_file: str | Path) -> nx.DiGraph:
-    """Read a graph written by :func:`save_graph_as_json` (directed, not a multigraph).
+    """Read a graph written by `save_graph_as_json` (directed, not a multigraph).
 
     Files from older networkx versions that keep edges under "links" load too.
 

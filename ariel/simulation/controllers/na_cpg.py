@@ -1,6 +1,6 @@
 """Normalized Asymmetric CPG (NA-CPG) as a torch module: the tutorial API.
 
-The arithmetic lives in :mod:`ariel.simulation.controllers.cpg_kernel` (numpy, batch of one
+The arithmetic lives in `ariel.simulation.controllers.cpg_kernel` (numpy, batch of one
 here); this module adds the torch parameter interface the tutorials use. Differences from
 upstream ARIEL (see docs/decisions.md, Control):
 

@@ -27,7 +27,7 @@ class ModuleSites(dict[ModuleFaces, mujoco.MjsSite]):
     """The attachment sites of one module, keyed by face.
 
     Only the faces the module physically has are present; looking up another one raises
-    :class:`FaceNotAvailableError` naming the module type and the faces it has.
+    `FaceNotAvailableError` naming the module type and the faces it has.
 
     Args:
         module_type: Type of the module the sites belong to (named in the error message).
