@@ -1,5 +1,6 @@
 """The figures of `ariel compare`: best so far against evaluations (median and 95 % bootstrap
-band per condition, each band in the legend; the y axis spans the data, not from 0), final
+band per condition, one legend entry each: the line over its band; beyond `LEGEND_INSIDE` conditions
+the legends stand beside the figures; the y axis spans the data, not from 0), final
 best per condition (box plot with every seed's point), and the bodies' morphology descriptors
 over evaluations per condition (`morphology_series`: the runs' mean per bin of evaluations),
 and the lineages (surviving lineages and the best body's ancestry depth over evaluations,
@@ -21,7 +22,10 @@ from ariel.recording.store import DESCRIPTORS, atomic_write, figure_label, integ
 
 if TYPE_CHECKING:
     import pandas as pd
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     from ariel.recording.analysis._compare_runs import RunCurve
 
@@ -51,17 +55,55 @@ def _pyplot() -> Any:
     return plt
 
 
-def _colours(names: Sequence[str]) -> dict[str, str]:
-    cycle = _pyplot().rcParams["axes.prop_cycle"].by_key()["color"]
-    return {name: cycle[i % len(cycle)] for i, name in enumerate(names)}
+#: Conditions whose legend still fits inside a panel; more go beside the figure.
+LEGEND_INSIDE = 6
+_LEGEND_ROWS = 24  # entries per legend column beside the figure
+
+
+def _colours(names: Sequence[str]) -> dict[str, str | tuple[float, ...]]:
+    """A colour per condition: matplotlib's cycle for up to its ten; more from a colour map,
+    each its own (the cycle repeated: conditions 1 and 11 shared a colour)."""
+    plt = _pyplot()
+    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    if len(names) <= len(cycle):
+        return {name: cycle[i] for i, name in enumerate(names)}
+    many = len(names) > 20
+    colour_map = plt.get_cmap("turbo" if many else "tab20")
+    spread = np.linspace(0.0, 1.0, len(names)) if many else np.arange(len(names)) / 20
+    return {name: tuple(colour_map(float(spread[i]))) for i, name in enumerate(names)}
+
+
+def _legend(
+    axes: Axes, handles: Sequence[object] | None = None, labels: Sequence[str] | None = None
+) -> None:
+    """The legend of ``axes`` (its labelled artists, or ``handles`` with ``labels``): inside
+    it where it fits, else beside the figure (in columns of `_LEGEND_ROWS`), where it covers
+    no curve and runs off no edge. A tuple handle is drawn as its parts overlaid."""
+    if handles is None or labels is None:
+        handles, labels = axes.get_legend_handles_labels()
+    if len(handles) <= LEGEND_INSIDE:
+        axes.legend(handles, labels, loc="best", fontsize="small")
+        return
+    axes.figure.legend(
+        handles,
+        labels,
+        loc="upper left",
+        bbox_to_anchor=(1.0, 0.95),
+        fontsize="small",
+        ncols=-(-len(handles) // _LEGEND_ROWS),
+    )
 
 
 def _save(figure: Figure, path: Path) -> Path:
     with warnings.catch_warnings():  # many conditions: the legend takes the room; drawn anyway
         warnings.filterwarnings("ignore", "Tight layout not applied", UserWarning)
         figure.tight_layout()
+
+    def write(temporary: Path) -> None:  # "tight": the legend beside, the labels, all in
+        figure.savefig(temporary, dpi=_DPI, format="png", bbox_inches="tight")
+
     try:  # never through a link planted in the output folder (``compare/final_best.png -> ~/x``)
-        atomic_write(path, lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"))
+        atomic_write(path, write)
     finally:
         _pyplot().close(figure)
     return path
@@ -79,13 +121,15 @@ def best_so_far_figure(
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
     colours = _colours(list(curves))
-    handles = []
+    handles: list[tuple[Patch, Line2D]] = []
+    labels: list[str] = []
     for name, (grid, median, low, high) in curves.items():
         label = figure_label(name)
         (line,) = axes.plot(grid, median, color=colours[name], label=label, linewidth=1.8)
         axes.fill_between(grid, low, high, color=colours[name], alpha=_BAND_ALPHA, linewidth=0)
-        band = Patch(facecolor=colours[name], alpha=_BAND_ALPHA, label=f"{label}: 95 % CI")
-        handles += [line, band]
+        band = Patch(facecolor=colours[name], alpha=_BAND_ALPHA)
+        handles.append((band, line))  # one entry a condition: its median over its band
+        labels.append(label)
     limits = data_limits([v for _, *lines in curves.values() for v in lines])
     if limits is not None:
         axes.set_ylim(*limits)
@@ -94,7 +138,7 @@ def best_so_far_figure(
     axes.set_ylabel(ylabel)
     axes.set_title("best so far: median of the seeds, 95 % bootstrap band")
     axes.grid(alpha=0.3)
-    axes.legend(handles=handles, loc="best", fontsize="small")
+    _legend(axes, handles, labels)
     return _save(figure, path)
 
 
@@ -154,7 +198,7 @@ def morphology_figure(
         axes.grid(alpha=0.3)
     for axes in list(grid.flat)[len(names) :]:
         axes.set_visible(False)
-    grid.flat[0].legend(fontsize="small")
+    _legend(grid.flat[0])
     figure.suptitle("morphology of the evaluated bodies: median of the seeds (band: 25-75 %)")
     return _save(figure, path)
 
@@ -248,7 +292,7 @@ def lineages_figure(
         integer_ticks(axes.xaxis)
         integer_ticks(axes.yaxis)
         axes.grid(alpha=0.3)
-    grid.flat[0].legend(loc="best", fontsize="small")
+    _legend(grid.flat[0])
     figure.suptitle(
         "lineages and diversity after each generation: median of the seeds "
         "(band: 95 % bootstrap CI)"

@@ -178,9 +178,10 @@ def test_the_page_embeds_every_figure_and_the_tables_are_written(
     # the y axis starts where the data starts (medians from about 2.4, bands lower), not at 0
     lowest = min(np.nanmin(line.get_ydata()) for line in curves.get_lines())
     assert 0.5 * lowest < curves.get_ylim()[0] < lowest
-    # ... and each condition's band has its own legend entry
+    # ... and each condition is one legend entry, its line drawn over its band
     legend = [t.get_text() for t in curves.get_legend().get_texts()]
-    assert legend == ["a", "a: 95 % CI", "b", "b: 95 % CI"]
+    assert legend == ["a", "b"]
+    assert "95 % bootstrap band" in curves.get_title()
     shapes = {a.get_title(): a for a in drawn["morphology"].axes if a.get_visible()}
     assert shapes["num_modules"].get_ylabel() == "modules"
     assert shapes["symmetry"].get_ylabel() == "score, 0 to 1"
@@ -936,3 +937,26 @@ def test_one_condition_is_said_in_words(two_runs: tuple[Path, Path]) -> None:
         and note.endswith("no pair of conditions to test, only its summary")
         for note in comparison.notes
     )
+
+
+def test_many_conditions_get_their_own_colours_and_a_legend_beside_the_figure(
+    tmp_path: Path,
+) -> None:
+    """With 12 conditions, conditions 1 and 11 shared a colour, and the legend (24 entries:
+    a line and a band each) ran off the top of the figure and covered its title."""
+    from PIL import Image
+
+    from ariel.recording.analysis import _compare_plots as plots
+
+    for count in (3, 12, 40):
+        names = [f"condition-{k}" for k in range(count)]
+        assert len(set(plots._colours(names).values())) == count
+    grid = np.arange(1.0, 9.0)
+    curves = {name: (grid, grid * k, grid * k - 1, grid * k + 1) for k, name in enumerate(names)}
+    path = plots.best_so_far_figure(curves, tmp_path / "best.png", ylabel="best (m)")
+    with Image.open(path) as image:
+        wide = image.width
+    few = dict(list(curves.items())[: plots.LEGEND_INSIDE])
+    path = plots.best_so_far_figure(few, tmp_path / "few.png", ylabel="best (m)")
+    with Image.open(path) as image:
+        assert wide > image.width + 200  # 40 entries beside the axes, in two columns
