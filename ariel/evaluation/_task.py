@@ -265,6 +265,14 @@ def fitness_options_error(
     except (TypeError, ValueError):
         return None
     try:
+        signature.bind(None)  # the record alone (its options may be keywords with defaults)
+    except TypeError as exc:
+        if "too many positional" in str(exc):  # not a matter of the options given
+            return TypeError(
+                "it takes no argument for the record: a fitness function is called as "
+                "fn(record, **options)"
+            )
+    try:
         signature.bind(None, **options)
     except TypeError as exc:
         return exc

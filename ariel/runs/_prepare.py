@@ -85,8 +85,9 @@ def _check_fitness_options(
     config: ExperimentConfig, fitness: FitnessFunction, world: object
 ) -> None:
     exc = fitness_options_error(fitness, config.task.options)
-    if exc is not None:
-        raise ConfigError(f"task.options: fitness function '{config.task.fitness}': {exc}")
+    if exc is not None:  # the function's own signature, or the options the config gives it
+        key = "task.fitness" if "no argument for the record" in str(exc) else "task.options"
+        raise ConfigError(f"{key}: fitness function '{config.task.fitness}': {exc}")
     _check_windows(config, getattr(world, "timestep", None))
 
 

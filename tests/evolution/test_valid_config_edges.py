@@ -364,3 +364,22 @@ def test_a_float_module_count_is_one_line_and_writes_nothing(
         "not 6.7"
     ), line
     assert not out.exists()
+
+
+def test_a_fitness_function_without_a_record_argument_is_named_not_its_options() -> None:
+    """It said 'task.options: ... too many positional arguments' with no options given."""
+
+    @fitness_function(maximise=True)
+    def no_record() -> float:
+        return 1.0
+
+    fitness_functions.register("test_no_record", no_record)
+    try:
+        with pytest.raises(ConfigError) as caught:
+            resolve_plugins(load_config({}, ["task.fitness=test_no_record"]))
+    finally:
+        fitness_functions.unregister("test_no_record")
+    assert str(caught.value) == (
+        "task.fitness: fitness function 'test_no_record': it takes no argument for the record: "
+        "a fitness function is called as fn(record, **options)"
+    )
