@@ -54,10 +54,11 @@ def print_campaign_status(rows: Iterable[dict[str, Any]], title: str) -> None:
 
 
 def print_frame(frame: pd.DataFrame, title: str) -> None:
-    """A table of text (a `Comparison` table), as wide as it needs."""
+    """A table of text (a `Comparison` table), as wide as it needs; a cell too wide for its
+    column wraps, never cut short (cut, two conditions named alike read the same: "sigma0…")."""
     table = Table(title=Text(terminal_text(title)))
     for heading in frame.columns:
-        table.add_column(Text(terminal_text(heading)))
+        table.add_column(Text(terminal_text(heading)), overflow="fold")
     for row in frame.itertuples(index=False):
         table.add_row(*(Text(terminal_text(cell)) for cell in row))
     Console(width=max(160, Console().width)).print(table)

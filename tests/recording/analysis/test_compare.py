@@ -960,3 +960,16 @@ def test_many_conditions_get_their_own_colours_and_a_legend_beside_the_figure(
     path = plots.best_so_far_figure(few, tmp_path / "few.png", ylabel="best (m)")
     with Image.open(path) as image:
         assert wide > image.width + 200  # 40 entries beside the axes, in two columns
+
+
+def test_the_terminal_tables_wrap_long_condition_names_rather_than_cut_them(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Cut to "sigma0-0.1…", the A and B columns of a pair read the same."""
+    from ariel.cli._tables import print_frame
+
+    names = [f"sigma0-0.1_smoothing-0.{k}_a_long_tail_of_settings" for k in (2, 4)]
+    frame = pd.DataFrame({f"column {k}": [names[0], names[1]] for k in range(12)})
+    print_frame(frame, "pairs")
+    printed = capsys.readouterr().out
+    assert "…" not in printed and "..." not in printed
