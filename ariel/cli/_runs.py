@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -53,6 +54,8 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     if args.prune:
         return prune_runs(folder, yes=args.yes)
     campaign = is_campaign(folder)
+    if not campaign and folder.name == "runs" and is_campaign(folder.parent):  # CAMPAIGN/runs
+        folder, campaign = folder.parent, True
     if not campaign and (folder / "run.json").is_file():  # "no runs under RUN" misled
         return fail(
             f"{str(folder)!r} is a run folder; list the folder that holds it: "
@@ -88,10 +91,12 @@ def _cmd_runs(args: argparse.Namespace) -> int:
 
 def _shown_name(run: RunSummary, campaign: bool) -> str:
     """The run's id, and its folder's name where that is another (a copied or renamed folder:
-    the name to type in the next command). A campaign's runs are named by their ids: their
-    folders are all ``seed=N``."""
+    the name to type in the next command). A campaign's runs (folders all ``seed=N``) by
+    their folders from here, the names the next command takes."""
     name = Path(run["path"]).name
-    if campaign or name == run["run_id"]:
+    if campaign:
+        return terminal_text(os.path.relpath(run["path"]))
+    if name == run["run_id"]:
         return terminal_text(run["run_id"])
     return f"{terminal_text(name)} (run id {terminal_text(run['run_id'])})"
 
@@ -111,5 +116,12 @@ def _campaign_runs(folder: Path) -> list[RunSummary]:
     found = []
     for condition in sorted(runs_dir.iterdir()):
         if condition.is_dir() and not condition.is_symlink():
-            found += recording.list_runs(condition)
+            found += sorted(recording.list_runs(condition), key=_seed_order)
     return found
+
+
+def _seed_order(run: RunSummary) -> tuple[int, str]:
+    """``seed=2`` before ``seed=10`` (by name, 10 came first)."""
+    name = Path(run["path"]).name
+    number = name.removeprefix("seed=")
+    return (int(number), name) if number.isdigit() else (-1, name)

@@ -178,6 +178,14 @@ def test_existing_commands_work_on_a_campaign_s_run_folders(
     run_dir = campaign / "runs/condition=inherit/seed=1"
     assert main(["runs", str(campaign / "runs/condition=inherit")]) == 0
     assert "tiny-inherit-s1" in capsys.readouterr().out
+    # The campaign's listing names each run by its folder (a run id is no folder to type), and
+    # CAMPAIGN/runs lists them too (it said "no runs under").
+    for listed in (campaign, campaign / "runs"):
+        assert main(["runs", str(listed)]) == 0
+        names = [line.split()[0] for line in capsys.readouterr().out.splitlines()[1:]]
+        assert [Path(name).resolve() for name in names] == [
+            (campaign / f"runs/condition={c}/seed={s}").resolve() for c, s in RUNS
+        ]
     assert main(["report", str(run_dir), "--no-render"]) == 0
     assert (run_dir / "report" / "fitness.png").is_file()
     assert main(["replay", str(run_dir), "best"]) == 0

@@ -771,7 +771,7 @@ def test_verify_and_runs_show_a_folder_name_as_text(
     assert exit_code(["runs", str(campaign)]) == 0  # a campaign: its runs
     out = capsys.readouterr().out
     assert "no runs under" not in out
-    assert len([line for line in out.splitlines() if "-fresh-s1 " in line]) == 1
+    assert len([line for line in out.splitlines() if "condition=fresh/seed=1 " in line]) == 1
     assert len(out.splitlines()) == 5  # the heading and 4 runs
 
 
