@@ -174,7 +174,7 @@ def run_state_notes(curves: Sequence[RunCurve]) -> list[str]:
             f"{len(unfinished)} of {len(curves)} runs are not finished ({said}): compared at "
             "the generations they have finished; compare again once they finish"
         )
-    failed = [c for c in curves if not c.evaluations["fitness"].map(math.isfinite).any()]
+    failed = [c for c in curves if not any(map(math.isfinite, c.evaluations["fitness"]))]
     if failed:
         names = ", ".join(label[id(c)] for c in failed[:5]) + (", ..." if len(failed) > 5 else "")
         notes.append(

@@ -14,7 +14,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from ariel.recording.store import DESCRIPTORS, atomic_write, figure_label, integ
 
 if TYPE_CHECKING:
     import pandas as pd
+    from matplotlib.artist import Artist
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
@@ -60,7 +61,7 @@ LEGEND_INSIDE = 6
 _LEGEND_ROWS = 24  # entries per legend column beside the figure
 
 
-def _colours(names: Sequence[str]) -> dict[str, str | tuple[float, ...]]:
+def _colours(names: Sequence[str]) -> dict[str, str]:
     """A colour per condition: matplotlib's cycle for up to its ten; more from a colour map,
     each its own (the cycle repeated: conditions 1 and 11 shared a colour)."""
     plt = _pyplot()
@@ -70,11 +71,17 @@ def _colours(names: Sequence[str]) -> dict[str, str | tuple[float, ...]]:
     many = len(names) > 20
     colour_map = plt.get_cmap("turbo" if many else "tab20")
     spread = np.linspace(0.0, 1.0, len(names)) if many else np.arange(len(names)) / 20
-    return {name: tuple(colour_map(float(spread[i]))) for i, name in enumerate(names)}
+    return {name: _hex(colour_map(float(spread[i]))) for i, name in enumerate(names)}
+
+
+def _hex(rgba: Sequence[float]) -> str:
+    return "#" + "".join(f"{round(255 * channel):02x}" for channel in rgba[:3])
 
 
 def _legend(
-    axes: Axes, handles: Sequence[object] | None = None, labels: Sequence[str] | None = None
+    axes: Axes,
+    handles: Sequence[Artist | tuple[Artist, ...]] | None = None,
+    labels: Sequence[str] | None = None,
 ) -> None:
     """The legend of ``axes`` (its labelled artists, or ``handles`` with ``labels``): inside
     it where it fits, else beside the figure (in columns of `_LEGEND_ROWS`), where it covers
@@ -85,7 +92,7 @@ def _legend(
         axes.legend(handles, labels, loc="best", fontsize="small")
         return
     axes.figure.legend(
-        handles,
+        cast("list[Artist]", handles),  # a tuple handle draws as its parts (HandlerTuple)
         labels,
         loc="upper left",
         bbox_to_anchor=(1.0, 0.95),
