@@ -199,7 +199,8 @@ def test_an_existing_output_folder_is_left_alone(
     run_dir, _ = finished_run
     said = {
         mine: "already exists; choose another --out (it is not an ariel run folder",
-        run_dir: "already exists; pass --overwrite to replace it, or choose another --out",
+        run_dir: "already exists; pass --overwrite (from Python: overwrite=True) to replace it, "
+        "or choose another --out",
     }
     for folder in (mine, run_dir):
         before = snapshot(folder)

@@ -96,6 +96,13 @@ class CampaignResult:
         """The campaign's records (`ariel.recording.load_campaign`)."""
         return load_campaign(self.path)
 
+    def __repr__(self) -> str:  # one line, as Run's (a notebook cell's last value)
+        damaged = f", {len(self.damaged)} damaged" if self.damaged else ""
+        return (
+            f"<CampaignResult {self.campaign_id}: {self.status}, {len(self.runs)} runs driven, "
+            f"{self.skipped} finished before{damaged}, {self.wall_seconds:.1f} s>"
+        )
+
 
 @dataclass
 class _Run:

@@ -215,6 +215,12 @@ def noted_on_interrupt(name: str, folder: Path, once: str | None = None) -> Iter
     except KeyboardInterrupt as exc:
         if once is None or (folder / once).is_file():
             setattr(exc, name, folder)
+            # A script's or notebook's traceback shows it (the ariel command prints its own).
+            call = "resume_campaign" if name == "campaign_dir" else "resume_experiment"
+            exc.add_note(
+                f"interrupted: its finished generations are kept; continue it with "
+                f"{call}({str(folder)!r})"
+            )
         raise
 
 

@@ -15,7 +15,7 @@ generation's records before the writer saves its checkpoint, and run.json follow
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
@@ -296,7 +296,7 @@ def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, Loop
     return info, config, state
 
 
-def _check_same_plugins(run_dir: Path, info: dict[str, Any], prepared: PreparedRun) -> None:
+def _check_same_plugins(run_dir: Path, info: Mapping[str, object], prepared: PreparedRun) -> None:
     """`ConfigError` when a plugin of the user's own (not ariel's) registered under the run's
     name is another object than the one run.json's ``plugins`` recorded, or the fitness now
     runs the other way: a resume would mix two plugins in one run (a notebook that registers

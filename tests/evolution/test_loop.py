@@ -109,8 +109,13 @@ def test_an_interrupted_run_resumes_to_the_same_records(
 
     monkeypatch.setattr(Progress, "end_generation", stop_after_generation_one)
     out = tmp_path / "killed"
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt) as caught:
         run_experiment(tiny(), out=out)
+    # what a notebook's traceback shows (it said "KeyboardInterrupt" alone, or "Interrupted: 2")
+    assert caught.value.__notes__ == [
+        f"interrupted: its finished generations are kept; continue it with "
+        f"resume_experiment({str(out)!r})"
+    ]
     assert load_run(out).info["status"] == "interrupted"
     assert load_run(out).generations_done == 2
     monkeypatch.setattr(Progress, "end_generation", original)

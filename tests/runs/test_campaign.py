@@ -273,8 +273,9 @@ def test_an_interrupted_campaign_resumes_to_the_records_of_an_uninterrupted_one(
     # Serial: every run's generation 0 ends first (calls 1-4), then generation 1; the 7th
     # call comes after two runs finished and before the others did.
     _interrupt_at(monkeypatch, 7)
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt) as caught:
         run_campaign(TINY, out=out)
+    assert caught.value.__notes__[-1].endswith(f"resume_campaign({str(out)!r})")
     monkeypatch.undo()
     statuses = {(r["condition"], r["seed"]): r["status"] for r in load_campaign(out).status()}
     assert sorted(statuses.values()) == ["finished", "finished", "interrupted", "interrupted"]
@@ -286,6 +287,8 @@ def test_an_interrupted_campaign_resumes_to_the_records_of_an_uninterrupted_one(
     resumed = resume_campaign(out)
     assert resumed.status == "finished" and resumed.skipped == 2 and len(resumed.runs) == 2
     assert not list(out.rglob(".lock"))
+    # one line in a notebook (the dataclass's own repr was 1,261 characters)
+    assert repr(resumed).startswith("<CampaignResult tiny: finished, 2 runs driven, 2 finished")
     assert campaign_digests(out) == campaign_digests(campaign)
     with pytest.raises(ValueError, match="already finished"):
         resume_campaign(out)

@@ -156,6 +156,14 @@ class Comparison:
     readme: Path | None = None
     replaced: bool = False  # ``out`` held an earlier comparison, now replaced
 
+    def __repr__(self) -> str:  # one line, as Run's (a notebook cell's last value)
+        where = f", written to {self.out}" if self.readme is not None else ""
+        notes = f", {len(self.notes)} notes" if self.notes else ""
+        return (
+            f"<Comparison {self.title}: {len(self.conditions)} conditions, {len(self.runs)} "
+            f"runs, at {self.budget:,} evaluations{where}{notes}>"
+        )
+
     def table(self) -> pd.DataFrame:
         """The pairwise statistics as `ariel compare` prints them (a DataFrame of text)."""
         return stats_frame(self)

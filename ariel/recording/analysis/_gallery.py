@@ -149,6 +149,14 @@ class Gallery:
     notes: list[str] = field(default_factory=list)
     atlas: Atlas | None = None
 
+    def __repr__(self) -> str:  # one line, as Run's (a notebook cell's last value)
+        written = ", ".join(str(p) for p in (self.png, self.html) if p is not None) or "nothing"
+        notes = f", {len(self.notes)} notes" if self.notes else ""
+        return (
+            f"<Gallery of {self.source.name} ({self.of}): {len(self.bodies)} bodies, "
+            f"wrote {written}{notes}>"
+        )
+
 
 def _run_name(run: Run) -> str:
     run_id = run.info.get("run_id")

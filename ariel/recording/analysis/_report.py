@@ -113,6 +113,13 @@ class Report:
     figures: dict[str, Figure] = field(default_factory=dict, repr=False)
     announce: Callable[[str], None] | None = field(default=None, repr=False)
 
+    def __repr__(self) -> str:  # one line, as Run's (a notebook cell's last value)
+        notes = f", {len(self.notes)} notes" if self.notes else ""
+        return (
+            f"<Report of {self.run.path.name}: {len(self.table)} generations, "
+            f"{len(self.written)} files written in {self.folder}{notes}>"
+        )
+
     def wrote(self, path: Path) -> None:
         """Add ``path`` to the files written, and say so (``announce``)."""
         self.written.append(path)

@@ -209,8 +209,13 @@ def _instead(path: Path) -> str:
     except NotARunError:
         return "choose another --out (it is not an ariel run folder: --overwrite leaves it alone)"
     if info.get("status") == "finished":
-        return "pass --overwrite to replace it, or choose another --out"
-    return f"pass --overwrite to replace it, or continue it with: {resume_line(path, info)}"
+        return (
+            "pass --overwrite (from Python: overwrite=True) to replace it, or choose another --out"
+        )
+    return (
+        "pass --overwrite (from Python: overwrite=True) to replace it, or continue it with: "
+        f"{resume_line(path, info)}"
+    )
 
 
 def resume_line(run_dir: Path, info: Mapping[str, object]) -> str:

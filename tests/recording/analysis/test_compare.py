@@ -61,7 +61,12 @@ def test_unfinished_runs_and_runs_without_a_success_are_warned_about() -> None:
     runs[2].info.update(status="finished")
     runs[3].evaluations["fitness"] = -math.inf
     runs[3].evaluations["status"] = "error"
-    notes = compare_runs(runs, None, maximise=True, write=False).notes
+    compared = compare_runs(runs, None, maximise=True, write=False)
+    assert (
+        repr(compared)
+        == "<Comparison comparison: 2 conditions, 4 runs, at 40 evaluations, 3 notes>"
+    )
+    notes = compared.notes
     assert notes[:2] == [
         "2 of 4 runs are not finished (1 interrupted, 1 running): compared at the generations "
         "they have finished; compare again once they finish",

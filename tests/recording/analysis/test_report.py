@@ -282,7 +282,11 @@ def test_a_run_whose_body_encoder_is_not_installed_reports_without_its_bodies(
     missing = "body encoder 'encoder_under_test' is not installed here (or does not load)"
     assert report.notes[0] == f"rendering off: {missing}, which draws the run's bodies"
     assert [path.name for path in report.written] == FIGURES
+    assert repr(report) == (
+        f"<Report of run: 3 generations, 5 files written in {copy / 'report'}, 4 notes>"
+    )
     gallery = make_gallery(copy, progress=False)
+    assert repr(gallery).startswith("<Gallery of run (final): 3 bodies, wrote ")
     assert any(note.endswith(f"thumbnail(s) left out: {missing}") for note in gallery.notes)
     assert (copy / "gallery" / "final.png").is_file()
 
