@@ -16,7 +16,7 @@ from ariel import recording
 from ariel.cli._common import DEFAULT_RUNS, fail
 from ariel.cli._prune import prune_runs
 from ariel.recording.store import UNREADABLE, is_campaign, read_campaign_info, terminal_text
-from ariel.utils import ariel_line
+from ariel.utils import ariel_line, shell_path
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -54,8 +54,8 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     if args.prune:
         return prune_runs(folder, yes=args.yes)
     campaign = is_campaign(folder)
-    if not campaign and folder.name == "runs" and is_campaign(folder.parent):  # CAMPAIGN/runs
-        folder, campaign = folder.parent, True
+    if not campaign and folder.absolute().name == "runs" and is_campaign(folder / ".."):
+        folder, campaign = folder / "..", True  # CAMPAIGN/runs (also `.` inside it)
     if not campaign and (folder / "run.json").is_file():  # "no runs under RUN" misled
         return fail(
             f"{str(folder)!r} is a run folder; list the folder that holds it: "
@@ -64,6 +64,8 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     if campaign:
         read_campaign_info(folder)  # a campaign.json refused elsewhere is refused here: one line
     runs = _campaign_runs(folder) if campaign else recording.list_runs(folder)
+    if folder.absolute().name.startswith("condition="):  # a campaign's condition: its seeds
+        runs.sort(key=_seed_order)
     if not runs:
         print(f"no runs under {terminal_text(folder)}")
         return 0
@@ -94,8 +96,8 @@ def _shown_name(run: RunSummary, campaign: bool) -> str:
     the name to type in the next command). A campaign's runs (folders all ``seed=N``) by
     their folders from here, the names the next command takes."""
     name = Path(run["path"]).name
-    if campaign:
-        return terminal_text(os.path.relpath(run["path"]))
+    if campaign:  # quoted where the shell needs it (a space), as the other hints are
+        return terminal_text(shell_path(os.path.relpath(run["path"])))
     if name == run["run_id"]:
         return terminal_text(run["run_id"])
     return f"{terminal_text(name)} (run id {terminal_text(run['run_id'])})"

@@ -164,7 +164,9 @@ async def _identity(distributed: ModuleType, address: str) -> object:
             return await comm.read()
         finally:
             comm.abort()
-    except (OSError, TimeoutError):  # refused, closed, unreachable; or no answer in time
+    except distributed.comm.CommClosedError as exc:  # it took the connection, then hung up
+        raise _NotDaskError() from exc
+    except (OSError, TimeoutError):  # refused, unreachable; or no answer in time
         raise
     except Exception as exc:  # any: e.g. an SSH banner read as a frame length (MemoryError)
         raise _NotDaskError() from exc

@@ -44,8 +44,10 @@ from ariel.evolution._events import (
     RunObserver,
     RunStarted,
 )
+from ariel.evolution._optimizer import Proposal
 from ariel.evolution._seeds import derive_rng
 from ariel.evolution._state import Body, LoopState, state_to_plain
+from ariel.evolution._tasks import body_spec
 
 __all__ = ["Plugins", "RunDriver", "budget", "distinct_bodies", "fixed_genotype"]
 
@@ -308,6 +310,7 @@ class RunDriver:
         children = []
         try:
             proposals = list(optimizer.ask(count))
+            _check_proposals(proposals, count, {body.body_id for body in parents}, config)
         except Exception as exc:  # any: the optimizer's own code
             raise self._optimizer_failed(exc) from exc
         for proposal in proposals:
@@ -412,6 +415,25 @@ class RunDriver:
             self.state.population,
             key=lambda b: (fitness_rank(b.fitness, self.plugins.maximise), b.number),
         )
+
+
+def _check_proposals(
+    proposals: Sequence[Proposal], count: int, population: set[str], config: ExperimentConfig
+) -> None:
+    """What the body optimizer asked for can be made and stored (`ValueError`, one line): as
+    many genotypes as asked, each plain data (JSON: the bodies table stores it), each child's
+    parents in the population it was bred from (a parent id of no body made a "finished" run
+    that `verify` then called damaged). `check_body_optimizer` checks the same before a run."""
+    if len(proposals) != count:
+        raise ValueError(f"ask({count}) gave {len(proposals)} genotypes")
+    for proposal in proposals:
+        unknown = sorted(set(proposal.parent_ids) - population)
+        if unknown:
+            raise ValueError(f"a child's parents {unknown[:3]} are not in its population")
+        try:  # as its body's spec stores it (numpy arrays as lists), then hashes it as JSON
+            _ = body_spec(config, proposal.genotype).key
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"a genotype is not plain data (JSON): {exc}") from None
 
 
 def distinct_bodies(population: Sequence[Body]) -> tuple[int, int]:

@@ -320,6 +320,7 @@ def resume_campaign(
         address=address,
         command=("campaign", "resume", campaign_dir),
     )
+    executor_kind(settings.kind).reach(settings)  # before any run.json is touched
     with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
         locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)

@@ -289,6 +289,7 @@ def resume_experiment(
         address=address,
         command=("resume", run_dir),
     )
+    executor_kind(settings.kind).reach(settings)  # before run.json is touched
     with storage_errors(folder.path), contextlib.ExitStack() as locks:
         # Checked again under the lock: another resume may have run (or finished) the run.
         session = RunSession.reopen(folder, locks, settings)

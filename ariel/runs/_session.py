@@ -306,9 +306,11 @@ def _check_same_plugins(run_dir: Path, info: Mapping[str, object], prepared: Pre
         if kind not in REGISTRIES or not isinstance(entry, dict):
             continue
         was, name = entry.get("object"), entry.get("name")
-        if not (isinstance(was, str) and isinstance(name, str)) or was.startswith("ariel."):
-            continue  # ariel's own plugins may move between modules from version to version
+        if not (isinstance(was, str) and isinstance(name, str)):
+            continue
         now = str(plugin_provenance({kind: name})[kind].get("object"))
+        if was.startswith("ariel.") and now.startswith("ariel."):
+            continue  # ariel's own plugins may move between modules from version to version
         if "__main__" in (was.partition(":")[0], now.partition(":")[0]):  # a script, run
             was, now = was.partition(":")[2], now.partition(":")[2]  # as itself or imported
         if now != was:

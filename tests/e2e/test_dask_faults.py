@@ -160,6 +160,27 @@ def test_a_scheduler_that_does_not_answer_leaves_no_run_or_campaign_folder(
         assert not out.exists()
 
 
+def test_resume_asks_the_scheduler_before_it_touches_the_run_folder(
+    tmp_path: Path, banner_server: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """run.json said 'failed' and named the bad address after a refused resume (and a plain
+    resume then went to a local Dask cluster)."""
+    from _helpers import exit_code, one_error_line
+
+    from ariel.recording.store import RunFolder
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("resume_banner", 1, generations=1))
+    out = tmp_path / "run"
+    assert exit_code(["run", str(config), "--out", str(out), "--quiet"]) == 0
+    RunFolder(out).update_info(status="interrupted")  # as a run stopped before its end
+    before = (out / "run.json").read_bytes()
+    resume = ["resume", str(out), "--quiet", "--executor", "dask", "--address", banner_server]
+    assert exit_code(resume) == 2
+    assert "is not a Dask scheduler" in one_error_line(capsys)
+    assert (out / "run.json").read_bytes() == before
+
+
 def test_without_dask_the_dask_executor_is_one_line_and_no_folder(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -7,6 +7,7 @@ line before anything is written (a failure during a run: one line and RUN/error.
 from __future__ import annotations
 
 import gc
+import re
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -151,6 +152,60 @@ def test_a_body_optimizer_failing_during_a_run_stops_it_in_one_line_with_error_l
     assert "error.log" in line and "resume_experiment(" in line, line
     assert "raised by body optimizer" in (out / "error.log").read_text()
     assert load_run(out).info["status"] == "failed"
+
+
+class _StrayParent(GeneticAlgorithm):
+    """A GA whose children in a run name a parent of no body (the check's pass)."""
+
+    def __init__(self, *, seed: int, **keywords: Any) -> None:
+        super().__init__(seed=seed, **keywords)
+        self.in_a_run = seed != CHECK_SEED
+
+    def ask(self, n: int) -> list[Any]:
+        asked = super().ask(n)
+        if not (self.in_a_run and self.population):
+            return asked
+        return [replace(asked[0], parent_ids=["nope"]), *asked[1:]]
+
+
+def test_a_body_optimizer_s_stray_parent_stops_the_run_before_it_is_stored(
+    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The run 'finished', and verify then called its bodies table damaged (crafted)."""
+    body_optimizers.register("test_stray_parent", _StrayParent)
+    try:
+        out = tmp_path / "out"
+        argv = ["run", str(tiny), "--out", str(out), "--quiet", "--set", "generations=2"]
+        assert exit_code([*argv, "--set", "body.optimizer=test_stray_parent"]) == 2
+    finally:
+        body_optimizers.unregister("test_stray_parent")
+    line = one_error_line(capsys)
+    assert line.startswith(
+        "ariel: error: body optimizer 'test_stray_parent' failed between evaluations: "
+        "ValueError: a child's parents ['nope'] are not in its population"
+    ), line
+    assert load_run(out).generations_done == 1
+
+
+@pytest.mark.parametrize(
+    ("change", "said"),
+    [
+        ({"count": 3}, "ask(3) gave 2 genotypes"),
+        ({"genotype": object()}, "a genotype is not plain data (JSON): Object of type object"),
+        ({"parents": ["b000009"]}, "a child's parents ['b000009'] are not in its population"),
+    ],
+)
+def test_what_a_body_optimizer_asks_for_is_checked(change: dict, said: str) -> None:
+    from ariel.evolution._driver import _check_proposals
+    from ariel.evolution._optimizer import Proposal
+
+    config = load_config({}, ["body.encoder=graph"])
+    proposals = [
+        Proposal(change.get("genotype", [1.0, 2.0]), change.get("parents", ["b000001"])),
+        Proposal([3.0], []),
+    ]
+    with pytest.raises(ValueError, match=re.escape(said)):
+        _check_proposals(proposals, change.get("count", 2), {"b000001"}, config)
 
 
 class _NanCandidates(CMAES):
@@ -383,3 +438,32 @@ def test_a_fitness_function_without_a_record_argument_is_named_not_its_options()
         "task.fitness: fitness function 'test_no_record': it takes no argument for the record: "
         "a fitness function is called as fn(record, **options)"
     )
+
+
+def test_resume_refuses_ariel_s_own_plugin_replaced_by_another() -> None:
+    """Only the user's own plugins were compared: `xy_displacement` registered again as
+    another function (replace=True) resumed, two fitness functions in one run."""
+    from types import SimpleNamespace
+
+    from ariel.runs._session import _check_same_plugins
+
+    stored = {
+        "kind": "fitness",
+        "name": "xy_displacement",
+        "object": "ariel.evaluation.builtin_plugins:xy_displacement",
+    }
+    info = {"plugins": {"fitness": stored}, "maximise": True}
+    prepared: Any = SimpleNamespace(plugins=SimpleNamespace(maximise=True))
+    _check_same_plugins(Path("run"), info, prepared)  # ariel's own, as recorded: resumes
+    original = fitness_functions.get("xy_displacement")
+
+    @fitness_function(maximise=True)
+    def mine(record: Any) -> float:
+        return 0.0
+
+    fitness_functions.register("xy_displacement", mine, replace=True)
+    try:
+        with pytest.raises(ConfigError, match="resuming would mix two plugins in one run"):
+            _check_same_plugins(Path("run"), info, prepared)
+    finally:
+        fitness_functions.register("xy_displacement", original, replace=True)

@@ -70,7 +70,8 @@ def _colours(names: Sequence[str]) -> dict[str, str]:
         return {name: cycle[i] for i, name in enumerate(names)}
     many = len(names) > 20
     colour_map = plt.get_cmap("turbo" if many else "tab20")
-    spread = np.linspace(0.0, 1.0, len(names)) if many else np.arange(len(names)) / 20
+    # (turbo's ends are near black and dark red: left out)
+    spread = np.linspace(0.08, 0.92, len(names)) if many else np.arange(len(names)) / 20
     return {name: _hex(colour_map(float(spread[i]))) for i, name in enumerate(names)}
 
 
@@ -174,7 +175,14 @@ def final_best_figure(finals: Mapping[str, np.ndarray], path: Path, *, ylabel: s
         x = position + jitter.uniform(-0.12, 0.12, size=len(values))
         axes.scatter(x, values, color=colours[name], zorder=3, s=22, edgecolor="black")
     labels = [figure_label(n) for n in names]
-    axes.set_xticks(range(1, len(names) + 1), labels, rotation=20 if len(names) > 3 else 0)
+    slanted = len(names) > 3 or max(map(len, labels)) > 15  # long names overlapped level
+    axes.set_xticks(
+        range(1, len(names) + 1),
+        labels,
+        rotation=30 if slanted else 0,
+        ha="right" if slanted else "center",
+        rotation_mode="anchor",
+    )
     axes.set_ylabel(ylabel)
     axes.set_title("final best per run (one point per seed)")
     axes.grid(alpha=0.3, axis="y")

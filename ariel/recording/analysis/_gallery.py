@@ -47,6 +47,7 @@ from ariel.recording.analysis._gallery_select import (
     key_descriptors,
     picks,
 )
+from ariel.recording.analysis._gallery_titles import gallery_subtitle, gallery_title
 from ariel.recording.store import (
     STALE_S,
     Run,
@@ -54,7 +55,6 @@ from ariel.recording.store import (
     atomic_write,
     atomic_write_bytes,
     cannot_write,
-    fitness_label,
     is_campaign,
     load_campaign,
     load_run,
@@ -158,54 +158,6 @@ class Gallery:
         )
 
 
-def _run_name(run: Run) -> str:
-    run_id = run.info.get("run_id")
-    return one_line(run_id if isinstance(run_id, str) and run_id else run.path.name)
-
-
-def _subtitle(run: Run, key: tuple[str, str], capped: str = "") -> str:
-    fitness = fitness_label(str(run.config.get("task", {}).get("fitness", "")), run.maximise)
-    labels = f"{fitness}; each label: body id, fitness, {key[0]}, {key[1]}"
-    return f"{labels}; {capped}" if capped else labels
-
-
-def _title(run: Run, of: str, chosen: list[Pick], atlas: Atlas | None, total: int) -> str:
-    generation = run.generations_done - 1
-    if generation < 0 or not chosen:
-        why = "no finished generation yet" if generation < 0 else "no body with a fitness"
-        return f"{_run_name(run)}: {why}"
-    if of == "final":
-        what = f"the population after generation {generation}, best first "
-        what += f"({_bodies(chosen, total)})"
-    elif of == "elites":
-        what = f"the archive's elites after generation {generation}, best first "
-        what += f"({_bodies(chosen, total)})"
-    elif of == "archive" and atlas is not None:
-        share = f"{atlas.filled / atlas.cells:.0%}" if atlas.cells else "-"
-        what = f"the archive after generation {generation}: {atlas.filled} of {atlas.cells} "
-        what += f"cells ({share})" + (", placed by their measures" if atlas.binned else "")
-        what += f", the best {len(chosen)} shown" if len(chosen) < total else ""
-    elif of == "archive":
-        what = f"the archive's elites after generation {generation} ({_bodies(chosen, total)})"
-    else:
-        ancestors, nearest = total - 1, "nearest " if len(chosen) < total else ""
-        what = (
-            f"the best body and its {nearest}{len(chosen) - 1} of {ancestors} ancestors, "
-            "oldest first"
-            if nearest
-            else f"the best body and its {ancestors} ancestor(s), oldest first"
-            if ancestors > 0
-            else "the best body (a founder: no ancestors)"
-        )
-    return f"{_run_name(run)}: {what}"
-
-
-def _bodies(chosen: list[Pick], total: int) -> str:
-    if len(chosen) < total:
-        return f"the best {len(chosen)} of {total} bodies"
-    return f"{len(chosen)} bod{'y' if len(chosen) == 1 else 'ies'}"
-
-
 def _command(run: Run, eval_id: str) -> str:
     recorded = (run.path / "run.rrd").is_file() or (run.path / "recordings").is_dir()
     return ariel_line("view" if recorded else "replay", run.path, eval_id)
@@ -262,28 +214,33 @@ def _thumbnails(
     if not jobs:
         return list(paths)
     runs = {str(pick.run.path): pick.run for pick in chosen}
-    problem = None if render else "rendering off"
+    undrawn: set[str] = set()  # left out: no OpenGL, rendering off, a plugin not here, failed
     for run_path in dict.fromkeys(job.run_path for job in jobs.values()) if render else ():
-        problem = resim.missing_plugin(runs[run_path])  # not installed here: none drawn
-        if problem is not None:
-            break
+        missing = resim.missing_plugin(runs[run_path])  # not installed here: its bodies left out
+        if missing is not None:
+            left = {key for key, job in jobs.items() if job.run_path == run_path}
+            gallery.notes.append(f"{len(left)} thumbnail(s) left out: {missing}")
+            undrawn |= left
+            continue
         # drawing makes each body's encoder and world: options they reject are one line
         resim.check_options(runs[run_path], resim.BODY_PLUGINS)
-    if problem is None and render:
-        problem = _gallery_render.gl_problem()
+    jobs = {key: job for key, job in jobs.items() if key not in undrawn}
+    problem = (_gallery_render.gl_problem() if render else "rendering off") if jobs else None
     if problem is not None:
         gallery.notes.append(f"{len(jobs)} thumbnail(s) left out: {problem}")
-        return [None if str(path) in jobs else path for path in paths]
-    workers = min(workers or default_workers(), len(jobs) // _gallery_render.PER_WORKER or 1)
-    with ThumbnailProgress(len(jobs), workers=workers, show=progress) as shown:
-        drawn = _gallery_render.render_thumbnails(
-            list(jobs.values()), workers=workers, runs=runs, on_done=shown.advance
-        )
-    for path, why in drawn.items():
-        if why is not None:
-            gallery.notes.append(f"{jobs[path].body_id}: no thumbnail ({why})")
-    gallery.drawn = sum(why is None for why in drawn.values())
-    return [None if drawn.get(str(path), None) is not None else path for path in paths]
+        undrawn |= set(jobs)
+    elif jobs:
+        workers = min(workers or default_workers(), len(jobs) // _gallery_render.PER_WORKER or 1)
+        with ThumbnailProgress(len(jobs), workers=workers, show=progress) as shown:
+            drawn = _gallery_render.render_thumbnails(
+                list(jobs.values()), workers=workers, runs=runs, on_done=shown.advance
+            )
+        for path, why in drawn.items():
+            if why is not None:
+                gallery.notes.append(f"{jobs[path].body_id}: no thumbnail ({why})")
+                undrawn.add(path)
+        gallery.drawn = sum(why is None for why in drawn.values())
+    return [None if str(path) in undrawn else path for path in paths]
 
 
 def body_thumbnails(
@@ -361,9 +318,9 @@ def _run_gallery(run: Run, of: str) -> tuple[Gallery, list[Pick]]:
         chosen, hidden = placed, len(chosen) - len(placed)
     shown = _capped(chosen, of, run.maximise)
     key = key_descriptors(run)
-    title = _title(run, of, shown, atlas, len(chosen))
+    title = gallery_title(run, of, shown, atlas, len(chosen))
     gallery = Gallery(
-        run.path, of, title, _subtitle(run, key, _cap_text(len(shown), len(chosen))), key
+        run.path, of, title, gallery_subtitle(run, key, _cap_text(len(shown), len(chosen))), key
     )
     gallery.atlas = atlas
     if of == "archive" and atlas is None and chosen:
@@ -385,7 +342,7 @@ def _campaign_gallery(path: Path) -> tuple[Gallery, list[Pick]]:
     shown = _capped(chosen, "final", runs[0].maximise) if runs else chosen
     key = key_descriptors(runs[0]) if runs else ("num_modules", "num_hinges")
     capped = _cap_text(len(shown), len(chosen))
-    subtitle = _subtitle(runs[0], key, capped) if runs else ""
+    subtitle = gallery_subtitle(runs[0], key, capped) if runs else ""
     title = f"{name}: the best body of {_campaign_what([pick.run for pick in chosen])}"
     gallery = Gallery(path, "final", title, subtitle, key)
     if len(chosen) < len(runs):

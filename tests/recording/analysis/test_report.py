@@ -291,6 +291,37 @@ def test_a_run_whose_body_encoder_is_not_installed_reports_without_its_bodies(
     assert (copy / "gallery" / "final.png").is_file()
 
 
+def test_a_gallery_leaves_out_only_the_bodies_of_a_run_whose_plugin_is_missing(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A campaign's gallery drew no body at all when one run's encoder was not installed."""
+    from ariel.recording.analysis import _gallery, _gallery_render
+    from ariel.recording.analysis._gallery_select import Pick
+
+    here, missing = tmp_path / "here", tmp_path / "missing"
+    for folder in (here, missing):
+        shutil.copytree(run_dir, folder, ignore=shutil.ignore_patterns("report", "gallery"))
+    info = json.loads((missing / "run.json").read_text())
+    info["config"]["body"]["encoder"] = "encoder_under_test"
+    (missing / "run.json").write_text(json.dumps(info))
+    drawn: list[str] = []
+
+    def render(jobs, **kwargs):
+        drawn.extend(job.run_path for job in jobs)
+        return {job.path: None for job in jobs}
+
+    monkeypatch.setattr(_gallery_render, "gl_problem", lambda: None)
+    monkeypatch.setattr(_gallery_render, "render_thumbnails", render)
+    picks = [Pick(load_run(f), load_run(f).bodies.iloc[0].to_dict()) for f in (missing, here)]
+    gallery = _gallery.Gallery(tmp_path, "final", "t", "s", ("num_modules", "symmetry"))
+    shown = _gallery._thumbnails(gallery, picks, workers=1, render=True)
+    assert drawn == [str(here)] and shown[0] is None and shown[1] is not None
+    assert gallery.notes == [
+        "1 thumbnail(s) left out: body encoder 'encoder_under_test' is not installed here "
+        "(or does not load)"
+    ]
+
+
 def test_without_opengl_the_body_image_is_left_out_with_a_note(
     run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
