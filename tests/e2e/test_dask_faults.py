@@ -126,6 +126,32 @@ def banner_server() -> Iterator[str]:
     server.close()
 
 
+@pytest.fixture
+def hanging_up_server() -> Iterator[str]:
+    """A TCP port where something takes each connection and closes it at once."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+
+    def hang_up() -> None:
+        while True:
+            try:
+                server.accept()[0].close()
+            except OSError:
+                return
+
+    threading.Thread(target=hang_up, daemon=True).start()
+    yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    server.close()
+
+
+def test_a_server_that_hangs_up_is_not_a_dask_scheduler(hanging_up_server: str) -> None:
+    """It said 'cannot reach ... CommClosedError': something had answered there."""
+    error = _within(20, lambda: make_executor("dask", address=hanging_up_server))
+    assert isinstance(error, ConfigError), error
+    assert f"{hanging_up_server} is not a Dask scheduler" in str(error), error
+
+
 def test_a_server_of_another_protocol_is_not_a_dask_scheduler(banner_server: str) -> None:
     error = _within(20, lambda: make_executor("dask", address=banner_server))
     assert isinstance(error, ConfigError), error
