@@ -13,6 +13,7 @@ import textwrap
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from _helpers import repo_env, signal_run_group, tiny_run_toml
@@ -105,44 +106,35 @@ def test_an_address_where_nothing_or_no_dask_answers_is_one_line_in_bounded_time
     assert any(text in str(error) for text in said), error
 
 
-@pytest.fixture
-def banner_server() -> Iterator[str]:
-    """A TCP port where a server of another protocol greets first (as SSH does): Dask read
-    the banner as a frame length and failed allocating 2.8 EiB ("cannot reach ...")."""
+def _serving(answer: Any) -> Iterator[str]:
+    """A TCP port where a thread calls ``answer(peer)`` on each connection it takes."""
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(8)
 
-    def greet() -> None:
+    def serve() -> None:
         while True:
             try:
-                peer, _ = server.accept()
-                peer.sendall(b"SSH-2.0-OpenSSH_9.6p1 Ubuntu-3ubuntu13\r\n")
+                answer(server.accept()[0])
             except OSError:
                 return
 
-    threading.Thread(target=greet, daemon=True).start()
+    threading.Thread(target=serve, daemon=True).start()
     yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
     server.close()
+
+
+@pytest.fixture
+def banner_server() -> Iterator[str]:
+    """A server of another protocol that greets first (as SSH does): Dask read the banner as
+    a frame length and failed allocating 2.8 EiB ("cannot reach ...")."""
+    yield from _serving(lambda peer: peer.sendall(b"SSH-2.0-OpenSSH_9.6p1 Ubuntu\r\n"))
 
 
 @pytest.fixture
 def hanging_up_server() -> Iterator[str]:
-    """A TCP port where something takes each connection and closes it at once."""
-    server = socket.socket()
-    server.bind(("127.0.0.1", 0))
-    server.listen(8)
-
-    def hang_up() -> None:
-        while True:
-            try:
-                server.accept()[0].close()
-            except OSError:
-                return
-
-    threading.Thread(target=hang_up, daemon=True).start()
-    yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
-    server.close()
+    """Something that takes each connection and closes it at once."""
+    yield from _serving(lambda peer: peer.close())
 
 
 def test_a_server_that_hangs_up_is_not_a_dask_scheduler(hanging_up_server: str) -> None:

@@ -122,12 +122,31 @@ def test_a_brain_optimizer_failing_during_a_run_stops_it_in_one_line_with_error_
     assert load_run(out).info["status"] == "failed"
 
 
-class _StateOfObjects(GeneticAlgorithm):
-    """A GA whose state in a run holds an object JSON cannot store (the check's passes)."""
+def _failed_run(
+    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, optimizer: Any
+) -> tuple[Path, str]:
+    """``ariel run`` of the tiny config with body optimizer ``optimizer`` registered as
+    ``name``, which must fail (exit 2): its folder and its one error line."""
+    body_optimizers.register(name, optimizer)
+    try:
+        out = tmp_path / "out"
+        argv = ["run", str(tiny), "--out", str(out), "--quiet", "--set", "generations=2"]
+        assert exit_code([*argv, "--set", f"body.optimizer={name}"]) == 2
+    finally:
+        body_optimizers.unregister(name)
+    return out, one_error_line(capsys)
+
+
+class _GAInARun(GeneticAlgorithm):
+    """A GA that knows whether it is the pre-run check's (made with its seed) or a run's."""
 
     def __init__(self, *, seed: int, **keywords: Any) -> None:
         super().__init__(seed=seed, **keywords)
         self.in_a_run = seed != CHECK_SEED
+
+
+class _StateOfObjects(_GAInARun):
+    """A GA whose state in a run holds an object JSON cannot store (the check's passes)."""
 
     def state(self) -> Any:
         return {**super().state(), "bad": object()} if self.in_a_run else super().state()
@@ -137,14 +156,7 @@ def test_a_body_optimizer_failing_during_a_run_stops_it_in_one_line_with_error_l
     tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Its state is not plain data: one line naming it (a traceback before), resumable."""
-    body_optimizers.register("test_state_of_objects", _StateOfObjects)
-    try:
-        out = tmp_path / "out"
-        argv = ["run", str(tiny), "--out", str(out), "--quiet"]
-        assert exit_code([*argv, "--set", "body.optimizer=test_state_of_objects"]) == 2
-    finally:
-        body_optimizers.unregister("test_state_of_objects")
-    line = one_error_line(capsys)
+    out, line = _failed_run(tiny, tmp_path, capsys, "test_state_of_objects", _StateOfObjects)
     assert line.startswith(
         "ariel: error: body optimizer 'test_state_of_objects' failed between evaluations "
         "(its state() is not plain data (JSON)): TypeError: Object of type object"
@@ -154,12 +166,8 @@ def test_a_body_optimizer_failing_during_a_run_stops_it_in_one_line_with_error_l
     assert load_run(out).info["status"] == "failed"
 
 
-class _StrayParent(GeneticAlgorithm):
+class _StrayParent(_GAInARun):
     """A GA whose children in a run name a parent of no body (the check's pass)."""
-
-    def __init__(self, *, seed: int, **keywords: Any) -> None:
-        super().__init__(seed=seed, **keywords)
-        self.in_a_run = seed != CHECK_SEED
 
     def ask(self, n: int) -> list[Any]:
         asked = super().ask(n)
@@ -172,14 +180,7 @@ def test_a_body_optimizer_s_stray_parent_stops_the_run_before_it_is_stored(
     tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """The run 'finished', and verify then called its bodies table damaged (crafted)."""
-    body_optimizers.register("test_stray_parent", _StrayParent)
-    try:
-        out = tmp_path / "out"
-        argv = ["run", str(tiny), "--out", str(out), "--quiet", "--set", "generations=2"]
-        assert exit_code([*argv, "--set", "body.optimizer=test_stray_parent"]) == 2
-    finally:
-        body_optimizers.unregister("test_stray_parent")
-    line = one_error_line(capsys)
+    out, line = _failed_run(tiny, tmp_path, capsys, "test_stray_parent", _StrayParent)
     assert line.startswith(
         "ariel: error: body optimizer 'test_stray_parent' failed between evaluations: "
         "ValueError: a child's parents ['nope'] are not in its population"
