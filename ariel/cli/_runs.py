@@ -63,9 +63,12 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         )
     if campaign:
         read_campaign_info(folder)  # a campaign.json refused elsewhere is refused here: one line
-    runs = _campaign_runs(folder) if campaign else recording.list_runs(folder)
-    if folder.absolute().name.startswith("condition="):  # a campaign's condition: its seeds
-        runs.sort(key=_seed_order)
+    if campaign:
+        runs = _campaign_runs(folder)
+    elif folder.absolute().name.startswith("condition="):  # one condition of a campaign
+        runs = _condition_runs(folder)
+    else:
+        runs = recording.list_runs(folder)
     if not runs:
         print(f"no runs under {terminal_text(folder)}")
         return 0
@@ -118,8 +121,13 @@ def _campaign_runs(folder: Path) -> list[RunSummary]:
     found = []
     for condition in sorted(runs_dir.iterdir()):
         if condition.is_dir() and not condition.is_symlink():
-            found += sorted(recording.list_runs(condition), key=_seed_order)
+            found += _condition_runs(condition)
     return found
+
+
+def _condition_runs(condition: Path) -> list[RunSummary]:
+    """The runs of one ``condition=<name>/`` folder of a campaign, seeds in numeric order."""
+    return sorted(recording.list_runs(condition), key=_seed_order)
 
 
 def _seed_order(run: RunSummary) -> tuple[int, str]:

@@ -245,8 +245,9 @@ class BrainRun:
                 f"{params.shape}; the run needs ({self.popsize}, {self.n_params}): "
                 "popsize x parameters"
             )
-        if not np.isfinite(params).all():  # a task's params must be finite: name the learner
-            rows = np.flatnonzero(~np.isfinite(params).all(axis=1))
+        finite = np.isfinite(params).all(axis=1)
+        if not finite.all():  # a task's params must be finite: name the learner
+            rows = np.flatnonzero(~finite)
             raise ValueError(
                 f"brain optimizer {self.optimizer!r} asked for candidates with NaN or inf "
                 f"(candidate {', '.join(map(str, rows[:3].tolist()))}"

@@ -148,19 +148,32 @@ def check_options(
             ) from None
 
 
+def _unloadable(run: Run, kinds: Sequence[str]) -> tuple[str, str, Exception] | None:
+    """The first of the run's plugins of ``kinds`` that does not load here: its kind, its
+    name and what its registry raised (a `PluginLoadError`: installed, but broken); None
+    when all of them load. A name that is no string is `check_options`' to refuse."""
+    for kind in kinds:
+        section, key = _PLUGIN_KEYS[kind]
+        name = run.config.get(section, {}).get(key)
+        if not isinstance(name, str):
+            continue
+        try:
+            REGISTRIES[kind].get(name)
+        except (KeyError, ValueError, ImportError) as exc:
+            return kind, name, exc
+    return None
+
+
 def missing_plugin(run: Run, kinds: Sequence[str] = BODY_PLUGINS) -> str | None:
     """Why the run's plugins of ``kinds`` cannot be made here, in words (the first not
     installed, or not loading); None when all of them load. Report and gallery then draw
     what needs no body."""
-    config = _experiment(run)
-    for kind in kinds:
-        section, key = _PLUGIN_KEYS[kind]
-        name, registry = getattr(getattr(config, section), key), REGISTRIES[kind]
-        try:
-            registry.get(name)
-        except (KeyError, ValueError, ImportError):
-            return f"{registry.label} {short_ascii(name)} is not installed here (or does not load)"
-    return None
+    _experiment(run)  # a config that does not validate: one line, as before anything is drawn
+    found = _unloadable(run, kinds)
+    if found is None:
+        return None
+    kind, name, _ = found
+    return f"{REGISTRIES[kind].label} {short_ascii(name)} is not installed here (or does not load)"
 
 
 def _require_plugins(run: Run) -> None:
@@ -171,29 +184,23 @@ def _require_plugins(run: Run) -> None:
     # The built-in plugins load mujoco: import it first, so that a GL backend that cannot
     # load (MUJOCO_GL) fails as itself (`gl_backend_error`), not as a plugin not installed.
     mujoco_module()
-    for kind, (section, key) in _PLUGIN_KEYS.items():
-        name = run.config.get(section, {}).get(key)
-        if not isinstance(name, str):
-            continue
-        registry = REGISTRIES[kind]
-        try:
-            registry.get(name)
-        except PluginLoadError as exc:  # installed, but its import or its object is broken
+    found = _unloadable(run, tuple(_PLUGIN_KEYS))
+    if found is not None:
+        kind, name, exc = found
+        (section, key), label = _PLUGIN_KEYS[kind], REGISTRIES[kind].label
+        plugin = f"{label} {name!r} ({section}.{key})"
+        if isinstance(exc, PluginLoadError):  # installed, but its import or its object broken
             raise MissingPluginError(
-                f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
-                f"({section}.{key}) is installed here but does not load: {one_line(str(exc))}"
-            ) from None
-        except (KeyError, ValueError, ImportError):
-            served = (run.info.get("plugins") or {}).get(kind) or {}
-            source = served.get("distribution") if isinstance(served, dict) else None
-            hint = (
-                f"install {one_line(source)}" if source else "install the package that provides it"
+                f"replay re-simulates with the run's plugins: {plugin} is installed here but "
+                f"does not load: {one_line(str(exc))}"
             )
-            raise MissingPluginError(
-                f"replay re-simulates with the run's plugins: {registry.label} {name!r} "
-                f"({section}.{key}) is not installed here; {hint} (report, load_run and view "
-                "need no plugins)"
-            ) from None
+        served = (run.info.get("plugins") or {}).get(kind) or {}
+        source = served.get("distribution") if isinstance(served, dict) else None
+        hint = f"install {one_line(source)}" if source else "install the package that provides it"
+        raise MissingPluginError(
+            f"replay re-simulates with the run's plugins: {plugin} is not installed here; "
+            f"{hint} (report, load_run and view need no plugins)"
+        )
     check_options(run)
 
 
