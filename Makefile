@@ -67,7 +67,8 @@ test: setup gl
 	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q
 
 # The soak tests `make test` leaves out (pytest's "soak" marker: runs killed again and again,
-# the benchmarks' smoke runs); CI runs them after `make test`.
+# the benchmarks' smoke runs, headless-browser views, slower signal variants); CI runs them
+# after `make test`.
 test-soak: setup gl
 	$(GL_ENV) MPLBACKEND=Agg $(PY) -m pytest -q -m soak
 

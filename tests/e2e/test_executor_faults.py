@@ -171,7 +171,12 @@ def test_a_run_whose_fork_server_is_killed_goes_on_without_a_word(tmp_path: Path
 @posix_only
 @pytest.mark.parametrize(
     ("whole_group", "delay"),
-    [(True, 0.3), (False, 1.0), (True, 2.0)],
+    # ~10-15 s each: the driver alone in `make test`, the whole group with the soak tests
+    [
+        pytest.param(True, 0.3, marks=pytest.mark.soak),
+        (False, 1.0),
+        pytest.param(True, 2.0, marks=pytest.mark.soak),
+    ],
     ids=["group", "driver", "group-later"],
 )
 def test_sigterm_to_a_local_campaign_ends_in_one_line(

@@ -360,6 +360,7 @@ def brain_reference(configs: dict[str, Path], tmp_path_factory: pytest.TempPathF
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.soak  # ~20 s; the default suite kills runs in test_lock and test_watch
 def test_killed_before_the_first_generation_then_after_a_checkpoint(
     configs, reference, tmp_path: Path
 ) -> None:

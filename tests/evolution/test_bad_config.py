@@ -197,7 +197,10 @@ def test_a_plugin_failing_during_a_run_stops_it_in_one_line_resumable(
 # --- 12: signals, config paths that are not files, a long EVAL_ID ---------------------------
 
 
-@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
+# SIGHUP takes the same path as SIGTERM; its variant runs with the soak tests (~10 s each).
+@pytest.mark.parametrize(
+    "signum", [signal.SIGTERM, pytest.param(signal.SIGHUP, marks=pytest.mark.soak)]
+)
 def test_sigterm_and_sighup_stop_a_run_like_ctrl_c(
     tmp_path: Path, signum: int, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -254,7 +257,11 @@ def test_a_300_character_eval_id_is_one_line_in_view(
 # --- 13: a script without a __main__ guard --------------------------------------------------
 
 
-@pytest.mark.parametrize("out", ["run", None], ids=["out", "default-folder"])
+@pytest.mark.parametrize(
+    "out",
+    [pytest.param("run", marks=pytest.mark.soak), None],  # ~12 s each: one in `make test`
+    ids=["out", "default-folder"],
+)
 def test_a_script_without_a_main_guard_stops_in_one_line_per_worker(
     tmp_path: Path, out: str | None
 ) -> None:

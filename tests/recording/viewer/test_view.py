@@ -475,6 +475,7 @@ def _tinted(image: np.ndarray, colour: tuple[int, int, int]) -> float:
 
 
 @pytest.mark.skipif(not CHROMIUM.exists(), reason=f"{CHROMIUM} missing (apt-get install chromium)")
+@pytest.mark.soak  # a headless browser: ~20 s, with the soak tests
 def test_a_headless_browser_loads_the_recording_from_the_served_viewer(recorded_run, tmp_path):
     best = select_recordings(recorded_run, best=1).recordings[0].stem
     served = ServedWebViewer(
@@ -520,6 +521,7 @@ def test_a_headless_browser_loads_the_recording_from_the_served_viewer(recorded_
 
 
 @pytest.mark.skipif(not CHROMIUM.exists(), reason=f"{CHROMIUM} missing (apt-get install chromium)")
+@pytest.mark.soak  # a headless browser: ~20 s, with the soak tests
 def test_a_screenshot_shows_the_robot_drawn_in_3d(tmp_path: Path) -> None:
     result = run_experiment({**TINY, "record": {"rerun": True}}, out=tmp_path / "run")
     shot = tmp_path / "viewer.png"

@@ -49,6 +49,7 @@ def _viewer_state(browser: HeadlessChromium) -> list[str]:
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium or Chrome to run headless")
+@pytest.mark.soak  # a headless browser: ~20 s, with the soak tests
 def test_a_browser_opens_the_live_view_and_it_shows_the_run(run_dir: Path, tmp_path: Path) -> None:
     command = ["watch", str(run_dir), "--web", "--port", "0", "--grpc-port", "0"]
     watcher = subprocess.Popen(
