@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from ariel import recording
 from ariel.cli._common import fail
 from ariel.recording import resim
-from ariel.recording.store import cannot_write, terminal_text, user_file
+from ariel.recording.store import cannot_write, output_file_problem, terminal_text, user_file
 from ariel.utils import python_command
 
 if TYPE_CHECKING:
@@ -58,6 +58,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
         )
     if args.lineage is not None and os.path.lexists(args.lineage):  # a dangling link too
         return fail(_exists(args.lineage))  # before anything is written
+    problem = None if args.lineage is None else output_file_problem(args.lineage)
+    if problem is not None:  # a folder, or inside a run folder: its records are never replaced
+        return fail(f"--lineage: {problem}")
     if args.out is not None:
         out = resim.export(args.run_dir, str(args.eval_id), args.out)  # given with DIR
         python = python_command()

@@ -179,8 +179,9 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
 
 def _check_out(out: Path) -> None:
     """`ExportError` where ``out`` cannot be the export's folder: a symbolic link, behind one
-    that leads nowhere (`_check_way`), not an empty folder, or the folder this command runs
-    in (renamed onto, it would leave the shell in a removed folder)."""
+    that leads nowhere (`_check_way`), not an empty folder, the folder this command runs
+    in (renamed onto, it would leave the shell in a removed folder), or inside a run or
+    campaign folder (whose records no command writes among)."""
     if out.is_symlink():
         raise ExportError(f"{str(out)!r} is a symbolic link; name a new folder")
     _check_way(out)
@@ -190,6 +191,12 @@ def _check_out(out: Path) -> None:
         raise ExportError(
             f"{str(out)!r} is the folder this command runs in: name a new folder (an export "
             "is written whole beside it and then renamed into its place)"
+        )
+    records = store.records_folder_of(out)
+    if records is not None:
+        raise ExportError(
+            f"{str(out)!r} is inside the run or campaign folder {str(records)!r}, whose "
+            "records are never written among: name a folder outside it"
         )
 
 

@@ -51,7 +51,7 @@ import pandas as pd
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
 from ariel.errors import DamagedRunError
 from ariel.recording.store._escape import csv_safe, short_ascii
-from ariel.recording.store._files import atomic_write
+from ariel.recording.store._files import atomic_write, output_file_problem
 from ariel.recording.store._ids import BODY_ID
 
 if TYPE_CHECKING:
@@ -291,7 +291,8 @@ def write_lineage_csv(
 
     Written whole, to a temporary name, fsynced, then renamed
     (`ariel.recording.store._files.atomic_write`): a killed writer leaves no half file, and a file
-    in a folder that is a symbolic link is refused.
+    in a folder that is a symbolic link is refused, and so is a file inside a run or campaign
+    folder (`output_file_problem`: its records are never written over).
 
     Args:
         frame: The lineage: columns ``id`` and ``ancestor_list`` at least.
@@ -307,8 +308,8 @@ def write_lineage_csv(
 
     Raises:
         FileExistsError: When ``path`` exists and ``overwrite`` is False.
-        ValueError: When ``frame`` lacks ``id`` or ``ancestor_list``, or ``still_alive`` is not
-            one of `ALIVE_MARKS`.
+        ValueError: When ``frame`` lacks ``id`` or ``ancestor_list``, ``still_alive`` is not
+            one of `ALIVE_MARKS`, or ``path`` is a folder or inside a run or campaign folder.
     """
     path = Path(path)
     missing = [column for column in ("id", "ancestor_list") if column not in frame.columns]
@@ -321,6 +322,9 @@ def write_lineage_csv(
             f"{str(path)!r} already exists; pass overwrite=True to replace it, or choose "
             "another file"
         )
+    problem = output_file_problem(path)
+    if problem is not None:
+        raise ValueError(problem)
     table = frame.copy()
     for column in ("destruction_time", "destruction_evaluation"):
         if column in table.columns:

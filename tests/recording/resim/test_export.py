@@ -92,6 +92,28 @@ def test_export_into_a_folder_that_is_not_empty_is_one_line(
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
 
 
+def test_nothing_is_exported_into_a_run_folder(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An export or a lineage CSV inside a run folder was written there, among its records
+    (a folder named like a generation's table, a CSV in manifests/): the run then failed
+    `ariel verify`. Refused in one line, as --rrd and --video are."""
+    from ariel.recording import lineage, write_lineage_csv
+
+    before = sorted(p.relative_to(run_dir) for p in run_dir.rglob("*"))
+    table = next((run_dir / "evaluations").glob("*.parquet")).with_name("gen-000099.parquet")
+    for command in (
+        ["export", str(run_dir), "best", str(table)],
+        ["export", str(run_dir), "best", str(run_dir / "new" / "deeper")],
+        ["export", str(run_dir), "--lineage", str(run_dir / "manifests" / "lineage.csv")],
+    ):
+        assert exit_code(command) == 2, command
+        assert "is inside the run or campaign folder" in one_error_line(capsys)
+    with pytest.raises(ValueError, match="inside the run or campaign folder"):
+        write_lineage_csv(lineage(load_run(run_dir)), run_dir / "lineage.csv")
+    assert sorted(p.relative_to(run_dir) for p in run_dir.rglob("*")) == before
+
+
 # --- a run folder is data: its ids never become code ------------------------------------------
 
 CRAFTED = '"""\nimport pathlib; pathlib.Path("code-ran").touch()\n"""'
