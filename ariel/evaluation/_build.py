@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import json
+import threading
 import time as _time
 from collections import OrderedDict
 from collections.abc import Callable
@@ -68,6 +69,7 @@ class BuiltBody:
 
 _BUILD_CACHE: OrderedDict[str, BuiltBody] = OrderedDict()
 _BUILD_CACHE_SIZE = 4
+_BUILD_CACHE_LOCK = threading.Lock()  # evaluations in two threads of one process
 
 
 def _build_key(task: EvaluationTask) -> str:
@@ -134,10 +136,11 @@ def build(task: EvaluationTask) -> BuiltBody:
         ValueError: The encoder or world rejected an option's value.
     """
     key = _build_key(task)
-    cached = _BUILD_CACHE.get(key)
-    if cached is not None:
-        _BUILD_CACHE.move_to_end(key)
-        return cached
+    with _BUILD_CACHE_LOCK:
+        cached = _BUILD_CACHE.get(key)
+        if cached is not None:
+            _BUILD_CACHE.move_to_end(key)
+            return cached
 
     start = _time.perf_counter()
     encoder = make_plugin(body_encoders, task.body.encoder, task.body.options)
@@ -182,9 +185,10 @@ def build(task: EvaluationTask) -> BuiltBody:
         initial_state=state,
         build_time=_time.perf_counter() - start,
     )
-    _BUILD_CACHE[key] = built
-    while len(_BUILD_CACHE) > _BUILD_CACHE_SIZE:
-        _BUILD_CACHE.popitem(last=False)
+    with _BUILD_CACHE_LOCK:
+        _BUILD_CACHE[key] = built
+        while len(_BUILD_CACHE) > _BUILD_CACHE_SIZE:
+            _BUILD_CACHE.popitem(last=False)
     return built
 
 

@@ -28,6 +28,7 @@ from ariel.evaluation._task import EvaluationResult, EvaluationTask
 from ariel.evaluation._threads import evaluation_threads
 from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.controller import blend_and_clip
+from ariel.utils import SharedSetting
 
 if TYPE_CHECKING:
     from ariel.plugins import FitnessFunction, OpenLoopController
@@ -70,13 +71,18 @@ def control_sequence(
     return np.repeat(held, min(period, nstep), axis=1)[:, :nstep]
 
 
-_ROLLOUTS: dict[int, _rollout.Rollout] = {}
+#: Each thread's rollout pools, by their thread count: one `Rollout` used by two threads at
+#: once crashed the process (two runs or evaluate_batch calls in threads of one process).
+_ROLLOUTS = threading.local()
+#: The GIL switch interval, short while any thread pipelines a lone candidate.
+_SHORT_SWITCH = SharedSetting(sys.getswitchinterval, sys.setswitchinterval, 1e-4)
 
 
 def _rollout_pool(nthread: int) -> _rollout.Rollout:
-    pool = _ROLLOUTS.get(nthread)
+    pools: dict[int, _rollout.Rollout] = _ROLLOUTS.__dict__.setdefault("pools", {})
+    pool = pools.get(nthread)
     if pool is None:
-        pool = _ROLLOUTS[nthread] = _rollout.Rollout(nthread=nthread)
+        pool = pools[nthread] = _rollout.Rollout(nthread=nthread)
     return pool
 
 
@@ -197,15 +203,13 @@ def _pipelined_single(
         name="ariel-cpg",
         daemon=True,
     )
-    interval = sys.getswitchinterval()
-    sys.setswitchinterval(1e-4)
-    try:
-        producer.start()
-        with control_callback_unset():
-            return _step_pieces(pieces, chunks, built, nstep, period, smoothing)
-    finally:
-        sys.setswitchinterval(interval)
-        producer.join()
+    with _SHORT_SWITCH.held():
+        try:
+            producer.start()
+            with control_callback_unset():
+                return _step_pieces(pieces, chunks, built, nstep, period, smoothing)
+        finally:
+            producer.join()
 
 
 def _step_pieces(

@@ -7,7 +7,13 @@ from collections.abc import Iterator
 
 import mujoco
 
+from ariel.utils import SharedSetting
+
 __all__ = ["control_callback_unset"]
+
+#: Unset while any thread is inside `control_callback_unset` (two threads' evaluations at
+#: once: the first one out must not put the callback back under the other's rollout).
+_UNSET = SharedSetting(mujoco.get_mjcb_control, mujoco.set_mjcb_control, None)
 
 
 @contextlib.contextmanager
@@ -18,7 +24,7 @@ def control_callback_unset() -> Iterator[None]:
     Python one makes compile fail: "engine error: Python exception raised"), and
     ``mujoco.rollout`` steps without the GIL, where a Python callback must never run. The
     callback is process-global: don't use this while another thread steps a simulation that
-    relies on it.
+    relies on it. Threads may overlap in it: the callback is back when the last one leaves.
 
     Yields:
         None; inside the ``with`` block no control callback is set (the previous one, if any,
@@ -39,12 +45,5 @@ def control_callback_unset() -> Iterator[None]:
         mujoco.set_mjcb_control(None)
         ```
     """
-    callback = mujoco.get_mjcb_control()
-    if callback is None:
+    with _UNSET.held():
         yield
-        return
-    mujoco.set_mjcb_control(None)
-    try:
-        yield
-    finally:
-        mujoco.set_mjcb_control(callback)

@@ -52,6 +52,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         MIN_OPEN_FILES as MIN_OPEN_FILES,
         open_files_short as open_files_short,
     )
+    from ariel.utils._shared_setting import (
+        SharedSetting as SharedSetting,
+    )
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
@@ -78,6 +81,7 @@ _INTERNAL: dict[str, str] = {
     "replace_non_finite": "ariel.utils._json",
     "report_interrupted": "ariel.utils._commands",
     "shell_path": "ariel.utils._commands",
+    "SharedSetting": "ariel.utils._shared_setting",
     "strings_argument": "ariel.utils._arguments",
     "whole_numbers": "ariel.utils._arguments",
 }
