@@ -1,14 +1,18 @@
 """The run's viewer layout (``blueprint.rbl``, `write_blueprint`): an evaluation's robot,
 morphology and joints beside the run's fitness and diversity per generation (and a MAP-Elites
 archive), and `save_blueprint`, which writes any layout whole (encoded in memory by
-`blueprint_bytes`, written by `atomic_write`).
+`blueprint_bytes`, written by `atomic_write`); `save_layout` writes one a function makes,
+encoded once per process.
 """
 
 from __future__ import annotations
 
+import functools
 import os
+import threading
+from collections.abc import Callable, Hashable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ariel.recording.rerun._archive import archive_view
 from ariel.recording.rerun._chunks import APPLICATION_ID, rerun_module
@@ -19,7 +23,7 @@ from ariel.recording.store import atomic_write_bytes
 if TYPE_CHECKING:
     from rerun.blueprint import Blueprint, BlueprintPart, Container, ContainerLike, View
 
-__all__ = ["blueprint", "blueprint_bytes", "save_blueprint", "write_blueprint"]
+__all__ = ["blueprint", "blueprint_bytes", "save_blueprint", "save_layout", "write_blueprint"]
 
 
 def blueprint(
@@ -153,10 +157,29 @@ def write_blueprint(
     Returns:
         ``path``, as a `Path`.
     """
-    layout = blueprint(
-        panels=panels, archive=archive, fitness_unit=fitness_unit, run_curves=run_curves
-    )
-    return save_blueprint(path, layout, APPLICATION_ID)
+    options = {"panels": panels, "archive": archive, "fitness_unit": fitness_unit}
+    return save_layout(path, blueprint, APPLICATION_ID, run_curves=run_curves, **options)
+
+
+def save_layout(
+    path: str | os.PathLike[str],
+    make: Callable[..., Blueprint],
+    application_id: str,
+    **options: Hashable,
+) -> Path:
+    """`save_blueprint` of ``make(**options)``, its bytes encoded once per process for each
+    ``make``, ``application_id`` and ``options`` (every run writes the same few layouts, and
+    Rerun keeps the threads of each blueprint it encodes until the process ends)."""
+    data = _layout_bytes(make, application_id, tuple(sorted(options.items())))
+    atomic_write_bytes(Path(path), data)
+    return Path(path)
+
+
+@functools.lru_cache(maxsize=64)
+def _layout_bytes(
+    make: Callable[..., Blueprint], application_id: str, options: tuple[tuple[str, Hashable], ...]
+) -> bytes:
+    return blueprint_bytes(make(**dict(options)), application_id)
 
 
 def save_blueprint(path: str | os.PathLike[str], layout: Blueprint, application_id: str) -> Path:
@@ -174,6 +197,28 @@ def save_blueprint(path: str | os.PathLike[str], layout: Blueprint, application_
     return path
 
 
+#: (application id, $RERUN) -> a carrier recording and its memory sink. Rerun never drops a
+#: recording made from Python (its batcher threads live on), so a fresh carrier per blueprint
+#: left 2 threads behind each (and the blueprint's own stream 2 more: `save_layout`).
+_CARRIERS: dict[tuple[str, str | None], tuple[Any, Any]] = {}
+_CARRIERS_LOCK = threading.Lock()
+
+
+def _carrier(application_id: str) -> tuple[Any, Any]:
+    key = (application_id, os.environ.get("RERUN"))
+    if key not in _CARRIERS:
+        rr = rerun_module()
+        carrier = rr.RecordingStream(
+            application_id, make_default=False, make_thread_default=False, send_properties=False
+        )
+        if not rr.is_enabled(carrier):  # the RERUN environment variable switches streams off
+            raise RuntimeError("Rerun is switched off (RERUN=off): it encodes no blueprint")
+        sink = carrier.memory_recording()
+        sink.drain_as_bytes()  # the carrier's store info: not a blueprint's
+        _CARRIERS[key] = carrier, sink
+    return _CARRIERS[key]
+
+
 def blueprint_bytes(layout: Blueprint, application_id: str) -> bytes:
     """The bytes of a blueprint file (``.rbl``) of ``layout``, as ``Blueprint.save`` writes one:
     the blueprint's store (application id ``application_id``), then the command that makes it
@@ -184,17 +229,12 @@ def blueprint_bytes(layout: Blueprint, application_id: str) -> bytes:
     carrier's own store info (an empty recording), drained and dropped before the blueprint is
     sent, so that the bytes hold the blueprint alone (tests/recording/rerun/
     test_write_failures.py checks this against ``Blueprint.save``'s file, should Rerun change).
+    One carrier per application id serves the whole process (`_carrier`).
     """
-    rr = rerun_module()
-    carrier = rr.RecordingStream(
-        application_id, make_default=False, make_thread_default=False, send_properties=False
-    )
-    if not rr.is_enabled(carrier):  # the RERUN environment variable switches every stream off
-        raise RuntimeError("Rerun is switched off (RERUN=off): it encodes no blueprint")
-    sink = carrier.memory_recording()
-    sink.drain_as_bytes()  # the carrier's store info: not the blueprint's
-    carrier.send_blueprint(layout, make_active=True, make_default=True)
-    data = sink.drain_as_bytes()
+    with _CARRIERS_LOCK:  # one blueprint at a time through a carrier's sink
+        carrier, sink = _carrier(application_id)
+        carrier.send_blueprint(layout, make_active=True, make_default=True)
+        data = sink.drain_as_bytes()
     if not data.startswith(b"RRF"):
         raise RuntimeError(f"Rerun encoded no blueprint file ({len(data)} bytes)")
     return data

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ariel.recording.rerun._blueprint import save_blueprint
+from ariel.recording.rerun._blueprint import save_layout
 from ariel.recording.rerun._chunks import _property_chunks, rerun_module, static_chunk
 from ariel.recording.rerun._graph import _graph_parts, graph_colour, tree_positions
 from ariel.recording.rerun._joint_names import joint_labels, module_labels
@@ -283,4 +283,4 @@ def generation_blueprint(*, panels: bool = True) -> Blueprint:
 
 def write_generation_blueprint(path: str | os.PathLike[str], *, panels: bool = True) -> Path:
     """Write `generation_blueprint` (application id ``ariel-generation``) to ``path``."""
-    return save_blueprint(path, generation_blueprint(panels=panels), GENERATION_APPLICATION_ID)
+    return save_layout(path, generation_blueprint, GENERATION_APPLICATION_ID, panels=panels)
