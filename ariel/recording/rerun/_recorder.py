@@ -77,6 +77,7 @@ from ariel.recording.store import (
 if TYPE_CHECKING:
     import mujoco
     from rerun import AsComponents
+    from rerun.chunk import Chunk
 
     from ariel.evaluation import EvaluationResult, EvaluationTask
     from ariel.evolution import Body, ExperimentConfig
@@ -170,6 +171,9 @@ class RerunRecorder:
         refuse_symlinks(self.run_dir / "recordings" / "gen-000000", self.run_dir)
         # per generation: the lineage graph so far
         self._lineages: dict[int, list[AsComponents]] = {}
+        # run.rrd's chunks of each generation (`write_run_recording`), made once: it is
+        # rewritten every generation, and remaking them all was most of a long run's time.
+        self._run_chunks: dict[tuple[str, int], Chunk | None] = {}
         self._described: dict[str, Any] | None = None  # run.json's archive description
         # per generation: its evaluations' traces
         self._traces: dict[int, list[EvaluationTrace]] = {}
@@ -302,6 +306,7 @@ class RerunRecorder:
             archives={g: a for g, a in self._archives.items() if g <= generation},
             lineage={g: a for g, a in self._lineages.items() if g <= generation},
             run_id=self.run_id,
+            chunk_cache=self._run_chunks,
             properties={
                 "run_id": self.run_id,
                 "name": c.name,

@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -299,6 +299,7 @@ def write_run_recording(
     run_id: str = "",
     properties: Mapping[str, object] | None = None,
     fsync: bool = True,
+    chunk_cache: dict[tuple[str, int], Chunk | None] | None = None,
 ) -> Path:
     """Write the run-level ``run.rrd`` on a ``generation`` timeline.
 
@@ -322,11 +323,24 @@ def write_run_recording(
         run_id: The recording's id and name; ``""``: the name of ``path``'s folder.
         properties: Plain values stored as recording properties; None: none.
         fsync: Whether to also fsync the file (it is written whole and renamed either way).
+        chunk_cache: Where a writer that calls this once per generation (the recorder) keeps
+            each generation's best graph, archive and lineage chunks, which never change once
+            made: only the new generation's are made again. None: all are made.
 
     Returns:
         ``path``, as a `Path`.
     """
     path = Path(path)
+    cache = {} if chunk_cache is None else chunk_cache
+
+    def kept(entity: str, gen: int, make: Callable[[], Sequence[AsComponents]]) -> None:
+        """The generation's chunk at ``entity``, from the cache or made (None: nothing)."""
+        if (entity, gen) not in cache:
+            cache[entity, gen] = _at_generation(entity, gen, make())
+        chunk = cache[entity, gen]
+        if chunk is not None:
+            chunks.append(chunk)
+
     generation = np.asarray(generations_df["generation"], dtype=np.int64)
     columns = set(getattr(generations_df, "columns", generations_df))
     if isinstance(best_bodies, Mapping):
@@ -356,17 +370,23 @@ def write_run_recording(
             rr.chunk.Chunk.from_columns("/best/body", gens, rr.TextDocument.columns(text=texts))
         )
         for gen, body in bests:  # one row each: graphs differ in size
-            graph = graph_archetypes(body["graph"]) if body.get("graph") else []
-            if graph:
-                at = [rr.TimeColumn("generation", sequence=[gen])]
-                chunks.append(rr.chunk.Chunk.from_columns("/best/graph", at, _one_row(*graph)))
+            graph = body.get("graph")
+            kept("/best/graph", gen, lambda graph=graph: graph_archetypes(graph) if graph else [])
     for gen, grid in sorted((archives or {}).items()):
-        at = [rr.TimeColumn("generation", sequence=[int(gen)])]
-        chunks.append(rr.chunk.Chunk.from_columns("/archive", at, _one_row(archive_image(grid))))
+        kept("/archive", int(gen), lambda grid=grid: [archive_image(grid)])
     for gen, graph in sorted((lineage or {}).items()):  # one row each: the graph grows
-        at = [rr.TimeColumn("generation", sequence=[int(gen)])]
-        chunks.append(rr.chunk.Chunk.from_columns(LINEAGE_ENTITY, at, _one_row(*graph)))
+        kept(LINEAGE_ENTITY, int(gen), lambda graph=graph: graph)
     return _write_chunks(path, name, chunks, fsync=fsync)
+
+
+def _at_generation(
+    entity: str, generation: int, archetypes: Sequence[AsComponents]
+) -> Chunk | None:
+    """One row of ``archetypes`` at ``entity`` on the ``generation`` timeline; None: none."""
+    if not archetypes:
+        return None
+    at = [rerun_module().TimeColumn("generation", sequence=[int(generation)])]
+    return rerun_module().chunk.Chunk.from_columns(entity, at, _one_row(*archetypes))
 
 
 def run_summary_chunks(generations_df: Generations) -> list[Chunk]:
