@@ -119,6 +119,7 @@ class RunSession:
         locks.enter_context(RunLock(path, create=True))
         info = run_info(prepared, run_id)
         folder = RunFolder.create(path, info, overwrite=overwrite, locked=True)
+        locks.enter_context(_interrupted_while_locked(folder))
         folder.start_segment("run")
         return cls(prepared, folder, run_id)
 
@@ -130,6 +131,7 @@ class RunSession:
         ``locks`` closes: checked (`resumable`, `prepare_run`) before anything is written,
         then its manifests adopted, later generations' files removed, this resume noted."""
         locks.enter_context(RunLock(folder.path))
+        locks.enter_context(_interrupted_while_locked(folder))
         info, config, state = resumable(folder)
         prepared = prepare_run(config, settings)
         _check_same_plugins(folder.path, info, prepared)
@@ -198,6 +200,21 @@ class RunSession:
             best_eval_id=best.best_eval_id,
             wall_seconds=driver.wall_seconds,
         )
+
+
+@contextlib.contextmanager
+def _interrupted_while_locked(folder: RunFolder) -> Iterator[None]:
+    """An interrupt (Ctrl-C, SIGTERM) while this process holds the run's lock but before its
+    driver runs (its plugins checked, its recorder loaded) leaves run.json's status
+    ``interrupted``, as one later does (`drive`): not ``created`` or ``running`` (a killed
+    run's) with nothing running it. Entered on ``locks`` after the lock: left first."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        with contextlib.suppress(Exception):  # a damaged run.json: the interrupt is the news
+            if folder.read_info().get("status") in ("created", "running"):
+                folder.update_info(status="interrupted", ended=now())
+        raise
 
 
 def drive(

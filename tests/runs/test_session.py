@@ -5,6 +5,7 @@ The scheduler is replaced (no physics, no folder): these tests say what `drive` 
 from __future__ import annotations
 
 import contextlib
+import json
 from types import SimpleNamespace
 from typing import Any
 
@@ -63,3 +64,35 @@ def test_a_finished_drive_returns_the_capacity_and_says_finished(
     assert drive(sessions, None, contextlib.nullcontext(), told.append) == 7  # type: ignore[arg-type]
     assert [s.folder.info["status"] for s in sessions] == ["finished", "finished"]  # type: ignore[attr-defined]
     assert told == ["finished"]
+
+
+def test_an_interrupt_before_the_driver_runs_leaves_the_run_interrupted(
+    tmp_path: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C or SIGTERM while a run's lock is held but before its driver runs (a resume's
+    plugins being checked, a new run's recorder loading) left run.json at ``created``, or at a
+    killed run's ``running``: `ariel runs` then said "stopped (killed?)"."""
+    from _helpers import edit_json, tiny_run_toml
+
+    from ariel.runs import resume_experiment, run_experiment
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("early", 5))
+    out = tmp_path / "run"
+
+    def interrupt(*args: Any, **kwargs: Any) -> Any:
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(RunSession, "start", interrupt)  # a new run: before its first evaluation
+        with pytest.raises(KeyboardInterrupt):
+            run_experiment(config, out=out)
+    assert json.loads((out / "run.json").read_text())["status"] == "interrupted"
+    edit_json(out / "run.json", lambda info: info.update(status="running"))  # then SIGKILLed
+    with monkeypatch.context() as patch:
+        patch.setattr(_session, "prepare_run", interrupt)  # a resume: checking its plugins
+        with pytest.raises(KeyboardInterrupt):
+            resume_experiment(out)
+    assert json.loads((out / "run.json").read_text())["status"] == "interrupted"
+    assert not (out / ".lock").exists()
+    assert resume_experiment(out).status == "finished"
