@@ -79,11 +79,16 @@ def address_problem(address: object) -> str | None:
 
 
 def distributed_module() -> ModuleType:
-    """``distributed``, imported now; `ImportError` naming the extra to install if missing."""
+    """``distributed``, imported now; `ImportError` naming the extra to install if missing,
+    or saying in one line why Dask would not load (a malformed Dask configuration file,
+    ``DASK_CONFIG`` or ``~/.config/dask/*.yaml``: Dask reads them on import)."""
     try:
         import distributed  # lazy: a heavy optional library, only for the dask executor
     except ImportError as exc:
         raise ImportError(DASK_MISSING) from exc
+    except Exception as exc:  # its message spans lines: the YAML error is on the last ones
+        reason = " ".join(str(exc).split())[:500]
+        raise ImportError(f"Dask could not load: {reason or type(exc).__name__}") from exc
     return distributed
 
 

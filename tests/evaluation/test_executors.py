@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import functools
+import importlib.abc
 import importlib.util
 import os
 import sys
 import warnings
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -233,6 +235,36 @@ def test_dask_missing_gives_install_hint(monkeypatch: pytest.MonkeyPatch) -> Non
     assert str(info.value) == (
         "Dask executor needs the optional extra: pip install 'ariel[distributed]'"
     )
+
+
+def test_a_dask_that_will_not_load_is_one_line_before_any_folder(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Dask reads its configuration files on import: a malformed one was a 40-line traceback
+    from `ariel run --executor dask` (exit 1), and a campaign cut its message to one line
+    without the YAML error."""
+    from _helpers import exit_code, one_error_line
+
+    malformed = (
+        "A dask config file at 'bad.yaml' is malformed, original error message:\n\n"
+        "while parsing a flow sequence\n  target: [1,2\n  ^"
+    )
+
+    class Malformed(importlib.abc.MetaPathFinder):
+        def find_spec(self, name: str, *args: object) -> None:
+            if name == "distributed":
+                raise ValueError(malformed)
+
+    monkeypatch.delitem(sys.modules, "distributed", raising=False)
+    monkeypatch.setattr(sys, "meta_path", [Malformed(), *sys.meta_path])
+    config = Path(__file__).parents[2] / "experiments" / "coevolve_flat.toml"
+    argv = ["run", str(config), "--out", str(tmp_path / "run"), "--executor", "dask"]
+    assert exit_code(argv) == 2
+    assert one_error_line(capsys) == (
+        "ariel: error: executor.kind: Dask could not load: A dask config file at 'bad.yaml' "
+        "is malformed, original error message: while parsing a flow sequence target: [1,2 ^"
+    )
+    assert not (tmp_path / "run").exists()
 
 
 @needs_dask
