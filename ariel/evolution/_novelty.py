@@ -50,7 +50,7 @@ what an uninterrupted one would.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -299,7 +299,11 @@ class NoveltySearch:
     def ranked(self, bodies: Sequence[Body]) -> list[Body]:
         """``bodies``, best first by ``selection`` (see the module docstring); those that
         failed last, by number."""
-        scores = self.scores(bodies)
+        return self._ranked(bodies, self.scores(bodies))
+
+    def _ranked(
+        self, bodies: Sequence[Body], scores: Mapping[int, tuple[float, int]]
+    ) -> list[Body]:
         failed = sorted((b for b in bodies if b.number not in scores), key=lambda b: b.number)
         scored = sorted((b for b in bodies if b.number in scores), key=lambda b: b.number)
         if self.selection == "novelty":
@@ -339,8 +343,11 @@ class NoveltySearch:
         self.result.tell(children)
         generational = self.settings.survivors == "generational"
         pool = children if generational or not self._population else self._population + children
-        self._population = self.ranked(pool)[: self.settings.population]
-        self._scored = None
+        scores = self.scores(pool)
+        self._population = self._ranked(pool, scores)[: self.settings.population]
+        # The survivors' scores as selection saw them (among the archive and the whole pool),
+        # for the novelty table and the progress line: not remeasured among survivors alone.
+        self._scored = {b.number: scores[b.number] for b in self._population if b.number in scores}
         self.generation += 1
 
     # -- records -------------------------------------------------------------------------------
@@ -355,8 +362,8 @@ class NoveltySearch:
 
     def novelty_rows(self) -> list[dict[str, Any]]:
         """Rows of the ``novelty`` table after a `tell` (`NoveltyRow`): each body of the
-        population, ranked, with its novelty and local competition score as `stats` measures
-        them, and each member of the novelty archive, by body number."""
+        population, ranked, with its novelty and local competition score as selection saw
+        them (`_population_scores`), and each member of the novelty archive, by body number."""
         scores = self._population_scores()
         rank = {b.number: i for i, b in enumerate(self._population)}
         places = {b.number: self.place(b) for b in self._population}
@@ -380,8 +387,8 @@ class NoveltySearch:
         return rows
 
     def _population_scores(self) -> dict[int, tuple[float, int]]:
-        """`scores` of the population, computed once per generation (its rows and its
-        `stats` both read them)."""
+        """The population's scores as its selection saw them (`tell`, or the checkpoint);
+        `scores` of the population alone only for a checkpoint written before they were kept."""
         if self._scored is None:
             self._scored = self.scores(self._population)
         return self._scored
@@ -401,6 +408,11 @@ class NoveltySearch:
         return {
             "generation": self.generation,
             "ranking": [b.number for b in self._population],
+            # [number, novelty, local competition] of the survivors, as selection scored them
+            "scores": [
+                [n, nov if math.isfinite(nov) else None, lc]
+                for n, (nov, lc) in sorted(self._population_scores().items())
+            ],
             # [number, objective, *place] per member, in pyribs' order
             "archive": [
                 [n, float(o), *map(float, p)] for n, o, p in zip(numbers, objectives, places)
@@ -416,7 +428,12 @@ class NoveltySearch:
         self.generation = int(state["generation"])
         by_number = {b.number: b for b in population}
         self._population = [by_number[int(n)] for n in state["ranking"]]
-        self._scored = None
+        kept = state.get("scores")  # None: a checkpoint from before they were kept
+        self._scored = (
+            None
+            if kept is None
+            else {int(n): (math.nan if v is None else float(v), int(c)) for n, v, c in kept}
+        )
         self.archive.clear()
         if state["archive"]:
             # An empty archive takes a whole batch, in order: the same members, same places.

@@ -106,6 +106,25 @@ def test_a_body_s_novelty_is_among_the_archive_and_the_bodies_ranked() -> None:
         assert scores[body.number] == (pytest.approx(novelty, rel=1e-12), beaten)
 
 
+def test_the_recorded_novelty_is_the_one_selection_ranked_by_and_survives_a_checkpoint() -> None:
+    """The novelty table and the progress line measured the survivors again among themselves,
+    not what selection saw (the archive and parents and children): under pure novelty
+    selection the recorded values did not fall with the rank."""
+    rng = np.random.default_rng(11)
+    search = _novelty(k=3, novelty_threshold=0.2)
+    for generation in range(4):
+        search.tell(_random_bodies(rng, 6 * generation, 6))
+        rows = sorted((r for r in search.novelty_rows() if r["rank"] >= 0), key=lambda r: r["rank"])
+        values = [r["novelty"] for r in rows]
+        assert values == sorted(values, reverse=True), generation
+    pool = search.population  # the last tell's pool held these and the bodies it dropped
+    assert [r["novelty"] for r in rows] != [search.scores(pool)[b.number][0] for b in pool]
+    again = _novelty(k=3, novelty_threshold=0.2)
+    again.restore(json.loads(json.dumps(search.state())), pool)
+    assert again.novelty_rows() == search.novelty_rows()
+    assert again.stats() == search.stats()
+
+
 # Five bodies on a line (exact binary places), k = 2: novelty / local competition
 #   A 0     fitness 1: neighbours B, C -> 0.1875 / 0
 #   B 0.125 fitness 5: neighbours A, C -> 0.125  / 2
