@@ -48,6 +48,8 @@ __all__ = [
 ARCHIVES = ("grid", "cvt")
 #: Cells of a CVT archive when ``cells`` is not given (a 8 x 8 grid's number).
 DEFAULT_CELLS = 64
+#: The most cells a CVT may have: pyribs' own examples use 10,000.
+MAX_CVT_CELLS = 10_000
 #: Lloyd's iterations at most.
 ITERATIONS = 50
 
@@ -67,6 +69,8 @@ def check_archive(archive: object, bins: object, cells: object) -> int | None:
     cells = DEFAULT_CELLS if cells is None else cells
     if isinstance(cells, bool) or not isinstance(cells, int) or cells < 1:
         raise ValueError(f"cells must be an integer >= 1 (the CVT's centroids), got {cells!r}")
+    if cells > MAX_CVT_CELLS:  # its centroids' k-means: ~4 s for 10,000 cells, minutes beyond
+        raise ValueError(f"cells must be at most {MAX_CVT_CELLS:,}, got {cells:,}")
     return cells
 
 

@@ -69,7 +69,12 @@ if TYPE_CHECKING:
     from ariel.evolution._config import BodyConfig
     from ariel.plugins import BodyEncoder
 
-__all__ = ["MapElites", "MapElitesState"]
+__all__ = ["MAX_CELLS", "OPTIONS", "MapElites", "MapElitesState"]
+
+#: Every option (``body.optimizer_options``) MAP-Elites takes.
+OPTIONS = ("archive", "bins", "cells", "measures", "qd_offset", "ranges")
+#: The most cells a grid archive may have (its bins multiplied): 316 x 316, or 46 cubed.
+MAX_CELLS = 100_000
 
 
 def _check_options(
@@ -77,16 +82,23 @@ def _check_options(
 ) -> tuple[list[str], list[int], list[tuple[float, float]]]:
 
     known = [*DESCRIPTOR_NAMES, "n_joints"]
-    if not isinstance(measures, list | tuple) or not measures:
+    if not isinstance(measures, list | tuple) or not measures:  # a string too: a list of one
         raise ValueError(f"measures must be a non-empty list of: {', '.join(known)}")
-    for name in measures:
-        if name not in known:
+    for i, name in enumerate(measures):
+        if not isinstance(name, str) or name not in known:
             raise ValueError(f"unknown measure {name!r}; known: {', '.join(known)}")
+        if name in measures[:i]:  # the grid's other cells along it could never fill
+            raise ValueError(f"measure {name!r} is listed twice; each measure once")
     bins = [8] * len(measures) if bins is None else bins
     if not isinstance(bins, list | tuple) or len(bins) != len(measures):
         raise ValueError(f"bins must list one count per measure ({len(measures)}), got {bins!r}")
     if any(not isinstance(b, int) or isinstance(b, bool) or b < 1 for b in bins):
         raise ValueError(f"bins must be integers >= 1, got {bins!r}")
+    if math.prod(bins) > MAX_CELLS:
+        raise ValueError(
+            f"bins {list(bins)} make {math.prod(bins):,} cells; at most {MAX_CELLS:,} (the "
+            "archive is held, drawn and stored whole every generation)"
+        )
     if ranges is None:
         missing = [m for m in measures if m not in DEFAULT_RANGES]
         if missing:
@@ -160,9 +172,12 @@ class MapElites:
         qd_offset: float | None = None,
         archive: str = "grid",
         cells: int | None = None,
+        **unknown: object,
     ) -> None:
+        if unknown:
+            raise TypeError(f"unknown option {sorted(unknown)[0]!r}; allowed: {', '.join(OPTIONS)}")
         cvt_cells = check_archive(archive, bins, cells)
-        self.measures, self.bins, self.ranges = _check_options(list(measures), bins, ranges)
+        self.measures, self.bins, self.ranges = _check_options(measures, bins, ranges)
         self.qd_offset = resolve_qd_offset(qd_offset, maximise)
         self.encoder, self.seed, self.maximise, self.settings = encoder, seed, maximise, settings
         self.kind = archive

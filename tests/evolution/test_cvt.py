@@ -100,6 +100,12 @@ def test_the_optimizer_check_passes_for_a_cvt_and_a_grid() -> None:
         ({"archive": "cvt", "cells": 0}, r"cells must be an integer >= 1 .*got 0"),
         ({"archive": "cvt", "bins": [2, 2]}, "bins is an option of archive = 'grid'"),
         ({"cells": 9}, "cells is an option of archive = 'cvt'"),
+        # Too many cells: a 298 GiB allocation (a traceback), or minutes of k-means unsaid.
+        ({"archive": "cvt", "cells": 10**9}, "cells must be at most 10,000, got 1,000,000,000"),
+        ({"bins": [10**5, 10**5]}, r"bins \[100000, 100000\] make 10,000,000,000 cells; at most"),
+        # Read letter by letter ("unknown measure 'n'"), or a grid only its diagonal fills.
+        ({"measures": "num_limbs"}, "measures must be a non-empty list of: num_modules"),
+        ({"measures": ["depth", "depth"]}, "measure 'depth' is listed twice; each measure once"),
     ],
 )
 def test_bad_options_are_one_config_error(options: dict, message: str, tmp_path: Path) -> None:

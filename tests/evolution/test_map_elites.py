@@ -130,7 +130,7 @@ def test_an_interrupted_map_elites_run_resumes_to_the_same_records(
         ({"measures": MEASURES, "bins": [4]}, "one count per measure"),
         ({"measures": MEASURES, "ranges": [[1, 0], [0, 1]]}, "low < high"),
         ({"measures": ["extent_x"]}, "ranges must be given for extent_x"),
-        ({"colour": "red"}, "unexpected keyword argument 'colour'"),
+        ({"colour": "red"}, "unknown option 'colour'; allowed: archive, bins, cells, measures, "),
     ],
 )
 def test_bad_options_are_one_config_error_and_write_nothing(
