@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -205,3 +206,46 @@ def test_an_old_run_without_a_description_is_its_grid() -> None:
     defaults = describe_archive({"config": {}}, rows)
     assert defaults["measures"] == MEASURES and defaults["ranges"] == [[0.0, 8.0], [0.0, 1.0]]
     assert describe_archive({"config": {}}, rows.iloc[:0]) is None
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda a: a.update(centroids="x"), "has no centroids of one number per measure"),
+        (lambda a: a.update(centroids=a["centroids"][:3]), "another count of cells than of"),
+        (lambda a: a.update(kind="grid", bins=[0, 8]), r"no count of bins \(>= 1\) per measure"),
+        (lambda a: a.update(kind="grid", bins=[4, 4]), "the archive table has a grid other"),
+        (lambda a: a.update(ranges=[[8, 0], [0, 1]]), r"no \[low, high\] range"),
+    ],
+)
+def test_a_damaged_archive_description_is_one_line_not_a_wrong_number(
+    cvt_run: Path, tmp_path: Path, change: Any, message: str
+) -> None:
+    """run.json's archive, edited: readers indexed past the archive (IndexError), divided by
+    no cells (ZeroDivisionError) or drew 400 % coverage from 3 centroids where 32 were."""
+    import shutil
+
+    from ariel.errors import DamagedRunError
+
+    copy = shutil.copytree(cvt_run, tmp_path / "run")
+    info = json.loads((copy / "run.json").read_text())
+    change(info["archive"])
+    (copy / "run.json").write_text(json.dumps(info))
+    run = load_run(copy)
+    with pytest.raises(DamagedRunError, match=f"is damaged: .*{message}"):
+        run.generations  # noqa: B018  # coverage and the QD-score read the description
+    with pytest.raises(DamagedRunError, match=message):
+        run.archive_description  # noqa: B018
+
+
+def test_archive_rows_outside_the_described_archive_are_damage() -> None:
+    from ariel.recording.store import archive_damage
+
+    grid = {"kind": "grid", "measures": ["depth"], "ranges": [[0, 4]], "bins": [4]}
+    rows = pd.DataFrame({"cell": [0, 3], "grid": [[4], [4]]})
+    assert archive_damage(grid, rows) is None
+    assert archive_damage(grid, rows.assign(cell=[0, 4])) == (
+        "the archive table",
+        "has a cell outside the archive's 4",
+    )
+    assert archive_damage(grid, rows.assign(cell=[-1, 0]))[1].startswith("has a cell outside")

@@ -13,6 +13,7 @@ from ariel.utils.lazy import lazy_face
 if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.recording.store._archive import (
         archive_cell_count as archive_cell_count,
+        archive_damage as archive_damage,
         describe_archive as describe_archive,
     )
     from ariel.recording.store._axes import (
@@ -186,6 +187,7 @@ _INTERNAL: dict[str, str] = {
     "adopt_manifests": "ariel.recording.store._verify",
     "ancestors": "ariel.recording.store._lineage",
     "archive_cell_count": "ariel.recording.store._archive",
+    "archive_damage": "ariel.recording.store._archive",
     "archive_quality_table": "ariel.recording.store._load",
     "atomic_write": "ariel.recording.store._files",
     "atomic_write_bytes": "ariel.recording.store._files",

@@ -20,10 +20,13 @@ if TYPE_CHECKING:
 
     from ariel.recording.store._run_folder import JsonObject
 
-__all__ = ["ARCHIVE_KINDS", "archive_cell_count", "describe_archive"]
+__all__ = ["ARCHIVE_KINDS", "archive_cell_count", "archive_damage", "describe_archive"]
 
 #: The kinds of archive a description names.
 ARCHIVE_KINDS = ("grid", "cvt")
+#: More cells than any archive ariel makes (100,000 a grid, 10,000 a CVT), far fewer than a
+#: reader's arrays of them could hold.
+_MOST_CELLS = 10_000_000
 
 
 def describe_archive(info: Mapping[str, object], archive: pd.DataFrame | None) -> JsonObject | None:
@@ -54,6 +57,68 @@ def describe_archive(info: Mapping[str, object], archive: pd.DataFrame | None) -
         "ranges": [[float(low), float(high)] for low, high in ranges],
         "bins": [int(n) for n in archive["grid"].iloc[0]],
     }
+
+
+def archive_damage(
+    description: Mapping[str, Any], archive: pd.DataFrame | None
+) -> tuple[str, str] | None:
+    """(what, what is wrong with it) where ``description`` or the ``archive`` table's rows
+    are what no ariel writes (readers would index past the archive, or divide by no cells),
+    for `damaged`'s line; None where they agree."""
+    measures = description.get("measures")
+    if (
+        not isinstance(measures, list)
+        or not measures
+        or not all(isinstance(m, str) for m in measures)
+    ):
+        return "run.json's archive", "names no list of measures"
+    ranges = description.get("ranges")
+    if not (isinstance(ranges, list) and len(ranges) == len(measures)) or not all(
+        _numbers(pair, 2) and pair[0] < pair[1] for pair in ranges
+    ):
+        return "run.json's archive", "has no [low, high] range (low < high) per measure"
+    if description.get("kind") == "grid":
+        bins = description.get("bins")
+        if not (isinstance(bins, list) and _numbers(bins, len(measures), whole=True)):
+            return "run.json's archive", "has no count of bins (>= 1) per measure"
+        if min(bins) < 1:
+            return "run.json's archive", "has no count of bins (>= 1) per measure"
+        shape = [int(n) for n in bins]
+    else:
+        centroids = description.get("centroids")
+        if not (isinstance(centroids, list) and centroids) or not all(
+            _numbers(point, len(measures)) for point in centroids
+        ):
+            return "run.json's archive", "has no centroids of one number per measure"
+        if description.get("cells", len(centroids)) != len(centroids):
+            return "run.json's archive", "has another count of cells than of centroids"
+        shape = [len(centroids)]
+    if math.prod(shape) > _MOST_CELLS:
+        return "run.json's archive", f"has {math.prod(shape):,} cells"
+    return None if archive is None else _table_damage(archive, shape)
+
+
+def _numbers(values: object, count: int, *, whole: bool = False) -> bool:
+    """Whether ``values`` is a list of ``count`` finite numbers (``whole``: integers)."""
+    kinds = int if whole else (int, float)
+    return (
+        isinstance(values, list)
+        and len(values) == count
+        and all(isinstance(v, kinds) and not isinstance(v, bool) for v in values)
+        and all(math.isfinite(v) for v in values)
+    )
+
+
+def _table_damage(archive: pd.DataFrame, shape: list[int]) -> tuple[str, str] | None:
+    """Where the archive table's rows leave the archive ``shape`` describes."""
+    if not len(archive):
+        return None
+    cells = archive["cell"].to_numpy()
+    if ((cells < 0) | (cells >= math.prod(shape))).any():
+        return "the archive table", f"has a cell outside the archive's {math.prod(shape):,}"
+    if any(list(grid) != shape for grid in archive["grid"].map(tuple).unique()):
+        return "the archive table", f"has a grid other than run.json's archive ({shape})"
+    return None
 
 
 def archive_cell_count(description: Mapping[str, Any]) -> int:
