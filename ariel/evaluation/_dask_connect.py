@@ -67,7 +67,9 @@ def address_problem(address: object) -> str | None:
         return f"{address!r} is not a Dask scheduler address: {allowed}"
     if address.startswith("inproc://"):  # a scheduler in this process (`processes=False`)
         return None
-    found = _ADDRESS.fullmatch(address.strip())
+    if address != address.strip():  # Dask would use it as it is: a host " tcp" or "8786 "
+        return f"{address!r} has spaces around it; {allowed}"
+    found = _ADDRESS.fullmatch(address)
     if found is None:
         return f"{address!r} is not a Dask scheduler address: {allowed}"
     scheme = (found["scheme"] or "tcp").lower()

@@ -58,6 +58,9 @@ def silent_listener() -> Iterator[str]:
         ("garbage", "is not a Dask scheduler address"),
         ("http://127.0.0.1:80", "http:// is not a Dask transport"),
         ("tcp://127.0.0.1:99999", "the port must be 1 to 65535"),
+        # Passed the form check stripped, then used as given: "not a Dask scheduler", or 30 s
+        (" tcp://127.0.0.1:8786", "has spaces around it"),
+        ("tcp://127.0.0.1:8786 ", "has spaces around it"),
     ],
 )
 def test_a_malformed_address_is_one_line_naming_what_is_allowed(address: str, said: str) -> None:
