@@ -319,9 +319,9 @@ def _run_gallery(run: Run, of: str) -> tuple[Gallery, list[Pick]]:
     shown = _capped(chosen, of, run.maximise)
     key = key_descriptors(run)
     title = gallery_title(run, of, shown, atlas, len(chosen))
-    gallery = Gallery(
-        run.path, of, title, gallery_subtitle(run, key, _cap_text(len(shown), len(chosen))), key
-    )
+    capped = _cap_text(len(shown), len(chosen))
+    subtitle = gallery_subtitle(run, key, capped, atlas=atlas is not None)
+    gallery = Gallery(run.path, of, title, subtitle, key)
     gallery.atlas = atlas
     if of == "archive" and atlas is None and chosen:
         gallery.notes.append("no atlas: the archive has fewer than two measures")

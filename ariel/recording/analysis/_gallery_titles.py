@@ -19,9 +19,14 @@ def _run_name(run: Run) -> str:
     return one_line(run_id if isinstance(run_id, str) and run_id else run.path.name)
 
 
-def gallery_subtitle(run: Run, key: tuple[str, str], capped: str = "") -> str:
+def gallery_subtitle(
+    run: Run, key: tuple[str, str], capped: str = "", *, atlas: bool = False
+) -> str:
+    """The fitness and what each label shows: an atlas's tiles their id and fitness (the axes
+    are the measures), other sheets' also the two key descriptors."""
     fitness = fitness_label(str(run.config.get("task", {}).get("fitness", "")), run.maximise)
-    labels = f"{fitness}; each label: body id, fitness, {key[0]}, {key[1]}"
+    labels = f"{fitness}; each label: body id, fitness"
+    labels += "" if atlas else f", {key[0]}, {key[1]}"
     return f"{labels}; {capped}" if capped else labels
 
 

@@ -157,6 +157,8 @@ def test_the_archive_is_an_atlas_of_the_cells(run_dir: Path) -> None:
     expected = {b: (r - low, c - left) for b, (c, r) in zip(archive["body_id"], cells)}
     assert {body.body_id: body.cell for body in gallery.bodies} == expected
     assert gallery.html.read_text(encoding="utf-8").count(DATA_URI) == len(expected)
+    # an atlas's tiles are labelled with id and fitness; its axes are the measures
+    assert gallery.subtitle.endswith("each label: body id, fitness")
     with Image.open(gallery.png) as image:  # each cell holds a picture of 100 pixels at least
         assert image.width > atlas.columns * 100 and image.height > atlas.rows * 100
 
