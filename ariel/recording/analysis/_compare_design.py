@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from ariel.errors import ConfigError
 from ariel.evolution import ExperimentConfig
+from ariel.recording.store import archive_cell_count
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -161,8 +162,9 @@ def common_budget(
 def run_state_notes(curves: Sequence[RunCurve]) -> list[str]:
     """Warnings about runs that are not what a finished comparison reads as: runs not finished
     (a campaign still going, or stopped; all at one generation, the budgets do not differ and
-    nothing else says so), and runs of which no evaluation succeeded (their fitness measures
-    are missing from the tests)."""
+    nothing else says so), runs of which no evaluation succeeded (their fitness measures
+    are missing from the tests), and archives of different sizes (coverage is a share of
+    each run's own archive)."""
     notes = []
     label = {id(c): f"{c.condition} seed {c.seed}" for c in curves}
     # (a curve without run.json, `compare_runs` on tables of your own, has no status)
@@ -181,7 +183,24 @@ def run_state_notes(curves: Sequence[RunCurve]) -> list[str]:
             f"{len(failed)} run(s) have no successful evaluation ({names}): their fitness "
             "measures are missing from the tests (their evaluations' status and error say why)"
         )
+    sizes = sorted({n for c in curves if (n := _archive_cells(c.info)) is not None})
+    if len(sizes) > 1:
+        notes.append(
+            f"the runs' archives differ in size ({', '.join(f'{n:,}' for n in sizes)} cells): "
+            "coverage and norm_qd_score are shares of each run's own archive, not of one"
+        )
     return notes
+
+
+def _archive_cells(info: Mapping[str, Any]) -> int | None:
+    """The cells of the archive run.json describes; None: no archive, or none readable."""
+    archive = info.get("archive")
+    if not isinstance(archive, Mapping) or archive.get("kind") not in ("grid", "cvt"):
+        return None
+    try:
+        return archive_cell_count(archive)
+    except (TypeError, ValueError, KeyError):  # damage: the run's own readers say so
+        return None
 
 
 # --------------------------------------------------------------------------------------------

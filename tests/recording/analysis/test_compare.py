@@ -82,6 +82,24 @@ def test_unfinished_runs_and_runs_without_a_success_are_warned_about() -> None:
     )
 
 
+def test_archives_of_different_sizes_are_noted() -> None:
+    """A 64-cell grid's coverage beside a 32-cell CVT's was compared without a word."""
+    runs = [synthetic_run(c, seed, 1.0) for c in ("grid", "cvt") for seed in (1, 2)]
+    grid = {"kind": "grid", "bins": [8, 8]}
+    for run in runs:
+        run.info.update(archive=grid if run.condition == "grid" else {"kind": "cvt"})
+        if run.condition == "cvt":
+            run.info["archive"]["centroids"] = [[0.5, 0.5]] * 32
+    said = "the runs' archives differ in size (32, 64 cells): coverage and norm_qd_score"
+    notes = compare_runs(runs, None, maximise=True, write=False).notes
+    assert any(note.startswith(said) for note in notes)
+    for run in runs:
+        run.info.update(archive=grid)
+    assert not any(
+        "archives differ" in n for n in compare_runs(runs, None, maximise=True, write=False).notes
+    )
+
+
 def test_best_so_far_follows_the_direction_and_skips_failures() -> None:
     frame = pd.DataFrame(
         {
