@@ -18,9 +18,11 @@ import os
 import platform
 import shutil
 import subprocess
+import sys
 from collections.abc import Callable, Mapping
 from importlib import metadata
-from typing import Any
+from pathlib import Path
+from typing import Any, NoReturn
 
 THREAD_VARIABLES = (
     "OMP_NUM_THREADS",
@@ -30,6 +32,20 @@ THREAD_VARIABLES = (
     "VECLIB_MAXIMUM_THREADS",
     "NUMEXPR_NUM_THREADS",
 )
+
+
+def exit_with(main: Callable[[], int]) -> NoReturn:
+    """Run a benchmark's ``main`` and exit with its code; bad input that ariel refuses (a
+    folder that is no run, a bad ``--set``) is one line on stderr and exit code 2, as from
+    the ``ariel`` command, not a traceback."""
+    from ariel.errors import ArielError
+
+    try:
+        code = main()
+    except ArielError as exc:
+        print(f"{Path(sys.argv[0]).name}: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        raise SystemExit(2) from None
+    raise SystemExit(code)
 
 
 def one_blas_thread() -> None:

@@ -30,6 +30,7 @@ from _common import (
     add_quick_option,
     apply_quick,
     check_at_least,
+    exit_with,
     load_average,
     one_blas_thread,
     utc_now,
@@ -157,4 +158,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    exit_with(main)
