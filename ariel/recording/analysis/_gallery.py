@@ -12,6 +12,7 @@ drawn (no OpenGL), both are written without pictures and a note says why.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import numbers
 import os
@@ -59,6 +60,7 @@ from ariel.recording.store import (
     load_campaign,
     load_run,
     one_line,
+    records_folder_of,
     refuse_symlinks,
     remove_temporaries,
 )
@@ -96,8 +98,9 @@ class GalleryBody:
             in a campaign's gallery; else empty.
         command: the command that opens it: ``ariel view RUN EVAL_ID``
             (``ariel replay RUN EVAL_ID`` for a run without Rerun recordings).
-        thumbnail: its PNG in the run folder (``gallery/thumbnails/``); None where it could
-            not be drawn.
+        thumbnail: its PNG in the run folder (``gallery/thumbnails/``), or, for a run folder
+            that cannot be written, in the gallery's (``DIR/thumbnails/``); None where it
+            could not be drawn.
         cell: its (row, column) in the archive's atlas (row 0 the lowest bin of the second
             measure, column 0 the lowest of the first); None in any other gallery.
     """
@@ -199,14 +202,19 @@ def _thumbnails(
     workers: int | None,
     render: bool,
     progress: bool | None = False,
+    spare: Path | None = None,
 ) -> list[Path | None]:
-    """Each pick's thumbnail (None: not drawn), drawing those not drawn before."""
+    """Each pick's thumbnail (None: not drawn), drawing those not drawn before: into its
+    run's cache, or, where that cannot be written (a read-only run folder, shared data),
+    into ``spare`` (the gallery's own folder's ``thumbnails/``; None: the run's cache)."""
     paths: list[Path | None] = []
     jobs: dict[str, ThumbnailJob] = {}
     for pick in chosen:
         body_id = str(pick.body["body_id"])
         path = thumbnail_path(pick.run.path, body_id)
         refuse_symlinks(path, pick.run.path)  # never read or write through a linked folder
+        if spare is not None and cached_thumbnail(path) is None and not _writable(path):
+            path = thumbnail_path(spare / _run_key(pick.run.path), body_id)
         paths.append(path)
         if cached_thumbnail(path) is None:
             jobs[str(path)] = ThumbnailJob(str(pick.run.path), body_id, str(path))
@@ -241,6 +249,20 @@ def _thumbnails(
                 undrawn.add(path)
         gallery.drawn = sum(why is None for why in drawn.values())
     return [None if str(path) in undrawn else path for path in paths]
+
+
+def _writable(path: Path) -> bool:
+    """Whether ``path`` could be made: its nearest folder that exists lets us write."""
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    return os.access(folder, os.W_OK)
+
+
+def _run_key(run_path: Path) -> str:
+    """A run's own folder under a gallery's spare ``thumbnails/`` (runs may share names)."""
+    name = Path(run_path).resolve()
+    return f"{name.name[:40]}-{hashlib.sha256(os.fsencode(name)).hexdigest()[:12]}"
 
 
 def body_thumbnails(
@@ -299,7 +321,10 @@ def _finish(
 ) -> Gallery:
     """Draw (or find) the thumbnails, make the bodies, write the sheet and the page to
     ``where`` (the folder, the folder nothing is written outside of, the files' stem)."""
-    thumbnails = _thumbnails(gallery, chosen, **drawing)
+    # A run folder we may not write to (shared, read-only data): its thumbnails are drawn
+    # into the gallery's own folder instead, where that is no run's (`--out DIR`).
+    spare = where[0] / "thumbnails" if records_folder_of(where[0]) is None else None
+    thumbnails = _thumbnails(gallery, chosen, spare=spare, **drawing)
     positions = gallery.atlas.positions if gallery.atlas is not None else None
     for pick, thumbnail in zip(chosen, thumbnails, strict=True):
         cell = positions[str(pick.body["body_id"])] if positions is not None else None

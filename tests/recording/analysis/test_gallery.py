@@ -425,3 +425,22 @@ def test_a_killed_gallery_s_temporaries_are_removed_by_the_next(
     make_gallery(run_dir, out=out, render=False)
     assert sorted(p.name for p in out.iterdir()) == ["final.html", "final.png", "thumbnails"]
     assert [p.name for p in (out / "thumbnails").iterdir()] == [new.name]
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_a_read_only_run_s_gallery_out_of_it_draws_its_thumbnails_there(
+    fresh: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Shared data one may not write to: `ariel gallery RUN --out DIR` showed no picture at
+    all ("no thumbnail (cannot write 'RUN/gallery')"); they are drawn into DIR instead."""
+    from ariel.recording.analysis import _gallery
+
+    run_folder = fresh.resolve()
+    monkeypatch.setattr(  # as for user nobody on a chmod a-w copy (root may write anyway)
+        _gallery, "_writable", lambda path: run_folder not in Path(path).resolve().parents
+    )
+    gallery = make_gallery(fresh, out=tmp_path / "out", workers=1)
+    assert gallery.bodies and all(body.thumbnail is not None for body in gallery.bodies)
+    assert not (fresh / "gallery").exists()  # nothing written into the run
+    drawn = sorted((tmp_path / "out" / "thumbnails").rglob("*.png"))
+    assert {body.thumbnail for body in gallery.bodies} == set(drawn)
