@@ -291,11 +291,15 @@ def _rename(temporary: Path, out: Path) -> None:
 
 
 def _named(exc: OSError, temporary: Path | None, out: Path) -> OSError:
-    """``exc``, naming the file in ``out`` that a file in ``temporary`` stands for."""
-    if temporary is not None and exc.filename is not None:
-        path = Path(os.fsdecode(exc.filename))
-        if path.parent == temporary:
-            exc.filename = str(out / path.name)
+    """``exc``, naming the file in ``out`` that a file in ``temporary`` stands for, or
+    ``out`` itself for the hidden folder beside it (`_temporary_folder`: made, or not)."""
+    if exc.filename is None:
+        return exc
+    path = Path(os.fsdecode(exc.filename))
+    if temporary is not None and path.parent == temporary:
+        exc.filename = str(out / path.name)
+    elif path == temporary or (path.parent == out.parent and path.name.endswith(".tmp")):
+        exc.filename = str(out)
     return exc
 
 

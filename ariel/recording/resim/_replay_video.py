@@ -36,7 +36,11 @@ def replay_video(
     model = replayed.model
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=path.parent, prefix=".replay-") as scratch:
+    try:  # beside the video (one rename onto it); failing, it is the video that cannot be
+        folder = tempfile.TemporaryDirectory(dir=path.parent, prefix=".replay-")
+    except OSError as exc:  # written: the error names it, not our hidden scratch folder
+        raise OSError(exc.errno, exc.strerror, str(path)) from exc
+    with folder as scratch:
         recorder = VideoRecorder(
             "replay", output_folder=scratch, width=width, height=height, fps=fps
         )

@@ -92,6 +92,15 @@ def test_export_into_a_folder_that_is_not_empty_is_one_line(
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
 
 
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs Linux's /proc")
+def test_an_export_that_cannot_be_made_names_the_folder_asked_for(
+    run_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It named its hidden folder beside it, half cut: "cannot write '/proc/x.2b671b2e...'"."""
+    assert exit_code(["export", str(run_dir), "best", "/proc/ariel-export"]) == 2
+    assert one_error_line(capsys).startswith("ariel: error: cannot write '/proc/ariel-export': ")
+
+
 def test_nothing_is_exported_into_a_run_folder(
     run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
