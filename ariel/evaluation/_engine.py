@@ -42,6 +42,7 @@ from ariel.evaluation._build import (
 )
 from ariel.evaluation._closed_loop import _closed_loop
 from ariel.evaluation._heap import steady_heap
+from ariel.evaluation._mujoco_log import MUJOCO_LOG_OFF
 from ariel.evaluation._results import (
     TrajectoryRecord as TrajectoryRecord,
     _check_fitness_options,
@@ -149,11 +150,14 @@ def evaluate_groups(
     open_loop: Callable[[TaskGroup], list[EvaluationResult]],
 ) -> list[EvaluationResult]:
     """Checks and groups ``tasks`` (`prepare_groups`), then runs every group: an open-loop one
-    by ``open_loop`` (all its tasks), a closed-loop one task by task here; input order."""
-    results, ready = prepare_groups(tasks)
-    for group in ready:
-        for i, out in zip(group.indices, evaluate_group(group, open_loop)):
-            results[i] = out
+    by ``open_loop`` (all its tasks), a closed-loop one task by task here; input order.
+    MuJoCo logs nothing meanwhile (`MUJOCO_LOG_OFF`: no ``MUJOCO_LOG.TXT`` in the folder a
+    run started from; the results say which simulations went unstable)."""
+    with MUJOCO_LOG_OFF.held():
+        results, ready = prepare_groups(tasks)
+        for group in ready:
+            for i, out in zip(group.indices, evaluate_group(group, open_loop)):
+                results[i] = out
     return results  # type: ignore[return-value]
 
 

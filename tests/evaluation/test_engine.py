@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from pathlib import Path
 from typing import ClassVar
 
 import mujoco
@@ -155,7 +156,10 @@ def test_closed_loop_controller_runs_in_chunks_and_is_deterministic() -> None:
     assert_same_result(a, b)
 
 
-def test_unstable_physics_gives_status_unstable_and_the_worst_fitness() -> None:
+def test_unstable_physics_gives_status_unstable_and_the_worst_fitness(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo wrote its warnings to MUJOCO_LOG.TXT here
     unstable_world = {"timestep": 0.05, "mujoco_config": {"integrator": "EULER"}}
     params = gecko_params(2)
     batch = evaluate_batch([task(p, world_options=unstable_world) for p in params], nthread=2)
@@ -164,6 +168,10 @@ def test_unstable_physics_gives_status_unstable_and_the_worst_fitness() -> None:
         assert result.status == "unstable"
         assert result.fitness == -math.inf
         assert "unstable" in result.error
+    assert list(tmp_path.iterdir()) == []  # nothing written where the run was started
+    assert "WARNING" not in capfd.readouterr().err  # nor printed instead
+    config = mujoco.MjLogConfig.get()
+    assert config.logto_file  # the process's own setting is back
 
 
 def test_a_body_that_cannot_be_built_gives_an_error_result() -> None:
