@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shlex
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,7 +15,7 @@ from ariel import recording
 from ariel.cli._common import fail
 from ariel.recording import resim
 from ariel.recording.store import cannot_write, output_file_problem, terminal_text, user_file
-from ariel.utils import python_command
+from ariel.utils import python_command, shell_path
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -64,7 +63,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.out is not None:
         out = resim.export(args.run_dir, str(args.eval_id), args.out)  # given with DIR
         python = python_command()
-        body, replay = (shlex.quote(str(out / name)) for name in ("body.xml", "replay.py"))
+        body, replay = (shell_path(out / name) for name in ("body.xml", "replay.py"))
         print(  # escaped: DIR is any name, control characters too
             terminal_text(
                 f"wrote {out}: body.xml ({python} -m mujoco.viewer --mjcf {body}), "

@@ -31,18 +31,30 @@ __all__ = [
 ]
 
 
+def shell_quote(text: str) -> str:
+    """``text`` as one word of a shell command line to paste: `shlex.quote`'s, or, where it
+    holds a character that is not printable (a line break, ESC), bash's and zsh's ``$'...'``
+    with that character escaped (a quoted line break is shown as ``\\n``: pasted, the shell
+    would read two characters)."""
+    if text.isprintable():
+        return shlex.quote(text)
+    escaped = ("\\" + c if c in "\\'" else c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return "$'" + "".join(escaped) + "'"
+
+
 def shell_path(path: object) -> str:
-    """``path`` for a POSIX shell command line: quoted where it needs it, and ``./`` before a
-    name that starts with ``-`` (``ariel report -y`` would read it as an option)."""
+    """``path`` for a POSIX shell command line: quoted where it needs it (`shell_quote`), and
+    ``./`` before a name that starts with ``-`` (``ariel report -y`` would read it as an
+    option)."""
     text = str(path)
-    return shlex.quote(f".{os.sep}{text}" if text.startswith("-") else text)
+    return shell_quote(f".{os.sep}{text}" if text.startswith("-") else text)
 
 
 def ariel_line(*words: object) -> str:
     """An ``ariel`` command line to paste: `ariel_command` and ``words``, each quoted for a
     POSIX shell where it needs it (``ariel_line("resume", Path("data/runs/it's"))``); a path
     (``os.PathLike``) as `shell_path` writes it."""
-    quoted = (shell_path(w) if isinstance(w, os.PathLike) else shlex.quote(str(w)) for w in words)
+    quoted = (shell_path(w) if isinstance(w, os.PathLike) else shell_quote(str(w)) for w in words)
     return " ".join([ariel_command(), *quoted])
 
 
@@ -52,9 +64,9 @@ def _shown(path: Path) -> str:
     try:
         relative = path.relative_to(Path.cwd())
     except ValueError:
-        return shlex.quote(str(path))
+        return shell_quote(str(path))
     text = str(relative)
-    return shlex.quote(text if os.sep in text else f".{os.sep}{text}")
+    return shell_quote(text if os.sep in text else f".{os.sep}{text}")
 
 
 def _environment_bin() -> Path | None:
