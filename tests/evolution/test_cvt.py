@@ -216,6 +216,7 @@ def test_an_old_run_without_a_description_is_its_grid() -> None:
         (lambda a: a.update(kind="grid", bins=[0, 8]), r"no count of bins \(>= 1\) per measure"),
         (lambda a: a.update(kind="grid", bins=[4, 4]), "the archive table has a grid other"),
         (lambda a: a.update(ranges=[[8, 0], [0, 1]]), r"no \[low, high\] range"),
+        (lambda a: a.update(kind="hex"), r"describes no grid or CVT \('hex'\)"),
     ],
 )
 def test_a_damaged_archive_description_is_one_line_not_a_wrong_number(
@@ -236,6 +237,14 @@ def test_a_damaged_archive_description_is_one_line_not_a_wrong_number(
         run.generations  # noqa: B018  # coverage and the QD-score read the description
     with pytest.raises(DamagedRunError, match=message):
         run.archive_description  # noqa: B018
+    # ... and for the viewer's archive beside a robot, and the gallery's atlas (which fell
+    # back to the config's grid: a damaged run.json read as one that describes no archive)
+    from ariel.recording.analysis._gallery_select import _described
+    from ariel.recording.viewer._archive_panel import archive_beside
+
+    for reader in (archive_beside, _described):
+        with pytest.raises(DamagedRunError, match=message):
+            reader(load_run(copy))
 
 
 def test_archive_rows_outside_the_described_archive_are_damage() -> None:

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ariel.errors import ArielError
+from ariel.errors import ArielError, DamagedRunError
 from ariel.evolution import DEFAULT_RANGES
 from ariel.recording.store import Run, ancestors, archive_cell_count, check_body_id, lineage
 
@@ -136,6 +136,8 @@ def _keeps_archive(run: Run) -> bool:
     """Whether run.json describes an archive (a MAP-Elites or novelty run), elites or not."""
     try:
         return getattr(run, "archive_description", None) is not None
+    except DamagedRunError:  # what no ariel writes: one line, as from every reader
+        raise
     except (LookupError, ValueError, TypeError):  # a run.json that does not describe it
         return False
 
@@ -247,6 +249,8 @@ def _described(run: Run) -> JsonObject:
     ``ranges``, a grid's ``bins`` or a CVT's ``cells``), else the map_elites options."""
     try:
         description = getattr(run, "archive_description", None)
+    except DamagedRunError:
+        raise
     except (LookupError, ValueError, TypeError):  # a run.json that does not describe it
         description = None
     if isinstance(description, Mapping) and description.get("measures"):

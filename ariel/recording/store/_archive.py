@@ -11,9 +11,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ariel.evolution import DEFAULT_MEASURES, DEFAULT_RANGES
+from ariel.recording.store._files import damaged
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -29,18 +31,39 @@ ARCHIVE_KINDS = ("grid", "cvt")
 _MOST_CELLS = 10_000_000
 
 
-def describe_archive(info: Mapping[str, object], archive: pd.DataFrame | None) -> JsonObject | None:
-    """The archive's description (see the module docstring).
+def describe_archive(
+    info: Mapping[str, object], archive: pd.DataFrame | None, *, run_dir: str | Path = "."
+) -> JsonObject | None:
+    """The archive's description (see the module docstring), checked (`archive_damage`).
 
     Args:
         info: The run's run.json (its ``archive`` and ``config``).
         archive: The run's ``archive`` table (`Run.archive`), or None.
+        run_dir: The run's folder, for the error's line.
 
     Returns:
         run.json's ``archive``; for a run made before it was recorded, a grid: the config's
         ``measures`` and ``ranges`` (``map_elites``' defaults where not given) and the
         table's ``grid`` column as ``bins``; None for a run without an archive.
+
+    Raises:
+        DamagedRunError: Where the description or the table's rows are what no ariel writes
+            (readers would index past the archive, or divide by no cells).
     """
+    recorded = info.get("archive")  # absent (or null): a run made before it was recorded
+    if recorded is not None and not (
+        isinstance(recorded, Mapping) and recorded.get("kind") in ARCHIVE_KINDS
+    ):
+        kind = recorded.get("kind") if isinstance(recorded, Mapping) else type(recorded).__name__
+        raise damaged(run_dir, "run.json's archive", f"describes no grid or CVT ({kind!r})")
+    description = _described(info, archive)
+    problem = None if description is None else archive_damage(description, archive)
+    if problem is not None:
+        raise damaged(run_dir, *problem)
+    return description
+
+
+def _described(info: Mapping[str, object], archive: pd.DataFrame | None) -> JsonObject | None:
     recorded = info.get("archive")
     if isinstance(recorded, Mapping) and recorded.get("kind") in ARCHIVE_KINDS:
         return dict(recorded)

@@ -17,7 +17,7 @@ from ariel.body_phenotypes.robogen_lite.graph_io import graph_key
 from ariel.errors import UnknownEvaluationError
 from ariel.evolution import archive_quality
 from ariel.plugins import body_encoders, fitness_functions
-from ariel.recording.store._archive import archive_cell_count, archive_damage, describe_archive
+from ariel.recording.store._archive import archive_cell_count, describe_archive
 from ariel.recording.store._escape import terminal_text
 from ariel.recording.store._files import damaged
 from ariel.recording.store._lineage import lineage
@@ -227,11 +227,7 @@ class Run:
 
         Raises `DamagedRunError` where the description or the table's rows are what no ariel
         writes (`archive_damage`: a cell past the archive, centroids that are not points)."""
-        description = describe_archive(self.info, self.archive)
-        problem = None if description is None else archive_damage(description, self.archive)
-        if problem is not None:
-            raise damaged(self.path, *problem)
-        return description
+        return describe_archive(self.info, self.archive, run_dir=self.path)
 
     @cached_property
     def population(self) -> Any:

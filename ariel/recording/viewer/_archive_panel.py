@@ -32,7 +32,8 @@ def archive_beside(run: Run | SimpleNamespace) -> tuple[np.ndarray | CvtCells, l
     if not len(archive):
         return None
     last = archive[archive["generation"] == archive["generation"].max()]
-    description = describe_archive(getattr(run, "info", None) or {"config": run.config}, archive)
+    info = getattr(run, "info", None) or {"config": run.config}
+    description = describe_archive(info, archive, run_dir=getattr(run, "path", "."))
     assert description is not None  # the archive has rows
     cells = archive_cells(last.to_dict("records"), description)
     dimensions = getattr(cells, "ndim", len(description["measures"]))

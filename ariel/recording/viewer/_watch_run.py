@@ -269,7 +269,7 @@ class RunSource:
 
     def _log_archive(self, rec: rr.RecordingStream, generation: int, archive: pd.DataFrame) -> None:
         rr = rerun_module()
-        shown = SimpleNamespace(archive=archive, config=self.config, info=self.info)
+        shown = SimpleNamespace(archive=archive, config=self.config, info=self.info, path=self.path)
         beside = archive_beside(shown)
         if beside is None:
             return
