@@ -62,3 +62,24 @@ def test_a_signal_ignored_or_handled_elsewhere_is_left_so() -> None:
         with stop_on_signals():
             assert signal.getsignal(signal.SIGTERM) is outer
         assert signal.getsignal(signal.SIGTERM) is outer  # not put back by the inner block
+
+
+def test_a_signal_taken_while_a_plugin_loads_is_the_interrupt_not_a_broken_plugin() -> None:
+    """ctypes wraps an exception raised in a conversion ("ArgumentError: argument 1:
+    Interrupted: 15"): a SIGTERM while a plugin's module loaded was said as "could not load
+    controller", exit 2, and the run was left "stopped (killed?)"."""
+    import ctypes
+
+    from ariel.plugins import controllers
+
+    def load() -> None:
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):  # Python runs the handler between bytecodes
+                pass
+        except Interrupted as exc:
+            raise ctypes.ArgumentError(f"argument 1: Interrupted: {exc.signum}") from None
+
+    with stop_on_signals(), pytest.raises(Interrupted) as stopped:
+        controllers._load("loading", load, lambda: "a test")
+    assert stopped.value.signum == signal.SIGTERM
