@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 from ariel import utils  # its face: `gl_backend_error` is loaded on a failure only
 from ariel._version import __version__
 from ariel.errors import DuplicatePluginError, PluginLoadError, UnknownPluginError
-from ariel.utils.interrupts import raise_pending
 
 if TYPE_CHECKING:
     import importlib.metadata
@@ -376,7 +375,7 @@ class Registry(Generic[T]):
         except Exception as exc:
             # A signal taken mid-import may come out wrapped (ctypes: "ArgumentError: argument
             # 1: Interrupted: 15"): then the interrupt is what happened, not a broken plugin.
-            raise_pending()
+            utils.raise_pending()
             gl = utils.gl_backend_error(exc)  # MUJOCO_GL failed mujoco's import, not the plugin
             if gl is not None:
                 raise gl from exc

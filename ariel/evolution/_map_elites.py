@@ -149,6 +149,7 @@ class MapElites:
         archive: ``"grid"`` (a ``GridArchive`` of ``bins``) or ``"cvt"`` (a ``CVTArchive``
             of ``cells`` centroids made from ``seed``, `ariel.evolution._cvt`).
         cells: A CVT's number of cells, an integer >= 1; None: 64. Only with ``"cvt"``.
+        unknown: Any other option: a `TypeError` that names the allowed ones (`OPTIONS`).
 
     Raises:
         ValueError: For an unknown or empty list of measures, ``bins`` or ``ranges`` that do

@@ -55,6 +55,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.utils._shared_setting import (
         SharedSetting as SharedSetting,
     )
+    from ariel.utils.interrupts import (
+        raise_pending as raise_pending,
+    )
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
@@ -78,6 +81,7 @@ _INTERNAL: dict[str, str] = {
     "path_argument": "ariel.utils._arguments",
     "paths_argument": "ariel.utils._arguments",
     "python_command": "ariel.utils._commands",
+    "raise_pending": "ariel.utils.interrupts",
     "replace_non_finite": "ariel.utils._json",
     "report_interrupted": "ariel.utils._commands",
     "shell_path": "ariel.utils._commands",
