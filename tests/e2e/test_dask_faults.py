@@ -254,6 +254,7 @@ def test_a_local_cluster_over_the_open_file_limit_is_refused_before_it_starts() 
     assert done.stderr == "", done.stderr[-2000:]  # no Dask log line, no worker started
 
 
+@pytest.mark.soak  # ~10 s: a Dask cluster started and hung up on
 @pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="needs POSIX signals")
 def test_sighup_to_a_dask_run_group_is_one_line(tmp_path: Path) -> None:
     config = tmp_path / "dask.toml"

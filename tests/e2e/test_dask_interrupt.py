@@ -36,6 +36,7 @@ workers = 2
 """
 
 
+@pytest.mark.soak  # ~12 s: a Dask cluster started and interrupted
 @pytest.mark.skipif(not hasattr(os, "killpg"), reason="needs POSIX process groups")
 def test_ctrl_c_on_a_dask_run_prints_no_worker_tracebacks(tmp_path: Path) -> None:
     config = tmp_path / "dask.toml"

@@ -125,6 +125,7 @@ def _runs_running(folder: Path) -> int:
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.soak  # ~15 s: a run whose fork server is killed midway
 @posix_only
 def test_a_run_whose_fork_server_is_killed_goes_on_without_a_word(tmp_path: Path) -> None:
     out, err = tmp_path / "stdout.txt", tmp_path / "stderr.txt"
