@@ -71,15 +71,21 @@ def control_sequence(
     return np.repeat(held, min(period, nstep), axis=1)[:, :nstep]
 
 
-#: Each thread's rollout pools, by their thread count: one `Rollout` used by two threads at
-#: once crashed the process (two runs or evaluate_batch calls in threads of one process).
-_ROLLOUTS = threading.local()
+class _Pools(threading.local):
+    """Each thread's rollout pools, by their thread count: one `Rollout` used by two threads
+    at once crashed the process (two runs or evaluate_batch calls in threads of one process)."""
+
+    def __init__(self) -> None:
+        self.by_threads: dict[int, _rollout.Rollout] = {}
+
+
+_ROLLOUTS = _Pools()
 #: The GIL switch interval, short while any thread pipelines a lone candidate.
 _SHORT_SWITCH = SharedSetting(sys.getswitchinterval, sys.setswitchinterval, 1e-4)
 
 
 def _rollout_pool(nthread: int) -> _rollout.Rollout:
-    pools: dict[int, _rollout.Rollout] = _ROLLOUTS.__dict__.setdefault("pools", {})
+    pools = _ROLLOUTS.by_threads
     pool = pools.get(nthread)
     if pool is None:
         pool = pools[nthread] = _rollout.Rollout(nthread=nthread)

@@ -213,10 +213,12 @@ def _thumbnails(
         body_id = str(pick.body["body_id"])
         path = thumbnail_path(pick.run.path, body_id)
         refuse_symlinks(path, pick.run.path)  # never read or write through a linked folder
-        if spare is not None and cached_thumbnail(path) is None and not _writable(path):
+        cached = cached_thumbnail(path)
+        if cached is None and spare is not None and not _writable(path):
             path = thumbnail_path(spare / _run_key(pick.run.path), body_id)
+            cached = cached_thumbnail(path)
         paths.append(path)
-        if cached_thumbnail(path) is None:
+        if cached is None:
             jobs[str(path)] = ThumbnailJob(str(pick.run.path), body_id, str(path))
     gallery.reused = len({str(p) for p in paths} - set(jobs))
     if not jobs:

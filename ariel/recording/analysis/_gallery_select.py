@@ -134,12 +134,18 @@ def _last_archive(run: Run) -> pd.DataFrame:
 
 def _keeps_archive(run: Run) -> bool:
     """Whether run.json describes an archive (a MAP-Elites or novelty run), elites or not."""
+    return _recorded_description(run) is not None
+
+
+def _recorded_description(run: Run) -> object:
+    """``run.archive_description``; None where run.json does not describe an archive.
+    Damage (what no ariel writes) is raised: one line, as from every reader."""
     try:
-        return getattr(run, "archive_description", None) is not None
-    except DamagedRunError:  # what no ariel writes: one line, as from every reader
+        return getattr(run, "archive_description", None)
+    except DamagedRunError:
         raise
     except (LookupError, ValueError, TypeError):  # a run.json that does not describe it
-        return False
+        return None
 
 
 def _elites(run: Run) -> list[Pick]:
@@ -247,12 +253,7 @@ def key_descriptors(run: Run) -> tuple[str, str]:
 def _described(run: Run) -> JsonObject:
     """The archive's description: ``run.archive_description`` (``kind``, ``measures``,
     ``ranges``, a grid's ``bins`` or a CVT's ``cells``), else the map_elites options."""
-    try:
-        description = getattr(run, "archive_description", None)
-    except DamagedRunError:
-        raise
-    except (LookupError, ValueError, TypeError):  # a run.json that does not describe it
-        description = None
+    description = _recorded_description(run)
     if isinstance(description, Mapping) and description.get("measures"):
         return dict(description)
     options = run.config.get("body", {}).get("optimizer_options", {}) or {}

@@ -157,8 +157,15 @@ def write_blueprint(
     Returns:
         ``path``, as a `Path`.
     """
-    options = {"panels": panels, "archive": archive, "fitness_unit": fitness_unit}
-    return save_layout(path, blueprint, APPLICATION_ID, run_curves=run_curves, **options)
+    return save_layout(
+        path,
+        blueprint,
+        APPLICATION_ID,
+        panels=panels,
+        archive=archive,
+        fitness_unit=fitness_unit,
+        run_curves=run_curves,
+    )
 
 
 def save_layout(

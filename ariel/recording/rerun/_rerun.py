@@ -332,15 +332,6 @@ def write_run_recording(
     """
     path = Path(path)
     cache = {} if chunk_cache is None else chunk_cache
-
-    def kept(entity: str, gen: int, make: Callable[[], Sequence[AsComponents]]) -> None:
-        """The generation's chunk at ``entity``, from the cache or made (None: nothing)."""
-        if (entity, gen) not in cache:
-            cache[entity, gen] = _at_generation(entity, gen, make())
-        chunk = cache[entity, gen]
-        if chunk is not None:
-            chunks.append(chunk)
-
     generation = np.asarray(generations_df["generation"], dtype=np.int64)
     columns = set(getattr(generations_df, "columns", generations_df))
     if isinstance(best_bodies, Mapping):
@@ -350,6 +341,15 @@ def write_run_recording(
     name = run_id or path.parent.name or "run"
     rr = rerun_module()
     chunks = _property_chunks(dict(properties or {}), name)
+
+    def kept(entity: str, gen: int, make: Callable[[], Sequence[AsComponents]]) -> None:
+        """The generation's chunk at ``entity``, from the cache or made (None: nothing)."""
+        if (entity, gen) not in cache:
+            cache[entity, gen] = _at_generation(entity, gen, make())
+        chunk = cache[entity, gen]
+        if chunk is not None:
+            chunks.append(chunk)
+
     index = [rr.TimeColumn("generation", sequence=generation)]
     for column, entity in RUN_SERIES.items():
         if column in columns and len(generation):

@@ -50,23 +50,23 @@ def describe_archive(
         DamagedRunError: Where the description or the table's rows are what no ariel writes
             (readers would index past the archive, or divide by no cells).
     """
-    recorded = info.get("archive")  # absent (or null): a run made before it was recorded
-    if recorded is not None and not (
-        isinstance(recorded, Mapping) and recorded.get("kind") in ARCHIVE_KINDS
-    ):
+    recorded = info.get("archive")
+    if recorded is None:  # absent (or null): a run made before it was recorded
+        description = _from_config(info, archive)
+    elif isinstance(recorded, Mapping) and recorded.get("kind") in ARCHIVE_KINDS:
+        description = dict(recorded)
+    else:
         kind = recorded.get("kind") if isinstance(recorded, Mapping) else type(recorded).__name__
         raise damaged(run_dir, "run.json's archive", f"describes no grid or CVT ({kind!r})")
-    description = _described(info, archive)
     problem = None if description is None else archive_damage(description, archive)
     if problem is not None:
         raise damaged(run_dir, *problem)
     return description
 
 
-def _described(info: Mapping[str, object], archive: pd.DataFrame | None) -> JsonObject | None:
-    recorded = info.get("archive")
-    if isinstance(recorded, Mapping) and recorded.get("kind") in ARCHIVE_KINDS:
-        return dict(recorded)
+def _from_config(info: Mapping[str, object], archive: pd.DataFrame | None) -> JsonObject | None:
+    """A run made before run.json described its archive: the grid its config and its table
+    (the ``grid`` column) describe; None without rows."""
     if archive is None or not len(archive):
         return None
     config = info.get("config")
@@ -102,9 +102,9 @@ def archive_damage(
         return "run.json's archive", "has no [low, high] range (low < high) per measure"
     if description.get("kind") == "grid":
         bins = description.get("bins")
-        if not (isinstance(bins, list) and _numbers(bins, len(measures), whole=True)):
-            return "run.json's archive", "has no count of bins (>= 1) per measure"
-        if min(bins) < 1:
+        if not (
+            isinstance(bins, list) and _numbers(bins, len(measures), whole=True) and min(bins) >= 1
+        ):
             return "run.json's archive", "has no count of bins (>= 1) per measure"
         shape = [int(n) for n in bins]
     else:
@@ -116,9 +116,10 @@ def archive_damage(
         if description.get("cells", len(centroids)) != len(centroids):
             return "run.json's archive", "has another count of cells than of centroids"
         shape = [len(centroids)]
-    if math.prod(shape) > _MOST_CELLS:
-        return "run.json's archive", f"has {math.prod(shape):,} cells"
-    return None if archive is None else _table_damage(archive, shape)
+    cells = math.prod(shape)
+    if cells > _MOST_CELLS:
+        return "run.json's archive", f"has {cells:,} cells"
+    return None if archive is None else _table_damage(archive, shape, cells)
 
 
 def _numbers(values: object, count: int, *, whole: bool = False) -> bool:
@@ -132,13 +133,13 @@ def _numbers(values: object, count: int, *, whole: bool = False) -> bool:
     )
 
 
-def _table_damage(archive: pd.DataFrame, shape: list[int]) -> tuple[str, str] | None:
-    """Where the archive table's rows leave the archive ``shape`` describes."""
+def _table_damage(archive: pd.DataFrame, shape: list[int], cells: int) -> tuple[str, str] | None:
+    """Where the archive table's rows leave the archive ``shape`` (of ``cells``) describes."""
     if not len(archive):
         return None
-    cells = archive["cell"].to_numpy()
-    if ((cells < 0) | (cells >= math.prod(shape))).any():
-        return "the archive table", f"has a cell outside the archive's {math.prod(shape):,}"
+    found = archive["cell"].to_numpy()
+    if ((found < 0) | (found >= cells)).any():
+        return "the archive table", f"has a cell outside the archive's {cells:,}"
     if any(list(grid) != shape for grid in archive["grid"].map(tuple).unique()):
         return "the archive table", f"has a grid other than run.json's archive ({shape})"
     return None
