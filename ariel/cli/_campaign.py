@@ -70,12 +70,19 @@ def _show_campaign(result: CampaignResult) -> None:
     quoted = shell_path(result.path)
     finished = sum(r.status == "finished" for r in result.runs)
     skipped = f" ({result.skipped} finished before, skipped)" if result.skipped else ""
-    print(
-        f"{result.status}: campaign {terminal_text(result.campaign_id)}: {finished} of "
-        f"{len(result.runs)} runs finished{skipped} in {result.wall_seconds:.1f} s; workers busy "
-        f"{result.busy_share:.0%} of the time ({result.workers} "
-        f"worker{'' if result.workers == 1 else 's'})"
-    )
+    name = terminal_text(result.campaign_id)
+    if not result.runs:  # stopped after its last run: only its own records were written
+        print(
+            f"{result.status}: campaign {name}: its {result.skipped} runs had finished; "
+            "its recording and status are written now"
+        )
+    else:
+        print(
+            f"{result.status}: campaign {name}: {finished} of {len(result.runs)} runs "
+            f"finished{skipped} in {result.wall_seconds:.1f} s; workers busy "
+            f"{result.busy_share:.0%} of the time ({result.workers} "
+            f"worker{'' if result.workers == 1 else 's'})"
+        )
     print(f"campaign folder: {terminal_text(result.path)}")
     ariel = ariel_command()
     # the last generation's best fitness, condition x seed

@@ -281,7 +281,9 @@ def resume_campaign(
 
     A run that cannot go on (a damaged run folder, an unreadable checkpoint or config) does
     not hold up the others: they go on, and the result's ``damaged`` names it in one line.
-    An interrupt: as `run_campaign`.
+    A campaign stopped after its last run had finished gets its own records written
+    (campaign.rrd, then its ``finished`` status), and nothing runs. An interrupt: as
+    `run_campaign`.
 
     Args:
         campaign_dir: The campaign folder to continue.
@@ -298,7 +300,7 @@ def resume_campaign(
 
     Raises:
         NotACampaignError: When ``campaign_dir`` is not a campaign folder.
-        ValueError: When every run has finished already.
+        ValueError: When the campaign has finished already (its runs and its own records).
         DamagedRunError: When no run can go on; the first run's line is the message.
         RunInUseError: When another process runs the campaign, or one of its runs.
         ConfigError: When the campaign's stored config cannot be read, or for a bad executor
@@ -329,6 +331,8 @@ def resume_campaign(
         if not runs and damaged:
             more = f" ({len(damaged) - 1} more cannot either)" if len(damaged) > 1 else ""
             raise DamagedRunError(f"campaign {str(path)!r}: no run resumed: {damaged[0]}{more}")
+        if not runs and info.get("status") != "finished":  # stopped after its last run
+            return _records_finished(path, info, skipped)
         if not runs:
             raise ValueError(f"campaign {str(path)!r} is already finished; nothing to resume")
         result = _drive_campaign(path, runs, settings, progress, skipped=skipped)
@@ -422,12 +426,9 @@ def _drive_campaign(
         print(f"{shown} ({len(runs)} runs to go)", flush=True)
     started = time.perf_counter()
 
-    def ended(status: str) -> None:
-        with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
-            write_campaign_info(path, {**info, "status": status, "ended": now()})
-            _write_recording(path, quiet=status != "finished")
-
-    capacity = drive([run.started for run in runs], settings, campaign, ended)
+    capacity = drive(
+        [run.started for run in runs], settings, campaign, lambda how: _ended(path, info, how)
+    )
     wall = time.perf_counter() - started
     return CampaignResult(
         path=path,
@@ -438,6 +439,37 @@ def _drive_campaign(
         wall_seconds=wall,
         busy_share=_busy_share(runs, wall, capacity),
         workers=capacity,
+    )
+
+
+def _ended(path: Path, info: dict[str, Any], status: str) -> None:
+    """The campaign's own records once its runs stopped (``status``): campaign.rrd, then
+    campaign.json's status, so that ``finished`` there means the recording is written too;
+    interrupted while writing them, ``interrupted`` (a resume writes them)."""
+    try:
+        with contextlib.suppress(OSError) if status != "finished" else contextlib.nullcontext():
+            _write_recording(path, quiet=status != "finished")
+            write_campaign_info(path, {**info, "status": status, "ended": now()})
+    except KeyboardInterrupt:
+        with contextlib.suppress(OSError):
+            write_campaign_info(path, {**info, "status": "interrupted", "ended": now()})
+        raise
+
+
+def _records_finished(path: Path, info: dict[str, Any], skipped: int) -> CampaignResult:
+    """A campaign stopped after its last run had finished (its recording or campaign.json's
+    status not written yet): writes them, as the end of `_drive_campaign` does."""
+    info = {key: value for key, value in info.items() if key != "format"}
+    _ended(path, info, "finished")
+    return CampaignResult(
+        path=path,
+        campaign_id=str(info["campaign_id"]),
+        status="finished",
+        runs=[],
+        skipped=skipped,
+        wall_seconds=0.0,
+        busy_share=0.0,
+        workers=0,
     )
 
 

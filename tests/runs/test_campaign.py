@@ -152,17 +152,23 @@ def test_status_prints_a_table_of_condition_seed_status_generations_best(
     )
 
 
-def test_campaign_rrd_holds_every_run_s_best_so_far_and_view_opens_it(campaign: Path) -> None:
+def _curves(recording: Path) -> dict[str, list[float]]:
+    """campaign.rrd's curves: entity path -> its values."""
     rr = pytest.importorskip("rerun")
-    from ariel.recording.store._curves import best_so_far
-    from ariel.recording.viewer._view import select_recordings
-
-    store = rr.chunk.RrdReader(campaign / "campaign.rrd").stream().collect()
+    store = rr.chunk.RrdReader(recording).stream().collect()
     series = {}
     for chunk in store.stream().to_chunks():
         batch = chunk.to_record_batch()
         if not chunk.is_static and "Scalars:scalars" in batch.schema.names:
             series[chunk.entity_path] = [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+    return series
+
+
+def test_campaign_rrd_holds_every_run_s_best_so_far_and_view_opens_it(campaign: Path) -> None:
+    from ariel.recording.store._curves import best_so_far
+    from ariel.recording.viewer._view import select_recordings
+
+    series = _curves(campaign / "campaign.rrd")
     assert sorted(series) == sorted(f"/condition/{c}/seed/{s}" for c, s in RUNS)
     run = load_run(campaign / "runs/condition=fresh/seed=2")
     _, best = best_so_far(run.evaluations, maximise=True)
@@ -295,6 +301,42 @@ def test_an_interrupted_campaign_resumes_to_the_records_of_an_uninterrupted_one(
     # one line in a notebook (the dataclass's own repr was 1,261 characters)
     assert repr(resumed).startswith("<CampaignResult tiny: finished, 2 runs driven, 2 finished")
     assert campaign_digests(out) == campaign_digests(campaign)
+    with pytest.raises(ValueError, match="already finished"):
+        resume_campaign(out)
+
+
+def test_a_campaign_stopped_after_its_last_run_gets_its_own_records_on_resume(
+    campaign: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    import shutil
+
+    import ariel.runs._campaign as module
+
+    out = tmp_path / "tiny"
+    shutil.copytree(campaign, out)
+    info = json.loads((out / "campaign.json").read_text())
+    (out / "campaign.json").write_text(json.dumps({**info, "status": "running"}))
+    (out / "campaign.rrd").unlink()  # as if stopped while campaign.rrd was being written
+
+    def stopped(path: object) -> None:
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patched:
+        patched.setattr(module.rerun, "write_campaign_recording", stopped)
+        with pytest.raises(KeyboardInterrupt):
+            resume_campaign(out)
+    # "finished" is written after the recording, never before it
+    assert json.loads((out / "campaign.json").read_text())["status"] == "interrupted"
+    # The hint printed after such an interrupt works: it writes the records, runs nothing.
+    assert main(["campaign", "resume", str(out), "--quiet"]) == 0
+    assert "its 4 runs had finished; its recording and status are written now" in (
+        capsys.readouterr().out
+    )
+    assert json.loads((out / "campaign.json").read_text())["status"] == "finished"
+    assert _curves(out / "campaign.rrd") == _curves(campaign / "campaign.rrd")
     with pytest.raises(ValueError, match="already finished"):
         resume_campaign(out)
 
