@@ -25,13 +25,21 @@ def add_report_command(sub: SubParsers) -> None:
     p.add_argument(
         "--no-render", action="store_true", help="leave out the rendered image of the best body"
     )
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="write the figures into DIR instead of RUN_DIR/report (e.g. for a read-only run): "
+        "a new or empty folder, or an earlier report's, outside every run and campaign folder",
+    )
     p.set_defaults(func=_cmd_report)
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     if not args.no_render:  # loading the run imports mujoco (body descriptors) before it renders
         headless_unless_display("run with --no-render")
-    report = analysis.make_report(args.run_dir, render=not args.no_render, announce=_say)
+    report = analysis.make_report(
+        args.run_dir, render=not args.no_render, announce=_say, out=args.out
+    )
     analysis.print_report(report, written=False)
     return 0
 

@@ -14,7 +14,7 @@ import contextlib
 import datetime as _dt
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -442,7 +442,7 @@ def _drive_campaign(
     )
 
 
-def _ended(path: Path, info: dict[str, Any], status: str) -> None:
+def _ended(path: Path, info: Mapping[str, object], status: str) -> None:
     """The campaign's own records once its runs stopped (``status``): campaign.rrd, then
     campaign.json's status, so that ``finished`` there means the recording is written too;
     interrupted while writing them, ``interrupted`` (a resume writes them)."""
@@ -456,7 +456,7 @@ def _ended(path: Path, info: dict[str, Any], status: str) -> None:
         raise
 
 
-def _records_finished(path: Path, info: dict[str, Any], skipped: int) -> CampaignResult:
+def _records_finished(path: Path, info: Mapping[str, object], skipped: int) -> CampaignResult:
     """A campaign stopped after its last run had finished (its recording or campaign.json's
     status not written yet): writes them, as the end of `_drive_campaign` does."""
     info = {key: value for key, value in info.items() if key != "format"}

@@ -501,8 +501,9 @@ def report_gallery(
 
     Args:
         run: The loaded run (`Run`).
-        folder: The folder of the two files, inside the run folder (``RUN/report``): nothing
-            is written through a symbolic link between the two.
+        folder: The folder of the two files: the run's ``RUN/report`` (nothing is written
+            through a symbolic link between the two), or a report's ``out`` folder outside the
+            run (its thumbnails then cached there too where the run cannot be written).
         render: False draws no thumbnail (those already drawn are still shown).
         workers: Processes that draw the thumbnails at most (None: one per CPU).
         progress: As `make_gallery`'s (None: only where someone watches).
@@ -512,7 +513,8 @@ def report_gallery(
         left out, e.g. why there are no pictures) for its notes.
     """
     gallery, chosen = _run_gallery(run, "final")
-    where = (Path(folder), Path(run.path), "gallery")
+    inside = Path(folder).is_relative_to(run.path)
+    where = (Path(folder), Path(run.path) if inside else Path(folder), "gallery")
     return _finish(gallery, chosen, where, workers=workers, render=render, progress=progress)
 
 

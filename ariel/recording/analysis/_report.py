@@ -46,6 +46,7 @@ from ariel.recording.analysis._report_figures import (
     _save,
     _title,
 )
+from ariel.recording.analysis._report_out import check_report_folder
 from ariel.recording.store import (
     DESCRIPTORS,
     QD_COLUMNS,
@@ -103,6 +104,8 @@ class Report:
         figures: file name (``fitness.png``) -> its matplotlib `Figure`, to show or restyle.
         announce: told a line as drawing starts and as each file is written (`make_report`'s),
             or None.
+        out: the folder written to where it is not the run's own ``report/`` (`make_report`'s
+            ``out``), or None.
     """
 
     run: Run
@@ -112,6 +115,7 @@ class Report:
     notes: list[str] = field(default_factory=list)
     figures: dict[str, Figure] = field(default_factory=dict, repr=False)
     announce: Callable[[str], None] | None = field(default=None, repr=False)
+    out: Path | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:  # one line, as Run's (a notebook cell's last value)
         notes = f", {len(self.notes)} notes" if self.notes else ""
@@ -128,7 +132,13 @@ class Report:
 
     @property
     def folder(self) -> Path:
-        return self.run.path / "report"
+        return self.out if self.out is not None else self.run.path / "report"
+
+    @property
+    def root(self) -> Path:
+        """The folder nothing is written outside of, or through a link below: the run's, or
+        ``out``."""
+        return self.out if self.out is not None else self.run.path
 
 
 #: The heading of the archive's table, by optimizer, and what a line under it says: novelty
@@ -251,9 +261,13 @@ def _morphology_figure(report: Report) -> None:
 
 
 def make_report(
-    run_dir: str | Path, *, render: bool = True, announce: Callable[[str], None] | None = None
+    run_dir: str | Path,
+    *,
+    render: bool = True,
+    announce: Callable[[str], None] | None = None,
+    out: str | Path | None = None,
 ) -> Report:
-    """Write the report figures of the run in ``run_dir`` to ``RUN_DIR/report/``.
+    """Write the report figures of the run in ``run_dir`` to ``RUN_DIR/report/`` (or ``out``).
 
     A run without a finished generation gets no figures (a note says so); a figure that
     cannot be drawn (no trajectories recorded, no successful evaluation) is left out with a
@@ -264,6 +278,9 @@ def make_report(
         render: False leaves out the rendered image of the best body (no OpenGL needed).
         announce: Told a line when drawing starts and one as each file is written (``ariel
             report`` prints them: a report of many generations is not silent), or None.
+        out: Another folder for the figures (made where missing), e.g. for a run on a
+            read-only disk: new, empty, or an earlier report's (its files are replaced),
+            outside every run and campaign folder. None: ``RUN_DIR/report/``.
 
     Returns:
         What was found and written: the per-generation table, the best evaluation's row,
@@ -273,7 +290,10 @@ def make_report(
         NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
             were changed, whose config has a section that is no table, or, with ``render``,
             whose body encoder or world rejects the options its config records).
-        UnsafePathError: When a folder on the way to ``report/`` is a symbolic link.
+        UnsafePathError: When a folder on the way to ``report/`` is a symbolic link, or
+            ``out`` is one.
+        ReportFolderError: For an ``out`` inside a run or campaign folder, a file, or a
+            folder holding files a report does not write.
         RunStorageError: When a figure cannot be written (disk full, read-only).
 
     Example:
@@ -285,6 +305,7 @@ def make_report(
         print([path.name for path in report.written], report.notes)
         ```
     """
+    folder = None if out is None else check_report_folder(out)
     run = load_run(run_dir)
     resim.check_config(run)  # a section that is no table: one line, before it is read
     missing = resim.missing_plugin(run) if render else None
@@ -294,14 +315,15 @@ def make_report(
     quality = [c for c in QD_COLUMNS if c in generations.columns]  # a MAP-Elites run
     table = generations[[*TABLE_COLUMNS, *quality]]
     maximise = run.maximise if len(run.evaluations) else True
-    report = Report(run=run, table=table, best=_best_row(run, maximise), announce=announce)
+    best = _best_row(run, maximise)
+    report = Report(run=run, table=table, best=best, announce=announce, out=folder)
     if missing is not None:  # the tables' figures need no plugin: drawn, the bodies left out
         report.notes.append(f"rendering off: {missing}, which draws the run's bodies")
         render = False
     if not len(table):
         report.notes.append("no finished generation yet: no figures")
         return report
-    refuse_symlinks(report.folder / "fitness.png", run.path)
+    refuse_symlinks(report.folder / "fitness.png", report.root)
     try:
         report.folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

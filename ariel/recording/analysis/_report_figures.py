@@ -47,8 +47,14 @@ def _cannot_write(exc: OSError, path: Path, report: Report) -> RunStorageError:
     are whole."""
     return RunStorageError(
         f"{cannot_write(exc, path)}; the report is not finished (the run is unchanged): make "
-        f"room (or fix the folder), then run {ariel_line('report', report.run.path)} again"
+        f"room (or fix the folder), then run {ariel_line(*_report_words(report))} again"
     )
+
+
+def _report_words(report: Report) -> tuple[object, ...]:
+    """The ``ariel`` words that make ``report`` again."""
+    out = () if report.out is None else ("--out", report.out)
+    return ("report", report.run.path, *out)
 
 
 #: What matplotlib raises when it lays out or draws values no run writes but a crafted table
@@ -70,7 +76,7 @@ def _save(figure: Figure, path: Path, report: Report) -> None:
         atomic_write(
             path,
             lambda temporary: figure.savefig(temporary, dpi=_DPI, format="png"),
-            root=report.run.path,
+            root=report.root,
         )
     except OSError as exc:
         raise _cannot_write(exc, path, report) from exc

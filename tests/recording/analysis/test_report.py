@@ -592,3 +592,34 @@ def test_a_run_replaced_while_its_report_is_drawn_is_said_in_one_line(
     monkeypatch.setattr(_report, "_draw", overwritten)
     with pytest.raises(NotARunError, match=r"was replaced by another run while its report was"):
         make_report(copy, render=False)
+
+
+def test_out_takes_the_report_of_a_run_it_must_not_write_into(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from _helpers import exit_code, one_error_line
+
+    from ariel.cli import main
+
+    shared = tmp_path / "shared"  # e.g. a read-only disk: its report goes to a folder of ours
+    shutil.copytree(run_dir, shared)
+    shutil.rmtree(shared / "report", ignore_errors=True)
+    out = tmp_path / "mine" / "report"
+    for _ in range(2):  # an earlier report's folder takes the next
+        assert main(["report", str(shared), "--no-render", "--out", str(out)]) == 0
+    assert f"wrote {out / 'fitness.png'}" in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == sorted(FIGURES)
+    assert not (shared / "report").exists()  # nothing written into the run
+    (out.parent / "notes.txt").write_text("mine")
+    link = tmp_path / "link"
+    link.symlink_to(out.parent)
+    refused = {
+        shared / "figures": "is inside the run or campaign folder",
+        out.parent: "holds files a report does not write ('notes.txt' and 1 more)",
+        out.parent / "notes.txt": "is not a folder",
+        link: "it is a symbolic link",
+    }
+    for folder, why in refused.items():
+        assert exit_code(["report", str(shared), "--no-render", "--out", str(folder)]) == 2
+        assert why in one_error_line(capsys)
+    assert not (shared / "figures").exists() and (out.parent / "notes.txt").read_text() == "mine"
