@@ -22,6 +22,7 @@ __all__ = [
     "ConfigError",
     "DamagedRunError",
     "DuplicatePluginError",
+    "ExecutorStartError",
     "FaceNotAvailableError",
     "GLBackendError",
     "MissingPluginError",
@@ -136,6 +137,11 @@ class WarpUnavailableError(ArielError, RuntimeError):
 class WorkerLostError(ArielError, RuntimeError):
     """Workers were lost: the process running a call died every time the call was tried, or
     a cluster's workers could not start."""
+
+
+class ExecutorStartError(WorkerLostError):
+    """The executor's workers could not start (a local Dask cluster's): nothing ran, and a
+    run or campaign folder made for it is removed again."""
 
 
 class CallTimeoutError(ArielError, TimeoutError):

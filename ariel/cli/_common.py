@@ -18,6 +18,7 @@ from ariel.utils import ensure_headless_gl, has_display
 __all__ = [
     "DEFAULT_RUNS",
     "EXIT_USAGE",
+    "IntermixedParser",
     "Parser",
     "fail",
     "fail_with",
@@ -35,6 +36,24 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+class IntermixedParser(Parser):
+    """Options and positionals in any order: argparse (Python 3.11, 3.12) binds an optional
+    positional (``EVAL_ID``) too early, and ``ariel view RUN --web EVAL_ID`` or ``ariel export
+    RUN --lineage FILE EVAL_ID DIR`` would fail. A sub-command becomes one by
+    ``parser.__class__ = IntermixedParser``."""
+
+    _inner = False
+
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        if self._inner:  # parse_known_intermixed_args calls back here
+            return super().parse_known_args(args, namespace)
+        self._inner = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        finally:
+            self._inner = False
 
 
 if TYPE_CHECKING:

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ariel import recording
-from ariel.cli._common import fail
+from ariel.cli._common import IntermixedParser, fail
 from ariel.recording import resim
 from ariel.recording.store import cannot_write, output_file_problem, terminal_text, user_file
 from ariel.utils import python_command, shell_path
@@ -46,6 +46,7 @@ def add_export_command(sub: SubParsers) -> None:
         help="write the run's lineage to FILE.csv, a new file (an existing one is never "
         "replaced); EVAL_ID and DIR are then optional",
     )
+    p.__class__ = IntermixedParser  # EVAL_ID and DIR may follow --lineage FILE
     p.set_defaults(func=_cmd_export)
 
 

@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ariel.cli._common import Parser
+from ariel.cli._common import IntermixedParser
 from ariel.cli._options import add_web_viewer_options
 from ariel.cli._types import integer_at_least, positive_int
 from ariel.recording import viewer
@@ -21,22 +21,6 @@ if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
 
 __all__ = ["add_view_command"]
-
-
-class _IntermixedParser(Parser):
-    """Options and positionals in any order: argparse (Python 3.11, 3.12) binds an optional
-    positional (``EVAL_ID``) too early, and ``ariel view RUN --web EVAL_ID`` would fail."""
-
-    _inner = False
-
-    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
-        if self._inner:  # parse_known_intermixed_args calls back here
-            return super().parse_known_args(args, namespace)
-        self._inner = True
-        try:
-            return self.parse_known_intermixed_args(args, namespace)
-        finally:
-            self._inner = False
 
 
 def _png_path(text: str) -> Path:
@@ -71,7 +55,7 @@ def add_view_command(sub: SubParsers) -> None:
         description="Open Rerun recordings of a run with its blueprint: by default run.rrd and "
         "the best evaluation's recording.",
     )
-    p.__class__ = _IntermixedParser  # EVAL_ID may follow the options
+    p.__class__ = IntermixedParser  # EVAL_ID may follow the options
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run folder, e.g. data/runs/<run-id>")
     p.add_argument("eval_id", nargs="?", metavar="EVAL_ID", help="one evaluation")
     which = p.add_mutually_exclusive_group()

@@ -4,12 +4,15 @@
 terminal sends to every process of the job; the driver catches them and closes the cluster.
 `check_open_files`: a cluster too big for this process's open-file limit is refused in one
 line before it starts (else Dask logs ``Too many open files`` for every worker, by the
-hundred thousand lines, and the run waits).
+hundred thousand lines, and the run waits). `quiet_nanny`: worker processes that log nothing
+below CRITICAL on stderr.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
+import logging
 import signal
 import threading
 import time
@@ -29,6 +32,7 @@ __all__ = [
     "check_open_files",
     "drop_gc_diagnosis",
     "open_files_problem",
+    "quiet_nanny",
     "stop_signals_left_to_driver",
 ]
 
@@ -91,6 +95,25 @@ def stop_signals_left_to_driver() -> Iterator[None]:
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+
+
+def quiet_nanny(distributed: ModuleType) -> type:
+    """Dask's ``Nanny`` (``distributed.Nanny``) whose worker processes log nothing below
+    CRITICAL. A worker that could not start (a Dask configuration value it cannot use, no
+    memory) printed its own traceback on stderr from its process, where `DaskLogs` in the
+    driver never sees it; the nanny in the driver still logs the error, which `DaskLogs`
+    keeps for the run's one line."""
+    return _quiet_nanny(distributed.Nanny)
+
+
+@functools.cache
+def _quiet_nanny(nanny: type) -> type:
+    class Nanny(nanny):  # type: ignore[misc,valid-type]  # its name in Dask's messages
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)  # its own log level in the driver: as asked
+            self.silence_logs = logging.CRITICAL  # handed to each worker process it starts
+
+    return Nanny
 
 
 def drop_gc_diagnosis(distributed: ModuleType) -> None:

@@ -15,6 +15,8 @@ cluster closes) are Dask's too while it runs.
 from __future__ import annotations
 
 import logging
+import traceback
+from pathlib import Path
 
 __all__ = ["DaskLogs", "quiet_cancel_race"]
 
@@ -24,6 +26,18 @@ _LOGGERS = ("distributed", "tornado")
 
 def _one_line(text: str) -> str:
     return (text.strip().splitlines() or [""])[0][:200]
+
+
+def _said(exc: BaseException) -> str:
+    """``exc`` in one line: its type and message; one without a message (a MemoryError from
+    a Dask configuration value a worker cannot use) names where it was raised instead."""
+    if str(exc).strip():
+        return _one_line(f"{type(exc).__name__}: {exc}")
+    frames = traceback.extract_tb(exc.__traceback__)
+    if not frames:
+        return type(exc).__name__
+    file = "/".join(Path(frames[-1].filename).parts[-2:])  # distributed/worker_memory.py
+    return f"{type(exc).__name__} (raised in {file} line {frames[-1].lineno})"
 
 
 class DaskLogs(logging.Filter):
@@ -42,7 +56,7 @@ class DaskLogs(logging.Filter):
         if record.levelno >= logging.ERROR:
             exc = record.exc_info[1] if record.exc_info else None
             if exc is not None and self._exception is None and record.name.startswith("dist"):
-                self._exception = _one_line(f"{type(exc).__name__}: {exc}")
+                self._exception = _said(exc)
         return False
 
     def hold(self) -> DaskLogs:

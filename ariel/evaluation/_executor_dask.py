@@ -21,13 +21,14 @@ from collections.abc import Callable, Iterable, Iterator
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
-from ariel.errors import CallTimeoutError, ConfigError, WorkerLostError
+from ariel.errors import CallTimeoutError, ConfigError, ExecutorStartError
 from ariel.evaluation._dask_connect import connect_scheduler, distributed_module
 from ariel.evaluation._dask_local import (
     SILENT_WORKER_SECONDS,
     answering_workers,
     check_open_files,
     drop_gc_diagnosis,
+    quiet_nanny,
     stop_signals_left_to_driver,
 )
 from ariel.evaluation._dask_logs import DaskLogs, quiet_cancel_race
@@ -273,6 +274,7 @@ def _make_dask(
     Client, LocalCluster = distributed.Client, distributed.LocalCluster
     if address is None:
         settings = _cluster_settings(workers, max_retries, blas_threads, cluster_options)
+        settings.setdefault("worker_class", quiet_nanny(distributed))
         limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_LOCAL)  # before starting
         check_open_files(settings["n_workers"])
         logs = DaskLogs().hold()  # its workers' deaths are the run's to report, in one line
@@ -281,7 +283,7 @@ def _make_dask(
                 cluster = LocalCluster(**settings)
         except Exception as exc:
             logs.release()
-            raise WorkerLostError(
+            raise ExecutorStartError(
                 f"the local Dask cluster could not start its {settings['n_workers']} worker(s): "
                 f"{type(exc).__name__}: {exc}{logs.cause()}"
             ) from exc

@@ -13,13 +13,14 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import os
+import shutil
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ariel.errors import ArielError, DamagedRunError
+from ariel.errors import ArielError, DamagedRunError, ExecutorStartError
 from ariel.evaluation.executors import executor_kind, planned_workers
 from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows_progress
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
@@ -47,7 +48,7 @@ from ariel.recording.store import (
 from ariel.runs._campaign_file import load_campaign_file
 from ariel.runs._campaign_info import campaign_info
 from ariel.runs._campaign_progress import CampaignProgress, RunProgress
-from ariel.runs._experiment import new_progress, noted_on_interrupt
+from ariel.runs._experiment import new_progress, noted_on_interrupt, raised_from
 from ariel.runs._prepare import PreparedRun, executor_settings, prepare_run, resume_settings
 from ariel.runs._result import RunResult
 from ariel.runs._session import RunSession, drive
@@ -249,15 +250,20 @@ def run_campaign(
     _check_new_folder(path)
     executor_kind(settings.kind).reach(settings)  # a scheduler that never answers: no folder
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
-    with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
-        _check_new_folder(path, locked=True)  # again: another campaign run may have begun
-        write_campaign_info(path, info)
-        locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
-        locks.enter_context(noted_on_interrupt("campaign_dir", path))
-        for run in runs:
-            folder = path / run_path(run.condition, run.seed)
-            run.session = RunSession.create(run.prepared, folder, run.run_id, locks)
-        return _drive_campaign(path, runs, settings, progress, skipped=0)
+    try:
+        with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
+            _check_new_folder(path, locked=True)  # again: another campaign run may have begun
+            write_campaign_info(path, info)
+            locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
+            locks.enter_context(noted_on_interrupt("campaign_dir", path))
+            for run in runs:
+                folder = path / run_path(run.condition, run.seed)
+                run.session = RunSession.create(run.prepared, folder, run.run_id, locks)
+            return _drive_campaign(path, runs, settings, progress, skipped=0)
+    except Exception as exc:
+        if raised_from(exc, ExecutorStartError):  # nothing ran: the new folder goes
+            shutil.rmtree(path, ignore_errors=True)
+        raise
 
 
 def _check_open_files(runs: int, settings: ExecutorConfig) -> None:

@@ -16,7 +16,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ariel.errors import ConfigError
+from ariel.errors import ConfigError, ExecutorStartError
 from ariel.evaluation import WorkerCannotStartError
 from ariel.evaluation.executors import executor_kind
 from ariel.evolution import (
@@ -49,6 +49,7 @@ __all__ = [
     "new_progress",
     "noted_on_interrupt",
     "prepare_run",
+    "raised_from",
     "resolve_plugins",
     "resume_experiment",
     "run_experiment",
@@ -187,7 +188,9 @@ def run_experiment(
             session = RunSession.create(prepared, path, run_id, locks, overwrite=overwrite)
             return _drive(session, progress)
     except Exception as exc:
-        if not _worker_cannot_start(exc):
+        if raised_from(exc, ExecutorStartError):  # nothing ran: the new folder goes
+            shutil.rmtree(path, ignore_errors=True)
+        if not raised_from(exc, WorkerCannotStartError):
             raise
     _end_script_without_main_guard(path, progress)
 
@@ -224,12 +227,13 @@ def noted_on_interrupt(name: str, folder: Path, once: str | None = None) -> Iter
         raise
 
 
-def _worker_cannot_start(exc: BaseException | None) -> bool:
-    """Whether ``exc`` (or one it was raised from or during) is the local pool saying that a
-    worker could not start (`WorkerCannotStartError`)."""
+def raised_from(exc: BaseException | None, kind: type[BaseException]) -> bool:
+    """Whether ``exc``, or one it was raised from or during, is a ``kind``: the local pool's
+    `WorkerCannotStartError` (a script without a ``__main__`` guard), a Dask cluster's
+    `ExecutorStartError`."""
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
-        if isinstance(exc, WorkerCannotStartError):
+        if isinstance(exc, kind):
             return True
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__

@@ -269,3 +269,29 @@ def test_sighup_to_a_dask_run_group_is_one_line(tmp_path: Path) -> None:
         output[-3000:]
     )
     assert json.loads((run_dir / "run.json").read_text())["status"] == "interrupted"
+
+
+def test_a_local_cluster_whose_worker_cannot_start_is_one_line_and_no_folder(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """A Dask configuration value the worker cannot use: its process printed Dask's
+    traceback, the error had no message ("MemoryError:") and a `failed` folder (a campaign's
+    folders) stayed behind."""
+    import dask
+
+    from ariel.cli import main
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("dask_no_worker", 1))
+    campaign = tmp_path / "c.toml"
+    campaign.write_text(f'name = "c"\nbase = "{config.name}"\nseed_count = 1\n')
+    out = tmp_path / "out"
+    with dask.config.set({"distributed.worker.memory.target": "lots"}):  # the workers get it
+        for command in (["run", str(config)], ["campaign", "run", str(campaign)]):
+            argv = [*command, "--out", str(out), "--quiet", "--executor", "dask"]
+            assert main([*argv, "--workers", "1"]) == 2
+            err = capfd.readouterr().err
+            assert err.count("\n") == 1 and "Traceback" not in err, err
+            assert err.startswith("ariel: error: the local Dask cluster could not start its 1")
+            assert "first error: MemoryError (raised in distributed/worker_memory.py" in err
+            assert not out.exists()

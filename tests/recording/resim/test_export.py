@@ -83,6 +83,16 @@ def test_export_of_an_unknown_evaluation_is_one_line(
     assert not (tmp_path / "x").exists()
 
 
+def test_lineage_may_come_before_the_evaluation_and_its_folder(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """argparse bound EVAL_ID too early: options first was "unrecognized arguments"."""
+    lineage, out = tmp_path / "lineage.csv", tmp_path / "best"
+    assert exit_code(["export", str(run_dir), "--lineage", str(lineage), "best", str(out)]) == 0
+    assert (out / "replay.py").is_file() and lineage.read_text().startswith("id,")
+    assert "wrote" in capsys.readouterr().out
+
+
 def test_export_into_a_folder_that_is_not_empty_is_one_line(
     run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
