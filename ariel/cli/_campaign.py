@@ -280,7 +280,9 @@ def _add_campaign_run(actions: SubParsers) -> None:
     p = actions.add_parser("run", help="run every condition x seed of a campaign file")
     p.add_argument("file", metavar="FILE", help="campaign TOML file")
     add_set_option(
-        p, "override a value of the base experiment, e.g. --set generations=4 (repeatable)"
+        p,
+        "override a value in every run, over the file's campaign-wide set but not a "
+        "condition's own, e.g. --set generations=4 (repeatable)",
     )
     p.add_argument("--out", metavar="DIR", help="campaign folder (default: data/campaigns/<id>)")
     p.add_argument(

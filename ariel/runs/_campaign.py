@@ -199,7 +199,8 @@ def run_campaign(
             (``executor.address``). ``scheduler=`` is its old name, still accepted.
         progress: One line per run and generation; True, False or None (the default: where
             someone watches, a terminal or a Jupyter notebook; see `run_experiment`).
-        overrides: ``key=value`` strings with dotted keys, applied to the base experiment.
+        overrides: ``key=value`` strings with dotted keys, applied to every run after the
+            file's campaign-wide ``set`` and before each condition's own ``set``.
 
     Returns:
         The campaign's summary; ``CampaignResult.load()`` reads its records.
