@@ -362,3 +362,35 @@ def test_checks_need_no_registered_na_cpg_at_all(replace_builtin) -> None:
     assert "na_cpg" not in controllers
     check_world("tilted")
     check_fitness("distance_to_target")
+
+
+def _clashing(monkeypatch: pytest.MonkeyPatch, registry: Registry[Any], name: str) -> None:
+    """``registry.get(name)`` raises as for two entry points of that name."""
+    from ariel.errors import DuplicatePluginError
+
+    original = registry.get
+
+    def get(asked: str) -> Any:
+        if asked == name:
+            raise DuplicatePluginError(f"{name!r} is provided twice (by a and by b)")
+        return original(asked)
+
+    monkeypatch.setattr(registry, "get", get)
+
+
+def test_a_clashing_plugin_fails_only_the_experiments_that_use_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Every controller's check failed for a second "xy_displacement", naming 'na_cpg'; a
+    second "ga" refused brain-only runs, which ask no body optimizer."""
+    from ariel.evolution import load_config
+    from ariel.plugins import body_optimizers
+    from ariel.runs._prepare import prepare_run
+
+    _clashing(monkeypatch, fitness_functions, "xy_displacement")
+    _clashing(monkeypatch, body_optimizers, "ga")
+    check_controller("na_cpg")
+    config = load_config(
+        {"body": {"encoder": "prebuilt", "genotype": "gecko"}, "task": {"fitness": "x_speed"}}
+    )
+    assert prepare_run(config).config.body.optimizer == "ga"

@@ -49,9 +49,11 @@ from ariel.evaluation._check_tools import (
     _same,
     call_text as call_text,
 )
-from ariel.evaluation._engine import evaluate_batch
-from ariel.evaluation._results import TrajectoryRecord, num_steps
-from ariel.evaluation._task import BodySpec, EvaluationTask
+from ariel.evaluation._engine import TaskGroup, evaluate_group
+from ariel.evaluation._mujoco_log import MUJOCO_LOG_OFF
+from ariel.evaluation._results import TrajectoryRecord, num_steps, read_only
+from ariel.evaluation._rollouts import _open_loop
+from ariel.evaluation._task import BodySpec, EvaluationResult, EvaluationTask
 from ariel.evaluation.builtin_plugins import xy_displacement
 from ariel.plugins import (
     BodyEncoder,
@@ -312,8 +314,21 @@ def check_controller(name: str, **options: Any) -> None:
         for p in params
     ]
     with check.step("evaluating the gecko"):
-        first, again_results = evaluate_batch(tasks, nthread=2), evaluate_batch(tasks, nthread=1)
+        first, again_results = (_run_controller(tasks, controller, n) for n in (2, 1))
     _expect_same_results(check, first, again_results)
+
+
+def _run_controller(
+    tasks: list[EvaluationTask], controller: Any, nthread: int
+) -> list[EvaluationResult]:
+    """`evaluate_batch` of ``tasks`` (the gecko, one controller), given the controller and
+    `xy_displacement` as objects: another "xy_displacement" (a clashing entry point) cannot
+    fail a controller's check, as it cannot a world's (`_run_gecko`)."""
+    group = TaskGroup(list(range(len(tasks))), tasks, build(tasks[0]), controller, xy_displacement)
+    with MUJOCO_LOG_OFF.held():
+        return evaluate_group(
+            group, lambda g: _open_loop(g.tasks, g.built, g.controller, g.fitness_fn, nthread)
+        )
 
 
 def _check_targets(
@@ -376,12 +391,6 @@ def _check_policy(
 # --------------------------------------------------------------------------------------------
 
 
-def _read_only(array: np.ndarray) -> np.ndarray:
-    array = array.copy()
-    array.flags.writeable = False  # a fitness function must not edit the record it scores
-    return array
-
-
 def check_fitness(name: str, **options: Any) -> None:
     """Check fitness function ``name`` (with fitness ``options``); raise `PluginCheckError`.
 
@@ -410,10 +419,10 @@ def check_fitness(name: str, **options: Any) -> None:
     )
     (trajectory,) = _run_gecko([run], xy_displacement)
     record = TrajectoryRecord(
-        time=_read_only(trajectory.time),
-        core_pos=_read_only(trajectory.core_pos),
-        joint_target=_read_only(trajectory.joint_target),
-        joint_angle=_read_only(trajectory.joint_angle),
+        time=read_only(trajectory.time),
+        core_pos=read_only(trajectory.core_pos),
+        joint_target=read_only(trajectory.joint_target),
+        joint_angle=read_only(trajectory.joint_angle),
         target=build(run).target,
     )
     with check.step("fn(record)"):

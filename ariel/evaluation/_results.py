@@ -8,6 +8,7 @@ function's score (`TrajectoryRecord` is what it sees) and the result's status (`
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -20,7 +21,7 @@ from ariel.evaluation._task import EvaluationResult, EvaluationTask, fitness_opt
 if TYPE_CHECKING:
     from ariel.plugins import FitnessFunction
 
-__all__ = ["TrajectoryRecord", "frame_steps", "num_steps", "worst_fitness"]
+__all__ = ["TrajectoryRecord", "frame_steps", "num_steps", "read_only", "worst_fitness"]
 
 
 @dataclass(frozen=True)
@@ -28,7 +29,8 @@ class TrajectoryRecord:
     """What a fitness function sees: the recorded frames of one evaluation.
 
     The frames are the result's (`EvaluationResult`): every ``record_every`` physics steps,
-    first at t = 0 and last at the end of the run; ``T`` frames, ``nu`` actuators.
+    first at t = 0 and last at the end of the run; ``T`` frames, ``nu`` actuators. The
+    arrays a run hands a fitness function are read-only: they are the ones recorded.
 
     Attributes:
         time: ``(T,)`` simulated seconds of the frames, from 0.
@@ -97,13 +99,27 @@ def _score(
     name: str, fitness_fn: FitnessFunction, options: dict[str, Any], record: TrajectoryRecord
 ) -> float:
     try:
-        value = float(fitness_fn(record, **options))
+        value = fitness_fn(record, **options)
     except (TypeError, ValueError) as exc:  # e.g. a bad option value: the caller's mistake
         kind = TypeError if isinstance(exc, TypeError) else ValueError
-        raise kind(f"fitness function {name!r} failed with options {options}: {exc}") from exc
+        given = f" with options {options}" if options else ""
+        raise kind(f"fitness function {name!r} failed{given}: {exc}") from exc
     except Exception as exc:
         raise _blame(exc, f"fitness function {name!r}") from None
-    return value  # possibly NaN or infinite: the caller records it as ``invalid``
+    # The check's rule (`check_fitness`): a number, never a bool or a text ("0.03" read as one)
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        raise TypeError(f"fitness function {name!r} returned {type(value).__name__}, not a float")
+    try:
+        return float(value)  # possibly NaN or infinite: the caller records it as ``invalid``
+    except OverflowError:  # an int of more than 308 digits: no float holds it
+        return math.inf
+
+
+def read_only(values: np.ndarray) -> np.ndarray:
+    """A view of ``values`` that cannot be written through (``values`` itself still can)."""
+    view = values.view()
+    view.flags.writeable = False
+    return view
 
 
 def _blame(exc: BaseException, plugin: str) -> BaseException:
@@ -147,11 +163,12 @@ def _finish(
         safe_qpos = np.where(np.isfinite(qpos), qpos, 0.0)
         poses = _kinematics_frames(built, safe_qpos, task.record_bodies)
     core, body_pos, body_quat = poses
-    record = TrajectoryRecord(
-        time=times,
-        core_pos=core,
-        joint_target=joint_target,
-        joint_angle=qpos[:, built.joint_qpos],
+    joint_angle = qpos[:, built.joint_qpos]
+    record = TrajectoryRecord(  # read-only views: the fitness function reads what is recorded
+        time=read_only(times),
+        core_pos=read_only(core),
+        joint_target=read_only(joint_target),
+        joint_angle=read_only(joint_angle),
         target=built.target,
     )
     fitness, status = worst_fitness(fitness_fn.maximise), "unstable"
@@ -174,7 +191,7 @@ def _finish(
         time=times,
         core_pos=core,
         joint_target=joint_target,
-        joint_angle=record.joint_angle,
+        joint_angle=joint_angle,
         body_pos=body_pos,
         body_quat=body_quat,
         body_names=list(built.body_names),

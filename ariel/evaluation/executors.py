@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import functools
-import inspect
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Protocol, TypeVar
 
@@ -55,6 +54,7 @@ from ariel.evaluation._executor_local import (
     LocalPool as LocalPool,
     _make_local,
 )
+from ariel.evaluation._kind_make import address_keyword, made_by_plugin, takes_address
 from ariel.evaluation._threads import (
     EVAL_THREADS_VARIABLE as EVAL_THREADS_VARIABLE,
     THREAD_LIMIT_VARIABLES as THREAD_LIMIT_VARIABLES,
@@ -362,7 +362,7 @@ def check_settings(settings: ExecutorSettings) -> None:
         raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
     if kind.one_worker is not None and workers not in (None, 1):
         raise ExecutorSettingsError(f"executor.workers: {kind.one_worker} (got {workers})")
-    if address is not None and not _takes_address(kind):
+    if address is not None and not takes_address(kind):
         raise ExecutorSettingsError(
             f"executor.address: only for the dask executor, not {kind_name!r}"
         )
@@ -451,6 +451,8 @@ def make_executor(
         TypeError: Options the kind does not take, or both ``address`` and ``scheduler``.
         ExecutorSettingsError: A bad setting in a config's ``[executor]`` section.
         ImportError: ``dask`` without the ``distributed`` extra installed.
+        ExecutorStartError: A registered kind's ``make`` raised, or gave no executor (one
+            line naming the kind); a Dask ``LocalCluster`` that could not start its workers.
 
     Example:
         ```python
@@ -472,22 +474,14 @@ def make_executor(
     executor = executor_kind(kind)
     if workers is not None and not _is_count(workers):
         raise ValueError(f"workers must be an integer >= 1 or None, got {workers!r}")
-    if address is not None and not _takes_address(executor):
+    if address is not None and not takes_address(executor):
         raise ValueError(f"address= is only for the dask executor, not {kind!r}")
-    where = {_address_keyword(executor.make): address}
-    return executor.make(workers=workers, max_retries=max_retries, **where, **options)
-
-
-def _takes_address(kind: ExecutorKind) -> bool:
-    """``takes_address``, or ``takes_scheduler``: its name in kinds written before the rename."""
-    return bool(kind.takes_address or getattr(kind, "takes_scheduler", False))
-
-
-def _address_keyword(make: Callable[..., object]) -> str:
-    """The keyword a kind's ``make`` takes the Dask address by: ``address``, or ``scheduler``
-    where a kind written before the rename names only that (its ``make`` keeps working)."""
-    parameters = inspect.signature(make).parameters
-    return "scheduler" if "scheduler" in parameters and "address" not in parameters else "address"
+    where = {address_keyword(executor.make): address}
+    if kind in _BUILTIN_KINDS:
+        return executor.make(workers=workers, max_retries=max_retries, **where, **options)
+    return made_by_plugin(
+        kind, executor, workers=workers, max_retries=max_retries, **where, **options
+    )
 
 
 def worker_fault(exc: BaseException) -> str | None:

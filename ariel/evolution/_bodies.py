@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import networkx as nx
 import numpy as np
 
-from ariel.body_phenotypes.robogen_lite.graph_io import graph_to_plain
+from ariel.body_phenotypes.robogen_lite.graph_io import graph_key, graph_to_plain
 from ariel.evolution._brain import BrainRun
 from ariel.evolution._seeds import derive_rng, derive_seed
 from ariel.evolution._state import Body
@@ -43,6 +43,19 @@ class BrainJob:
     target: int
     eval_seed: int
     record_every: int
+
+
+def graph_text(decoded: object) -> str:
+    """The bodies table's ``graph`` of an encoder's decoded graph: node-link JSON, or ``""``
+    (stored as a body without a graph) for one no `graph_key` is made of, an empty graph: a
+    decode that changed between calls stopped the run, and readers called the table damaged."""
+    graph = graph_to_plain(decoded)
+    text = json.dumps(nx.node_link_data(graph, edges="edges"), sort_keys=True)
+    try:
+        graph_key(text)
+    except Exception:  # the encoder's output: anything
+        return ""
+    return text
 
 
 class BodyFactory:
@@ -86,8 +99,7 @@ class BodyFactory:
         body.joint_names = list(built.joint_names)
         body.descriptors = dict(built.descriptors)
         with contextlib.suppress(Exception):  # a body without a graph form (some prebuilts)
-            graph = graph_to_plain(self.encoder.decode(spec.genotype))
-            body.graph = json.dumps(nx.node_link_data(graph, edges="edges"), sort_keys=True)
+            body.graph = graph_text(self.encoder.decode(spec.genotype))
         self._models[number] = built.model
         return body
 

@@ -108,14 +108,17 @@ _CHECKED_PLUGINS = (
 )
 
 
-def check_plugins(config: ExperimentConfig) -> None:
+def check_plugins(config: ExperimentConfig, *, brain_only: bool = False) -> None:
     """Run the plugin checkers (`ariel.plugins.check_*`) on the plugins ``config`` names, with
-    its options; the first failure is a `ConfigError` naming the plugin and the problem."""
+    its options; the first failure is a `ConfigError` naming the plugin and the problem. A
+    ``brain_only`` run's body optimizer is not checked: it asks none."""
     # ariel.recording.store._failures imports this module, for ERROR_LOG and plugin_named
     # lazy: the checkers run the engine: mujoco and the GL backend (ariel.utils._gl)
     from ariel import plugins
 
     for table_name, plugin_key, options_key, checker, registry in _CHECKED_PLUGINS:
+        if brain_only and checker == "check_body_optimizer":
+            continue
         table = getattr(config, table_name)
         name, options = getattr(table, plugin_key), getattr(table, options_key)
         # The key named: the plugin's options where there are any, else the plugin's own key.

@@ -46,7 +46,7 @@ from ariel.evolution._events import (
 )
 from ariel.evolution._optimizer import Proposal
 from ariel.evolution._seeds import derive_rng
-from ariel.evolution._state import Body, LoopState, state_to_plain
+from ariel.evolution._state import Body, LoopState, body_fields, changed_field, state_to_plain
 from ariel.evolution._tasks import body_spec
 
 __all__ = ["Plugins", "RunDriver", "budget", "distinct_bodies", "fixed_genotype"]
@@ -342,8 +342,12 @@ class RunDriver:
         if self.optimizer is None:
             rows = [(children[0], generation == 0, True)]
         else:
+            told, before = parents + children, body_fields(parents + children)
             try:
                 self.optimizer.tell(children)
+                changed = changed_field(told, before)
+                if changed is not None:  # the rows below would carry its values, not the loop's
+                    raise ValueError(f"tell changed {changed}; it may read the bodies, not write")
                 state.population = self.optimizer.population
                 state.optimizer = self.optimizer.state()
             except Exception as exc:  # any: the optimizer's own code

@@ -12,6 +12,7 @@ gives the same state bit for bit.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
@@ -23,6 +24,8 @@ from ariel.utils import replace_non_finite
 __all__ = [
     "Body",
     "LoopState",
+    "body_fields",
+    "changed_field",
     "from_json_safe",
     "state_from_plain",
     "state_to_plain",
@@ -76,6 +79,29 @@ class Body:
     @property
     def body_id(self) -> str:
         return f"b{self.number:06d}"
+
+
+def body_fields(bodies: list[Body]) -> list[dict[str, str]]:
+    """Each body's fields as JSON text (NaN equal to NaN), for `changed_field`."""
+    return [
+        {
+            f.name: json.dumps(getattr(body, f.name), sort_keys=True, default=repr)
+            for f in fields(body)
+        }
+        for body in bodies
+    ]
+
+
+def changed_field(bodies: list[Body], before: list[dict[str, str]]) -> str | None:
+    """The first field of ``bodies`` that differs from ``before`` (`body_fields` of them),
+    e.g. ``"b000004's fitness (0.0003 -> 999.0)"``, or None. A body optimizer's ``tell``
+    reads the bodies it is told about; one that wrote to them would change the records."""
+    for body, was in zip(bodies, before, strict=True):
+        now = body_fields([body])[0]
+        for name, text in now.items():
+            if text != was[name]:
+                return f"{body.body_id}'s {name} ({was[name][:40]} -> {text[:40]})"
+    return None
 
 
 @dataclass

@@ -194,7 +194,9 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
     if config.body.genotype is not None and not is_genotype_file(config.body.genotype):
         check_genotype(config.body.genotype, encoder)  # a file is checked as it is read
     maximise = bool(fitness.maximise)
-    optimizer = _optimizer_factory(config, encoder, maximise)
+    # A brain-only run asks no body optimizer: its name (an entry point's) is not looked up.
+    brain_only = is_brain_only(config, encoder)
+    optimizer = None if brain_only else _optimizer_factory(config, encoder, maximise)
     _check_brain_optimizer(config, maximise)
     return Plugins(encoder, controller, fitness, optimizer)
 
@@ -360,7 +362,7 @@ def prepare_run(config: ExperimentConfig, settings: ExecutorConfig | None = None
         _check_fixed_body(config, plugins, genotype)
     # The plugins --check checks, for these plugins with these options; from the face when
     # called: tests replace it there (tests/e2e/test_unstable.py).
-    evolution.check_plugins(config)
+    evolution.check_plugins(config, brain_only=brain_only)
     capacity, local_workers = planned_workers(settings)
     memory = check_resources(
         config,

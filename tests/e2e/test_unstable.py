@@ -30,7 +30,7 @@ def test_unstable_physics_is_recorded_counted_and_the_run_goes_on(tmp_path, monk
     # The world check refuses this world before a run starts (its gecko check goes unstable,
     # tests/evolution/test_bad_config.py); here the subject is a run that meets instability.
     # (`ariel.runs` takes it from the package's face.)
-    monkeypatch.setattr(ariel.evolution, "check_plugins", lambda config: None)
+    monkeypatch.setattr(ariel.evolution, "check_plugins", lambda config, **_: None)
     lines = io.StringIO()
     monkeypatch.setattr(Progress, "__init__", _quiet_lines(Progress.__init__, lines))
     config = {**TINY, "world": {"name": "flat", "options": EXPLODING}}

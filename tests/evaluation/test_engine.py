@@ -367,3 +367,31 @@ def test_smoothing_outside_0_1_is_rejected(bad: object) -> None:
 def test_smoothing_is_no_longer_a_controller_option() -> None:
     with pytest.raises(TypeError, match=r"controller .na_cpg.*smoothing"):
         evaluate(task(gecko_params(1)[0], controller_options={"smoothing": 0.3}))
+
+
+def _writes_its_record(record) -> float:
+    record.core_pos[:] = 0.0  # would zero the recorded trajectory
+    return 0.0
+
+
+@pytest.mark.parametrize(
+    ("fitness", "error", "said"),
+    [
+        (lambda record: "0.25", TypeError, "returned str, not a float"),  # float("0.25") took it
+        (lambda record: True, TypeError, "returned bool, not a float"),
+        (_writes_its_record, ValueError, "failed: assignment destination is read-only"),
+    ],
+)
+def test_a_run_holds_a_fitness_function_to_the_check_s_rules(
+    fitness: object, error: type[Exception], said: str
+) -> None:
+    """The check refused these; a run recorded them as ok (fitness 0.25, 1.0, or a
+    trajectory zeroed by the function that scored it)."""
+    from ariel.plugins import fitness_function, fitness_functions
+
+    fitness_functions.register("test_fitness_rules", fitness_function(maximise=True)(fitness))
+    try:
+        with pytest.raises(error, match=f"fitness function 'test_fitness_rules' {said}"):
+            evaluate(task(gecko_params(1)[0], duration=0.2, fitness="test_fitness_rules"))
+    finally:
+        fitness_functions.unregister("test_fitness_rules")

@@ -379,6 +379,44 @@ def test_a_kind_written_before_the_rename_gets_the_address_as_scheduler() -> Non
     assert "old_style" not in executor_kinds.names()
 
 
+class _RaisingKind(ExecutorKind):
+    one_worker = "it runs here"
+
+    def make(self, *, workers=None, address=None, max_retries=None, **options):
+        raise RuntimeError("my executor cannot start")
+
+
+class _NoExecutorKind(_RaisingKind):
+    def make(self, *, workers=None, address=None, max_retries=None, **options):
+        return None
+
+
+@pytest.mark.parametrize(
+    ("kind", "said"),
+    [
+        (_RaisingKind, " could not make its executor: RuntimeError: my executor cannot start"),
+        (_NoExecutorKind, ": make() gave NoneType, not an executor (one with submit_batch"),
+    ],
+)
+def test_a_kind_that_makes_no_executor_is_one_line_and_leaves_no_folder(
+    kind: type, said: str, tmp_path, capsys
+) -> None:
+    """A traceback (exit 1) before, and a `failed` folder holding run.json alone."""
+    from _helpers import exit_code, one_error_line, tiny_run_toml
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("no_executor", 1))
+    executor_kinds.register("test_no_executor", kind)
+    try:
+        argv = ["run", str(config), "--out", str(tmp_path / "run"), "--quiet"]
+        assert exit_code([*argv, "--executor", "test_no_executor"]) == 2
+    finally:
+        executor_kinds.unregister("test_no_executor")
+    line = one_error_line(capsys)
+    assert line.startswith("ariel: error: executor kind 'test_no_executor'") and said in line
+    assert not (tmp_path / "run").exists()
+
+
 def test_the_dask_cancel_race_s_log_record_is_dropped_and_no_other() -> None:
     import logging
 

@@ -203,3 +203,15 @@ def test_run_experiments_default_progress_is_the_automatic_one(tmp_path, monkeyp
     assert lines[0].startswith("run watched: ") and lines[1].startswith("gen 0: ")
     run_experiment(config, out=tmp_path / "off", progress=False)
     assert capsys.readouterr().out == ""
+
+
+def test_a_decoded_graph_no_key_is_made_of_is_stored_as_no_graph() -> None:
+    """An encoder whose decode gave an empty graph mid-run crashed the run unattributed
+    (NetworkXPointlessConcept from the graph key), and readers would call it damaged."""
+    import networkx as nx
+
+    from ariel.body_phenotypes.robogen_lite.prebuilt_robots.gecko import gecko_graph
+    from ariel.evolution._bodies import graph_text
+
+    assert graph_text(nx.DiGraph()) == ""
+    assert '"nodes": [{' in graph_text(gecko_graph())

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from _helpers import exit_code, one_error_line, tiny_run_toml
 
+from ariel.errors import PluginCheckError
 from ariel.evaluation import CHECK_SEED
 from ariel.evolution import ConfigError, load_config
 from ariel.evolution._checks import check_plugins, check_resources
@@ -27,6 +28,7 @@ from ariel.plugins import (
     body_encoders,
     body_optimizers,
     brain_optimizers,
+    check_body_optimizer,
     controllers,
     fitness_function,
     fitness_functions,
@@ -186,6 +188,39 @@ def test_a_body_optimizer_s_stray_parent_stops_the_run_before_it_is_stored(
         "ValueError: a child's parents ['nope'] are not in its population"
     ), line
     assert load_run(out).generations_done == 1
+
+
+class _WritesFitness(_GAInARun):
+    """A GA whose tell in a run overwrites the fitness it is told (the check's passes)."""
+
+    def tell(self, bodies: Any) -> None:
+        if self.in_a_run:
+            for body in bodies:
+                body.fitness = 999.0
+        super().tell(bodies)
+
+
+def test_a_body_optimizer_that_writes_to_the_bodies_it_is_told_stops_the_run(
+    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Its 999 became every record's best fitness, and verify said ok."""
+    out, line = _failed_run(tiny, tmp_path, capsys, "test_writes_fitness", _WritesFitness)
+    assert line.startswith(
+        "ariel: error: body optimizer 'test_writes_fitness' failed between evaluations: "
+        "ValueError: tell changed b000000's fitness ("
+    ), line
+    assert "-> 999.0); it may read the bodies, not write" in line, line
+    assert load_run(out).generations_done == 0  # nothing of it was stored
+
+    class AlwaysWrites(_WritesFitness):
+        in_a_run = property(lambda self: True, lambda self, value: None)  # the check's too
+
+    body_optimizers.register("test_writes_always", AlwaysWrites)
+    try:
+        with pytest.raises(PluginCheckError, match=r"tell\(\.\.\.\) changed b000000's fitness"):
+            check_body_optimizer("test_writes_always")
+    finally:
+        body_optimizers.unregister("test_writes_always")
 
 
 @pytest.mark.parametrize(
