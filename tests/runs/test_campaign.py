@@ -262,6 +262,15 @@ def test_folders_of_one_campaign_on_other_seeds_are_pooled_paired(
     (other / "campaign.json").write_text(json.dumps(info))
     assert exit_code(["compare", str(campaign), str(other), "--out", str(out)]) == 2
     assert "is not the same campaign" in one_error_line(capsys)
+    # The same file run with another --set (a campaign-wide setting): pooled silently before.
+    varied = _relabelled(campaign, tmp_path / "varied", 6)
+    for run_json in varied.glob("runs/*/*/run.json"):
+        info = json.loads(run_json.read_text())
+        info["config"]["body"]["tournament"] = 3
+        run_json.write_text(json.dumps(info))
+    assert exit_code(["compare", str(campaign), str(varied), "--out", str(out)]) == 2
+    assert "ran with other settings in" in (line := one_error_line(capsys)), line
+    assert "(body.tournament): pooled campaign folders must run one campaign file" in line
 
 
 def _interrupt_at(monkeypatch: pytest.MonkeyPatch, call: int) -> None:

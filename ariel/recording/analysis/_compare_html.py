@@ -217,7 +217,8 @@ _LINEAGE_NOTE = (
     " Lineage (co-evolution runs), after the last generation within the {n} evaluations: "
     "surviving lineages = the founders (bodies of a random genotype) with a descendant in "
     "the population; best depth = parent steps from that population's best body back to a "
-    "founder. Neither direction is better: for these, A12 = P(a run of A has the higher "
+    "founder; distinct bodies = the different morphologies (robot graphs) the run made up "
+    "to then. Neither direction is better: for these, A12 = P(a run of A has the higher "
     "value), and better names the higher condition (higher: A)."
 )
 

@@ -45,11 +45,22 @@ def _by_condition(curves: Sequence[RunCurve]) -> dict[str, list[RunCurve]]:
 def _best_curves(
     grouped: dict[str, list[RunCurve]], maximise: bool, budget: int
 ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-    """Per condition: (grid, median, low, high) of best so far over evaluations 1..budget."""
+    """Per condition: (grid, median, low, high) of best so far over evaluations 1..budget.
+    As for the AUC (`_measures`), a run's curve stands at the worst fitness any compared run
+    finished with before its own first finished evaluation, and a run without one is left
+    out (a condition lost its whole band to one such run, and its median its own floor)."""
     grid = np.unique(np.linspace(1, max(budget, 1), GRID_POINTS).round().astype(np.int64))
+    worst = _worst([run for runs in grouped.values() for run in runs], maximise, budget)
     curves = {}
     for name, runs in grouped.items():
-        values = np.array([on_grid(*best_so_far(r.evaluations, maximise), grid) for r in runs])
+        rows = []
+        for run in runs:
+            row = on_grid(*best_so_far(run.evaluations, maximise), grid)
+            finite = np.flatnonzero(np.isfinite(row))
+            if len(finite):
+                row[: finite[0]] = worst
+                rows.append(row)
+        values = np.array(rows) if rows else np.full((0, len(grid)), np.nan)
         curves[name] = (grid, *median_band(values))
     return curves
 
@@ -161,7 +172,11 @@ def _statistics(
             omnibus.append(found)
     lineages.relabel(rows)
     first = [r for r in rows if r["measure"] == "final best"]
-    sizes = runs.groupby("condition", sort=False).size().to_dict()
+    # Runs with a value of the first measure (a run without a finished evaluation has none):
+    # the n its tests have, not the runs the folders hold.
+    final = runs[MEASURES["final best"]].to_numpy(dtype=np.float64)
+    valued = runs.assign(valued=np.isfinite(final))
+    sizes = valued.groupby("condition", sort=False)["valued"].sum().astype(int).to_dict()
     notes = [
         small_n_warning(rows, sizes, choice, omnibus),  # rows: "final best" first
         tied_pairs_note(rows),

@@ -152,6 +152,7 @@ def _pooled_campaign_runs(
                 "and conditions must match): compare several campaign folders only to pool "
                 "one campaign's seeds"
             )
+    _check_pooled_settings(paths, campaigns)
     found: list[tuple[RunCurve, Run]] = []
     seen: dict[tuple[str, int], Path] = {}
     for path, campaign in zip(paths, campaigns):
@@ -172,6 +173,28 @@ def _pooled_campaign_runs(
         f"seeding = {campaigns[0].seeding!r}"
     )
     return " + ".join(ids), source, campaigns[0].seeding == "shared", found
+
+
+def _check_pooled_settings(paths: Sequence[Path], campaigns: Sequence[Campaign]) -> None:
+    """`CompareError` where a condition's runs in the pooled folders ran with other settings
+    (a campaign-wide ``set`` or ``--set`` of one folder): their seeds are no one sample.
+    ``generations`` may differ: they are compared at a common budget."""
+    first: dict[str, tuple[Path, dict[str, str]]] = {}
+    for path, campaign in zip(paths, campaigns):
+        for (condition, _seed), run in campaign.runs.items():
+            settings = condition_settings(run.info.get("config", {}))
+            settings.pop("generations", None)
+            if condition not in first:
+                first[condition] = (path, settings)
+                continue
+            where, before = first[condition]
+            differ = sorted(k for k in {*before, *settings} if before.get(k) != settings.get(k))
+            if differ:
+                raise CompareError(
+                    f"condition {condition!r} ran with other settings in {str(path)!r} than in "
+                    f"{str(where)!r} ({', '.join(differ[:4])}{' ...' if len(differ) > 4 else ''}"
+                    "): pooled campaign folders must run one campaign file the same way"
+                )
 
 
 def _times(n: int) -> str:

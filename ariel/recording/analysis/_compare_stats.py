@@ -347,11 +347,12 @@ def small_n_warning(
     choice: Design,
     omnibus: Sequence[Row] = (),
 ) -> str | None:
-    """One line where a condition has fewer than `FEW_RUNS` runs, or where the sizes alone
+    """One line where a condition has fewer than `FEW_RUNS` runs with a value
+    (``runs_per_condition``), or where the sizes alone
     keep a pair from reaching p < `ALPHA` after Holm (5 paired seeds: the Wilcoxon test's
     floor is 2/2^5 = 0.0625): the smallest p the chosen tests can give with these sizes
     whatever the values (for the most limited pair of the first measure in ``rows``; after
-    Holm; the lowest of the ``omnibus`` tests), and what is possible, judged over every p of
+    Holm; that measure's ``omnibus`` test), and what is possible, judged over every p of
     ``rows`` and ``omnibus`` (every measure's; a paired pair's seeds that tie count out,
     `tied_pairs_note`)."""
     fewest = min(runs_per_condition.values(), default=FEW_RUNS)
@@ -375,8 +376,11 @@ def small_n_warning(
         f"{holm_floor(floors)[weakest]:.3g} after Holm over "
         f"{len(first)} pair{'s' if len(first) != 1 else ''}"
     )
-    if tests:
-        lowest = min(tests, key=lambda o: o["min_p"])
+    # The omnibus test of the first measure, as the pair named (a lineage measure's may
+    # have more seeds with a value than the fitness has)
+    own = [o for o in tests if o.get("measure") == first[0].get("measure")] or tests
+    if own:
+        lowest = min(own, key=lambda o: o["min_p"])
         unit = "seeds" if choice.paired else "runs"
         text += (
             f"; {lowest['test']} not below {lowest['min_p']:.3g} (chi-square, "

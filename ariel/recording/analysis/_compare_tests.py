@@ -140,14 +140,30 @@ def min_p_kruskal(sizes: Sequence[int]) -> float:
 
 
 def holm_floor(min_p: Sequence[float]) -> np.ndarray:
-    """The smallest Holm-corrected p each of ``min_p`` (each test's smallest p, one family)
-    could become: at least its own, and at least m times the smallest of them all."""
+    """The smallest Holm-corrected p each of ``min_p`` (each test's smallest p, one family of
+    m) could become, whatever p the others give (each at least its own smallest).
+
+    Ranked r-th (from 0), a test's Holm p is the running maximum of (m - k) p_k over the
+    tests ranked at or before it, so the r tests before it can help only with p at most its
+    own: the least it can become is, over r, the larger of (m - r) max(its p, f_r) and
+    max over k < r of (m - k) f_(k+1), with f the others' smallest p in ascending order.
+    (m times the smallest of them all, at least its own, was not reachable where tests'
+    sizes differ: a 6-pair test beside 7-pair ones was said to reach 0.047, not 0.0625.)"""
     p = np.asarray(min_p, dtype=np.float64)
     known = np.isfinite(p)
-    if not known.any():
-        return p.copy()
-    floor = np.maximum(p, known.sum() * p[known].min())
-    return np.where(known, np.minimum(floor, 1.0), np.nan)
+    floors = np.full(p.shape, np.nan)
+    values = p[known]
+    m = len(values)
+    order = np.sort(values)
+    ranks = np.arange(m)
+    least = []
+    for own in values:
+        others = np.delete(order, np.searchsorted(order, own))  # one copy of its own left out
+        before = np.concatenate([[0.0], np.maximum.accumulate((m - ranks[:-1]) * others)])
+        at = (m - ranks) * np.maximum(own, np.concatenate([[0.0], others]))
+        least.append(min(1.0, float(np.min(np.maximum(before, at)))))
+    floors[known] = least
+    return floors
 
 
 def holm(p_values: np.ndarray) -> np.ndarray:
@@ -176,8 +192,12 @@ def omnibus_test(
         by_seed = [s.by_seed() for s in found.values()]
         seeds = [seed for seed in by_seed[0] if all(seed in other for other in by_seed[1:])]
         n, floor = len(seeds), min_p_friedman(len(found), len(seeds))
-        if seeds:
-            columns = [[values[s] for s in seeds] for values in by_seed]
+        columns = [[values[s] for s in seeds] for values in by_seed]
+        if seeds and all(len(set(block)) == 1 for block in zip(*columns)):
+            # Every seed ties across the conditions: no evidence (scipy divides a rounding
+            # residue by a tie correction of 0 and says inf, p = 0, or says NaN).
+            statistic, p = 0.0, 1.0
+        elif seeds:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 statistic, p = friedmanchisquare(*columns)

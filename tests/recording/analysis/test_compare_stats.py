@@ -115,6 +115,21 @@ def test_holm_floor_is_m_times_the_smallest_or_a_test_s_own() -> None:
     assert holm_floor([0.5, 0.5]).tolist() == [1.0, 1.0]
 
 
+def test_holm_floor_is_the_least_holm_p_any_values_give() -> None:
+    """A 6-pair Wilcoxon test beside a 7-pair one: said to reach 0.047 (labelled 'large'),
+    where Holm's running maximum keeps it at 0.0625 or more."""
+    assert holm_floor([2 / 64, 2 / 64, 2 / 128]).tolist() == pytest.approx([0.0625] * 2 + [3 / 64])
+    rng = np.random.default_rng(3)
+    for _ in range(60):  # every p each test can give, at or above its own floor
+        floors = rng.choice([2 / 8, 2 / 32, 2 / 64, 2 / 128, 0.5], rng.integers(1, 5))
+        values = sorted({*floors.tolist(), 1.0})
+        least = np.full(len(floors), np.inf)
+        for p in itertools.product(values, repeat=len(floors)):
+            if all(np.asarray(p) >= floors):
+                least = np.minimum(least, holm(np.asarray(p)))
+        assert holm_floor(floors).tolist() == pytest.approx(least.tolist())
+
+
 @pytest.mark.parametrize(
     ("pairs", "paired", "minimum"),
     [(2, True, 0.5), (4, True, 0.125), (2, False, 1 / 3), (3, False, 0.1)],
@@ -194,6 +209,11 @@ def test_the_omnibus_test_is_friedman_for_shared_seeds_and_kruskal_for_independe
     tied = {c: Sample.of(np.ones(3), SEEDS[:3]) for c in "abc"}
     assert omnibus_test(tied, paired=True)["p_value"] == 1.0
     assert omnibus_test(tied, paired=False)["p_value"] == 1.0
+    # 25 conditions of 2 tied seeds: scipy says statistic inf, p = 0 (below the floor stated)
+    for k, n in ((25, 2), (6, 10)):
+        same = {f"c{i}": Sample.of(np.arange(n, dtype=float), SEEDS[:n]) for i in range(k)}
+        found = omnibus_test(same, paired=True)
+        assert (found["statistic"], found["p_value"]) == (0.0, 1.0)
 
 
 # --------------------------------------------------------------------------------------------
@@ -365,3 +385,43 @@ def test_auc_counts_failed_evaluations_before_the_first_finished_one() -> None:
     assert rows[1]["auc"] == pytest.approx(0.9)
     assert _measures(late, True, 10)["auc"] == pytest.approx(1.0)  # alone: its own worst
     assert _measures(late, False, 10, worst=3.0)["auc"] == pytest.approx((8 * 3 + 2) / 10)
+
+
+def test_the_small_n_warning_counts_runs_with_a_value() -> None:
+    """7 runs of 'a' of which 5 have no finished evaluation: said 'fewest: 7', and named a
+    lineage measure's Friedman floor (7 seeds) for a fitness test of 2."""
+    from ariel.recording.analysis._compare_measures import _statistics
+
+    rng = np.random.default_rng(1)
+    rows = []
+    for condition in "abc":
+        for seed in range(1, 8):
+            lost = condition == "a" and seed > 2
+            best = math.nan if lost else float(rng.normal())
+            rows.append(
+                {"condition": condition, "seed": seed, "final_best": best, "auc": best}
+                | {"surviving_lineages": float(rng.integers(1, 4))}
+            )
+    _, _, notes = _statistics(pd.DataFrame(rows), True, Design(True))
+    assert notes[0].startswith("fewer than 5 runs per condition (fewest: 2)"), notes
+    assert "Friedman not below" in notes[0] and "2 seeds)" in notes[0], notes
+
+
+def test_best_so_far_curves_follow_the_auc_s_rule_for_failed_evaluations() -> None:
+    """One run of a condition without a finished evaluation took that condition's whole 95 %
+    band away, and a run finishing late pulled its median up from its own floor."""
+    from ariel.recording.analysis._compare_measures import _best_curves
+    from ariel.recording.analysis._compare_runs import RunCurve
+
+    def curve(seed: int, fitness: list[float], status: list[str]) -> RunCurve:
+        ids = [f"b{i:06d}-i000-c000" for i in range(len(fitness))]
+        frame = pd.DataFrame({"generation": 0, "eval_id": ids, "fitness": fitness})
+        return RunCurve("a", seed, frame.assign(status=status))
+
+    lost = curve(1, [-np.inf] * 10, ["error"] * 10)
+    late = curve(2, [-np.inf] * 5 + [1.0] * 5, ["error"] * 5 + ["ok"] * 5)
+    steady = [curve(s, [0.2] * 10, ["ok"] * 10) for s in (3, 4)]
+    _, median, low, high = _best_curves({"a": [lost, late, *steady]}, True, 10)["a"]
+    assert np.isfinite(low).all() and np.isfinite(high).all()  # three runs with a value
+    assert median[0] == 0.2 and median[-1] == 0.2  # the late run at the worst (0.2) at first
+    assert high[-1] == 1.0
