@@ -252,7 +252,11 @@ def run_campaign(
     executor_kind(settings.kind).reach(settings)  # a scheduler that never answers: no folder
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     try:
-        with storage_errors(path), RunLock(path, create=True), contextlib.ExitStack() as locks:
+        with (
+            storage_errors(path, campaign=True),
+            RunLock(path, create=True),
+            contextlib.ExitStack() as locks,
+        ):
             _check_new_folder(path, locked=True)  # again: another campaign run may have begun
             write_campaign_info(path, info)
             locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
@@ -330,7 +334,7 @@ def resume_campaign(
         command=("campaign", "resume", campaign_dir),
     )
     executor_kind(settings.kind).reach(settings)  # before any run.json is touched
-    with storage_errors(path), RunLock(path), contextlib.ExitStack() as locks:
+    with storage_errors(path, campaign=True), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
         locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))

@@ -368,3 +368,20 @@ def test_storage_errors_converts_only_failed_writes_in_the_run_folder(
         assert raised.value.__cause__ is error
     else:
         assert raised.value is error
+
+
+def test_a_campaign_on_a_full_disk_says_how_to_resume_it(tmp_path: Path, capsys) -> None:
+    """It said "the run did not start" (campaign.json is no run.json), with no resume line,
+    after every run's first generation had finished."""
+    from _helpers import REPO
+
+    out = tmp_path / "campaign"
+    tiny = REPO / "tests" / "data" / "campaign_tiny.toml"
+    second = lambda p: p.as_posix().endswith("evaluations/gen-000001.parquet")  # noqa: E731
+    with _disk_full_from(second):
+        assert main(["campaign", "run", str(tiny), "--out", str(out), "--quiet"]) == 2
+    line = one_error_line(capsys)
+    assert "gen-000001.parquet': No space left on device; the campaign stopped" in line, line
+    assert line.endswith(f"continue with: {ariel_line('campaign', 'resume', out)}"), line
+    assert main(["campaign", "resume", str(out), "--quiet"]) == 0
+    assert "4 of 4 runs finished" in capsys.readouterr().out

@@ -178,6 +178,28 @@ def test_campaign_rrd_holds_every_run_s_best_so_far_and_view_opens_it(campaign: 
     assert selection.blueprint == campaign / "campaign.rbl"
 
 
+def test_a_campaign_without_its_recording_is_viewed_without_writing_into_it(
+    campaign: Path, tmp_path: Path
+) -> None:
+    """One stopped after its last run (or running, or read-only) had campaign.rrd written
+    into it by `ariel view`: a traceback where the folder could not be written."""
+    import shutil
+
+    from ariel.recording.viewer._view import _prepared, select_recordings
+
+    copy = tmp_path / "copy"
+    shutil.copytree(campaign, copy)
+    (copy / "campaign.rrd").unlink()
+    (copy / "campaign.rbl").unlink()
+    before = sorted(p.relative_to(copy) for p in copy.rglob("*"))
+    with _prepared(select_recordings(copy)) as shown:
+        (recording,) = shown.recordings
+        assert not recording.is_relative_to(copy) and shown.blueprint is not None
+        assert _curves(recording) == _curves(campaign / "campaign.rrd")
+    assert not recording.exists()  # the view's own files go with it
+    assert sorted(p.relative_to(copy) for p in copy.rglob("*")) == before
+
+
 def test_existing_commands_work_on_a_campaign_s_run_folders(
     campaign: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

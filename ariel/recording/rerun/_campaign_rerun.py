@@ -61,7 +61,9 @@ _COLOURS = [
 ]
 
 
-def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
+def write_campaign_recording(
+    campaign_dir: str | os.PathLike[str], *, into: str | os.PathLike[str] | None = None
+) -> Path:
     """Write ``campaign.rrd`` and ``campaign.rbl`` of the campaign in ``campaign_dir`` from
     its runs' finished generations.
 
@@ -71,6 +73,8 @@ def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
     Args:
         campaign_dir: The campaign folder; both files are written into it, replacing any
             earlier ones.
+        into: Another folder for the two files (``ariel view`` of a campaign that has none,
+            which never writes into the campaign); None: ``campaign_dir``.
 
     Returns:
         The path of ``campaign.rrd``.
@@ -84,10 +88,11 @@ def write_campaign_recording(campaign_dir: str | os.PathLike[str]) -> Path:
     for (condition, seed), run in campaign.runs.items():
         x, best = best_so_far(run.evaluations, campaign.maximise)
         chunks += curve_chunks(condition, seed, x, best, colours[condition])
-    path = Path(campaign.path) / CAMPAIGN_RRD
+    folder = Path(campaign.path) if into is None else Path(into)
+    path = folder / CAMPAIGN_RRD
     _write_chunks(path, str(campaign.info.get("campaign_id", "campaign")), chunks, fsync=True)
     write_campaign_blueprint(
-        Path(campaign.path) / CAMPAIGN_BLUEPRINT,
+        folder / CAMPAIGN_BLUEPRINT,
         campaign.path,
         fitness_unit=_fitness_unit(campaign),
         maximise=campaign.maximise,

@@ -161,7 +161,7 @@ def _within(name: str, run_dir: Path) -> bool:
     return path == run_dir or run_dir in path.parents or path in run_dir.parents
 
 
-def _storage_message(exc: OSError, run_dir: Path) -> str | None:
+def _storage_message(exc: OSError, run_dir: Path, campaign: bool = False) -> str | None:
     if exc.errno not in _STORAGE_ERRNOS:
         return None
     name = exc.filename
@@ -172,6 +172,14 @@ def _storage_message(exc: OSError, run_dir: Path) -> str | None:
     shown = Path(os.fsdecode(name)) if name is not None else run_dir
     shown = written_path(shown) or shown  # a temporary's name: say the real file
     problem = f"cannot write {str(shown)!r}: {os.strerror(exc.errno)}"
+    if campaign:  # run_dir is a campaign's folder
+        if not (run_dir / CAMPAIGN_JSON).is_file():
+            return f"{problem}; the campaign did not start"
+        return (
+            f"{problem}; the campaign stopped, the finished generations of its runs are kept: "
+            "make room (or fix the folder), then continue with: "
+            f"{ariel_line('campaign', 'resume', run_dir)}"
+        )
     try:
         info = RunFolder(run_dir).read_info()
     except NotARunError:
@@ -187,15 +195,17 @@ def _storage_message(exc: OSError, run_dir: Path) -> str | None:
 
 
 @contextlib.contextmanager
-def storage_errors(run_dir: str | Path) -> Iterator[None]:
-    """Turn a failed write in ``run_dir`` (disk full, read-only, ...) into `RunStorageError`.
+def storage_errors(run_dir: str | Path, *, campaign: bool = False) -> Iterator[None]:
+    """Turn a failed write in ``run_dir`` (disk full, read-only, ...) into `RunStorageError`:
+    one line saying how far it got and how to continue (``campaign``: ``run_dir`` is a
+    campaign's folder, continued by ``ariel campaign resume``).
 
     Other errors pass unchanged.
     """
     try:
         yield
     except OSError as exc:
-        message = _storage_message(exc, Path(run_dir))
+        message = _storage_message(exc, Path(run_dir), campaign)
         if message is None:
             raise
         raise RunStorageError(message) from exc

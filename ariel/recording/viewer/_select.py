@@ -10,6 +10,7 @@ import math
 import os
 import re
 import sys
+import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,6 +69,9 @@ class Selection:
     #: each is opened as a copy with the run's charts beside it, laid out for the run (see
     #: `_prepared`). Not a generation's ``evaluations.rrd`` nor a campaign's recording.
     beside_run: bool = False
+    #: A folder of files made for this view alone (a campaign's recording where it has none),
+    #: removed when the viewer is done (`_view._prepared`).
+    scratch: Path | None = None
 
     @property
     def files(self) -> list[Path]:
@@ -368,13 +372,19 @@ def _campaign_selection(
             f"{folder} is a campaign: --best, --generation and EVAL_ID apply to one of its runs, "
             f"e.g. {_view_line(one, best, generation, eval_id)}"
         )
-    recording = folder / "campaign.rrd"
-    if not recording.is_file():  # a campaign killed before it wrote one
-        write_campaign_recording(folder)
-    blueprint = folder / CAMPAIGN_BLUEPRINT
+    recording, scratch = folder / "campaign.rrd", None
+    if not recording.is_file():  # a campaign running, or killed before it wrote one
+        # made for this view, outside the folder: it may be read-only, or another's to write
+        try:
+            scratch = Path(tempfile.mkdtemp(prefix="ariel-view-"))
+            recording = write_campaign_recording(folder, into=scratch)
+        except OSError as exc:  # a full temporary disk
+            raise ViewError(f"cannot make the campaign's recording to view: {exc}") from None
+    blueprint = recording.parent / CAMPAIGN_BLUEPRINT
     return Selection(
         folder,
         (recording,),
         blueprint if blueprint.is_file() else None,
         "campaign.rrd (every run's best fitness so far)",
+        scratch=scratch,
     )

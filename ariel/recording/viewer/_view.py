@@ -120,7 +120,11 @@ def _prepared(selection: Selection, *, panels: bool = True) -> Iterator[Selectio
     generation's or a campaign's recording is given as it is.
     """
     if not selection.beside_run:
-        yield selection
+        try:
+            yield selection
+        finally:
+            if selection.scratch is not None:
+                shutil.rmtree(selection.scratch, ignore_errors=True)
         return
     scratch = Path(tempfile.mkdtemp(prefix="ariel-view-"))
     try:
