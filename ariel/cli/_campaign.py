@@ -26,8 +26,14 @@ from ariel.errors import (
     RunStorageError,
 )
 from ariel.recording import analysis
-from ariel.recording.store import terminal_text
-from ariel.utils import ariel_command, load_run_command, report_interrupted, shell_path
+from ariel.recording.store import read_campaign_info, terminal_text
+from ariel.utils import (
+    ariel_command,
+    ariel_line,
+    load_run_command,
+    report_interrupted,
+    shell_path,
+)
 from ariel.utils.interrupts import stop_on_signals
 
 if TYPE_CHECKING:
@@ -171,6 +177,13 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
     from ariel.cli._tables import print_campaign_status
 
     print_campaign_status(rows, f"campaign {args.campaign_dir}")
+    own = read_campaign_info(args.campaign_dir).get("status")
+    if own != "finished" and rows and all(row["status"] == "finished" for row in rows):
+        # stopped after its last run: campaign.rrd and its status are not written yet
+        print(
+            f"every run finished, but the campaign is {terminal_text(str(own))}: write its "
+            f"recording and status with: {ariel_line('campaign', 'resume', args.campaign_dir)}"
+        )
     return 0
 
 

@@ -162,7 +162,10 @@ def _existing_campaign_hint(path: Path) -> str:
     if not (path / CAMPAIGN_JSON).is_file():
         return "empty it (it is not a campaign folder: there is nothing to continue)"
     try:
-        finished = all(row["status"] == "finished" for row in load_campaign(path).status())
+        campaign = load_campaign(path)
+        finished = all(row["status"] == "finished" for row in campaign.status())
+        # its own records too: stopped after its last run, a resume writes them
+        finished = finished and campaign.info.get("status") == "finished"
     except (ArielError, OSError, ValueError):  # damaged: `campaign resume` says how
         finished = False
     if finished:

@@ -361,6 +361,14 @@ def test_a_campaign_stopped_after_its_last_run_gets_its_own_records_on_resume(
             resume_campaign(out)
     # "finished" is written after the recording, never before it
     assert json.loads((out / "campaign.json").read_text())["status"] == "interrupted"
+    # status and a run into it say so, not "it is finished: compare its runs"
+    assert main(["campaign", "status", str(out)]) == 0
+    resume = ariel_line("campaign", "resume", out)
+    assert f"but the campaign is interrupted: write its recording and status with: {resume}" in (
+        capsys.readouterr().out
+    )
+    assert exit_code(["campaign", "run", str(TINY), "--out", str(out)]) == 2
+    assert one_error_line(capsys).endswith(f"continue it with: {resume}")
     # The hint printed after such an interrupt works: it writes the records, runs nothing.
     assert main(["campaign", "resume", str(out), "--quiet"]) == 0
     assert "its 4 runs had finished; its recording and status are written now" in (
