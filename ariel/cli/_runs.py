@@ -70,7 +70,7 @@ def _cmd_runs(args: argparse.Namespace) -> int:
     else:
         runs = recording.list_runs(folder)
     if not runs:
-        print(f"no runs under {terminal_text(folder)}")
+        print(f"no runs under {terminal_text(folder)}{_campaigns_inside(folder)}")
         return 0
     for r in runs:  # names from run.json files: no control sequence reaches the terminal
         r["run_id"], r["status"] = _shown_name(r, campaign), terminal_text(r["status"] or "?")
@@ -92,6 +92,21 @@ def _cmd_runs(args: argparse.Namespace) -> int:
             f"{evaluations:>11}  {shown}"
         )
     return 0
+
+
+def _campaigns_inside(folder: Path) -> str:
+    """``"; it holds campaign folders ..."`` naming those directly in ``folder`` (a campaign's
+    runs are under its own folder, which ``ariel runs CAMPAIGN`` lists), or ``""``."""
+    if not folder.is_dir():
+        return ""
+    found = sorted(p for p in folder.iterdir() if p.is_dir() and is_campaign(p))
+    if not found:
+        return ""
+    names = ", ".join(terminal_text(p.name) for p in found[:3]) + (" ..." if len(found) > 3 else "")
+    return (
+        f"; it holds {len(found)} campaign folder{'s' * (len(found) != 1)} ({names}): list a "
+        f"campaign's runs with: {terminal_text(ariel_line('runs', found[0]))}"
+    )
 
 
 def _shown_name(run: RunSummary, campaign: bool) -> str:

@@ -219,6 +219,12 @@ def test_existing_commands_work_on_a_campaign_s_run_folders(
         assert [Path(name).parts[-2:] for name in names] == [
             (f"condition={c}", f"seed={s}") for c, s in RUNS
         ]
+    # The folder of campaign folders: "no runs under" alone, as if it were empty.
+    assert main(["runs", str(campaign.parent)]) == 0
+    assert capsys.readouterr().out.strip() == (
+        f"no runs under {campaign.parent}; it holds 1 campaign folder (tiny): list a "
+        f"campaign's runs with: {ariel_line('runs', campaign)}"
+    )
     assert main(["report", str(run_dir), "--no-render"]) == 0
     assert (run_dir / "report" / "fitness.png").is_file()
     assert main(["replay", str(run_dir), "best"]) == 0
