@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         python_command as python_command,
         report_interrupted as report_interrupted,
         shell_path as shell_path,
+        shell_quote as shell_quote,
     )
     from ariel.utils._file_kind import (
         file_kind as file_kind,
@@ -85,6 +86,7 @@ _INTERNAL: dict[str, str] = {
     "replace_non_finite": "ariel.utils._json",
     "report_interrupted": "ariel.utils._commands",
     "shell_path": "ariel.utils._commands",
+    "shell_quote": "ariel.utils._commands",
     "SharedSetting": "ariel.utils._shared_setting",
     "strings_argument": "ariel.utils._arguments",
     "whole_numbers": "ariel.utils._arguments",

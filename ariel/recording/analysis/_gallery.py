@@ -12,6 +12,7 @@ drawn (no OpenGL), both are written without pictures and a note says why.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import numbers
@@ -64,7 +65,7 @@ from ariel.recording.store import (
     refuse_symlinks,
     remove_temporaries,
 )
-from ariel.utils import ariel_line
+from ariel.utils import ariel_line, shell_path, shell_quote
 
 if TYPE_CHECKING:
     from ariel.recording.analysis._report import Report
@@ -97,7 +98,9 @@ class GalleryBody:
         caption: what it is here: ``best`` or ``born 3`` in a lineage, ``default, seed 21``
             in a campaign's gallery; else empty.
         command: the command that opens it: ``ariel view RUN EVAL_ID``
-            (``ariel replay RUN EVAL_ID`` for a run without Rerun recordings).
+            (``ariel replay RUN EVAL_ID`` for a run without Rerun recordings); in a gallery
+            inside a run or campaign folder, ``ariel`` and RUN from the folder holding that
+            folder, so the page stays right when the folder moves.
         thumbnail: its PNG in the run folder (``gallery/thumbnails/``), or, for a run folder
             that cannot be written, in the gallery's (``DIR/thumbnails/``); None where it
             could not be drawn.
@@ -161,12 +164,22 @@ class Gallery:
         )
 
 
-def _command(run: Run, eval_id: str) -> str:
+def _command(run: Run, eval_id: str, records: Path | None) -> str:
+    """The command that opens the body's evaluation. A page inside a run or campaign folder
+    (``records``) travels with it: ``ariel`` and the run's path from the folder that holds
+    ``records``, no path of this machine (docs/records.md)."""
     recorded = (run.path / "run.rrd").is_file() or (run.path / "recordings").is_dir()
-    return ariel_line("view" if recorded else "replay", run.path, eval_id)
+    verb = "view" if recorded else "replay"
+    if records is not None:
+        with contextlib.suppress(ValueError):
+            inside = Path(os.path.realpath(run.path)).relative_to(records.parent)
+            return " ".join(["ariel", verb, shell_path(inside), shell_quote(eval_id)])
+    return ariel_line(verb, run.path, eval_id)
 
 
-def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> GalleryBody:
+def _body(
+    pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None, records: Path | None
+) -> GalleryBody:
 
     body = pick.body
     descriptors = {}
@@ -184,7 +197,7 @@ def _body(pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None) -> G
         fitness=pick.fitness,
         descriptors=descriptors,
         caption=pick.caption,
-        command=_command(pick.run, str(body["best_eval_id"])),
+        command=_command(pick.run, str(body["best_eval_id"]), records),
         thumbnail=thumbnail,
         cell=cell,
         born=_born(body.get("born_generation")),
@@ -325,12 +338,13 @@ def _finish(
     ``where`` (the folder, the folder nothing is written outside of, the files' stem)."""
     # A run folder we may not write to (shared, read-only data): its thumbnails are drawn
     # into the gallery's own folder instead, where that is no run's (`--out DIR`).
-    spare = where[0] / "thumbnails" if records_folder_of(where[0]) is None else None
+    records = records_folder_of(where[0])
+    spare = where[0] / "thumbnails" if records is None else None
     thumbnails = _thumbnails(gallery, chosen, spare=spare, **drawing)
     positions = gallery.atlas.positions if gallery.atlas is not None else None
     for pick, thumbnail in zip(chosen, thumbnails, strict=True):
         cell = positions[str(pick.body["body_id"])] if positions is not None else None
-        gallery.bodies.append(_body(pick, thumbnail, cell))
+        gallery.bodies.append(_body(pick, thumbnail, cell, records))
     _write(gallery, *where)
     return gallery
 

@@ -65,8 +65,16 @@ def _card(body: GalleryBody, key: tuple[str, str], style: str = "") -> str:
         f"<div>fitness {number_text(body.fitness)} · {_when(body)}</div>"
         f'<div class="key">{html_text(descriptor_text(body, key))}</div>'
         f"<details><summary>descriptors</summary>{every}</details>"
-        f'<code title="paste into a shell">{html_text(body.command)}</code></div>'
+        f'<code title="{_paste_where(body)}">{html_text(body.command)}</code></div>'
     )
+
+
+def _paste_where(body: GalleryBody) -> str:
+    """Where the body's command runs: a page in a run or campaign folder names the run from
+    the folder holding that one (`GalleryBody.command`)."""
+    if body.command.startswith("ariel "):
+        return "paste into a shell in the folder that holds this run (or campaign) folder"
+    return "paste into a shell"
 
 
 def _atlas(gallery: Gallery) -> str:

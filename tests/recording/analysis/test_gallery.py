@@ -105,8 +105,10 @@ def test_final_and_lineage_of_best_show_their_bodies(run_dir: Path) -> None:
     assert family.bodies[-1].caption == "best"  # oldest first, the best last
     assert _pictures(family) == len(chain)
     html = family.html.read_text(encoding="utf-8")
-    for body in family.bodies:  # each with the command that opens it
-        assert f"replay {run_dir} {body.eval_id}" in html
+    for body in family.bodies:  # each with the command that opens it, from run_dir's parent
+        assert '<code title="paste into a shell in the folder that holds this run' in html
+        assert f">ariel replay {run_dir.name} {body.eval_id}</code>" in html
+    assert str(run_dir) not in html  # no path of this machine: the page moves with the run
     # Each card its body's birth (every card said the sheet's generation alone).
     born = run.bodies.drop_duplicates("body_id").set_index("body_id")["born_generation"]
     for body in family.bodies:
