@@ -62,7 +62,9 @@ def resolve(
                 candidates.append(Path(base) / path)
     for candidate in candidates:
         if candidate.is_dir():
-            return Path(os.path.normpath(candidate))
+            # The folder the OS opens: `link/../r` is r beside the link's target, not beside
+            # the link (normpath's reading, as text), which may be another run.
+            return Path(os.path.realpath(candidate))
     looked = ", ".join(str(c) for c in candidates)
     what = "a file, not a folder" if any(c.exists() for c in candidates) else "no such folder"
     where = "" if path.is_absolute() else f" (looked in {looked})"

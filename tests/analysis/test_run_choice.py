@@ -101,6 +101,17 @@ def test_a_relative_ariel_run_dir_is_taken_from_where_the_command_was_typed(rc, 
     assert rc.choose_run(environ={"ARIEL_RUN_DIR": str(run)}, cwd=kernel).path == run
 
 
+def test_dot_dot_after_a_linked_folder_is_the_folder_the_os_opens(rc, tmp_path):
+    """From a linked folder, ../r is r beside the link's target, as for ariel and load_run;
+    read as text (normpath) it was a decoy r beside the link."""
+    (tmp_path / "real" / "deep").mkdir(parents=True)
+    (tmp_path / "link").symlink_to(tmp_path / "real" / "deep")
+    meant = _run(tmp_path / "real", "r", "2026-01-01T00:00:00+00:00", "finished", 3)
+    _run(tmp_path, "r", "2026-01-01T00:00:00+00:00", "finished", 3)  # the decoy
+    environ = {"ARIEL_RUN_DIR": "../r", "PWD": str(tmp_path / "link")}
+    assert rc.choose_run(environ=environ, cwd=tmp_path).path == meant
+
+
 def test_a_relative_path_falls_back_to_the_repository_root(rc, tmp_path, monkeypatch):
     """Without $PWD (a kernel started by an editor), data/runs/<id> is the repository's."""
     repo = tmp_path / "repo"
