@@ -380,11 +380,17 @@ CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
         # it could not read back is refused up front, not written and then refused.
         (["run", "{base}", "--out", 'a"b', "--quiet"], "run id 'a\"b' (the name of the run"),
         (["campaign", "run", str(CAMPAIGN), "--out", "a\\b"], "campaign id 'a\\\\b' (the name"),
+        # Bytes that are no UTF-8 (a file system takes them; Rerun's writer died on them in
+        # the run's first generation, and a resume marked the run failed).
+        (["run", "{base}", "--out", "bad\udcff/r", "--quiet"], "not UTF-8 (Rerun writes"),
+        (["campaign", "run", str(CAMPAIGN), "--out", "bad\udcff/c"], "not UTF-8 (Rerun"),
+        (["resume", "bad\udcff"], "'bad\\udcff': not UTF-8 (Rerun writes recordings only"),
     ],
     ids=[
         *("run-out", "campaign-file", "runs", "runs-deep", "view", "export"),
         *("run-out-loop", "report-loop"),
         *("run-id", "campaign-id"),
+        *("run-not-utf8", "campaign-not-utf8", "resume-not-utf8"),
     ],
 )
 def test_path_no_file_system_takes_or_no_id(

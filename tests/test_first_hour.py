@@ -4,6 +4,7 @@ folder, ``ariel config show``, and a quiet ``make`` setup."""
 
 from __future__ import annotations
 
+import ast
 import json
 import os
 import re
@@ -179,6 +180,10 @@ def test_load_run_command_quotes_an_odd_path() -> None:
     assert words[2] == (
         'from ariel.recording import load_run; r = load_run("data/runs/it\'s $HOME"); print(r)'
     )
+    # An emoji in the path: JSON wrote it as two surrogates, which Python cannot encode.
+    code = shlex.split(load_run_command("runs/emoji\N{GRINNING FACE}/r"))[2]
+    literal = code.split("load_run(")[1].split("); print")[0]
+    assert ast.literal_eval(literal) == "runs/emoji\N{GRINNING FACE}/r"
 
 
 # --------------------------------------------------------------------------------------------

@@ -81,7 +81,7 @@ def fail_with(exc: BaseException) -> int:
 
 
 #: Errors that say a path cannot name a file at all, whatever the folder holds.
-_PATH_ERRNOS = {errno.ENAMETOOLONG, errno.ELOOP}
+_PATH_ERRNOS = {errno.ENAMETOOLONG, errno.ELOOP, errno.EILSEQ}  # EILSEQ: a path not UTF-8
 
 
 def path_error(exc: OSError) -> str | None:
@@ -93,7 +93,8 @@ def path_error(exc: OSError) -> str | None:
     limit = _name_limit(name) if exc.errno == errno.ENAMETOOLONG else ""
     if len(name) > 80:
         name = f"{name[:60]}...{name[-16:]} ({len(os.fsencode(name))} bytes)"
-    return f"{name!r}: {os.strerror(exc.errno)}{limit}"
+    said = exc.strerror if exc.errno == errno.EILSEQ else os.strerror(exc.errno)  # ours
+    return f"{name!r}: {said}{limit}"
 
 
 def _name_limit(name: str) -> str:

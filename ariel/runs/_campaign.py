@@ -32,8 +32,8 @@ from ariel.recording.store import (
     RunFolder,
     RunInUseError,
     RunLock,
-    check_name_lengths,
     check_new_id,
+    check_path_names,
     ensure_open_files,
     load_campaign,
     load_run,
@@ -138,7 +138,7 @@ def new_campaign_id(name: str) -> str:
 def _check_new_folder(path: Path, *, locked: bool = False) -> None:
     """``path`` is no folder yet, or an empty one (``locked``: this process holds its lock,
     which it has just made). A folder in use by another campaign run is said so, as a run's."""
-    check_name_lengths(path)
+    check_path_names(path)
     if path.is_symlink():  # never made or written through: a dangling one would be followed
         raise FileExistsError(
             f"output {str(path)!r} is a symbolic link (to {os.readlink(path)!r}); choose "
@@ -322,6 +322,7 @@ def resume_campaign(
     """
     path = path_argument("campaign_dir", campaign_dir, function="resume_campaign")
     flag_argument("progress", progress, none=True, function="resume_campaign")
+    check_path_names(path)  # before any run's status is touched
     info = read_campaign_info(path)
     try:
         first = ExperimentConfig.from_plain(info["runs"][0]["config"])

@@ -29,7 +29,7 @@ from ariel.evolution import (
     shows_progress,
 )
 from ariel.plugins import REGISTRIES, script_plugins
-from ariel.recording.store import RunFolder, check_new_id, storage_errors
+from ariel.recording.store import RunFolder, check_new_id, check_path_names, storage_errors
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
     PreparedRun,
     _read_genotype_file,
@@ -281,6 +281,7 @@ def resume_experiment(
     """
     folder = RunFolder(path_argument("run_dir", run_dir, function="resume_experiment"))
     flag_argument("progress", progress, none=True, function="resume_experiment")
+    check_path_names(folder.path)  # before its status is touched
     info, config, _ = resumable(folder)
     _check_script_plugins_known(folder.path, info)
     # Unless told otherwise, continue on the kind of executor the run last ran on (results do

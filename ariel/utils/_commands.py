@@ -12,7 +12,6 @@ Here, in `ariel.utils`, so that every layer can print such a command: the CLI's 
 
 from __future__ import annotations
 
-import json
 import os
 import shlex
 import shutil
@@ -119,7 +118,9 @@ def python_command() -> str:
 
 def load_run_command(path: Path | str, *, loader: str = "load_run", what: str = "") -> str:
     """A ``python -c`` line that loads ``path`` and prints ``what`` (an expression of ``r``)."""
-    literal = json.dumps(str(path))  # a Python string literal, with double quotes
+    # A Python string literal: repr, not JSON, whose escapes of a character beyond U+FFFF
+    # (an emoji) are two surrogates Python cannot encode ("emoji\ud83d\ude00")
+    literal = repr(str(path))
     code = f"from ariel.recording import {loader}; r = {loader}({literal}); print({what or 'r'})"
     return f"{python_command()} -c {shlex.quote(code)}"
 

@@ -33,7 +33,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_json",
     "cannot_write",
-    "check_name_lengths",
+    "check_path_names",
     "damaged",
     "fsync_folder",
     "json_text",
@@ -144,11 +144,21 @@ def refuse_symlinks(path: str | os.PathLike[str], root: str | os.PathLike[str] |
 NAME_MAX = 255
 
 
-def check_name_lengths(path: str | os.PathLike[str]) -> None:
+def check_path_names(path: str | os.PathLike[str]) -> None:
     """Raise ``OSError(ENAMETOOLONG)`` when a name in ``path`` is longer than `NAME_MAX`
-    bytes: before a new folder's parents are made, so that a refused name leaves none."""
+    bytes, and ``OSError(EILSEQ)`` when ``path`` is not UTF-8 (bytes a file system takes, but
+    Rerun writes its recordings only to UTF-8 paths: the run died in its first generation):
+    before a new folder's parents are made, so that a refused name leaves none."""
     if any(len(os.fsencode(part)) > NAME_MAX for part in Path(path).parts):
         raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG), os.fspath(path))
+    try:
+        os.fspath(Path(path).absolute()).encode("utf-8")
+    except UnicodeEncodeError:
+        raise OSError(
+            errno.EILSEQ,
+            "not UTF-8 (Rerun writes recordings only to UTF-8 paths): choose a UTF-8 name",
+            os.fspath(path),
+        ) from None
 
 
 _OS_ERROR = re.compile(r"\(os error (\d+)\)")

@@ -24,7 +24,7 @@ from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import (
     atomic_write_bytes,
     atomic_write_json,
-    check_name_lengths,
+    check_path_names,
     damaged,
     read_regular_file,
     remove_temporaries,
@@ -277,7 +277,7 @@ class RunFolder:
         `RunInUseError` (``locked``: this process holds its lock).
         """
         path = Path(path)
-        check_name_lengths(path)
+        check_path_names(path)
         if path.is_symlink() and not path.exists():  # never made through: it leads elsewhere
             raise FileExistsError(
                 f"output {str(path)!r} is a symbolic link to a missing target "
