@@ -22,6 +22,7 @@ from _helpers import (
 
 from ariel.errors import DamagedRunError
 from ariel.recording import load_run
+from ariel.utils import ariel_line
 
 DEEP = "[" * 100_000 + "]" * 100_000
 
@@ -102,6 +103,7 @@ def test_report_on_a_read_only_run_folder_is_one_line(
     assert exit_code(["report", str(copy), "--no-render"]) == 2
     line = one_error_line(capsys)
     assert f"cannot write {str(copy / 'report')!r}: Read-only file system" in line
+    assert line.endswith(f"or write it elsewhere: {ariel_line('report', copy, '--out', 'DIR')}")
 
 
 def test_compare_on_a_full_disk_is_one_line(

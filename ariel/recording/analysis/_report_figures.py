@@ -45,9 +45,15 @@ def _cannot_write(exc: OSError, path: Path, report: Report) -> RunStorageError:
     """A failed write (disk full, read-only, no permission) of the report: one line naming the
     file and why. `atomic_write` leaves no part of the file; the figures written before it
     are whole."""
+    elsewhere = (
+        f", or write it elsewhere: {ariel_line('report', report.run.path, '--out', 'DIR')}"
+        if report.out is None
+        else ""
+    )
     return RunStorageError(
         f"{cannot_write(exc, path)}; the report is not finished (the run is unchanged): make "
         f"room (or fix the folder), then run {ariel_line(*_report_words(report))} again"
+        f"{elsewhere}"
     )
 
 
