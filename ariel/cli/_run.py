@@ -6,6 +6,7 @@ beside it when asked for. Bad input or a folder that cannot be written is one li
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -15,6 +16,7 @@ from ariel.cli._common import fail_with
 from ariel.cli._live import LiveView
 from ariel.cli._options import add_executor_options, add_set_option
 from ariel.errors import ArielError, ConfigError
+from ariel.recording.store import RunFolder, terminal_text, version_differences
 from ariel.utils import ariel_command, load_run_command, report_interrupted, shell_path
 from ariel.utils.interrupts import stop_on_signals
 
@@ -133,6 +135,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_resume(args: argparse.Namespace) -> int:
     live = LiveView(args)
+    _note_software_change(args.run_dir)
 
     def start() -> RunResult:
         live.start(args.run_dir)
@@ -150,3 +153,25 @@ def _cmd_resume(args: argparse.Namespace) -> int:
             raise ConfigError(str(exc)) from None
 
     return live.finish(_run_guarded(live.guard(start), args.run_dir))
+
+
+def _note_software_change(run_dir: str) -> None:
+    """A note on stderr where the run goes on with other versions of what decides its numbers
+    (another MuJoCo: the generations it adds are not those an uninterrupted run would have
+    made; run.json's ``segments`` say which software made which). Any problem with the folder
+    is the resume's to say."""
+    try:
+        info = RunFolder(run_dir).read_info()
+    except (ArielError, OSError, ValueError):
+        return
+    differences = version_differences(info) if info.get("status") != "finished" else {}
+    changed = ", ".join(f"{name} {then} -> {now}" for name, (then, now) in differences.items())
+    if changed:
+        print(
+            terminal_text(
+                f"note: {run_dir} was last written with other software ({changed}): the "
+                "generations added now may differ from an uninterrupted run's; run.json's "
+                "segments record which software made which generations"
+            ),
+            file=sys.stderr,
+        )

@@ -1,7 +1,8 @@
 """What a replay rebuilds from the run folder alone: the evaluation's row (`_find_row`), the
 plugins it needs (`_require_plugins`), its task as the loop built it (`replay_task`: both call
-`ariel.evolution._tasks.evaluation_task`), the simulator it ran on (`_evaluate_as_stored`), and
-the versions of the software that decide its numbers (`_version_differences`).
+`ariel.evolution._tasks.evaluation_task`) and the simulator it ran on (`_evaluate_as_stored`);
+the versions of the software that decide its numbers are `ariel.recording.store`'s
+(`version_differences`).
 
 A cell of the run's tables that is not what the loop wrote (a changed or damaged table) is a
 `DamagedRunError`, one line, naming the evaluation; so is a config in run.json that no run has
@@ -38,13 +39,11 @@ from ariel.recording.store import (
     Run,
     config_sections,
     damaged,
-    git_commit,
     json_data,
     load_run,
     one_line,
     section_problem,
     short_ascii,
-    software_versions,
 )
 from ariel.utils import load_run_command, mujoco_module
 
@@ -68,7 +67,6 @@ __all__ = [
 BEST = "best"
 
 # Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
-_DECISIVE = ("mujoco", "numpy", "torch", "ariel")
 
 
 #: The plugins a replay needs: run.json's ``plugins`` kind -> config key.
@@ -229,33 +227,6 @@ def _find_row(run: Run, eval_id: str) -> dict[str, Any]:
     raise UnknownEvaluationError(
         f"{where}; {ids}; list them with {load_run_command(run.path, what=listing)}"
     )
-
-
-def _recorded_software(run: Run, generation: int) -> tuple[Mapping[str, object], object]:
-    """Versions and commit of the software that ran ``generation``: the last of run.json's
-    ``segments`` (one per run or resume) that started at or before it; else the run's own."""
-    versions, commit = run.info.get("versions") or {}, run.info.get("git_commit")
-    segments = run.info.get("segments")
-    for segment in segments if isinstance(segments, list) else []:
-        start = segment.get("from_generation") if isinstance(segment, dict) else None
-        if isinstance(start, int) and start <= generation:
-            versions = segment.get("versions") or {}
-            commit = segment.get("git_commit")
-    return (versions if isinstance(versions, dict) else {}), commit
-
-
-def _version_differences(run: Run, generation: int = 0) -> dict[str, tuple[object, object]]:
-    recorded, commit_then = _recorded_software(run, generation)
-    now = software_versions()
-    differences: dict[str, tuple[object, object]] = {
-        name: (recorded.get(name), now.get(name))
-        for name in _DECISIVE
-        if name in recorded and recorded.get(name) != now.get(name)
-    }
-    commit = git_commit()
-    if commit_then and commit and commit_then != commit:
-        differences["git_commit"] = (commit_then, commit)
-    return differences
 
 
 def cell_json(run: Run, row: Mapping[str, object], table: str, column: str, text: object) -> object:

@@ -42,7 +42,6 @@ from ariel.recording.resim._rebuild import (
     _evaluate_as_stored as _evaluate_as_stored,
     _find_row,
     _require_plugins,
-    _version_differences,
     cell_json,
     load_checked,
     replay_task,
@@ -55,6 +54,7 @@ from ariel.recording.store import (
     recording_path,
     refuse_symlinks,
     user_file,
+    version_differences,
 )
 
 if TYPE_CHECKING:
@@ -307,7 +307,7 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
         row=row,
         task=task,
         result=result,
-        version_differences=_version_differences(run, int(row["generation"])),
+        version_differences=version_differences(run.info, int(row["generation"])),
     )
 
 

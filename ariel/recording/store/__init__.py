@@ -111,6 +111,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         git_commit as git_commit,
         now as now,
         software_versions as software_versions,
+        version_differences as version_differences,
     )
     from ariel.recording.store._prune import (
         PruneError as PruneError,
@@ -256,6 +257,7 @@ _INTERNAL: dict[str, str] = {
     "run_path": "ariel.recording.store._campaign",
     "short_ascii": "ariel.recording.store._escape",
     "software_versions": "ariel.recording.store._provenance",
+    "version_differences": "ariel.recording.store._provenance",
     "storage_errors": "ariel.recording.store._run_folder",
     "table_schema": "ariel.recording.store._tables",
     "terminal_text": "ariel.recording.store._escape",

@@ -8,9 +8,21 @@ import datetime as _dt
 import importlib.metadata
 import platform
 import subprocess
+from collections.abc import Mapping
 from pathlib import Path
 
-__all__ = ["git_commit", "now", "software_segment", "software_versions"]
+__all__ = [
+    "DECISIVE",
+    "git_commit",
+    "now",
+    "software_segment",
+    "software_versions",
+    "version_differences",
+]
+
+#: The packages whose versions decide a run's numbers (a replay or resume with others may
+#: give other ones).
+DECISIVE = ("mujoco", "numpy", "torch", "ariel")
 
 _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
 
@@ -67,3 +79,30 @@ def git_commit() -> str | None:
     except (OSError, subprocess.SubprocessError):
         return None
     return out.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
+
+
+def version_differences(
+    info: Mapping[str, object], generation: int | None = None
+) -> dict[str, tuple[object, object]]:
+    """``{package: (recorded, here)}`` for the versions that decide a run's numbers
+    (`DECISIVE`, and the ariel checkout's ``git_commit``) where the software that ran
+    ``generation`` (run.json ``info``: the last of its ``segments``, one per run or resume,
+    that started at or before it; None: the last of all; else the run's own) differs from
+    this. A replay says them beside a fitness that differs; a resume notes them."""
+    versions, commit = info.get("versions") or {}, info.get("git_commit")
+    segments = info.get("segments")
+    for segment in segments if isinstance(segments, list) else []:
+        start = segment.get("from_generation") if isinstance(segment, dict) else None
+        if isinstance(start, int) and (generation is None or start <= generation):
+            versions, commit = segment.get("versions") or {}, segment.get("git_commit")
+    recorded = versions if isinstance(versions, dict) else {}
+    here = software_versions()
+    differences: dict[str, tuple[object, object]] = {
+        name: (recorded.get(name), here.get(name))
+        for name in DECISIVE
+        if name in recorded and recorded.get(name) != here.get(name)
+    }
+    now_commit = git_commit()
+    if commit and now_commit and commit != now_commit:
+        differences["git_commit"] = (commit, now_commit)
+    return differences
