@@ -482,6 +482,10 @@ def test_a_replay_s_output_is_refused_before_anything_is_simulated(
     monkeypatch.setattr(resim, "replay", never)
     assert exit_code(["replay", str(finished_run), "best", "--video", str(finished_run)]) == 2
     assert "is a folder; give a FILE" in one_error_line(capsys, quiet=True)
+    # A name the file system takes, but not its temporary (14 bytes longer) beside it.
+    long = str(finished_run.parent / f"{'r' * 247}.rrd")
+    assert exit_code(["replay", str(finished_run), "best", "--rrd", long]) == 2
+    assert "has 251 bytes; at most 241 (it is written whole beside" in one_error_line(capsys)
 
 
 def test_no_output_the_user_names_lands_in_any_run_folder(
