@@ -75,7 +75,7 @@ def test_run_prints_the_folder_the_best_fitness_and_how_to_look(finished_run) ->
     assert f"{len(run.evaluations)} evaluations" in summary
     assert f"run folder: {out}" in printed.splitlines()
     assert f"ariel runs {out.parent}" in printed
-    assert f"load_run({str(out)!r})" in printed
+    assert f'load_run("{out}")' in printed
     assert f"ariel view {out} " in printed  # it has recordings (record.rerun is on)
 
 

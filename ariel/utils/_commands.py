@@ -121,6 +121,8 @@ def load_run_command(path: Path | str, *, loader: str = "load_run", what: str = 
     # A Python string literal: repr, not JSON, whose escapes of a character beyond U+FFFF
     # (an emoji) are two surrogates Python cannot encode ("emoji\ud83d\ude00")
     literal = repr(str(path))
+    if literal.startswith("'") and '"' not in literal:  # "..." reads best inside the '...'
+        literal = f'"{literal[1:-1]}"'  # the shell quotes the code in (no '"'"' escapes)
     code = f"from ariel.recording import {loader}; r = {loader}({literal}); print({what or 'r'})"
     return f"{python_command()} -c {shlex.quote(code)}"
 
