@@ -384,7 +384,7 @@ CAMPAIGN = REPO / "tests" / "data" / "campaign_tiny.toml"
         # the run's first generation, and a resume marked the run failed).
         (["run", "{base}", "--out", "bad\udcff/r", "--quiet"], "not UTF-8 (Rerun writes"),
         (["campaign", "run", str(CAMPAIGN), "--out", "bad\udcff/c"], "not UTF-8 (Rerun"),
-        (["resume", "bad\udcff"], "'bad\\udcff': not UTF-8 (Rerun writes recordings only"),
+        (["resume", "bad\udcff"], "bad\\udcff': not UTF-8 (Rerun writes recordings only"),
     ],
     ids=[
         *("run-out", "campaign-file", "runs", "runs-deep", "view", "export"),

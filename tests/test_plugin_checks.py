@@ -393,4 +393,8 @@ def test_a_clashing_plugin_fails_only_the_experiments_that_use_it(
     config = load_config(
         {"body": {"encoder": "prebuilt", "genotype": "gecko"}, "task": {"fitness": "x_speed"}}
     )
-    assert prepare_run(config).config.body.optimizer == "ga"
+    prepared = prepare_run(config)
+    assert prepared.config.body.optimizer == "ga"
+    from ariel.runs._session import run_info
+
+    assert "body_optimizer" not in run_info(prepared, "r")["plugins"]  # not looked up either

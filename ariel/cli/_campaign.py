@@ -181,8 +181,9 @@ def _cmd_campaign_status(args: argparse.Namespace) -> int:
     if own != "finished" and rows and all(row["status"] == "finished" for row in rows):
         # stopped after its last run: campaign.rrd and its status are not written yet
         print(
-            f"every run finished, but the campaign is {terminal_text(str(own))}: write its "
-            f"recording and status with: {ariel_line('campaign', 'resume', args.campaign_dir)}"
+            "every run finished, but not the campaign's own records (campaign.json says "
+            f"{terminal_text(str(own))!r}): write campaign.rrd and its status with: "
+            f"{ariel_line('campaign', 'resume', args.campaign_dir)}"
         )
     return 0
 

@@ -7,9 +7,9 @@ import inspect
 from collections.abc import Callable
 from typing import Any
 
-from ariel.errors import ArielError, ExecutorStartError
+from ariel.errors import ArielError, ConfigError, ExecutorStartError
 
-__all__ = ["address_keyword", "made_by_plugin", "takes_address"]
+__all__ = ["address_keyword", "kind_call", "made_by_plugin", "takes_address"]
 
 
 def takes_address(kind: Any) -> bool:
@@ -30,9 +30,7 @@ def made_by_plugin(name: str, kind: Any, **keywords: Any) -> Any:
     traceback from deep in the run."""
     try:
         made = kind.make(**keywords)
-    except ArielError:
-        raise
-    except Exception as exc:
+    except Exception as exc:  # its own ArielError too: said as the kind's, the folder goes
         raise ExecutorStartError(
             f"executor kind {name!r} could not make its executor: {type(exc).__name__}: "
             f"{(str(exc).splitlines() or [''])[0]}"
@@ -44,3 +42,24 @@ def made_by_plugin(name: str, kind: Any, **keywords: Any) -> Any:
             "(one with submit_batch, capacity and a with block: docs/executors.md)"
         )
     return made
+
+
+def kind_call(
+    builtin: bool, name: str, what: str, call: Callable[[Any], None], settings: Any
+) -> None:
+    """``call(settings)``: kind ``name``'s ``check`` or ``reach``. A registered (not
+    ``builtin``) kind's ValueError (a bad setting, as a built-in kind's check raises it) or
+    `ArielError` passes as it is; any other exception of its code is one line naming the kind
+    (`ConfigError`)."""
+    if builtin:
+        call(settings)
+        return
+    try:
+        call(settings)
+    except (ValueError, ArielError):
+        raise
+    except Exception as exc:
+        raise ConfigError(
+            f"executor.kind: executor kind {name!r}: its {what}() raised "
+            f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
+        ) from exc

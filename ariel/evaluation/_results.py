@@ -116,10 +116,12 @@ def _score(
 
 
 def read_only(values: np.ndarray) -> np.ndarray:
-    """A view of ``values`` that cannot be written through (``values`` itself still can)."""
-    view = values.view()
-    view.flags.writeable = False
-    return view
+    """A read-only copy of ``values``: a view could be made writable again
+    (``setflags(write=True)``) and write through to the recorded array; a copy cannot reach
+    it."""
+    copy = values.copy()
+    copy.flags.writeable = False
+    return copy
 
 
 def _blame(exc: BaseException, plugin: str) -> BaseException:
@@ -164,7 +166,7 @@ def _finish(
         poses = _kinematics_frames(built, safe_qpos, task.record_bodies)
     core, body_pos, body_quat = poses
     joint_angle = qpos[:, built.joint_qpos]
-    record = TrajectoryRecord(  # read-only views: the fitness function reads what is recorded
+    record = TrajectoryRecord(  # read-only copies: what is recorded stays as it was
         time=read_only(times),
         core_pos=read_only(core),
         joint_target=read_only(joint_target),

@@ -29,6 +29,7 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Protocol, TypeVar
 
 from ariel.errors import CallTimeoutError, WarpUnavailableError, WorkerLostError
+from ariel.evaluation import _kind_make as kinds
 from ariel.evaluation._dask_connect import address_problem, check_scheduler, distributed_module
 from ariel.evaluation._dask_local import open_files_problem
 from ariel.evaluation._executor_base import (
@@ -54,7 +55,6 @@ from ariel.evaluation._executor_local import (
     LocalPool as LocalPool,
     _make_local,
 )
-from ariel.evaluation._kind_make import address_keyword, made_by_plugin, takes_address
 from ariel.evaluation._threads import (
     EVAL_THREADS_VARIABLE as EVAL_THREADS_VARIABLE,
     THREAD_LIMIT_VARIABLES as THREAD_LIMIT_VARIABLES,
@@ -94,6 +94,7 @@ __all__ = [
     "make_executor",
     "map_ordered",
     "planned_workers",
+    "reach",
     "settings_options",
     "submit_with_timeout",
     "worker_environment",
@@ -362,11 +363,22 @@ def check_settings(settings: ExecutorSettings) -> None:
         raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
     if kind.one_worker is not None and workers not in (None, 1):
         raise ExecutorSettingsError(f"executor.workers: {kind.one_worker} (got {workers})")
-    if address is not None and not takes_address(kind):
+    if address is not None and not kinds.takes_address(kind):
         raise ExecutorSettingsError(
             f"executor.address: only for the dask executor, not {kind_name!r}"
         )
-    kind.check(settings)
+    kinds.kind_call(kind_name in _BUILTIN_KINDS, kind_name, "check", kind.check, settings)
+
+
+def reach(settings: ExecutorSettings) -> None:
+    """`ExecutorKind.reach` of the settings' kind (a Dask scheduler that never answers: one
+    line, before any folder is made); a registered kind's own failure in one line.
+
+    Args:
+        settings: An ``[executor]`` section (`ariel.evolution.ExecutorConfig`), checked.
+    """
+    name = settings.kind
+    kinds.kind_call(name in _BUILTIN_KINDS, name, "reach", executor_kind(name).reach, settings)
 
 
 def planned_workers(settings: ExecutorSettings) -> tuple[int, bool]:
@@ -474,12 +486,12 @@ def make_executor(
     executor = executor_kind(kind)
     if workers is not None and not _is_count(workers):
         raise ValueError(f"workers must be an integer >= 1 or None, got {workers!r}")
-    if address is not None and not takes_address(executor):
+    if address is not None and not kinds.takes_address(executor):
         raise ValueError(f"address= is only for the dask executor, not {kind!r}")
-    where = {address_keyword(executor.make): address}
+    where = {kinds.address_keyword(executor.make): address}
     if kind in _BUILTIN_KINDS:
         return executor.make(workers=workers, max_retries=max_retries, **where, **options)
-    return made_by_plugin(
+    return kinds.made_by_plugin(
         kind, executor, workers=workers, max_retries=max_retries, **where, **options
     )
 

@@ -46,7 +46,7 @@ from ariel.evolution._events import (
 )
 from ariel.evolution._optimizer import Proposal
 from ariel.evolution._seeds import derive_rng
-from ariel.evolution._state import Body, LoopState, body_fields, changed_field, state_to_plain
+from ariel.evolution._state import BodiesSeen, Body, LoopState, state_to_plain
 from ariel.evolution._tasks import body_spec
 
 __all__ = ["Plugins", "RunDriver", "budget", "distinct_bodies", "fixed_genotype"]
@@ -307,9 +307,10 @@ class RunDriver:
         state = self.state
         parents = optimizer.population
         count = config.body.offspring if parents else config.body.population
-        children = []
+        children, seen = [], BodiesSeen(parents)
         try:
             proposals = list(optimizer.ask(count))
+            seen.unchanged("ask")
             _check_proposals(proposals, count, {body.body_id for body in parents}, config)
         except Exception as exc:  # any: the optimizer's own code
             raise self._optimizer_failed(exc) from exc
@@ -342,14 +343,12 @@ class RunDriver:
         if self.optimizer is None:
             rows = [(children[0], generation == 0, True)]
         else:
-            told, before = parents + children, body_fields(parents + children)
+            seen = BodiesSeen(parents + children)
             try:
                 self.optimizer.tell(children)
-                changed = changed_field(told, before)
-                if changed is not None:  # the rows below would carry its values, not the loop's
-                    raise ValueError(f"tell changed {changed}; it may read the bodies, not write")
                 state.population = self.optimizer.population
                 state.optimizer = self.optimizer.state()
+                seen.unchanged("tell")  # the rows below: the loop's values
             except Exception as exc:  # any: the optimizer's own code
                 raise self._optimizer_failed(exc) from exc
             kept = {b.body_id for b in state.population}

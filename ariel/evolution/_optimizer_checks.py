@@ -92,8 +92,12 @@ def _generation(
 ) -> list[str]:
     """One ask/tell round; returns the genotypes asked for (as JSON text)."""
     kept = {b.body_id for b in optimizer.population}
+    held = [*optimizer.population]
+    before_ask = body_fields(held)
     with check.step(f"ask({_SIZE}) in generation {generation}"):
         proposals = list(optimizer.ask(_SIZE))
+    changed = changed_field(held, before_ask)
+    check.expect(changed is None, f"ask(...) changed {changed}: it may read the bodies, not write")
     check.expect(len(proposals) == _SIZE, f"ask({_SIZE}) gave {len(proposals)} genotypes")
     asked = []
     for proposal in proposals:

@@ -22,6 +22,7 @@ from ariel.evolution._brain import BrainRun
 from ariel.utils import replace_non_finite
 
 __all__ = [
+    "BodiesSeen",
     "Body",
     "LoopState",
     "body_fields",
@@ -92,6 +93,20 @@ def body_fields(bodies: list[Body]) -> list[dict[str, str]]:
     ]
 
 
+class BodiesSeen:
+    """``bodies`` as a body optimizer is handed them (`body_fields`): `unchanged` after its
+    call says whether it wrote to them, as it may not (the records are written from them)."""
+
+    def __init__(self, bodies: list[Body]) -> None:
+        self.bodies, self.before = list(bodies), body_fields(bodies)
+
+    def unchanged(self, call: str) -> None:
+        """ValueError naming the first field ``call`` (and ``state()``) changed, if any."""
+        changed = changed_field(self.bodies, self.before)
+        if changed is not None:
+            raise ValueError(f"{call} changed {changed}; it may read the bodies, not write")
+
+
 def changed_field(bodies: list[Body], before: list[dict[str, str]]) -> str | None:
     """The first field of ``bodies`` that differs from ``before`` (`body_fields` of them),
     e.g. ``"b000004's fitness (0.0003 -> 999.0)"``, or None. A body optimizer's ``tell``
@@ -100,7 +115,11 @@ def changed_field(bodies: list[Body], before: list[dict[str, str]]) -> str | Non
         now = body_fields([body])[0]
         for name, text in now.items():
             if text != was[name]:
-                return f"{body.body_id}'s {name} ({was[name][:40]} -> {text[:40]})"
+                old, new = json.loads(was[name]), json.loads(text)
+                if isinstance(old, dict) and isinstance(new, dict):  # name the key that differs
+                    key = next(k for k in sorted({*old, *new}) if old.get(k) != new.get(k))
+                    name, old, new = f"{name}[{key!r}]", old.get(key), new.get(key)
+                return f"{body.body_id}'s {name} ({str(old)[:40]} -> {str(new)[:40]})"
     return None
 
 

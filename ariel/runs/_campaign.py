@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ariel.errors import ArielError, DamagedRunError, ExecutorStartError
-from ariel.evaluation.executors import executor_kind, planned_workers
+from ariel.evaluation.executors import planned_workers, reach as reach_executor
 from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows_progress
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
 from ariel.recording.store import (
@@ -252,7 +252,7 @@ def run_campaign(
         run_id = check_new_id(f"{campaign_id}-{condition}-s{seed}")
         runs.append(_Run(condition, seed, run_id, prepare_run(config, settings)))
     _check_new_folder(path)
-    executor_kind(settings.kind).reach(settings)  # a scheduler that never answers: no folder
+    reach_executor(settings)  # a scheduler that never answers: no folder
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     try:
         with (
@@ -337,7 +337,7 @@ def resume_campaign(
         address=address,
         command=("campaign", "resume", campaign_dir),
     )
-    executor_kind(settings.kind).reach(settings)  # before any run.json is touched
+    reach_executor(settings)  # before any run.json is touched
     with storage_errors(path, campaign=True), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
         locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)

@@ -18,7 +18,7 @@ from typing import Any, NoReturn
 
 from ariel.errors import ConfigError, ExecutorStartError
 from ariel.evaluation import WorkerCannotStartError
-from ariel.evaluation.executors import executor_kind
+from ariel.evaluation.executors import reach as reach_executor
 from ariel.evolution import (
     ExperimentConfig,
     LoopState,
@@ -175,7 +175,7 @@ def run_experiment(
         run_id = path.name or run_id
     check_new_id(run_id)
     RunFolder.check_new(path, overwrite=overwrite)
-    executor_kind(settings.kind).reach(settings)  # a scheduler that never answers: no folder
+    reach_executor(settings)  # a scheduler that never answers: no folder
     try:
         # The lock is held for the whole run. An interrupt once run.json is written (even
         # before the first generation) names the folder: it resumes from there.
@@ -294,7 +294,7 @@ def resume_experiment(
         address=address,
         command=("resume", run_dir),
     )
-    executor_kind(settings.kind).reach(settings)  # before run.json is touched
+    reach_executor(settings)  # before run.json is touched
     with storage_errors(folder.path), contextlib.ExitStack() as locks:
         # Checked again under the lock: another resume may have run (or finished) the run.
         session = RunSession.reopen(folder, locks, settings)

@@ -248,16 +248,17 @@ def run_info(prepared: PreparedRun, run_id: str) -> dict[str, Any]:
     """A new run's run.json: config, hash, software, plugin provenance, and what readers need
     without the run's plugins (fitness direction, brain-only)."""
     config = prepared.config
-    provenance = plugin_provenance(
-        {
-            "body_encoder": config.body.encoder,
-            "controller": config.brain.controller,
-            "world": config.world.name,
-            "fitness": config.task.fitness,
-            "body_optimizer": config.body.optimizer,
-            "brain_optimizer": config.brain.optimizer,
-        }
-    )
+    named = {
+        "body_encoder": config.body.encoder,
+        "controller": config.brain.controller,
+        "world": config.world.name,
+        "fitness": config.task.fitness,
+        "body_optimizer": config.body.optimizer,
+        "brain_optimizer": config.brain.optimizer,
+    }
+    if prepared.brain_only:  # it asks no body optimizer: its name is not looked up
+        del named["body_optimizer"]
+    provenance = plugin_provenance(named)
     return {
         "run_id": run_id,
         "name": config.name,

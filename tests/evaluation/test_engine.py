@@ -374,6 +374,24 @@ def _writes_its_record(record) -> float:
     return 0.0
 
 
+def test_a_fitness_function_cannot_reach_the_recorded_arrays() -> None:
+    """A view's flag could be set writable again, and the stored trajectory changed."""
+    from ariel.plugins import fitness_function, fitness_functions
+
+    @fitness_function(maximise=True)
+    def sneaky(record) -> float:
+        record.core_pos.setflags(write=True)
+        record.core_pos[:] = 5.0
+        return 0.0
+
+    fitness_functions.register("test_sneaky", sneaky)
+    try:
+        result = evaluate(task(gecko_params(1)[0], duration=0.2, fitness="test_sneaky"))
+    finally:
+        fitness_functions.unregister("test_sneaky")
+    assert result.ok and not (result.core_pos == 5.0).all()
+
+
 @pytest.mark.parametrize(
     ("fitness", "error", "said"),
     [

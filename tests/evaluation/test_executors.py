@@ -391,11 +391,31 @@ class _NoExecutorKind(_RaisingKind):
         return None
 
 
+class _ArielErrorKind(_RaisingKind):
+    def make(self, *, workers=None, address=None, max_retries=None, **options):
+        from ariel.errors import RunStorageError
+
+        raise RunStorageError("ariel-boom")  # one line, but not naming the kind
+
+
+class _CheckRaisesKind(_RaisingKind):
+    def check(self, settings):
+        raise RuntimeError("my check's bug")
+
+
+class _ReachRaisesKind(_RaisingKind):
+    def reach(self, settings):
+        raise RuntimeError("my reach's bug")
+
+
 @pytest.mark.parametrize(
     ("kind", "said"),
     [
         (_RaisingKind, " could not make its executor: RuntimeError: my executor cannot start"),
         (_NoExecutorKind, ": make() gave NoneType, not an executor (one with submit_batch"),
+        (_ArielErrorKind, " could not make its executor: RunStorageError: ariel-boom"),
+        (_CheckRaisesKind, ": its check() raised RuntimeError: my check's bug"),
+        (_ReachRaisesKind, ": its reach() raised RuntimeError: my reach's bug"),
     ],
 )
 def test_a_kind_that_makes_no_executor_is_one_line_and_leaves_no_folder(
@@ -413,7 +433,7 @@ def test_a_kind_that_makes_no_executor_is_one_line_and_leaves_no_folder(
     finally:
         executor_kinds.unregister("test_no_executor")
     line = one_error_line(capsys)
-    assert line.startswith("ariel: error: executor kind 'test_no_executor'") and said in line
+    assert "executor kind 'test_no_executor'" + said in line, line
     assert not (tmp_path / "run").exists()
 
 

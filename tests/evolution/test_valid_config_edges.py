@@ -200,6 +200,26 @@ class _WritesFitness(_GAInARun):
         super().tell(bodies)
 
 
+class _WritesInAsk(_GAInARun):
+    """A GA that keeps the bodies it was told and, in a run, writes to them in its next ask
+    (the records of that generation then said 123)."""
+
+    def ask(self, n: int) -> list[Any]:
+        if self.in_a_run:
+            for body in self.population:
+                body.descriptors = {**body.descriptors, "num_limbs": 123.0}
+        return super().ask(n)
+
+
+def test_a_body_optimizer_that_writes_to_its_population_in_ask_stops_the_run(
+    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, line = _failed_run(tiny, tmp_path, capsys, "test_writes_in_ask", _WritesInAsk)
+    assert "ValueError: ask changed b0000" in line and "'s descriptors['num_limbs'] (" in line
+    assert " -> 123.0); it may read the bodies, not write" in line, line
+    assert load_run(out).generations_done == 1  # generation 0's records, the loop's
+
+
 def test_a_body_optimizer_that_writes_to_the_bodies_it_is_told_stops_the_run(
     tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

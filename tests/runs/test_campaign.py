@@ -370,7 +370,7 @@ def test_a_campaign_stopped_after_its_last_run_gets_its_own_records_on_resume(
     # status and a run into it say so, not "it is finished: compare its runs"
     assert main(["campaign", "status", str(out)]) == 0
     resume = ariel_line("campaign", "resume", out)
-    assert f"but the campaign is interrupted: write its recording and status with: {resume}" in (
+    assert f"says 'interrupted'): write campaign.rrd and its status with: {resume}" in (
         capsys.readouterr().out
     )
     assert exit_code(["campaign", "run", str(TINY), "--out", str(out)]) == 2

@@ -62,6 +62,9 @@ def check_report_folder(out: str | os.PathLike[str]) -> Path:
 
 
 def _ours(path: Path) -> bool:
-    """A report's file (or a killed report's temporary of one), its lock or thumbnails."""
+    """A report's file (or a killed report's temporary of one), its lock or thumbnails (a
+    real folder: a link there would take them elsewhere)."""
+    if path.name == "thumbnails":
+        return path.is_dir() and not path.is_symlink()
     name = written_path(path)
     return path.name in _OURS or (name is not None and name.name in REPORT_FILES)

@@ -158,13 +158,14 @@ def check_path_names(path: str | os.PathLike[str]) -> None:
     before a new folder's parents are made, so that a refused name leaves none."""
     if any(len(os.fsencode(part)) > NAME_MAX for part in Path(path).parts):
         raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG), os.fspath(path))
+    whole = os.fspath(Path(path).absolute())  # the current folder's name counts too
     try:
-        os.fspath(Path(path).absolute()).encode("utf-8")
+        whole.encode("utf-8")
     except UnicodeEncodeError:
         raise OSError(
             errno.EILSEQ,
             "not UTF-8 (Rerun writes recordings only to UTF-8 paths): choose a UTF-8 name",
-            os.fspath(path),
+            whole,
         ) from None
 
 

@@ -613,7 +613,12 @@ def test_out_takes_the_report_of_a_run_it_must_not_write_into(
     (out.parent / "notes.txt").write_text("mine")
     link = tmp_path / "link"
     link.symlink_to(out.parent)
+    elsewhere = tmp_path / "linked-thumbnails"
+    elsewhere.mkdir()
+    (tmp_path / "report-2").mkdir()
+    (tmp_path / "report-2" / "thumbnails").symlink_to(elsewhere)  # thumbnails went through it
     refused = {
+        tmp_path / "report-2": "holds files a report does not write ('thumbnails')",
         shared / "figures": "is inside the run or campaign folder",
         out.parent: "holds files a report does not write ('notes.txt' and 1 more)",
         out.parent / "notes.txt": "is not a folder",
