@@ -45,7 +45,7 @@ class BrainJob:
     record_every: int
 
 
-def graph_text(decoded: object) -> str:
+def graph_text(decoded: nx.DiGraph) -> str:
     """The bodies table's ``graph`` of an encoder's decoded graph: node-link JSON, or ``""``
     (stored as a body without a graph) for one no `graph_key` is made of, an empty graph: a
     decode that changed between calls stopped the run, and readers called the table damaged."""

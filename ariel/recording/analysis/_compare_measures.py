@@ -175,8 +175,9 @@ def _statistics(
     # Runs with a value of the first measure (a run without a finished evaluation has none):
     # the n its tests have, not the runs the folders hold.
     final = runs[MEASURES["final best"]].to_numpy(dtype=np.float64)
-    valued = runs.assign(valued=np.isfinite(final))
-    sizes = valued.groupby("condition", sort=False)["valued"].sum().astype(int).to_dict()
+    sizes: dict[str, int] = {}
+    for condition, valued in zip(runs["condition"], np.isfinite(final), strict=True):
+        sizes[str(condition)] = sizes.get(str(condition), 0) + int(valued)
     notes = [
         small_n_warning(rows, sizes, choice, omnibus),  # rows: "final best" first
         tied_pairs_note(rows),
