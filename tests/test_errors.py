@@ -34,6 +34,7 @@ OLD_HOMES: dict[str, tuple[tuple[str, ...], tuple[type[BaseException], ...]]] = 
     "WarpUnavailableError": (("ariel.evaluation._warp",), (RuntimeError,)),
     "WorkerLostError": (("ariel.evaluation._pool", "ariel.evaluation.executors"), (RuntimeError,)),
     "CallTimeoutError": (("ariel.evaluation._pool", "ariel.evaluation.executors"), (TimeoutError,)),
+    "ExecutorStartError": ((), (RuntimeError,)),  # new with it: a WorkerLostError, as it was
     "NotARunError": (("ariel.recording", "ariel.recording.store._run_folder"), (ValueError,)),
     "RunStorageError": (("ariel.recording", "ariel.recording.store._run_folder"), (RuntimeError,)),
     "RunInUseError": (("ariel.recording", "ariel.recording.store._lock"), (RuntimeError,)),
