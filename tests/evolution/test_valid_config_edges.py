@@ -211,27 +211,23 @@ class _WritesInAsk(_GAInARun):
         return super().ask(n)
 
 
-def test_a_body_optimizer_that_writes_to_its_population_in_ask_stops_the_run(
-    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(
+    ("optimizer", "said", "done"),
+    [  # its 999 became every record's best fitness, and verify said ok
+        (_WritesFitness, "tell changed b000000's fitness (0.0", 0),
+        (_WritesInAsk, "'s descriptors['num_limbs'] (", 1),  # generation 0's rows: the loop's
+    ],
+)
+def test_a_body_optimizer_that_writes_to_its_bodies_stops_the_run(
+    optimizer: Any, said: str, done: int, tiny: Path, tmp_path: Path, capsys
 ) -> None:
-    out, line = _failed_run(tiny, tmp_path, capsys, "test_writes_in_ask", _WritesInAsk)
-    assert "ValueError: ask changed b0000" in line and "'s descriptors['num_limbs'] (" in line
-    assert " -> 123.0); it may read the bodies, not write" in line, line
-    assert load_run(out).generations_done == 1  # generation 0's records, the loop's
+    out, line = _failed_run(tiny, tmp_path, capsys, "test_writes", optimizer)
+    assert "body optimizer 'test_writes' failed between evaluations: ValueError: " in line
+    assert said in line and "); it may read the bodies, not write" in line, line
+    assert load_run(out).generations_done == done
 
 
-def test_a_body_optimizer_that_writes_to_the_bodies_it_is_told_stops_the_run(
-    tiny: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """Its 999 became every record's best fitness, and verify said ok."""
-    out, line = _failed_run(tiny, tmp_path, capsys, "test_writes_fitness", _WritesFitness)
-    assert line.startswith(
-        "ariel: error: body optimizer 'test_writes_fitness' failed between evaluations: "
-        "ValueError: tell changed b000000's fitness ("
-    ), line
-    assert "-> 999.0); it may read the bodies, not write" in line, line
-    assert load_run(out).generations_done == 0  # nothing of it was stored
-
+def test_the_optimizer_check_refuses_a_tell_that_writes() -> None:
     class AlwaysWrites(_WritesFitness):
         in_a_run = property(lambda self: True, lambda self, value: None)  # the check's too
 
