@@ -12,7 +12,6 @@ drawn (no OpenGL), both are written without pictures and a note says why.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import math
 import numbers
@@ -47,6 +46,7 @@ from ariel.recording.analysis._gallery_select import (
     archive_atlas,
     campaign_picks,
     key_descriptors,
+    open_command,
     picks,
 )
 from ariel.recording.analysis._gallery_titles import gallery_subtitle, gallery_title
@@ -65,7 +65,6 @@ from ariel.recording.store import (
     refuse_symlinks,
     remove_temporaries,
 )
-from ariel.utils import ariel_line, shell_path, shell_quote
 
 if TYPE_CHECKING:
     from ariel.recording.analysis._report import Report
@@ -164,19 +163,6 @@ class Gallery:
         )
 
 
-def _command(run: Run, eval_id: str, records: Path | None) -> str:
-    """The command that opens the body's evaluation. A page inside a run or campaign folder
-    (``records``) travels with it: ``ariel`` and the run's path from the folder that holds
-    ``records``, no path of this machine (docs/records.md)."""
-    recorded = (run.path / "run.rrd").is_file() or (run.path / "recordings").is_dir()
-    verb = "view" if recorded else "replay"
-    if records is not None:
-        with contextlib.suppress(ValueError):
-            inside = Path(os.path.realpath(run.path)).relative_to(records.parent)
-            return " ".join(["ariel", verb, shell_path(inside), shell_quote(eval_id)])
-    return ariel_line(verb, run.path, eval_id)
-
-
 def _body(
     pick: Pick, thumbnail: Path | None, cell: tuple[int, int] | None, records: Path | None
 ) -> GalleryBody:
@@ -197,7 +183,7 @@ def _body(
         fitness=pick.fitness,
         descriptors=descriptors,
         caption=pick.caption,
-        command=_command(pick.run, str(body["best_eval_id"]), records),
+        command=open_command(pick.run, str(body["best_eval_id"]), records),
         thumbnail=thumbnail,
         cell=cell,
         born=_born(body.get("born_generation")),
@@ -281,10 +267,16 @@ def _run_key(run_path: Path) -> str:
 
 
 def body_thumbnails(
-    run: Run, body_ids: Sequence[str], *, render: bool = True, workers: int | None = None
+    run: Run,
+    body_ids: Sequence[str],
+    *,
+    render: bool = True,
+    workers: int | None = None,
+    spare: Path | None = None,
 ) -> tuple[dict[str, Path], list[str]]:
     """Thumbnails of bodies ``body_ids`` of ``run`` (a `Run`), drawn as the gallery draws
-    them and cached with its own (``RUN/gallery/thumbnails/``; one already there is reused).
+    them and cached with its own (``RUN/gallery/thumbnails/``; one already there is reused),
+    or in ``spare`` where the run cannot be written (a report's ``--out DIR/thumbnails``).
 
     Returns body id -> its PNG, for each body that has one, and the notes: one line per thing
     left out and why (no OpenGL here, ``render`` False, a body that cannot be built)."""
@@ -293,7 +285,7 @@ def body_thumbnails(
         Pick(run, bodies.loc[i].to_dict()) for i in dict.fromkeys(body_ids) if i in bodies.index
     ]
     scratch = Gallery(Path(run.path), "lineage-of-best", "", "", KEY_DESCRIPTORS)  # its notes
-    paths = _thumbnails(scratch, chosen, workers=workers, render=render)
+    paths = _thumbnails(scratch, chosen, workers=workers, render=render, spare=spare)
     found = {str(p.body["body_id"]): path for p, path in zip(chosen, paths) if path is not None}
     return found, scratch.notes
 

@@ -13,9 +13,12 @@ them.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -23,6 +26,7 @@ import numpy as np
 from ariel.errors import ArielError, DamagedRunError
 from ariel.evolution import DEFAULT_RANGES
 from ariel.recording.store import Run, ancestors, archive_cell_count, check_body_id, lineage
+from ariel.utils import ariel_line, shell_path, shell_quote
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -39,6 +43,7 @@ __all__ = [
     "archive_atlas",
     "campaign_picks",
     "key_descriptors",
+    "open_command",
     "picks",
 ]
 
@@ -353,3 +358,16 @@ def _cropped(
         filled=filled,
         positions={body: (row - low, column - left) for body, (row, column) in positions.items()},
     )
+
+
+def open_command(run: Run, eval_id: str, records: Path | None) -> str:
+    """The command that opens the body's evaluation. A page inside a run or campaign folder
+    (``records``) travels with it: ``ariel`` and the run's path from the folder that holds
+    ``records``, no path of this machine (docs/records.md)."""
+    recorded = (run.path / "run.rrd").is_file() or (run.path / "recordings").is_dir()
+    verb = "view" if recorded else "replay"
+    if records is not None:
+        with contextlib.suppress(ValueError):
+            inside = Path(os.path.realpath(run.path)).relative_to(records.parent)
+            return " ".join(["ariel", verb, shell_path(inside), shell_quote(eval_id)])
+    return ariel_line(verb, run.path, eval_id)

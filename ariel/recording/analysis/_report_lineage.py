@@ -339,7 +339,8 @@ def _pictures(
         )
     wanted = {i: "founder" for i in founders[:_MOST_FOUNDERS]}
     wanted[best] = "best"
-    found, notes = body_thumbnails(report.run, [names[i] for i in wanted])
+    spare = report.folder / "thumbnails" if report.out is not None else None  # as the gallery's
+    found, notes = body_thumbnails(report.run, [names[i] for i in wanted], spare=spare)
     pictures = {}
     for node, caption in wanted.items():
         path = found.get(names[node])

@@ -628,3 +628,23 @@ def test_out_takes_the_report_of_a_run_it_must_not_write_into(
         assert exit_code(["report", str(shared), "--no-render", "--out", str(folder)]) == 2
         assert why in one_error_line(capsys)
     assert not (shared / "figures").exists() and (out.parent / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.usefixtures("gl_available")
+def test_out_holds_the_thumbnails_of_a_run_it_cannot_write(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """lineage.png said "no thumbnail (cannot write 'RUN/gallery')" where the gallery beside
+    it drew its thumbnails into --out."""
+    from ariel.recording.analysis import _gallery
+
+    shared = tmp_path / "shared"
+    shutil.copytree(run_dir, shared)
+    shutil.rmtree(shared / "report", ignore_errors=True)
+    shutil.rmtree(shared / "gallery", ignore_errors=True)
+    monkeypatch.setattr(_gallery, "_writable", lambda path: False)  # as on a read-only disk
+    report = make_report(shared, out=tmp_path / "mine")
+    assert not [note for note in report.notes if "thumbnail" in note], report.notes
+    assert len(_thumbnail_cards(report)) >= 2  # the best and a founder
+    assert list((tmp_path / "mine" / "thumbnails").rglob("*.png"))
+    assert not (shared / "gallery").exists()
