@@ -28,7 +28,7 @@ from ariel.evaluation import CHECK_SEED, Checker, call_text, check_engine_plugin
 from ariel.evolution._brain import BrainOptimizer
 from ariel.evolution._config import BodyConfig
 from ariel.evolution._optimizer import BodyOptimizer, Proposal
-from ariel.evolution._state import Body, body_fields, changed_field, from_json_safe, to_json_safe
+from ariel.evolution._state import BodiesSeen, Body, from_json_safe, to_json_safe
 from ariel.plugins import body_optimizers, brain_optimizers
 
 if TYPE_CHECKING:
@@ -92,11 +92,10 @@ def _generation(
 ) -> list[str]:
     """One ask/tell round; returns the genotypes asked for (as JSON text)."""
     kept = {b.body_id for b in optimizer.population}
-    held = [*optimizer.population]
-    before_ask = body_fields(held)
+    held = BodiesSeen(optimizer.population)
     with check.step(f"ask({_SIZE}) in generation {generation}"):
         proposals = list(optimizer.ask(_SIZE))
-    changed = changed_field(held, before_ask)
+    changed = held.changed()
     check.expect(changed is None, f"ask(...) changed {changed}: it may read the bodies, not write")
     check.expect(len(proposals) == _SIZE, f"ask({_SIZE}) gave {len(proposals)} genotypes")
     asked = []
@@ -107,11 +106,10 @@ def _generation(
         check.expect(not unknown, f"a child's parents {sorted(unknown)} are not in its population")
     bodies = [_body(len(told) + k, p, generation) for k, p in enumerate(proposals)]
     told.update({b.body_id: b for b in bodies})
-    seen = [*optimizer.population, *bodies]
-    before = body_fields(seen)
+    seen = BodiesSeen([*optimizer.population, *bodies])
     with check.step(f"tell(...) in generation {generation}"):
         optimizer.tell(bodies)
-    changed = changed_field(seen, before)
+    changed = seen.changed()
     check.expect(changed is None, f"tell(...) changed {changed}: it may read the bodies, not write")
     population = optimizer.population
     check.expect(population, f"keeps no body after generation {generation}")

@@ -25,8 +25,6 @@ __all__ = [
     "BodiesSeen",
     "Body",
     "LoopState",
-    "body_fields",
-    "changed_field",
     "from_json_safe",
     "state_from_plain",
     "state_to_plain",
@@ -100,9 +98,13 @@ class BodiesSeen:
     def __init__(self, bodies: list[Body]) -> None:
         self.bodies, self.before = list(bodies), body_fields(bodies)
 
+    def changed(self) -> str | None:
+        """The first field written to since (`changed_field`), or None."""
+        return changed_field(self.bodies, self.before)
+
     def unchanged(self, call: str) -> None:
         """ValueError naming the first field ``call`` (and ``state()``) changed, if any."""
-        changed = changed_field(self.bodies, self.before)
+        changed = self.changed()
         if changed is not None:
             raise ValueError(f"{call} changed {changed}; it may read the bodies, not write")
 

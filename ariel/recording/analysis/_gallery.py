@@ -105,6 +105,8 @@ class GalleryBody:
             could not be drawn.
         cell: its (row, column) in the archive's atlas (row 0 the lowest bin of the second
             measure, column 0 the lowest of the first); None in any other gallery.
+        from_parent: whether ``command`` names the run from the folder that holds the run
+            (or campaign) folder the page is in; else it runs anywhere.
     """
 
     run: Path
@@ -118,6 +120,7 @@ class GalleryBody:
     thumbnail: Path | None
     cell: tuple[int, int] | None = None
     born: int | None = None
+    from_parent: bool = False
 
 
 @dataclass
@@ -175,6 +178,7 @@ def _body(
             descriptors[name] = float(value) if math.isfinite(float(value)) else None
         except (TypeError, ValueError):  # <NA>: a body without descriptors
             descriptors[name] = None
+    command, from_parent = open_command(pick.run, str(body["best_eval_id"]), records)
     return GalleryBody(
         run=Path(pick.run.path),
         body_id=str(body["body_id"]),
@@ -183,10 +187,11 @@ def _body(
         fitness=pick.fitness,
         descriptors=descriptors,
         caption=pick.caption,
-        command=open_command(pick.run, str(body["best_eval_id"]), records),
+        command=command,
         thumbnail=thumbnail,
         cell=cell,
         born=_born(body.get("born_generation")),
+        from_parent=from_parent,
     )
 
 

@@ -70,9 +70,9 @@ def _card(body: GalleryBody, key: tuple[str, str], style: str = "") -> str:
 
 
 def _paste_where(body: GalleryBody) -> str:
-    """Where the body's command runs: a page in a run or campaign folder names the run from
-    the folder holding that one (`GalleryBody.command`)."""
-    if body.command.startswith("ariel "):
+    """Where the body's command runs (`GalleryBody.from_parent`): a page in a run or campaign
+    folder names the run from the folder holding that one."""
+    if body.from_parent:
         return "paste into a shell in the folder that holds this run (or campaign) folder"
     return "paste into a shell"
 

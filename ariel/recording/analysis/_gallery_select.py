@@ -360,14 +360,16 @@ def _cropped(
     )
 
 
-def open_command(run: Run, eval_id: str, records: Path | None) -> str:
-    """The command that opens the body's evaluation. A page inside a run or campaign folder
-    (``records``) travels with it: ``ariel`` and the run's path from the folder that holds
-    ``records``, no path of this machine (docs/records.md)."""
+def open_command(run: Run, eval_id: str, records: Path | None) -> tuple[str, bool]:
+    """The command that opens the body's evaluation, and whether it names the run from the
+    folder that holds ``records`` (else it runs anywhere). A page inside a run or campaign
+    folder (``records``) travels with it: ``ariel`` and the run's path from there, no path of
+    this machine (docs/records.md)."""
     recorded = (run.path / "run.rrd").is_file() or (run.path / "recordings").is_dir()
     verb = "view" if recorded else "replay"
     if records is not None:
         with contextlib.suppress(ValueError):
             inside = Path(os.path.realpath(run.path)).relative_to(records.parent)
-            return " ".join(["ariel", verb, shell_path(inside), shell_quote(eval_id)])
-    return ariel_line(verb, run.path, eval_id)
+            words = ["ariel", verb, shell_path(inside), shell_quote(eval_id)]
+            return " ".join(words), True
+    return ariel_line(verb, run.path, eval_id), False

@@ -24,7 +24,7 @@ REPORT_FILES = (
     "gallery.png",
     "gallery.html",
 )
-_OURS = (*REPORT_FILES, LOCK_NAME, "thumbnails")
+_OURS = (*REPORT_FILES, LOCK_NAME)
 
 
 class ReportFolderError(ArielError, ValueError):

@@ -66,8 +66,6 @@ __all__ = [
 #: `replay(run, BEST)` replays the run's best evaluation.
 BEST = "best"
 
-# Versions that decide an evaluation's numbers (torch: the NDE decodes genotypes with it).
-
 
 #: The plugins a replay needs: run.json's ``plugins`` kind -> config key.
 _PLUGIN_KEYS = {

@@ -92,9 +92,10 @@ def output_file_problem(path: str | os.PathLike[str]) -> str | None:
     if os.path.isdir(text):
         return f"{text!r} is a folder; give a FILE (the folder may hold it: DIR/NAME)"
     longest = NAME_MAX - len(_temporary(Path("x")).name) + 1  # its temporary's name, beside it
-    if len(os.fsencode(os.path.basename(text))) > longest:
+    size = len(os.fsencode(os.path.basename(text)))
+    if size > longest:
         return (
-            f"the file name of {text[:60]!r}... has {len(os.fsencode(os.path.basename(text)))} "
+            f"the file name of {text[:60]!r}... has {size} "
             f"bytes; at most {longest} (it is written whole beside itself first, under a name "
             f"{NAME_MAX - longest} bytes longer)"
         )

@@ -21,7 +21,7 @@ __all__ = [
 ]
 
 #: The packages whose versions decide a run's numbers (a replay or resume with others may
-#: give other ones).
+#: give other ones; torch: the NDE decodes genotypes with it).
 DECISIVE = ("mujoco", "numpy", "torch", "ariel")
 
 _VERSIONED = ("ariel", "mujoco", "numpy", "torch", "cma", "pyarrow", "pandas", "rerun-sdk")
