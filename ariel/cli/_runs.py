@@ -69,8 +69,9 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         runs = _condition_runs(folder)
     else:
         runs = recording.list_runs(folder)
+    inside = "" if campaign else _campaigns_inside(folder)
     if not runs:
-        print(f"no runs under {terminal_text(folder)}{_campaigns_inside(folder)}")
+        print(f"no runs under {terminal_text(folder)}{'; it' if inside else ''}{inside}")
         return 0
     for r in runs:  # names from run.json files: no control sequence reaches the terminal
         r["run_id"], r["status"] = _shown_name(r, campaign), terminal_text(r["status"] or "?")
@@ -91,11 +92,13 @@ def _cmd_runs(args: argparse.Namespace) -> int:
             f"{r['run_id']:<{width}}  {r['status']:<{status_width}} {gens:>11} "
             f"{evaluations:>11}  {shown}"
         )
+    if inside:  # beside the runs: not listed above, but not to be missed
+        print(f"{terminal_text(folder)} also{inside}")
     return 0
 
 
 def _campaigns_inside(folder: Path) -> str:
-    """``"; it holds campaign folders ..."`` naming those directly in ``folder`` (a campaign's
+    """``" holds N campaign folders ..."`` naming those directly in ``folder`` (a campaign's
     runs are under its own folder, which ``ariel runs CAMPAIGN`` lists), or ``""``."""
     if not folder.is_dir():
         return ""
@@ -104,7 +107,7 @@ def _campaigns_inside(folder: Path) -> str:
         return ""
     names = ", ".join(terminal_text(p.name) for p in found[:3]) + (" ..." if len(found) > 3 else "")
     return (
-        f"; it holds {len(found)} campaign folder{'s' * (len(found) != 1)} ({names}): list a "
+        f" holds {len(found)} campaign folder{'s' * (len(found) != 1)} ({names}): list a "
         f"campaign's runs with: {terminal_text(ariel_line('runs', found[0]))}"
     )
 

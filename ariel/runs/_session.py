@@ -286,11 +286,13 @@ def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, Loop
         raise ValueError(f"run {str(folder.path)!r} is already finished; nothing to resume")
     made = results_version(info)
     if made != RESULTS_VERSION:
+        commit = info.get("git_commit")
+        which = f"commit {str(commit)[:12]}" if isinstance(commit, str) and commit else "its date"
         raise ValueError(
             f"run {str(folder.path)!r} was made by an ariel whose results differ from this "
             f"one's (results version {str(made)[:20]}; this ariel's: {RESULTS_VERSION}): "
             "resuming it here would mix two algorithms in one run; finish it with the ariel "
-            "that made it (run.json's git_commit), or start a new run of its config"
+            f"that made it ({which}, run.json's git_commit), or start a new run of its config"
         )
     try:
         config = ExperimentConfig.from_plain(info["config"])

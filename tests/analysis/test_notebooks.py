@@ -179,6 +179,16 @@ def test_stored_notebooks_have_no_outputs(name: str) -> None:
     assert "RUN_DIR = None" in code[0].source and "ARIEL_RUN_DIR" in code[0].source
 
 
+@pytest.mark.parametrize("name", [*NOTEBOOKS, "compare_conditions"])
+def test_notebooks_read_only_config_keys_every_run_has(name: str) -> None:
+    """Older runs' configs lack later keys: ``run.config["body"]["optimizer"]`` was a KeyError
+    on a run made before body optimizers had names (`Run.body_optimizer` answers for it)."""
+    notebook = nbformat.read(ANALYSIS / f"{name}.ipynb", as_version=4)
+    code = "\n".join(c.source for c in notebook.cells if c.cell_type == "code")
+    read = set(re.findall(r"config((?:\[[^\]]+\])+)", code))
+    assert read <= {'["task"]["fitness"]'}, read
+
+
 def test_fitness_and_diversity_draws_curves_descriptors_and_the_lineage_of_the_best(
     executed: dict, tiny_run: Path
 ) -> None:

@@ -13,6 +13,7 @@ import json
 import os
 import re
 import shlex
+import shutil
 import signal
 from pathlib import Path
 
@@ -201,7 +202,7 @@ def test_a_campaign_without_its_recording_is_viewed_without_writing_into_it(
 
 
 def test_existing_commands_work_on_a_campaign_s_run_folders(
-    campaign: Path, capsys: pytest.CaptureFixture[str]
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     run_dir = campaign / "runs/condition=inherit/seed=1"
     assert main(["runs", str(campaign / "runs/condition=inherit")]) == 0
@@ -224,6 +225,16 @@ def test_existing_commands_work_on_a_campaign_s_run_folders(
     assert capsys.readouterr().out.strip() == (
         f"no runs under {campaign.parent}; it holds 1 campaign folder (tiny): list a "
         f"campaign's runs with: {ariel_line('runs', campaign)}"
+    )
+    # Beside runs, the campaign folders were not named at all.
+    shutil.copytree(campaign / "runs/condition=inherit/seed=1", tmp_path / "run")
+    (tmp_path / "tiny").symlink_to(campaign, target_is_directory=True)
+    assert main(["runs", str(tmp_path)]) == 0
+    listed = capsys.readouterr().out.strip().splitlines()
+    assert len(listed) == 3 and listed[1].startswith("run (run id tiny-inherit-s1)")
+    assert listed[2] == (
+        f"{tmp_path} also holds 1 campaign folder (tiny): list a campaign's runs with: "
+        f"{ariel_line('runs', tmp_path / 'tiny')}"
     )
     assert main(["report", str(run_dir), "--no-render"]) == 0
     assert (run_dir / "report" / "fitness.png").is_file()

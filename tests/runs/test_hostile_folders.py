@@ -383,8 +383,9 @@ def test_a_flipped_manifests_flag_does_not_switch_verification_off(
             load_run(run)
 
 
-#: The keys of run.json that came with manifests, before ``plugins`` and ``results_version``.
-_BEFORE_PLUGINS = ("segments", "maximise", "brain_only")
+#: The keys of run.json that came with manifests (``results_version`` came later; ``plugins`` was
+#: there before them).
+_WITH_MANIFESTS = ("segments", "maximise", "brain_only")
 
 
 def test_a_missing_manifests_flag_with_keys_that_came_with_manifests_is_damage(
@@ -402,7 +403,7 @@ def test_a_missing_manifests_flag_with_keys_that_came_with_manifests_is_damage(
     # The keys that came later than manifests count too (the three above deleted as well,
     # verification was off and a changed table loaded).
     edit_json(run / "run.json", lambda info: info.update(results_version=1))  # as a run's
-    edit_json(run / "run.json", lambda info: [info.pop(k) for k in _BEFORE_PLUGINS])
+    edit_json(run / "run.json", lambda info: [info.pop(k) for k in _WITH_MANIFESTS])
     with pytest.raises(DamagedRunError, match=r"has no 'manifests' but has 'results_version'"):
         load_run(run)
 

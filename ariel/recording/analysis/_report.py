@@ -39,7 +39,6 @@ from ariel.recording import resim
 from ariel.recording.analysis._gallery import add_report_gallery
 from ariel.recording.analysis._report_best import _body_image, _trajectory_figures
 from ariel.recording.analysis._report_figures import (
-    _body_optimizer,
     _cannot_write,
     _figure,
     _run_title,
@@ -204,7 +203,7 @@ def _fitness_figure(report: Report, maximise: bool) -> None:
             (table["best_fitness"].to_numpy(dtype=float), "best", "-oC2"),
         ]
         title = "fitness of the population after selection"
-        if _body_optimizer(run) == "map_elites":  # its population is the archive; novelty's is not
+        if run.body_optimizer == "map_elites":  # its population is the archive; novelty's is not
             title += " (the archive's elites)"
     for values, label, style in lines:
         axes.plot(gens, values, style, label=label, zorder=2)
@@ -403,7 +402,7 @@ def _print_archive_table(report: Report, console: Console) -> None:
     """Per generation: the archive's coverage, QD-score and normalised QD-score."""
     offset = report.run.qd_offset
     heading, said = ARCHIVE_HEADINGS.get(
-        _body_optimizer(report.run), ("archive after each generation", "")
+        report.run.body_optimizer, ("archive after each generation", "")
     )
     table = _table(heading)
     for column in ("generation", *QD_COLUMNS):

@@ -16,7 +16,6 @@ import numpy as np
 from scipy.spatial import KDTree
 
 from ariel.errors import DamagedRunError
-from ariel.recording.analysis._report_figures import _body_optimizer
 from ariel.recording.rerun import CvtCells, archive_cells, archive_grid, three_quarter_view
 from ariel.recording.store import (
     DESCRIPTORS,
@@ -124,7 +123,7 @@ def _title(run: Run, archive: pd.DataFrame, description: JsonObject, last: int) 
     coverage = len(archive) / archive_cell_count(description)
     kind = "CVT archive" if description["kind"] == "cvt" else "archive"
     title = f"after generation {last}: {len(archive)} cells ({coverage:.0%})"
-    if _body_optimizer(run) == "novelty":
+    if run.body_optimizer == "novelty":
         return f"result {kind} {title}\nthe best body per cell (not the novelty archive)"
     return f"{kind} {title}"
 

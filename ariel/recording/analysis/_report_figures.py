@@ -1,7 +1,6 @@
 """What the report's figures share: a figure (`_figure`, matplotlib's Agg canvas, no pyplot),
-its title wrapped to fit (`_title`), the run's id as one line (`_run_title`), its body
-optimizer (`_body_optimizer`), and writing it whole into ``RUN_DIR/report/`` (`_save`; a write
-that fails is one line, `_cannot_write`).
+its title wrapped to fit (`_title`), the run's id as one line (`_run_title`), and writing it
+whole into ``RUN_DIR/report/`` (`_save`; a write that fails is one line, `_cannot_write`).
 """
 
 from __future__ import annotations
@@ -26,13 +25,6 @@ if TYPE_CHECKING:
     from ariel.recording.analysis._report import Report
 
 _DPI = 110
-
-
-def _body_optimizer(run: Run) -> str:
-    """The run's body optimizer, as its config names it (``map_elites``, ``novelty``, ...):
-    a novelty run keeps two archives, which its figures tell apart."""
-    body = run.config.get("body", {})
-    return str(body.get("optimizer", "")) if isinstance(body, dict) else ""
 
 
 def _figure(width: float, height: float) -> Figure:

@@ -106,6 +106,14 @@ class Run:
                 "here; install the plugin that provides it"
             ) from None
 
+    @property
+    def body_optimizer(self) -> str:
+        """The body optimizer its config names (``"ga"``, ``"map_elites"``, ``"novelty"``, ...);
+        ``"ga"`` for a run made before configs named one (the GA was the only one then)."""
+        body = self.config.get("body")
+        optimizer = body.get("optimizer") if isinstance(body, Mapping) else None
+        return optimizer if isinstance(optimizer, str) and optimizer else "ga"
+
     @cached_property
     def brain_only(self) -> bool:
         """One fixed body (run.json's ``brain_only``). A run made before run.json recorded it:

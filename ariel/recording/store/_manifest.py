@@ -63,7 +63,9 @@ _REQUIRED = ("evaluations", "bodies")
 _CHUNK = 1 << 20
 #: Keys of run.json that came with manifests: only an ariel that writes a manifest for every
 #: finished generation (and ``"manifests": 1``) writes them.
-_MANIFEST_ERA = ("segments", "maximise", "brain_only", "plugins", "results_version")
+# Not "plugins": run.json has named its plugins since the first run loop, long before manifests
+# (a genuine pre-manifest folder has it).
+_MANIFEST_ERA = ("segments", "maximise", "brain_only", "results_version")
 
 
 class _Entry(TypedDict):

@@ -208,12 +208,32 @@ def test_a_single_flipped_bit_is_caught(finished: Path, tmp_path: Path) -> None:
 
 def _as_made_before_manifests(run: Path) -> None:
     """``run`` as an ariel made before manifests left it: no manifests, no run.json keys that
-    came with them (a run.json with them, or a manifests/ folder, is checked against them)."""
+    came with them (a run.json with them, or a manifests/ folder, is checked against them). Its
+    ``plugins`` stay: run.json named them from the first run loop on (every pre-manifest folder
+    was refused as damaged for having them)."""
     shutil.rmtree(run / "manifests")
     info = json.loads((run / "run.json").read_text())
-    for key in ("manifests", "segments", "maximise", "brain_only", "plugins", "results_version"):
+    assert "plugins" in info
+    for key in ("manifests", "segments", "maximise", "brain_only", "results_version"):
         del info[key]
     (run / "run.json").write_text(json.dumps(info))
+
+
+def test_a_run_made_before_manifests_and_named_optimizers_reads_as_one(
+    finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Such a folder (run.json naming its plugins) was refused as damaged by every reader."""
+    copy = _copy(finished, tmp_path)
+    _as_made_before_manifests(copy)
+    info = json.loads((copy / "run.json").read_text())
+    del info["config"]["body"]["optimizer"], info["config"]["body"]["optimizer_options"]
+    (copy / "run.json").write_text(json.dumps(info))
+    run = load_run(copy)
+    assert run.body_optimizer == "ga" and len(run.generations) == 2
+    assert main(["report", str(copy), "--no-render"]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(copy)]) == 0
+    assert "a run made before manifests" in capsys.readouterr().out
 
 
 def test_a_truncated_table_is_one_line(
