@@ -11,13 +11,25 @@ import types
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pandas as pd
 import pytest
 
 import ariel
-from ariel.errors import ConfigError, UnknownPluginError
+from ariel.errors import ConfigError, NotARunError, UnknownPluginError
 from ariel.evolution import load_config
 from ariel.plugins import fitness_function, fitness_functions
-from ariel.recording import compare, list_runs, load_run, verify_run
+from ariel.recording import (
+    compare,
+    fitness_label,
+    lineage_statistics,
+    list_runs,
+    load_run,
+    make_gallery,
+    make_report,
+    verify_run,
+    write_lineage_csv,
+)
 from ariel.recording.store._failures import plugin_failure
 from ariel.runs import resume_campaign, resume_experiment, run_campaign
 
@@ -49,6 +61,15 @@ def _deep(levels: int) -> list[Any]:
         # One folder as a str was read a character at a time ("'c' is not a run folder").
         (lambda out: compare(str(out)), "compare: paths must be a list of paths such as ['"),
         (lambda out: compare([out, 3]), "compare: paths[1] must be a path (a str or pathlib."),
+        # A truthy "no" read as True: the CSV replaced, compare's files and a body drawn.
+        (lambda out: write_lineage_csv(pd.DataFrame(), out, overwrite="no"), "overwrite must"),
+        (lambda out: compare([out], write="no"), "compare: write must be True or False, not"),
+        (lambda out: make_report(out, render="no"), "make_report: render must be True or Fa"),
+        (lambda out: make_report(None), "make_report: run_dir must be a path"),
+        (lambda out: make_gallery(out, render="no"), "make_gallery: render must be True or F"),
+        (lambda out: make_gallery(out, progress="no"), "make_gallery: progress must be True,"),
+        (lambda out: lineage_statistics(pd.DataFrame(), maximise="no"), "maximise must be Tr"),
+        (lambda out: fitness_label("xy_displacement", "no"), "fitness_label: maximise must be"),
     ],
 )
 def test_an_argument_of_the_wrong_type_is_one_line_naming_it(
@@ -59,6 +80,42 @@ def test_an_argument_of_the_wrong_type_is_one_line_naming_it(
         call(out)
     assert message in str(info.value) and "\n" not in str(info.value)
     assert not out.exists()
+
+
+def test_a_leading_tilde_is_the_home_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``out="~/x"`` made a folder named ``~`` in the current one (``rm -rf ~`` next)."""
+    from ariel.utils import path_argument
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert path_argument("out", "~/runs/x") == tmp_path / "runs" / "x"
+    assert path_argument("out", Path("a/~")) == Path("a/~")  # only a leading one
+    with pytest.raises(NotARunError, match="nope"):
+        load_run("~/nope")  # said "no such folder" of the literal '~/nope' before, too
+    assert list_runs("~") == []
+
+
+def test_worker_counts_are_checked_before_a_folder_is_made(tmp_path: Path) -> None:
+    """``workers=True`` passed the check (a bool is an int) and failed after the run folder
+    was made; a NumPy integer (a loop over np.arange) was refused though it is a count."""
+    from ariel.runs._prepare import executor_settings
+
+    out = tmp_path / "run"
+    with pytest.raises(ConfigError, match=r"executor.workers: must be an integer >= 1 \(got True"):
+        ariel.run_experiment(out=out, executor="local", workers=True)
+    assert not out.exists()
+    settings = executor_settings(load_config(), kind="local", workers=np.int64(2))
+    assert settings.workers == 2 and type(settings.workers) is int
+
+
+def test_numpy_scalars_in_config_data_are_numbers_and_other_objects_are_named() -> None:
+    config = load_config({"seed": np.int64(5), "task": {"duration": np.float32(0.5)}})
+    assert config.seed == 5 and type(config.seed) is int and config.task.duration == 0.5
+    with pytest.raises(ConfigError, match=r"^task.duration: object is no config value type"):
+        load_config({"task": {"duration": object()}})
+    with pytest.raises(ConfigError, match=r"^seed: ndarray is no config value type"):
+        load_config({"seed": np.arange(3)})
 
 
 @pytest.mark.parametrize("generations", [-1, 1.5, float("nan"), "2", True])

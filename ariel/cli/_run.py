@@ -87,6 +87,15 @@ def _how_to_look(path: Path, best: bool = True) -> str:
     )
 
 
+def _below_here(path: Path) -> Path:
+    """``path`` relative to the current folder where it lies below it, as other commands
+    print it (``data/runs/RUN``); else as it is."""
+    try:
+        return path.relative_to(Path.cwd())
+    except ValueError:
+        return path
+
+
 def _print_result(result: RunResult) -> None:
     r = result
     best = (
@@ -95,7 +104,7 @@ def _print_result(result: RunResult) -> None:
         else "no evaluation succeeded (the evaluations table's status and error say why)"
     )
     print(f"{r.status}: {r.run_id}: {best}, {r.evaluations} evaluations in {r.wall_seconds:.1f} s")
-    print(f"run folder: {r.run_dir}")
+    print(f"run folder: {_below_here(Path(r.run_dir))}")
     print(_how_to_look(Path(r.run_dir), best=bool(r.best_eval_id)))
 
 

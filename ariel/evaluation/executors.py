@@ -359,7 +359,9 @@ def check_settings(settings: ExecutorSettings) -> None:
         raise ExecutorSettingsError(
             f"executor.kind: unknown executor {kind_name!r}; known: {known_kinds()}"
         ) from None
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
+    if workers is not None and (
+        not isinstance(workers, int) or isinstance(workers, bool) or workers < 1
+    ):
         raise ExecutorSettingsError(f"executor.workers: must be an integer >= 1 (got {workers!r})")
     if kind.one_worker is not None and workers not in (None, 1):
         raise ExecutorSettingsError(f"executor.workers: {kind.one_worker} (got {workers})")

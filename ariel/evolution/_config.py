@@ -15,6 +15,7 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import (
     AfterValidator,
     AliasChoices,
@@ -299,7 +300,8 @@ class ExperimentConfig(_Section):
     @classmethod
     def from_plain(cls, data: Mapping[str, object]) -> ExperimentConfig:
         """The config a run stored: keys added since read as they behaved before."""
-        plain = json.loads(json.dumps(dict(data)))
+        plain = _plain(dict(data), "config", 1)
+        assert isinstance(plain, dict)  # a Mapping is copied to a dict
         for (section, key), neutral in _LATER_KEYS.items():
             if isinstance(plain.get(section), dict):
                 plain[section].setdefault(key, neutral)
@@ -425,7 +427,8 @@ def apply_overrides(data: Mapping[str, object], overrides: Sequence[str]) -> dic
     overrides = strings_argument("overrides", overrides, "brain.popsize=16")
     if nests_deeper_than(dict(data), MAX_TOML_DEPTH):  # before json recurses through it
         raise ConfigError(f"config: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
-    result = json.loads(json.dumps(dict(data)))  # deep copy of plain data
+    result = _plain(dict(data), "config", 1)
+    assert isinstance(result, dict)  # a Mapping is copied to a dict
     for item in overrides:
         key, sep, text = item.partition("=")
         key = key.strip()
@@ -433,6 +436,31 @@ def apply_overrides(data: Mapping[str, object], overrides: Sequence[str]) -> dic
             raise ConfigError(f"--set {item!r}: expected key=value, e.g. brain.popsize=16")
         set_value(result, key, _parse_value(text.strip(), key), f"--set {key}")
     return result
+
+
+def _plain(value: object, key: str, depth: int) -> object:
+    """A deep copy of config data as a TOML file gives it: tables as dicts, arrays as lists,
+    a NumPy scalar (``np.int64(5)`` from ``np.arange``) as its Python number; anything else is
+    one `ConfigError` naming its key (json.dumps said "int64 is not JSON serializable")."""
+    if depth > MAX_TOML_DEPTH:
+        raise ConfigError(f"config: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
+    if isinstance(value, Mapping):
+        copied = {}
+        for name, item in value.items():
+            if not isinstance(name, str):
+                raise ConfigError(f"{key}: its keys must be strings, not {name!r}")
+            copied[name] = _plain(item, name if key == "config" else f"{key}.{name}", depth + 1)
+        return copied
+    if isinstance(value, list | tuple):
+        return [_plain(item, f"{key}[{i}]", depth + 1) for i, item in enumerate(value)]
+    if value is None or isinstance(value, str | bool | int | float):
+        return value
+    if isinstance(value, np.generic):  # a NumPy scalar (not an array)
+        return _plain(value.item(), key, depth)
+    raise ConfigError(
+        f"{key}: {type(value).__name__} is no config value type (numbers, strings, true and "
+        "false, lists and tables are)"
+    )
 
 
 def _spellings(model: type[BaseModel], part: str) -> list[str]:

@@ -7,6 +7,7 @@ written.
 
 from __future__ import annotations
 
+import numbers
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -262,10 +263,15 @@ def _check_fixed_body(config: ExperimentConfig, plugins: Plugins, genotype: obje
 def executor_settings(config: ExperimentConfig, **given: object) -> ExecutorConfig:
     """The config's ``[executor]`` with the caller's overrides, checked: `ConfigError`."""
     changes = {key: value for key, value in given.items() if value is not None}
-    return _checked(config.executor.model_copy(update=changes))
+    return _checked(config.executor, changes)
 
 
-def _checked(settings: ExecutorConfig) -> ExecutorConfig:
+def _checked(section: ExecutorConfig, changes: dict[str, object]) -> ExecutorConfig:
+    """``section`` with ``changes`` (the caller's, not validated by pydantic), checked."""
+    workers = changes.get("workers")
+    if isinstance(workers, numbers.Integral) and not isinstance(workers, bool):
+        changes["workers"] = int(workers)  # a NumPy integer (a loop over np.arange) is a count
+    settings = section.model_copy(update=changes)
     try:
         check_settings(settings)
     except ExecutorSettingsError as exc:
@@ -311,7 +317,7 @@ def resume_settings(
     if workers is None and address is None and same_pool:
         workers = _stored_workers(stored.get("workers", config.executor.workers))
     changes = {"kind": kind, "workers": workers, "address": address}
-    settings = _checked(config.executor.model_copy(update=changes))
+    settings = _checked(config.executor, changes)
     if named and address is None and kind == "dask":
         print(
             f"note: not connecting to the Dask scheduler {short_ascii(named)} that the folder "

@@ -15,7 +15,7 @@ class RunResult:
     """What `run_experiment` returns.
 
     Attributes:
-        run_dir: The run folder.
+        run_dir: The run folder, as an absolute path.
         run_id: The run's id (the folder's name when ``out`` was given, else
             ``<name>-<YYYYmmdd-HHMMSS>-s<seed>``).
         status: How the run ended: ``"finished"``.

@@ -190,7 +190,8 @@ class RunSession:
         assert driver is not None
         best = driver.best_body()
         return RunResult(
-            run_dir=self.folder.path,
+            # absolute: `RunResult.load` after a notebook changes directory reads the same run
+            run_dir=self.folder.path.absolute(),
             run_id=self.run_id,
             status=self.status,
             generations=driver.config.generations,

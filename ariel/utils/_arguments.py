@@ -32,9 +32,15 @@ def _refused(function: str, name: str, what: str, value: object) -> TypeError:
 
 
 def path_argument(name: str, value: object, *, function: str = "") -> Path:
-    """``value`` as a `Path`: a `str` or an `os.PathLike` (a `pathlib.Path`)."""
+    """``value`` as a `Path`: a `str` or an `os.PathLike` (a `pathlib.Path`); a leading ``~``
+    is the home folder, as in a shell (a notebook's ``out="~/runs/x"`` made a folder named
+    ``~`` in the current one)."""
     if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
-        return Path(value)  # an os.PathLike of bytes: Path says so itself
+        path = Path(value)  # an os.PathLike of bytes: Path says so itself
+        try:
+            return path.expanduser()
+        except RuntimeError:  # ~user of no such user: left as it is, as a shell leaves it
+            return path
     raise _refused(function, name, "a path (a str or pathlib.Path)", value)
 
 

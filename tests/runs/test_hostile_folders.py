@@ -795,22 +795,22 @@ def test_a_campaign_folder_in_use_is_called_a_campaign_folder(campaign: Path) ->
     assert str(in_use_error(campaign / "runs", "x")).startswith("run folder ")
 
 
-def test_a_run_folder_named_tilde_is_written_and_read_in_place(
+def test_a_leading_tilde_is_the_home_folder_for_every_file_of_a_run(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """pyarrow and pandas expand a leading "~": the run's tables went to $HOME/evaluations/."""
+    """pyarrow and pandas expand a leading "~" and ariel did not: run.json went to ./~/r, the
+    tables to $HOME/r. Now every path a command is given is expanded as a shell would."""
     home = tmp_path / "home"
     home.mkdir()
     monkeypatch.setenv("HOME", str(home))
     monkeypatch.chdir(tmp_path)
     run = REPO / "tests" / "data" / "run_tiny.toml"
-    assert exit_code(["run", str(run), "--out", "~", "--quiet", "--set", "generations=1"]) == 0
-    assert exit_code(["verify", "~"]) == 0
-    assert exit_code(["report", "~", "--no-render"]) == 0
-    assert (tmp_path / "~" / "evaluations" / "gen-000000.parquet").stat().st_size > 0
-    assert (tmp_path / "~" / "report" / "fitness.png").is_file()
-    written = {p.name for p in home.iterdir()} - {".cache", ".config"}  # matplotlib's own
-    assert written == set()
+    assert exit_code(["run", str(run), "--out", "~/r", "--quiet", "--set", "generations=1"]) == 0
+    assert exit_code(["verify", "~/r"]) == 0
+    assert exit_code(["report", "~/r", "--no-render"]) == 0
+    assert (home / "r" / "evaluations" / "gen-000000.parquet").stat().st_size > 0
+    assert (home / "r" / "run.json").is_file() and (home / "r" / "report" / "fitness.png").is_file()
+    assert not (tmp_path / "~").exists()
 
 
 @pytest.mark.parametrize("linked", ["evaluations", "manifests", "checkpoints", "run.json"])

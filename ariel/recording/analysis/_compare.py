@@ -82,7 +82,7 @@ from ariel.recording.analysis._compare_runs import (
 )
 from ariel.recording.analysis._compare_stats import Design
 from ariel.recording.store import is_campaign
-from ariel.utils import paths_argument
+from ariel.utils import flag_argument, paths_argument
 
 __all__ = [
     "MEASURES",
@@ -313,6 +313,7 @@ def compare(
             beyond a run's total, or an ``out`` that is a file or holds other files.
         UnsafePathError: When ``out`` is a symbolic link.
         NotARunError: When a path is neither a campaign nor a run folder (or is damaged).
+        TypeError: For an argument of the wrong type (``write="no"``: True or False).
 
     Example:
         Compare the conditions of a campaign folder (here the last by name under
@@ -332,7 +333,7 @@ def compare(
     paths = paths_argument("paths", paths, function="compare")
     if not paths:
         raise CompareError("give a campaign folder or run folders to compare")
-    if write and out is not None:
+    if flag_argument("write", write, function="compare") and out is not None:
         prepare_folder(Path(out))  # refused before the runs are read (again when written)
     campaigns = [p for p in paths if is_campaign(p)]
     paths, notes = unique_folders(paths, "campaign folder" if campaigns else "run")

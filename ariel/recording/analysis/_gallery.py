@@ -65,6 +65,7 @@ from ariel.recording.store import (
     refuse_symlinks,
     remove_temporaries,
 )
+from ariel.utils import flag_argument, path_argument
 
 if TYPE_CHECKING:
     from ariel.recording.analysis._report import Report
@@ -463,6 +464,7 @@ def make_gallery(
         UnsafePathError: When a folder on the way to a file written is a symbolic link
             (`GalleryError` when ``out`` itself is one).
         RunStorageError: When the PNG or the page cannot be written (disk full, read-only).
+        TypeError: For an argument of the wrong type (``render="no"``: True or False).
 
     Example:
         ```python
@@ -473,6 +475,9 @@ def make_gallery(
         print(gallery.notes)  # e.g. why the thumbnails are missing
         ```
     """
+    path = path_argument("path", path, function="make_gallery")
+    flag_argument("render", render, function="make_gallery")
+    flag_argument("progress", progress, none=True, function="make_gallery")
     if of not in OF:
         raise GalleryError(f"a gallery shows one of {', '.join(OF)}, not {of!r}")
     if out is not None and Path(out).is_symlink():  # as `ariel compare --out` refuses one

@@ -64,7 +64,7 @@ from ariel.recording.store import (
     refuse_symlinks,
     remove_temporaries,
 )
-from ariel.utils import ariel_line
+from ariel.utils import ariel_line, flag_argument, path_argument
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -294,6 +294,7 @@ def make_report(
         ReportFolderError: For an ``out`` inside a run or campaign folder, a file, or a
             folder holding files a report does not write.
         RunStorageError: When a figure cannot be written (disk full, read-only).
+        TypeError: For an argument of the wrong type (``render="no"``: True or False).
 
     Example:
         ```python
@@ -304,6 +305,8 @@ def make_report(
         print([path.name for path in report.written], report.notes)
         ```
     """
+    run_dir = path_argument("run_dir", run_dir, function="make_report")
+    flag_argument("render", render, function="make_report")
     folder = None if out is None else check_report_folder(out)
     run = load_run(run_dir)
     resim.check_config(run)  # a section that is no table: one line, before it is read

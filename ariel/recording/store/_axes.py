@@ -12,6 +12,7 @@ import textwrap
 from typing import TYPE_CHECKING
 
 from ariel.plugins import fitness_functions
+from ariel.utils import flag_argument
 
 if TYPE_CHECKING:
     from matplotlib.axis import Axis
@@ -84,7 +85,13 @@ def fitness_label(name: str, maximise: bool | None = None, *, what: str = "fitne
     Returns:
         ``what``, then ``: name`` and the fitness function's unit in parentheses where it is
         known here, then the direction when ``maximise`` is given.
+
+    Raises:
+        TypeError: When ``name`` is not a string or ``maximise`` not True, False or None.
     """
+    flag_argument("maximise", maximise, none=True, function="fitness_label")
+    if not isinstance(name, str):
+        raise TypeError(f"fitness_label: name must be a fitness function's name, not {name!r}")
     unit = fitness_unit(name)
     text = (what if name in ("", what) else f"{what}: {name}") + (f" ({unit})" if unit else "")
     if maximise is not None:

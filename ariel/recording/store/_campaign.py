@@ -31,7 +31,8 @@ from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import atomic_write_json
 from ariel.recording.store._ids import CAMPAIGN_ID, RUN_ID, RUN_ID_RULE
 from ariel.recording.store._lineage import campaign_lineages
-from ariel.recording.store._load import STOPPED, Run, load_run
+from ariel.recording.store._list_runs import STOPPED
+from ariel.recording.store._load import Run, load_run
 from ariel.recording.store._lock import CAMPAIGN_JSON, holder_gone
 from ariel.recording.store._run_folder import JsonObject, NotARunError, json_file
 

@@ -53,6 +53,7 @@ from ariel.errors import DamagedRunError
 from ariel.recording.store._escape import csv_safe, short_ascii
 from ariel.recording.store._files import atomic_write, output_file_problem
 from ariel.recording.store._ids import BODY_ID
+from ariel.utils import flag_argument, path_argument
 
 if TYPE_CHECKING:
     from ariel.recording.store._campaign import Campaign
@@ -308,10 +309,12 @@ def write_lineage_csv(
 
     Raises:
         FileExistsError: When ``path`` exists and ``overwrite`` is False.
+        TypeError: For an argument of the wrong type (``overwrite="no"``: True or False).
         ValueError: When ``frame`` lacks ``id`` or ``ancestor_list``, ``still_alive`` is not
             one of `ALIVE_MARKS`, or ``path`` is a folder or inside a run or campaign folder.
     """
-    path = Path(path)
+    path = path_argument("path", path, function="write_lineage_csv")
+    flag_argument("overwrite", overwrite, function="write_lineage_csv")
     missing = [column for column in ("id", "ancestor_list") if column not in frame.columns]
     if missing:
         raise ValueError(f"not a lineage frame: no column {missing[0]!r}")
@@ -465,6 +468,7 @@ def lineage_statistics(
     Raises:
         ValueError: When ``maximise`` is None and ``frame`` does not record it, or the
             lineage has a cycle.
+        TypeError: When ``maximise`` is not True, False or None.
 
     Example:
         ```python
@@ -474,6 +478,7 @@ def lineage_statistics(
         print(stats[["generation", "surviving_lineages", "best_depth"]])
         ```
     """
+    flag_argument("maximise", maximise, none=True, function="lineage_statistics")
     _check_lineage(frame, ("id", "ancestor_list", "origin_time", "destruction_time", "fitness"))
     if maximise is None:
         maximise = frame.attrs.get("maximise")

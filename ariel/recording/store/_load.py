@@ -1,13 +1,13 @@
-"""Load a run folder into pandas: `load_run(path)` and `list_runs(folder)`."""
+"""Load a run folder into pandas: `load_run(path)` (`list_runs(folder)` lists them)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Any, TypedDict
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -21,14 +21,12 @@ from ariel.recording.store._archive import archive_cell_count, describe_archive
 from ariel.recording.store._escape import terminal_text
 from ariel.recording.store._files import damaged
 from ariel.recording.store._lineage import lineage
-from ariel.recording.store._lock import holder_gone
 from ariel.recording.store._manifest import Manifest, relative
 from ariel.recording.store._run_folder import (
     DamagedRunError,
     JsonObject,
     NotARunError,
     RunFolder,
-    finished_generations,
 )
 from ariel.recording.store._tables import generation_file, read_file, read_table, to_pandas
 from ariel.utils import path_argument
@@ -36,9 +34,7 @@ from ariel.utils import path_argument
 __all__ = [
     "QD_COLUMNS",
     "Run",
-    "RunSummary",
     "archive_quality_table",
-    "list_runs",
     "load_run",
     "population_after_selection",
     "stored_graph_key",
@@ -50,7 +46,9 @@ class Run:
     """A run's records. Tables load on first access and hold finished generations only.
 
     Attributes:
-        path: the run folder.
+        path: the run folder, as it was given.
+        root: the run folder as an absolute path, where its tables are read from (the same
+            folder after a notebook changes directory).
         info: ``run.json`` (status, seed, versions, plugin provenance, times, ...).
         config: the resolved experiment config as a dict.
         manifest: what the finished generations' tables must be (a
@@ -62,10 +60,17 @@ class Run:
     info: JsonObject
     config: JsonObject = field(init=False)
     manifest: Manifest | None = field(default=None, repr=False)  # what is checked
+    # Where its tables are read from: the folder as it was when loaded, so that a notebook
+    # that changes directory still reads it (a relative path then named another folder, and
+    # its tables were reported as damaged).
+    root: Path = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         config = self.info.get("config")
         self.config = config if isinstance(config, dict) else {}
+        self.root = Path(self.path).absolute()
+        if self.manifest is not None:  # it reads the files too: from the same folder
+            self.manifest = replace(self.manifest, run_dir=self.root)
 
     def __repr__(self) -> str:
         """One line: ``<Run ID: STATUS, DONE/GENERATIONS generations, N evaluations, best
@@ -133,7 +138,7 @@ class Run:
 
     def _table(self, name: str) -> Any:
         up_to = self.generations_done - 1
-        return to_pandas(read_table(self.path, name, up_to=up_to, manifest=self.manifest))
+        return to_pandas(read_table(self.root, name, up_to=up_to, manifest=self.manifest))
 
     @cached_property
     def evaluations(self) -> Any:
@@ -188,11 +193,11 @@ class Run:
         columns = pd.MultiIndex.from_product(
             [["target", "angle"], joints], names=["signal", "joint"]
         )
-        path = generation_file(self.path, "trajectories", int(row["generation"]))
+        path = generation_file(self.root, "trajectories", int(row["generation"]))
         if not path.is_file():  # record.trajectories = false
             return pd.DataFrame(columns=columns, index=pd.Index([], name="t"), dtype=float)
         frames = read_file(
-            self.path,
+            self.root,
             path,
             "trajectories",
             manifest=self.manifest,
@@ -206,7 +211,7 @@ class Run:
             values = column.flatten().to_numpy(zero_copy_only=False)
             if column.null_count or values.size != frames.num_rows * width:  # no run writes it
                 problem = f"has {name} lists of evaluation {terminal_text(eval_id)} that are not"
-                raise damaged(self.path, relative(self.path, path), f"{problem} one per joint")
+                raise damaged(self.path, relative(self.root, path), f"{problem} one per joint")
             return np.asarray(values, dtype=np.float64).reshape(frames.num_rows, width)
 
         data = np.hstack([signal("joint_target"), signal("joint_angle")])
@@ -317,6 +322,9 @@ class Run:
         morphology_columns = [f"mean_{name}" for name in DESCRIPTOR_NAMES]
         # the columns even before a generation ends
         frame = pd.DataFrame(rows, columns=columns + morphology_columns)
+        if not rows:  # the dtypes a finished generation gives (all object when empty)
+            counts = [*columns[:6], "distinct_bodies"]
+            frame = frame.astype({n: "int64" if n in counts else "float64" for n in frame})
         archive = self.archive
         if len(archive):
             quality = archive_quality_table(
@@ -440,102 +448,3 @@ def load_run(path: str | Path) -> Run:
     folder = RunFolder(path_argument("path", path, function="load_run"))
     info = folder.read_info()
     return Run(path=folder.path, info=info, manifest=Manifest.load(folder.path, info))
-
-
-class RunSummary(TypedDict):
-    """One run folder as `list_runs` lists it (run.json's values, checked)."""
-
-    path: str
-    run_id: str
-    status: str
-    generations_done: int
-    generations: int | None
-    evaluations: int
-    best_fitness: float | None
-    created: object  # run.json's, as written: an ISO time, or None
-
-
-#: `list_runs` status of a run whose run.json says "running" but whose lock is free: its
-#: process ended without saying so (SIGKILL, power cut, out of memory); `ariel resume` it.
-STOPPED = "stopped (killed?)"
-
-
-def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
-    """One summary per run folder directly under ``root`` (folders that are not runs skipped).
-
-    ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
-
-    Args:
-        root: The folder holding run folders; ``data/runs`` by default, relative to the
-            current folder (a notebook in analysis/ gives ``"../data/runs"``).
-
-    Returns:
-        One dict per run folder, sorted by folder name (``<experiment>-<date>-<time>-s<seed>``
-        by default: the newest is ``max(..., key=lambda r: r["created"] or "")``), with keys
-        ``path``, ``run_id``, ``status``, ``generations_done``, ``generations``,
-        ``evaluations``, ``best_fitness`` (None when none yet) and ``created``. A folder
-        whose run.json cannot be read is listed with status `UNREADABLE`. Empty when
-        ``root`` is not a folder.
-    """
-
-    root = path_argument("root", root, function="list_runs")
-    if not root.is_dir():
-        return []
-    found = []
-    for child in sorted(root.iterdir()):
-        if not child.is_dir():
-            continue
-        try:
-            info = RunFolder(child).read_info()
-            summary = _summary(child, info)
-        except (NotARunError, TypeError, ValueError, AttributeError):
-            if not (child / "run.json").exists():
-                continue  # not a run folder at all
-            summary = _unreadable(child)  # one bad run.json must not hide the others
-        if summary["status"] == "running" and holder_gone(child):
-            summary["status"] = STOPPED
-        found.append(summary)
-    return found
-
-
-#: `list_runs` status of a folder whose run.json cannot be read or makes no sense.
-UNREADABLE = "unreadable"
-
-
-def _unreadable(child: Path) -> RunSummary:
-    return {
-        "path": str(child),
-        "run_id": child.name,
-        "status": UNREADABLE,
-        "generations_done": 0,
-        "generations": None,
-        "evaluations": 0,
-        "best_fitness": None,
-        "created": None,
-    }
-
-
-def _count(value: object) -> int:
-    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-        raise TypeError(f"not a count: {value!r}")
-    return value
-
-
-def _summary(child: Path, info: Mapping[str, object]) -> RunSummary:
-    """One row of `list_runs`; `TypeError` / `ValueError` for a run.json that makes no sense."""
-    config, run_id = info.get("config", {}), info.get("run_id", child.name)
-    status = info.get("status", "?")
-    if not isinstance(config, dict) or not isinstance(run_id, str) or not isinstance(status, str):
-        raise TypeError("config, run_id or status is not what a run.json holds")
-    best = info.get("best_fitness")
-    generations = config.get("generations")
-    return {
-        "path": str(child),
-        "run_id": run_id,
-        "status": status,
-        "generations_done": finished_generations(child, info),
-        "generations": _count(generations) if generations is not None else None,
-        "evaluations": _count(info.get("evaluations_done", 0)),
-        "best_fitness": float(best) if isinstance(best, int | float) else None,
-        "created": info.get("created"),
-    }

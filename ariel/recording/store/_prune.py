@@ -24,7 +24,7 @@ from typing import Any
 from ariel.errors import ArielError
 from ariel.evolution import ERROR_LOG
 from ariel.recording.store._files import written_path
-from ariel.recording.store._load import STOPPED, RunSummary, list_runs
+from ariel.recording.store._list_runs import STOPPED, RunSummary, list_runs
 from ariel.recording.store._lock import LOCK_NAME, RunLock
 from ariel.recording.store._run_folder import RunFolder
 from ariel.recording.store._tables import MANIFEST_DIR, TABLES, table_generations

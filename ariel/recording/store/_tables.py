@@ -462,11 +462,11 @@ def evaluation_trajectory(run: Run, row: Mapping[str, Any]) -> pd.DataFrame | No
     """The trajectories rows of one evaluation (``row``: its evaluations row), read from its
     generation's file only, as a DataFrame in time order; None when that generation recorded
     no trajectories. ``run``: a `Run` (its path and manifest)."""
-    path = generation_file(run.path, "trajectories", int(row["generation"]))
+    path = generation_file(run.root, "trajectories", int(row["generation"]))
     if not path.is_file():
         return None
     table = read_file(
-        run.path,
+        run.root,
         path,
         "trajectories",
         manifest=run.manifest,

@@ -441,6 +441,7 @@ def _archive_axes(description: dict, cells: dict[int, float], tmp_path: Path):
         }
     )
     run = type("Run", (), {"archive": archive, "archive_description": description})()
+    run.body_optimizer = "map_elites"
     run.config = {"task": {"fitness": "xy_displacement"}}
     report = type("Report", (), {"run": run, "folder": tmp_path, "notes": []})()
     saved = []

@@ -15,7 +15,7 @@ import pytest
 from _helpers import REPO, tiny_run_toml
 
 from ariel.cli import main
-from ariel.recording import load_run
+from ariel.recording import Run, load_run
 
 TOML = tiny_run_toml("portable", 9, iterations=2, record='rerun = true\nbodies = "all"')
 
@@ -73,6 +73,16 @@ def test_a_copied_run_has_no_machine_paths_and_loads_replays_and_reports(
     assert run.info == original.info
     for table, want in zip((run.evaluations, run.bodies, run.trajectories), expected, strict=True):
         assert len(table) and table.equals(want)
+    # Loaded by a relative path, read after a notebook changed directory: the same folder (its
+    # tables were "missing", the run reported as damaged).
+    relative = load_run(copy.relative_to(tmp_path))
+    monkeypatch.chdir(copy.parent)
+    assert relative.evaluations.equals(expected[0]) and relative.root == copy
+    monkeypatch.chdir(tmp_path)
+    # A run with no finished generation: the columns' dtypes of one that has them (not object).
+    empty = Run(path=copy, info={**run.info, "generations_done": 0, "status": "interrupted"})
+    assert len(empty.generations) == 0
+    assert dict(empty.generations.dtypes) == dict(run.generations.dtypes)
 
     assert main(["replay", str(copy), "best"]) == 0
     printed = capsys.readouterr().out

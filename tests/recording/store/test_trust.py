@@ -20,7 +20,7 @@ from _helpers import (
 from ariel.cli import main
 from ariel.recording import DamagedRunError, load_run, verify_run
 from ariel.recording.store._files import UnsafePathError, atomic_write_json
-from ariel.recording.store._load import UNREADABLE, list_runs
+from ariel.recording.store._list_runs import UNREADABLE, list_runs
 from ariel.recording.store._lock import RunLock
 
 
