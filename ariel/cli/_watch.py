@@ -9,10 +9,13 @@ line and exit code 2, through `ariel.cli.main`.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 from typing import TYPE_CHECKING
 
 from ariel.cli._common import EXIT_USAGE
+from ariel.cli._live import WATCHER_NICENESS
 from ariel.cli._options import add_web_viewer_options
 from ariel.cli._types import poll_seconds
 from ariel.recording import viewer
@@ -96,6 +99,9 @@ def _cmd_watch(args: argparse.Namespace) -> int:
                 save=args.save,
                 poll_s=args.poll,
             )
+            if hasattr(os, "nice"):  # an onlooker: on a busy machine the run watched goes first
+                with contextlib.suppress(OSError):
+                    os.nice(WATCHER_NICENESS)
             with watcher:
                 _announce(watcher, args)
                 why = watcher.follow(until_finished=args.until_finished)

@@ -31,7 +31,7 @@ import rerun as rr
 
 from ariel.errors import NotARunError, ViewError
 from ariel.recording.rerun import APPLICATION_ID
-from ariel.recording.store import one_line
+from ariel.recording.store import one_line, output_file_problem
 from ariel.recording.viewer._child import _terminate, die_with_parent, rerun_binary
 from ariel.recording.viewer._watch_run import RunSource
 from ariel.recording.viewer._web import (
@@ -53,6 +53,10 @@ __all__ = ["VIEWERS", "Source", "Watcher", "source_for", "watch"]
 VIEWERS = ("native", "web", "notebook", "none")
 #: How long a poll waits for its data to reach the sinks (a slow viewer: it goes on later).
 FLUSH_TIMEOUT_S = 1.0
+#: How long a viewer whose ports answer must keep running to be ours: two watchers started
+#: at once chose the same free ports, and the one whose server could not bind them streamed
+#: into the other's and ended.
+STARTED_GRACE_S = 0.5
 #: How long closing waits for the last data to reach the sinks (the saved file above all).
 CLOSE_TIMEOUT_S = 30.0
 
@@ -192,9 +196,15 @@ class Watcher:
             web = grpc = _choose_port(grpc_port, DEFAULT_GRPC_PORT, "--grpc-port", set())
             command = [binary, "--bind", LOCALHOST, "--expect-data-soon"]
         self._child = _spawn([*command, "--port", str(grpc)])
-        if not _wait_until_serving(self._child, web, grpc):
+        serving = _wait_until_serving(self._child, web, grpc)
+        if serving:  # another watcher's viewer may hold the ports: this one then ends at once
+            time.sleep(STARTED_GRACE_S)
+        if not serving or self._child.poll() is not None:
             code = self._child.poll()
-            raise ViewError(f"the Rerun viewer ended (exit code {code}) before it listened")
+            raise ViewError(
+                f"the Rerun viewer ended (exit code {code}) as it started; if another viewer "
+                "took its ports at the same moment, start it again"
+            )
         self.urls["grpc"] = f"rerun+http://{LOCALHOST}:{grpc}/proxy"
         self.ports = sorted({web, grpc}, key=[web, grpc].index)
         if viewer == "web":
@@ -308,6 +318,9 @@ def _check(source: Source, viewer: str, save: str | os.PathLike[str] | None, pol
             raise ViewError(f"--save must name an .rrd file, not {str(save)!r}")
         if out == folder or folder in out.parents:
             raise ViewError(f"--save {str(save)!r} is in the watched folder: it is never written")
+        problem = output_file_problem(save)  # another run's run.rrd was written over
+        if problem is not None:
+            raise ViewError(f"--save: {problem}")
         if not out.parent.is_dir():  # named as given (relative), as every path printed is
             raise ViewError(f"--save: folder {str(Path(save).parent)!r} does not exist")
 

@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
+from ariel.errors import ViewError
 from ariel.evolution import ExperimentConfig, budget
 from ariel.recording.rerun import (
     LINEAGE_ENTITY,
@@ -58,6 +59,7 @@ from ariel.recording.rerun import (
     summary_bars,
 )
 from ariel.recording.store import (
+    STOPPED,
     Manifest,
     NotARunError,
     Run,
@@ -71,6 +73,7 @@ from ariel.recording.store import (
     manifests_expected,
     population_after_selection,
     read_file,
+    terminal_text,
     to_pandas,
 )
 from ariel.recording.viewer._archive_panel import archive_beside
@@ -178,7 +181,11 @@ class RunSource:
         try:
             self.info = RunFolder(self.path).read_info()
         except NotARunError:
-            return False  # rewritten just now, or gone: the next poll sees
+            if not self.path.is_dir():  # it polled a folder that is no more, without a word
+                raise ViewError(
+                    f"{terminal_text(self.path)} is gone (moved or removed); stopped watching"
+                ) from None
+            return False  # rewritten just now: the next poll sees
         logged = False
         if not self._started:
             self._log_static(rec)
@@ -288,14 +295,16 @@ class RunSource:
         newest generation's end), and its scalars at each new generation."""
         rr = rerun_module()
         done, total = sum(self._rows.values()), self._total
+        ended = self._ended()  # a killed run's run.json still says running
         status = str(self.info.get("status", "?"))
+        status = STOPPED if status == "running" and ended else status
         rate, eta = self._rate(done)
         parts = [f"**{status}**", f"generation {self.shown} of {self.config.get('generations')}"]
         share = f" of {total:,} ({100 * done / total:.0f} %)" if total else ""
         parts.append(f"evaluations {done:,}{share}")
         if rate:
             parts.append(f"{rate:.3g} evaluations/s")
-        if eta is not None and status not in FINAL:
+        if eta is not None and status not in FINAL and not ended:
             parts.append(f"ETA {_duration(eta)} after generation {self.shown - 1}")
         text = f"run {self.run_id}: " + " · ".join(parts)
         if text == self._progress:

@@ -58,7 +58,9 @@ def _any_free_port(exclude: set[int]) -> int:
 def _choose_port(requested: int | None, default: int, option: str, taken: set[int]) -> int:
     """``requested`` as given (0: any free port); unset: ``default``, or a free one if busy."""
     if requested:
-        if requested in taken or not _port_free(requested):
+        if requested in taken:  # --port and --grpc-port the same: it is free, but wanted twice
+            raise ViewError(f"port {requested} is --port too; choose another {option}")
+        if not _port_free(requested):
             raise ViewError(f"port {requested} on {LOCALHOST} is in use; choose another {option}")
         return requested
     if requested is None and default not in taken and _port_free(default):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
 import re
 import shutil
 import signal
@@ -213,6 +214,29 @@ def test_a_run_that_ended_during_a_poll_is_read_again_to_say_how(
     assert source.info["status"] == "finished"
 
 
+def test_a_killed_run_shows_as_stopped_and_a_removed_one_ends_the_watch(
+    live: dict, tmp_path: Path
+) -> None:
+    """A killed run (run.json says running, no process holds its lock) stayed "running" with
+    an ETA in the view; a folder removed while watched was polled for ever without a word."""
+    import rerun as rr
+
+    from ariel.errors import ViewError
+    from ariel.recording.viewer._watch_run import RunSource
+
+    run = tmp_path / "run"
+    shutil.copytree(live["run"], run)
+    info = json.loads((run / "run.json").read_text())
+    (run / "run.json").write_text(json.dumps({**info, "status": "running", "wall_seconds": 0}))
+    source = RunSource(run)
+    rec = rr.RecordingStream("ariel-test", recording_id="killed")
+    source.poll(rec)
+    assert "**stopped (killed?)**" in source._progress and "ETA" not in source._progress
+    shutil.rmtree(run)
+    with pytest.raises(ViewError, match=r"run is gone \(moved or removed\); stopped watching$"):
+        source.poll(rec)
+
+
 def test_a_map_elites_run_s_archive_is_there_per_generation(qd: dict) -> None:
     assert qd["code"] == 0
     run = load_run(qd["run"])
@@ -309,12 +333,17 @@ def test_web_listens_on_localhost_only_and_ctrl_c_ends_it_cleanly(live: dict) ->
         (["{run}", "--no-viewer", "--save", "{run}/live.rrd"], "in the watched folder"),
         # named as given, not made absolute (every other path printed is relative)
         (["{run}", "--no-viewer", "--save", "nope/x.rrd"], "--save: folder 'nope' does not"),
+        # another run's recording was written over (verify said ok: run.rrd is in no manifest)
+        (["{run}", "--no-viewer", "--save", "{tmp}/other/run.rrd"], "is inside the run or"),
+        (["{run}", "--web", "--port", "45555", "--grpc-port", "45555"], "45555 is --port too"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(
     live: dict, tmp_path: Path, capsys, args, message, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "other").mkdir()
+    shutil.copy(live["run"] / "run.json", tmp_path / "other" / "run.json")
     words = [a.format(tmp=tmp_path, run=live["run"]) for a in args]
     assert main(["watch", *words]) == 2
     err = capsys.readouterr().err
