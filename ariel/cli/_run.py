@@ -104,8 +104,9 @@ def _print_result(result: RunResult) -> None:
         else "no evaluation succeeded (the evaluations table's status and error say why)"
     )
     print(f"{r.status}: {r.run_id}: {best}, {r.evaluations} evaluations in {r.wall_seconds:.1f} s")
-    print(f"run folder: {_below_here(Path(r.run_dir))}")
-    print(_how_to_look(Path(r.run_dir), best=bool(r.best_eval_id)))
+    shown = _below_here(Path(r.run_dir))  # absolute in the result, relative where it can be
+    print(f"run folder: {shown}")
+    print(_how_to_look(shown, best=bool(r.best_eval_id)))
 
 
 def _run_guarded(start: Callable[[], RunResult], path_hint: str | None) -> int:

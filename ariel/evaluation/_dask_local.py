@@ -5,7 +5,7 @@ terminal sends to every process of the job; the driver catches them and closes t
 `check_open_files`: a cluster too big for this process's open-file limit is refused in one
 line before it starts (else Dask logs ``Too many open files`` for every worker, by the
 hundred thousand lines, and the run waits). `quiet_nanny`: worker processes that log nothing
-below CRITICAL on stderr.
+below CRITICAL on stderr. `never_fork`: worker processes are never forked.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import contextlib
 import functools
 import logging
 import signal
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -31,6 +32,7 @@ __all__ = [
     "answering_workers",
     "check_open_files",
     "drop_gc_diagnosis",
+    "never_fork",
     "open_files_problem",
     "quiet_nanny",
     "stop_signals_left_to_driver",
@@ -114,6 +116,18 @@ def _quiet_nanny(nanny: type) -> type:
             self.silence_logs = logging.CRITICAL  # handed to each worker process it starts
 
     return Nanny
+
+
+def never_fork(distributed: ModuleType) -> None:
+    """A Dask configuration asking for ``fork`` (``distributed.worker.multiprocessing-method``,
+    in ``~/.config/dask`` or ``DASK_*``) is overridden by ``spawn``, Dask's default, for this
+    process from now on (workers are started again later): forked from a process that runs
+    threads, the workers hung, the run printed nothing and ignored SIGTERM."""
+    del distributed  # imported: it imported dask, whose config this is
+    config = sys.modules["dask"].config
+    key = "distributed.worker.multiprocessing-method"
+    if config.get(key, "spawn") == "fork":
+        config.set({key: "spawn"})
 
 
 def drop_gc_diagnosis(distributed: ModuleType) -> None:

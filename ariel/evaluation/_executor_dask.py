@@ -28,6 +28,7 @@ from ariel.evaluation._dask_local import (
     answering_workers,
     check_open_files,
     drop_gc_diagnosis,
+    never_fork,
     quiet_nanny,
     stop_signals_left_to_driver,
 )
@@ -102,7 +103,7 @@ class DaskExecutor(EvaluationExecutor):
         default = NO_WORKER_TIMEOUT_LOCAL if cluster is not None else NO_WORKER_TIMEOUT_SCHEDULER
         #: Seconds with no worker at all before `stalled` gives a reason (see
         #: `NO_WORKER_TIMEOUT_LOCAL`); ``math.inf``: wait for ever, with notes.
-        self.no_worker_timeout = _no_worker_timeout(no_worker_timeout, default)
+        self.no_worker_timeout = worker_wait_seconds(no_worker_timeout, default)
         #: Seconds between the notes on stderr while no worker is there.
         self.note_every = NO_WORKER_NOTE_SECONDS
         self.client = client
@@ -240,7 +241,7 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def _no_worker_timeout(given: float | None, default: float) -> float:
+def worker_wait_seconds(given: float | None, default: float) -> float:
     """`DaskExecutor.no_worker_timeout`: ``given``, else `NO_WORKER_TIMEOUT_VARIABLE`, else
     ``default``; a number of seconds > 0 (``inf``: wait for ever)."""
     where, value = "no_worker_timeout", given
@@ -275,9 +276,10 @@ def _make_dask(
     if address is None:
         settings = _cluster_settings(workers, max_retries, blas_threads, cluster_options)
         settings.setdefault("worker_class", quiet_nanny(distributed))
-        limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_LOCAL)  # before starting
+        limit = worker_wait_seconds(no_worker_timeout, NO_WORKER_TIMEOUT_LOCAL)  # before starting
         check_open_files(settings["n_workers"])
         logs = DaskLogs().hold()  # its workers' deaths are the run's to report, in one line
+        never_fork(distributed)
         try:
             with stop_signals_left_to_driver():
                 cluster = LocalCluster(**settings)
@@ -309,7 +311,7 @@ def _make_dask(
             f"options {given} are for a LocalCluster; they cannot be used with address= "
             "(a scheduler's retries are its distributed.scheduler.allowed-failures setting)"
         )
-    limit = _no_worker_timeout(no_worker_timeout, NO_WORKER_TIMEOUT_SCHEDULER)
+    limit = worker_wait_seconds(no_worker_timeout, NO_WORKER_TIMEOUT_SCHEDULER)
     if isinstance(address, Client):  # the caller owns it
         return DaskExecutor(address, close_client=False, no_worker_timeout=limit)
     if isinstance(address, str):  # "tcp://host:8786": checked, reached in bounded time

@@ -77,6 +77,8 @@ __all__ = [
 # Time a call's timeout does not count: a fresh worker starting and importing what the call
 # needs (unpickling it); a worker that takes longer than this as well is stopped too.
 _START_SECONDS = 120.0
+#: The longest one wait for news: a day (the deadlines may be further; the loop waits again).
+DAY_S = 86_400.0
 # `multiprocessing`'s exit code for a forkserver worker whose fork server died (not its own).
 _FORKSERVER_GONE = 255
 # A call whose fork server died this often while it ran counts such deaths as its own.
@@ -179,7 +181,8 @@ class _Driver:
             if self.shutting_down and not self.pending and not busy:
                 return False
         deadlines = [w.deadline for w in self.workers if w.deadline is not None]
-        timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+        # Woken at least daily: k long timeouts added up overflowed the wait's millisecond int.
+        timeout = min(max(0.0, min(deadlines) - time.monotonic()), DAY_S) if deadlines else None
         waitables: list[Connection | int] = [self._wake_reader]
         for worker in self.workers:
             waitables += [worker.conn, worker.process.sentinel]

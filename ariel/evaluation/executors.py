@@ -47,6 +47,7 @@ from ariel.evaluation._executor_dask import (
     NO_WORKER_TIMEOUT_VARIABLE as NO_WORKER_TIMEOUT_VARIABLE,
     DaskExecutor as DaskExecutor,
     _make_dask,
+    worker_wait_seconds,
 )
 from ariel.evaluation._executor_gpu import WarpExecutor as WarpExecutor
 from ariel.evaluation._executor_local import (
@@ -247,6 +248,8 @@ class DaskKind(ExecutorKind):
             problem = open_files_problem(settings.workers or default_workers())
             if problem is not None:
                 raise ExecutorSettingsError(f"executor.workers: {problem}")
+        # ARIEL_NO_WORKER_TIMEOUT read when the executor is made: a bad one left a folder
+        worker_wait_seconds(None, NO_WORKER_TIMEOUT_LOCAL)
 
     def reach(self, settings: ExecutorSettings) -> None:
         if settings.address is not None:

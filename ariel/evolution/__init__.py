@@ -91,10 +91,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         TOML_KIND as TOML_KIND,
         TYPE_ERRORS as TYPE_ERRORS,
         Int as Int,
-        apply_overrides as apply_overrides,
-        check_key as check_key,
         config_hash as config_hash,
-        set_value as set_value,
     )
     from ariel.evolution._driver import (
         Plugins as Plugins,
@@ -123,6 +120,11 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.evolution._load_config import (
         not_a_file as not_a_file,
+    )
+    from ariel.evolution._overrides import (
+        apply_overrides as apply_overrides,
+        check_key as check_key,
+        set_value as set_value,
     )
     from ariel.evolution._progress import (
         Progress as Progress,
@@ -224,12 +226,12 @@ _INTERNAL: dict[str, str] = {
     "RunDriver": "ariel.evolution._driver",
     "TOML_KIND": "ariel.evolution._config",
     "TYPE_ERRORS": "ariel.evolution._config",
-    "apply_overrides": "ariel.evolution._config",
+    "apply_overrides": "ariel.evolution._overrides",
     "archive_quality": "ariel.evolution._qd",
     "body_spec": "ariel.evolution._tasks",
     "budget": "ariel.evolution._driver",
     "check_genotype": "ariel.evolution._genotype",
-    "check_key": "ariel.evolution._config",
+    "check_key": "ariel.evolution._overrides",
     "check_plugins": "ariel.evolution._checks",
     "check_resources": "ariel.evolution._checks",
     "config_hash": "ariel.evolution._config",
@@ -250,7 +252,7 @@ _INTERNAL: dict[str, str] = {
     "record_steps": "ariel.evolution._tasks",
     "refuse_in_spawned_child": "ariel.evolution._checks",
     "run_groups": "ariel.evolution._scheduler",
-    "set_value": "ariel.evolution._config",
+    "set_value": "ariel.evolution._overrides",
     "shipped_body": "ariel.evolution._tasks",
     "shows_progress": "ariel.evolution._progress",
     "state_from_plain": "ariel.evolution._state",

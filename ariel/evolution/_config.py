@@ -11,7 +11,6 @@ import difflib
 import hashlib
 import json
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, Literal
 
@@ -31,7 +30,6 @@ from pydantic_core import ErrorDetails
 from ariel.errors import ConfigError
 from ariel.evaluation.executors import executor_kinds, known_kinds
 from ariel.evolution._toml import MAX_TOML_DEPTH
-from ariel.utils import nests_deeper_than, strings_argument
 
 __all__ = [
     "MAX_GENERATIONS",
@@ -43,10 +41,8 @@ __all__ = [
     "RecordConfig",
     "TaskConfig",
     "WorldConfig",
-    "apply_overrides",
-    "check_key",
     "config_hash",
-    "set_value",
+    "plain_copy",
 ]
 
 
@@ -69,6 +65,8 @@ MAX_GENERATIONS = 1_000_000
 
 #: A duration in seconds: positive and finite.
 Seconds = Annotated[Float, Field(gt=0.0), AfterValidator(_finite_seconds)]
+#: The longest ``executor.timeout``: 1,000,000 s (11.6 days).
+MAX_TIMEOUT_S = 1_000_000.0
 
 
 class _Section(BaseModel):
@@ -235,7 +233,8 @@ class ExecutorConfig(_Section):
             results: float32 physics (docs/gpu.md).
         timeout: Seconds one evaluation may take before it is stopped and recorded as an
             ``error`` (a call of k evaluations gets k times as long); ``local`` kills the
-            worker, Dask only stops waiting, ``serial`` has no timeout.
+            worker, Dask only stops waiting, ``serial`` has no timeout; at most
+            `MAX_TIMEOUT_S`.
         max_retries: How often an evaluation whose worker process died is tried again
             (``local``, a Dask ``LocalCluster``), >= 0.
     """
@@ -248,7 +247,9 @@ class ExecutorConfig(_Section):
     # ``gpu`` only: MuJoCo Warp's device, "cuda", or "cpu" (Warp's CPU device; slow, for tests).
     # Unlike the other kinds, ``gpu`` does change results: float32 physics (docs/gpu.md).
     device: Literal["cuda", "cpu"] = "cuda"
-    timeout: Seconds = 600.0
+    # At most ~11.6 days: longer waits overflowed the clocks of the pool and of Dask's threads
+    # (a run that failed in its first generation, blaming its plugins).
+    timeout: Seconds = Field(default=600.0, le=MAX_TIMEOUT_S)
     max_retries: Int = Field(default=2, ge=0)
 
     @model_validator(mode="before")
@@ -300,7 +301,7 @@ class ExperimentConfig(_Section):
     @classmethod
     def from_plain(cls, data: Mapping[str, object]) -> ExperimentConfig:
         """The config a run stored: keys added since read as they behaved before."""
-        plain = _plain(dict(data), "config", 1)
+        plain = plain_copy(dict(data), "config", 1)
         assert isinstance(plain, dict)  # a Mapping is copied to a dict
         for (section, key), neutral in _LATER_KEYS.items():
             if isinstance(plain.get(section), dict):
@@ -403,42 +404,7 @@ def _validate(data: Mapping[str, object]) -> ExperimentConfig:
 # --------------------------------------------------------------------------------------------
 
 
-def _parse_value(text: str, key: str) -> object:
-    """A TOML value (``8``, ``true``, ``"flat"``, ``[0, 0, 0]``); anything else is a string.
-    `ConfigError` for a value nested deeper than a TOML file may be (`MAX_TOML_DEPTH`)."""
-    try:
-        value = tomllib.loads(f"value = {text}")["value"]
-    except tomllib.TOMLDecodeError:
-        return text
-    except RecursionError:  # tomllib recurses per nested array or inline table
-        value = None
-    if value is None or nests_deeper_than(value, MAX_TOML_DEPTH):
-        raise ConfigError(f"--set {key}: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
-    return value
-
-
-def apply_overrides(data: Mapping[str, object], overrides: Sequence[str]) -> dict[str, Any]:
-    """Apply ``key=value`` overrides (dotted keys) to raw config data; the key must exist.
-
-    Keys under an ``options`` table are free (plugins define them). `TypeError` for overrides
-    that are not a list of strings; `ConfigError` for a malformed one, and for data nested
-    deeper than a TOML file may be (`MAX_TOML_DEPTH`).
-    """
-    overrides = strings_argument("overrides", overrides, "brain.popsize=16")
-    if nests_deeper_than(dict(data), MAX_TOML_DEPTH):  # before json recurses through it
-        raise ConfigError(f"config: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
-    result = _plain(dict(data), "config", 1)
-    assert isinstance(result, dict)  # a Mapping is copied to a dict
-    for item in overrides:
-        key, sep, text = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise ConfigError(f"--set {item!r}: expected key=value, e.g. brain.popsize=16")
-        set_value(result, key, _parse_value(text.strip(), key), f"--set {key}")
-    return result
-
-
-def _plain(value: object, key: str, depth: int) -> object:
+def plain_copy(value: object, key: str, depth: int) -> object:
     """A deep copy of config data as a TOML file gives it: tables as dicts, arrays as lists,
     a NumPy scalar (``np.int64(5)`` from ``np.arange``) as its Python number; anything else is
     one `ConfigError` naming its key (json.dumps said "int64 is not JSON serializable")."""
@@ -449,87 +415,15 @@ def _plain(value: object, key: str, depth: int) -> object:
         for name, item in value.items():
             if not isinstance(name, str):
                 raise ConfigError(f"{key}: its keys must be strings, not {name!r}")
-            copied[name] = _plain(item, name if key == "config" else f"{key}.{name}", depth + 1)
+            copied[name] = plain_copy(item, name if key == "config" else f"{key}.{name}", depth + 1)
         return copied
     if isinstance(value, list | tuple):
-        return [_plain(item, f"{key}[{i}]", depth + 1) for i, item in enumerate(value)]
+        return [plain_copy(item, f"{key}[{i}]", depth + 1) for i, item in enumerate(value)]
     if value is None or isinstance(value, str | bool | int | float):
         return value
     if isinstance(value, np.generic):  # a NumPy scalar (not an array)
-        return _plain(value.item(), key, depth)
+        return plain_copy(value.item(), key, depth)
     raise ConfigError(
         f"{key}: {type(value).__name__} is no config value type (numbers, strings, true and "
         "false, lists and tables are)"
     )
-
-
-def _spellings(model: type[BaseModel], part: str) -> list[str]:
-    """The keys of ``model`` that set what ``part`` sets: a field's name and the old names it
-    is still read under (``address``, ``scheduler``); [] where ``part`` sets nothing."""
-    for name, field in model.model_fields.items():
-        alias = field.validation_alias
-        names = [name, *alias.choices] if isinstance(alias, AliasChoices) else [name]
-        if part in names:
-            return [str(n) for n in dict.fromkeys(names)]
-    return []
-
-
-def check_key(key: str, label: str) -> None:
-    """Raise `ConfigError` (``label: ...``) unless dotted ``key`` names a config value."""
-    _table_of(key, label)
-
-
-def _table_of(key: str, label: str) -> type[BaseModel] | None:
-    """The section (model) the last part of the checked dotted ``key`` is a key of; None
-    inside a free ``options`` table."""
-    parts = key.split(".")
-    model: type[BaseModel] | None = ExperimentConfig
-    for depth, part in enumerate(parts):
-        if model is None:  # inside a free `options` table
-            break
-        spellings = _spellings(model, part)
-        if not spellings:
-            names = sorted(model.model_fields)
-            where = ".".join(parts[:depth]) or "the top level"
-            hint = _did_you_mean(parts, depth, names)
-            raise ConfigError(f"{label}: no such key; keys under {where}: {', '.join(names)}{hint}")
-        if depth < len(parts) - 1:
-            annotation = model.model_fields[spellings[0]].annotation
-            if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-                model = annotation
-            elif part == "options":
-                model = None
-            else:
-                raise ConfigError(f"{label}: '{part}' is a value, not a table")
-    return model
-
-
-def _did_you_mean(parts: list[str], depth: int, names: list[str]) -> str:
-    """``; did you mean 'KEY'?`` for the closest name to ``parts[depth]``, or ``""``.
-
-    The whole key is suggested when the rest of it exists under that name (``bodyy.population``
-    -> ``body.population``), else the key up to that name.
-    """
-    close = difflib.get_close_matches(parts[depth], names, n=1)
-    if not close:
-        return ""
-    whole = ".".join([*parts[:depth], close[0], *parts[depth + 1 :]])
-    try:
-        check_key(whole, "")
-    except ConfigError:
-        whole = ".".join([*parts[:depth], close[0]])
-    return f"; did you mean '{whole}'?"
-
-
-def set_value(data: dict[str, Any], key: str, value: object, label: str) -> None:
-    """Set dotted ``key`` of raw config ``data`` (in place) to ``value``; errors name ``label``."""
-    table = _table_of(key, label)
-    parts = key.split(".")
-    node = data
-    for part in parts[:-1]:
-        node = node.setdefault(part, {})
-        if not isinstance(node, dict):
-            raise ConfigError(f"{label}: '{part}' is a value, not a table")
-    for spelling in _spellings(table, parts[-1]) if table is not None else ():
-        node.pop(spelling, None)  # the value under another name (an old one) is replaced too
-    node[parts[-1]] = value

@@ -10,8 +10,9 @@ from os import PathLike
 from pathlib import Path
 
 from ariel.errors import ConfigError
-from ariel.evolution._config import ExperimentConfig, _validate, apply_overrides
+from ariel.evolution._config import ExperimentConfig, _validate
 from ariel.evolution._genotype import is_genotype_file
+from ariel.evolution._overrides import apply_overrides
 from ariel.evolution._toml import read_toml_file
 from ariel.utils import ariel_line, file_kind
 

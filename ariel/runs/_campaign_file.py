@@ -265,6 +265,7 @@ def _apply(
 ) -> dict[str, Any]:
     """``data`` with ``changes`` set; the executor (one for all runs) only campaign-wide."""
     result = json.loads(json.dumps(data))
+    spelled: dict[str, str] = {}
     for key, value in changes.items():
         if key == "seed" or (condition and key.startswith("executor")):
             raise ConfigError(
@@ -272,7 +273,7 @@ def _apply(
                 "seed_count; the executor is the campaign's: set it in the base or on the "
                 "command line)"
             )
-        set_value(result, key, value, f"{where}: '{key}'")
+        set_value(result, key, value, f"{where}: '{key}'", spelled=spelled)
     return result
 
 

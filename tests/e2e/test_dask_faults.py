@@ -84,6 +84,18 @@ def test_a_malformed_address_or_too_many_workers_are_refused_before_a_folder_is_
     run = ["run", str(config), "--out", str(out), "--quiet", "--executor", "dask"]
     assert exit_code([*run, "--address", "garbage"]) == 2
     assert "executor.address: 'garbage' is not a Dask scheduler address" in one_error_line(capsys)
+    # Read when the executor was made, after the folder: a `failed` run (a campaign) stayed.
+    monkeypatch.setenv("ARIEL_NO_WORKER_TIMEOUT", "abc")
+    assert exit_code(run) == 2
+    assert "ARIEL_NO_WORKER_TIMEOUT: seconds to wait" in one_error_line(capsys)
+    monkeypatch.delenv("ARIEL_NO_WORKER_TIMEOUT")
+    # A timeout past the clocks' range failed the first generation, blaming the plugins.
+    assert exit_code([*run, "--set", "executor.timeout=3e6"]) == 2
+    assert "executor.timeout: must be less than or equal to 1000000" in one_error_line(capsys)
+    # The old name and the new one, set one after the other: the last won without a word.
+    twice = ["--set", 'executor.scheduler="tcp://a:1"', "--set", 'executor.address="tcp://b:2"']
+    assert exit_code([*run, *twice]) == 2
+    assert "executor.address: sets executor.scheduler too" in one_error_line(capsys)
     monkeypatch.setattr(_dask_local, "OPEN_FILES_PER_DASK_WORKER", 10**9)  # no limit fits
     assert exit_code([*run, "--workers", "2"]) == 2
     assert "executor.workers: a local Dask cluster of 2 workers needs" in one_error_line(capsys)
@@ -252,6 +264,23 @@ def test_a_local_cluster_over_the_open_file_limit_is_refused_before_it_starts() 
     )
     assert "use at most" in done.stdout and "ulimit -n" in done.stdout
     assert done.stderr == "", done.stderr[-2000:]  # no Dask log line, no worker started
+
+
+def test_a_dask_configuration_asking_for_fork_gets_spawn() -> None:
+    """Workers forked from the driver (which runs threads) hung: the run printed nothing and
+    ignored SIGTERM."""
+    import dask
+    import distributed
+
+    from ariel.evaluation._dask_local import never_fork
+
+    key = "distributed.worker.multiprocessing-method"
+    with dask.config.set({key: "fork"}):
+        never_fork(distributed)
+        assert dask.config.get(key) == "spawn"
+    with dask.config.set({key: "forkserver"}):  # the user's choice, where it is not fork
+        never_fork(distributed)
+        assert dask.config.get(key) == "forkserver"
 
 
 @pytest.mark.soak  # ~10 s: a Dask cluster started and hung up on
