@@ -9,6 +9,7 @@ loads the co-evolution loop on first use; `console` (upstream ARIEL's shared ric
 from typing import TYPE_CHECKING, Any
 
 from ariel._version import __version__
+from ariel.utils.lazy import keeping_random_state
 
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from rich.console import Console
@@ -28,7 +29,8 @@ def __getattr__(name: str) -> Any:
 
         return run_experiment
     if name == "console":
-        from rich.console import Console  # lazy: `import ariel` stays light (rich: ~0.1 s)
+        with keeping_random_state():  # rich draws from `random` as it loads
+            from rich.console import Console  # lazy: `import ariel` stays light (rich: ~0.1 s)
 
         console = globals()["console"] = Console()  # one shared console, as upstream's
         return console

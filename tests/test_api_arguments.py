@@ -22,16 +22,19 @@ from ariel.plugins import fitness_function, fitness_functions
 from ariel.recording import (
     compare,
     fitness_label,
+    joint_labels,
     lineage_statistics,
     list_runs,
+    load_campaign,
     load_run,
     make_gallery,
     make_report,
+    replay,
     verify_run,
     write_lineage_csv,
 )
 from ariel.recording.store._failures import plugin_failure
-from ariel.runs import resume_campaign, resume_experiment, run_campaign
+from ariel.runs import campaign_status, resume_campaign, resume_experiment, run_campaign
 
 
 def _deep(levels: int) -> list[Any]:
@@ -70,6 +73,10 @@ def _deep(levels: int) -> list[Any]:
         (lambda out: make_gallery(out, progress="no"), "make_gallery: progress must be True,"),
         (lambda out: lineage_statistics(pd.DataFrame(), maximise="no"), "maximise must be Tr"),
         (lambda out: fitness_label("xy_displacement", "no"), "fitness_label: maximise must be"),
+        (lambda out: load_campaign(None), "load_campaign: path must be a path (a str or p"),
+        (lambda out: campaign_status(123), "campaign_status: campaign_dir must be a path"),
+        (lambda out: joint_labels("abc"), "joint_labels: names must be a list of joint names"),
+        (lambda out: replay(out, 5), "replay: eval_id must be an evaluation id or 'best', not"),
     ],
 )
 def test_an_argument_of_the_wrong_type_is_one_line_naming_it(

@@ -123,3 +123,19 @@ def test_ec_loads_the_database_layer_only_when_the_engine_is_used(tmp_path: Path
     )
     assert json.loads(out.stdout.strip().splitlines()[-1]) == []
     assert os.listdir(tmp_path) == []  # config's ./__data__ is not created either
+
+
+def test_using_the_api_leaves_python_s_random_state_alone() -> None:
+    """rich draws from `random` as it loads: a script's ``random.seed(0)`` before its first
+    use of ariel gave other draws after it."""
+    script = (
+        "import random\n"
+        "random.seed(0); expected = random.random(); random.seed(0)\n"
+        "import ariel, ariel.runs, ariel.recording\n"
+        "ariel.runs.run_experiment, ariel.recording.make_report, ariel.console\n"
+        "print(random.random() == expected)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.stdout.strip() == "True", done.stderr[-2000:]

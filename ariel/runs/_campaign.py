@@ -523,5 +523,7 @@ def campaign_status(campaign_dir: str | Path) -> list[dict[str, Any]]:
 
     Raises:
         NotACampaignError: When ``campaign_dir`` is not a campaign folder.
+        TypeError: When ``campaign_dir`` is not a path.
     """
-    return load_campaign(campaign_dir).status()
+    path = path_argument("campaign_dir", campaign_dir, function="campaign_status")
+    return load_campaign(path).status()

@@ -3,17 +3,32 @@
 A package of ARIEL names what it offers in its ``__init__`` (its face), and the other packages
 import only from there. Loading every module a face names would make ``import ariel`` pull in
 pandas, pyarrow, MuJoCo and Rerun, so a face maps each name to the module that defines it and
-`lazy_face` loads that module when the name is first used.
+`lazy_face` loads that module when the name is first used, leaving Python's global `random`
+state as it was (`keeping_random_state`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import random
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
-__all__ = ["lazy_face"]
+__all__ = ["keeping_random_state", "lazy_face"]
+
+
+@contextlib.contextmanager
+def keeping_random_state() -> Iterator[None]:
+    """Python's global `random` state as it was before, after the block: rich draws from it as
+    it loads (``rich.style``, ``getrandbits``), so a script's ``random.seed(0)`` before using
+    ariel no longer gave the same draws after."""
+    state = random.getstate()
+    try:
+        yield
+    finally:
+        random.setstate(state)
 
 
 def lazy_face(
@@ -39,7 +54,8 @@ def lazy_face(
         module = names.get(name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(module), name)
+        with keeping_random_state():  # loading it must not draw from the caller's random
+            value = getattr(importlib.import_module(module), name)
         setattr(sys.modules[package], name, value)  # cache: __getattr__ runs once per name
         return value
 

@@ -137,10 +137,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.run_dir is None:
         from ariel.evolution import run_experiment
 
-        scratch = tempfile.mkdtemp(prefix="ariel-science-")
-        result = run_experiment(None, overrides=args.set, out=Path(scratch) / "run")
-        args.run_dir = str(result.run_dir)
-    figures = measure(args.run_dir)
+        with tempfile.TemporaryDirectory(prefix="ariel-science-") as scratch:  # removed after
+            result = run_experiment(None, overrides=args.set, out=Path(scratch) / "run")
+            figures = measure(str(result.run_dir))
+    else:
+        figures = measure(args.run_dir)
     for key, value in figures.items():
         print(f"{key}: {value}", file=sys.stderr)
     print(json.dumps(figures))

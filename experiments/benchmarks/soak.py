@@ -433,7 +433,7 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print(f"{'figure':<52}{'value':>14}  target")
     print("-" * 78)
-    print(f"{'evaluations (whole run, s)':<52}{result.evaluations:>8} {seconds:>5.0f}")
+    print(f"{'evaluations (whole run, s)':<52}{result.evaluations:>8} {seconds:>5.1f}")
     print(f"{'evals/s, first generation':<52}{rate_first:>14.2f}")
     ratio = rate_last / rate_first
     print(

@@ -125,7 +125,13 @@ def joint_labels(names: Sequence[str], graph: GraphJson | nx.DiGraph | None = No
         print(joint_labels(["robot1_0-10-2-servo", "robot1_fl_legservo"]))
         # ['hinge module 10', 'fl leg']  (no graph: the branch is unknown)
         ```
+
+    Raises:
+        TypeError: When ``names`` is one string, not a list of them (it was read a character
+            at a time).
     """
+    if isinstance(names, str | bytes):
+        raise TypeError(f"joint_labels: names must be a list of joint names, not {names!r:.40}")
     names = [str(name) for name in names]
     tree = _tree(graph) if graph is not None and len(names) else None
     places = _hinge_places(tree) if tree is not None else {}

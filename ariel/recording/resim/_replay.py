@@ -288,6 +288,7 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
         NotARunError: For a folder that is not a run (`DamagedRunError`: one whose tables
             were changed, whose config has a section that is no table, or whose plugins
             reject the options its config records for them).
+        TypeError: When ``eval_id`` is not a string.
 
     Example:
         ```python
@@ -297,6 +298,8 @@ def replay(run_dir: str | Path, eval_id: str) -> ReplayResult:
         print(again.eval_id, again.stored_fitness, again.fitness, again.identical)
         ```
     """
+    if not isinstance(eval_id, str):  # 5 or None: "no evaluation 5", as if it were an id
+        raise TypeError(f"replay: eval_id must be an evaluation id or 'best', not {eval_id!r:.40}")
     run = load_checked(run_dir)
     row = _find_row(run, eval_id)
     _require_plugins(run)

@@ -35,6 +35,7 @@ from ariel.recording.store._list_runs import STOPPED
 from ariel.recording.store._load import Run, load_run
 from ariel.recording.store._lock import CAMPAIGN_JSON, holder_gone
 from ariel.recording.store._run_folder import JsonObject, NotARunError, json_file
+from ariel.utils import path_argument
 
 __all__ = [
     "CAMPAIGN_FORMAT",
@@ -386,8 +387,9 @@ def load_campaign(path: str | Path) -> Campaign:
     Raises:
         NotACampaignError: When ``path`` has no readable ``campaign.json``, or one that no
             campaign writes.
+        TypeError: When ``path`` is not a path.
     """
-    path = Path(path)
+    path = path_argument("path", path, function="load_campaign")
     info = read_campaign_info(path)
     campaign = Campaign(path=path, info=info)
     for entry in info.get("runs", []):

@@ -320,7 +320,8 @@ class RunSource:
 
     def _rate(self, done: int) -> tuple[float | None, float | None]:
         """Evaluations per second of the run's current segment (since it started or last
-        resumed, up to its newest manifest), and the seconds left at that rate."""
+        resumed, or once it has two, since its first generation ended; up to its newest
+        manifest), and the seconds left at that rate."""
         info = self.info
         if info.get("status") in FINAL and info.get("wall_seconds"):
             return done / float(info["wall_seconds"]), 0.0
@@ -334,6 +335,10 @@ class RunSource:
             last = manifest_file(self.path, self.shown - 1).stat().st_mtime
         except OSError:
             return None, None
+        if self.shown - first >= 2:  # from the end of its first generation: the start-up
+            with contextlib.suppress(OSError):  # (seconds, before any evaluation) made a
+                started = manifest_file(self.path, first).stat().st_mtime  # 5x long ETA
+                first += 1
         made = sum(n for g, n in self._rows.items() if g >= first)
         if last <= started or not made:
             return None, None

@@ -17,6 +17,7 @@ import subprocess
 import sys
 import time
 from collections import defaultdict
+from datetime import UTC
 from pathlib import Path
 
 import numpy as np
@@ -235,6 +236,35 @@ def test_a_killed_run_shows_as_stopped_and_a_removed_one_ends_the_watch(
     shutil.rmtree(run)
     with pytest.raises(ViewError, match=r"run is gone \(moved or removed\); stopped watching$"):
         source.poll(rec)
+
+
+def test_the_rate_leaves_out_the_start_up_once_two_generations_are_done(
+    live: dict, tmp_path: Path
+) -> None:
+    """Counted from the segment's start, the start-up (seconds before any evaluation) made
+    the first ETAs about five times too long."""
+    import os
+    from datetime import datetime
+
+    import rerun as rr
+
+    from ariel.recording.store import manifest_file
+    from ariel.recording.viewer._watch_run import RunSource
+
+    run = tmp_path / "run"
+    shutil.copytree(live["run"], run)
+    info = json.loads((run / "run.json").read_text())
+    start = 1_700_000_000.0
+    info["segments"][-1]["started"] = datetime.fromtimestamp(start, UTC).isoformat()
+    (run / "run.json").write_text(json.dumps({**info, "status": "running"}))
+    done = info["generations_done"]
+    for generation in range(done):  # 60 s of start-up, then one generation a second
+        os.utime(manifest_file(run, generation), (start, start + 60 + generation))
+    source = RunSource(run)
+    source.poll(rr.RecordingStream("ariel-test", recording_id="rate"))
+    rate, _ = source._rate(sum(source._rows.values()))
+    per_generation = sum(source._rows[g] for g in range(1, done)) / (done - 1)
+    assert rate == pytest.approx(per_generation)  # evaluations a second: one generation's
 
 
 def test_a_map_elites_run_s_archive_is_there_per_generation(qd: dict) -> None:
