@@ -176,6 +176,8 @@ async def _identity(distributed: ModuleType, address: str) -> object:
     except (OSError, TimeoutError):  # refused, unreachable; or no answer in time
         raise
     except Exception as exc:  # any: e.g. an SSH banner read as a frame length (MemoryError)
+        if not address.startswith("tcp://"):  # tls:// without certificates, ucx:// without
+            raise  # UCX: said as it is (it was "not a Dask scheduler", nothing having answered)
         raise _NotDaskError() from exc
 
 

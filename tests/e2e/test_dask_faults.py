@@ -152,6 +152,17 @@ def hanging_up_server() -> Iterator[str]:
     yield from _serving(lambda peer: peer.close())
 
 
+def test_a_tls_address_without_certificates_says_so() -> None:
+    """Nothing had answered, yet it was "not a Dask scheduler (... TypeError)"."""
+    from ariel.evaluation._dask_connect import DaskAddressError
+
+    with pytest.raises(DaskAddressError) as caught:
+        make_executor("dask", address="tls://127.0.0.1:1")
+    assert "cannot reach the Dask scheduler at tls://127.0.0.1:1: TypeError: TLS expects" in (
+        str(caught.value)
+    )
+
+
 def test_a_server_that_hangs_up_is_not_a_dask_scheduler(hanging_up_server: str) -> None:
     """It said 'cannot reach ... CommClosedError': something had answered there."""
     error = _within(20, lambda: make_executor("dask", address=hanging_up_server))
