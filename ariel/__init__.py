@@ -35,3 +35,8 @@ def __getattr__(name: str) -> Any:
         console = globals()["console"] = Console()  # one shared console, as upstream's
         return console
     raise AttributeError(f"module 'ariel' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """The loaded names and the lazy ones (`run_experiment`, `console`): tab completion."""
+    return sorted({*globals(), *__all__})

@@ -78,3 +78,10 @@ def test_the_rule_finds_what_it_should(source: str, expected: list[str]) -> None
     """The check itself, on a module of `ariel.runs` importing other packages' parts."""
     hits = private_imports(ARIEL / "runs" / "_probe.py", source)
     assert [hit.split(": ", 1)[1] for hit in hits] == expected
+
+
+def test_dir_of_ariel_lists_its_lazy_names() -> None:
+    """Tab completion in a notebook (``ariel.<Tab>``) missed run_experiment and console."""
+    import ariel
+
+    assert {"run_experiment", "console", "__version__"} <= set(dir(ariel))
