@@ -339,8 +339,10 @@ def campaign_spec(
         for seed in condition_seeds(seeds, index, model.seeding):
             try:
                 configs[(condition.name, seed)] = load_config({**raw, "seed": seed})
-            except ConfigError as exc:
-                raise ConfigError(f"{where}: {exc}") from None
+            except ConfigError as exc:  # a key the condition does not set: the base's
+                key = str(exc).split(":", 1)[0]
+                blame = where if key in condition.set else "base (with set and --set)"
+                raise ConfigError(f"{blame}: {exc}") from None
     base_name = model.base if isinstance(model.base, str) else "inline"
     return CampaignSpec(
         model.name,

@@ -65,6 +65,10 @@ CASES = {
         '[[condition]]\nname = "x"\nset = { "brain.popsize" = 0 }\n',
         "condition 'x': brain.popsize: must be greater than or equal to 2",
     ),
+    "bad value in the base, not the condition's": (  # it blamed condition 'x'
+        '[[condition]]\nname = "x"\nset = { "brain.popsize" = 4 }\n[set]\n"brain.iterations" = 0\n',
+        "base (with set and --set): brain.iterations: must be greater than or equal to 1",
+    ),
     "unknown key of a condition": (
         '[[condition]]\nname = "x"\nsett = {}\n',
         "unknown key 'condition.0.sett'; allowed: description, name, set",
