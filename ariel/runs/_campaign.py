@@ -434,7 +434,6 @@ def _drive_campaign(
         run.first_generation = session.start(shown).first_generation
     campaign.restart()  # counts what earlier calls did as done, not as this call's rate
     info = read_campaign_info(path)
-    info.pop("format")
     write_campaign_info(path, {**info, "status": "running"})
     if show_progress:
         shown = terminal_text(f"campaign {info['campaign_id']}: {path}")  # names from the folder
@@ -474,7 +473,6 @@ def _ended(path: Path, info: Mapping[str, object], status: str) -> None:
 def _records_finished(path: Path, info: Mapping[str, object], skipped: int) -> CampaignResult:
     """A campaign stopped after its last run had finished (its recording or campaign.json's
     status not written yet): writes them, as the end of `_drive_campaign` does."""
-    info = {key: value for key, value in info.items() if key != "format"}
     _ended(path, info, "finished")
     return CampaignResult(
         path=path,

@@ -228,7 +228,9 @@ def _check_folders(path: Path, relative: str, where: str) -> None:
 
 
 def write_campaign_info(path: str | Path, info: Mapping[str, object]) -> None:
-    atomic_write_json(Path(path) / CAMPAIGN_JSON, {"format": CAMPAIGN_FORMAT, **info})
+    """Write campaign.json: ``info`` (as read, or new) in this ariel's format, first."""
+    rest = {key: value for key, value in info.items() if key != "format"}
+    atomic_write_json(Path(path) / CAMPAIGN_JSON, {"format": CAMPAIGN_FORMAT, **rest})
 
 
 def fitness_maximise(info: JsonObject) -> bool:
