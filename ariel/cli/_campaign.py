@@ -26,7 +26,7 @@ from ariel.errors import (
     RunStorageError,
 )
 from ariel.recording import analysis
-from ariel.recording.store import read_campaign_info, terminal_text
+from ariel.recording.store import load_campaign, terminal_text
 from ariel.utils import (
     ariel_command,
     ariel_line,
@@ -170,16 +170,16 @@ EXIT_SKIPPED = 1
 
 def _cmd_campaign_status(args: argparse.Namespace) -> int:
     try:
-        rows = runs.campaign_status(args.campaign_dir)
+        campaign = load_campaign(args.campaign_dir)
+        rows = campaign.status()
     except NotARunError as exc:
         return fail(str(exc))  # `fail` escapes it for the terminal
     # lazy: rich takes ~0.2 s to import, and every `ariel` command imports this module
     from ariel.cli._tables import print_campaign_status
 
     print_campaign_status(rows, f"campaign {args.campaign_dir}")
-    own = read_campaign_info(args.campaign_dir).get("status")
-    if own != "finished" and rows and all(row["status"] == "finished" for row in rows):
-        # stopped after its last run: campaign.rrd and its status are not written yet
+    own = campaign.info.get("status")
+    if campaign.records_pending(rows):  # stopped after its last run
         print(
             "every run finished, but not the campaign's own records (campaign.json says "
             f"{terminal_text(str(own))!r}): write campaign.rrd and its status with: "

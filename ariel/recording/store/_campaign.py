@@ -339,6 +339,14 @@ class Campaign:
         """
         return campaign_lineages(self)
 
+    def records_pending(self, rows: list[dict[str, object]] | None = None) -> bool:
+        """Whether every run finished but not the campaign's own records (campaign.rrd and
+        campaign.json's ``finished``): stopped after its last run, `campaign resume` writes
+        them. ``rows``: `status`'s, where already at hand."""
+        rows = self.status() if rows is None else rows
+        finished = bool(rows) and all(row["status"] == "finished" for row in rows)
+        return finished and self.info.get("status") != "finished"
+
     def status(self) -> list[dict[str, object]]:
         """One row per run of campaign.json: condition, seed, status, generations, best.
         ``status``: run.json's, `STOPPED` for a killed run, ``"not started"`` for a run not
