@@ -77,6 +77,7 @@ def _deep(levels: int) -> list[Any]:
         (lambda out: campaign_status(123), "campaign_status: campaign_dir must be a path"),
         (lambda out: joint_labels("abc"), "joint_labels: names must be a list of joint names"),
         (lambda out: replay(out, 5), "replay: eval_id must be an evaluation id or 'best', not"),
+        (lambda out: write_lineage_csv(load_run, out), "write_lineage_csv: frame must be a lin"),
     ],
 )
 def test_an_argument_of_the_wrong_type_is_one_line_naming_it(

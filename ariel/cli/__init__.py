@@ -104,6 +104,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    _expand_home(args)
     problem = cwd_problem() or open_files_problem()
     if problem is not None:
         return fail(problem)
@@ -112,6 +113,41 @@ def main(argv: Sequence[str] | None = None) -> int:
     if output.lost is not None:
         return fail(lost_output_line(output.lost))
     return code
+
+
+#: The arguments that name a file or folder (``--label``'s are the RUN_DIR of NAME=RUN_DIR).
+_PATH_ARGUMENTS = (
+    "config",
+    "file",
+    "folder",
+    "run_dir",
+    "campaign_dir",
+    "paths",
+    "out",
+    "save",
+    "rrd",
+    "video",
+    "screenshot",
+    "lineage",
+)
+
+
+def _expand_home(args: argparse.Namespace) -> None:
+    """A leading ``~`` of a path argument is the home folder, as the Python API reads it: a
+    quoted one (``--out "~/x"``) reached some commands as is (a folder named ``~`` made here)
+    and others expanded."""
+
+    def home(value: object) -> object:
+        return os.path.expanduser(value) if isinstance(value, str) else value
+
+    for name in _PATH_ARGUMENTS:
+        if hasattr(args, name):
+            value = getattr(args, name)
+            setattr(
+                args, name, [home(v) for v in value] if isinstance(value, list) else home(value)
+            )
+    if isinstance(getattr(args, "label", None), list):
+        args.label = [(name, home(folder)) for name, folder in args.label]
 
 
 def _command_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Parser:

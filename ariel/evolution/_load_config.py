@@ -60,7 +60,7 @@ def load_config(
     elif isinstance(source, Mapping):
         data = source
     else:
-        path = Path(source) if source is not None else default_config_path()
+        path = Path(source).expanduser() if source is not None else default_config_path()
         if source is None and not path.is_file():  # an installed package without experiments/
             return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
         if not path.is_file():  # never opened: reading a FIFO would wait forever

@@ -55,6 +55,7 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
         RunStorageError as RunStorageError,
         UnsafePathError as UnsafePathError,
         ancestors as ancestors,
+        condition_colours as condition_colours,
         fitness_label as fitness_label,
         integer_ticks as integer_ticks,
         lineage as lineage,
@@ -116,8 +117,9 @@ _LAZY: dict[str, str] = {
     "lineage_statistics": "ariel.recording.store",
     "lineage_statistics_by_run": "ariel.recording.store",
     "ancestors": "ariel.recording.store",
-    # The figures' conventions (units in labels, whole-number ticks), for notebooks.
+    # The figures' conventions (units in labels, whole-number ticks, colours), for notebooks.
     "DESCRIPTORS": "ariel.recording.store",
+    "condition_colours": "ariel.recording.store",
     "fitness_label": "ariel.recording.store",
     "integer_ticks": "ariel.recording.store",
 }

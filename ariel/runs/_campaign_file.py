@@ -361,7 +361,7 @@ def load_campaign_file(
 ) -> CampaignSpec:
     """Read and validate a campaign TOML file (see the module docstring); ``max_runs``: as
     `campaign_spec`'s."""
-    path = Path(path)
+    path = Path(path).expanduser()
     if not path.is_file():  # as `ariel run` says of an experiment file: never opened
         raise ConfigError(f"campaign file {str(path)!r} {not_a_file(path)}")
     data = read_toml_file(path)

@@ -56,9 +56,12 @@ def paths_argument(name: str, value: object, *, function: str = "") -> list[Path
 def flag_argument(
     name: str, value: object, *, none: bool = False, function: str = ""
 ) -> bool | None:
-    """``value`` when it is True or False (or None, where ``none`` allows it)."""
+    """``value`` when it is True or False (a NumPy bool, ``(a > 0).any()``, as one; or None,
+    where ``none`` allows it)."""
     if isinstance(value, bool) or (none and value is None):
         return value
+    if type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_"):
+        return bool(value)
     raise _refused(function, name, "True, False or None" if none else "True or False", value)
 
 

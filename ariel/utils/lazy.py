@@ -23,7 +23,11 @@ __all__ = ["keeping_random_state", "lazy_face"]
 def keeping_random_state() -> Iterator[None]:
     """Python's global `random` state as it was before, after the block: rich draws from it as
     it loads (``rich.style``, ``getrandbits``), so a script's ``random.seed(0)`` before using
-    ariel no longer gave the same draws after."""
+    ariel no longer gave the same draws after.
+
+    Returns:
+        A context manager (a ``with`` block) that restores the state when it ends.
+    """
     state = random.getstate()
     try:
         yield

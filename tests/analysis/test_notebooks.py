@@ -458,13 +458,12 @@ def test_compare_conditions_draws_as_compare_does(compared, tiny_campaign: Path)
     (the fitness's unit, a descriptor's unit) and whole numbers of evaluations."""
     from matplotlib.colors import to_hex
 
-    from ariel.recording import compare
-    from ariel.recording.analysis._compare_plots import _colours
+    from ariel.recording import compare, condition_colours
     from ariel.recording.store._axes import DESCRIPTORS, fitness_label
 
     notebook = compared
     comparison = compare([tiny_campaign], write=False)
-    colours = {name: to_hex(c) for name, c in _colours(comparison.conditions).items()}
+    colours = {name: to_hex(c) for name, c in condition_colours(comparison.conditions).items()}
     assert len(set(colours.values())) == 2
     ylabel = fitness_label("xy_displacement", True, what="best fitness")
     assert ylabel == "best fitness: xy_displacement (m), higher is better"

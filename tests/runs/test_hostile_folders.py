@@ -810,6 +810,12 @@ def test_a_leading_tilde_is_the_home_folder_for_every_file_of_a_run(
     assert exit_code(["report", "~/r", "--no-render"]) == 0
     assert (home / "r" / "evaluations" / "gen-000000.parquet").stat().st_size > 0
     assert (home / "r" / "run.json").is_file() and (home / "r" / "report" / "fitness.png").is_file()
+    # Every command: `runs "~"` said "'~' does not exist", export wrote into ./~/
+    assert exit_code(["runs", "~"]) == 0
+    assert exit_code(["export", "~/r", "--lineage", "~/lineage.csv"]) == 0
+    assert (home / "lineage.csv").is_file()
+    shutil.copy(run, home / "tiny.toml")
+    assert exit_code(["config", "show", "~/tiny.toml"]) == 0
     assert not (tmp_path / "~").exists()
 
 

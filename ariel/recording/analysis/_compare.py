@@ -82,7 +82,7 @@ from ariel.recording.analysis._compare_runs import (
 )
 from ariel.recording.analysis._compare_stats import Design
 from ariel.recording.store import is_campaign
-from ariel.utils import flag_argument, paths_argument
+from ariel.utils import flag_argument, path_argument, paths_argument
 
 __all__ = [
     "MEASURES",
@@ -272,6 +272,16 @@ def _alone(grouped: Mapping[str, object]) -> str:
     return f"one condition ({next(iter(grouped))}): no pair of conditions to test, only its summary"
 
 
+def _checked_out(out: str | Path | None, write: bool) -> Path | None:
+    """``out`` as a path (``~`` the home folder), refused before the runs are read where it
+    cannot take compare's files (again when they are written); `TypeError` for a ``write``
+    that is not True or False."""
+    out = path_argument("out", out, function="compare") if out is not None else None
+    if flag_argument("write", write, function="compare") and out is not None:
+        prepare_folder(out)
+    return out
+
+
 def compare(
     paths: Sequence[str | Path],
     *,
@@ -333,8 +343,7 @@ def compare(
     paths = paths_argument("paths", paths, function="compare")
     if not paths:
         raise CompareError("give a campaign folder or run folders to compare")
-    if flag_argument("write", write, function="compare") and out is not None:
-        prepare_folder(Path(out))  # refused before the runs are read (again when written)
+    out = _checked_out(out, write)
     campaigns = [p for p in paths if is_campaign(p)]
     paths, notes = unique_folders(paths, "campaign folder" if campaigns else "run")
     if labels and campaigns:

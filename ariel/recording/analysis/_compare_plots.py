@@ -18,7 +18,13 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from ariel.recording.store import DESCRIPTORS, atomic_write, figure_label, integer_ticks
+from ariel.recording.store import (
+    DESCRIPTORS,
+    atomic_write,
+    condition_colours,
+    figure_label,
+    integer_ticks,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -59,24 +65,6 @@ def _pyplot() -> Any:
 #: Conditions whose legend still fits inside a panel; more go beside the figure.
 LEGEND_INSIDE = 6
 _LEGEND_ROWS = 24  # entries per legend column beside the figure
-
-
-def _colours(names: Sequence[str]) -> dict[str, str]:
-    """A colour per condition: matplotlib's cycle for up to its ten; more from a colour map,
-    each its own (the cycle repeated: conditions 1 and 11 shared a colour)."""
-    plt = _pyplot()
-    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    if len(names) <= len(cycle):
-        return {name: cycle[i] for i, name in enumerate(names)}
-    many = len(names) > 20
-    colour_map = plt.get_cmap("turbo" if many else "tab20")
-    # (turbo's ends are near black and dark red: left out)
-    spread = np.linspace(0.08, 0.92, len(names)) if many else np.arange(len(names)) / 20
-    return {name: _hex(colour_map(float(spread[i]))) for i, name in enumerate(names)}
-
-
-def _hex(rgba: Sequence[float]) -> str:
-    return "#" + "".join(f"{round(255 * channel):02x}" for channel in rgba[:3])
 
 
 def _legend(
@@ -128,7 +116,7 @@ def best_so_far_figure(
 
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(7.5, 4.5))
-    colours = _colours(list(curves))
+    colours = condition_colours(list(curves))
     handles: list[tuple[Patch, Line2D]] = []
     labels: list[str] = []
     for name, (grid, median, low, high) in curves.items():
@@ -167,7 +155,7 @@ def final_best_figure(finals: Mapping[str, np.ndarray], path: Path, *, ylabel: s
     plt = _pyplot()
     names = list(finals)
     figure, axes = plt.subplots(figsize=(max(4.5, 1.4 * len(names) + 2), 4.5))
-    colours = _colours(names)
+    colours = condition_colours(names)
     data = [np.asarray(finals[n], float) for n in names]
     axes.boxplot(data, showfliers=False, widths=0.5)
     jitter = np.random.default_rng(0)  # fixed: the same runs draw the same figure
@@ -201,7 +189,7 @@ def morphology_figure(
     rows = int(np.ceil(len(names) / columns))
     figure, grid = plt.subplots(rows, columns, figsize=(5.2 * columns, 3.2 * rows), squeeze=False)
     conditions = list(next(iter(series.values()), {}))
-    colours = _colours(conditions)
+    colours = condition_colours(conditions)
     for axes, descriptor in zip(grid.flat, names):
         for condition, (x, median, low, high) in series[descriptor].items():
             axes.plot(x, median, color=colours[condition], label=figure_label(condition))
@@ -281,7 +269,7 @@ def lineages_figure(
     names = [column for column in LINEAGE_PANELS if column in series]
     figure, grid = plt.subplots(1, len(names), figsize=(5.6 * len(names), 4.6), squeeze=False)
     conditions = list(dict.fromkeys(c for s in series.values() for c in s))
-    colours = _colours(conditions)
+    colours = condition_colours(conditions)
     # Equal medians drew one condition's line over the other's: each its own dash; and a dot
     # at the final value (the last generation's, at the budget: a step of no width).
     dashes = {c: _DASHES[i % len(_DASHES)] for i, c in enumerate(conditions)}

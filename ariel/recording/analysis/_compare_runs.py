@@ -296,7 +296,7 @@ def _checked_labels(labels: Mapping[str | Path, str], paths: Sequence[Path]) -> 
                 f"--label {_shown_label(name)}: a label is 1 to 64 ASCII letters, digits, '_', "
                 "'.' or '-'"
             )
-        resolved = os.path.realpath(folder)
+        resolved = os.path.realpath(os.path.expanduser(folder))  # "~/runs/a", as the paths
         if resolved not in given:
             raise CompareError(
                 f"--label {name}={str(folder)!r}: that folder is not one of the run folders "

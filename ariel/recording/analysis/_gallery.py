@@ -476,16 +476,17 @@ def make_gallery(
         ```
     """
     path = path_argument("path", path, function="make_gallery")
+    out = None if out is None else path_argument("out", out, function="make_gallery")
     flag_argument("render", render, function="make_gallery")
     flag_argument("progress", progress, none=True, function="make_gallery")
     if of not in OF:
         raise GalleryError(f"a gallery shows one of {', '.join(OF)}, not {of!r}")
-    if out is not None and Path(out).is_symlink():  # as `ariel compare --out` refuses one
+    if out is not None and out.is_symlink():  # as `ariel compare --out` refuses one
         raise GalleryError(
             f"refusing to write the gallery into {str(out)!r}: it is a symbolic link (to "
             f"{os.readlink(out)!r}); name the folder itself"
         )
-    source = Path(path)
+    source = path
     if is_campaign(source):
         if of != "final":
             raise GalleryError(
@@ -495,9 +496,7 @@ def make_gallery(
         gallery, chosen = _campaign_gallery(source)
     else:
         gallery, chosen = _run_gallery(load_run(source), of)
-    root = Path(out) if out is not None else source
-    folder = Path(out) if out is not None else source / "gallery"
-    where = (folder, root, of)
+    where = (out or source / "gallery", out or source, of)  # folder, root, of
     return _finish(gallery, chosen, where, workers=workers, render=render, progress=progress)
 
 

@@ -307,6 +307,7 @@ def make_report(
     """
     run_dir = path_argument("run_dir", run_dir, function="make_report")
     flag_argument("render", render, function="make_report")
+    out = None if out is None else path_argument("out", out, function="make_report")
     folder = None if out is None else check_report_folder(out)
     run = load_run(run_dir)
     resim.check_config(run)  # a section that is no table: one line, before it is read

@@ -25,6 +25,7 @@ from ariel.recording.rerun._rerun import _write_chunks
 from ariel.recording.store import (
     CAMPAIGN_RRD,
     best_so_far,
+    condition_colours as store_colours,
     fitness_unit as fitness_unit_of,
     load_campaign,
     read_campaign_info,
@@ -46,19 +47,6 @@ __all__ = [
 ]
 
 CAMPAIGN_BLUEPRINT = "campaign.rbl"
-# Distinct colours per condition (matplotlib's tab10), one shade for all seeds of a condition.
-_COLOURS = [
-    (31, 119, 180),
-    (255, 127, 14),
-    (44, 160, 44),
-    (214, 39, 40),
-    (148, 103, 189),
-    (140, 86, 75),
-    (227, 119, 194),
-    (127, 127, 127),
-    (188, 189, 34),
-    (23, 190, 207),
-]
 
 
 def write_campaign_recording(
@@ -101,8 +89,15 @@ def write_campaign_recording(
 
 
 def condition_colours(conditions: Sequence[str]) -> dict[str, tuple[int, int, int]]:
-    """Each condition's colour (one shade for all its seeds), in the conditions' order."""
-    return {name: _COLOURS[i % len(_COLOURS)] for i, name in enumerate(conditions)}
+    """Each condition's colour (one shade for all its seeds) as RGB, those of `ariel compare`
+    and the notebooks (`ariel.recording.store.condition_colours`; ten repeated before)."""
+    shared = store_colours(conditions)
+    return {name: _rgb(shared[name]) for name in conditions}
+
+
+def _rgb(colour: str) -> tuple[int, int, int]:
+    red, green, blue = (int(colour[k : k + 2], 16) for k in (1, 3, 5))
+    return red, green, blue
 
 
 def curve_chunks(

@@ -191,7 +191,7 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         print(robot.replayed_fitness(), robot.fitness)  # the recorded fitness again
         ```
     """
-    folder = Path(folder)
+    folder = Path(folder).expanduser()
     body, brain = (_read(folder, name) for name in ("genotype.json", "controller.json"))
     eval_id = check_eval_id(brain.get("eval_id"), folder)
     run_id = check_run_id(brain.get("run_id"), folder)

@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.recording.store._axes import (
         DESCRIPTORS as DESCRIPTORS,
+        condition_colours as condition_colours,
         descriptor_label as descriptor_label,
         fitness_label as fitness_label,
         fitness_unit as fitness_unit,
@@ -221,6 +222,7 @@ _INTERNAL: dict[str, str] = {
     "holder_gone": "ariel.recording.store._lock",
     "html_text": "ariel.recording.store._escape",
     "integer_ticks": "ariel.recording.store._axes",
+    "condition_colours": "ariel.recording.store._axes",
     "is_campaign": "ariel.recording.store._campaign",
     "json_data": "ariel.recording.store._run_folder",
     "finished_generations": "ariel.recording.store._run_folder",

@@ -9,7 +9,10 @@ say or is not installed here). Counts (generations, evaluations, modules) get in
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 from ariel.plugins import fitness_functions
 from ariel.utils import flag_argument
@@ -19,6 +22,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DESCRIPTORS",
+    "condition_colours",
     "descriptor_label",
     "fitness_label",
     "fitness_unit",
@@ -49,6 +53,64 @@ def descriptor_label(name: str) -> str:
     """``num_limbs (leaf modules)``, ``extent_x (m)``; the name alone for an unknown one."""
     unit = DESCRIPTORS.get(name, ("", False))[0]
     return f"{name} ({unit})" if unit else name
+
+
+#: matplotlib's tab20 with its ten dark shades first (tab10, the colour cycle: conditions up to
+#: ten look as they always did), then their light shades.
+_TWENTY = (
+    "#1f77b4",
+    "#ff7f0e",
+    "#2ca02c",
+    "#d62728",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#7f7f7f",
+    "#bcbd22",
+    "#17becf",
+    "#aec7e8",
+    "#ffbb78",
+    "#98df8a",
+    "#ff9896",
+    "#c5b0d5",
+    "#c49c94",
+    "#f7b6d2",
+    "#c7c7c7",
+    "#dbdb8d",
+    "#9edae5",
+)
+
+
+def condition_colours(names: Sequence[str]) -> dict[str, str]:
+    """A colour per condition (``"#rrggbb"``), one rule for `ariel compare`'s figures, the
+    campaign's Rerun view and the notebooks: up to ten matplotlib's colour cycle (``C0`` ...
+    ``C9``); up to twenty, then tab20's light shades; more, evenly along turbo (its near-black
+    ends left out). Each condition its own: the cycle repeated gave conditions 1 and 11 one
+    colour, and the notebook and the Rerun view kept repeating it.
+
+    Args:
+        names: The conditions, in their order.
+
+    Returns:
+        Condition -> colour.
+    """
+    names = list(names)
+    if len(names) <= len(_TWENTY):
+        return {name: _TWENTY[i] for i, name in enumerate(names)}
+    spread = np.linspace(0.08, 0.92, len(names))
+    return {name: _turbo(float(x)) for name, x in zip(names, spread, strict=True)}
+
+
+def _turbo(x: float) -> str:
+    """Turbo at ``x`` in [0, 1] by its published polynomial fit (within 0.08 of matplotlib's
+    table in each channel): no colour map to load."""
+    fits = (
+        (0.13572138, 4.61539260, -42.66032258, 132.13108234, -152.94239396, 59.28637943),
+        (0.09140261, 2.19418839, 4.84296658, -14.18503333, 4.27729857, 2.82956604),
+        (0.10667330, 12.64194608, -60.58204836, 110.36276771, -89.90310912, 27.34824973),
+    )
+    channels = [min(1.0, max(0.0, sum(c * x**k for k, c in enumerate(fit)))) for fit in fits]
+    return "#" + "".join(f"{round(255 * channel):02x}" for channel in channels)
 
 
 def integer_ticks(axis: Axis) -> None:

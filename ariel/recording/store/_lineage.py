@@ -313,6 +313,11 @@ def write_lineage_csv(
         ValueError: When ``frame`` lacks ``id`` or ``ancestor_list``, ``still_alive`` is not
             one of `ALIVE_MARKS`, or ``path`` is a folder or inside a run or campaign folder.
     """
+    if not isinstance(frame, pd.DataFrame):  # `run.lineage`, not called: an AttributeError
+        raise TypeError(
+            "write_lineage_csv: frame must be a lineage frame (run.lineage()), not "
+            f"{type(frame).__name__}"
+        )
     path = path_argument("path", path, function="write_lineage_csv")
     flag_argument("overwrite", overwrite, function="write_lineage_csv")
     missing = [column for column in ("id", "ancestor_list") if column not in frame.columns]

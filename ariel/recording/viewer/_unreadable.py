@@ -13,10 +13,10 @@ import sys
 import time
 from pathlib import Path
 
-from ariel.errors import ArielError, DamagedRunError, NotARunError
+from ariel.errors import ArielError, DamagedRunError, NotARunError, ViewError
 from ariel.recording.store import terminal_text
 
-__all__ = ["NOTE_AFTER_S", "UNREADABLE", "Unreadable", "missing_manifest"]
+__all__ = ["NOTE_AFTER_S", "UNREADABLE", "Unreadable", "check_still_there", "missing_manifest"]
 
 #: What reading a generation's tables raises when they are not (yet) what its manifest lists.
 UNREADABLE = (NotARunError, OSError)
@@ -34,6 +34,13 @@ def _damage(path: Path, generation: int, exc: BaseException) -> ArielError:
     return DamagedRunError(
         f"run folder {str(path)!r}: generation {generation} cannot be read: {reason}{where}"
     )
+
+
+def check_still_there(path: Path) -> None:
+    """`ViewError` where the watched folder ``path`` is gone: it was polled for ever, without a
+    word, once removed or moved."""
+    if not path.is_dir():
+        raise ViewError(f"{terminal_text(path)} is gone (moved or removed); stopped watching")
 
 
 def missing_manifest(path: Path, generation: int, done: int) -> DamagedRunError:

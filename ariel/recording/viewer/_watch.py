@@ -319,6 +319,10 @@ def _check(source: Source, viewer: str, save: str | os.PathLike[str] | None, pol
         if out == folder or folder in out.parents:
             raise ViewError(f"--save {str(save)!r} is in the watched folder: it is never written")
         problem = output_file_problem(save)  # another run's run.rrd was written over
+        if problem is None and out.is_file() and out.stat().st_nlink > 1:
+            problem = (
+                f"{str(save)!r} has other names (hard links), written over too; give a new FILE"
+            )
         if problem is not None:
             raise ViewError(f"--save: {problem}")
         if not out.parent.is_dir():  # named as given (relative), as every path printed is

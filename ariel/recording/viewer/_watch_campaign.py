@@ -51,7 +51,7 @@ from ariel.recording.store import (
     read_campaign_info,
     terminal_text,
 )
-from ariel.recording.viewer._unreadable import UNREADABLE
+from ariel.recording.viewer._unreadable import UNREADABLE, check_still_there
 from ariel.recording.viewer._watch_run import FINAL, _read_generation
 
 if TYPE_CHECKING:
@@ -167,6 +167,7 @@ class CampaignSource:
     def poll(self, rec: rr.RecordingStream) -> bool:
         """Log to ``rec`` what is new in the campaign folder since the last poll; True when
         anything was logged."""
+        check_still_there(self.path)
         ended = self._campaign_ended()  # first: whatever it says, all was written before
         chunks: list[Chunk] = []
         for entry in self._info.get("runs", []):

@@ -41,7 +41,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
-from ariel.errors import ViewError
 from ariel.evolution import ExperimentConfig, budget
 from ariel.recording.rerun import (
     LINEAGE_ENTITY,
@@ -73,11 +72,15 @@ from ariel.recording.store import (
     manifests_expected,
     population_after_selection,
     read_file,
-    terminal_text,
     to_pandas,
 )
 from ariel.recording.viewer._archive_panel import archive_beside
-from ariel.recording.viewer._unreadable import UNREADABLE, Unreadable, missing_manifest
+from ariel.recording.viewer._unreadable import (
+    UNREADABLE,
+    Unreadable,
+    check_still_there,
+    missing_manifest,
+)
 from ariel.recording.viewer._watch_body import BestBody
 
 if TYPE_CHECKING:
@@ -181,10 +184,7 @@ class RunSource:
         try:
             self.info = RunFolder(self.path).read_info()
         except NotARunError:
-            if not self.path.is_dir():  # it polled a folder that is no more, without a word
-                raise ViewError(
-                    f"{terminal_text(self.path)} is gone (moved or removed); stopped watching"
-                ) from None
+            check_still_there(self.path)
             return False  # rewritten just now: the next poll sees
         logged = False
         if not self._started:

@@ -967,13 +967,25 @@ def test_many_conditions_get_their_own_colours_and_a_legend_beside_the_figure(
 ) -> None:
     """With 12 conditions, conditions 1 and 11 shared a colour, and the legend (24 entries:
     a line and a band each) ran off the top of the figure and covered its title."""
+    from matplotlib.colors import to_hex
     from PIL import Image
 
+    from ariel.recording import condition_colours
     from ariel.recording.analysis import _compare_plots as plots
+    from ariel.recording.rerun import condition_colours as rerun_colours
 
-    for count in (3, 12, 40):
+    for count in (3, 12, 25, 40):
         names = [f"condition-{k}" for k in range(count)]
-        assert len(set(plots._colours(names).values())) == count
+        colours = condition_colours(names)
+        assert len(set(colours.values())) == count
+        # The Rerun view's are the same (it repeated ten), the first ten matplotlib's C0-C9.
+        assert {n: to_hex([c / 255 for c in rgb]) for n, rgb in rerun_colours(names).items()} == (
+            colours
+        )
+        if count <= 20:  # beyond, evenly along turbo
+            assert [colours[n] for n in names[:10]] == [
+                to_hex(f"C{i}") for i in range(min(count, 10))
+            ]
     grid = np.arange(1.0, 9.0)
     curves = {name: (grid, grid * k, grid * k - 1, grid * k + 1) for k, name in enumerate(names)}
     path = plots.best_so_far_figure(curves, tmp_path / "best.png", ylabel="best (m)")

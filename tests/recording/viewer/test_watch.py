@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
 import re
 import shutil
 import signal
@@ -365,6 +366,7 @@ def test_web_listens_on_localhost_only_and_ctrl_c_ends_it_cleanly(live: dict) ->
         (["{run}", "--no-viewer", "--save", "nope/x.rrd"], "--save: folder 'nope' does not"),
         # another run's recording was written over (verify said ok: run.rrd is in no manifest)
         (["{run}", "--no-viewer", "--save", "{tmp}/other/run.rrd"], "is inside the run or"),
+        (["{run}", "--no-viewer", "--save", "{tmp}/linked.rrd"], "has other names (hard links)"),
         (["{run}", "--web", "--port", "45555", "--grpc-port", "45555"], "45555 is --port too"),
     ],
 )
@@ -374,6 +376,8 @@ def test_bad_input_is_one_line_exit_2(
     monkeypatch.chdir(tmp_path)
     (tmp_path / "other").mkdir()
     shutil.copy(live["run"] / "run.json", tmp_path / "other" / "run.json")
+    shutil.copy(live["run"] / "run.rrd", tmp_path / "other" / "run.rrd")
+    os.link(tmp_path / "other" / "run.rrd", tmp_path / "linked.rrd")  # the same file
     words = [a.format(tmp=tmp_path, run=live["run"]) for a in args]
     assert main(["watch", *words]) == 2
     err = capsys.readouterr().err
