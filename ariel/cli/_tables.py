@@ -39,7 +39,8 @@ def print_campaign_status(rows: Iterable[dict[str, Any]], title: str) -> None:
         ("evaluations", "right"),
         ("best", "right"),
     ):
-        table.add_column(name, justify=justify)  # type: ignore[arg-type]
+        # folded, not cut: "variant_A" and "variant_B" of one long name read the same cut
+        table.add_column(name, justify=justify, overflow="fold")  # type: ignore[arg-type]
     for row in rows:
         best = row["best_fitness"]
         table.add_row(

@@ -61,21 +61,26 @@ def descriptor_text(body: GalleryBody, names: Sequence[str]) -> str:
 
 
 def _fitted(draw: ImageDraw.ImageDraw, text: str, font: _Font, width: int) -> str:
-    """``text`` cut (with an ellipsis) to fit ``width`` pixels: a text of more than ``width``
-    characters is cut to ``width`` first (a label holds no more than one a pixel; PIL refuses
-    a string of a million), then to the longest start that fits, found by halving (a few
-    measurements, not one per character)."""
+    """``text`` cut in the middle (an ellipsis there) to fit ``width`` pixels, its start and
+    its end kept: names that differ at the end (``..._variant_A, seed 2)``) stay apart. At most
+    ``width`` characters are measured (a label holds no more than one a pixel; PIL refuses a
+    string of a million); the longest that fits is found by halving (a few measurements, not
+    one per character)."""
     if len(text) <= width and draw.textlength(text, font=font) <= width:
         return text
-    text = text[:width]
-    fits, too_long = 0, len(text) + 1  # text[:fits] + "…" fits; text[:too_long] + "…" does not
+
+    def kept(count: int) -> str:  # ``count`` characters of ``text``: half its start, half its end
+        head = (count + 1) // 2
+        return text[:head] + "…" + text[len(text) - (count - head) :]
+
+    fits, too_long = 0, min(len(text), width) + 1  # kept(fits) fits; kept(too_long) does not
     while too_long - fits > 1:
         middle = (fits + too_long) // 2
-        if draw.textlength(text[:middle] + "…", font=font) <= width:
+        if draw.textlength(kept(middle), font=font) <= width:
             fits = middle
         else:
             too_long = middle
-    return text[:fits] + "…"
+    return kept(fits)
 
 
 def _thumbnail(body: GalleryBody, size: int) -> Image.Image:

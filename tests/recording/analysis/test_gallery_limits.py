@@ -151,3 +151,33 @@ def test_a_crowded_lineage_draws_small_dots_and_room_for_the_star() -> None:
     pitch = _report_lineage._row_pitch(tall, 600)
     assert pitch < 2 and _report_lineage._dot(34, pitch) < 10  # was 34 whatever the rows
     assert _report_lineage._dot(34, _report_lineage._row_pitch(tall, 20)) == 34
+
+
+def test_a_caption_too_long_is_cut_in_the_middle_keeping_what_tells_it_apart() -> None:
+    """Cut at the end, nine cards read "b000001 (tournament_size_two_wit…": the variant and
+    the seed were gone."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    from ariel.recording.analysis._gallery_sheet import _fitted
+
+    draw = ImageDraw.Draw(Image.new("RGB", (10, 10)))
+    font = ImageFont.load_default()
+    long = "b000001 (tournament_size_two_with_crossover_rate_one_half_variant_{}, seed {})"
+    cut = {_fitted(draw, long.format(v, s), font, 160) for v in "AB" for s in (1, 2)}
+    assert len(cut) == 4 and all("…" in text for text in cut)
+    assert all(draw.textlength(text, font=font) <= 160 for text in cut)
+    assert all(text.startswith("b000001 (") and text.endswith(")") for text in cut)
+
+
+def test_campaign_status_folds_long_condition_names_rather_than_cutting_them(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from ariel.cli._tables import print_campaign_status
+
+    names = [f"tournament_size_two_with_crossover_rate_one_half_variant_{v}" for v in "AB"]
+    row = {"seed": 1, "status": "finished", "generations_done": 2, "generations": 2}
+    print_campaign_status(
+        [{**row, "condition": n, "evaluations": 8, "best_fitness": 0.1} for n in names], "c"
+    )
+    printed = capsys.readouterr().out
+    assert "…" not in printed and "variant_A" in printed.replace("\n", "").replace(" ", "")
