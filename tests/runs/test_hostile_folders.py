@@ -337,6 +337,16 @@ def test_campaign_status_names_a_run_that_does_not_load(
 
     notes = _campaign_gallery(campaign)[0].notes
     assert any(note.startswith("condition inherit seed 2: left out (") for note in notes)
+    # A folder with tables but no run.json was "not started", left out of compare unnamed.
+    (campaign / "runs/condition=inherit/seed=1/run.json").unlink()
+    loaded = load_campaign(campaign)
+    assert loaded.status()[2]["status"] == "not started"  # nothing of it there: none made
+    (campaign / "runs/condition=inherit/seed=1/checkpoints").mkdir(exist_ok=True)
+    (campaign / "runs/condition=inherit/seed=1/evaluations").mkdir(exist_ok=True)
+    loaded = load_campaign(campaign)
+    rows = {(r["condition"], r["seed"]): r["status"] for r in loaded.status()}
+    assert rows[("inherit", 1)] == "damaged"
+    assert "holds tables but no run.json" in loaded.damaged[("inherit", 1)]
 
 
 def test_compare_names_a_damaged_run_of_a_campaign_instead_of_leaving_it_out(

@@ -358,7 +358,7 @@ class Campaign:
             run = self.runs.get(key)
             info = run.info if run is not None else {}
             status = info.get("status", "not started")
-            if run is None and os.path.lexists(self.path / entry["path"] / "run.json"):
+            if run is None and key in self.damaged:
                 status = DAMAGED  # load_campaign left it out: `ariel verify` it
             if status == "running" and holder_gone(self.path / entry["path"]):
                 status = STOPPED
@@ -407,6 +407,16 @@ def load_campaign(path: str | Path) -> Campaign:
         try:
             campaign.runs[key] = load_run(path / entry["path"])
         except NotARunError as exc:
-            if os.path.lexists(path / entry["path"] / "run.json"):
+            folder = path / entry["path"]
+            if os.path.lexists(folder / "run.json"):
                 campaign.damaged[key] = str(exc)  # else not made yet (a campaign killed early)
+            elif any(os.path.lexists(folder / name) for name in _WRITTEN_AFTER_RUN_JSON):
+                campaign.damaged[key] = (  # it was "not started", and resume refused it
+                    f"run folder {str(folder)!r} is damaged: it holds tables but no run.json; "
+                    "restore the folder from a copy"
+                )
     return campaign
+
+
+#: What a run writes only after its run.json: a folder holding one of them had a run.json.
+_WRITTEN_AFTER_RUN_JSON = ("evaluations", "bodies", "manifests", "checkpoints")
