@@ -243,9 +243,16 @@ def _conditions(model: _CampaignModel) -> list[Condition]:
         ]
     else:
         conditions = named or points or [Condition("base", {})]
-    seen: set[str] = set()
-    for condition in conditions:
-        if condition.name in seen:
+    seen: dict[str, str] = {}  # by casefold: the folders of 'Sigma' and 'sigma' are one on
+    for condition in conditions:  # macOS and Windows (case-insensitive file systems)
+        earlier = seen.get(condition.name.casefold())
+        if earlier is not None and earlier != condition.name:
+            raise ConfigError(
+                f"condition: '{condition.name}' and '{earlier}' differ in case only; their "
+                "folders would be one where case is not told apart (macOS, Windows): name "
+                "them apart"
+            )
+        if earlier is not None:
             grid_clash = len({p.name for p in points}) < len(points)
             made = (
                 " (made from grid values, which keep letters, digits, _ . - only: give those "
@@ -256,7 +263,7 @@ def _conditions(model: _CampaignModel) -> list[Condition]:
             raise ConfigError(
                 f"condition: duplicate name '{condition.name}'{made}; every condition needs its own"
             )
-        seen.add(condition.name)
+        seen[condition.name.casefold()] = condition.name
     return conditions
 
 

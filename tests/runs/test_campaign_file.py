@@ -77,6 +77,14 @@ CASES = {
         '[[condition]]\nname = "x"\n[[condition]]\nname = "x"\n',
         "condition: duplicate name 'x'",
     ),
+    "names that differ in case only": (  # one folder on macOS and Windows
+        '[[condition]]\nname = "Sigma"\n[[condition]]\nname = "sigma"\n',
+        "condition: 'sigma' and 'Sigma' differ in case only",
+    ),
+    "duplicate names with capitals": (
+        '[[condition]]\nname = "X"\n[[condition]]\nname = "X"\n',
+        "condition: duplicate name 'X'",
+    ),
     "grid values that make one name": (
         '[grid]\n"description" = ["a!b", "a?b"]\n',
         "condition: duplicate name 'description-a-b' (made from grid values, which keep ",
