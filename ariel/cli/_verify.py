@@ -49,6 +49,11 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         if result.checked
         else "presence and readability of the tables only: a run made before manifests"
     )
+    if not result.checked and result.manifested:  # it said "only" of SHA-256-checked tables
+        how = (
+            f"a run made before manifests: size and SHA-256 of the {result.manifested} "
+            "generation(s) with a manifest, presence and readability of the rest"
+        )
     damage = len(result.problems) + result.unlisted
     verdict = f"{damage} damaged file(s)" if damage else "ok"
     checked = (

@@ -429,6 +429,7 @@ def test_a_run_made_before_manifests_is_checked_against_a_manifest_it_has(
     (run / "manifests" / "gen-000001.json").unlink()
     result = verify_run(run)
     assert result.ok and not result.checked and result.files == 4
+    assert result.manifested == 1  # said so, not "presence and readability ... only"
     _flip_a_bit(run / "evaluations" / "gen-000000.parquet")
     assert verify_run(run).problems == [
         "evaluations/gen-000000.parquet has other bytes than when it was written (SHA-256)"

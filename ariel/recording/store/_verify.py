@@ -74,6 +74,7 @@ class VerifyResult:
     run_id_checked: bool = False  # run.json's run_id against a table's rows
     unlisted: int = 0  # problems past `MAX_LISTED`, not in ``problems``
     run_json_refused: bool = False  # run.json holds what no run writes: nothing else was read
+    manifested: int = 0  # a run made before manifests: generations checked against one it has
 
     @property
     def ok(self) -> bool:
@@ -151,6 +152,8 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
     result.generations = done if done is not None else len(held)
     if done is not None:
         _check_missing(run_dir, done, [g for g in gens if g < done], expected, result)
+    if not expected:  # a resume killed while it wrote them, or the keys of run.json lost
+        result.manifested = len(set(gens) & set(held))
     listed: set[str] = set()
     for generation in gens:
         _check_generation(run_dir, generation, expected, info, result, listed)
