@@ -16,6 +16,7 @@ from ariel.cli._options import add_web_viewer_options
 from ariel.cli._types import integer_at_least, positive_int
 from ariel.recording import viewer
 from ariel.recording.store import output_file_problem
+from ariel.utils import path_argument
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -24,7 +25,7 @@ __all__ = ["add_view_command"]
 
 
 def _png_path(text: str) -> Path:
-    path = Path(text)
+    path = path_argument("--screenshot", text)  # "~/shot.png": checked here, before main's turn
     if path.suffix.lower() != ".png":
         raise argparse.ArgumentTypeError(f"must be a .png file, not {text!r}")
     if not path.parent.is_dir():

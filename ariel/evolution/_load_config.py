@@ -14,7 +14,7 @@ from ariel.evolution._config import ExperimentConfig, _validate
 from ariel.evolution._genotype import is_genotype_file
 from ariel.evolution._overrides import apply_overrides
 from ariel.evolution._toml import read_toml_file
-from ariel.utils import ariel_line, file_kind
+from ariel.utils import ariel_line, file_kind, path_argument
 
 __all__ = ["default_config_path", "load_config"]
 
@@ -60,7 +60,7 @@ def load_config(
     elif isinstance(source, Mapping):
         data = source
     else:
-        path = Path(source).expanduser() if source is not None else default_config_path()
+        path = path_argument("config", source) if source is not None else default_config_path()
         if source is None and not path.is_file():  # an installed package without experiments/
             return _validate(apply_overrides({"name": "coevolve_flat"}, overrides))
         if not path.is_file():  # never opened: reading a FIFO would wait forever

@@ -65,7 +65,7 @@ from ariel.evolution import (
     read_toml_file,
     set_value,
 )
-from ariel.utils import ariel_line
+from ariel.utils import ariel_line, path_argument
 
 __all__ = [
     "MAX_CAMPAIGN_NAME",
@@ -267,6 +267,16 @@ def _conditions(model: _CampaignModel) -> list[Condition]:
     return conditions
 
 
+def _valid(data: Mapping[str, object]) -> bool:
+    """Whether ``data`` is a valid experiment config (the campaign's base, to tell whom a
+    condition's error is due to)."""
+    try:
+        load_config(data)
+    except ConfigError:
+        return False
+    return True
+
+
 def _apply(
     data: dict[str, Any], changes: Mapping[str, Any], where: str, *, condition: bool = True
 ) -> dict[str, Any]:
@@ -346,9 +356,8 @@ def campaign_spec(
         for seed in condition_seeds(seeds, index, model.seeding):
             try:
                 configs[(condition.name, seed)] = load_config({**raw, "seed": seed})
-            except ConfigError as exc:  # a key the condition does not set: the base's
-                key = str(exc).split(":", 1)[0]
-                blame = where if key in condition.set else "base (with set and --set)"
+            except ConfigError as exc:  # the base's where it fails alone, else the condition's
+                blame = where if _valid({**base, "seed": seed}) else "base (with set and --set)"
                 raise ConfigError(f"{blame}: {exc}") from None
     base_name = model.base if isinstance(model.base, str) else "inline"
     return CampaignSpec(
@@ -368,7 +377,7 @@ def load_campaign_file(
 ) -> CampaignSpec:
     """Read and validate a campaign TOML file (see the module docstring); ``max_runs``: as
     `campaign_spec`'s."""
-    path = Path(path).expanduser()
+    path = path_argument("path", path, function="load_campaign_file")
     if not path.is_file():  # as `ariel run` says of an experiment file: never opened
         raise ConfigError(f"campaign file {str(path)!r} {not_a_file(path)}")
     data = read_toml_file(path)

@@ -69,6 +69,11 @@ CASES = {
         '[[condition]]\nname = "x"\nset = { "brain.popsize" = 4 }\n[set]\n"brain.iterations" = 0\n',
         "base (with set and --set): brain.iterations: must be greater than or equal to 1",
     ),
+    "a condition whose value breaks a rule across keys": (  # it blamed the base
+        '[set]\n"body.survivors" = "generational"\n"body.population" = 4\n"body.offspring" = 4\n'
+        '[[condition]]\nname = "x"\nset = { "body.offspring" = 2 }\n',
+        "condition 'x': body: generational survival needs offspring >= population",
+    ),
     "unknown key of a condition": (
         '[[condition]]\nname = "x"\nsett = {}\n',
         "unknown key 'condition.0.sett'; allowed: description, name, set",

@@ -827,6 +827,11 @@ def test_a_leading_tilde_is_the_home_folder_for_every_file_of_a_run(
     assert (home / "lineage.csv").is_file()
     shutil.copy(run, home / "tiny.toml")
     assert exit_code(["config", "show", "~/tiny.toml"]) == 0
+    from ariel.cli._view import _png_path  # checked as --screenshot is parsed
+
+    assert _png_path("~/shot.png") == home / "shot.png"
+    # ~user of no such user: left as it is, as a shell leaves it (a traceback before)
+    assert exit_code(["config", "show", "~nosuchuser0/x.toml"]) == 2
     assert not (tmp_path / "~").exists()
 
 

@@ -33,6 +33,7 @@ from ariel.recording.store import check_eval_id, check_run_id, json_file, one_li
 from ariel.simulation.controllers.controller import Controller
 from ariel.simulation.controllers.observations import hinge_observation
 from ariel.simulation.settle import settle_model
+from ariel.utils import path_argument
 
 if TYPE_CHECKING:
     from ariel.recording.store import JsonObject
@@ -191,7 +192,7 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         print(robot.replayed_fitness(), robot.fitness)  # the recorded fitness again
         ```
     """
-    folder = Path(folder).expanduser()
+    folder = path_argument("folder", folder, function="load_exported")
     body, brain = (_read(folder, name) for name in ("genotype.json", "controller.json"))
     eval_id = check_eval_id(brain.get("eval_id"), folder)
     run_id = check_run_id(brain.get("run_id"), folder)
