@@ -6,10 +6,10 @@ loads the co-evolution loop on first use; `console` (upstream ARIEL's shared ric
 ``from ariel import console``) is made on first use.
 """
 
+import random
 from typing import TYPE_CHECKING, Any
 
 from ariel._version import __version__
-from ariel.utils.lazy import keeping_random_state
 
 if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     from rich.console import Console
@@ -29,8 +29,11 @@ def __getattr__(name: str) -> Any:
 
         return run_experiment
     if name == "console":
-        with keeping_random_state():  # rich draws from `random` as it loads
+        state = random.getstate()  # rich draws from `random` as it loads: the caller's draws
+        try:  # stay theirs (`ariel.utils.lazy.keeping_random_state`, not imported by `ariel`)
             from rich.console import Console  # lazy: `import ariel` stays light (rich: ~0.1 s)
+        finally:
+            random.setstate(state)
 
         console = globals()["console"] = Console()  # one shared console, as upstream's
         return console

@@ -149,7 +149,7 @@ def test_a_label_a_million_characters_long_is_cut_at_once() -> None:
     start = time.perf_counter()
     cut = _fitted(draw, "b" + "1" * 1_000_000, _font(13), 200)
     assert time.perf_counter() - start < 1.0
-    assert cut.endswith("…") and draw.textlength(cut, font=_font(13)) <= 200
+    assert cut.startswith("b1") and "…" in cut and draw.textlength(cut, font=_font(13)) <= 200
     assert _fitted(draw, "b000012", _font(13), 200) == "b000012"
 
 
