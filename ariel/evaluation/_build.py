@@ -38,6 +38,7 @@ from ariel.plugins import (
 from ariel.simulation.control_callback import control_callback_unset
 from ariel.simulation.controllers.controller import actuator_bounds
 from ariel.simulation.settle import settle_model
+from ariel.utils.interrupts import raise_pending
 
 if TYPE_CHECKING:
     from ariel.body_phenotypes.robogen_lite.modules.core import CoreModule
@@ -93,6 +94,9 @@ def make_plugin(registry: Registry[Callable[..., T]], name: str, options: dict[s
     except (UnknownPluginError, DuplicatePluginError):
         raise
     except (TypeError, ValueError) as exc:  # an unknown keyword or a bad value: the caller's
+        # unless a stop signal came: its exception, raised inside MuJoCo's bindings, came out
+        # as "incompatible function arguments" (a traceback where Ctrl-C stops the run)
+        raise_pending()
         kind = TypeError if isinstance(exc, TypeError) else ValueError
         raise kind(f"{registry.label} {name!r} rejected options {options}: {exc}") from exc
 

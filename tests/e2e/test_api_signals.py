@@ -72,3 +72,29 @@ def test_sigterm_raises_keyboard_interrupt_in_a_script_and_nohup_s_sighup_is_ign
     assert f"interrupted: Interrupted {run_dir}" in output
     assert json.loads((run_dir / "run.json").read_text())["status"] == "interrupted"
     assert lock_holder(run_dir) is None
+
+
+def test_a_stop_signal_inside_a_binding_that_turns_it_into_a_type_error_still_stops() -> None:
+    """A SIGTERM that arrived while MuJoCo's bindings converted an argument came out as
+    "TypeError: incompatible function arguments" from the world's constructor: a traceback
+    where the run should have been interrupted (seen once in the suite)."""
+    import os
+
+    from ariel.evaluation._build import make_plugin
+    from ariel.plugins import worlds
+    from ariel.utils.interrupts import Interrupted, stop_on_signals
+
+    def binding_world(**options: object) -> object:
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)  # the handler raises in here
+        except KeyboardInterrupt:  # what pybind11 does with it
+            raise TypeError("(): incompatible function arguments") from None
+        raise AssertionError("no signal came")
+
+    worlds.register("test_binding_world", binding_world)
+    try:
+        with stop_on_signals(), pytest.raises(Interrupted):
+            make_plugin(worlds, "test_binding_world", {})
+    finally:
+        worlds.unregister("test_binding_world")
