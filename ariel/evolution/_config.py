@@ -407,8 +407,10 @@ def _validate(data: Mapping[str, object]) -> ExperimentConfig:
 def plain_copy(value: object, key: str, depth: int) -> object:
     """A deep copy of config data as a TOML file gives it: tables as dicts, arrays as lists,
     a NumPy scalar (``np.int64(5)`` from ``np.arange``) as its Python number; anything else is
-    one `ConfigError` naming its key (json.dumps said "int64 is not JSON serializable")."""
-    if depth > MAX_TOML_DEPTH:
+    one `ConfigError` naming its key (json.dumps said "int64 is not JSON serializable").
+    ``depth``: the tables and arrays ``value`` is in, itself counted if it is one; past
+    `MAX_TOML_DEPTH` of them a `ConfigError`, as for a TOML file (walked no deeper)."""
+    if depth > MAX_TOML_DEPTH and isinstance(value, Mapping | list | tuple):
         raise ConfigError(f"config: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
     if isinstance(value, Mapping):
         copied = {}

@@ -42,9 +42,7 @@ def apply_overrides(data: Mapping[str, object], overrides: Sequence[str]) -> dic
     deeper than a TOML file may be (`MAX_TOML_DEPTH`).
     """
     overrides = strings_argument("overrides", overrides, "brain.popsize=16")
-    if nests_deeper_than(dict(data), MAX_TOML_DEPTH):  # before json recurses through it
-        raise ConfigError(f"config: nested too deeply (at most {MAX_TOML_DEPTH} levels)")
-    result = plain_copy(dict(data), "config", 1)
+    result = plain_copy(dict(data), "config", 1)  # also refuses data nested too deeply
     assert isinstance(result, dict)  # a Mapping is copied to a dict
     spelled: dict[str, str] = {}
     for item in overrides:
