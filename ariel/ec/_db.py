@@ -8,12 +8,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sqlalchemy import Engine, create_engine
-from sqlmodel import Session
+from sqlalchemy import Engine, create_engine, func
+from sqlalchemy.exc import StatementError
+from sqlmodel import Session, select
 
 from ariel.ec.individual import Individual, to_json
 
-__all__ = ["fresh_copy", "open_engine", "session"]
+__all__ = ["database_error", "fresh_copy", "open_engine", "readable_engine", "session"]
 
 
 def _json_default(value: Any) -> Any:
@@ -31,6 +32,27 @@ def _dumps(value: Any) -> str:
 def open_engine(path: Path) -> Engine:
     """An engine on the SQLite file ``path`` that can store numpy values in JSON columns."""
     return create_engine(f"sqlite:///{path}", json_serializer=_dumps)
+
+
+def database_error(what: str, error: StatementError) -> ValueError:
+    """One line for an SQLAlchemy error (a statement, its parameters, a web link and the driver's
+    error otherwise): ``what`` failed, and the driver's reason."""
+    reason = error.orig if error.orig is not None else error
+    first = str(reason).splitlines()[0] if str(reason) else type(reason).__name__
+    return ValueError(f"{what}: {first}")
+
+
+def readable_engine(path: Path, role: str) -> Engine:
+    """An engine on ``path`` once a query of its individuals works; ``ValueError`` in one line
+    where the file is not an EA database (a text file, an empty file, another program's)."""
+    engine = open_engine(path)
+    try:
+        with session(engine) as s:
+            s.exec(select(func.count()).select_from(Individual)).one()
+    except StatementError as error:
+        engine.dispose()
+        raise database_error(f"{role} {path} is not an EA database ariel can read", error) from None
+    return engine
 
 
 def session(engine: Engine) -> Session:

@@ -7,13 +7,15 @@ per call for inversion / scramble, as upstream documents.
 
 from __future__ import annotations
 
+import math
+import numbers
 from typing import Any
 
 import numpy as np
 
 from ariel.ec._rng import SeedLike, resolve_rng
 
-__all__ = ["FloatMutator", "IntegerMutator"]
+__all__ = ["FloatMutator", "IntegerMutator", "integer_genes"]
 
 
 def _probability(value: float) -> None:
@@ -21,9 +23,36 @@ def _probability(value: float) -> None:
         raise ValueError(f"mutation_probability must be in [0, 1], not {value!r}")
 
 
-def _bounds(low: float, high: float) -> None:
-    if not low <= high:
-        raise ValueError(f"low must be <= high, got low={low!r} and high={high!r}")
+def _finite(name: str, value: object, *, at_least: float | None = None) -> float:
+    """``value`` as a float when it is a finite real number (``>= at_least`` where given): a NaN
+    or infinite step size or bound otherwise turns every gene it touches into NaN or inf,
+    silently, and the EA stores those genotypes."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        raise TypeError(f"{name} must be a real number, not {value!r}")
+    number = float(value)
+    if not math.isfinite(number) or (at_least is not None and number < at_least):
+        allowed = "a finite number" + (f" >= {at_least:g}" if at_least is not None else "")
+        raise ValueError(f"{name} must be {allowed}, not {value!r}")
+    return number
+
+
+def _bounds(low: float, high: float, *, strict: bool = False) -> None:
+    _finite("low", low)
+    _finite("high", high)
+    if not (low < high if strict else low <= high):
+        sign = "<" if strict else "<="
+        raise ValueError(f"low must be {sign} high, got low={low!r} and high={high!r}")
+
+
+def integer_genes(values: Any, name: str = "individual") -> np.ndarray:
+    """``values`` as an int64 array; a gene that is not a whole number (1.7) is refused, where
+    casting would have cut it to 1 whether or not the gene was chosen to mutate."""
+    genes = np.asarray(values)
+    if genes.dtype.kind == "f" and not np.all(np.isfinite(genes) & (genes == np.round(genes))):
+        raise ValueError(f"{name} must hold whole numbers (an integer genotype), not {values!r}")
+    if genes.dtype.kind not in "biuf":
+        raise ValueError(f"{name} must hold whole numbers, not {genes.dtype} values")
+    return genes.astype(np.int64)
 
 
 def _swap(individual: Any, mutation_probability: float, seed: SeedLike) -> list[Any]:
@@ -63,7 +92,7 @@ class IntegerMutator:
         """Each gene, with the probability, becomes a uniform integer in ``[low, high]``."""
         _probability(mutation_probability)
         _bounds(low, high)
-        genes, rng = np.asarray(individual, dtype=np.int64), resolve_rng(seed)
+        genes, rng = integer_genes(individual), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         fresh = rng.integers(low, high, size=genes.shape, endpoint=True)
         return np.where(mask, fresh, genes).tolist()
@@ -74,9 +103,9 @@ class IntegerMutator:
     ) -> Any:
         """Each gene, with the probability, moves up or down by 1 to ``span``."""
         _probability(mutation_probability)
-        if span < 1:
-            raise ValueError(f"span must be >= 1, not {span!r}")
-        genes, rng = np.asarray(individual, dtype=np.int64), resolve_rng(seed)
+        if not isinstance(span, numbers.Integral) or isinstance(span, bool) or span < 1:
+            raise ValueError(f"span must be a whole number >= 1, not {span!r}")
+        genes, rng = integer_genes(individual), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         step = rng.integers(1, span, size=genes.shape, endpoint=True)
         sign = rng.choice(np.array([-1, 1]), size=genes.shape)
@@ -123,8 +152,13 @@ class FloatMutator:
     ) -> Any:
         """Each gene, with the probability, gets N(0, std²) added; then optionally clipped."""
         _probability(mutation_probability)
-        if std < 0:
-            raise ValueError(f"std must be >= 0, not {std!r}")
+        _finite("std", std, at_least=0.0)
+        if lower_bound is not None and upper_bound is not None:
+            _bounds(lower_bound, upper_bound)  # reversed, np.clip set every gene to the upper
+        else:
+            for name, bound in (("lower_bound", lower_bound), ("upper_bound", upper_bound)):
+                if bound is not None:
+                    _finite(name, bound)
         genes, rng = np.asarray(individual, dtype=np.float64), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         out = genes + mask * rng.normal(0.0, std, size=genes.shape)
@@ -180,10 +214,8 @@ class FloatMutator:
         Larger ``distribution_index`` keeps children closer to the parent gene.
         """
         _probability(mutation_probability)
-        if not low < high:
-            raise ValueError(f"low must be < high, got low={low!r} and high={high!r}")
-        if distribution_index < 0:
-            raise ValueError(f"distribution_index must be >= 0, not {distribution_index!r}")
+        _bounds(low, high, strict=True)
+        _finite("distribution_index", distribution_index, at_least=0.0)
         x = np.clip(np.asarray(individual, dtype=np.float64), low, high)
         rng = resolve_rng(seed)
         mask = rng.random(x.shape) < mutation_probability

@@ -7,6 +7,7 @@ population. Random picks take ``seed=`` (upstream uses SQLite's unseedable ``ran
 from __future__ import annotations
 
 import math
+import numbers
 from pathlib import Path
 from typing import Any, Literal
 
@@ -14,7 +15,7 @@ import numpy as np
 from sqlalchemy import Engine, func
 from sqlmodel import col, select
 
-from ariel.ec._db import fresh_copy, open_engine, session
+from ariel.ec._db import fresh_copy, readable_engine, session
 from ariel.ec._rng import SeedLike, resolve_rng
 from ariel.ec.individual import Individual
 from ariel.ec.population import Population
@@ -23,6 +24,14 @@ __all__ = ["Archive"]
 
 FitnessMode = Literal["min", "max"]
 Range = tuple[float, float] | None
+
+
+def _count(name: str, value: object, minimum: int = 0) -> int:
+    """A whole number >= ``minimum`` (a NumPy integer too): SQL reads ``LIMIT -1`` as "no
+    limit", so ``hall_of_fame(-1)`` returned every individual."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < minimum:
+        raise ValueError(f"{name} must be a whole number >= {minimum}, not {value!r}")
+    return int(value)
 
 
 def _check_mode(fitness_mode: str) -> None:
@@ -38,13 +47,14 @@ class Archive:
 
     Raises:
         FileNotFoundError: ``db_path`` is not an existing file.
+        ValueError: ``db_path`` is not an EA database (no ``individual`` table, not SQLite).
     """
 
     def __init__(self, db_path: Path | str) -> None:
         self.db_path = Path(db_path)
         if not self.db_path.is_file():
             raise FileNotFoundError(f"archive database not found: {self.db_path}")
-        self.engine: Engine = open_engine(self.db_path)
+        self.engine: Engine = readable_engine(self.db_path, "archive database")
 
     # -- helpers -------------------------------------------------------------------------
 
@@ -137,8 +147,7 @@ class Archive:
         seed: SeedLike = None,
     ) -> Population:
         """Up to ``n`` evaluated individuals drawn without replacement."""
-        if n < 0:
-            raise ValueError(f"n must be >= 0, not {n!r}")
+        n = _count("n", n)
         ids_query = self._filters(
             select(Individual.id),
             birth_range=birth_range,
@@ -164,6 +173,7 @@ class Archive:
         death_range: Range = None,
     ) -> Population:
         """The ``n`` best individuals of all time, best first."""
+        n = _count("n", n)
         return self._ranked(fitness_mode, n, birth_range=birth_range, death_range=death_range)
 
     def tournament_population(
@@ -180,6 +190,10 @@ class Archive:
         """``n`` winners of tournaments of ``tournament_size`` over a random pool of
         ``n * pool_multiplier`` archived individuals."""
         _check_mode(fitness_mode)
+        n = _count("n", n)
+        pool_multiplier = _count("pool_multiplier", pool_multiplier, 1)
+        if n == 0:
+            return Population([])
         rng = resolve_rng(seed)
         pool = self.random_population(
             n * pool_multiplier, birth_range=birth_range, death_range=death_range, seed=rng

@@ -7,6 +7,7 @@ genes stay integers (upstream turns every gene into a float).
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Sequence
 from typing import Any
 
@@ -51,8 +52,11 @@ class Crossover:
     def n_point(parent_i: Any, parent_j: Any, n: int, *, seed: SeedLike = None) -> tuple[Any, Any]:
         """``n`` distinct cuts; every other segment (the 2nd, 4th, ...) is swapped."""
         shape, a, b = _flat_pair(parent_i, parent_j)
-        if not isinstance(n, int) or not 1 <= n < a.size:
-            raise ValueError(f"n must be a whole number in [1, genes - 1] = [1, {a.size - 1}]")
+        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or not 1 <= n < a.size:
+            raise ValueError(
+                f"n must be a whole number in [1, genes - 1] = [1, {a.size - 1}], not {n!r}"
+            )
+        n = int(n)
         cuts = np.sort(resolve_rng(seed).choice(np.arange(1, a.size), size=n, replace=False))
         # Segment index of each gene = number of cuts at or before it; odd segments swap.
         swap = (np.searchsorted(cuts, np.arange(a.size), side="right") % 2) == 1

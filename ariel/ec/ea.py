@@ -8,6 +8,7 @@ the end of a generation, in-place tag changes saved) are listed in docs/decision
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -15,10 +16,11 @@ from typing import Any, Literal
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 from sqlalchemy import Engine, func, or_
+from sqlalchemy.exc import StatementError
 from sqlalchemy.orm.attributes import flag_modified
 from sqlmodel import SQLModel, col, select
 
-from ariel.ec._db import fresh_copy, open_engine, session
+from ariel.ec._db import database_error, fresh_copy, open_engine, readable_engine, session
 from ariel.ec._operation import EAOperation, EAStep, run_operation
 from ariel.ec._settings import DBHandlingMode, EASettings, config
 from ariel.ec.individual import Individual
@@ -40,7 +42,7 @@ def _load_restart(restart: Restart) -> tuple[Population, int]:
         raise ValueError(f"restart must be a database path or (path, generation), not {restart!r}")
     if not path.is_file():
         raise FileNotFoundError(f"restart database not found: {path}")
-    engine = open_engine(path)
+    engine = readable_engine(path, "restart database")
     try:
         with session(engine) as s:
             if generation is None:
@@ -147,35 +149,57 @@ class EA:
         self.num_steps: int = steps
         self.console = Console(quiet=config.quiet if quiet is None else quiet)
         self.db_file_path = target
-        self.engine: Engine = self._setup_database(
-            self.db_file_path, db_handling or config.db_handling
-        )
+        members = list(population)
+        for k, ind in enumerate(members):
+            if not isinstance(ind, Individual):
+                raise TypeError(
+                    f"population[{k}] must be an Individual, not {type(ind).__name__} {ind!r:.40}"
+                )
         # Individuals saved in another database (e.g. another run's best) start as new rows.
         self.population = Population(
             ind if ind.id is None else fresh_copy(ind, time_of_birth=-1, time_of_death=-1)
-            for ind in population
+            for ind in members
         )
-        self._commit()
+        self.engine: Engine = self._setup_database(target, db_handling or config.db_handling)
         self.console.rule("[blue]EA Initialized")
 
     # -- database ------------------------------------------------------------------------
 
     def _setup_database(self, path: Path, db_handling: str) -> Engine:
-        """A fresh database at ``path``; an existing file is deleted or refused."""
+        """A fresh database at ``path`` holding the initial population; an existing file is
+        replaced or refused. The new one is written beside it and takes its place only once
+        the population is saved: a population that cannot be saved leaves the old file whole.
+        """
         if db_handling not in ("delete", "halt"):
             raise ValueError(f"db_handling must be 'delete' or 'halt', not {db_handling!r}")
-        if path.exists():
-            if db_handling == "halt":
-                raise FileExistsError(f"database {path} exists and db_handling is 'halt'")
-            self.console.log(f"Database {path} exists: deleting it (db_handling='delete')")
-            path.unlink()
+        if path.exists() and db_handling == "halt":
+            raise FileExistsError(f"database {path} exists and db_handling is 'halt'")
         path.parent.mkdir(parents=True, exist_ok=True)
-        engine = open_engine(path)
-        SQLModel.metadata.create_all(engine)
-        return engine
+        fresh = path.with_name(f".{path.name}.new-{os.getpid()}")
+        fresh.unlink(missing_ok=True)
+        self.engine = open_engine(fresh)
+        try:
+            SQLModel.metadata.create_all(self.engine)
+            self._commit()
+        except BaseException:
+            self.engine.dispose()
+            fresh.unlink(missing_ok=True)
+            raise
+        self.engine.dispose()
+        if path.exists():
+            self.console.log(f"Database {path} exists: replacing it (db_handling='delete')")
+        os.replace(fresh, path)
+        return open_engine(path)
 
     def _commit(self) -> None:
         """Save the population: birth generation if unset, death generation = now."""
+        try:
+            self._save()
+        except StatementError as error:
+            where = f"cannot save the population to {self.db_file_path}"
+            raise database_error(where, error) from None
+
+    def _save(self) -> None:
         with session(self.engine) as s:
             for ind in self.population:
                 if ind.time_of_birth == -1:

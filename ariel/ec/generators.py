@@ -7,12 +7,13 @@ Python lists ready to store as a genotype.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from ariel.ec._mutators import FloatMutator, IntegerMutator
+from ariel.ec._mutators import FloatMutator, IntegerMutator, _bounds, _finite, integer_genes
 from ariel.ec._rng import SEED, SeedLike, resolve_rng, set_seed
 
 __all__ = [
@@ -44,6 +45,8 @@ class IntegersGenerator:
         seed: SeedLike = None,
     ) -> Any:
         """Uniform integers in ``[low, high]`` (``[low, high)`` with ``endpoint=False``)."""
+        if not low <= high:  # numpy says only "low > high", naming neither
+            raise ValueError(f"low must be <= high, got low={low!r} and high={high!r}")
         return resolve_rng(seed).integers(low, high, size=size, endpoint=endpoint).tolist()
 
     @staticmethod
@@ -58,6 +61,8 @@ class IntegersGenerator:
         seed: SeedLike = None,
     ) -> Any:
         """Draws from ``value_set`` (an int ``n`` means ``range(n)``), as ``Generator.choice``."""
+        if not isinstance(value_set, int):
+            value_set = integer_genes(value_set, "value_set").tolist()
         drawn = resolve_rng(seed).choice(
             value_set, size=size, replace=replace, p=probabilities, axis=axis, shuffle=shuffle
         )
@@ -66,6 +71,8 @@ class IntegersGenerator:
     @staticmethod
     def permutation(n: int, *, seed: SeedLike = None) -> list[int]:
         """A random ordering of ``0 .. n - 1``."""
+        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 0:
+            raise ValueError(f"n must be a whole number >= 0, not {n!r}")
         return resolve_rng(seed).permutation(n).tolist()
 
 
@@ -75,6 +82,7 @@ class FloatsGenerator:
     @staticmethod
     def uniform(low: float, high: float, size: Size = 1, *, seed: SeedLike = None) -> Any:
         """Uniform floats in ``[low, high)``."""
+        _bounds(low, high)
         return resolve_rng(seed).uniform(low, high, size=size).tolist()
 
     @staticmethod
@@ -82,8 +90,8 @@ class FloatsGenerator:
         mean: float = 0.0, std: float = 1.0, size: Size = 1, *, seed: SeedLike = None
     ) -> Any:
         """Gaussian floats with the given mean and standard deviation."""
-        if std < 0:
-            raise ValueError(f"std must be >= 0, not {std!r}")
+        _finite("mean", mean)
+        _finite("std", std, at_least=0.0)
         return resolve_rng(seed).normal(mean, std, size=size).tolist()
 
     @staticmethod
@@ -91,8 +99,8 @@ class FloatsGenerator:
         mean: float = 0.0, sigma: float = 1.0, size: Size = 1, *, seed: SeedLike = None
     ) -> Any:
         """Log-normal floats (``mean`` and ``sigma`` of the underlying normal)."""
-        if sigma < 0:
-            raise ValueError(f"sigma must be >= 0, not {sigma!r}")
+        _finite("mean", mean)
+        _finite("sigma", sigma, at_least=0.0)
         return resolve_rng(seed).lognormal(mean, sigma, size=size).tolist()
 
     @staticmethod

@@ -349,3 +349,45 @@ def test_individuals_from_another_run_seed_a_new_run(tmp_path: Path) -> None:
         champion.genotype,
         0,
     )
+
+
+def test_a_population_that_cannot_be_saved_leaves_the_old_database_whole(tmp_path: Path) -> None:
+    """The default db_handling="delete" removed the old file before the population was
+    checked: a malformed population cost a whole earlier run."""
+    _run_ea(tmp_path, "keep.db", steps=1)
+
+    def rows() -> int:
+        with sqlite3.connect(tmp_path / "keep.db") as db:
+            return db.execute("select count(*) from individual").fetchone()[0]
+
+    before = rows()
+    with pytest.raises(TypeError, match=r"population\[0\] must be an Individual, not int"):
+        EA([1, 2], [evaluate], quiet=True, db_file_path=tmp_path / "keep.db")  # type: ignore
+    with pytest.raises(ValueError, match=r"cannot save the population to .*keep.db: ") as error:
+        EA([Individual(alive="x")], [evaluate], quiet=True, db_file_path=tmp_path / "keep.db")
+    assert "\n" not in str(error.value) and before == rows() > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.db"]  # no half-made file left
+    EA(Population([_ind([1.0], 1.0)]), [evaluate], quiet=True, db_file_path=tmp_path / "keep.db")
+    assert rows() == 1  # a good population still replaces it
+
+
+@pytest.mark.parametrize("content", [b"", b"not a database\n" * 40])
+def test_a_file_that_is_not_an_ea_database_is_one_line(tmp_path: Path, content: bytes) -> None:
+    bad = tmp_path / "bad.db"
+    bad.write_bytes(content)
+    for call in (
+        lambda: Archive(bad),
+        lambda: EA(None, [evaluate], restart=bad, db_file_path=tmp_path / "new.db"),
+    ):
+        with pytest.raises(ValueError, match="is not an EA database ariel can read") as error:
+            call()
+        assert "\n" not in str(error.value) and "sqlalche.me" not in str(error.value)
+
+
+def test_archive_counts_are_whole_numbers_from_zero(tmp_path: Path) -> None:
+    _run_ea(tmp_path, steps=1)
+    archive = Archive(tmp_path / "db.db")
+    with pytest.raises(ValueError, match="n must be a whole number >= 0, not -1"):
+        archive.hall_of_fame(-1)  # SQL's LIMIT -1 returned every individual
+    assert len(archive.tournament_population(0)) == 0
+    assert len(archive.hall_of_fame(np.int64(2))) == 2

@@ -83,7 +83,7 @@ def test_order_crossover_gives_permutations_keeping_a_slice() -> None:
         (lambda: Crossover.one_point(["a", "b"], ["c", "d"]), "must hold numbers"),
         (lambda: FloatMutator.gaussian([1.0], 0.1, 2.0), "mutation_probability"),
         (lambda: IntegerMutator.random_reset([1], 5, 1, 0.5), "low must be <= high"),
-        (lambda: IntegerMutator.integer_creep([1], 0, 0.5), "span must be >= 1"),
+        (lambda: IntegerMutator.integer_creep([1], 0, 0.5), "span must be a whole number >= 1"),
         (lambda: FloatsGenerator.uniform(0, 1, seed=-1), "seed must be"),
         (lambda: set_seed(-3), "seed must be"),
     ],
@@ -149,3 +149,41 @@ def test_set_seed_makes_unseeded_calls_repeat() -> None:
     assert (Crossover.one_point(list(range(9)), list(range(9, 18))), FloatsGenerator.normal()) == (
         first
     )
+
+
+@pytest.mark.parametrize(
+    ("call", "named"),
+    [
+        (lambda: FloatMutator.gaussian([1.0, 2.0], float("nan"), 1.0, seed=1), "std"),
+        (lambda: FloatMutator.gaussian([1.0, 2.0], float("inf"), 1.0, seed=1), "std"),
+        (lambda: FloatMutator.gaussian([1.0], 0.1, 1.0, lower_bound=5, upper_bound=0), "low"),
+        (lambda: FloatMutator.polynomial([0.5], 0, 1, 1.0, distribution_index=np.nan), "index"),
+        (lambda: FloatMutator.polynomial([0.5], 0, np.inf, 1.0), "high"),
+        (lambda: FloatMutator.uniform_reset([0.5], -np.inf, 1, 1.0), "low"),
+        (lambda: FloatsGenerator.normal(0, float("nan"), 3), "std"),
+        (lambda: FloatsGenerator.lognormal(float("inf"), 1.0), "mean"),
+        (lambda: FloatsGenerator.uniform(float("nan"), 1), "low"),
+        (lambda: IntegersGenerator.integers(5, 1, 3), "low must be <= high"),
+        (lambda: IntegersGenerator.permutation(-1), "n must be"),
+        (lambda: IntegersGenerator.choice([1.7, 2.9]), "whole numbers"),
+        (lambda: IntegerMutator.random_reset([1.7, 2.2], 0, 5, 0.0), "whole numbers"),
+    ],
+)
+def test_non_finite_and_reversed_settings_are_refused_not_turned_into_nan_genes(
+    call: Any, named: str
+) -> None:
+    """A NaN or infinite step size or bound made NaN/inf genes that the EA stored; a reversed
+    pair of clip bounds clipped every gene to the upper one; a float gene was cut to an int."""
+    with pytest.raises(ValueError, match=named):
+        call()
+
+
+def test_numpy_integers_count_as_whole_numbers_and_bools_do_not() -> None:
+    from ariel.ec import Individual, Population
+
+    a, b = list(range(6)), list(range(6, 12))
+    assert Crossover.n_point(a, b, np.int64(1), seed=0) == Crossover.n_point(a, b, 1, seed=0)
+    with pytest.raises(ValueError, match=r"\[1, 5\], not True"):
+        Crossover.n_point(a, b, True, seed=0)
+    pop = Population(Individual() for _ in range(3))
+    assert len(pop.best(n=np.int64(2))) == 2 and len(pop.sample(np.int64(2), seed=0)) == 2
