@@ -148,6 +148,11 @@ def mujoco_module() -> ModuleType:
     return mujoco
 
 
+#: The largest image side rendered: the common limit of OpenGL framebuffers (16384). Above
+#: it, making the GL context failed and the error blamed a missing OpenGL backend.
+MAX_IMAGE_SIDE = 16384
+
+
 def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """Create a ``mujoco.Renderer`` of ``width`` x ``height`` pixels, headless-friendly.
 
@@ -160,6 +165,11 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
     if not (isinstance(width, int) and isinstance(height, int)) or width <= 0 or height <= 0:
         raise ValueError(
             f"image size must be positive integers, got width={width!r}, height={height!r}"
+        )
+    if max(width, height) > MAX_IMAGE_SIDE:  # GL's framebuffer refuses it as "no backend"
+        raise ValueError(
+            f"image size must be at most {MAX_IMAGE_SIDE} pixels a side, got width={width}, "
+            f"height={height}"
         )
     renderer_cls = getattr(mujoco, "Renderer", None)
     if renderer_cls is None:  # mujoco could not import its rendering module at all

@@ -9,6 +9,7 @@ callback, so several simulations can run in threads.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Protocol
 
 import mujoco
@@ -73,14 +74,14 @@ def simple_runner(
     total = num_steps(model, duration)
     if (
         isinstance(steps_per_loop, bool)
-        or not isinstance(steps_per_loop, int)
+        or not isinstance(steps_per_loop, numbers.Integral)
         or steps_per_loop < 1
     ):
         raise ValueError(f"steps_per_loop must be an integer >= 1; got {steps_per_loop!r}")
     mujoco.mj_resetData(model, data)
     remaining = total
     while remaining > 0:
-        chunk = min(steps_per_loop, remaining)
+        chunk = min(int(steps_per_loop), remaining)
         mujoco.mj_step(model, data, nstep=chunk)
         remaining -= chunk
 

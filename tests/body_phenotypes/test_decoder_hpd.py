@@ -419,3 +419,9 @@ def test_numpy_forward_decodes_to_the_same_graphs() -> None:
         # Float32 differences of ~1e-7 could in principle flip a near-tie; none here.
         assert list(g_torch.nodes(data=True)) == list(g_numpy.nodes(data=True))
         assert _edges(g_torch) == _edges(g_numpy)
+
+
+def test_a_graph_asked_for_before_decoding_is_refused_not_empty() -> None:
+    """Out of order, generate_networkx_graph gave an empty graph as if it were a body."""
+    with pytest.raises(ValueError, match=r"no modules decoded yet.*probability_matrices_to_graph"):
+        HighProbabilityDecoder(5).generate_networkx_graph()

@@ -209,3 +209,15 @@ def test_controller_with_nacpg_matches_vectorised_path() -> None:
         expected.append(ctrl)
     assert len(recorded) == 30
     np.testing.assert_array_equal(np.array(recorded), np.array(expected))
+
+
+def test_output_of_another_shape_or_none_and_a_text_alpha_are_one_line_errors() -> None:
+    _spec, model, data = tiny()
+    with pytest.raises(ValueError, match=r"shape \(2, 4\); model has 8 actuators"):
+        controller_module._as_controls(np.zeros((2, 4)), 8)  # was flattened into 8 controls
+    Controller(lambda m, d: [[0.1], [0.2]]).set_control(model, data)  # a column: one per joint
+    with pytest.raises(TypeError, match="returned None"):
+        Controller(lambda m, d: None).set_control(model, data)
+    with pytest.raises(TypeError, match="Controller: alpha must be a number"):
+        Controller(wave, alpha="0.5")  # type: ignore[arg-type]
+    simple_runner(model, data, duration=0.01, steps_per_loop=np.int64(2))  # type: ignore

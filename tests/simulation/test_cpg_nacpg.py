@@ -16,6 +16,7 @@ import torch
 
 from ariel.simulation.controllers import cpg_kernel as ck
 from ariel.simulation.controllers.na_cpg import NaCPG, create_fully_connected_adjacency
+from ariel.simulation.controllers.simple_cpg import SimpleCPG
 
 
 def make_cpg(n: int = 8, **kwargs) -> NaCPG:
@@ -283,3 +284,15 @@ def test_kernel_and_controller_modules_do_not_import_torch() -> None:
         "assert 'torch' in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+@pytest.mark.parametrize("make", [make_cpg, lambda: SimpleCPG(create_fully_connected_adjacency(3))])
+def test_a_time_far_ahead_is_refused_not_integrated_for_hours(make) -> None:
+    """forward(time) integrates to ``time``: an epoch or wall-clock time hung for hours."""
+    cpg = make()
+    name = type(cpg).__name__
+    with pytest.raises(ValueError, match=rf"{name}.forward\(time\): .* at most 1,000,000"):
+        cpg.forward(1.7e9)
+    with pytest.raises(ValueError, match="finite"):
+        cpg.forward(float("nan"))
+    assert cpg.forward(0.05).shape == (cpg.n if hasattr(cpg, "n") else 3,)

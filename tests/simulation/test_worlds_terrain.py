@@ -217,3 +217,11 @@ def test_heightmap_helpers():
         flat_heightmap((1, 5))
     with pytest.raises(ValueError, match="inner_radius"):
         amphitheatre_heightmap((5, 5), inner_radius=0.5, outer_radius=0.2)
+
+
+def test_unseeded_terrain_follows_numpys_global_seed():
+    """seed=None drew OS entropy: np.random.seed before it did not make it repeat."""
+    np.random.seed(3)
+    first = hfield_data(environments.RuggedTerrainWorld(seed=None))
+    np.random.seed(3)
+    assert np.array_equal(first, hfield_data(environments.RuggedTerrainWorld(seed=None)))

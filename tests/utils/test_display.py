@@ -32,3 +32,13 @@ def test_a_display_counts_only_when_it_answers(
     with socket.socket(socket.AF_UNIX) as compositor:
         compositor.bind(str(tmp_path / "wayland-7"))
         assert has_display()
+
+
+def test_an_image_larger_than_a_framebuffer_is_named_not_blamed_on_opengl() -> None:
+    import mujoco
+
+    from ariel.utils._gl import create_renderer
+
+    model = mujoco.MjModel.from_xml_string("<mujoco/>")
+    with pytest.raises(ValueError, match="at most 16384 pixels a side, got width=1000000"):
+        create_renderer(model, 10**6, 10**6)  # said "no OpenGL backend available"

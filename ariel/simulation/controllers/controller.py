@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ariel.utils import number_argument
 from ariel.utils.tracker import Tracker
 
 __all__ = ["DEFAULT_CTRL_BOUND", "Controller", "Tracker", "actuator_bounds", "blend_and_clip"]
@@ -84,6 +85,10 @@ def _as_controls(out: Any, nu: int) -> np.ndarray:
     """Callback output -> float64 ``(nu,)``; one-line errors for wrong size or NaN/inf."""
     if hasattr(out, "detach"):  # torch tensor (without importing torch)
         out = out.detach().cpu().numpy()
+    if out is None:
+        raise TypeError(
+            f"controller returned None; it must return {nu} numbers (a return missing?)"
+        )
     try:
         values = np.asarray(out, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
@@ -91,8 +96,11 @@ def _as_controls(out: Any, nu: int) -> np.ndarray:
             f"controller must return {nu} numbers (list, numpy array or tensor); "
             f"got {type(out).__name__}"
         ) from None
-    if values.size != nu:
-        raise ValueError(f"controller returned {values.size} values; model has {nu} actuators")
+    if values.size != nu or (np.ndim(out) > 1 and max(np.shape(out)) != nu):
+        shape = (
+            f"an array of shape {np.shape(out)}" if np.ndim(out) > 1 else f"{values.size} values"
+        )
+        raise ValueError(f"controller returned {shape}; model has {nu} actuators")
     if not np.all(np.isfinite(values)):
         bad = "NaN" if np.isnan(values).any() else "inf"
         raise ValueError(f"controller returned {bad} control values: {values.tolist()}")
@@ -171,6 +179,7 @@ class Controller:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1; got {value!r}")
+        self.alpha = number_argument("Controller: alpha", self.alpha, what="a number in [0, 1]")
         if not (math.isfinite(self.alpha) and 0.0 <= self.alpha <= 1.0):
             raise ValueError(f"alpha must be in [0, 1]; got {self.alpha}")
 

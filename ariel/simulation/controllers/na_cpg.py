@@ -46,10 +46,13 @@ from ariel.simulation.controllers.cpg_kernel import (
 )
 from ariel.utils import count_argument, number_argument
 
-__all__ = ["NaCPG", "create_fully_connected_adjacency"]
+__all__ = ["MAX_STEPS_PER_CALL", "NaCPG", "create_fully_connected_adjacency", "time_step"]
 
 _TWO_PI = 2.0 * math.pi
 _B_INIT_RANGE = 0.1  # b ~ U(-0.1, 0.1) rad: a small offset, so a random network stays centred
+#: Most internal steps one `NaCPG.forward` call integrates (10,000 s at dt 0.01; about 45 s of
+#: work for 8 nodes): a wall-clock or epoch ``time`` would otherwise run for hours unannounced.
+MAX_STEPS_PER_CALL = 1_000_000
 
 
 def create_fully_connected_adjacency(num_nodes: int) -> dict[int, list[int]]:
@@ -70,6 +73,42 @@ def create_fully_connected_adjacency(num_nodes: int) -> dict[int, list[int]]:
         "num_nodes", num_nodes, maximum=MAX_CPG_NODES, function="create_fully_connected_adjacency"
     )
     return {i: [j for j in range(num_nodes) if j != i] for i in range(num_nodes)}
+
+
+def time_step(owner: str, time: object, dt: float, last: int) -> tuple[int, bool]:
+    """The internal step a CPG's ``forward(time)`` integrates to, and whether it restarts
+    first (``time`` 0, or a step before ``last``).
+
+    Args:
+        owner: The CPG class's name, for the messages.
+        time: Simulated seconds (a number >= 0, finite).
+        dt: The CPG's internal step, in seconds.
+        last: The step the CPG is at.
+
+    Returns:
+        ``(target step, restart)``.
+
+    Raises:
+        TypeError: If ``time`` is not a number.
+        ValueError: If ``time`` is negative, NaN or infinite, or lies more than
+            `MAX_STEPS_PER_CALL` steps past where the CPG is.
+    """
+    where = f"{owner}.forward(time)"
+    t = time if type(time) is float else number_argument(f"{owner}.forward: time", time)
+    if not math.isfinite(t):
+        raise ValueError(f"{where}: time must be finite, not NaN or inf; got {t}")
+    target = math.floor(t / dt + STEP_TOLERANCE)
+    if target < 0:
+        raise ValueError(f"{where}: time must be >= 0; got {t}")
+    restart = abs(t) <= 1e-8 or target < last
+    ahead = target - (0 if restart else last)
+    if ahead > MAX_STEPS_PER_CALL:
+        raise ValueError(
+            f"{where}: time {t:g} s is {ahead:,} steps of dt={dt:g} s past the last call; at "
+            f"most {MAX_STEPS_PER_CALL:,} at a time (time is simulated seconds, such as "
+            "data.time, not wall-clock or epoch time)"
+        )
+    return target, restart
 
 
 def _check_seed(seed: Any) -> int | None:
@@ -362,15 +401,8 @@ class NaCPG(nn.Module):
         if time is None:
             target = self._step + 1
         else:
-            t = time if type(time) is float else number_argument("NaCPG.forward: time", time)
-            if not math.isfinite(t):
-                raise ValueError(
-                    f"NaCPG.forward(time): time must be finite, not NaN or inf; got {t}"
-                )
-            target = math.floor(t / self.dt + STEP_TOLERANCE)
-            if target < 0:
-                raise ValueError(f"NaCPG.forward(time): time must be >= 0; got {t}")
-            if abs(t) <= 1e-8 or target < self._step:
+            target, restart = time_step("NaCPG", time, self.dt, self._step)
+            if restart:
                 self.reset()
         # Plain attributes are written through __dict__: nn.Module.__setattr__ costs
         # microseconds per call, and forward() runs once per control period.

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ariel.simulation.controllers.na_cpg import create_fully_connected_adjacency
+from ariel.simulation.controllers.na_cpg import create_fully_connected_adjacency, time_step
 
 __all__ = ["SimpleCPG", "create_fully_connected_adjacency"]
 
@@ -192,8 +192,8 @@ class SimpleCPG(nn.Module):
         if time is None:
             self._step()
         else:
-            target = math.floor(float(time) / self.dt + 1e-9)
-            if abs(float(time)) <= 1e-8 or target < self._steps:
+            target, restart = time_step("SimpleCPG", time, self.dt, self._steps)
+            if restart:
                 self.reset()
             while self._steps < target:
                 self._step()

@@ -85,7 +85,8 @@ class OlympicArena(BaseWorld):
       that nothing collides with) stands at its centre, ``self.target_position``.
 
     Walls `wall_height` high (above the floor beside them) run along both sides and both ends.
-    Deterministic by default (seed 42); ``seed=None`` draws fresh hills.
+    Deterministic by default (seed 42); ``seed=None`` draws fresh hills from
+    NumPy's global RNG (``np.random.seed`` makes them repeat).
 
     Args:
         name: the world's name (a non-empty string); ``None`` gives ``"olympic_arena"``.
@@ -101,7 +102,8 @@ class OlympicArena(BaseWorld):
         rugged_scale: the Perlin noise's feature size, in heightfield pixels per lattice cell
             (> 0).
         rugged_height: the total height of the rugged hills, in metres (> 0).
-        seed: the hills' noise seed (same seed, same hills); ``None`` draws a fresh one.
+        seed: the hills' noise seed (same seed, same hills); ``None`` draws one from NumPy's
+            global RNG.
         checker_floor: checkered floors (``True``) or plain-coloured ones.
         timestep: the physics step in seconds (> 0); ``None`` gives 0.002.
         mujoco_config: ``spec.option`` overrides, applied last (see `BaseWorld`).

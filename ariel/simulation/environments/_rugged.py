@@ -29,7 +29,8 @@ class RuggedTerrainWorld(CompoundWorld):
     """Heightmap = Perlin noise (`scale_of_noise` pixels per lattice cell) x a smooth edge mask.
 
     With the default floor_size (10, 10, 1) the hills span 0.5 m. Deterministic by default
-    (seed 42); ``seed=None`` draws a fresh terrain each time.
+    (seed 42); ``seed=None`` draws a fresh terrain each time, from NumPy's global RNG
+    (``np.random.seed`` makes it repeat).
 
     Args:
         name: the world's name (a non-empty string); ``None`` gives ``"rugged-world"``.

@@ -24,16 +24,21 @@ def _fade(t: np.ndarray) -> np.ndarray:
 
 
 class PerlinNoise:
-    """Seeded 2-D Perlin noise; same seed, same noise (``seed=None``: fresh entropy).
+    """Seeded 2-D Perlin noise; same seed, same noise (``seed=None``: NumPy's global RNG).
 
     Args:
         seed: seeds the noise's own ``np.random.default_rng`` (the global RNGs are left alone);
-            ``None`` draws fresh entropy.
+            ``None`` draws the seed from NumPy's global RNG, so ``np.random.seed(n)`` before
+            makes an unseeded terrain repeat, as every other stochastic component does.
     """
 
     def __init__(self, seed: int | None = None) -> None:
         self.seed = seed
-        permutation = np.random.default_rng(seed).permutation(256)
+        if seed is None:  # four 32-bit words of NumPy's global state, as ariel.ec does
+            drawn = np.random.randint(0, 2**32, size=4, dtype=np.uint64)
+            permutation = np.random.default_rng(drawn).permutation(256)
+        else:
+            permutation = np.random.default_rng(seed).permutation(256)
         self.permutation = np.concatenate([permutation, permutation]).astype(np.intp)
         angles = np.arange(8) * (np.pi / 4.0)
         self.gradients = np.stack([np.cos(angles), np.sin(angles)], axis=1)

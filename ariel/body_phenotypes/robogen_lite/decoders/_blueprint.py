@@ -45,7 +45,16 @@ class Blueprint:
 
     def generate_networkx_graph(self) -> None:
         """Add ``nodes`` (ascending, with ``type`` and ``rotation`` names) and ``edges`` (with
-        the ``face`` name; a face may be a ``ModuleFaces`` or its value) to ``graph``."""
+        the ``face`` name; a face may be a ``ModuleFaces`` or its value) to ``graph``.
+
+        Raises:
+            ValueError: If nothing was decoded yet (no ``nodes``): an empty graph would
+                otherwise come back as if it were a body.
+        """
+        if not self.nodes:
+            steps = getattr(self, "_ENTRY", "the decoder's steps")
+            msg = f"no modules decoded yet (nodes is empty): call {steps} first"
+            raise ValueError(msg)
         types, rotations = self.type_dict, self.rot_dict
         self.graph.add_nodes_from(
             (node, {"type": types[node].name, "rotation": rotations[node].name})
