@@ -3,15 +3,26 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
-from pydantic import Field, computed_field
+from pydantic import Field, ValidationError, computed_field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 __all__ = ["DBHandlingMode", "EASettings", "config"]
 
 #: What `EA` does when its database file already exists: delete it, or stop with an error.
 DBHandlingMode = Literal["delete", "halt"]
+
+
+def _one_line(error: ValidationError) -> ValueError:
+    """pydantic's several lines (a count, the field, the reason, a web link) as one: the
+    setting, its variable, what it must be and what it got."""
+    first = error.errors()[0]
+    name = ".".join(str(part) for part in first["loc"]) or "settings"
+    return ValueError(
+        f"ariel.ec config {name} (ARIEL_EC_{name.upper()}): {first['msg']}; "
+        f"got {first.get('input')!r}"
+    )
 
 
 class EASettings(BaseSettings):
@@ -47,6 +58,18 @@ class EASettings(BaseSettings):
     output_folder: Path = Field(default_factory=lambda: Path.cwd() / "__data__")
     db_file_name: str = "database.db"
     db_handling: DBHandlingMode = "delete"
+
+    def __init__(self, **values: Any) -> None:
+        try:
+            super().__init__(**values)
+        except ValidationError as error:  # an ARIEL_EC_* variable, read as the package loads
+            raise _one_line(error) from None
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        try:
+            super().__setattr__(name, value)
+        except ValidationError as error:
+            raise _one_line(error) from None
 
     @computed_field  # type: ignore[prop-decorator]
     @property

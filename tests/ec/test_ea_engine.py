@@ -318,6 +318,16 @@ def test_easettings_defaults_and_env_override(monkeypatch: pytest.MonkeyPatch) -
     assert EASettings().num_steps == 7
     with pytest.raises(ValueError, match="db_handling"):
         EASettings(db_handling="keep")  # type: ignore[arg-type]
+    monkeypatch.setenv("ARIEL_EC_NUM_STEPS", "abc")  # was pydantic's 4 lines and a web link
+    with pytest.raises(
+        ValueError, match=r"^ariel.ec config num_steps \(ARIEL_EC_NUM_STEPS\): .*'abc'$"
+    ):
+        EASettings()
+    with pytest.raises(
+        ValueError, match=r"^ariel.ec config num_steps .*equal to 0; got -1$"
+    ) as error:
+        config.num_steps = -1
+    assert "\n" not in str(error.value) and config.num_steps >= 0
 
 
 def test_archive_queries_repeat_with_a_seed(tmp_path: Path) -> None:
