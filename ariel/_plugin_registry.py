@@ -392,6 +392,9 @@ class Registry(Generic[T]):
         factory = self.get(name)
         if not callable(factory):
             raise TypeError(f"{self.label} '{name}' is not callable; use get('{name}')")
+        unknown = utils.unknown_option(factory, options)
+        if unknown is not None:
+            raise TypeError(unknown)
         return factory(**options)
 
     def provenance(self, name: str) -> dict[str, str | None]:

@@ -119,6 +119,17 @@ RUN_CASES: dict[str, RunCase] = {
     "unknown-fitness": RunCase(
         "task.fitness: unknown fitness function 'nope'", _edit(BASE, "task", 'fitness = "nope"')
     ),
+    # an option the plugin has no keyword for: named, with the ones it has (Python's own
+    # "__init__() got an unexpected keyword argument" named none)
+    "unknown-encoder-option": RunCase(
+        "body.options: body encoder 'nde': unknown option 'colour'; allowed: number_of_modules,",
+        BASE.replace("options = { number_of_modules = 10 }", "options = { colour = 1 }"),
+    ),
+    "unknown-fitness-option": RunCase(
+        "task.options: fitness function 'xy_displacement': unknown option 'colour'; "
+        "it takes no options",
+        _edit(BASE, "task", "options = { colour = 1 }"),
+    ),
     "unknown-prebuilt": RunCase(
         "body.genotype: 'dragon' gives no body",
         BASE.replace(

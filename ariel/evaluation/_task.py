@@ -18,6 +18,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ariel.utils import unknown_option
+
 __all__ = [
     "FAILED_STATUSES",
     "BodySpec",
@@ -275,5 +277,6 @@ def fitness_options_error(
     try:
         signature.bind(None, **options)
     except TypeError as exc:
-        return exc
+        unknown = unknown_option(fitness_fn, options, skip=1)
+        return exc if unknown is None else TypeError(unknown)
     return None

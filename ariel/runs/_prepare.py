@@ -54,7 +54,7 @@ from ariel.plugins import (
 )
 from ariel.recording.store import short_ascii
 from ariel.simulation.tasks.gait_learning import window_count_error
-from ariel.utils import ariel_line
+from ariel.utils import ariel_line, unknown_option
 
 __all__ = [
     "PreparedRun",
@@ -155,6 +155,9 @@ def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
             f"brain.optimizer_options: {taken[0]!r} is not an option: the run gives every "
             "learner x0, popsize, sigma0, seed and maximise (brain.popsize, brain.sigma0)"
         )
+    unknown = unknown_option(factory, brain.optimizer_options, given={*keywords, "x0", "seed"})
+    if unknown is not None:
+        raise ConfigError(f"brain.optimizer_options: {brain.optimizer!r}: {unknown}")
     try:
         learner = factory(x0=np.zeros(2), seed=1, **keywords, **brain.optimizer_options)
     except (TypeError, ValueError) as exc:

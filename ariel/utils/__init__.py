@@ -90,6 +90,7 @@ _INTERNAL: dict[str, str] = {
     "SharedSetting": "ariel.utils._shared_setting",
     "strings_argument": "ariel.utils._arguments",
     "whole_numbers": "ariel.utils._arguments",
+    "unknown_option": "ariel.utils._keywords",
 }
 
 __getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -1,13 +1,14 @@
 """`accept_aliases`: let a function take upstream ARIEL's keyword names, or our own old ones,
-beside ours."""
+beside ours; `unknown_option`: an option a plugin has no keyword for, and the ones it has."""
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+import inspect
+from collections.abc import Callable, Collection, Mapping
 from typing import Any, TypeVar
 
-__all__ = ["accept_aliases"]
+__all__ = ["accept_aliases", "unknown_option"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -34,3 +35,39 @@ def accept_aliases(**aliases: str) -> Callable[[F], F]:
         return wrapper  # type: ignore[return-value]
 
     return decorate
+
+
+def unknown_option(
+    factory: Callable[..., Any],
+    options: Mapping[str, Any],
+    *,
+    given: Collection[str] = (),
+    skip: int = 0,
+) -> str | None:
+    """What is wrong with an option ``factory`` has no keyword for, and the options it has
+    ("unknown option 'colour'; allowed: alpha, dt"): Python's own "__init__() got an unexpected
+    keyword argument" named nothing allowed.
+
+    Args:
+        factory: The plugin's class or function.
+        options: The options a config gives it.
+        given: Keywords the caller passes itself, not options (left out of "allowed").
+        skip: Leading parameters the caller passes by position (a fitness function's record).
+
+    Returns:
+        The message, or None where every option is a keyword of ``factory``, or it takes any
+        keyword (``**kwargs``), or its signature cannot be read (a C function: its call says).
+    """
+    try:
+        parameters = list(inspect.signature(factory).parameters.values())[skip:]
+    except (TypeError, ValueError):
+        return None
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+        return None
+    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    allowed = [p.name for p in parameters if p.kind in named and p.name not in given]
+    unknown = sorted(set(options) - set(allowed) - set(given))
+    if not unknown:
+        return None
+    allowed_text = f"allowed: {', '.join(allowed)}" if allowed else "it takes no options"
+    return f"unknown option {unknown[0]!r}; {allowed_text}"
