@@ -391,7 +391,9 @@ def test_a_window_cutting_the_path_into_too_many_pieces_is_refused() -> None:
     times = np.linspace(0.0, 1.0, 11)
     xy = np.stack([times, np.zeros_like(times)], axis=1)
     assert sustained_displacement(times, xy, window=1.0 / MAX_WINDOWS) == pytest.approx(1.0)
-    with pytest.raises(ValueError, match=r"^window 1e-07 s cuts the 1 s path into 1e\+07"):
+    with pytest.raises(
+        ValueError, match=r"^window 1e-07 s cuts the 1 s path into 10,000,000 windows"
+    ):
         sustained_displacement(times, xy, window=1e-7)
     many = np.linspace(0.0, 1.0, 2 * MAX_WINDOWS + 1)  # as many windows as samples: fine
     path = np.stack([many, np.zeros_like(many)], axis=1)
@@ -519,3 +521,16 @@ def test_resume_refuses_ariel_s_own_plugin_replaced_by_another() -> None:
             _check_same_plugins(Path("run"), info, prepared)
     finally:
         fitness_functions.register("xy_displacement", original, replace=True)
+
+
+def test_exactly_the_most_windows_allowed_is_taken() -> None:
+    """The docs allow 'at most 100000 windows'; a 1 s run with a 1e-5 s window was refused,
+    its message saying '1e+05 windows, more than the 100000 allowed'."""
+    config = load_config(
+        {}, ["task.fitness=sustained_displacement", "task.options={window=1e-5}", "task.duration=1"]
+    )
+    resolve_plugins(config)  # the check adds 1e-9 of the span for float sums: no refusal
+    from ariel.simulation.tasks.gait_learning import window_count_error
+
+    message = window_count_error(1.0, 11, 0.99e-5)
+    assert message is not None and "into 101,010 windows, more than the 100000" in message

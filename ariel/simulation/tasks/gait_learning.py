@@ -97,10 +97,12 @@ def window_count_error(span: float, samples: int, window: float) -> str | None:
         One line saying how many windows that is and the shortest window allowed, or None.
     """
     allowed = max(MAX_WINDOWS, int(samples))
-    if not span / window > allowed + 1e-9:  # a float, never an int: no overflow
+    count = span / window  # a float, never an int: no overflow
+    if not count > allowed * (1 + 1e-6):  # relative: a path's span is a sum of float steps
         return None
+    shown = f"{count:,.0f}" if count < 1e12 else f"{count:.3g}"  # 1e+05 read as the limit
     return (
-        f"window {window!r} s cuts the {span:.6g} s path into {span / window:.3g} windows, more "
+        f"window {window!r} s cuts the {span:.6g} s path into {shown} windows, more "
         f"than the {allowed} allowed (the larger of {MAX_WINDOWS} and the path's samples): "
         f"give a window of at least {_rounded_up(span / allowed):.3g} s"
     )
