@@ -107,6 +107,25 @@ def at_budget(curve: RunCurve, budget: int) -> dict[str, float]:
     return {column: float(last[column]) for column in columns}
 
 
+def no_generation_note(curves: Sequence[RunCurve], budget: int) -> str | None:
+    """A warning naming the runs with a lineage of which no generation lies wholly within the
+    ``budget`` compared (their first generation alone is larger): their lineage measures are
+    missing, which the tables otherwise showed as '-' without a word."""
+    short = [
+        c
+        for c in curves
+        if getattr(c, "lineage", None) is not None and not whole_generations(c.evaluations, budget)
+    ]
+    if not short:
+        return None
+    names = ", ".join(f"{c.condition} seed {c.seed}" for c in short[:5])
+    return (
+        f"{len(short)} run(s) finish no generation within the {budget:,} evaluations compared "
+        f"({names}{', ...' if len(short) > 5 else ''}): their first generation alone is larger, "
+        "so their lineage measures are missing"
+    )
+
+
 def measures(runs: pd.DataFrame) -> dict[str, str]:
     """The `LINEAGE_MEASURES` that ``runs`` (`Comparison.runs`) have: none where no run has
     a lineage (synthetic curves, brain-only runs)."""

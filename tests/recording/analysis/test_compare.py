@@ -1008,3 +1008,22 @@ def test_the_terminal_tables_wrap_long_condition_names_rather_than_cut_them(
     print_frame(frame, "pairs")
     printed = capsys.readouterr().out
     assert "…" not in printed and "..." not in printed
+
+
+def test_runs_with_no_generation_within_the_budget_are_named(tmp_path: Path) -> None:
+    """A condition whose first generation alone outgrew the budget had '-' for its lineage
+    measures without a word (F2: no_learning's 48 evaluations against a budget of 32)."""
+    runs = [synthetic_run(c, s, 1.0 + s, evaluations=40) for c in ("a", "b") for s in range(2)]
+    for run in runs:
+        run.lineage = pd.DataFrame(
+            {"generation": range(5), "evaluations": range(8, 41, 8), "surviving_lineages": 2.0}
+        )
+        if run.condition == "b":  # one generation of 40: nothing whole within 20
+            run.evaluations = run.evaluations.assign(generation=0)
+    result = compare_runs(runs, tmp_path, maximise=True, at_evaluations=20, write=False)
+    (note,) = [n for n in result.notes if "finish no generation" in n]
+    assert note.startswith(
+        "2 run(s) finish no generation within the 20 evaluations compared (b seed"
+    )
+    plain = compare_runs(runs[:2], tmp_path, maximise=True, at_evaluations=20, write=False)
+    assert not any("finish no generation" in n for n in plain.notes)
