@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import json
 import shutil
 import sys
 from collections.abc import Iterator, Mapping, Sequence
@@ -218,6 +219,11 @@ def noted_on_interrupt(name: str, folder: Path, once: str | None = None) -> Iter
     except KeyboardInterrupt as exc:
         if once is None or (folder / once).is_file():
             setattr(exc, name, folder)
+            status_file = "campaign.json" if name == "campaign_dir" else "run.json"
+            if _status(folder / status_file) == "finished":  # the signal came as it ended
+                exc.finished = True  # type: ignore[attr-defined]  # no resume hint: refused
+                exc.add_note("interrupted after it finished: its records are complete")
+                raise
             # A script's or notebook's traceback shows it (the ariel command prints its own).
             call = "resume_campaign" if name == "campaign_dir" else "resume_experiment"
             exc.add_note(
@@ -225,6 +231,14 @@ def noted_on_interrupt(name: str, folder: Path, once: str | None = None) -> Iter
                 f"{call}({str(folder)!r})"
             )
         raise
+
+
+def _status(info: Path) -> object:
+    """The ``status`` a run.json or campaign.json says, or None where it cannot be read."""
+    try:
+        return json.loads(info.read_text(encoding="utf-8")).get("status")
+    except (OSError, ValueError, AttributeError):
+        return None
 
 
 def raised_from(exc: BaseException | None, kind: type[BaseException]) -> bool:

@@ -134,6 +134,8 @@ def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> 
     Args:
         exc: The interrupt (Ctrl-C, another signal, or a `Stopped`).
         folder: The run or campaign folder to continue; None or "" when nothing was written.
+            Where ``exc.finished`` is true (the signal came once the run had finished), no
+            resume is suggested: the line says that it had finished.
         *resume: The ``ariel`` words before the folder, e.g. ``"resume"`` or
             ``"campaign", "resume"``.
 
@@ -141,6 +143,9 @@ def report_interrupted(exc: KeyboardInterrupt, folder: object, *resume: str) -> 
         The exit code (`ariel.utils.interrupts.exit_status`).
     """
     hint = f"; continue it with: {ariel_line(*resume, Path(str(folder)))}" if folder else ""
+    if folder and getattr(exc, "finished", False):  # the signal came as it ended (a resume
+        # would be refused)
+        hint = f" after it finished: {Path(str(folder))} is complete, nothing to resume"
     code, how = exit_status(exc)
     # After Ctrl-C on a terminal, a new line first: it has echoed ^C on this one (a SIGINT
     # from elsewhere, or stderr in a file, echoed nothing: the line alone).

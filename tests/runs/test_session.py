@@ -96,3 +96,27 @@ def test_an_interrupt_before_the_driver_runs_leaves_the_run_interrupted(
     assert json.loads((out / "run.json").read_text())["status"] == "interrupted"
     assert not (out / ".lock").exists()
     assert resume_experiment(out).status == "finished"
+
+
+def test_an_interrupt_after_the_run_finished_suggests_no_resume(
+    tmp_path: Any, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A signal the moment run.json said finished printed "continue it with: ariel resume
+    RUN", which then refused ("already finished"), and exit 130 told a batch loop to retry."""
+    from _helpers import tiny_run_toml
+
+    from ariel.cli import main
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("late", 1))
+    out = tmp_path / "run"
+
+    def interrupt(*args: Any, **kwargs: Any) -> Any:
+        raise KeyboardInterrupt  # as the signal coming once the run is closed as finished
+
+    with monkeypatch.context() as patch:
+        patch.setattr(RunSession, "result", interrupt)
+        assert main(["run", str(config), "--out", str(out), "--quiet"]) == 130
+    said = capsys.readouterr().err.strip().splitlines()[-1]
+    assert said == f"interrupted after it finished: {out} is complete, nothing to resume"
+    assert json.loads((out / "run.json").read_text())["status"] == "finished"
