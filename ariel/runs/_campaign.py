@@ -40,6 +40,7 @@ from ariel.recording.store import (
     now,
     one_line,
     read_campaign_info,
+    remove_temporaries,
     run_path,
     storage_errors,
     terminal_text,
@@ -340,6 +341,8 @@ def resume_campaign(
     reach_executor(settings)  # before any run.json is touched
     with storage_errors(path, campaign=True), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
+        # a killed campaign's half-written campaign.json, .rrd or .rbl: its runs clean their own
+        list(remove_temporaries(path, deep=False))
         locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
         runs, skipped, damaged = _unfinished_runs(path, info, locks, settings)
