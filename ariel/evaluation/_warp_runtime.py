@@ -12,17 +12,38 @@ import functools
 import os
 import sys
 import tempfile
+from pathlib import Path
 from typing import Any
 
 from ariel.errors import WarpUnavailableError
+from ariel.utils import python_command, shell_path
 
-__all__ = ["BACKEND", "DEVICES", "INSTALL_HINT", "check_device", "cuda_available", "warp_modules"]
+__all__ = [
+    "BACKEND",
+    "DEVICES",
+    "INSTALL_HINT",
+    "check_device",
+    "cuda_available",
+    "install_hint",
+    "warp_modules",
+]
 
 BACKEND = "mujoco-warp"
 #: Devices the evaluator runs on: "cuda" (an NVIDIA GPU), "cpu" (Warp's CPU device: slow,
 #: for tests and machines without a GPU).
 DEVICES: tuple[str, ...] = ("cuda", "cpu")
 INSTALL_HINT = "pip install 'ariel[gpu]'"
+
+
+def install_hint() -> str:
+    """How to install the GPU extra, as pasted into a fresh shell here: ``make gpu`` in the
+    repository this ariel runs from (an editable checkout), else this interpreter's pip (a
+    bare ``pip`` is the system's, not the virtual environment's)."""
+    checkout = Path(__file__).resolve().parents[2]
+    if (checkout / "Makefile").is_file() and (checkout / "pyproject.toml").is_file():
+        here = Path.cwd().resolve()
+        return "make gpu" if checkout == here else f"make -C {shell_path(checkout)} gpu"
+    return f"{python_command()} -m {INSTALL_HINT}"
 
 
 def warp_modules() -> tuple[Any, Any]:
@@ -34,7 +55,7 @@ def warp_modules() -> tuple[Any, Any]:
         import warp  # lazy: heavy optional library (the gpu extra)
     except ImportError as exc:
         raise WarpUnavailableError(
-            f"the gpu backend needs MuJoCo Warp ({exc.name} is not installed): {INSTALL_HINT}"
+            f"the gpu backend needs MuJoCo Warp ({exc.name} is not installed): {install_hint()}"
         ) from None
     if warp.config.log_level < warp.LOG_WARNING:
         # Warp logs one line per kernel module it loads (hundreds on a first compile).

@@ -18,7 +18,7 @@ import pytest
 from ariel.evaluation import BodySpec, EvaluationTask, TrajectoryRecord, build, evaluate_batch
 from ariel.evaluation.builtin_plugins import NaCPGController
 
-pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: make gpu")
 pytestmark = pytest.mark.warp
 
 from ariel.evaluation._warp import (  # noqa: E402
@@ -159,7 +159,7 @@ def test_groups_mix_open_and_closed_loop_and_bad_bodies_in_input_order(evaluator
         evaluator.evaluate_batch([EvaluationTask(body=GECKO, params=[0.0] * 3)])
 
 
-def test_devices_are_checked_with_one_line(monkeypatch) -> None:
+def test_devices_are_checked_with_one_line(monkeypatch, tmp_path) -> None:
     with pytest.raises(ValueError, match="device must be one of cuda, cpu"):
         check_device("tpu")
     assert check_device("cpu") == "cpu"
@@ -168,8 +168,17 @@ def test_devices_are_checked_with_one_line(monkeypatch) -> None:
             WarpEvaluator("cuda")
         assert "\n" not in str(info.value)
     monkeypatch.setitem(sys.modules, "mujoco_warp", None)  # as if it were not installed
-    with pytest.raises(WarpUnavailableError, match=r"pip install 'ariel\[gpu\]'"):
+    # a hint to paste: the checkout's `make gpu` (a bare `pip` is the system's, not .venv's)
+    with pytest.raises(WarpUnavailableError, match=r"is not installed\): make gpu$"):
         warp_modules()
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(WarpUnavailableError, match=r"\): make -C /\S+ gpu$"):
+        warp_modules()
+    from ariel.evaluation import _warp_runtime
+
+    monkeypatch.setattr(_warp_runtime, "__file__", str(tmp_path / "site/ariel/evaluation/x.py"))
+    with pytest.raises(WarpUnavailableError, match=r"\): /\S+python\S* -m pip install 'ariel"):
+        warp_modules()  # installed from the registry: this interpreter's pip
 
 
 def test_a_world_that_overflows_every_size_tried_is_an_error_result() -> None:

@@ -9,7 +9,7 @@ from ariel.evaluation import BodySpec, EvaluationTask, build
 from ariel.evaluation._engine import held_controls, num_steps, open_loop_targets
 from ariel.evaluation.builtin_plugins import MLPController, NaCPGController
 
-pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: make gpu")
 pytestmark = pytest.mark.warp
 
 from ariel.evaluation import _warp  # noqa: E402

@@ -258,7 +258,7 @@ def test_packed_worlds_on_mujoco_warp_match_lone_ones_and_compile_nothing_new(
 ) -> None:
     """Two bodies in one model on MuJoCo Warp, two brains each (world w: brain w of both),
     against each body packed alone: the same nv bucket, so the lone runs compile nothing."""
-    pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
+    pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: make gpu")
 
     packed = pack(tasks[:2], builts[:2])
     alone = [pack([t], [b]) for t, b in zip(tasks[:2], builts[:2])]

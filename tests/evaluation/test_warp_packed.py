@@ -14,7 +14,7 @@ from _helpers import count_warp_module_loads
 from ariel.evaluation import BodySpec, EvaluationTask, build, evaluate_batch
 from ariel.evaluation.builtin_plugins import NaCPGController
 
-pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: make gpu")
 pytestmark = pytest.mark.warp
 
 from ariel.evaluation._warp import WarpEvaluator  # noqa: E402

@@ -15,7 +15,7 @@ from ariel.cli import main
 from ariel.evolution import ConfigError, run_experiment
 from ariel.recording import load_run
 
-pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: make gpu")
 pytestmark = pytest.mark.warp
 
 from ariel.evaluation._warp import cuda_available  # noqa: E402

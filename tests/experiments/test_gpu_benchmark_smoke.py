@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from _helpers import run_benchmark
 
-pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: pip install 'ariel[gpu]'")
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: make gpu")
 pytestmark = [pytest.mark.warp, pytest.mark.soak]  # make test-soak
 
 
