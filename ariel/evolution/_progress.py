@@ -30,6 +30,7 @@ from rich.progress import (
     TaskID,
     TextColumn,
 )
+from rich.table import Column
 
 from ariel.evolution._events import (
     BatchEvaluated,
@@ -71,13 +72,24 @@ def auto_progress() -> bool:
 def live_bars(stream: TextIO, label: str, *texts: str) -> RichProgress:
     """A started rich display of bars on ``stream``: each row ``label``, its bar, done /
     total, then ``texts`` and the task's ``info`` field."""
+    console = Console(file=stream)
+    # Narrower than the whole line (80 columns), rich shrank every column alike and the bar and
+    # the counts vanished: they keep their width, the bar narrows first, the info is cut at
+    # its end.
+    width = console.width
+    bar = max(10, min(40, width - 110))
     display = RichProgress(
-        TextColumn(label),
-        BarColumn(),
-        MofNCompleteColumn(),
-        *(TextColumn(text) for text in texts),
-        TextColumn("{task.fields[info]}"),
-        console=Console(file=stream),
+        TextColumn(label, table_column=Column(no_wrap=True)),
+        BarColumn(bar_width=bar, table_column=Column(no_wrap=True)),
+        MofNCompleteColumn(table_column=Column(no_wrap=True)),
+        *(TextColumn(text, table_column=Column(no_wrap=True)) for text in texts),
+        TextColumn(
+            "{task.fields[info]}",
+            table_column=Column(
+                no_wrap=True, overflow="ellipsis", max_width=max(12, width - 52 - bar)
+            ),
+        ),
+        console=console,
         transient=False,
     )
     display.__enter__()

@@ -49,6 +49,25 @@ def test_the_live_display_counts_each_generation_and_the_run() -> None:
     assert "eval/s" in shown and "ETA" in shown
 
 
+def test_at_80_columns_the_bars_and_counts_stay_and_the_info_is_cut(monkeypatch) -> None:
+    """Narrower than its whole line, rich shrank every column alike: both rows showed only
+    'gen 1      6.4 eval/s  ETA 0s', no bar and no done/total."""
+    from rich.console import Console
+
+    monkeypatch.setenv("COLUMNS", "80")
+    with Progress(total=3840, live=True, stream=io.StringIO()) as progress:
+        progress.start_generation(1, 384)
+        progress.advance(200, best=0.088642)
+        progress._population = ", morphs 12/16, archive 30/100 cells, QD-score 12.5"
+        progress._refresh()
+        screen = Console(file=io.StringIO(), width=80)
+        screen.print(progress._rich.get_renderable())
+        rows = screen.file.getvalue().splitlines()
+    generation, run = (row for row in rows if "eval/s" in row)
+    assert "━" in generation and "200/384" in generation
+    assert "╸" in run and "200/3840" in run and "best 0.08864" in run and run.endswith("…")
+
+
 def test_without_a_terminal_one_line_per_generation() -> None:
     stream = io.StringIO()
     with Progress(total=10, stream=stream) as progress:  # StringIO is no terminal
