@@ -256,7 +256,12 @@ class RunDriver:
         return 0 if self.state is None else self.state.generation + 1
 
     def best_so_far(self) -> float:
-        values = [j.run.best_fitness for j in self._jobs if not math.isnan(j.run.best_fitness)]
+        """The best fitness of the kept population and this generation's brains so far: the
+        progress line's ``best`` (of this generation's alone, it fell at each generation's
+        start, and after a resume forgot what the generations before had found)."""
+        kept = [b.fitness for b in self.state.population] if self.state is not None else []
+        found = [j.run.best_fitness for j in self._jobs]
+        values = [v for v in (*kept, *found) if not math.isnan(v)]
         if not values:
             return math.nan
         return max(values) if self.plugins.maximise else min(values)
