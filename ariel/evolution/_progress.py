@@ -140,6 +140,8 @@ class Progress:
         self._generation_total: int | None = None
         self._generation_start = self._start
         self._generation_start_done = done
+        self._steady_start: float | None = None  # when the first batch came back
+        self._steady_done = done
         self._best = math.nan
         self._mean = math.nan
         self._mean_label = "mean"
@@ -180,16 +182,25 @@ class Progress:
         """Evaluations done (or skipped, for failed bodies) in the current generation."""
         return self.done - self._generation_start_done
 
+    def steady_rate(self) -> float:
+        """Evaluations per second since the first batch came back (0 before a second one):
+        what the ETAs use. Counted from the start, the workers' start-up and the first
+        compilations made the first minutes' ETA several times too long (1h19m for 12 min)."""
+        if self._steady_start is None or self.done == self._steady_done:
+            return 0.0
+        elapsed = time.perf_counter() - self._steady_start
+        return (self.done - self._steady_done) / elapsed if elapsed > 0 else 0.0
+
     def generation_rate(self) -> float:
         elapsed = time.perf_counter() - self._generation_start
         return self.generation_done / elapsed if elapsed > 0 else 0.0
 
     def _gen_fields(self) -> dict[str, str]:
-        rate = self.generation_rate()
+        rate, steady = self.generation_rate(), self.steady_rate()
         total = self._generation_total
         return {
             "rate": f"{rate:.1f}",
-            "eta": eta_text(total - self.generation_done, rate) if total is not None else "-",
+            "eta": eta_text(total - self.generation_done, steady) if total is not None else "-",
             "info": "",
         }
 
@@ -197,7 +208,7 @@ class Progress:
         rate = self.rate()
         return {
             "rate": f"{rate:.1f}",
-            "eta": eta_text(self.total - self.done, rate),
+            "eta": eta_text(self.total - self.done, self.steady_rate()),
             "info": f"best {fmt_value(self._best)}  {self._mean_label} {fmt_value(self._mean)}"
             + self._population.replace(", ", "  "),
         }
@@ -245,6 +256,8 @@ class Progress:
 
     def advance(self, evaluations: int, best: float | None = None) -> None:
         self.done += evaluations
+        if self._steady_start is None and evaluations:
+            self._steady_start, self._steady_done = time.perf_counter(), self.done
         if best is not None and not math.isnan(best):
             self._best = best
         self._refresh()
@@ -274,8 +287,8 @@ class Progress:
 
     def _line(self, generation: int, extra: str) -> str:
         rate = self.rate()
-        left = self.total - self.done
-        eta = f"{left / rate:.0f}s" if rate > 0 else "-"
+        left, steady = self.total - self.done, self.steady_rate() or rate
+        eta = f"{left / steady:.0f}s" if steady > 0 else "-"
         return (
             f"gen {generation}: evaluations {self.done}/{self.total}, "
             f"best {fmt_value(self._best)}, {self._mean_label} {fmt_value(self._mean)}"
