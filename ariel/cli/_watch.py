@@ -18,8 +18,10 @@ from ariel.cli._common import EXIT_USAGE
 from ariel.cli._live import WATCHER_NICENESS
 from ariel.cli._options import add_web_viewer_options
 from ariel.cli._types import poll_seconds
+from ariel.errors import ViewError
 from ariel.recording import viewer
 from ariel.recording.store import terminal_text
+from ariel.utils import ariel_line, has_display
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -61,6 +63,21 @@ def add_watch_command(sub: SubParsers) -> None:
     p.set_defaults(func=_cmd_watch)
 
 
+def _web_line(args: argparse.Namespace) -> str:
+    """This command with ``--web``, the user's other options kept (the API's hint, which
+    knows none of them, dropped ``--poll``, ``--save`` and ``--until-finished``)."""
+    words: list[object] = ["watch", args.folder, "--web"]
+    for option, value in (
+        ("--port", args.port),
+        ("--grpc-port", args.grpc_port),
+        ("--save", args.save),
+        ("--poll", None if args.poll == 0.5 else f"{args.poll:g}"),
+    ):
+        if value is not None:
+            words += [option, value]
+    return ariel_line(*words, *(["--until-finished"] if args.until_finished else []))
+
+
 def _announce(watcher: Watcher, args: argparse.Namespace) -> None:
     folder = terminal_text(watcher.source.path)  # a folder's name may hold control characters
     saving = terminal_text(f", saving it to {args.save}") if args.save else ""
@@ -91,6 +108,11 @@ def _cmd_watch(args: argparse.Namespace) -> int:
     kind = "none" if args.no_viewer else "web" if args.web else "native"
     with viewer.stop_on_signals():
         try:
+            if kind == "native" and not has_display():
+                raise ViewError(
+                    "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are "
+                    f"unset); serve it to a browser instead: {_web_line(args)}"
+                )
             watcher = viewer.watch(
                 args.folder,
                 viewer=kind,

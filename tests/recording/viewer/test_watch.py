@@ -412,7 +412,7 @@ def test_the_notebook_viewer_follows_in_the_background(live: dict, tmp_path: Pat
 
 
 def test_without_a_display_the_hint_is_the_web_command_to_paste(
-    live: dict, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    live: dict, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Before, it said "(--web)" where `ariel view` gives the whole command line."""
     monkeypatch.delenv("DISPLAY", raising=False)
@@ -420,7 +420,19 @@ def test_without_a_display_the_hint_is_the_web_command_to_paste(
     assert main(["watch", str(live["run"])]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
-    assert f"serve it to a browser instead: {ariel_line('watch', live['run'], '--web')} " in err
+    assert err.endswith(
+        f"serve it to a browser instead: {ariel_line('watch', live['run'], '--web')}\n"
+    )
+    # the user's other options are kept (they were dropped, and a Python aside was added)
+    save = tmp_path / "live.rrd"
+    assert (
+        main(["watch", str(live["run"]), "--poll", "2", "--save", str(save), "--until-finished"])
+        == 2
+    )
+    expected = ariel_line(
+        "watch", live["run"], "--web", "--save", save, "--poll", "2", "--until-finished"
+    )
+    assert capsys.readouterr().err.endswith(f"instead: {expected}\n")
 
 
 def test_a_save_file_that_cannot_be_written_is_one_line(
