@@ -77,6 +77,21 @@ def _paste_where(body: GalleryBody) -> str:
     return "paste into a shell"
 
 
+def _how_to_paste(gallery: Gallery) -> str:
+    """The page's own word on its commands (a hover title alone was missed: pasted at the
+    repository's root, the commands failed twice, for the folder and for a bare ``ariel``)."""
+    if any(body.from_parent for body in gallery.bodies):
+        return (
+            "Each card's command opens that evaluation: paste it into a shell in the folder "
+            "that holds the run (or campaign) folder, with ariel on the PATH (or give its "
+            "path, such as .venv/bin/ariel)."
+        )
+    return (
+        "Each card's command opens that evaluation: paste it into a shell in the folder the "
+        "gallery was made from."
+    )
+
+
 def _atlas(gallery: Gallery) -> str:
     atlas = gallery.atlas
     assert atlas is not None  # an archive's gallery (`gallery_html` checks)
@@ -121,5 +136,8 @@ def gallery_html(gallery: Gallery) -> str:
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
         f"<title>{html_text(gallery.title)}</title><style>{_STYLE}</style></head><body>"
         f'<h1>{html_text(gallery.title)}</h1><p class="sub">{html_text(gallery.subtitle)}</p>'
-        f"{body}" + (f'<ul class="notes">{notes}</ul>' if notes else "") + "</body></html>\n"
+        + (f'<p class="sub">{html_text(_how_to_paste(gallery))}</p>' if gallery.bodies else "")
+        + f"{body}"
+        + (f'<ul class="notes">{notes}</ul>' if notes else "")
+        + "</body></html>\n"
     )

@@ -109,6 +109,9 @@ def test_final_and_lineage_of_best_show_their_bodies(run_dir: Path) -> None:
         assert '<code title="paste into a shell in the folder that holds this run' in html
         assert f">ariel replay {run_dir.name} {body.eval_id}</code>" in html
     assert str(run_dir) not in html  # no path of this machine: the page moves with the run
+    # the page says so in view, not in a hover title alone (pasted at the repository's root,
+    # the commands failed)
+    assert "paste it into a shell in the folder that holds the run (or campaign) folder" in html
     # Each card its body's birth (every card said the sheet's generation alone).
     born = run.bodies.drop_duplicates("body_id").set_index("body_id")["born_generation"]
     for body in family.bodies:
