@@ -15,7 +15,7 @@ from ariel import recording
 from ariel.cli._common import IntermixedParser, fail
 from ariel.recording import resim
 from ariel.recording.store import cannot_write, output_file_problem, terminal_text, user_file
-from ariel.utils import python_command, shell_path
+from ariel.utils import has_display, python_command, shell_path
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -65,10 +65,13 @@ def _cmd_export(args: argparse.Namespace) -> int:
         out = resim.export(args.run_dir, str(args.eval_id), args.out)  # given with DIR
         python = python_command()
         body, replay = (shell_path(out / name) for name in ("body.xml", "replay.py"))
+        # MuJoCo's viewer is a window: offered only where one can open (headless, it failed
+        # with GLFW errors and left a MUJOCO_LOG.TXT where it ran)
+        viewer = f" ({python} -m mujoco.viewer --mjcf {body})" if has_display() else ""
         print(  # escaped: DIR is any name, control characters too
             terminal_text(
-                f"wrote {out}: body.xml ({python} -m mujoco.viewer --mjcf {body}), "
-                f"genotype.json, controller.json, replay.py ({python} {replay})"
+                f"wrote {out}: body.xml{viewer}, genotype.json, controller.json, replay.py "
+                f"({python} {replay})"
             )
         )
     return 0 if args.lineage is None else _export_lineage(args.run_dir, Path(args.lineage))

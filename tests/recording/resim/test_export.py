@@ -75,6 +75,20 @@ def test_export_writes_mjcf_json_and_a_replay_script_that_follows_the_run(
     assert lines[3] == f"evaluation {brain['eval_id']} of run {brain['run_id']}"
 
 
+def test_the_mujoco_viewer_is_offered_only_where_a_window_can_open(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch
+) -> None:
+    """Headless, the offered `python -m mujoco.viewer` failed with GLFW errors and left a
+    MUJOCO_LOG.TXT where it ran."""
+    from ariel.cli import _export
+
+    for display, shown in ((False, False), (True, True)):
+        monkeypatch.setattr(_export, "has_display", lambda display=display: display)
+        assert exit_code(["export", str(run_dir), "best", str(tmp_path / str(display))]) == 0
+        said = capsys.readouterr().out
+        assert ("-m mujoco.viewer" in said) is shown and "replay.py (" in said
+
+
 def test_export_of_an_unknown_evaluation_is_one_line(
     run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
