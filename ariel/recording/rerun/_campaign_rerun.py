@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ariel.recording.rerun._blueprint import save_blueprint
-from ariel.recording.rerun._chunks import APPLICATION_ID, rerun_module, static_chunk
+from ariel.recording.rerun._chunks import APPLICATION_ID, rerun_module, rgb, static_chunk
 from ariel.recording.rerun._rerun import _write_chunks
 from ariel.recording.store import (
     CAMPAIGN_RRD,
@@ -92,12 +92,7 @@ def condition_colours(conditions: Sequence[str]) -> dict[str, tuple[int, int, in
     """Each condition's colour (one shade for all its seeds) as RGB, those of `ariel compare`
     and the notebooks (`ariel.recording.store.condition_colours`; ten repeated before)."""
     shared = store_colours(conditions)
-    return {name: _rgb(shared[name]) for name in conditions}
-
-
-def _rgb(colour: str) -> tuple[int, int, int]:
-    red, green, blue = (int(colour[k : k + 2], 16) for k in (1, 3, 5))
-    return red, green, blue
+    return {name: rgb(shared[name]) for name in conditions}
 
 
 def curve_chunks(

@@ -17,12 +17,18 @@ if TYPE_CHECKING:
     from rerun import AsComponents, ComponentColumn
     from rerun.chunk import Chunk
 
-__all__ = ["APPLICATION_ID", "rerun_module", "static_chunk"]
+__all__ = ["APPLICATION_ID", "rerun_module", "rgb", "static_chunk"]
 
 APPLICATION_ID = "ariel"
 #: Guards the caches of what recordings share (a model's scene, a graph's chunk): recordings
 #: are written from threads.
 _CACHE_LOCK = threading.Lock()
+
+
+def rgb(colour: str) -> tuple[int, int, int]:
+    """``"#rrggbb"`` (`ariel.recording.store.condition_colours`) as Rerun's 0-255 channels."""
+    red, green, blue = (int(colour[k : k + 2], 16) for k in (1, 3, 5))
+    return red, green, blue
 
 
 def rerun_module() -> ModuleType:

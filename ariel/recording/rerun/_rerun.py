@@ -72,6 +72,7 @@ from ariel.recording.rerun._chunks import (
     _one_row,
     _property_chunks,
     rerun_module,
+    rgb,
     static_chunk,
 )
 from ariel.recording.rerun._graph import (
@@ -95,7 +96,7 @@ from ariel.recording.rerun._scene import (
     module_type_of,
 )
 from ariel.recording.rerun._views import SUMMARY_SERIES
-from ariel.recording.store import atomic_write
+from ariel.recording.store import atomic_write, condition_colours
 
 if TYPE_CHECKING:
     import mujoco
@@ -264,8 +265,11 @@ def _joint_chunks(
     names = tuple(getattr(result, "joint_names", None) or ())[:joints]
     if names not in shared.joint_names:
         labels = joint_labels(names, graph_json) + [f"joint{j}" for j in range(len(names), joints)]
+        # each joint one colour in both panels (Rerun picks one per entity path: a joint's
+        # target and angle came out in two unrelated colours)
+        colours = [rgb(c) for c in condition_colours([str(j) for j in range(joints)]).values()]
         shared.joint_names[names] = [
-            static_chunk(f"/joints/{leaf}", rr.SeriesLines(names=labels))
+            static_chunk(f"/joints/{leaf}", rr.SeriesLines(names=labels, colors=colours))
             for leaf in ("target", "angle")
         ]
     chunks = list(shared.joint_names[names])

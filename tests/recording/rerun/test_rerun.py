@@ -128,6 +128,7 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
         path = mine[["core_x", "core_y", "core_z"]].to_numpy()
         assert np.allclose(core, path, atol=1e-5)
         # Joints: target and angle of every joint, named, equal to the trajectories table.
+        colour_of: dict[str, dict] = {}
         for leaf, table_column in (("target", "joint_target"), ("angle", "joint_angle")):
             names = column(found[(f"/joints/{leaf}", True)], "SeriesLines:names")[0]
             body_graph = run.bodies.loc[run.bodies["body_id"] == row["body_id"], "graph"].iloc[0]
@@ -135,6 +136,10 @@ def test_a_recording_replays_every_body_and_holds_the_joint_series_of_the_tables
             assert all(re.fullmatch(r"(front|back|right|left) branch, hinge \d+", n) for n in names)
             series = np.array(column(found[(f"/joints/{leaf}", False)], "Scalars:scalars"))
             assert series.shape == (FRAMES, row["n_joints"])
+            colours = column(found[(f"/joints/{leaf}", True)], "SeriesLines:colors")[0]
+            assert len(set(colours)) == len(names)  # a colour per joint, the same in both
+            colour_of.setdefault("target", dict(zip(names, colours, strict=True)))
+            assert dict(zip(names, colours, strict=True)) == colour_of["target"]
             assert np.array_equal(series, np.stack(mine[table_column].to_numpy()))
         # Morphology graph: a node per module, a directed edge per attachment.
         graph = found[("/graph", True)]
