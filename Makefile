@@ -9,7 +9,9 @@ TORCH_SPEC ?= torch==2.13.0
 # Headless rendering backend on Linux (EGL); other systems keep MuJoCo's default.
 GL_ENV := $(if $(filter Linux,$(shell uname -s)),MUJOCO_GL=$${MUJOCO_GL:-egl},)
 
-.PHONY: test-soak run test setup gpu lab lint format clean gl docs docs-serve
+.PHONY: help test-soak run test setup gpu lab lint format clean gl docs docs-serve
+# `make` alone lists the targets (it used to set up .venv and say only "is up to date")
+.DEFAULT_GOAL := help
 
 # The GPU extra (MuJoCo Warp, ~0.4 GB: `--executor gpu`, docs/gpu.md) is installed only where
 # it can be used or is asked for: GPU=1 (make setup GPU=1, or make gpu), or by default where
@@ -40,6 +42,15 @@ $(VENV)/.stamp-gpu: $(VENV)/.stamp-setup
 	@echo "installing the GPU extra into $(VENV): mujoco-warp, warp-lang (pip's log: $(SETUP_LOG))"
 	@$(PIP) install -e ".[gpu]" $(LOGGED)
 	@touch $@
+
+help:
+	@echo "make run        set up .venv (first time, about 3 minutes), then run the default experiment"
+	@echo "make test       set up, then run the tests (make test-soak: the long ones)"
+	@echo "make setup      only set up .venv (GPU=1: with the GPU extra; make gpu adds it later)"
+	@echo "make lab        JupyterLab on the analysis/ notebooks"
+	@echo "make docs       build the docs site into site/ (make docs-serve: a live preview)"
+	@echo "make lint       ruff, the import layers and pyright; make format fixes what it can"
+	@echo "make clean      remove .venv and the caches"
 
 setup: $(VENV)/.stamp-setup $(if $(WITH_GPU),$(VENV)/.stamp-gpu)
 

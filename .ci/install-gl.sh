@@ -12,5 +12,7 @@ if [ "$(id -u)" -ne 0 ]; then
   sudo -n true 2>/dev/null || { echo "not root: install ${missing[*]} to render" >&2; exit 1; }
   SUDO="sudo -n"
 fi
+# make run / make test call this: say what changes on the system before it does
+echo "installing headless OpenGL for rendering with apt-get: ${missing[*]}"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"

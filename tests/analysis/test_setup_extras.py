@@ -99,3 +99,15 @@ def test_ci_installs_the_gpu_extra_so_the_warp_tests_run() -> None:
     lines = [line for line in ci.splitlines() if line.startswith("make test")]
     assert lines and all("GPU=1" in line for line in lines)
     assert 'python -c "import mujoco_warp, warp"' in ci  # fails before the tests could skip
+
+
+def test_make_alone_lists_the_targets_and_sets_up_nothing(tmp_path: Path) -> None:
+    """`make` with no target set up .venv and said only "'.venv/.stamp-setup' is up to date"."""
+    work = tmp_path / "alone"
+    work.mkdir()
+    shutil.copy(REPO / "Makefile", work)
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MAKELEVEL")}
+    done = subprocess.run([MAKE], cwd=work, env=env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[0].startswith("make run ")
+    assert "make test " in done.stdout and not (work / ".venv").exists()
