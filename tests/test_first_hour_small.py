@@ -206,3 +206,14 @@ def test_a_campaign_file_an_experiment_file_and_a_campaign_folder_name_their_com
     assert line.endswith(f"ariel runs {run.parent}")
     assert exit_code(["campaign", "run", str(folder)]) == 2
     assert f"campaign file {str(folder)!r} is a folder, not a TOML file" in one_error_line(capsys)
+
+
+def test_runs_from_a_folder_without_data_runs_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """From another folder than the repository, it said "no runs under data/runs", as if the
+    runs had gone."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["runs"]) == 0
+    said = capsys.readouterr().out
+    assert said.startswith("no runs: data/runs does not exist here (") and "runs DIR)" in said

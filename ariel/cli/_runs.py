@@ -71,6 +71,13 @@ def _cmd_runs(args: argparse.Namespace) -> int:
         runs = recording.list_runs(folder)
     inside = "" if campaign else _campaigns_inside(folder)
     if not runs:
+        if args.folder is None and not folder.is_dir():  # run from another folder than usual
+            where = f"{Path.cwd().name or Path.cwd()}"
+            print(
+                f"no runs: {DEFAULT_RUNS} does not exist here ({terminal_text(where)}); give the "
+                f"folder of your runs ({ariel_line('runs', 'DIR')})"
+            )
+            return 0
         print(f"no runs under {terminal_text(folder)}{'; it' if inside else ''}{inside}")
         return 0
     for r in runs:  # names from run.json files: no control sequence reaches the terminal
