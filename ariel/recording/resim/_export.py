@@ -92,12 +92,15 @@ def main() -> None:
     simple_runner(robot.model, robot.data, duration=robot.duration)
     mujoco.mj_kinematics(robot.model, robot.data)  # the final state's positions
     print("core at", robot.data.geom("{core}").xpos.tolist())
-    print("recorded core at", robot.recorded_core)  # the run's record of the same path
+    recorded = robot.recorded_core  # the run's record of the same path
+    print("recorded core at", recorded if recorded else "(not recorded: no trajectories)")
     unit = " " + robot.fitness_unit if robot.fitness_unit else ""
     print(
         f"replayed fitness {{robot.replayed_fitness()!r}}{{unit}} "
         f"(recorded {{robot.fitness!r}}{{unit}}; {{robot.fitness_fn}})"
     )
+    if robot.backend != "mujoco":  # MuJoCo Warp: float32, not bitwise MuJoCo's arithmetic
+        print("the run simulated it with", robot.backend, "(float32): this MuJoCo replay differs")
     print("evaluation", robot.eval_id, "of run", robot.run_id)
 
 
@@ -165,6 +168,7 @@ def export(run_dir: str | Path, eval_id: str, out: str | Path) -> Path:
         "record_every": int(task.record_every),
         "fitness": float(row["fitness"]),
         "core_end": _recorded_core(run, row),
+        "backend": str(row.get("backend") or "mujoco"),  # replay.py says when it differs
     }
     script = _SCRIPT.format(core=evaluation.SPAWN_PREFIX + "core")  # the same for every export
     texts = {

@@ -63,6 +63,9 @@ class ExportedRobot:
             None where the run kept no trajectories.
         fitness_unit: The fitness function's unit (e.g. ``"m"``); ``""`` where it is unknown
             here or the export does not say how the run recorded frames.
+        backend: The simulator the run evaluated it with: ``"mujoco"`` (the CPU engine, as
+            this replay) or ``"mujoco-warp:cuda"`` / ``"mujoco-warp:cpu"`` (float32, not
+            bitwise the same as MuJoCo: its replay differs slightly).
     """
 
     model: mujoco.MjModel
@@ -75,6 +78,7 @@ class ExportedRobot:
     fitness_fn: str = ""
     recorded_core: list[float] | None = None
     fitness_unit: str = ""
+    backend: str = "mujoco"
     _frames: _Frames | None = field(default=None, repr=False)
 
     def set_control(
@@ -237,5 +241,6 @@ def load_exported(folder: str | Path) -> ExportedRobot:
         fitness_fn=one_line(brain.get("fitness_fn", "")),
         recorded_core=[float(v) for v in core] if isinstance(core, list) else None,
         fitness_unit=one_line(str(getattr(frames.function, "unit", None) or "")) if frames else "",
+        backend=one_line(str(brain.get("backend") or "mujoco")),
         _frames=frames,
     )

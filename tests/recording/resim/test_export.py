@@ -73,6 +73,18 @@ def test_export_writes_mjcf_json_and_a_replay_script_that_follows_the_run(
         f"replayed fitness {recorded!r}{unit} (recorded {recorded!r}{unit}; {brain['fitness_fn']})"
     )
     assert lines[3] == f"evaluation {brain['eval_id']} of run {brain['run_id']}"
+    assert brain["backend"] == "mujoco"
+    # A MuJoCo Warp evaluation (executor gpu) replays a little differently: it says why; a
+    # run without trajectories has no core to show ("recorded core at None" before)
+    (out / "controller.json").write_text(
+        json.dumps({**brain, "backend": "mujoco-warp:cuda", "core_end": None})
+    )
+    again = run_replay_script(out, tmp_path).stdout.splitlines()
+    assert again[1] == "recorded core at (not recorded: no trajectories)"
+    assert (
+        again[3]
+        == "the run simulated it with mujoco-warp:cuda (float32): this MuJoCo replay differs"
+    )
 
 
 def test_the_mujoco_viewer_is_offered_only_where_a_window_can_open(
