@@ -108,19 +108,22 @@ def _cmd_watch(args: argparse.Namespace) -> int:
     kind = "none" if args.no_viewer else "web" if args.web else "native"
     with viewer.stop_on_signals():
         try:
-            if kind == "native" and not has_display():
+            try:
+                watcher = viewer.watch(
+                    args.folder,
+                    viewer=kind,
+                    port=args.port,
+                    grpc_port=args.grpc_port,
+                    save=args.save,
+                    poll_s=args.poll,
+                )
+            except ViewError as exc:  # the API's hint knows none of the command's options
+                if kind != "native" or has_display() or not str(exc).startswith("no display"):
+                    raise
                 raise ViewError(
                     "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are "
                     f"unset); serve it to a browser instead: {_web_line(args)}"
-                )
-            watcher = viewer.watch(
-                args.folder,
-                viewer=kind,
-                port=args.port,
-                grpc_port=args.grpc_port,
-                save=args.save,
-                poll_s=args.poll,
-            )
+                ) from None
             if hasattr(os, "nice"):  # an onlooker: on a busy machine the run watched goes first
                 with contextlib.suppress(OSError):
                     os.nice(WATCHER_NICENESS)
