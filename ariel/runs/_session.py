@@ -154,6 +154,7 @@ class RunSession:
                 bodies=config.record.bodies,
                 maximise=plugins.maximise,
                 config=config,
+                brain_only=prepared.brain_only,
             )
             observers.append(recorder)
         observers += [RunInfo(folder, prepared.settings), progress]

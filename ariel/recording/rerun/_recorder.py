@@ -15,7 +15,8 @@ recording, elites' 3D replays, ``run.rrd`` and the layouts, in the run folder.
   re-simulating it exactly (``recordings/gen-NNNNNN/replays/<eval_id>.rrd``). A body that
   cannot be built has no recording.
 * ``run.rrd``: per generation the best, mean and median fitness of the population after
-  selection (as ``Run.generations`` computes them), two diversity measures of that population
+  selection (as ``Run.generations`` computes them; a brain-only run's mean and median are its
+  CMA-ES candidates', as ``ariel report`` draws them), two diversity measures of that population
   (``diversity``: the mean pairwise Euclidean distance between the bodies' morphology
   descriptor vectors, the 12 descriptors as stored; ``distinct_morphologies``: the number of
   distinct robot graphs, compared by structure, ``graph_io.graph_key``), the best body's
@@ -36,7 +37,7 @@ import contextlib
 import itertools
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -88,14 +89,19 @@ __all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
 
 
 def generation_summary(
-    generation: int, body_rows: Sequence[Mapping[str, Any]], maximise: bool
+    generation: int,
+    body_rows: Sequence[Mapping[str, Any]],
+    maximise: bool,
+    candidates: Iterable[float] | None = None,
 ) -> tuple[dict[str, float], dict[str, Any] | None]:
     """One generation's ``run.rrd`` row and its best body, from its rows of the bodies table.
 
     The population is the bodies ``selected`` into the next generation. Returns the row
     (generation, best/mean/median fitness of its finite fitnesses, ``diversity`` and
     ``distinct_morphologies``, see the module docstring) and the best body (``body_id``,
-    ``fitness``, ``graph``; None when no body has a finite fitness).
+    ``fitness``, ``graph``; None when no body has a finite fitness). ``candidates``: a
+    brain-only run's fitnesses of the generation's evaluations, whose mean and median are
+    the row's, as ``ariel report`` draws them (the one body's would be its best again).
     """
 
     population = [row for row in body_rows if row.get("selected")]
@@ -113,11 +119,16 @@ def generation_summary(
         if pairs
         else 0.0
     )
+    if candidates is not None:
+        spread = np.array([float(v) for v in candidates], dtype=np.float64)
+        spread = spread[np.isfinite(spread)]
+    else:
+        spread = finite
     row = {
         "generation": int(generation),
         "best_fitness": best,
-        "mean_fitness": float(finite.mean()) if finite.size else math.nan,
-        "median_fitness": float(np.median(finite)) if finite.size else math.nan,
+        "mean_fitness": float(spread.mean()) if spread.size else math.nan,
+        "median_fitness": float(np.median(spread)) if spread.size else math.nan,
         "diversity": diversity,
         "distinct_morphologies": float(
             len({graph_key(r["graph"]) if r.get("graph") else r["body_id"] for r in built})
@@ -152,6 +163,7 @@ class RerunRecorder:
         bodies: str,
         maximise: bool,
         config: ExperimentConfig,
+        brain_only: bool = False,
     ) -> None:
         if bodies not in ("all", "elites", "none"):
             raise ValueError(f"record.bodies must be all, elites or none, not {bodies!r}")
@@ -160,6 +172,9 @@ class RerunRecorder:
         self.bodies = bodies
         self.maximise = maximise
         self.config = config
+        self.brain_only = (
+            brain_only  # run.rrd's mean: the brains' candidates (`generation_summary`)
+        )
         self._rows: dict[int, dict[str, float]] = {}
         self._best: dict[int, dict[str, Any]] = {}
         # MAP-Elites: fitness per cell (`archive_cells`)
@@ -282,14 +297,16 @@ class RerunRecorder:
         archive) and rewrite ``run.rrd``."""
         if not self._blueprint:
             self.write_blueprint()
+        traces = self._traces.pop(generation, [])
         write_generation_recording(
             generation_recording_path(self.run_dir, generation),
-            self._traces.pop(generation, []),
+            traces,
             run_id=self.run_id,
             generation=generation,
         )
         self._load_earlier(generation)
-        row, best = generation_summary(generation, body_rows, self.maximise)
+        candidates = [t.fitness for t in traces] if self.brain_only else None
+        row, best = generation_summary(generation, body_rows, self.maximise, candidates)
         self._rows[generation] = row
         if best is not None:
             self._best[generation] = best
@@ -328,12 +345,22 @@ class RerunRecorder:
             return
         rows = read_table(self.run_dir, "bodies", up_to=generation - 1).to_pylist()
         cells = read_table(self.run_dir, "archive", up_to=generation - 1).to_pylist()
+        fitness = (
+            read_table(self.run_dir, "evaluations", up_to=generation - 1)
+            .select(["generation", "fitness"])
+            .to_pylist()
+            if self.brain_only
+            else []
+        )
         for g in missing:
             archive = [row for row in cells if row["generation"] == g]
             if archive:
                 self._archives[g] = archive_cells(archive, self._description())
             bodies = [r for r in rows if r["generation"] == g]
-            row, best = generation_summary(g, bodies, self.maximise)
+            candidates = [r["fitness"] for r in fitness if r["generation"] == g]
+            row, best = generation_summary(
+                g, bodies, self.maximise, candidates if self.brain_only else None
+            )
             self._rows[g] = row
             if best is not None:
                 self._best[g] = best

@@ -77,9 +77,18 @@ __all__ = [
 
 def _run_series(run: Run) -> pd.DataFrame:
     """Per generation: fitness and diversity of the population, as run.rrd has them."""
-    bodies = run.bodies
+    bodies, evaluations = run.bodies, run.evaluations
+    fitness: dict[object, list[float]] = (
+        {g: list(v) for g, v in evaluations.groupby("generation")["fitness"]}
+        if run.brain_only and len(evaluations)
+        else {}
+    )
+
+    def candidates(g: object) -> list[float] | None:  # a brain-only run's: as report draws
+        return fitness.get(g, []) if run.brain_only else None
+
     rows = [
-        generation_summary(int(g), group.to_dict("records"), run.maximise)[0]
+        generation_summary(int(g), group.to_dict("records"), run.maximise, candidates(g))[0]
         for g, group in (bodies.groupby("generation") if len(bodies) else [])
     ]
     return pd.DataFrame(rows) if rows else pd.DataFrame({"generation": []})

@@ -257,7 +257,10 @@ class RunSource:
 
         rr = rerun_module()
         bodies, evaluations = tables["bodies"], tables["evaluations"]
-        row, _ = generation_summary(generation, bodies.to_dict("records"), self.run.maximise)
+        candidates = evaluations["fitness"].tolist() if self.run.brain_only else None
+        row, _ = generation_summary(
+            generation, bodies.to_dict("records"), self.run.maximise, candidates
+        )
         _at(rec, generation)
         for column, entity in RUN_SERIES.items():
             rec.log(entity, rr.Scalars(row[column]))

@@ -515,3 +515,42 @@ def test_run_rrd_holds_the_lineage_graph_and_the_blueprint_a_view_of_it(recorded
             (name,) = column(batch, "ViewBlueprint:display_name")[0]
             origins[name] = column(batch, "ViewBlueprint:space_origin")[0][0]
     assert origins["lineage (bright: fitter)"] == "/lineage"
+
+
+def test_a_brain_only_runs_mean_is_that_of_its_candidates_as_report_draws_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Its population is the one body, so run.rrd's mean (and the viewers') was its best again,
+    where the progress line and `ariel report` show the mean of the CMA-ES candidates."""
+    from ariel.evolution._progress import Progress
+    from ariel.recording.viewer._view import _run_series
+
+    config = small()
+    config["body"] = {"encoder": "prebuilt", "genotype": "gecko", "options": {}}
+    config["generations"] = 3
+    original = Progress.start_generation
+
+    def stop_at_2(self: Progress, generation: int, evaluations: int | None = None) -> None:
+        if generation == 2:
+            raise KeyboardInterrupt  # the resume summarises generations 0 and 1 from the tables
+        original(self, generation, evaluations)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(Progress, "start_generation", stop_at_2)
+        with pytest.raises(KeyboardInterrupt):
+            run_experiment(config, out=tmp_path / "run", progress=False)
+    resume_experiment(tmp_path / "run", progress=False)
+    run = load_run(tmp_path / "run")
+    finite = run.evaluations[np.isfinite(run.evaluations["fitness"])]
+    expected = finite.groupby("generation")["fitness"].mean().to_numpy()
+    rows = []
+    for chunk in rr.chunk.RrdReader(tmp_path / "run" / "run.rrd").stream().to_chunks():
+        if chunk.entity_path == "/fitness/mean" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            rows += zip(
+                batch.column("generation").to_pylist(), batch.column("Scalars:scalars").to_pylist()
+            )
+    recorded = np.array([v for _, v in sorted(rows)], dtype=float).ravel()
+    np.testing.assert_allclose(recorded, expected)
+    assert not np.allclose(recorded, run.generations["best_fitness"])
+    np.testing.assert_allclose(_run_series(run)["mean_fitness"], expected)  # ariel view's
