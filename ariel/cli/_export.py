@@ -93,7 +93,8 @@ def _export_lineage(run_dir: str, path: Path) -> int:
     alive = int(frame["destruction_time"].isna().to_numpy().sum())
     print(
         terminal_text(
-            f"wrote {path}: the lineage of {len(frame):,} bodies ({alive:,} in the final "
+            f"wrote {path}: the lineage of {len(frame):,} "
+            f"{'body' if len(frame) == 1 else 'bodies'} ({alive:,} in the final "
             "population), in the ALife data standard's phylogeny format"
         )
     )

@@ -110,11 +110,11 @@ class Nevergrad:
             # NGOpt and the sampling searches (LHSSearch, ScrHammersleySearch...) plan with a
             # budget and fail their first ask without one: say so rather than nevergrad's
             # bare AssertionError.
-            shown = (f"{type(exc).__name__}: {exc}".splitlines() or [""])[0]
+            # (nevergrad's own words, "AssertionError: Error:", said nothing: chained only)
             raise ValueError(
-                f"method {self.method!r} needs a budget (its first ask without one raised "
-                f"{shown.strip()}): give it one in brain.optimizer_options, e.g. budget = "
-                "brain.popsize x brain.iterations (x generations in a brain-only run)"
+                f"method {self.method!r} needs a budget (it plans its asks with one): give it "
+                "one in brain.optimizer_options, e.g. budget = brain.popsize x "
+                "brain.iterations (x generations in a brain-only run)"
             ) from exc
         return np.array([c.value for c in self._asked], dtype=np.float64)
 
