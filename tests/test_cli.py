@@ -735,3 +735,23 @@ def test_a_resume_with_other_software_says_so(
     assert f"(mujoco 3.0.0 -> {here['mujoco']}): the generations added now may differ" in (
         capsys.readouterr().err
     )
+
+
+def test_every_command_s_help_has_a_description() -> None:
+    """`ariel runs --help` (and resume, plugins, report, ...) showed only usage and options."""
+    import argparse
+
+    from ariel.cli import build_parser
+
+    def commands(parser: argparse.ArgumentParser, prefix: str = "") -> dict:
+        found = {}
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, command in action.choices.items():
+                    found[prefix + name] = command
+                    found.update(commands(command, f"{prefix}{name} "))
+        return found
+
+    every = commands(build_parser())
+    assert {"runs", "resume", "plugins", "campaign status"} <= set(every)
+    assert [name for name, command in every.items() if not command.description] == []

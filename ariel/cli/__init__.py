@@ -85,7 +85,21 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     for add_command in COMMANDS:
         add_command(sub)
+    _describe(sub)
     return parser
+
+
+def _describe(sub: argparse._SubParsersAction) -> None:
+    """A command without a description paragraph gets its one-line help as one (``ariel runs
+    --help`` showed only its usage and options), and so do its own subcommands."""
+    for action in sub._choices_actions:
+        command = sub.choices[action.dest]
+        if not command.description and action.help:
+            text = str(action.help)
+            command.description = text[0].upper() + text[1:] + "."
+        for inner in command._actions:
+            if isinstance(inner, argparse._SubParsersAction):
+                _describe(inner)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
