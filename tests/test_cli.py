@@ -29,9 +29,10 @@ def test_plugins_lists_every_kind_with_its_names(capsys: pytest.CaptureFixture[s
     assert main(["plugins"]) == 0
     lines = dict(line.split(": ", 1) for line in capsys.readouterr().out.strip().splitlines())
     kinds = {"body_encoder", "world", "controller", "fitness", "body_optimizer", "brain_optimizer"}
-    assert set(lines) == kinds
+    assert set(lines) == kinds | {"executor"}  # --executor's kinds, listed nowhere before
     assert "na_cpg" in lines["controller"] and "flat" in lines["world"]
     assert "map_elites" in lines["body_optimizer"]
+    assert lines["executor"] == "serial, local, dask, gpu"
 
 
 def test_unknown_command_exits_with_usage(capsys: pytest.CaptureFixture[str]) -> None:

@@ -24,11 +24,12 @@ def add_plugins_command(sub: SubParsers) -> None:
 
 def _cmd_plugins(args: argparse.Namespace) -> int:
     # lazy: start-up of every `ariel` command (~20 ms; this module is imported for its parser)
-    from ariel import plugins
+    from ariel import evaluation, plugins
 
     if not args.check:
         for kind, registry in plugins.REGISTRIES.items():
             print(f"{kind}: {', '.join(registry.names())}")
+        print(f"executor: {evaluation.known_kinds()}")  # --executor KIND, [executor] kind
         return 0
     failures = 0
     for kind, name, problem in plugins.check_all():

@@ -74,6 +74,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     from ariel.evaluation._warp import (
         WarpUnavailableError as WarpUnavailableError,
     )
+    from ariel.evaluation.executors import (
+        known_kinds as known_kinds,
+    )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
@@ -119,6 +122,7 @@ _INTERNAL: dict[str, str] = {
     "default_workers": "ariel.evaluation._threads",
     "fitness_options_error": "ariel.evaluation._task",
     "frame_steps": "ariel.evaluation._engine",
+    "known_kinds": "ariel.evaluation.executors",
     "make_plugin": "ariel.evaluation._engine",
     "robot_module": "ariel.evaluation._engine",
     "worst_fitness": "ariel.evaluation._engine",
