@@ -21,6 +21,7 @@ caller's matplotlib backend.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ariel.body_phenotypes.robogen_lite.config import DESCRIPTOR_NAMES
-from ariel.errors import NotARunError, RunStorageError
+from ariel.errors import RunStorageError
 from ariel.recording import resim
 from ariel.recording.analysis._gallery import add_report_gallery
 from ariel.recording.analysis._report_best import _body_image, _trajectory_figures
@@ -45,14 +46,13 @@ from ariel.recording.analysis._report_figures import (
     _save,
     _title,
 )
-from ariel.recording.analysis._report_out import check_report_folder
+from ariel.recording.analysis._report_out import check_report_folder, refuse_if_replaced
 from ariel.recording.store import (
     DESCRIPTORS,
     QD_COLUMNS,
     STALE_S,
     STOPPED,
     Run,
-    RunFolder,
     evaluation_trajectory,
     figure_label,
     fitness_label,
@@ -64,7 +64,7 @@ from ariel.recording.store import (
     refuse_symlinks,
     remove_temporaries,
 )
-from ariel.utils import ariel_line, flag_argument, path_argument
+from ariel.utils import flag_argument, path_argument
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -327,40 +327,36 @@ def make_report(
         report.notes.append("no finished generation yet: no figures")
         return report
     refuse_symlinks(report.folder / "fitness.png", report.root)
+    made = not report.folder.exists()
     try:
         report.folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise _cannot_write(exc, report.folder, report) from exc
-    # A killed report's temporaries (another report of the run may be writing its own now).
-    list(remove_temporaries(report.folder, older_than_s=STALE_S, deep=False))
-    if announce is not None:
-        count = f"{len(table)} generation{'s' * (len(table) != 1)}"
-        announce(f"drawing the report of {one_line(run_dir)} ({count})")
     try:
-        _draw(report, maximise, render)
-    except RunStorageError:  # e.g. report/ gone: the folder replaced by a new run meanwhile?
-        _refuse_if_replaced(run)
+        _fill(report, run, run_dir, maximise, render)
+    except BaseException:  # Ctrl-C before the first figure left an empty report/ behind
+        if made:
+            with contextlib.suppress(OSError):
+                report.folder.rmdir()  # only where nothing was written (it must be empty)
         raise
-    _refuse_if_replaced(run)
-    report.announce = None  # told while drawing only: the report returned says nothing more
     return report
 
 
-def _refuse_if_replaced(run: Run) -> None:
-    """`NotARunError`, one line, when run.json now names another run than the one the report
-    drew (``ariel run --overwrite`` into the folder meanwhile): report/ may then hold figures
-    of both."""
+def _fill(report: Report, run: Run, run_dir: object, maximise: bool, render: bool) -> None:
+    """`make_report`'s drawing into its folder (made): a killed one's temporaries removed,
+    every figure drawn, and the run checked to be the one drawn."""
+    # A killed report's temporaries (another report of the run may be writing its own now).
+    list(remove_temporaries(report.folder, older_than_s=STALE_S, deep=False))
+    if report.announce is not None:
+        count = f"{len(report.table)} generation{'s' * (len(report.table) != 1)}"
+        report.announce(f"drawing the report of {one_line(run_dir)} ({count})")
     try:
-        now = RunFolder(run.path).read_info()
-    except NotARunError:
-        now = {}
-    drawn = (run.info.get("run_id"), run.info.get("created"))
-    if (now.get("run_id"), now.get("created")) != drawn:
-        raise NotARunError(
-            f"run folder {str(run.path)!r} was replaced by another run while its report was "
-            "drawn (e.g. `ariel run --overwrite` into it): report/ may hold figures of both; "
-            f"make the report again: {ariel_line('report', run.path)}"
-        )
+        _draw(report, maximise, render)
+    except RunStorageError:  # e.g. report/ gone: the folder replaced by a new run meanwhile?
+        refuse_if_replaced(run)
+        raise
+    refuse_if_replaced(run)
+    report.announce = None  # told while drawing only: the report returned says nothing more
 
 
 def _draw(report: Report, maximise: bool, render: bool) -> None:

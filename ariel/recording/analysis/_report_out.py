@@ -6,11 +6,16 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ariel.errors import ArielError, UnsafePathError
-from ariel.recording.store import LOCK_NAME, records_folder_of, written_path
+from ariel.errors import ArielError, NotARunError, UnsafePathError
+from ariel.recording.store import LOCK_NAME, RunFolder, records_folder_of, written_path
+from ariel.utils import ariel_line
 
-__all__ = ["REPORT_FILES", "ReportFolderError", "check_report_folder"]
+if TYPE_CHECKING:
+    from ariel.recording.store import Run
+
+__all__ = ["REPORT_FILES", "ReportFolderError", "check_report_folder", "refuse_if_replaced"]
 
 #: What a report writes into its folder (the gallery's thumbnails go to ``thumbnails/``).
 REPORT_FILES = (
@@ -68,3 +73,20 @@ def _ours(path: Path) -> bool:
         return path.is_dir() and not path.is_symlink()
     name = written_path(path)
     return path.name in _OURS or (name is not None and name.name in REPORT_FILES)
+
+
+def refuse_if_replaced(run: Run) -> None:
+    """`NotARunError`, one line, when run.json now names another run than the one the report
+    drew (``ariel run --overwrite`` into the folder meanwhile): report/ may then hold figures
+    of both."""
+    try:
+        now = RunFolder(run.path).read_info()
+    except NotARunError:
+        now = {}
+    drawn = (run.info.get("run_id"), run.info.get("created"))
+    if (now.get("run_id"), now.get("created")) != drawn:
+        raise NotARunError(
+            f"run folder {str(run.path)!r} was replaced by another run while its report was "
+            "drawn (e.g. `ariel run --overwrite` into it): report/ may hold figures of both; "
+            f"make the report again: {ariel_line('report', run.path)}"
+        )

@@ -252,6 +252,29 @@ def test_a_run_without_finished_generations_writes_nothing(run_dir: Path, tmp_pa
     assert not (fresh / "report").exists()
 
 
+def test_a_report_stopped_before_its_first_figure_leaves_no_empty_folder(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C during `ariel report` left an empty report/ behind; one that was there stays."""
+    from ariel.recording.analysis import _report
+
+    copy = tmp_path / "copy"
+    shutil.copytree(run_dir, copy)
+    shutil.rmtree(copy / "report", ignore_errors=True)
+
+    def stopped(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(_report, "_draw", stopped)
+    with pytest.raises(KeyboardInterrupt):
+        make_report(copy, render=False)
+    assert not (copy / "report").exists()
+    (copy / "report").mkdir()
+    with pytest.raises(KeyboardInterrupt):
+        make_report(copy, render=False)
+    assert (copy / "report").is_dir()  # not this call's: left as it was
+
+
 def test_a_copied_run_reports_into_the_copy(run_dir: Path, tmp_path: Path) -> None:
     copy = tmp_path / "a" / "copy"
     shutil.copytree(run_dir, copy)
