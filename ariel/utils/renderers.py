@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 from PIL import Image
 
+from ariel.utils._arguments import count_argument
 from ariel.utils._gl import create_renderer
 from ariel.utils.video_recorder import VideoRecorder
 
@@ -135,8 +136,10 @@ def single_frame_renderer(
         The rendered RGB image.
 
     Raises:
-        ValueError: If ``steps`` is negative, the image size is not positive, a camera override
-            is malformed, or an override is given and the model has no "ortho-cam".
+        TypeError: If ``steps`` is not a whole number (an int).
+        ValueError: If ``steps`` is negative, the image size is not positive or above 16384
+            pixels a side, a camera override is malformed, or an override is given and the
+            model has no "ortho-cam".
         ariel.errors.GLBackendError: A ``RuntimeError``, when no OpenGL backend works.
 
     Example:
@@ -159,8 +162,7 @@ def single_frame_renderer(
         print(image.size)  # (320, 240)
         ```
     """
-    if steps < 0:
-        raise ValueError(f"steps must be >= 0, got {steps}")
+    steps = count_argument("steps", steps, maximum=10**9, function="single_frame_renderer")
     mujoco.mj_resetData(model, data)
     with _camera(model, cam_fovy, cam_pos, cam_quat) as camera:
         if steps > 0:

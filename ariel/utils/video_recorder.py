@@ -16,7 +16,10 @@ from typing import Any, Self
 import imageio_ffmpeg
 import numpy as np
 
-__all__ = ["VideoRecorder"]
+__all__ = ["MAX_FPS", "VideoRecorder"]
+
+#: The most frames per second a video is written at (a thousand: far beyond any screen).
+MAX_FPS = 1000
 
 
 class VideoRecorder:
@@ -32,7 +35,7 @@ class VideoRecorder:
         output_folder: Folder of the file, created if needed; None: the current directory.
         width: Frame width in pixels (positive and even, as H.264/yuv420p needs).
         height: Frame height in pixels (positive and even).
-        fps: Frames per second of the video (> 0).
+        fps: Frames per second of the video (above 0, at most `MAX_FPS`).
 
     Raises:
         ValueError: If a size is not a positive even int, ``fps`` is not positive, or
@@ -53,8 +56,12 @@ class VideoRecorder:
             if value % 2:
                 # yuv420p stores colour at half resolution: both sides must be even.
                 raise ValueError(f"{label} must be even for H.264/yuv420p video, got {value}")
-        if not (isinstance(fps, int | float | np.integer | np.floating) and fps > 0):
-            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        if not (
+            isinstance(fps, int | float | np.integer | np.floating)
+            and not isinstance(fps, bool)
+            and 0 < fps <= MAX_FPS
+        ):  # 1e9 was taken (ffmpeg's frame timing then fails far from here), NaN too
+            raise ValueError(f"fps must be a number above 0 and at most {MAX_FPS}, got {fps!r}")
         if not file_name or Path(file_name).name != file_name:
             raise ValueError(
                 f"file_name must be a plain file name without folders, got {file_name!r}"

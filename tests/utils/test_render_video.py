@@ -335,3 +335,22 @@ def test_gecko_frame_in_flat_world(tmp_path: Path) -> None:
     yellow = (pixels[..., 0] > 150) & (pixels[..., 1] > 150) & (pixels[..., 2] < 100)
     red = (pixels[..., 0] > 150) & (pixels[..., 1] < 80) & (pixels[..., 2] < 80)
     assert yellow.sum() > 200 and red.sum() > 50
+
+
+@pytest.mark.parametrize("fps", [1e9, float("nan"), True])
+def test_recorder_refuses_an_impossible_frame_rate(tmp_path: Path, fps: object) -> None:
+    """1e9 frames per second and NaN were taken, to fail later inside the video writer."""
+    with pytest.raises(ValueError, match="fps must be a number above 0 and at most 1000"):
+        VideoRecorder(output_folder=tmp_path, fps=fps)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("steps", [float("nan"), 2.5, -1])
+def test_single_frame_renderer_takes_whole_steps_only(steps: object) -> None:
+    """steps=nan was taken (int(nan) failed deep inside); 2.5 was cut to 2."""
+    import mujoco
+
+    from ariel.utils.renderers import single_frame_renderer
+
+    model = mujoco.MjModel.from_xml_string("<mujoco/>")
+    with pytest.raises((TypeError, ValueError), match="single_frame_renderer: steps must be"):
+        single_frame_renderer(model, mujoco.MjData(model), steps=steps)  # type: ignore[arg-type]
