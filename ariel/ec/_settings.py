@@ -31,6 +31,10 @@ class EASettings(BaseSettings):
     ``output_folder`` defaults to ``./__data__`` of the working directory when the settings are
     made; nothing is created until an `EA` opens its database.
 
+    Args:
+        values: Settings by name (the attributes below), before the ``ARIEL_EC_*`` variables;
+            a bad one is a one-line `ValueError` naming it and its variable.
+
     Attributes:
         quiet: silence the EA's console output and progress bar (``ARIEL_EC_QUIET``).
         is_maximisation: ``True`` if a higher fitness is better; decides which individual

@@ -210,8 +210,8 @@ def compare_runs(
     choice = Design(paired, reason or ("the conditions share seeds" if paired else ""))
     rows, omnibus, found_notes = _statistics(runs, maximise, choice)
     grouped = _by_condition(truncated)
-    states = run_state_notes(curves)  # runs not finished, runs of no success
-    short = lineages.no_generation_note(curves, budget)  # lineage measures missing: say why
+    # runs not finished, runs of no success, runs whose lineage measures are missing
+    states = [*run_state_notes(curves), lineages.no_generation_note(curves, budget)]
     comparison = Comparison(
         out=Path(out) if out is not None else None,
         title=title,
@@ -224,9 +224,7 @@ def compare_runs(
         omnibus=pd.DataFrame(omnibus),
         budget=budget,
         tests=choice,
-        notes=[
-            n for n in (*notes, *states, budget_note, short, *found_notes, _alone(grouped)) if n
-        ],
+        notes=[n for n in (*notes, *states, budget_note, *found_notes, _alone(grouped)) if n],
         about=describe(
             source or Source(),
             seeds={name: [c.seed for c in group] for name, group in grouped.items()},
