@@ -251,7 +251,8 @@ def run_campaign(
     runs = []
     for (condition, seed), config in spec.configs.items():
         run_id = check_new_id(f"{campaign_id}-{condition}-s{seed}")
-        runs.append(_Run(condition, seed, run_id, prepare_run(config, settings)))
+        prepared = prepare_run(config, settings, alone=False)  # its base's body settings
+        runs.append(_Run(condition, seed, run_id, prepared))
     _check_new_folder(path)
     reach_executor(settings)  # a scheduler that never answers: no folder
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
@@ -403,7 +404,7 @@ def _unfinished_run(
     folder = RunFolder(path / entry["path"])
     condition, seed = entry["condition"], int(entry["seed"])
     if not folder.run_json.is_file():  # killed while the campaign was being made
-        prepared = prepare_run(ExperimentConfig.from_plain(entry["config"]), settings)
+        prepared = prepare_run(ExperimentConfig.from_plain(entry["config"]), settings, alone=False)
         run = _Run(condition, seed, entry["run_id"], prepared)
         run.session = RunSession.create(prepared, folder.path, run.run_id, locks, overwrite=True)
         return run
