@@ -49,6 +49,7 @@ def readable_engine(path: Path, role: str) -> Engine:
     try:
         with session(engine) as s:
             s.exec(select(func.count()).select_from(Individual)).one()
+            s.exec(select(Individual).limit(1)).all()  # its columns: a table of that name only
     except StatementError as error:
         engine.dispose()
         raise database_error(f"{role} {path} is not an EA database ariel can read", error) from None

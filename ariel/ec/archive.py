@@ -76,8 +76,8 @@ class Archive:
             (Individual.time_of_death, death_range),
             (Individual.fitness_, fitness_range),
         ):
-            if bounds is not None:
-                lo, hi = bounds
+            if bounds is not None:  # as plain numbers: SQLite matched no NumPy integer
+                lo, hi = (float(bound) for bound in bounds)
                 statement = statement.where(col(column) >= lo).where(col(column) <= hi)
         return statement
 
@@ -211,6 +211,7 @@ class Archive:
 
     def by_generation(self, generation: int) -> Population:
         """Every evaluated individual present during ``generation`` (born <= it <= died)."""
+        generation = _count("generation", generation)  # np.int64(0) matched no row
         return Population(
             self._rows(
                 self._filters(select(Individual))

@@ -174,6 +174,8 @@ class EA:
             raise ValueError(f"db_handling must be 'delete' or 'halt', not {db_handling!r}")
         if path.exists() and db_handling == "halt":
             raise FileExistsError(f"database {path} exists and db_handling is 'halt'")
+        if path.is_dir():  # the replace below would fail after the population was saved
+            raise IsADirectoryError(f"db_file_path {path} is a folder: name a database file")
         path.parent.mkdir(parents=True, exist_ok=True)
         fresh = path.with_name(f".{path.name}.new-{os.getpid()}")
         fresh.unlink(missing_ok=True)
@@ -188,6 +190,10 @@ class EA:
         self.engine.dispose()
         if path.exists():
             self.console.log(f"Database {path} exists: replacing it (db_handling='delete')")
+        # The old file's write-ahead log and journal would be applied to the new one (a WAL
+        # left by another program read back as its rows)
+        for suffix in ("-wal", "-shm", "-journal"):
+            path.with_name(path.name + suffix).unlink(missing_ok=True)
         os.replace(fresh, path)
         return open_engine(path)
 

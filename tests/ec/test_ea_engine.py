@@ -401,3 +401,56 @@ def test_archive_counts_are_whole_numbers_from_zero(tmp_path: Path) -> None:
         archive.hall_of_fame(-1)  # SQL's LIMIT -1 returned every individual
     assert len(archive.tournament_population(0)) == 0
     assert len(archive.hall_of_fame(np.int64(2))) == 2
+
+
+def test_replacing_a_database_drops_its_old_write_ahead_log(tmp_path: Path) -> None:
+    """Another program's WAL beside the old file was applied to the new one: 53 rows read back
+    where 2 were saved. A folder as db_file_path left a hidden half-made file beside it."""
+    _run_ea(tmp_path, "wal.db", steps=1)
+    with sqlite3.connect(tmp_path / "wal.db") as db:
+        db.execute("pragma journal_mode=wal")
+    writer = sqlite3.connect(tmp_path / "wal.db")
+    writer.execute("pragma wal_autocheckpoint=0")
+    writer.executemany(
+        "insert into individual (alive, time_of_birth, time_of_death, requires_eval, "
+        "requires_init, tags_) values (1, 0, 0, 1, 1, '{}')",
+        [()] * 50,
+    )
+    writer.commit()
+    assert (tmp_path / "wal.db-wal").stat().st_size > 0
+    EA(
+        Population([_ind([1.0], 1.0), _ind([2.0], 2.0)]),
+        [evaluate],
+        quiet=True,
+        db_file_path=tmp_path / "wal.db",
+    )
+    writer.close()
+    with sqlite3.connect(tmp_path / "wal.db") as db:
+        assert db.execute("select count(*) from individual").fetchone()[0] == 2
+    (tmp_path / "adir.db").mkdir()
+    with pytest.raises(IsADirectoryError, match="is a folder: name a database file"):
+        EA(
+            Population([_ind([1.0], 1.0)]),
+            [evaluate],
+            quiet=True,
+            db_file_path=tmp_path / "adir.db",
+        )
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_archive_queries_take_numpy_integers_and_refuse_a_foreign_table(tmp_path: Path) -> None:
+    _run_ea(tmp_path, steps=2)
+    archive = Archive(tmp_path / "db.db")
+    assert len(archive.by_generation(np.int64(0))) == len(archive.by_generation(0)) > 0
+    window = (np.int64(0), np.int64(1))
+    assert (
+        len(archive.hall_of_fame(50, birth_range=window))
+        == len(archive.hall_of_fame(50, birth_range=(0, 1)))
+        > 0
+    )
+    foreign = tmp_path / "foreign.db"
+    with sqlite3.connect(foreign) as db:
+        db.execute("create table individual (name text)")
+    with pytest.raises(ValueError, match="is not an EA database ariel can read") as error:
+        Archive(foreign)
+    assert "\n" not in str(error.value)
