@@ -23,9 +23,11 @@ name their backend (``mujoco-warp:cuda`` or ``mujoco-warp:cpu``). A world whose 
 the finite range MuJoCo allows (|x| <= 1e10) is ``unstable``. A world whose contacts or
 constraints overflow the device buffers is re-run with larger buffers.
 
-Closed-loop controllers (a policy per call) are not batched here: their tasks run on the CPU
-engine in this process (backend ``mujoco``). Import cost: `warp` and `mujoco_warp` load on the
-first evaluator only.
+Closed-loop controllers (a policy per call) are not batched here, nor worlds with a
+heightfield (rugged, rugged_tilted, crater, amphitheatre: MuJoCo Warp's contacts with one
+differ from MuJoCo's, launching robots): their tasks run on the CPU engine in this process
+(backend ``mujoco``), each reason said once on stderr. Import cost: `warp` and
+`mujoco_warp` load on the first evaluator only.
 
 The device side (device copies, frame buffers, captured graphs, stepping) is
 `ariel.evaluation._warp_device`, the import of Warp and the device check
@@ -49,6 +51,7 @@ from ariel.evaluation._engine import (
     TaskGroup,
     _build_key,
     _finish,
+    _open_loop,
     evaluate_group,
     held_controls,
     open_loop_targets,
@@ -56,6 +59,7 @@ from ariel.evaluation._engine import (
 )
 from ariel.evaluation._rollouts import _call_chunks
 from ariel.evaluation._task import EvaluationResult, EvaluationTask
+from ariel.evaluation._threads import evaluation_threads
 from ariel.evaluation._warp_cpg import (
     CPGInputs,
     cpg_inputs,
@@ -94,6 +98,8 @@ __all__ = [
 ]
 
 
+# mujoco.mjtGeom.mjGEOM_HFIELD: a world with one runs on the CPU engine (`_on_the_cpu`).
+_HFIELD = 1
 # MuJoCo's limit on |qpos|, |qvel| (mjMAXVAL): beyond it the CPU engine warns and stops.
 _MAX_VALUE = 1e10
 # Buffer sizes grow this many times at most when contacts or constraints overflow them.
@@ -134,16 +140,46 @@ class WarpEvaluator(_WarpDevice):
         (`ariel.evaluation._warp_packed`); the others run body by body.
         """
         results, ready = prepare_groups(tasks)
-        alone, packs, reasons = pack_plan(ready)
+        here = [g for g in ready if self._on_the_cpu(g)]
+        alone, packs, reasons = pack_plan([g for g in ready if not any(g is h for h in here)])
         self._note_unpacked(reasons)
         done = [(g, outs) for pack in packs for g, outs in zip(pack, self._packed(pack))]
         done += [(g, evaluate_group(g, self._open_loop_group)) for g in alone]
+        threads = evaluation_threads()
+
+        def on_the_cpu(g: TaskGroup) -> list[EvaluationResult]:  # an open-loop group's rollout
+            return _open_loop(g.tasks, g.built, g.controller, g.fitness_fn, threads)
+
+        done += [(g, evaluate_group(g, on_the_cpu)) for g in here]
         for group, outs in done:
             for i, out in zip(group.indices, outs):
                 results[i] = out
         return results  # type: ignore[return-value]
 
     # -- internals -------------------------------------------------------------------------------
+
+    def _on_the_cpu(self, group: TaskGroup) -> bool:
+        """Whether ``group`` runs on the CPU engine (backend ``mujoco``), said once per reason
+        on stderr: a closed-loop controller (a policy per call), or a world with a heightfield,
+        whose contacts MuJoCo Warp makes otherwise than MuJoCo: fewer of them, and robots on
+        rugged ground were launched (fitness 10 to 200 times the CPU engine's, status ok)."""
+        if not group.controller.open_loop:
+            why = f"controller {group.tasks[0].controller!r} is closed-loop (a policy per call)"
+        elif (group.built.model.geom_type == _HFIELD).any():
+            why = (
+                f"world {group.tasks[0].world!r} has a heightfield, whose contacts MuJoCo Warp "
+                "computes unlike MuJoCo"
+            )
+        else:
+            return False
+        if why not in self._noted:
+            self._noted.add(why)
+            print(
+                f"note: gpu: {why}: its evaluations run on the CPU engine (docs/gpu.md)",
+                file=sys.stderr,
+                flush=True,
+            )
+        return True
 
     def _note_unpacked(self, reasons: dict[str, int]) -> None:
         """One line on stderr for each new reason why bodies could not be packed."""

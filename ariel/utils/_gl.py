@@ -20,6 +20,7 @@ from it is safe before ``mujoco`` has been imported.
 
 from __future__ import annotations
 
+import numbers
 import os
 import socket
 import sys
@@ -162,10 +163,14 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
     OpenGL backend works.
     """
     mujoco = mujoco_module()
-    if not (isinstance(width, int) and isinstance(height, int)) or width <= 0 or height <= 0:
+    whole = all(
+        isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in (width, height)
+    )
+    if not whole or width <= 0 or height <= 0:
         raise ValueError(
             f"image size must be positive integers, got width={width!r}, height={height!r}"
         )
+    width, height = int(width), int(height)  # a NumPy integer too
     if max(width, height) > MAX_IMAGE_SIDE:  # GL's framebuffer refuses it as "no backend"
         raise ValueError(
             f"image size must be at most {MAX_IMAGE_SIDE} pixels a side, got width={width}, "
@@ -182,6 +187,12 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
     try:
         return renderer_cls(model, height=height, width=width)
     except Exception as exc:  # any failure to create a GL context means: no usable backend
+        if "framebuffer" in str(exc).lower():  # a context was made: the image is too large
+            raise ValueError(
+                f"an image of {width} x {height} pixels is too large for this OpenGL "
+                f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}): "
+                "draw a smaller one"
+            ) from exc
         raise _no_gl_error(exc) from exc
     finally:
         # The framebuffer is allocated when the context is made; the model can be restored.

@@ -159,6 +159,34 @@ def test_groups_mix_open_and_closed_loop_and_bad_bodies_in_input_order(evaluator
         evaluator.evaluate_batch([EvaluationTask(body=GECKO, params=[0.0] * 3)])
 
 
+def test_the_gpu_executor_runs_submitted_evaluate_batch_calls_on_warp() -> None:
+    """docs/gpu.md's `ex.submit(evaluate_batch, tasks)` ran on the CPU engine (backend
+    mujoco), while the example said Warp."""
+    from ariel.evaluation import make_executor
+
+    tasks = gecko_tasks(2, duration=0.2)
+    with make_executor("gpu", device="cpu") as ex:
+        results = ex.submit(evaluate_batch, tasks).result()
+        other = ex.submit(len, tasks).result()  # any other call: here, as before
+    assert [r.backend for r in results] == ["mujoco-warp:cpu"] * 2 and other == 2
+
+
+def test_a_heightfield_world_runs_on_the_cpu_engine_and_says_so(capsys) -> None:
+    """MuJoCo Warp's contacts with a heightfield differ from MuJoCo's: on rugged ground the
+    gecko was launched (0.47 m where the CPU engine gave 0.03), with status ok."""
+    fresh = WarpEvaluator("cpu")  # its notes are said once per evaluator
+    tasks = gecko_tasks(2, world="rugged", duration=0.3)
+    cpu, warp = evaluate_batch(tasks), fresh.evaluate_batch(tasks)
+    assert [r.backend for r in warp] == ["mujoco", "mujoco"]
+    assert [r.fitness for r in warp] == [r.fitness for r in cpu]
+    fresh.evaluate_batch(tasks)
+    notes = [line for line in capsys.readouterr().err.splitlines() if "heightfield" in line]
+    assert notes == [
+        "note: gpu: world 'rugged' has a heightfield, whose contacts MuJoCo Warp computes unlike "
+        "MuJoCo: its evaluations run on the CPU engine (docs/gpu.md)"
+    ]
+
+
 def test_devices_are_checked_with_one_line(monkeypatch, tmp_path) -> None:
     with pytest.raises(ValueError, match="device must be one of cuda, cpu"):
         check_device("tpu")
