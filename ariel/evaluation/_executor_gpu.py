@@ -8,6 +8,7 @@ queued to one `ariel.evaluation._warp.WarpEvaluator` call (docs/gpu.md). Re-expo
 from __future__ import annotations
 
 import concurrent.futures as cf
+import sys
 import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar, cast
@@ -25,6 +26,10 @@ __all__ = ["WarpExecutor"]
 
 R = TypeVar("R")
 P = ParamSpec("P")
+
+#: Seconds `WarpExecutor.shutdown` waits for the device thread before it says it is waiting (a
+#: Ctrl-C during a kernel compilation or a batch waited up to a minute without a word).
+WAIT_NOTE_S = 1.0
 
 
 class _QueuedFuture(cf.Future):  # type: ignore[type-arg]
@@ -145,7 +150,15 @@ class WarpExecutor(SerialExecutor):
                     future.cancel()
             self._wake.notify()
         if wait and self._thread is not None:
-            self._thread.join()
+            self._thread.join(timeout=WAIT_NOTE_S)
+            if self._thread.is_alive():  # a device call cannot be stopped midway: say so
+                print(
+                    "waiting for the device to finish its current call (a kernel compilation "
+                    "or a batch cannot be stopped midway)",
+                    file=sys.stderr,
+                    flush=True,
+                )
+                self._thread.join()
 
     def __repr__(self) -> str:
         return f"WarpExecutor(device={self.device!r})"

@@ -235,3 +235,23 @@ def test_the_package_exports_the_evaluator_lazily() -> None:
 
     assert ariel.evaluation.WarpEvaluator is WarpEvaluator
     assert "WarpEvaluator" in dir(ariel.evaluation)
+
+
+def test_shutting_down_during_a_device_call_says_it_waits(capsys) -> None:
+    """Ctrl-C during a kernel compilation or a batch waited up to a minute without a word."""
+    import time
+
+    from ariel.evaluation import _executor_gpu, make_executor
+
+    class Slow:
+        def evaluate_batch(self, tasks: list) -> list:
+            time.sleep(_executor_gpu.WAIT_NOTE_S + 0.5)
+            return [None] * len(tasks)
+
+    ex = make_executor("gpu", device="cpu")
+    ex.evaluator = Slow()  # type: ignore[assignment]
+    ex.submit_batch([object()])  # type: ignore[list-item]
+    ex.dispatch()
+    time.sleep(0.1)  # the device thread has taken it
+    ex.shutdown()
+    assert "waiting for the device to finish its current call" in capsys.readouterr().err
