@@ -99,9 +99,9 @@ def check_device(device: str) -> str:
         raise ValueError(f"device must be one of {', '.join(DEVICES)}, not {device!r}")
     if device == "cuda" and not cuda_available():
         raise WarpUnavailableError(
-            "the gpu executor found no CUDA device (no NVIDIA GPU or driver visible to Warp); "
-            "to run MuJoCo Warp on the CPU instead (slow; for tests), set "
-            'executor.device = "cpu" in the config or add --set executor.device=cpu to the '
-            "command"
+            "the gpu executor found no CUDA device (no NVIDIA GPU or driver visible to Warp): "
+            "run on the CPU engine instead (--executor local), or MuJoCo Warp on the CPU (slow; "
+            'for tests: executor.device = "cpu" in the config, --set executor.device=cpu for '
+            "ariel run)"
         )
     return device

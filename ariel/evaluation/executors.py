@@ -282,9 +282,7 @@ class GpuKind(ExecutorKind):
         try:
             check_device(settings.device)
         except WarpUnavailableError as exc:
-            raise ExecutorSettingsError(
-                f"executor.device: {exc}; or the CPU engine: --executor local"
-            ) from None
+            raise ExecutorSettingsError(f"executor.device: {exc}") from None
 
     def options(self, settings: ExecutorSettings) -> dict[str, Any]:
         return {"workers": settings.workers, "device": settings.device}

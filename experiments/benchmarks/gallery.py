@@ -93,8 +93,11 @@ def jobs_of(run: Any, count: int, folder: Path) -> list[Any]:
     bodies = run.bodies.drop_duplicates("body_id", keep="last")
     built = bodies[bodies["fitness"].map(math.isfinite)].sort_values("body_id", ascending=False)
     ids = [str(b) for b in built["body_id"]][: count + 1]
-    if len(ids) < 2:
-        raise SystemExit(f"{run.path}: fewer than 2 bodies that were built")
+    if len(ids) < 2:  # a brain-only run's one body: the scripts' one-line error, exit 2
+        print(
+            f"gallery.py: error: {run.path}: fewer than 2 bodies that were built", file=sys.stderr
+        )
+        raise SystemExit(2)
     return [ThumbnailJob(str(run.path), body, str(folder / f"{body}.png")) for body in ids]
 
 

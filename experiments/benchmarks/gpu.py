@@ -388,7 +388,13 @@ def main(argv: list[str] | None = None) -> int:
         wp, _ = warp_modules()
         evaluator = WarpEvaluator(args.device)
     except WarpUnavailableError as exc:
-        print(f"gpu.py: {exc}", file=sys.stderr)
+        said = str(exc)
+        if "no CUDA device" in said:  # in its own options: the library's names a run's --set
+            said = (
+                "no CUDA device (no NVIDIA GPU or driver visible to Warp): give --device cpu for "
+                "Warp's CPU device (slow), or --quick (a smoke run on it)"
+            )
+        print(f"gpu.py: error: {said}", file=sys.stderr)
         return 2
     model = build(EvaluationTask(body=GECKO)).model
     context: dict[str, Any] = {

@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from ariel.utils import replace_non_finite
+
 BOUND = math.pi / 2
 
 
@@ -144,7 +146,9 @@ def main(argv: list[str] | None = None) -> int:
         figures = measure(args.run_dir)
     for key, value in figures.items():
         print(f"{key}: {value}", file=sys.stderr)
-    print(json.dumps(figures))
+    # strict JSON: NaN (no learning gain without a second CMA-ES iteration) as null, which
+    # JSON.parse and strict readers take (a bare NaN they refuse)
+    print(json.dumps(replace_non_finite(figures, lambda _: None), allow_nan=False))
     return 0
 
 

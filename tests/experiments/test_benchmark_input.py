@@ -20,3 +20,58 @@ def test_bad_input_is_one_line_exit_2(tmp_path: Path, script: str, args: list, s
     result = run_benchmark(script, *args, cwd=tmp_path)
     assert result.returncode == 2
     assert result.stderr.startswith(said) and result.stderr.count("\n") == 1, result.stderr
+
+
+@pytest.fixture(scope="module")
+def brain_only(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A tiny brain-only run of one CMA-ES iteration per generation (no learning gain)."""
+    from ariel.evolution import run_experiment
+
+    config = {
+        "name": "one-body",
+        "generations": 1,
+        "body": {"encoder": "prebuilt", "genotype": "gecko"},
+        "brain": {"popsize": 2, "iterations": 1},
+        "task": {"duration": 0.3, "settle": 0.0},
+        "record": {"rerun": False},
+        "executor": {"kind": "serial"},
+    }
+    out = tmp_path_factory.mktemp("benchmarks") / "run"
+    run_experiment(config, out=out, progress=False)
+    return out
+
+
+def test_gallery_of_a_brain_only_run_is_the_scripts_one_line(brain_only: Path, tmp_path: Path):
+    """It was a bare 'RUN: fewer than 2 bodies that were built', exit 1."""
+    result = run_benchmark("gallery.py", str(brain_only), cwd=tmp_path)
+    assert result.returncode == 2
+    assert (
+        result.stderr.startswith("gallery.py: error: ") and "fewer than 2 bodies" in result.stderr
+    )
+
+
+def test_science_prints_strict_json_without_nan(brain_only: Path, tmp_path: Path) -> None:
+    """A learning gain of NaN was printed as a bare NaN, which JSON.parse refuses."""
+    import json
+
+    result = run_benchmark("science.py", str(brain_only), cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    last = result.stdout.strip().splitlines()[-1]
+    figures = json.loads(last, parse_constant=lambda name: pytest.fail(f"{name} in {last}"))
+    assert None in figures.values()  # the gains that need a second iteration: null
+
+
+def test_gpu_benchmark_without_cuda_names_its_own_options(tmp_path: Path) -> None:
+    """It said to add --set executor.device=cpu, an option of ariel run, not of gpu.py."""
+    pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed: make gpu")
+    from ariel.evaluation._warp_runtime import cuda_available
+
+    if cuda_available():
+        pytest.skip("a CUDA device is here")
+    result = run_benchmark("gpu.py", cwd=tmp_path)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert (
+        result.stderr.startswith("gpu.py: error: no CUDA device")
+        and "--device cpu" in result.stderr
+    )
+    assert "--set" not in result.stderr
