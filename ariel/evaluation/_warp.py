@@ -116,7 +116,9 @@ class WarpEvaluator(_WarpDevice):
     """
 
     def __init__(self, device: str = "cuda", *, max_worlds: int | None = None) -> None:
-        if max_worlds is not None and (not isinstance(max_worlds, int) or max_worlds < 1):
+        if max_worlds is not None and (
+            not isinstance(max_worlds, int) or isinstance(max_worlds, bool) or max_worlds < 1
+        ):  # True counted as 1
             raise ValueError(f"max_worlds must be an integer >= 1 or None, got {max_worlds!r}")
         self.device = check_device(device)
         self.max_worlds = max_worlds

@@ -190,6 +190,9 @@ def test_a_heightfield_world_runs_on_the_cpu_engine_and_says_so(capsys) -> None:
 def test_devices_are_checked_with_one_line(monkeypatch, tmp_path) -> None:
     with pytest.raises(ValueError, match="device must be one of cuda, cpu"):
         check_device("tpu")
+    for worlds in (0, True, 2.0):  # True was taken as 1
+        with pytest.raises(ValueError, match="max_worlds must be an integer >= 1 or None"):
+            WarpEvaluator("cpu", max_worlds=worlds)  # type: ignore[arg-type]
     assert check_device("cpu") == "cpu"
     if not cuda_available():
         with pytest.raises(WarpUnavailableError, match=r'executor\.device = "cpu"') as info:
