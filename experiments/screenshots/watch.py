@@ -11,6 +11,7 @@ generations (default 4) are shown draws the page in a headless Chromium and save
 from __future__ import annotations
 
 import argparse
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -22,11 +23,28 @@ from ariel.recording.store._files import atomic_write_bytes
 from ariel.recording.viewer._browser import HeadlessChromium, find_chromium
 from ariel.recording.viewer._web import wait_for_drawing
 
+#: The default experiment's generations (experiments/coevolve_flat.toml).
+GENERATIONS = 10
+
+
+def _going(proc: subprocess.Popen[bytes], what: str) -> None:
+    """Stop with one line when the run ended before ``what`` (it said why on stderr): the
+    waits below would otherwise go on for good."""
+    if proc.poll() is not None:
+        raise SystemExit(f"watch.py: error: the run ended (exit {proc.returncode}) before {what}")
+
+
+def _after(text: str) -> int:
+    value = int(text)
+    if not 1 <= value <= GENERATIONS:  # the default run has 10: more is never reached
+        raise argparse.ArgumentTypeError(f"must be from 1 to {GENERATIONS}, not {value}")
+    return value
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", nargs="?", default="docs/images/watch.png", type=Path)
-    parser.add_argument("--after", type=int, default=4, help="generations shown first")
+    parser.add_argument("--after", type=_after, default=4, help="generations shown first")
     args = parser.parse_args()
     scratch = Path(tempfile.mkdtemp(prefix="ariel-watch-shot-"))
     run = scratch / "run"
@@ -34,6 +52,7 @@ def main() -> None:
     proc = subprocess.Popen(command)
     try:
         while not (run / "run.json").is_file():
+            _going(proc, "its folder was made")
             time.sleep(0.2)
         with watch(run, viewer="web", port=0, grpc_port=0) as watcher:
             while True:
@@ -43,6 +62,7 @@ def main() -> None:
                         break
                 except Exception:  # the run folder is still being made
                     pass
+                _going(proc, f"{args.after} generations were shown")
                 time.sleep(0.5)
             watcher.poll()
             with HeadlessChromium(
@@ -54,6 +74,7 @@ def main() -> None:
     finally:
         proc.terminate()
         proc.wait(timeout=60)
+        shutil.rmtree(scratch, ignore_errors=True)  # the scratch run (~50 MB) and the profile
 
 
 if __name__ == "__main__":

@@ -75,3 +75,27 @@ def test_gpu_benchmark_without_cuda_names_its_own_options(tmp_path: Path) -> Non
         and "--device cpu" in result.stderr
     )
     assert "--set" not in result.stderr
+
+
+def test_the_watch_screenshot_stops_when_its_run_fails(tmp_path: Path) -> None:
+    """Its run ended at once (here: a GL backend that does not exist) and the script waited
+    for the run's folder for good, leaving its scratch folder behind."""
+    import os
+    import subprocess
+    import sys
+
+    script = Path(__file__).parents[2] / "experiments" / "screenshots" / "watch.py"
+    env = {**os.environ, "MUJOCO_GL": "bogus", "TMPDIR": str(tmp_path)}
+    done = subprocess.run(
+        [sys.executable, str(script), str(tmp_path / "shot.png")],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 1
+    assert done.stderr.strip().endswith(
+        "watch.py: error: the run ended (exit 2) before its folder was made"
+    )
+    assert not list(tmp_path.glob("ariel-watch-shot-*"))
