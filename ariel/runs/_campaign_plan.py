@@ -205,6 +205,8 @@ def busy_factor(workers: int) -> tuple[float, int, float] | None:
 
 def _duration(seconds: float) -> str:
     minutes = seconds / 60
+    if seconds < 1:  # "about 0 s" for a tiny campaign
+        return "a second"
     if minutes < 1:
         return f"{seconds:.0f} s"
     return f"{minutes:.0f} min" if minutes < 120 else f"{minutes / 60:.1f} h"

@@ -144,3 +144,10 @@ def test_a_dry_run_of_many_conditions_times_a_few(
     lines = _campaign_plan.plan_text(plan)
     assert lines[5].endswith("ms per evaluation here (the timed conditions' mean)")
     assert "  (the first 2 of 5 conditions timed; the others counted at their mean)" in lines
+
+
+def test_a_tiny_campaigns_estimate_reads_as_time() -> None:
+    """It said 'estimate: about 0 s'."""
+    from ariel.runs._campaign_plan import _duration
+
+    assert [_duration(s) for s in (0.2, 12, 600, 9000)] == ["a second", "12 s", "10 min", "2.5 h"]
