@@ -16,10 +16,12 @@ from typing import Any, Self
 import imageio_ffmpeg
 import numpy as np
 
-__all__ = ["MAX_FPS", "VideoRecorder"]
+__all__ = ["MAX_FPS", "MIN_FPS", "VideoRecorder"]
 
 #: The most frames per second a video is written at (a thousand: far beyond any screen).
 MAX_FPS = 1000
+#: The fewest: a frame every 100 s (a time-lapse); fewer made a frame every 5e11 steps.
+MIN_FPS = 0.01
 
 
 class VideoRecorder:
@@ -35,7 +37,7 @@ class VideoRecorder:
         output_folder: Folder of the file, created if needed; None: the current directory.
         width: Frame width in pixels (positive and even, as H.264/yuv420p needs).
         height: Frame height in pixels (positive and even).
-        fps: Frames per second of the video (above 0, at most `MAX_FPS`).
+        fps: Frames per second of the video, from `MIN_FPS` to `MAX_FPS`.
 
     Raises:
         ValueError: If a size is not a positive even int, ``fps`` is not positive, or
@@ -59,9 +61,10 @@ class VideoRecorder:
         if not (
             isinstance(fps, int | float | np.integer | np.floating)
             and not isinstance(fps, bool)
-            and 0 < fps <= MAX_FPS
-        ):  # 1e9 was taken (ffmpeg's frame timing then fails far from here), NaN too
-            raise ValueError(f"fps must be a number above 0 and at most {MAX_FPS}, got {fps!r}")
+            and MIN_FPS <= fps <= MAX_FPS
+        ):  # 1e9 was taken (ffmpeg's frame timing then fails far from here), NaN too; 1e-9
+            # made a frame every 5e11 physics steps
+            raise ValueError(f"fps must be a number from {MIN_FPS} to {MAX_FPS}, got {fps!r}")
         if not file_name or Path(file_name).name != file_name:
             raise ValueError(
                 f"file_name must be a plain file name without folders, got {file_name!r}"

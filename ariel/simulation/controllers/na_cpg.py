@@ -97,7 +97,10 @@ def time_step(owner: str, time: object, dt: float, last: int) -> tuple[int, bool
     t = time if type(time) is float else number_argument(f"{owner}.forward: time", time)
     if not math.isfinite(t):
         raise ValueError(f"{where}: time must be finite, not NaN or inf; got {t}")
-    target = math.floor(t / dt + STEP_TOLERANCE)
+    steps = t / dt + STEP_TOLERANCE
+    if not math.isfinite(steps):  # 1e308 / 0.01: no step count at all (OverflowError)
+        steps = float(MAX_STEPS_PER_CALL + 1 + last)
+    target = math.floor(steps)
     if target < 0:
         raise ValueError(f"{where}: time must be >= 0; got {t}")
     restart = abs(t) <= 1e-8 or target < last

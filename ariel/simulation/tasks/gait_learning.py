@@ -103,7 +103,7 @@ def window_count_error(span: float, samples: int, window: float) -> str | None:
     shown = f"{count:,.0f}" if count < 1e12 else f"{count:.3g}"  # 1e+05 read as the limit
     return (
         f"window {window!r} s cuts the {span:.6g} s path into {shown} windows, more "
-        f"than the {allowed} allowed (the larger of {MAX_WINDOWS} and the path's samples): "
+        f"than the {allowed:,} allowed (the larger of {MAX_WINDOWS:,} and the path's samples): "
         f"give a window of at least {_rounded_up(span / allowed):.3g} s"
     )
 
@@ -112,7 +112,7 @@ def _rounded_up(value: float) -> float:
     """``value`` rounded up to three significant digits: the shortest window named in the
     message must itself be taken when pasted (rounded to nearest, it could be refused)."""
     step = 10.0 ** (np.floor(np.log10(value)) - 2)
-    return float(np.ceil(value / step) * step)
+    return float(np.ceil(value / step - 1e-9) * step)  # 1e-5 / 1e-7 is 100.00000000000001
 
 
 def sustained_displacement(times: ArrayLike, xy: ArrayLike, window: float = 1.0) -> float:
