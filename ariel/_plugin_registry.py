@@ -387,7 +387,7 @@ class Registry(Generic[T]):
             raise PluginLoadError(f"{self.label} '{name}' from {where()} {problem}")
         return obj
 
-    def make(self, name: str, **options: Any) -> Any:
+    def make(self, name: str, /, **options: Any) -> Any:
         """``get(name)(**options)``: build a plugin instance from its factory (gymnasium style)."""
         factory = self.get(name)
         if not callable(factory):

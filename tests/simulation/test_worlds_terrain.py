@@ -225,3 +225,18 @@ def test_unseeded_terrain_follows_numpys_global_seed():
     first = hfield_data(environments.RuggedTerrainWorld(seed=None))
     np.random.seed(3)
     assert np.array_equal(first, hfield_data(environments.RuggedTerrainWorld(seed=None)))
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True])
+def test_the_olympic_arena_checks_its_seed_as_the_other_terrains(seed):
+    """It took True, and -1 or 1.5 failed inside NumPy with its own words."""
+    with pytest.raises(ValueError, match="OlympicArena: seed must be None or an int >= 0"):
+        OlympicArena(seed=seed)
+
+
+def test_a_world_option_called_name_reaches_the_world():
+    """Registry.make took `name` itself: --set 'world.options={name="x"}' said "got multiple
+    values for argument 'name'"."""
+    from ariel.plugins import worlds
+
+    assert worlds.make("flat", name="my-floor").name == "my-floor"

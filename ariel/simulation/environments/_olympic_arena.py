@@ -17,7 +17,7 @@ from ariel.simulation.environments._base import (
     as_positive_float,
 )
 from ariel.simulation.environments._compound import TERRAIN_COLOR
-from ariel.simulation.environments._rugged import DEFAULT_TERRAIN_SEED
+from ariel.simulation.environments._rugged import DEFAULT_TERRAIN_SEED, check_seed
 from ariel.simulation.environments._terrain import HeightfieldSurface
 from ariel.simulation.environments.heightmaps import rugged_heightmap, smooth_edges_heightmap
 
@@ -161,7 +161,7 @@ class OlympicArena(BaseWorld):
         )[0]
         self.incline_degrees = _incline_degrees(incline_degrees)
         self.checker_floor = as_bool(checker_floor, "checker_floor")
-        self.seed = seed
+        self.seed = check_seed(type(self).__name__, seed)  # as the other terrain worlds
         self._lay_out()
         self._make_rugged_surface()
         super().__init__(
