@@ -34,7 +34,7 @@ from ariel import runs
 from ariel.cli._common import DEFAULT_RUNS
 from ariel.errors import ConfigError
 from ariel.recording import viewer
-from ariel.utils import has_display
+from ariel.utils import has_display, no_display_why
 
 if TYPE_CHECKING:
     from ariel.evolution import ExperimentConfig
@@ -136,9 +136,9 @@ class LiveView:
         headless = "--no-viewer" in shlex.split(os.environ.get(WATCH_ARGS_ENV, ""))
         if not (self.web or headless or has_display()):
             raise ConfigError(
-                "--live: no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY "
-                "are unset); add --web to serve the live view to a browser (the address and "
-                "an SSH tunnel line are printed)"
+                f"--live: no display to open the Rerun viewer on ({no_display_why()}); add "
+                "--web to serve the live view to a browser (the address and an SSH tunnel line "
+                "are printed)"
             )
 
     def guard(self, start: Callable[[], T]) -> Callable[[], T]:

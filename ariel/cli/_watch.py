@@ -21,7 +21,7 @@ from ariel.cli._types import poll_seconds
 from ariel.errors import ViewError
 from ariel.recording import viewer
 from ariel.recording.store import terminal_text
-from ariel.utils import ariel_line, has_display
+from ariel.utils import ariel_line, has_display, no_display_why
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -121,8 +121,8 @@ def _cmd_watch(args: argparse.Namespace) -> int:
                 if kind != "native" or has_display() or not str(exc).startswith("no display"):
                     raise
                 raise ViewError(
-                    "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are "
-                    f"unset); serve it to a browser instead: {_web_line(args)}"
+                    f"no display to open the Rerun viewer on ({no_display_why()}); serve it to "
+                    f"a browser instead: {_web_line(args)}"
                 ) from None
             if hasattr(os, "nice"):  # an onlooker: on a busy machine the run watched goes first
                 with contextlib.suppress(OSError):

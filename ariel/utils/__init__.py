@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         gl_backend_error as gl_backend_error,
         has_display as has_display,
         mujoco_module as mujoco_module,
+        no_display_why as no_display_why,
     )
     from ariel.utils._json import (
         nests_deeper_than as nests_deeper_than,
@@ -44,6 +45,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
     )
     from ariel.utils._keywords import (
         accept_aliases as accept_aliases,
+        unknown_option as unknown_option,
     )
     from ariel.utils._notebook import (
         in_notebook_kernel as in_notebook_kernel,
@@ -77,6 +79,7 @@ _INTERNAL: dict[str, str] = {
     "mujoco_module": "ariel.utils._gl",
     "MIN_OPEN_FILES": "ariel.utils._open_files",
     "nests_deeper_than": "ariel.utils._json",
+    "no_display_why": "ariel.utils._gl",
     "number_argument": "ariel.utils._arguments",
     "open_files_short": "ariel.utils._open_files",
     "path_argument": "ariel.utils._arguments",

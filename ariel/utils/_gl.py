@@ -199,6 +199,21 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
         global_vis.offwidth, global_vis.offheight = old_size
 
 
+def no_display_why() -> str:
+    """Why `has_display` says no, for the messages: both variables unset, or the display they
+    name does not answer (a stale ``DISPLAY`` left by ``ssh -X`` or tmux: "are unset" misled).
+
+    Returns:
+        E.g. ``"DISPLAY and WAYLAND_DISPLAY are unset"`` or ``"DISPLAY=:99 does not answer"``.
+    """
+    named = [
+        f"{key}={os.environ[key]}" for key in ("DISPLAY", "WAYLAND_DISPLAY") if os.environ.get(key)
+    ]
+    if not named:
+        return "DISPLAY and WAYLAND_DISPLAY are unset"
+    return f"{' and '.join(named)} {'does' if len(named) == 1 else 'do'} not answer"
+
+
 def has_display() -> bool:
     """Whether an interactive window can open here: macOS and Windows always; elsewhere a
     ``WAYLAND_DISPLAY`` or ``DISPLAY`` that answers. A variable alone is not trusted: a stale

@@ -42,3 +42,16 @@ def test_an_image_larger_than_a_framebuffer_is_named_not_blamed_on_opengl() -> N
     model = mujoco.MjModel.from_xml_string("<mujoco/>")
     with pytest.raises(ValueError, match="at most 16384 pixels a side, got width=1000000"):
         create_renderer(model, 10**6, 10**6)  # said "no OpenGL backend available"
+
+
+def test_the_no_display_line_says_which_display_does_not_answer(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A stale DISPLAY (ssh -X, tmux) was said to be unset."""
+    from ariel.utils import no_display_why
+
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    assert no_display_why() == "DISPLAY and WAYLAND_DISPLAY are unset"
+    monkeypatch.setenv("DISPLAY", ":99")
+    assert no_display_why() == "DISPLAY=:99 does not answer"

@@ -57,7 +57,7 @@ from ariel.recording.viewer._web import (
     tunnel_command as tunnel_command,
     web_url as web_url,
 )
-from ariel.utils import has_display
+from ariel.utils import has_display, no_display_why
 
 if TYPE_CHECKING:
     from ariel.recording.store import Run
@@ -219,7 +219,7 @@ def view(
     if not has_display():
         web_line = _view_line(run_dir, best, generation, eval_id, "--web")
         raise ViewError(
-            "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); "
+            f"no display to open the Rerun viewer on ({no_display_why()}); "
             f"serve it to a browser instead: {web_line}"
         )
     with _prepared(selection) as shown:

@@ -42,7 +42,7 @@ from ariel.recording.viewer._web import (
     _wait_until_serving,
     web_url,
 )
-from ariel.utils import ariel_line, has_display, in_notebook_kernel
+from ariel.utils import ariel_line, has_display, in_notebook_kernel, no_display_why
 
 if TYPE_CHECKING:
     from rerun.blueprint import Blueprint
@@ -308,7 +308,7 @@ def _check(source: Source, viewer: str, save: str | os.PathLike[str] | None, pol
         raise ViewError("without a viewer, give a file to save the live recording in (--save)")
     if viewer == "native" and not has_display():
         raise ViewError(
-            "no display to open the Rerun viewer on (DISPLAY and WAYLAND_DISPLAY are unset); "
+            f"no display to open the Rerun viewer on ({no_display_why()}); "
             f"serve it to a browser instead: {ariel_line('watch', source.path, '--web')} "
             '(from Python: viewer="web")'
         )
