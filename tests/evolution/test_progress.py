@@ -113,7 +113,7 @@ def test_the_live_best_is_the_runs_never_falling_and_survives_a_resume(tmp_path,
     original_advance, original_end = Progress.advance, Progress.end_generation
 
     def advance(self: Progress, evaluations: int, best: float | None = None) -> None:
-        bests.append(("batch", math.nan if best is None else best))
+        bests.append(("batch" if evaluations else "start", math.nan if best is None else best))
         original_advance(self, evaluations, best)
 
     def end(self: Progress, generation: int, best: float, *args: object, **kwargs: object):
@@ -138,6 +138,9 @@ def test_the_live_best_is_the_runs_never_falling_and_survives_a_resume(tmp_path,
     values = [best for _, best in bests if not math.isnan(best)]
     assert [kind for kind, _ in bests].count("end") == 3
     assert values == sorted(values)  # maximised: the run's best never falls
+    # the resumed run shows its best so far before its first new batch (it showed "-")
+    (start,) = [k for k, (kind, _) in enumerate(bests) if kind == "start"]
+    assert bests[start][1] == bests[start - 1][1] and bests[start - 1][0] == "end"
 
 
 @pytest.mark.parametrize("seconds", [0, 5, 75, 4000])
