@@ -26,6 +26,7 @@ from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
 from ariel.recording.store import (
     CAMPAIGN_JSON,
+    CAMPAIGN_RRD,
     LOCK_NAME,
     Campaign,
     NotARunError,
@@ -40,11 +41,11 @@ from ariel.recording.store import (
     now,
     one_line,
     read_campaign_info,
-    remove_temporaries,
     run_path,
     storage_errors,
     terminal_text,
     write_campaign_info,
+    written_path,
 )
 from ariel.runs._campaign_file import load_campaign_file
 from ariel.runs._campaign_info import campaign_info
@@ -342,8 +343,7 @@ def resume_campaign(
     reach_executor(settings)  # before any run.json is touched
     with storage_errors(path, campaign=True), RunLock(path), contextlib.ExitStack() as locks:
         info = read_campaign_info(path)  # again under the lock
-        # a killed campaign's half-written campaign.json, .rrd or .rbl: its runs clean their own
-        list(remove_temporaries(path, deep=False))
+        _remove_own_temporaries(path)
         locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
         locks.enter_context(noted_on_interrupt("campaign_dir", path))
         runs, skipped, damaged = _unfinished_runs(path, info, locks, settings)
@@ -357,6 +357,17 @@ def resume_campaign(
         result = _drive_campaign(path, runs, settings, progress, skipped=skipped)
         result.damaged = damaged
         return result
+
+
+def _remove_own_temporaries(path: Path) -> None:
+    """A killed campaign's half-written campaign.json, .rrd or .rbl (its runs clean their own);
+    a user's ``.notes.tmp`` beside them is theirs."""
+    own = (CAMPAIGN_JSON, CAMPAIGN_RRD, "campaign.rbl")
+    for entry in path.iterdir():
+        written = written_path(entry)
+        if written is not None and written.name in own and not entry.is_symlink():
+            with contextlib.suppress(OSError):
+                entry.unlink()
 
 
 def _unfinished_runs(

@@ -389,10 +389,11 @@ def test_a_campaign_stopped_after_its_last_run_gets_its_own_records_on_resume(
     # The hint printed after such an interrupt works: it writes the records, runs nothing,
     # and deletes what a killed writer of them left (kept for good before)
     left = [out / ".campaign.rbl.963bbed2.tmp", out / ".campaign.json.tmp"]
-    for temporary in left:
+    for temporary in [*left, out / ".notes.tmp"]:
         temporary.write_text("half written")
     assert main(["campaign", "resume", str(out), "--quiet"]) == 0
     assert not any(temporary.exists() for temporary in left)
+    assert (out / ".notes.tmp").exists()  # not the campaign's: the user's own
     assert "its 4 runs had finished; its recording and status are written now" in (
         capsys.readouterr().out
     )
