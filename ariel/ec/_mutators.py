@@ -19,6 +19,8 @@ __all__ = ["FloatMutator", "IntegerMutator", "integer_genes"]
 
 
 def _probability(value: float) -> None:
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        raise TypeError(f"mutation_probability must be a number in [0, 1], not {value!r}")
     if not 0.0 <= value <= 1.0:
         raise ValueError(f"mutation_probability must be in [0, 1], not {value!r}")
 
@@ -36,12 +38,18 @@ def _finite(name: str, value: object, *, at_least: float | None = None) -> float
     return number
 
 
-def _bounds(low: float, high: float, *, strict: bool = False) -> None:
-    _finite("low", low)
-    _finite("high", high)
+def _bounds(low: float, high: float, *, strict: bool = False, whole: bool = False) -> None:
+    """``low`` and ``high`` finite (``whole``: whole numbers, NumPy truncated 1.5 to 1), in
+    order, and ``high - low`` finite too (-1e308 to 1e308 made NaN genes)."""
+    for name, bound in (("low", low), ("high", high)):
+        _finite(name, bound)
+        if whole and float(bound) != round(float(bound)):
+            raise ValueError(f"{name} must be a whole number, not {bound!r}")
     if not (low < high if strict else low <= high):
         sign = "<" if strict else "<="
         raise ValueError(f"low must be {sign} high, got low={low!r} and high={high!r}")
+    if not math.isfinite(float(high) - float(low)):
+        raise ValueError(f"high - low must be finite, got low={low!r} and high={high!r}")
 
 
 def integer_genes(values: Any, name: str = "individual") -> np.ndarray:
@@ -91,7 +99,7 @@ class IntegerMutator:
     ) -> Any:
         """Each gene, with the probability, becomes a uniform integer in ``[low, high]``."""
         _probability(mutation_probability)
-        _bounds(low, high)
+        _bounds(low, high, whole=True)
         genes, rng = integer_genes(individual), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         fresh = rng.integers(low, high, size=genes.shape, endpoint=True)

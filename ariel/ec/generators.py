@@ -45,8 +45,7 @@ class IntegersGenerator:
         seed: SeedLike = None,
     ) -> Any:
         """Uniform integers in ``[low, high]`` (``[low, high)`` with ``endpoint=False``)."""
-        if not low <= high:  # numpy says only "low > high", naming neither
-            raise ValueError(f"low must be <= high, got low={low!r} and high={high!r}")
+        _bounds(low, high, whole=True)  # numpy says only "low > high", and cut 1.5 to 1
         return resolve_rng(seed).integers(low, high, size=size, endpoint=endpoint).tolist()
 
     @staticmethod
@@ -61,6 +60,10 @@ class IntegersGenerator:
         seed: SeedLike = None,
     ) -> Any:
         """Draws from ``value_set`` (an int ``n`` means ``range(n)``), as ``Generator.choice``."""
+        if isinstance(value_set, bool):  # True was range(1)
+            raise ValueError(
+                f"value_set must be an int n (range(n)) or integers, not {value_set!r}"
+            )
         if not isinstance(value_set, int):
             value_set = integer_genes(value_set, "value_set").tolist()
         drawn = resolve_rng(seed).choice(
@@ -121,4 +124,8 @@ class FloatsGenerator:
     @staticmethod
     def linspace(start: float, stop: float, num: int) -> list[float]:
         """``num`` evenly spaced floats from ``start`` to ``stop`` (both included)."""
+        _finite("start", start)
+        _finite("stop", stop)
+        if not isinstance(num, numbers.Integral) or isinstance(num, bool) or num < 0:
+            raise ValueError(f"num must be a whole number >= 0, not {num!r}")
         return np.linspace(start, stop, num).tolist()

@@ -167,6 +167,11 @@ def test_set_seed_makes_unseeded_calls_repeat() -> None:
         (lambda: IntegersGenerator.permutation(-1), "n must be"),
         (lambda: IntegersGenerator.choice([1.7, 2.9]), "whole numbers"),
         (lambda: IntegerMutator.random_reset([1.7, 2.2], 0, 5, 0.0), "whole numbers"),
+        (lambda: IntegerMutator.random_reset([1, 2], 1.5, 3.5, 1.0), "low must be a whole"),
+        (lambda: IntegersGenerator.integers(1.5, 3), "low must be a whole"),
+        (lambda: IntegersGenerator.choice(True, 3), "value_set must be"),
+        (lambda: FloatMutator.polynomial([0.5], -1e308, 1e308, 1.0), "high - low must be finite"),
+        (lambda: FloatsGenerator.linspace(0, float("nan"), 3), "stop"),
     ],
 )
 def test_non_finite_and_reversed_settings_are_refused_not_turned_into_nan_genes(
@@ -187,3 +192,9 @@ def test_numpy_integers_count_as_whole_numbers_and_bools_do_not() -> None:
         Crossover.n_point(a, b, True, seed=0)
     pop = Population(Individual() for _ in range(3))
     assert len(pop.best(n=np.int64(2))) == 2 and len(pop.sample(np.int64(2), seed=0)) == 2
+
+
+def test_a_probability_that_is_not_a_number_is_named() -> None:
+    """It said "'<=' not supported between instances", naming no argument."""
+    with pytest.raises(TypeError, match="mutation_probability must be a number in"):
+        FloatMutator.gaussian([1.0], 0.1, "x")  # type: ignore[arg-type]
