@@ -28,7 +28,10 @@ def parse_coevolution(text: str | None) -> tuple[int, int] | None:
     if not text:
         return None
     bodies, _, brains = text.lower().partition("x")
-    k, p = int(bodies), int(brains)
+    try:
+        k, p = int(bodies), int(brains)
+    except ValueError:  # "invalid literal for int()" named neither the option nor its form
+        raise ValueError(f"--coevolution takes KxP, e.g. 32x1024, not {text!r}") from None
     if k < 2 or p < 1:
         raise ValueError(f"--coevolution needs K >= 2 bodies and P >= 1 brains, got {text!r}")
     return k, p

@@ -99,3 +99,12 @@ def test_the_watch_screenshot_stops_when_its_run_fails(tmp_path: Path) -> None:
         "watch.py: error: the run ended (exit 2) before its folder was made"
     )
     assert not list(tmp_path.glob("ariel-watch-shot-*"))
+
+
+def test_gpu_benchmark_names_the_coevolution_form(tmp_path: Path) -> None:
+    """It said "invalid literal for int() with base 10: 'foo'"."""
+    result = run_benchmark("gpu.py", "--coevolution", "foo", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.splitlines()[-1] == (
+        "gpu.py: error: --coevolution takes KxP, e.g. 32x1024, not 'foo'"
+    )
