@@ -252,8 +252,7 @@ def run_campaign(
     runs = []
     for (condition, seed), config in spec.configs.items():
         run_id = check_new_id(f"{campaign_id}-{condition}-s{seed}")
-        prepared = prepare_run(config, settings, alone=False)  # its base's body settings
-        runs.append(_Run(condition, seed, run_id, prepared))
+        runs.append(_Run(condition, seed, run_id, prepare_run(config, settings)))
     _check_new_folder(path)
     reach_executor(settings)  # a scheduler that never answers: no folder
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
@@ -415,7 +414,7 @@ def _unfinished_run(
     folder = RunFolder(path / entry["path"])
     condition, seed = entry["condition"], int(entry["seed"])
     if not folder.run_json.is_file():  # killed while the campaign was being made
-        prepared = prepare_run(ExperimentConfig.from_plain(entry["config"]), settings, alone=False)
+        prepared = prepare_run(ExperimentConfig.from_plain(entry["config"]), settings)
         run = _Run(condition, seed, entry["run_id"], prepared)
         run.session = RunSession.create(prepared, folder.path, run.run_id, locks, overwrite=True)
         return run

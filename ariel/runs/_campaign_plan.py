@@ -88,9 +88,7 @@ def campaign_plan(
     settings = executor_settings(first, kind=executor, workers=workers)
     workers, here = planned_workers(settings)
     plan = CampaignPlan(spec.name, workers, local=here)
-    prepared = {
-        key: prepare_run(config, settings, alone=False) for key, config in spec.configs.items()
-    }
+    prepared = {key: prepare_run(config, settings) for key, config in spec.configs.items()}
     if timed and on_timing is not None:
         on_timing()
     seen: dict[str, dict[str, Any]] = {}

@@ -183,10 +183,9 @@ def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
         raise ConfigError(f"{key}: {step} raised {first}") from None
 
 
-def resolve_plugins(config: ExperimentConfig, *, alone: bool = True) -> Plugins:
-    """Make every plugin the config names; a bad name or option is a `ConfigError`. ``alone``:
-    a new run of its own, whose body-loop settings a brain-only run would ignore are refused
-    (not a campaign's condition, which takes its base's; not a resume, begun before)."""
+def resolve_plugins(config: ExperimentConfig, *, new_run: bool = True) -> Plugins:
+    """Make every plugin the config names; a bad name or option is a `ConfigError`. A rule
+    added since a run began (``new_run`` False: a resume) does not stop it going on."""
     encoder = _make("body.encoder", body_encoders, config.body.encoder, config.body.options)
     controller = _make(
         "brain.controller", controllers, config.brain.controller, config.brain.options
@@ -202,41 +201,29 @@ def resolve_plugins(config: ExperimentConfig, *, alone: bool = True) -> Plugins:
     maximise = bool(fitness.maximise)
     # A brain-only run asks no body optimizer: its name (an entry point's) is not looked up.
     brain_only = is_brain_only(config, encoder)
-    if brain_only and alone:
-        _check_no_body_loop(config)
+    if brain_only and new_run:
+        _check_no_body_optimizer(config)
     optimizer = None if brain_only else _optimizer_factory(config, encoder, maximise)
     _check_brain_optimizer(config, maximise)
     return Plugins(encoder, controller, fitness, optimizer)
 
 
-#: The body loop's settings, which a brain-only run ignores (`_check_no_body_loop`).
-_BODY_LOOP = (
-    "optimizer",
-    "optimizer_options",
-    "population",
-    "offspring",
-    "survivors",
-    "tournament",
-    "crossover_rate",
-)
-
-
-def _check_no_body_loop(config: ExperimentConfig) -> None:
-    """A brain-only run evolves no body: a body optimizer or GA setting other than the default
-    did nothing (the run was the same without it) but was recorded as the run's, and its
-    config hash made it another condition for compare."""
-    body, default = config.body, type(config.body)()
-    changed = [key for key in _BODY_LOOP if getattr(body, key) != getattr(default, key)]
-    if not changed:
+def _check_no_body_optimizer(config: ExperimentConfig) -> None:
+    """A brain-only run evolves no body: a body optimizer other than the default did nothing
+    (the run was the same as with ``ga``) but was recorded as the run's, and its config hash
+    made it another condition for compare."""
+    body = config.body
+    if body.optimizer == "ga" and not body.optimizer_options:
         return
     why = (
         "body.genotype gives one fixed body"
         if body.genotype is not None
         else f"the {body.encoder!r} encoder cannot vary bodies"
     )
+    key = "body.optimizer" if body.optimizer != "ga" else "body.optimizer_options"
     raise ConfigError(
-        f"body.{changed[0]}: a brain-only run evolves no body ({why}), so the body loop's "
-        "settings have no effect: remove it"
+        f"{key}: a brain-only run evolves no body ({why}), so a body optimizer has no effect: "
+        "remove it"
     )
 
 
@@ -393,12 +380,13 @@ class PreparedRun:
 
 
 def prepare_run(
-    config: ExperimentConfig, settings: ExecutorConfig | None = None, *, alone: bool = True
+    config: ExperimentConfig, settings: ExecutorConfig | None = None, *, new_run: bool = True
 ) -> PreparedRun:
     """``config`` made ready to run on ``settings`` (None: the config's ``[executor]``), all of
-    it checked: `ConfigError` naming the key (``alone``: see `resolve_plugins`)."""
+    it checked: `ConfigError` naming the key (``new_run`` False, for a resume: see
+    `resolve_plugins`)."""
     settings = executor_settings(config) if settings is None else settings
-    plugins = resolve_plugins(config, alone=alone)
+    plugins = resolve_plugins(config, new_run=new_run)
     _check_plugins_reach_workers(config, settings)
     config = _read_genotype_file(config, plugins.encoder)
     brain_only = is_brain_only(config, plugins.encoder)
