@@ -183,9 +183,8 @@ def _check_brain_optimizer(config: ExperimentConfig, maximise: bool) -> None:
         raise ConfigError(f"{key}: {step} raised {first}") from None
 
 
-def resolve_plugins(config: ExperimentConfig, *, new_run: bool = True) -> Plugins:
-    """Make every plugin the config names; a bad name or option is a `ConfigError`. A rule
-    added since a run began (``new_run`` False: a resume) does not stop it going on."""
+def resolve_plugins(config: ExperimentConfig) -> Plugins:
+    """Make every plugin the config names; a bad name or option is a `ConfigError`."""
     encoder = _make("body.encoder", body_encoders, config.body.encoder, config.body.options)
     controller = _make(
         "brain.controller", controllers, config.brain.controller, config.brain.options
@@ -201,7 +200,7 @@ def resolve_plugins(config: ExperimentConfig, *, new_run: bool = True) -> Plugin
     maximise = bool(fitness.maximise)
     # A brain-only run asks no body optimizer: its name (an entry point's) is not looked up.
     brain_only = is_brain_only(config, encoder)
-    if brain_only and new_run:
+    if brain_only:
         _check_no_body_optimizer(config)
     optimizer = None if brain_only else _optimizer_factory(config, encoder, maximise)
     _check_brain_optimizer(config, maximise)
@@ -379,14 +378,11 @@ class PreparedRun:
     memory: int | None
 
 
-def prepare_run(
-    config: ExperimentConfig, settings: ExecutorConfig | None = None, *, new_run: bool = True
-) -> PreparedRun:
+def prepare_run(config: ExperimentConfig, settings: ExecutorConfig | None = None) -> PreparedRun:
     """``config`` made ready to run on ``settings`` (None: the config's ``[executor]``), all of
-    it checked: `ConfigError` naming the key (``new_run`` False, for a resume: see
-    `resolve_plugins`)."""
+    it checked: `ConfigError` naming the key."""
     settings = executor_settings(config) if settings is None else settings
-    plugins = resolve_plugins(config, new_run=new_run)
+    plugins = resolve_plugins(config)
     _check_plugins_reach_workers(config, settings)
     config = _read_genotype_file(config, plugins.encoder)
     brain_only = is_brain_only(config, plugins.encoder)

@@ -133,7 +133,7 @@ class RunSession:
         locks.enter_context(RunLock(folder.path))
         locks.enter_context(_interrupted_while_locked(folder))
         info, config, state = resumable(folder)
-        prepared = prepare_run(config, settings, new_run=False)
+        prepared = prepare_run(config, settings)
         _check_same_plugins(folder.path, info, prepared)
         adopt_manifests(folder, state.generation + 1 if state is not None else 0)
         folder.discard_after(state.generation if state is not None else -1)

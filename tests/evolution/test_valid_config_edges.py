@@ -554,4 +554,3 @@ def test_a_body_optimizer_in_a_brain_only_run_is_refused(change: str, key: str) 
     )
     with pytest.raises(ConfigError, match=rf"^{key}: a brain-only run evolves no body \(body"):
         resolve_plugins(config)
-    resolve_plugins(config, new_run=False)  # a run begun before the rule still resumes
