@@ -200,30 +200,9 @@ def resolve_plugins(config: ExperimentConfig) -> Plugins:
     maximise = bool(fitness.maximise)
     # A brain-only run asks no body optimizer: its name (an entry point's) is not looked up.
     brain_only = is_brain_only(config, encoder)
-    if brain_only:
-        _check_no_body_optimizer(config)
     optimizer = None if brain_only else _optimizer_factory(config, encoder, maximise)
     _check_brain_optimizer(config, maximise)
     return Plugins(encoder, controller, fitness, optimizer)
-
-
-def _check_no_body_optimizer(config: ExperimentConfig) -> None:
-    """A brain-only run evolves no body: a body optimizer other than the default did nothing
-    (the run was the same as with ``ga``) but was recorded as the run's, and its config hash
-    made it another condition for compare."""
-    body = config.body
-    if body.optimizer == "ga" and not body.optimizer_options:
-        return
-    why = (
-        "body.genotype gives one fixed body"
-        if body.genotype is not None
-        else f"the {body.encoder!r} encoder cannot vary bodies"
-    )
-    key = "body.optimizer" if body.optimizer != "ga" else "body.optimizer_options"
-    raise ConfigError(
-        f"{key}: a brain-only run evolves no body ({why}), so a body optimizer has no effect: "
-        "remove it"
-    )
 
 
 def _check_plugins_reach_workers(config: ExperimentConfig, settings: ExecutorConfig) -> None:

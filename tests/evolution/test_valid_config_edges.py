@@ -537,20 +537,3 @@ def test_exactly_the_most_windows_allowed_is_taken() -> None:
     assert message is not None and "into 101,010 windows, more than the 100,000" in message
     # the shortest window named is 1e-05 itself (float error rounded it up to 1.01e-05)
     assert window_count_error(1.0, 11, 9.9999e-6).endswith("at least 1e-05 s")  # type: ignore
-
-
-@pytest.mark.parametrize(
-    ("change", "key"),
-    [
-        ("body.optimizer=map_elites", "body.optimizer"),
-        ("body.optimizer_options={k=3}", "body.optimizer_options"),
-    ],
-)
-def test_a_body_optimizer_in_a_brain_only_run_is_refused(change: str, key: str) -> None:
-    """It did nothing (bit for bit the run with ga) yet run.json and Run.body_optimizer named
-    it, and compare took it for another condition."""
-    config = load_config(
-        {}, ["body.encoder=prebuilt", "body.genotype=gecko", "body.options={}", change]
-    )
-    with pytest.raises(ConfigError, match=rf"^{key}: a brain-only run evolves no body \(body"):
-        resolve_plugins(config)
