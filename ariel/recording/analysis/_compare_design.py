@@ -231,17 +231,35 @@ def _flat(config: Mapping[str, object], prefix: str = "") -> dict[str, str]:
     return flat
 
 
-def condition_settings(config: Mapping[str, object]) -> dict[str, str]:
+#: The body loop's settings, which a brain-only run ignores: no condition of such runs.
+BODY_LOOP = tuple(
+    f"body.{key}"
+    for key in (
+        "optimizer",
+        "optimizer_options",
+        "population",
+        "offspring",
+        "survivors",
+        "tournament",
+        "crossover_rate",
+    )
+)
+
+
+def condition_settings(config: Mapping[str, object], brain_only: bool = False) -> dict[str, str]:
     """A run config as dotted key -> JSON value (a plugin's ``options`` as one value), less
-    what does not make a condition: seed, name, description and the executor. Keys added
+    what does not make a condition: seed, name, description and the executor, and in a
+    brain-only run (``brain_only``) the body loop's settings it ignores (`BODY_LOOP`: two
+    such runs that differed only there were two conditions of one experiment). Keys added
     since an older run was made read as they behaved then (`ExperimentConfig.from_plain`):
     an old run is not another condition for lacking ``task.settle``."""
     with contextlib.suppress(ConfigError, TypeError, ValueError):
         config = ExperimentConfig.from_plain(config).to_plain()
+    ignored = BODY_LOOP if brain_only else ()
     return {
         k: v
         for k, v in _flat(config).items()
-        if k not in ("seed", "name", "description") and not k.startswith("executor.")
+        if k not in ("seed", "name", "description", *ignored) and not k.startswith("executor.")
     }
 
 

@@ -345,7 +345,10 @@ def _folder_runs(
     runs = [run for _, run in kept]
     # A run of another results version is another condition, whatever its config says.
     flats = [
-        {**condition_settings(run.config), "results_version": str(results_version(run.info))}
+        {
+            **condition_settings(run.config, run.brain_only),
+            "results_version": str(results_version(run.info)),
+        }
         for run in runs
     ]
     keys = sorted({k for f in flats for k in f})

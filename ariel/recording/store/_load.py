@@ -114,7 +114,10 @@ class Run:
     @property
     def body_optimizer(self) -> str:
         """The body optimizer its config names (``"ga"``, ``"map_elites"``, ``"novelty"``, ...);
-        ``"ga"`` for a run made before configs named one (the GA was the only one then)."""
+        ``"ga"`` for a run made before configs named one (the GA was the only one then);
+        ``"none"`` for a brain-only run, which asks none whatever its config says."""
+        if self.brain_only:
+            return "none"
         body = self.config.get("body")
         optimizer = body.get("optimizer") if isinstance(body, Mapping) else None
         return optimizer if isinstance(optimizer, str) and optimizer else "ga"

@@ -1027,3 +1027,14 @@ def test_runs_with_no_generation_within_the_budget_are_named(tmp_path: Path) -> 
     )
     plain = compare_runs(runs[:2], tmp_path, maximise=True, at_evaluations=20, write=False)
     assert not any("finish no generation" in n for n in plain.notes)
+
+
+def test_the_body_loop_makes_no_condition_of_brain_only_runs() -> None:
+    """Two brain-only runs differing only in body.optimizer (or population, offspring...) ran
+    the same experiment, yet compare named them two conditions (probe F5)."""
+    from ariel.recording.analysis._compare_design import condition_settings
+
+    a = {"body": {"encoder": "prebuilt", "genotype": "gecko", "optimizer": "map_elites"}}
+    b = {"body": {"encoder": "prebuilt", "genotype": "gecko", "offspring": 40}}
+    assert condition_settings(a, brain_only=True) == condition_settings(b, brain_only=True)
+    assert condition_settings(a) != condition_settings(b)  # a co-evolution run: they differ
