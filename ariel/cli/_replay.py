@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from ariel.cli._common import fail, headless_unless_display
 from ariel.recording import resim
 from ariel.recording.store import cannot_write, output_file_problem, terminal_text
-from ariel.utils import has_display
+from ariel.utils import has_display, no_display_why
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -44,7 +44,7 @@ def add_replay_command(sub: SubParsers) -> None:
 def _cmd_replay(args: argparse.Namespace) -> int:
     if args.viewer and not has_display():
         return fail(
-            "--viewer needs a display (DISPLAY is not set); write a video with --video FILE "
+            f"--viewer needs a display ({no_display_why()}); write a video with --video FILE "
             "or a Rerun recording with --rrd FILE instead"
         )
     for flag, path in (("--rrd", args.rrd), ("--video", args.video)):

@@ -30,6 +30,8 @@ def _flat_pair(parent_i: Any, parent_j: Any) -> tuple[tuple[int, ...], np.ndarra
 
 
 def _probability(name: str, value: float) -> None:
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        raise TypeError(f"{name} must be a number in [0, 1], not {value!r}")
     if not 0.0 <= value <= 1.0:
         raise ValueError(f"{name} must be in [0, 1], not {value!r}")
 

@@ -7,6 +7,7 @@ Python lists ready to store as a genotype.
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Sequence
 from typing import Any
@@ -60,7 +61,9 @@ class IntegersGenerator:
         seed: SeedLike = None,
     ) -> Any:
         """Draws from ``value_set`` (an int ``n`` means ``range(n)``), as ``Generator.choice``."""
-        if isinstance(value_set, bool):  # True was range(1)
+        if np.ndim(value_set) == 0 and (  # True (NumPy's too) was range(1), 3.0 range(3)
+            not isinstance(value_set, numbers.Integral) or isinstance(value_set, bool | np.bool_)
+        ):
             raise ValueError(
                 f"value_set must be an int n (range(n)) or integers, not {value_set!r}"
             )
@@ -126,6 +129,8 @@ class FloatsGenerator:
         """``num`` evenly spaced floats from ``start`` to ``stop`` (both included)."""
         _finite("start", start)
         _finite("stop", stop)
+        if not math.isfinite(float(stop) - float(start)):  # -1e308 to 1e308: NaN and inf
+            raise ValueError(f"stop - start must be finite, got start={start!r}, stop={stop!r}")
         if not isinstance(num, numbers.Integral) or isinstance(num, bool) or num < 0:
             raise ValueError(f"num must be a whole number >= 0, not {num!r}")
         return np.linspace(start, stop, num).tolist()

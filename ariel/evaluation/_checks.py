@@ -73,7 +73,7 @@ __all__ = ["check_body_encoder", "check_controller", "check_fitness", "check_wor
 # --------------------------------------------------------------------------------------------
 
 
-def check_body_encoder(name: str, **options: Any) -> None:
+def check_body_encoder(name: str, /, **options: Any) -> None:
     """Check body encoder ``name`` made with ``options``; raise `PluginCheckError` if broken.
 
     Protocol (``name``, bool ``evolvable``, the four methods); ``random_genotype`` is
@@ -190,7 +190,7 @@ def _model_bytes(model: mujoco.MjModel) -> bytes:
     return buffer.tobytes()
 
 
-def check_world(name: str, **options: Any) -> None:
+def check_world(name: str, /, **options: Any) -> None:
     """Check world ``name`` made with ``options``; raise `PluginCheckError` if broken.
 
     Protocol (``spec`` is a ``mujoco.MjSpec``, ``spawn``); two worlds made with the same
@@ -250,7 +250,7 @@ def check_world(name: str, **options: Any) -> None:
 # --------------------------------------------------------------------------------------------
 
 
-def check_controller(name: str, **options: Any) -> None:
+def check_controller(name: str, /, **options: Any) -> None:
     """Check controller ``name`` made with ``options`` on the gecko; raise `PluginCheckError`.
 
     Protocol (bool ``open_loop``, the methods of its kind); ``num_parameters`` is a whole
@@ -391,7 +391,7 @@ def _check_policy(
 # --------------------------------------------------------------------------------------------
 
 
-def check_fitness(name: str, **options: Any) -> None:
+def check_fitness(name: str, /, **options: Any) -> None:
     """Check fitness function ``name`` (with fitness ``options``); raise `PluginCheckError`.
 
     Protocol (callable, bool ``maximise``); scoring a short gecko run (a read-only record)

@@ -81,8 +81,8 @@ class WarpExecutor(SerialExecutor):
         """``submit(evaluate_batch, tasks)`` runs on the device, as `submit_batch` (it ran on
         the CPU engine, while docs/gpu.md's example said Warp); any other call runs here, as in
         `SerialExecutor`."""
-        given: list[Any] = list(args)  # (a copy: a check of len(args) narrows P.args)
-        if fn is evaluation.evaluate_batch and len(given) == 1 and not kwargs:
+        given: list[Any] = [*args, *kwargs.values()]  # (a copy: len(args) narrows P.args)
+        if fn is evaluation.evaluate_batch and len(given) == 1 and set(kwargs) <= {"tasks"}:
             return cast("cf.Future[R]", self.submit_batch(list(given[0])))
         return super().submit(fn, *args, **kwargs)
 

@@ -24,8 +24,9 @@ the finite range MuJoCo allows (|x| <= 1e10) is ``unstable``. A world whose cont
 constraints overflow the device buffers is re-run with larger buffers.
 
 Closed-loop controllers (a policy per call) are not batched here, nor worlds with a
-heightfield (rugged, rugged_tilted, crater, amphitheatre: MuJoCo Warp's contacts with one
-differ from MuJoCo's, launching robots): their tasks run on the CPU engine in this process
+heightfield (rugged, rugged_tilted, crater, amphitheatre, olympic_arena: MuJoCo Warp's
+contacts with one differ from MuJoCo's, launching robots): their tasks run on the CPU engine
+in this process
 (backend ``mujoco``), each reason said once on stderr. Import cost: `warp` and
 `mujoco_warp` load on the first evaluator only.
 

@@ -140,7 +140,7 @@ def _check_description(check: Checker, optimizer: Any) -> None:
     )
 
 
-def check_body_optimizer(name: str, **options: object) -> None:
+def check_body_optimizer(name: str, /, **options: object) -> None:
     """Check body optimizer ``name`` made with ``options``; raise `PluginCheckError` if broken.
 
     Three generations of four bodies on made-up genotypes (milliseconds, no physics): it asks
@@ -217,7 +217,7 @@ def _learn(
     return learner, asked
 
 
-def check_brain_optimizer(name: str, **options: object) -> None:
+def check_brain_optimizer(name: str, /, **options: object) -> None:
     """Check brain optimizer ``name`` made with ``options``; raise `PluginCheckError` if broken.
 
     Four iterations of a made-up fitness of five parameters, one candidate failing with NaN:

@@ -30,12 +30,19 @@ GENERATIONS = 10
 def _going(proc: subprocess.Popen[bytes], what: str) -> None:
     """Stop with one line when the run ended before ``what`` (it said why on stderr): the
     waits below would otherwise go on for good."""
-    if proc.poll() is not None:
-        raise SystemExit(f"watch.py: error: the run ended (exit {proc.returncode}) before {what}")
+    if proc.poll() is not None:  # the scripts' one line, exit 2
+        print(
+            f"watch.py: error: the run ended (exit {proc.returncode}) before {what}",
+            file=sys.stderr,
+        )
+        raise SystemExit(2)
 
 
 def _after(text: str) -> int:
-    value = int(text)
+    try:
+        value = int(text)
+    except ValueError:  # argparse said "invalid _after value"
+        raise argparse.ArgumentTypeError(f"must be a whole number, not {text!r}") from None
     if not 1 <= value <= GENERATIONS:  # the default run has 10: more is never reached
         raise argparse.ArgumentTypeError(f"must be from 1 to {GENERATIONS}, not {value}")
     return value

@@ -172,6 +172,9 @@ def test_set_seed_makes_unseeded_calls_repeat() -> None:
         (lambda: IntegersGenerator.choice(True, 3), "value_set must be"),
         (lambda: FloatMutator.polynomial([0.5], -1e308, 1e308, 1.0), "high - low must be finite"),
         (lambda: FloatsGenerator.linspace(0, float("nan"), 3), "stop"),
+        (lambda: FloatsGenerator.linspace(-1e308, 1e308, 3), "stop - start must be finite"),
+        (lambda: IntegersGenerator.choice(np.True_, 3), "value_set must be"),
+        (lambda: IntegersGenerator.choice(3.0, 3), "value_set must be"),
     ],
 )
 def test_non_finite_and_reversed_settings_are_refused_not_turned_into_nan_genes(
@@ -198,3 +201,5 @@ def test_a_probability_that_is_not_a_number_is_named() -> None:
     """It said "'<=' not supported between instances", naming no argument."""
     with pytest.raises(TypeError, match="mutation_probability must be a number in"):
         FloatMutator.gaussian([1.0], 0.1, "x")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="swap_probability must be a number in"):
+        Crossover.uniform([1.0, 2.0], [3.0, 4.0], "x")  # type: ignore[arg-type]

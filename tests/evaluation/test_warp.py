@@ -167,8 +167,9 @@ def test_the_gpu_executor_runs_submitted_evaluate_batch_calls_on_warp() -> None:
     tasks = gecko_tasks(2, duration=0.2)
     with make_executor("gpu", device="cpu") as ex:
         results = ex.submit(evaluate_batch, tasks).result()
+        named = ex.submit(evaluate_batch, tasks=tasks).result()  # the keyword form too
         other = ex.submit(len, tasks).result()  # any other call: here, as before
-    assert [r.backend for r in results] == ["mujoco-warp:cpu"] * 2 and other == 2
+    assert [r.backend for r in results + named] == ["mujoco-warp:cpu"] * 4 and other == 2
 
 
 def test_a_heightfield_world_runs_on_the_cpu_engine_and_says_so(capsys) -> None:

@@ -240,3 +240,6 @@ def test_a_world_option_called_name_reaches_the_world():
     from ariel.plugins import worlds
 
     assert worlds.make("flat", name="my-floor").name == "my-floor"
+    from ariel.plugins import check_world
+
+    check_world("flat", name="my-floor")  # the run's plugin check: it failed there too

@@ -55,3 +55,15 @@ def test_the_no_display_line_says_which_display_does_not_answer(
     assert no_display_why() == "DISPLAY and WAYLAND_DISPLAY are unset"
     monkeypatch.setenv("DISPLAY", ":99")
     assert no_display_why() == "DISPLAY=:99 does not answer"
+
+
+def test_replay_viewer_says_which_display_does_not_answer(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`ariel replay --viewer` said "DISPLAY is not set" of a DISPLAY that was set."""
+    from ariel.cli import main
+
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setenv("DISPLAY", ":99")
+    assert main(["replay", "no-such-run", "best", "--viewer"]) == 2
+    assert "--viewer needs a display (DISPLAY=:99 does not answer)" in capsys.readouterr().err

@@ -98,7 +98,8 @@ def time_step(owner: str, time: object, dt: float, last: int) -> tuple[int, bool
     if not math.isfinite(t):
         raise ValueError(f"{where}: time must be finite, not NaN or inf; got {t}")
     steps = t / dt + STEP_TOLERANCE
-    if not math.isfinite(steps):  # 1e308 / 0.01: no step count at all (OverflowError)
+    beyond = not math.isfinite(steps)  # 1e308 / 0.01: no step count at all (OverflowError)
+    if beyond:
         steps = float(MAX_STEPS_PER_CALL + 1 + last)
     target = math.floor(steps)
     if target < 0:
@@ -106,8 +107,10 @@ def time_step(owner: str, time: object, dt: float, last: int) -> tuple[int, bool
     restart = abs(t) <= 1e-8 or target < last
     ahead = target - (0 if restart else last)
     if ahead > MAX_STEPS_PER_CALL:
+        # written out up to a trillion, then as a float (a 300-digit count was printed)
+        shown = "more than 1e308" if beyond else f"{ahead:,}" if ahead < 10**12 else f"{t / dt:.3g}"
         raise ValueError(
-            f"{where}: time {t:g} s is {ahead:,} steps of dt={dt:g} s past the last call; at "
+            f"{where}: time {t:g} s is {shown} steps of dt={dt:g} s past the last call; at "
             f"most {MAX_STEPS_PER_CALL:,} at a time (time is simulated seconds, such as "
             "data.time, not wall-clock or epoch time)"
         )
