@@ -34,6 +34,17 @@ def _count(name: str, value: object, minimum: int = 0) -> int:
     return int(value)
 
 
+def _range(name: str, bounds: object) -> tuple[float, float]:
+    """``(low, high)`` as two numbers, low <= high, neither NaN (which matched nothing)."""
+    try:
+        lo, hi = (float(bound) for bound in bounds)  # type: ignore[union-attr]
+    except (TypeError, ValueError):  # (0,), (None, 1), "ab"
+        raise ValueError(f"{name} range must be (low, high), two numbers, not {bounds!r}") from None
+    if math.isnan(lo) or math.isnan(hi) or lo > hi:
+        raise ValueError(f"{name} range must be (low, high) with low <= high, not {bounds!r}")
+    return lo, hi
+
+
 def _check_mode(fitness_mode: str) -> None:
     if fitness_mode not in ("min", "max"):
         raise ValueError(f"fitness_mode must be 'min' or 'max', not {fitness_mode!r}")
@@ -77,7 +88,7 @@ class Archive:
             (Individual.fitness_, fitness_range),
         ):
             if bounds is not None:  # as plain numbers: SQLite matched no NumPy integer
-                lo, hi = (float(bound) for bound in bounds)
+                lo, hi = _range(column.key, bounds)
                 statement = statement.where(col(column) >= lo).where(col(column) <= hi)
         return statement
 

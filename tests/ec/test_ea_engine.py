@@ -454,3 +454,11 @@ def test_archive_queries_take_numpy_integers_and_refuse_a_foreign_table(tmp_path
     with pytest.raises(ValueError, match="is not an EA database ariel can read") as error:
         Archive(foreign)
     assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("bounds", [(0, float("nan")), (0,), (None, 1), (5, 1)])
+def test_an_archive_range_that_is_no_range_is_one_line(tmp_path: Path, bounds: object) -> None:
+    """(0, nan) matched nothing without a word; (0,) and (None, 1) were Python's own errors."""
+    _run_ea(tmp_path, steps=1)
+    with pytest.raises(ValueError, match="range must be \\(low, high\\)"):
+        Archive(tmp_path / "db.db").hall_of_fame(5, birth_range=bounds)  # type: ignore[arg-type]
