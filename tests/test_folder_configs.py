@@ -181,9 +181,9 @@ def test_what_export_prints_of_its_folder_is_escaped(
     assert "\x1b" not in printed and "\x07" not in printed
     assert printed.startswith(f"wrote {tmp_path}/x\\x1b[2J"), printed
     # the commands it prints run as shown: bash's $'...' for a name with control characters
-    (viewer,) = re.findall(r"--mjcf (\$'.*?body\.xml')", printed)
-    shown = subprocess.run(["bash", "-c", f"printf %s {viewer}"], capture_output=True, text=True)
-    assert shown.stdout == str(out / "body.xml")
+    (script,) = re.findall(r" (\$'.*?replay\.py')\)", printed)  # (no viewer: headless)
+    shown = subprocess.run(["bash", "-c", f"printf %s {script}"], capture_output=True, text=True)
+    assert shown.stdout == str(out / "replay.py")
 
 
 def test_what_report_prints_of_the_config_is_escaped(run_dir: Path, tmp_path: Path) -> None:

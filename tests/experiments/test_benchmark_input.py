@@ -94,7 +94,7 @@ def test_the_watch_screenshot_stops_when_its_run_fails(tmp_path: Path) -> None:
         text=True,
         timeout=120,
     )
-    assert done.returncode == 1
+    assert done.returncode == 2
     assert done.stderr.strip().endswith(
         "watch.py: error: the run ended (exit 2) before its folder was made"
     )
