@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sqlalchemy import Engine, create_engine, func
+from sqlalchemy import Engine, create_engine
 from sqlalchemy.exc import StatementError
 from sqlmodel import Session, select
 
@@ -48,8 +48,8 @@ def readable_engine(path: Path, role: str) -> Engine:
     engine = open_engine(path)
     try:
         with session(engine) as s:
-            s.exec(select(func.count()).select_from(Individual)).one()
-            s.exec(select(Individual).limit(1)).all()  # its columns: a table of that name only
+            # one row of every column: no file of SQLite, no table, another program's table
+            s.exec(select(Individual).limit(1)).all()
     except StatementError as error:
         engine.dispose()
         raise database_error(f"{role} {path} is not an EA database ariel can read", error) from None

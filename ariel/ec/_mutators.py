@@ -7,65 +7,19 @@ per call for inversion / scramble, as upstream documents.
 
 from __future__ import annotations
 
-import math
-import numbers
 from typing import Any
 
 import numpy as np
 
+from ariel.ec._arguments import bounds, finite, integer_genes, probability, whole
 from ariel.ec._rng import SeedLike, resolve_rng
 
-__all__ = ["FloatMutator", "IntegerMutator", "integer_genes"]
-
-
-def _probability(value: float) -> None:
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise TypeError(f"mutation_probability must be a number in [0, 1], not {value!r}")
-    if not 0.0 <= value <= 1.0:
-        raise ValueError(f"mutation_probability must be in [0, 1], not {value!r}")
-
-
-def _finite(name: str, value: object, *, at_least: float | None = None) -> float:
-    """``value`` as a float when it is a finite real number (``>= at_least`` where given): a NaN
-    or infinite step size or bound otherwise turns every gene it touches into NaN or inf,
-    silently, and the EA stores those genotypes."""
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise TypeError(f"{name} must be a real number, not {value!r}")
-    number = float(value)
-    if not math.isfinite(number) or (at_least is not None and number < at_least):
-        allowed = "a finite number" + (f" >= {at_least:g}" if at_least is not None else "")
-        raise ValueError(f"{name} must be {allowed}, not {value!r}")
-    return number
-
-
-def _bounds(low: float, high: float, *, strict: bool = False, whole: bool = False) -> None:
-    """``low`` and ``high`` finite (``whole``: whole numbers, NumPy truncated 1.5 to 1), in
-    order, and ``high - low`` finite too (-1e308 to 1e308 made NaN genes)."""
-    for name, bound in (("low", low), ("high", high)):
-        _finite(name, bound)
-        if whole and float(bound) != round(float(bound)):
-            raise ValueError(f"{name} must be a whole number, not {bound!r}")
-    if not (low < high if strict else low <= high):
-        sign = "<" if strict else "<="
-        raise ValueError(f"low must be {sign} high, got low={low!r} and high={high!r}")
-    if not math.isfinite(float(high) - float(low)):
-        raise ValueError(f"high - low must be finite, got low={low!r} and high={high!r}")
-
-
-def integer_genes(values: Any, name: str = "individual") -> np.ndarray:
-    """``values`` as an int64 array; a gene that is not a whole number (1.7) is refused, where
-    casting would have cut it to 1 whether or not the gene was chosen to mutate."""
-    genes = np.asarray(values)
-    if genes.dtype.kind == "f" and not np.all(np.isfinite(genes) & (genes == np.round(genes))):
-        raise ValueError(f"{name} must hold whole numbers (an integer genotype), not {values!r}")
-    if genes.dtype.kind not in "biuf":
-        raise ValueError(f"{name} must hold whole numbers, not {genes.dtype} values")
-    return genes.astype(np.int64)
+__all__ = ["FloatMutator", "IntegerMutator"]
 
 
 def _swap(individual: Any, mutation_probability: float, seed: SeedLike) -> list[Any]:
     """Each gene, with the probability, trades places with a uniformly chosen gene."""
-    _probability(mutation_probability)
+    probability("mutation_probability", mutation_probability)
     genes, rng = list(individual), resolve_rng(seed)
     for i in range(len(genes)):
         if rng.random() < mutation_probability:
@@ -81,7 +35,7 @@ def _segment(n: int, rng: np.random.Generator) -> tuple[int, int]:
 
 def _inversion(individual: Any, mutation_probability: float, seed: SeedLike) -> list[Any]:
     """With the probability, reverse a random slice."""
-    _probability(mutation_probability)
+    probability("mutation_probability", mutation_probability)
     genes, rng = list(individual), resolve_rng(seed)
     if len(genes) < 2 or rng.random() >= mutation_probability:
         return genes
@@ -98,8 +52,8 @@ class IntegerMutator:
         individual: Any, low: int, high: int, mutation_probability: float, *, seed: SeedLike = None
     ) -> Any:
         """Each gene, with the probability, becomes a uniform integer in ``[low, high]``."""
-        _probability(mutation_probability)
-        _bounds(low, high, whole=True)
+        probability("mutation_probability", mutation_probability)
+        bounds(low, high, whole=True)
         genes, rng = integer_genes(individual), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         fresh = rng.integers(low, high, size=genes.shape, endpoint=True)
@@ -110,9 +64,8 @@ class IntegerMutator:
         individual: Any, span: int, mutation_probability: float, *, seed: SeedLike = None
     ) -> Any:
         """Each gene, with the probability, moves up or down by 1 to ``span``."""
-        _probability(mutation_probability)
-        if not isinstance(span, numbers.Integral) or isinstance(span, bool) or span < 1:
-            raise ValueError(f"span must be a whole number >= 1, not {span!r}")
+        probability("mutation_probability", mutation_probability)
+        span = whole("span", span, 1)
         genes, rng = integer_genes(individual), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         step = rng.integers(1, span, size=genes.shape, endpoint=True)
@@ -136,7 +89,7 @@ class IntegerMutator:
         individual: Any, mutation_probability: float, *, seed: SeedLike = None
     ) -> list[int]:
         """With the probability, shuffle a random slice."""
-        _probability(mutation_probability)
+        probability("mutation_probability", mutation_probability)
         genes, rng = list(individual), resolve_rng(seed)
         if len(genes) < 2 or rng.random() >= mutation_probability:
             return genes
@@ -159,14 +112,14 @@ class FloatMutator:
         seed: SeedLike = None,
     ) -> Any:
         """Each gene, with the probability, gets N(0, std²) added; then optionally clipped."""
-        _probability(mutation_probability)
-        _finite("std", std, at_least=0.0)
+        probability("mutation_probability", mutation_probability)
+        finite("std", std, at_least=0.0)
         if lower_bound is not None and upper_bound is not None:
-            _bounds(lower_bound, upper_bound)  # reversed, np.clip set every gene to the upper
+            bounds(lower_bound, upper_bound)  # reversed, np.clip set every gene to the upper
         else:
             for name, bound in (("lower_bound", lower_bound), ("upper_bound", upper_bound)):
                 if bound is not None:
-                    _finite(name, bound)
+                    finite(name, bound)
         genes, rng = np.asarray(individual, dtype=np.float64), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         out = genes + mask * rng.normal(0.0, std, size=genes.shape)
@@ -184,8 +137,8 @@ class FloatMutator:
         seed: SeedLike = None,
     ) -> Any:
         """Each gene, with the probability, becomes uniform in ``[low, high)``."""
-        _probability(mutation_probability)
-        _bounds(low, high)
+        probability("mutation_probability", mutation_probability)
+        bounds(low, high)
         genes, rng = np.asarray(individual, dtype=np.float64), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         return np.where(mask, rng.uniform(low, high, size=genes.shape), genes).tolist()
@@ -200,8 +153,8 @@ class FloatMutator:
         seed: SeedLike = None,
     ) -> Any:
         """Each gene, with the probability, becomes ``low`` or ``high`` (even odds)."""
-        _probability(mutation_probability)
-        _bounds(low, high)
+        probability("mutation_probability", mutation_probability)
+        bounds(low, high)
         genes, rng = np.asarray(individual, dtype=np.float64), resolve_rng(seed)
         mask = rng.random(genes.shape) < mutation_probability
         edge = np.where(rng.random(genes.shape) < 0.5, float(low), float(high))
@@ -221,9 +174,9 @@ class FloatMutator:
 
         Larger ``distribution_index`` keeps children closer to the parent gene.
         """
-        _probability(mutation_probability)
-        _bounds(low, high, strict=True)
-        _finite("distribution_index", distribution_index, at_least=0.0)
+        probability("mutation_probability", mutation_probability)
+        bounds(low, high, strict=True)
+        finite("distribution_index", distribution_index, at_least=0.0)
         x = np.clip(np.asarray(individual, dtype=np.float64), low, high)
         rng = resolve_rng(seed)
         mask = rng.random(x.shape) < mutation_probability

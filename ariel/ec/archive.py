@@ -7,7 +7,6 @@ population. Random picks take ``seed=`` (upstream uses SQLite's unseedable ``ran
 from __future__ import annotations
 
 import math
-import numbers
 from pathlib import Path
 from typing import Any, Literal
 
@@ -15,6 +14,7 @@ import numpy as np
 from sqlalchemy import Engine, func
 from sqlmodel import col, select
 
+from ariel.ec._arguments import whole
 from ariel.ec._db import fresh_copy, readable_engine, session
 from ariel.ec._rng import SeedLike, resolve_rng
 from ariel.ec.individual import Individual
@@ -24,14 +24,6 @@ __all__ = ["Archive"]
 
 FitnessMode = Literal["min", "max"]
 Range = tuple[float, float] | None
-
-
-def _count(name: str, value: object, minimum: int = 0) -> int:
-    """A whole number >= ``minimum`` (a NumPy integer too): SQL reads ``LIMIT -1`` as "no
-    limit", so ``hall_of_fame(-1)`` returned every individual."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < minimum:
-        raise ValueError(f"{name} must be a whole number >= {minimum}, not {value!r}")
-    return int(value)
 
 
 def _range(name: str, bounds: object) -> tuple[float, float]:
@@ -158,7 +150,7 @@ class Archive:
         seed: SeedLike = None,
     ) -> Population:
         """Up to ``n`` evaluated individuals drawn without replacement."""
-        n = _count("n", n)
+        n = whole("n", n)
         ids_query = self._filters(
             select(Individual.id),
             birth_range=birth_range,
@@ -184,7 +176,7 @@ class Archive:
         death_range: Range = None,
     ) -> Population:
         """The ``n`` best individuals of all time, best first."""
-        n = _count("n", n)
+        n = whole("n", n)
         return self._ranked(fitness_mode, n, birth_range=birth_range, death_range=death_range)
 
     def tournament_population(
@@ -201,8 +193,8 @@ class Archive:
         """``n`` winners of tournaments of ``tournament_size`` over a random pool of
         ``n * pool_multiplier`` archived individuals."""
         _check_mode(fitness_mode)
-        n = _count("n", n)
-        pool_multiplier = _count("pool_multiplier", pool_multiplier, 1)
+        n = whole("n", n)
+        pool_multiplier = whole("pool_multiplier", pool_multiplier, 1)
         if n == 0:
             return Population([])
         rng = resolve_rng(seed)
@@ -222,7 +214,7 @@ class Archive:
 
     def by_generation(self, generation: int) -> Population:
         """Every evaluated individual present during ``generation`` (born <= it <= died)."""
-        generation = _count("generation", generation)  # np.int64(0) matched no row
+        generation = whole("generation", generation)  # np.int64(0) matched no row
         return Population(
             self._rows(
                 self._filters(select(Individual))

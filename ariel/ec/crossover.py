@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ariel.ec._arguments import probability
 from ariel.ec._rng import SeedLike, resolve_rng
 
 __all__ = ["Crossover"]
@@ -27,13 +28,6 @@ def _flat_pair(parent_i: Any, parent_j: Any) -> tuple[tuple[int, ...], np.ndarra
     if dtype.kind not in "biuf":
         raise ValueError(f"parents must hold numbers (booleans, integers or floats), not {dtype}")
     return a.shape, a.astype(dtype).ravel(), b.astype(dtype).ravel()
-
-
-def _probability(name: str, value: float) -> None:
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise TypeError(f"{name} must be a number in [0, 1], not {value!r}")
-    if not 0.0 <= value <= 1.0:
-        raise ValueError(f"{name} must be in [0, 1], not {value!r}")
 
 
 class Crossover:
@@ -70,7 +64,7 @@ class Crossover:
         parent_i: Any, parent_j: Any, swap_probability: float = 0.5, *, seed: SeedLike = None
     ) -> tuple[Any, Any]:
         """Each gene is swapped between the parents with ``swap_probability``."""
-        _probability("swap_probability", swap_probability)
+        probability("swap_probability", swap_probability)
         shape, a, b = _flat_pair(parent_i, parent_j)
         swap = resolve_rng(seed).random(a.size) < swap_probability
         c1, c2 = np.where(swap, b, a), np.where(swap, a, b)

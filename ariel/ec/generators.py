@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ariel.ec._mutators import FloatMutator, IntegerMutator, _bounds, _finite, integer_genes
+from ariel.ec._arguments import bounds, finite, integer_genes, whole
+from ariel.ec._mutators import FloatMutator, IntegerMutator
 from ariel.ec._rng import SEED, SeedLike, resolve_rng, set_seed
 
 __all__ = [
@@ -46,7 +47,7 @@ class IntegersGenerator:
         seed: SeedLike = None,
     ) -> Any:
         """Uniform integers in ``[low, high]`` (``[low, high)`` with ``endpoint=False``)."""
-        _bounds(low, high, whole=True)  # numpy says only "low > high", and cut 1.5 to 1
+        bounds(low, high, whole=True)  # numpy says only "low > high", and cut 1.5 to 1
         return resolve_rng(seed).integers(low, high, size=size, endpoint=endpoint).tolist()
 
     @staticmethod
@@ -77,9 +78,7 @@ class IntegersGenerator:
     @staticmethod
     def permutation(n: int, *, seed: SeedLike = None) -> list[int]:
         """A random ordering of ``0 .. n - 1``."""
-        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 0:
-            raise ValueError(f"n must be a whole number >= 0, not {n!r}")
-        return resolve_rng(seed).permutation(n).tolist()
+        return resolve_rng(seed).permutation(whole("n", n)).tolist()
 
 
 class FloatsGenerator:
@@ -88,7 +87,7 @@ class FloatsGenerator:
     @staticmethod
     def uniform(low: float, high: float, size: Size = 1, *, seed: SeedLike = None) -> Any:
         """Uniform floats in ``[low, high)``."""
-        _bounds(low, high)
+        bounds(low, high)
         return resolve_rng(seed).uniform(low, high, size=size).tolist()
 
     @staticmethod
@@ -96,8 +95,8 @@ class FloatsGenerator:
         mean: float = 0.0, std: float = 1.0, size: Size = 1, *, seed: SeedLike = None
     ) -> Any:
         """Gaussian floats with the given mean and standard deviation."""
-        _finite("mean", mean)
-        _finite("std", std, at_least=0.0)
+        finite("mean", mean)
+        finite("std", std, at_least=0.0)
         return resolve_rng(seed).normal(mean, std, size=size).tolist()
 
     @staticmethod
@@ -105,8 +104,8 @@ class FloatsGenerator:
         mean: float = 0.0, sigma: float = 1.0, size: Size = 1, *, seed: SeedLike = None
     ) -> Any:
         """Log-normal floats (``mean`` and ``sigma`` of the underlying normal)."""
-        _finite("mean", mean)
-        _finite("sigma", sigma, at_least=0.0)
+        finite("mean", mean)
+        finite("sigma", sigma, at_least=0.0)
         return resolve_rng(seed).lognormal(mean, sigma, size=size).tolist()
 
     @staticmethod
@@ -127,10 +126,8 @@ class FloatsGenerator:
     @staticmethod
     def linspace(start: float, stop: float, num: int) -> list[float]:
         """``num`` evenly spaced floats from ``start`` to ``stop`` (both included)."""
-        _finite("start", start)
-        _finite("stop", stop)
+        finite("start", start)
+        finite("stop", stop)
         if not math.isfinite(float(stop) - float(start)):  # -1e308 to 1e308: NaN and inf
             raise ValueError(f"stop - start must be finite, got start={start!r}, stop={stop!r}")
-        if not isinstance(num, numbers.Integral) or isinstance(num, bool) or num < 0:
-            raise ValueError(f"num must be a whole number >= 0, not {num!r}")
-        return np.linspace(start, stop, num).tolist()
+        return np.linspace(start, stop, whole("num", num)).tolist()

@@ -8,11 +8,11 @@ It is a real ``list`` (so code written for upstream's older ``list[Individual]``
 from __future__ import annotations
 
 import math
-import numbers
 import random
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Any, Literal, SupportsIndex, overload
 
+from ariel.ec._arguments import whole
 from ariel.ec._rng import SeedLike, resolve_rng
 
 if TYPE_CHECKING:
@@ -148,11 +148,10 @@ class Population(list):
         n: int = 1,
     ) -> Population:
         """The ``n`` best individuals by ``attribute`` (``"max"``: largest values first)."""
-        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 0:
-            raise ValueError(f"n must be a whole number >= 0, not {n!r}")
+        n = whole("n", n)
         ordered = self.sort(sort=sort, attribute=attribute)
         assert ordered is not None
-        return ordered[: int(n)]
+        return ordered[:n]
 
     def sample(self, n: int, *, seed: SeedLike = None) -> Population:
         """Up to ``n`` individuals drawn without replacement (all of them if ``n >= len``).
@@ -160,9 +159,7 @@ class Population(list):
         ``seed``: an int or numpy Generator; ``None`` draws from Python's ``random``, as
         upstream does (so ``random.seed`` / `set_seed` make it repeat).
         """
-        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 0:
-            raise ValueError(f"n must be a whole number >= 0, not {n!r}")
-        k = min(int(n), len(self))
+        k = min(whole("n", n), len(self))
         if seed is None:
             return Population(random.sample(list(self), k))
         items = list(self)
