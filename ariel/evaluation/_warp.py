@@ -26,9 +26,8 @@ constraints overflow the device buffers is re-run with larger buffers.
 Closed-loop controllers (a policy per call) are not batched here, nor worlds with a
 heightfield (rugged, rugged_tilted, crater, amphitheatre, olympic_arena: MuJoCo Warp's
 contacts with one differ from MuJoCo's, launching robots): their tasks run on the CPU engine
-in this process
-(backend ``mujoco``), each reason said once on stderr. Import cost: `warp` and
-`mujoco_warp` load on the first evaluator only.
+in this process (backend ``mujoco``), each reason said once on stderr. Import cost: `warp`
+and `mujoco_warp` load on the first evaluator only.
 
 The device side (device copies, frame buffers, captured graphs, stepping) is
 `ariel.evaluation._warp_device`, the import of Warp and the device check
@@ -143,8 +142,11 @@ class WarpEvaluator(_WarpDevice):
         (`ariel.evaluation._warp_packed`); the others run body by body.
         """
         results, ready = prepare_groups(tasks)
-        here = [g for g in ready if self._on_the_cpu(g)]
-        alone, packs, reasons = pack_plan([g for g in ready if not any(g is h for h in here)])
+        here: list[TaskGroup] = []  # on the CPU engine (`_on_the_cpu`); the rest on the device
+        there: list[TaskGroup] = []
+        for group in ready:
+            (here if self._on_the_cpu(group) else there).append(group)
+        alone, packs, reasons = pack_plan(there)
         self._note_unpacked(reasons)
         done = [(g, outs) for pack in packs for g, outs in zip(pack, self._packed(pack))]
         done += [(g, evaluate_group(g, self._open_loop_group)) for g in alone]
@@ -175,26 +177,23 @@ class WarpEvaluator(_WarpDevice):
             )
         else:
             return False
-        if why not in self._noted:
-            self._noted.add(why)
-            print(
-                f"note: gpu: {why}: its evaluations run on the CPU engine (docs/gpu.md)",
-                file=sys.stderr,
-                flush=True,
-            )
+        self._note(why, f"{why}: its evaluations run on the CPU engine")
         return True
+
+    def _note(self, reason: str, said: str) -> None:
+        """``note: gpu: <said> (docs/gpu.md)`` on stderr, once per ``reason``."""
+        if reason not in self._noted:
+            self._noted.add(reason)
+            print(f"note: gpu: {said} (docs/gpu.md)", file=sys.stderr, flush=True)
 
     def _note_unpacked(self, reasons: dict[str, int]) -> None:
         """One line on stderr for each new reason why bodies could not be packed."""
         for reason, count in reasons.items():
-            if reason not in self._noted:
-                self._noted.add(reason)
-                print(
-                    f"note: gpu: {count} bodies of a generation are not packed into one model "
-                    f"({reason[:200]}); each runs alone on the device (docs/gpu.md)",
-                    file=sys.stderr,
-                    flush=True,
-                )
+            self._note(
+                reason,
+                f"{count} bodies of a generation are not packed into one model "
+                f"({reason[:200]}); each runs alone on the device",
+            )
 
     def _open_loop_group(self, group: TaskGroup) -> list[EvaluationResult]:
         """An open-loop group, ``max_worlds`` tasks at a time."""
