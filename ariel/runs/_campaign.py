@@ -361,7 +361,7 @@ def resume_campaign(
 def _remove_own_temporaries(path: Path) -> None:
     """A killed campaign's half-written campaign.json, .rrd or .rbl (its runs clean their own);
     a user's ``.notes.tmp`` beside them is theirs."""
-    own = (CAMPAIGN_JSON, CAMPAIGN_RRD, "campaign.rbl")
+    own = (CAMPAIGN_JSON, CAMPAIGN_RRD, rerun.CAMPAIGN_BLUEPRINT)
     for entry in path.iterdir():
         written = written_path(entry)
         if written is not None and written.name in own and not entry.is_symlink():

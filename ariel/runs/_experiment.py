@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import json
-import math
 import shutil
 import sys
 from collections.abc import Iterator, Mapping, Sequence
@@ -72,17 +71,12 @@ def new_progress(
 ) -> Progress:
     """The run's progress display (``kind``: a `Progress` class; ``extra``: its keywords);
     ``show_progress``: see `shows_progress` (None: only where someone watches)."""
-    progress = kind(
+    return kind(
         total=prepared.budget,
         done=state.budget_done if state else 0,
         enabled=shows_progress(show_progress),
         **extra,
     )
-    # A resumed run's best so far, shown before its first new batch (it showed "-")
-    kept = [b.fitness for b in state.population if math.isfinite(b.fitness)] if state else []
-    if kept:
-        progress.advance(0, max(kept) if prepared.plugins.maximise else min(kept))
-    return progress
 
 
 def _drive(session: RunSession, show_progress: bool | None) -> RunResult:

@@ -15,6 +15,7 @@ generation's records before the writer saves its checkpoint, and run.json follow
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
@@ -166,6 +167,11 @@ class RunSession:
             record_bodies=recorder is not None and recorder.record_bodies,
             plugin_error=writer.plugin_failed,
         )
+        # a resumed run's best so far, by the driver's own rule, before its first new batch
+        # (the progress line showed "-" until then)
+        best = self.driver.best_so_far()
+        if not math.isnan(best):  # (a new run has none)
+            progress.advance(0, best)
         self.driver.start()
         return self.driver
 

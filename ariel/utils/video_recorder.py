@@ -40,8 +40,8 @@ class VideoRecorder:
         fps: Frames per second of the video, from `MIN_FPS` to `MAX_FPS`.
 
     Raises:
-        ValueError: If a size is not a positive even int, ``fps`` is not positive, or
-            ``file_name`` is empty or has folders.
+        ValueError: If a size is not a positive even int, ``fps`` is outside `MIN_FPS` to
+            `MAX_FPS`, or ``file_name`` is empty or has folders.
     """
 
     def __init__(
