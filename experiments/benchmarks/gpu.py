@@ -382,19 +382,26 @@ def summary(
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    from ariel.evaluation._warp import WarpEvaluator, WarpUnavailableError, warp_modules
+    from ariel.evaluation._warp import (
+        WarpEvaluator,
+        WarpUnavailableError,
+        cuda_available,
+        warp_modules,
+    )
 
     try:
         wp, _ = warp_modules()
+        if args.device == "cuda" and not cuda_available():  # in this script's own options
+            # (the library's line names a run's config and --set)
+            print(
+                "gpu.py: error: no CUDA device (no NVIDIA GPU or driver visible to Warp): give "
+                "--device cpu for Warp's CPU device (slow), or --quick (a smoke run on it)",
+                file=sys.stderr,
+            )
+            return 2
         evaluator = WarpEvaluator(args.device)
     except WarpUnavailableError as exc:
-        said = str(exc)
-        if "no CUDA device" in said:  # in its own options: the library's names a run's --set
-            said = (
-                "no CUDA device (no NVIDIA GPU or driver visible to Warp): give --device cpu for "
-                "Warp's CPU device (slow), or --quick (a smoke run on it)"
-            )
-        print(f"gpu.py: error: {said}", file=sys.stderr)
+        print(f"gpu.py: error: {exc}", file=sys.stderr)
         return 2
     model = build(EvaluationTask(body=GECKO)).model
     context: dict[str, Any] = {

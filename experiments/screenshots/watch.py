@@ -16,6 +16,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
 from ariel.recording import load_run, watch
@@ -23,8 +24,10 @@ from ariel.recording.store._files import atomic_write_bytes
 from ariel.recording.viewer._browser import HeadlessChromium, find_chromium
 from ariel.recording.viewer._web import wait_for_drawing
 
-#: The default experiment's generations (experiments/coevolve_flat.toml).
-GENERATIONS = 10
+#: The default experiment's generations: `--after` beyond them is never reached.
+GENERATIONS = tomllib.loads(
+    (Path(__file__).parents[1] / "coevolve_flat.toml").read_text(encoding="utf-8")
+)["generations"]
 
 
 def _going(proc: subprocess.Popen[bytes], what: str) -> None:
@@ -43,7 +46,7 @@ def _after(text: str) -> int:
         value = int(text)
     except ValueError:  # argparse said "invalid _after value"
         raise argparse.ArgumentTypeError(f"must be a whole number, not {text!r}") from None
-    if not 1 <= value <= GENERATIONS:  # the default run has 10: more is never reached
+    if not 1 <= value <= GENERATIONS:
         raise argparse.ArgumentTypeError(f"must be from 1 to {GENERATIONS}, not {value}")
     return value
 
