@@ -16,6 +16,8 @@ import sys
 
 import numpy as np
 
+from ariel.utils import global_generator
+
 __all__ = ["SEED", "SeedLike", "resolve_rng", "set_seed"]
 
 #: Upstream's default seed, kept for scripts that import it (``from ariel.ec import SEED``).
@@ -28,9 +30,8 @@ def resolve_rng(seed: SeedLike) -> np.random.Generator:
     """The generator a stochastic call should draw from (see the module docstring)."""
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is None:
-        # Four 32-bit words from NumPy's global state: reproducible after np.random.seed().
-        return np.random.default_rng(np.random.randint(0, 2**32, size=4, dtype=np.uint64))
+    if seed is None:  # reproducible after np.random.seed()
+        return global_generator()
     if isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0:
         return np.random.default_rng(int(seed))
     raise ValueError(

@@ -55,6 +55,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         MIN_OPEN_FILES as MIN_OPEN_FILES,
         open_files_short as open_files_short,
     )
+    from ariel.utils._seeding import (
+        global_generator as global_generator,
+    )
     from ariel.utils._shared_setting import (
         SharedSetting as SharedSetting,
     )
@@ -72,6 +75,7 @@ _INTERNAL: dict[str, str] = {
     "file_kind": "ariel.utils._file_kind",
     "flag_argument": "ariel.utils._arguments",
     "gl_backend_error": "ariel.utils._gl",
+    "global_generator": "ariel.utils._seeding",
     "has_display": "ariel.utils._gl",
     "in_notebook_kernel": "ariel.utils._notebook",
     "is_terminal": "ariel.utils._notebook",

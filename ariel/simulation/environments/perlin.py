@@ -13,6 +13,8 @@ import numbers
 
 import numpy as np
 
+from ariel.utils import global_generator
+
 __all__ = ["NORMALIZE_METHODS", "PerlinNoise"]
 
 #: Accepted values of `normalize`: raw values, v * 0.5 + 0.5, or clipped to [0, 1].
@@ -34,11 +36,8 @@ class PerlinNoise:
 
     def __init__(self, seed: int | None = None) -> None:
         self.seed = seed
-        if seed is None:  # four 32-bit words of NumPy's global state, as ariel.ec does
-            drawn = np.random.randint(0, 2**32, size=4, dtype=np.uint64)
-            permutation = np.random.default_rng(drawn).permutation(256)
-        else:
-            permutation = np.random.default_rng(seed).permutation(256)
+        rng = global_generator() if seed is None else np.random.default_rng(seed)
+        permutation = rng.permutation(256)
         self.permutation = np.concatenate([permutation, permutation]).astype(np.intp)
         angles = np.arange(8) * (np.pi / 4.0)
         self.gradients = np.stack([np.cos(angles), np.sin(angles)], axis=1)
