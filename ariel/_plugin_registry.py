@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 from ariel import utils  # its face: `gl_backend_error` is loaded on a failure only
 from ariel._version import __version__
 from ariel.errors import DuplicatePluginError, PluginLoadError, UnknownPluginError
+from ariel.utils.lazy import keeping_random_state
 
 if TYPE_CHECKING:
     import importlib.metadata
@@ -371,7 +372,8 @@ class Registry(Generic[T]):
         """``load()``, checked; an error names the plugin and ``where()`` it came from (only
         then asked: finding a distribution's version reads package metadata)."""
         try:
-            obj = load()
+            with keeping_random_state():  # nevergrad's import draws from both global generators
+                obj = load()
         except Exception as exc:
             # A signal taken mid-import may come out wrapped (ctypes: "ArgumentError: argument
             # 1: Interrupted: 15"): then the interrupt is what happened, not a broken plugin.

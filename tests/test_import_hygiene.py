@@ -139,3 +139,19 @@ def test_using_the_api_leaves_python_s_random_state_alone() -> None:
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
     )
     assert done.stdout.strip() == "True", done.stderr[-2000:]
+
+
+def test_loading_a_plugin_leaves_the_global_generators_alone() -> None:
+    """nevergrad's import draws from `random` and NumPy's global generator: a script that
+    seeded both and then looked up the nevergrad learner got other draws after."""
+    script = (
+        "import random, numpy as np, ariel.plugins\n"
+        "random.seed(0); np.random.seed(0); expected = (random.random(), np.random.random())\n"
+        "random.seed(0); np.random.seed(0)\n"
+        "ariel.plugins.brain_optimizers.get('nevergrad')\n"
+        "print((random.random(), np.random.random()) == expected)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.stdout.strip() == "True", done.stderr[-2000:]

@@ -21,18 +21,23 @@ __all__ = ["keeping_random_state", "lazy_face"]
 
 @contextlib.contextmanager
 def keeping_random_state() -> Iterator[None]:
-    """Python's global `random` state as it was before, after the block: rich draws from it as
-    it loads (``rich.style``, ``getrandbits``), so a script's ``random.seed(0)`` before using
+    """Python's global `random` state, and NumPy's where NumPy is loaded, as they were before,
+    after the block: libraries draw from them as they load (rich: ``getrandbits``; nevergrad
+    advances both), so a script's ``random.seed(0)`` or ``np.random.seed(0)`` before using
     ariel no longer gave the same draws after.
 
     Returns:
-        A context manager (a ``with`` block) that restores the state when it ends.
+        A context manager (a ``with`` block) that restores the states when it ends.
     """
     state = random.getstate()
+    numpy = sys.modules.get("numpy")  # not loaded: nobody has seeded it, nothing to keep
+    numpy_state = numpy.random.get_state() if numpy is not None else None
     try:
         yield
     finally:
         random.setstate(state)
+        if numpy is not None:
+            numpy.random.set_state(numpy_state)
 
 
 def lazy_face(
