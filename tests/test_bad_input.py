@@ -307,7 +307,11 @@ FOLDER_CASES: dict[str, tuple[Callable[[Path, Path], Path], list[str], str]] = {
     "resume-invalid-config": (_bad_config, ["resume"], "its config cannot be read (brain.popsize"),
     "resume-broken-run-json": (_broken_run_json, ["resume"], "unreadable run.json"),
     "resume-broken-checkpoint": (_broken_checkpoint, ["resume"], "unreadable checkpoint"),
-    "resume-foreign-checkpoint": (_foreign_checkpoint, ["resume"], "checkpoint format 99"),
+    "resume-foreign-checkpoint": (
+        _foreign_checkpoint,
+        ["resume"],
+        "checkpoint of format 99, written by a newer",
+    ),
     "replay-unknown-id": (
         lambda f, t: _copy(f, t),
         ["replay", "{run}", "b999999-i000-c000"],

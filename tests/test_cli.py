@@ -716,26 +716,22 @@ def test_numpy_overflow_warnings_of_crafted_values_stay_off_the_terminal(
     assert [str(w.message) for w in shown] == ["a warning of ours"]
 
 
-def test_a_resume_with_other_software_says_so(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_the_software_that_made_a_generation_is_told_apart() -> None:
     """A run made with another MuJoCo (a copy from another machine) went on without a word,
-    though its added generations cannot equal an uninterrupted run's."""
-    from ariel.cli._run import _note_software_change
-    from ariel.recording.store import software_versions, version_differences
+    though its added generations cannot equal an uninterrupted run's (the note itself:
+    tests/runs/test_folder_trust.py)."""
+    from ariel.recording.store import git_commit, software_versions, version_differences
 
-    here = software_versions()
-    segment = {"from_generation": 0, "versions": {**here, "mujoco": "3.0.0"}}
-    later = {"from_generation": 2, "versions": dict(here)}
+    here, commit = software_versions(), git_commit()
+    segment = {"from_generation": 0, "versions": {**here, "mujoco": "3.0.0"}, "git_commit": commit}
+    later = {"from_generation": 2, "versions": dict(here), "git_commit": commit}
     info = {"run_id": "r", "status": "interrupted", "versions": here, "segments": [segment]}
     assert version_differences(info) == {"mujoco": ("3.0.0", here["mujoco"])}
+    if commit is not None:  # a checkout: an ariel that recorded no commit is unknown software
+        unknown = {**info, "segments": [{**later, "git_commit": None}]}
+        assert version_differences(unknown) == {"git_commit": ("not recorded", commit)}
     assert version_differences({**info, "segments": [segment, later]}) == {}  # the last one's
     assert version_differences({**info, "segments": [segment, later]}, 1) != {}  # generation 1
-    (tmp_path / "run.json").write_text(json.dumps({"format": 1, **info}))
-    _note_software_change(str(tmp_path))
-    assert f"(mujoco 3.0.0 -> {here['mujoco']}): the generations added now may differ" in (
-        capsys.readouterr().err
-    )
 
 
 def test_every_command_s_help_has_a_description() -> None:

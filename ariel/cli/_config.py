@@ -1,10 +1,12 @@
 """``ariel config show``: the resolved experiment (every key, defaults included) as TOML.
 
 The output is a valid experiment file: ``ariel config show > mine.toml`` then ``ariel run
-mine.toml`` runs the same experiment. TOML has no null, so a key that is not set (``none`` in
-docs/evolution.md) is a comment. A key that the configured executor does not use
-(``executor.device`` unless ``executor.kind`` is ``gpu``) is a comment too when it holds its
-default, and otherwise stays, with a comment saying that it is not used.
+mine.toml`` runs the same experiment. Given a run folder, it shows the config the run was
+started with (run.json's), so a run that cannot be resumed can be started again. TOML has no
+null, so a key that is not set (``none`` in docs/evolution.md) is a comment. A key that the
+configured executor does not use (``executor.device`` unless ``executor.kind`` is ``gpu``) is a
+comment too when it holds its default, and otherwise stays, with a comment saying that it is
+not used.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import shlex
 from collections.abc import Mapping
@@ -19,6 +22,8 @@ from typing import TYPE_CHECKING
 
 from ariel import evolution
 from ariel.cli._options import add_set_option
+from ariel.errors import ConfigError
+from ariel.recording.store import RunFolder
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -102,10 +107,21 @@ def _unused_keys(config: ExperimentConfig) -> dict[str, tuple[str, bool]]:
     return {"executor.device": (why, executor.device == default)}
 
 
+def _run_config(folder: str) -> dict[str, object]:
+    """The config run.json of the run folder ``folder`` holds (every key, as the run began);
+    a folder that is no run, or whose config is no table, is one line."""
+    config = RunFolder(folder).read_info().get("config")
+    if not isinstance(config, dict):
+        raise ConfigError(f"{str(folder)!r}: run.json holds no config table")
+    return config
+
+
 def _cmd_config_show(args: argparse.Namespace) -> int:
     # a bad file, key or value: ConfigError, one line
-    config = evolution.load_config(args.file, args.set)
+    folder = args.file is not None and os.path.isdir(args.file)
+    config = evolution.load_config(_run_config(args.file) if folder else args.file, args.set)
     source = args.file or "the default experiment (experiments/coevolve_flat.toml)"
+    source = f"the config of run {args.file}" if folder else source
     overrides = "".join(f" --set {shlex.quote(item)}" for item in args.set)
     print(f"# {source}{overrides}, resolved: every key, defaults included")
     print("# the keys: docs/evolution.md, 'Configuration keys'")
@@ -115,20 +131,23 @@ def _cmd_config_show(args: argparse.Namespace) -> int:
 
 def add_config_commands(sub: SubParsers) -> None:
     """Add ``config show`` to the sub-parsers."""
-    config = sub.add_parser("config", help="the resolved experiment: ariel config show [FILE]")
+    config = sub.add_parser(
+        "config", help="the resolved experiment: ariel config show [FILE | RUN_FOLDER]"
+    )
     actions = config.add_subparsers(dest="action", metavar="ACTION", required=True)
     p = actions.add_parser(
         "show",
         help="print the resolved experiment as TOML (every key, defaults included)",
         description="Print the experiment that `ariel run [FILE] [--set ...]` would run, every "
         "key with its value (defaults included), as TOML that `ariel run` reads back. The keys "
-        "are documented in docs/evolution.md, 'Configuration keys'.",
+        "are documented in docs/evolution.md, 'Configuration keys'. Given a run folder, the "
+        "config that run was started with (to start a new run of it).",
     )
     p.add_argument(
         "file",
         nargs="?",
         metavar="FILE",
-        help="experiment TOML file (default: the default experiment)",
+        help="experiment TOML file, or a run folder (default: the default experiment)",
     )
     add_set_option(p, "override a config value, as with ariel run (repeatable)")
     p.set_defaults(func=_cmd_config_show)

@@ -168,13 +168,13 @@ def _cmd_resume(args: argparse.Namespace) -> int:
 def _note_software_change(run_dir: str) -> None:
     """A note on stderr where the run goes on with other versions of what decides its numbers
     (another MuJoCo: the generations it adds are not those an uninterrupted run would have
-    made; run.json's ``segments`` say which software made which). Any problem with the folder
-    is the resume's to say."""
+    made; run.json's ``segments`` say which software made which). Only for a run the resume
+    takes (`resumable`): any problem with the folder is the resume's one line to say."""
     try:
-        info = RunFolder(run_dir).read_info()
+        info, _, _ = runs.resumable(RunFolder(run_dir))
     except (ArielError, OSError, ValueError):
         return
-    differences = version_differences(info) if info.get("status") != "finished" else {}
+    differences = version_differences(info)
     changed = ", ".join(f"{name} {then} -> {now}" for name, (then, now) in differences.items())
     if changed:
         print(

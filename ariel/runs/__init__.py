@@ -41,6 +41,9 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         load_config as load_config,
         new_run_id as new_run_id,
     )
+    from ariel.runs._session import (
+        resumable as resumable,
+    )
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
@@ -64,6 +67,7 @@ _INTERNAL: dict[str, str] = {
     "new_campaign_id": "ariel.runs._campaign",
     "new_run_id": "ariel.runs._experiment",
     "plan_text": "ariel.runs._campaign_plan",
+    "resumable": "ariel.runs._session",
 }
 
 __getattr__, __dir__ = lazy_face(__name__, _LAZY, _INTERNAL)

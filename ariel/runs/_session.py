@@ -56,6 +56,7 @@ from ariel.recording.store import (
 )
 from ariel.runs._prepare import PreparedRun, prepare_run
 from ariel.runs._result import RunResult
+from ariel.utils import ariel_line
 
 __all__ = ["RunInfo", "RunSession", "drive", "resumable", "run_info"]
 
@@ -287,6 +288,15 @@ def run_info(prepared: PreparedRun, run_id: str) -> dict[str, Any]:
     }
 
 
+def _maker(info: Mapping[str, object]) -> str:
+    """Which ariel made a run, for the line refusing it: run.json's commit, else its date."""
+    commit, created = info.get("git_commit"), info.get("created")
+    if isinstance(commit, str) and commit:
+        return f"commit {short_ascii(commit)[:12]}, run.json's git_commit"
+    made = f"made {short_ascii(created)[:10]}" if isinstance(created, str) else "date unknown"
+    return f"{made}; run.json names no git commit"
+
+
 def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, LoopState | None]:
     """run.json, config and checkpoint of a run that may be resumed; `ValueError` else."""
     info = folder.read_info()
@@ -294,13 +304,12 @@ def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, Loop
         raise ValueError(f"run {str(folder.path)!r} is already finished; nothing to resume")
     made = results_version(info)
     if made != RESULTS_VERSION:
-        commit = info.get("git_commit")
-        which = f"commit {str(commit)[:12]}" if isinstance(commit, str) and commit else "its date"
         raise ValueError(
             f"run {str(folder.path)!r} was made by an ariel whose results differ from this "
             f"one's (results version {str(made)[:20]}; this ariel's: {RESULTS_VERSION}): "
             "resuming it here would mix two algorithms in one run; finish it with the ariel "
-            f"that made it ({which}, run.json's git_commit), or start a new run of its config"
+            f"that made it ({_maker(info)}), or start a new run of its config: "
+            f"{ariel_line('config', 'show', folder.path)} > config.toml prints it"
         )
     try:
         config = ExperimentConfig.from_plain(info["config"])

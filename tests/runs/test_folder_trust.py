@@ -311,3 +311,78 @@ def test_a_run_of_another_results_version_is_not_resumed(
     assert "was made by an ariel whose results differ from this one's (results version 0;" in line
     assert "would mix two algorithms" in line
     assert _tree(run) == before  # nothing written, not even a segment
+    # Which ariel made it, and a way on: the config it began with, as a file to run.
+    made = json.loads((run / "run.json").read_text())["created"][:10]
+    assert f"(made {made}; run.json names no git commit)" in line or "(commit " in line
+    assert f"config show {run} > config.toml" in line
+    assert exit_code(["config", "show", str(run)]) == 0
+    shown = capsys.readouterr().out
+    assert shown.startswith(f"# the config of run {run}, resolved")
+    config = json.loads((run / "run.json").read_text())["config"]
+    assert f"seed = {config['seed']}" in shown and f'name = "{config["name"]}"' in shown
+
+
+def _novelty(info: dict[str, Any], version: int = 1) -> dict[str, Any]:
+    info["config"]["body"]["optimizer"] = "novelty"
+    return {**info, "results_version": version}
+
+
+def test_a_version_raise_refuses_only_the_runs_whose_records_it_changed(campaign: Path) -> None:
+    """Version 2 changed what a novelty run's table holds, and nothing else: a version-1 GA run
+    resumes under it (same records), a version-1 novelty run does not (two rules in one
+    table), nor does a version-0 run of any optimizer; a brain-only run has no body optimizer."""
+    from ariel.evolution import RESULTS_VERSION, results_version
+
+    info = json.loads(next(campaign.glob("runs/*/*/run.json")).read_text())
+    assert RESULTS_VERSION == 2 and info["config"]["body"]["optimizer"] == "ga"
+    assert results_version(info) == 2
+    assert results_version({**info, "results_version": 1}) == 2
+    assert results_version({**info, "results_version": 0}) == 0
+    assert results_version(_novelty(json.loads(json.dumps(info)))) == 1
+    assert results_version(_novelty(json.loads(json.dumps(info)), 2)) == 2
+    assert results_version({**_novelty(json.loads(json.dumps(info))), "brain_only": True}) == 2
+    assert results_version({**info, "results_version": True}) is True  # no version: shown
+
+
+@pytest.mark.parametrize(
+    ("where", "expected"),
+    [
+        ("run.json", "a run.json of format 7, written by a newer ariel (this one reads format 1)"),
+        ("checkpoint", "a checkpoint of format 7, written by a newer ariel (this one reads"),
+        ("campaign.json", "a campaign.json of format 7, written by a newer ariel (this one"),
+    ],
+)
+def test_a_folder_of_a_newer_ariel_says_so(
+    campaign: Path, where: str, expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A newer format read as damage ("not a run.json of format 1") with no word of upgrading."""
+    run = next(campaign.glob("runs/*/*"))
+    file = {
+        "run.json": run / "run.json",
+        "checkpoint": run / "checkpoints" / "state.json",
+        "campaign.json": campaign / "campaign.json",
+    }[where]
+    if not file.exists():
+        file.parent.mkdir(exist_ok=True)
+        file.write_text(json.dumps({"format": 7}))
+    edit_json(file, lambda data: data.update(format=7))
+    command = ["campaign", "resume", str(campaign)] if where == "campaign.json" else ["resume"]
+    assert exit_code(command if where == "campaign.json" else [*command, str(run)]) == 2
+    line = one_error_line(capsys)
+    assert expected in line and line.endswith("upgrade ariel to open it")
+
+
+def test_a_resume_with_other_software_says_so_where_it_resumes(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run made with another MuJoCo went on without a word; and a note of other software
+    came before the refusal of a run that is not resumed at all (two lines for one)."""
+    from ariel.cli._run import _note_software_change
+
+    run = next(campaign.glob("runs/*/*"))
+    edit_json(run / "run.json", lambda i: i["segments"][-1]["versions"].update(mujoco="3.0.0"))
+    _note_software_change(str(run))
+    assert "(mujoco 3.0.0 -> " in capsys.readouterr().err
+    edit_json(run / "run.json", lambda info: info.update(results_version=0))
+    _note_software_change(str(run))
+    assert capsys.readouterr().err == ""  # the resume's refusal is the one line

@@ -37,6 +37,7 @@ __all__ = [
     "damaged",
     "fsync_folder",
     "json_text",
+    "not_of_format",
     "output_file_problem",
     "read_regular_file",
     "records_folder_of",
@@ -333,6 +334,18 @@ def read_regular_file(path: str | os.PathLike[str], limit: int) -> bytes:
         size = max(info.st_size, len(data))
         raise ValueError(f"{size:,} bytes, more than the {_size(limit)} such a file may have")
     return data
+
+
+def not_of_format(what: str, found: object, expected: int) -> str:
+    """What is wrong with a folder's file ``what`` (``run.json``, ``checkpoint``) whose
+    ``format`` is ``found`` where this ariel reads ``expected``: a whole number above it was
+    written by a newer ariel (upgrade to open it), anything else is no file of ours."""
+    if isinstance(found, int) and not isinstance(found, bool) and found > expected:
+        return (
+            f"a {what} of format {found}, written by a newer ariel (this one reads format "
+            f"{expected}): upgrade ariel to open it"
+        )
+    return f"not a {what} of format {expected}"
 
 
 def damaged(run_dir: str | Path, name: str, problem: str) -> DamagedRunError:

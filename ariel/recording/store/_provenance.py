@@ -103,6 +103,8 @@ def version_differences(
         if name in recorded and recorded.get(name) != here.get(name)
     }
     now_commit = git_commit()
-    if commit and now_commit and commit != now_commit:
-        differences["git_commit"] = (commit, now_commit)
+    if now_commit and commit != now_commit:
+        # None: an ariel that recorded no commit (not run from a checkout, or older than
+        # commits in run.json): which it was is unknown, and its version number says nothing.
+        differences["git_commit"] = (commit or "not recorded", now_commit)
     return differences

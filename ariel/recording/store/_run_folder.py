@@ -26,6 +26,7 @@ from ariel.recording.store._files import (
     atomic_write_json,
     check_path_names,
     damaged,
+    not_of_format,
     read_regular_file,
     remove_temporaries,
     within,
@@ -342,7 +343,8 @@ class RunFolder:
         except (OSError, ValueError) as exc:
             raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
         if not isinstance(info, dict) or info.get("format") != RUN_FORMAT:
-            raise NotARunError(f"{self.run_json}: not a run.json of format {RUN_FORMAT}")
+            found = info.get("format") if isinstance(info, dict) else None
+            raise NotARunError(f"{self.run_json}: {not_of_format('run.json', found, RUN_FORMAT)}")
         if "run_id" in info:  # shown, written into exports and recordings: never a crafted one
             check_run_id(info["run_id"], self.path)
         return info
@@ -398,7 +400,8 @@ class RunFolder:
             ) from None
         if not isinstance(payload, dict) or payload.get("format") != CHECKPOINT_FORMAT:
             found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
-            raise NotARunError(f"{self.checkpoint}: checkpoint format {found}")
+            problem = not_of_format("checkpoint", found, CHECKPOINT_FORMAT)
+            raise NotARunError(f"{self.checkpoint}: {problem}")
         return payload["state"]
 
     # -- tables --------------------------------------------------------------------------------

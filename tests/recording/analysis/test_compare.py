@@ -707,7 +707,7 @@ def test_runs_of_another_results_version_are_another_condition(
     out = tmp_path / "out"
     assert main(["compare", str(long), str(old), "--out", str(out)]) == 0
     runs = pd.read_csv(out / "runs.csv")
-    assert sorted(runs["condition"]) == ["results_version=0", "results_version=1"]
+    assert sorted(runs["condition"]) == ["results_version=0", "results_version=2"]
     without = {**info["config"], "task": {k: v for k, v in info["config"]["task"].items()}}
     without["task"].pop("settle")
     assert condition_settings(without)["task.settle"] == "0.0"  # the neutral value it had
