@@ -801,6 +801,26 @@ def test_an_output_that_is_a_dangling_link_is_refused_in_one_line(
     assert not (tmp_path / "missing").exists() and link.is_symlink()
 
 
+def test_an_output_that_links_to_a_run_is_never_replaced_through_the_link(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`ariel run --out LINK --overwrite` emptied the run LINK led to, then refused."""
+    victim = tmp_path / "victim"
+    (victim / "evaluations").mkdir(parents=True)
+    (victim / "run.json").write_text('{"format": 1}')
+    (victim / "evaluations" / "gen-000000.parquet").write_bytes(b"a finished generation")
+    link = tmp_path / "alias"
+    link.symlink_to("victim")
+    config = tmp_path / "tiny.toml"
+    config.write_text(tiny_run_toml("alias", 1))
+    before = sorted(str(p) for p in victim.rglob("*"))
+    for overwrite in (["--overwrite"], []):
+        assert exit_code(["run", str(config), "--out", str(link), "--quiet", *overwrite]) == 2
+        assert "is a symbolic link to a folder ('victim')" in one_error_line(capsys)
+        assert sorted(str(p) for p in victim.rglob("*")) == before
+    assert (victim / "run.json").read_text() == '{"format": 1}'
+
+
 def test_a_campaign_folder_in_use_is_called_a_campaign_folder(campaign: Path) -> None:
     assert "campaign folder " in str(in_use_error(campaign, "pid 1 on host h"))
     assert str(in_use_error(campaign / "runs", "x")).startswith("run folder ")

@@ -272,18 +272,20 @@ class RunFolder:
     def check_new(path: str | Path, *, overwrite: bool, locked: bool = False) -> None:
         """Raise `FileExistsError` unless ``path`` may become a new run folder.
 
-        A symbolic link to a missing target is refused (never followed). An existing
+        A symbolic link is refused, whatever it leads to (never followed: replacing the run
+        it names would delete that run through the link). An existing
         non-empty folder needs ``overwrite``, and is only ever replaced when it is a run folder
         (never an arbitrary directory). A folder that another process runs in raises
         `RunInUseError` (``locked``: this process holds its lock).
         """
         path = Path(path)
         check_path_names(path)
-        if path.is_symlink() and not path.exists():  # never made through: it leads elsewhere
+        if path.is_symlink():  # never made or replaced through: it leads elsewhere
+            target = "a missing target" if not path.exists() else "a folder"
             raise FileExistsError(
-                f"output {str(path)!r} is a symbolic link to a missing target "
-                f"({os.readlink(path)!r}); a run folder is never made through a link: remove "
-                "the link or choose another --out"
+                f"output {str(path)!r} is a symbolic link to {target} ({os.readlink(path)!r}); "
+                "a run folder is never made or replaced through a link: give the folder itself "
+                "or choose another --out"
             )
         if path.exists() and not path.is_dir():
             raise FileExistsError(f"output {str(path)!r} exists and is not a folder")
