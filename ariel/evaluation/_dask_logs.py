@@ -97,8 +97,24 @@ class _CancelRace(logging.Filter):
         return not (isinstance(exc, NameError) and "'future'" in str(exc))
 
 
+class _ClosedClientCancel(logging.Filter):
+    """Drops the traceback of a cancel sent to a closed client: once the scheduler is gone
+    for good the client closes itself, and cancelling each of the run's futures as it stops
+    makes distributed's callback raise ``ClosedClientError`` (logged by concurrent.futures,
+    one traceback per future), although there is nothing left to cancel."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        return type(exc).__name__ != "ClosedClientError"
+
+
 def quiet_cancel_race() -> None:
-    """Install `_CancelRace` on tornado's callback logger, once per process."""
-    logger = logging.getLogger("tornado.application")
-    if not any(isinstance(f, _CancelRace) for f in logger.filters):
-        logger.addFilter(_CancelRace())
+    """Install `_CancelRace` on tornado's callback logger and `_ClosedClientCancel` on
+    concurrent.futures', once per process."""
+    for name, kind in (
+        ("tornado.application", _CancelRace),
+        ("concurrent.futures", _ClosedClientCancel),
+    ):
+        logger = logging.getLogger(name)
+        if not any(isinstance(f, kind) for f in logger.filters):
+            logger.addFilter(kind())

@@ -143,7 +143,9 @@ class DaskExecutor(EvaluationExecutor):
                 else len(self.client.nthreads())
             )
         except Exception as exc:  # the scheduler is gone or does not answer: no worker either
-            count, trouble = 0, f"the Dask scheduler does not answer ({type(exc).__name__})"
+            first = (str(exc).splitlines() or [""])[0][:200]
+            why = f"{type(exc).__name__}: {first}" if first else type(exc).__name__
+            count, trouble = 0, f"the Dask scheduler does not answer ({why})"
         now = time.monotonic()
         if count:
             self._none_since, self._notes = None, 0
@@ -202,6 +204,11 @@ class DaskExecutor(EvaluationExecutor):
         self._closed = True
         try:
             self._executor.shutdown(wait=wait and not cancel_futures)
+        except Exception:
+            if self.client.status not in ("closing", "closed"):
+                raise
+            # The client closed itself (its scheduler gone): nothing is left to wait for or
+            # to cancel, and its error would replace the one line saying why the run stopped.
         finally:
             try:
                 if self._close_client:

@@ -559,3 +559,25 @@ def test_a_local_dask_cluster_that_cannot_start_is_one_line(
         "Nanny failed to start.; first error: OSError: [Errno 24] Too many open files"
     ], err
     assert dask_log_shown.records == []  # the nanny's error went into that line, not stderr
+
+
+@needs_dask
+def test_a_client_closed_by_a_lost_scheduler_stops_without_tracebacks(capfd) -> None:
+    """Once the scheduler had gone for good the client closed itself; the run's stop then
+    printed a ClosedClientError traceback per cancelled future, and shutdown raised one more,
+    which replaced the one line saying why the run stopped (exit 1, status failed)."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
+        executor = make_executor("dask", address=cluster.scheduler_address)
+        futures = [executor.submit(abs, -1) for _ in range(3)]
+        status, executor.client.status = executor.client.status, "closed"  # as after the loss
+        try:
+            for future in futures:
+                future.cancel()  # what the scheduler does as the run stops
+            executor.shutdown(wait=False, cancel_futures=True)
+        finally:
+            executor.client.status = status
+            executor.client.close()
+    err = capfd.readouterr().err
+    assert "ClosedClientError" not in err and "Traceback" not in err, err[-2000:]
