@@ -27,11 +27,11 @@ if TYPE_CHECKING:  # the names as type checkers and the API reference see them
     )
 
 if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
-    from ariel.runs._campaign import (
-        new_campaign_id as new_campaign_id,
-    )
     from ariel.runs._campaign_file import (
         load_campaign_file as load_campaign_file,
+    )
+    from ariel.runs._campaign_folder import (
+        new_campaign_id as new_campaign_id,
     )
     from ariel.runs._campaign_plan import (
         campaign_plan as campaign_plan,
@@ -64,7 +64,7 @@ _INTERNAL: dict[str, str] = {
     "campaign_plan": "ariel.runs._campaign_plan",
     "load_campaign_file": "ariel.runs._campaign_file",
     "load_config": "ariel.runs._experiment",
-    "new_campaign_id": "ariel.runs._campaign",
+    "new_campaign_id": "ariel.runs._campaign_folder",
     "new_run_id": "ariel.runs._experiment",
     "plan_text": "ariel.runs._campaign_plan",
     "resumable": "ariel.runs._session",

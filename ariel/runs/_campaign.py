@@ -11,16 +11,15 @@ lone run's, bit for bit. Everything is checked before anything is written.
 from __future__ import annotations
 
 import contextlib
-import datetime as _dt
 import os
 import shutil
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ariel.errors import ArielError, DamagedRunError, ExecutorStartError
+from ariel.errors import DamagedRunError, ExecutorStartError
 from ariel.evaluation.executors import planned_workers, reach as reach_executor
 from ariel.evolution import ConfigError, ExecutorConfig, ExperimentConfig, shows_progress
 from ariel.recording import rerun  # its modules load at call time: `_write_recording`
@@ -48,6 +47,11 @@ from ariel.recording.store import (
     written_path,
 )
 from ariel.runs._campaign_file import load_campaign_file
+from ariel.runs._campaign_folder import (
+    DEFAULT_CAMPAIGN_ROOT,
+    check_new_folder,
+    new_campaign_id,
+)
 from ariel.runs._campaign_info import campaign_info
 from ariel.runs._campaign_progress import CampaignProgress, RunProgress
 from ariel.runs._experiment import new_progress, noted_on_interrupt, raised_from
@@ -56,8 +60,9 @@ from ariel.runs._result import RunResult
 from ariel.runs._session import RunSession, drive
 from ariel.utils import (
     accept_aliases,
-    ariel_line,
     flag_argument,
+    gone_if_empty,
+    new_folder,
     path_argument,
     strings_argument,
 )
@@ -133,48 +138,6 @@ class _Run:
         return self.session
 
 
-def new_campaign_id(name: str) -> str:
-    return f"{name}-{_dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
-
-
-def _check_new_folder(path: Path, *, locked: bool = False) -> None:
-    """``path`` is no folder yet, or an empty one (``locked``: this process holds its lock,
-    which it has just made). A folder in use by another campaign run is said so, as a run's."""
-    check_path_names(path)
-    if path.is_symlink():  # never made or written through: a dangling one would be followed
-        raise FileExistsError(
-            f"output {str(path)!r} is a symbolic link (to {os.readlink(path)!r}); choose "
-            "another --out"
-        )
-    if path.exists() and not path.is_dir():
-        raise FileExistsError(f"output {str(path)!r} is a file; choose another --out")
-    if not locked and os.path.lexists(path / LOCK_NAME):
-        with RunLock(path):  # RunInUseError, one line, while another process runs it
-            pass  # else a stale lock (of a killed process): taken, and gone on release
-    if path.exists() and any(p.name != LOCK_NAME or not locked for p in path.iterdir()):
-        raise FileExistsError(
-            f"campaign folder {str(path)!r} already exists; choose another --out, or "
-            f"{_existing_campaign_hint(path)}"
-        )
-
-
-def _existing_campaign_hint(path: Path) -> str:
-    """What else to do with the folder ``path`` that is there: compare a finished campaign's
-    runs (there is nothing to resume), continue any other campaign, empty another folder."""
-    if not (path / CAMPAIGN_JSON).is_file():
-        return "empty it (it is not a campaign folder: there is nothing to continue)"
-    try:
-        campaign = load_campaign(path)
-        finished = all(row["status"] == "finished" for row in campaign.status())
-        # its own records too: stopped after its last run, a resume writes them
-        finished = finished and campaign.info.get("status") == "finished"
-    except (ArielError, OSError, ValueError):  # damaged: `campaign resume` says how
-        finished = False
-    if finished:
-        return f"compare its runs (it is finished): {ariel_line('compare', path)}"
-    return f"continue it with: {ariel_line('campaign', 'resume', path)}"
-
-
 @accept_aliases(scheduler="address")
 def run_campaign(
     file: str | Path,
@@ -247,22 +210,29 @@ def run_campaign(
     settings = executor_settings(first, kind=executor, workers=workers, address=address)
     _check_open_files(len(spec.configs), settings)
     campaign_id = new_campaign_id(spec.name)
-    path = Path(out) if out is not None else Path("data") / "campaigns" / campaign_id
+    path = Path(out) if out is not None else DEFAULT_CAMPAIGN_ROOT / campaign_id
     campaign_id = check_new_id(path.name or campaign_id, campaign=True)
     runs = []
     for (condition, seed), config in spec.configs.items():
         run_id = check_new_id(f"{campaign_id}-{condition}-s{seed}")
         runs.append(_Run(condition, seed, run_id, prepare_run(config, settings)))
-    _check_new_folder(path)
+    if out is not None:  # the default one is claimed new below
+        check_new_folder(path)
     reach_executor(settings)  # a scheduler that never answers: no folder
+    if out is None:  # claimed now: two campaigns started in one second named one folder
+        path = new_folder(DEFAULT_CAMPAIGN_ROOT, campaign_id)
+        if path.name != campaign_id:  # taken meanwhile: the next number, in its runs' ids too
+            campaign_id = path.name
+            runs = [replace(r, run_id=f"{campaign_id}-{r.condition}-s{r.seed}") for r in runs]
     info = campaign_info(spec, runs, settings, campaign_id, Path(file).name)
     try:
         with (
+            gone_if_empty(path if out is None else None),  # refused before campaign.json
             storage_errors(path, campaign=True),
             RunLock(path, create=True),
             contextlib.ExitStack() as locks,
         ):
-            _check_new_folder(path, locked=True)  # again: another campaign run may have begun
+            check_new_folder(path, locked=True)  # again: another campaign run may have begun
             write_campaign_info(path, info)
             locks.enter_context(stop_on_signals())  # SIGTERM, SIGHUP: as Ctrl-C (if not handled)
             locks.enter_context(noted_on_interrupt("campaign_dir", path))

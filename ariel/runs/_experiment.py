@@ -41,7 +41,14 @@ from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_geno
 )
 from ariel.runs._result import RunResult
 from ariel.runs._session import RunSession, drive, resumable
-from ariel.utils import accept_aliases, flag_argument, path_argument
+from ariel.utils import (
+    accept_aliases,
+    flag_argument,
+    free_path,
+    gone_if_empty,
+    new_folder,
+    path_argument,
+)
 from ariel.utils.interrupts import stop_on_signals
 
 __all__ = [
@@ -90,9 +97,15 @@ def _drive(session: RunSession, show_progress: bool | None) -> RunResult:
     return session.result()
 
 
+#: Where a run without ``out`` goes (relative to the current directory).
+DEFAULT_RUN_ROOT = Path("data") / "runs"
+
+
 def new_run_id(config: ExperimentConfig) -> str:
+    """``<name>-<date>-<time>-s<seed>``, with ``-2``, ``-3``, ... where `DEFAULT_RUN_ROOT` has
+    that folder already (named, not made: `run_experiment` claims its folder itself)."""
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    return f"{config.name}-{stamp}-s{config.seed}"
+    return free_path(DEFAULT_RUN_ROOT, f"{config.name}-{stamp}-s{config.seed}").name
 
 
 @accept_aliases(scheduler="address")
@@ -171,16 +184,20 @@ def run_experiment(
     settings = executor_settings(config, kind=executor, workers=workers, address=address)
     prepared = prepare_run(config, settings)
     run_id = new_run_id(prepared.config)
-    path = Path(out) if out is not None else Path("data") / "runs" / run_id
+    path = Path(out) if out is not None else DEFAULT_RUN_ROOT / run_id
     if out is not None:
         run_id = path.name or run_id
     check_new_id(run_id)
-    RunFolder.check_new(path, overwrite=overwrite)
+    if out is not None:  # the default one is claimed new below
+        RunFolder.check_new(path, overwrite=overwrite)
     reach_executor(settings)  # a scheduler that never answers: no folder
+    claimed = new_folder(DEFAULT_RUN_ROOT, run_id) if out is None else None  # two at once
+    path, run_id = (claimed, claimed.name) if claimed is not None else (path, run_id)
     try:
         # The lock is held for the whole run. An interrupt once run.json is written (even
         # before the first generation) names the folder: it resumes from there.
         with (
+            gone_if_empty(claimed),  # refused before run.json: no empty folder left
             storage_errors(path),
             contextlib.ExitStack() as locks,
             stop_on_signals(),

@@ -47,6 +47,11 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         accept_aliases as accept_aliases,
         unknown_option as unknown_option,
     )
+    from ariel.utils._new_folder import (
+        free_path as free_path,
+        gone_if_empty as gone_if_empty,
+        new_folder as new_folder,
+    )
     from ariel.utils._notebook import (
         in_notebook_kernel as in_notebook_kernel,
         is_terminal as is_terminal,
@@ -74,15 +79,18 @@ _INTERNAL: dict[str, str] = {
     "ensure_headless_gl": "ariel.utils._gl",
     "file_kind": "ariel.utils._file_kind",
     "flag_argument": "ariel.utils._arguments",
+    "free_path": "ariel.utils._new_folder",
     "gl_backend_error": "ariel.utils._gl",
     "global_generator": "ariel.utils._seeding",
+    "gone_if_empty": "ariel.utils._new_folder",
     "has_display": "ariel.utils._gl",
     "in_notebook_kernel": "ariel.utils._notebook",
     "is_terminal": "ariel.utils._notebook",
     "load_run_command": "ariel.utils._commands",
-    "mujoco_module": "ariel.utils._gl",
     "MIN_OPEN_FILES": "ariel.utils._open_files",
+    "mujoco_module": "ariel.utils._gl",
     "nests_deeper_than": "ariel.utils._json",
+    "new_folder": "ariel.utils._new_folder",
     "no_display_why": "ariel.utils._gl",
     "number_argument": "ariel.utils._arguments",
     "open_files_short": "ariel.utils._open_files",
@@ -92,12 +100,12 @@ _INTERNAL: dict[str, str] = {
     "raise_pending": "ariel.utils.interrupts",
     "replace_non_finite": "ariel.utils._json",
     "report_interrupted": "ariel.utils._commands",
+    "SharedSetting": "ariel.utils._shared_setting",
     "shell_path": "ariel.utils._commands",
     "shell_quote": "ariel.utils._commands",
-    "SharedSetting": "ariel.utils._shared_setting",
     "strings_argument": "ariel.utils._arguments",
-    "whole_numbers": "ariel.utils._arguments",
     "unknown_option": "ariel.utils._keywords",
+    "whole_numbers": "ariel.utils._arguments",
 }
 
 __getattr__, __dir__ = lazy_face(__name__, _INTERNAL)

@@ -82,7 +82,7 @@ from ariel.recording.analysis._compare_runs import (
 )
 from ariel.recording.analysis._compare_stats import Design
 from ariel.recording.store import is_campaign
-from ariel.utils import flag_argument, path_argument, paths_argument
+from ariel.utils import flag_argument, gone_if_empty, path_argument, paths_argument
 
 __all__ = [
     "MEASURES",
@@ -375,19 +375,20 @@ def compare(
         default = None  # a new folder here, named when it is written (below)
         names = [c.path for c, _ in found]
     found, maximise, fitness_fn = _comparable_runs(found, names)
-    if out is None and write:
-        out = default if default is not None else new_folder(Path("."), "compare")
-    return compare_runs(
-        [c for c, _ in found],
-        out,
-        maximise=maximise,
-        fitness_fn=fitness_fn,
-        title=title,
-        paired=paired,
-        reason=reason,
-        at_evaluations=at_evaluations,
-        source=source,
-        write=write,
-        notes=notes,
-        announce=announce,
-    )
+    out = default if out is None and write else out
+    claimed = new_folder(Path("."), "compare") if out is None and write else None
+    with gone_if_empty(claimed):  # a comparison that stops before writing leaves no folder
+        return compare_runs(
+            [c for c, _ in found],
+            out if claimed is None else claimed,
+            maximise=maximise,
+            fitness_fn=fitness_fn,
+            title=title,
+            paired=paired,
+            reason=reason,
+            at_evaluations=at_evaluations,
+            source=source,
+            write=write,
+            notes=notes,
+            announce=announce,
+        )

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from ariel import utils
 from ariel.recording.analysis import _compare_lineage as lineages, _compare_plots as plots
 from ariel.recording.analysis._compare_design import CompareError
 from ariel.recording.analysis._compare_html import write_html, write_markdown, write_readme
@@ -161,15 +162,12 @@ def _write_files(comparison: Comparison, grouped: dict[str, list[RunCurve]], out
 
 
 def new_folder(parent: Path, prefix: str) -> Path:
-    """``parent/<prefix>-<date>-<time>`` (``-2``, ``-3``, ... added where that exists): the
-    name of a folder that is not there yet. ``parent`` ``.`` gives a relative path."""
+    """``parent/<prefix>-<date>-<time>`` (``-2``, ``-3``, ... added where that exists), made
+    now and by this call only (`ariel.utils.new_folder`: two comparisons started in one second
+    named one folder, and the second stopped as in use). ``parent`` ``.`` gives a relative
+    path."""
     stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
-    name = f"{prefix}-{stamp}"
-    path, n = parent / name, 1
-    while os.path.lexists(path):
-        n += 1
-        path = parent / f"{name}-{n}"
-    return Path(os.path.normpath(path))
+    return Path(os.path.normpath(utils.new_folder(parent, f"{prefix}-{stamp}")))
 
 
 def shown_path(path: str | Path) -> str:
