@@ -45,6 +45,12 @@ __all__ = [
 class ArielError(Exception):
     """Base class of the workbench's own errors; the message is one line for the user."""
 
+    def _render_traceback_(self) -> list[str]:
+        """What IPython (a notebook, nbconvert) shows for it instead of a traceback: the one
+        line, as the ``ariel`` command prints it. A damaged table found on first use deep in
+        ``run.evaluations`` showed some 130 lines of traceback ending in that line."""
+        return [f"{type(self).__name__}: {self}"]
+
 
 class _PlainMessageKeyError(KeyError):
     """A ``KeyError`` that prints its message as written (``KeyError`` would quote it)."""

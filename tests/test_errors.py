@@ -122,3 +122,15 @@ def test_the_cli_does_not_swallow_errors_that_are_not_ariel_errors(
     monkeypatch.setattr(ariel.recording, "list_runs", buggy_list_runs)
     with pytest.raises(ZeroDivisionError):  # a bug keeps its traceback
         main(["runs", str(tmp_path)])
+
+
+def test_a_notebook_shows_an_ariel_error_as_its_one_line() -> None:
+    """IPython printed some 130 lines of traceback for a damaged table a notebook cell found
+    (`run.evaluations`), and for a comparison refused; the promise is one line."""
+    from ariel.errors import ArielError, DamagedRunError
+    from ariel.recording.analysis import CompareError
+
+    damaged = DamagedRunError("run folder 'r' is damaged: evaluations/gen-000001.parquet ...")
+    assert damaged._render_traceback_() == [f"DamagedRunError: {damaged}"]
+    assert isinstance(CompareError("x"), ArielError) and isinstance(CompareError("x"), ValueError)
+    assert CompareError("no pair")._render_traceback_() == ["CompareError: no pair"]

@@ -22,7 +22,7 @@ from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ariel.errors import ConfigError
+from ariel.errors import ArielError, ConfigError
 from ariel.evolution import ExperimentConfig
 from ariel.recording.store import archive_cell_count
 
@@ -54,7 +54,7 @@ MEASURES = {"final best": "final_best", "AUC": "auc"}
 QD_COLUMNS = ("qd_score", "norm_qd_score", "coverage")
 
 
-class CompareError(ValueError):
+class CompareError(ArielError, ValueError):
     """Runs that cannot be compared (none, different fitness functions, ...): one line."""
 
 
