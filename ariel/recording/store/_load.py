@@ -283,10 +283,12 @@ class Run:
         evaluations, bodies = self.evaluations, self.bodies
         maximise = self.maximise if len(evaluations) else True
         rows = []
+        # Grouped once: a filter per generation made this generations x evaluations.
+        by_generation = dict(tuple(evaluations.groupby("generation", sort=False)))
         for generation, group in bodies.groupby("generation", sort=True):
             population = population_after_selection(group)
             alive = population["fitness"]
-            evals = evaluations[evaluations["generation"] == generation]
+            evals = by_generation.get(generation, evaluations.iloc[:0])
             morphology = {
                 f"mean_{name}": float(population[name].astype("Float64").mean())
                 if population[name].notna().any()
