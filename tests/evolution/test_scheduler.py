@@ -10,6 +10,7 @@ import random
 import signal
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -170,3 +171,29 @@ def test_a_ctrl_c_whose_keyboard_interrupt_got_lost_still_stops_the_run() -> Non
     assert len(work.received) == 1 and work.left == 3  # stopped at the next result
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
     raise_pending()  # leaving the block forgot the signal: nothing to raise now
+
+
+def test_a_signal_taken_inside_rerun_s_writer_is_an_interrupt(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """SIGTERM during run.rrd's write came out of Rerun as "RuntimeError: Interrupted: 15": a
+    traceback and a run marked failed, not the one line saying how to resume it (probe G3)."""
+    from ariel.recording.rerun import _rerun
+    from ariel.utils import interrupts
+
+    class Stream:
+        @staticmethod
+        def from_iter(chunks: Any) -> Any:
+            return Stream()
+
+        def write_rrd(self, *args: Any, **kwargs: Any) -> None:
+            interrupts._pending = signal.SIGTERM  # the handler ran inside the writer
+            raise RuntimeError("Interrupted: 15")
+
+    rr = type("rr", (), {"chunk": type("chunk", (), {"LazyChunkStream": Stream})})
+    monkeypatch.setattr(_rerun, "rerun_module", lambda: rr)
+    monkeypatch.setattr(interrupts, "_pending", None)
+    with pytest.raises(Interrupted) as stopped:
+        _rerun._write_chunks(tmp_path / "run.rrd", "r", [], fsync=False)
+    assert stopped.value.signum == signal.SIGTERM
+    assert not (tmp_path / "run.rrd").exists()

@@ -97,6 +97,7 @@ from ariel.recording.rerun._scene import (
 )
 from ariel.recording.rerun._views import SUMMARY_SERIES
 from ariel.recording.store import atomic_write, condition_colours
+from ariel.utils import raise_pending
 
 if TYPE_CHECKING:
     import mujoco
@@ -137,9 +138,15 @@ def _write_chunks(
     rr = rerun_module()
 
     def write(temporary: Path) -> None:
-        rr.chunk.LazyChunkStream.from_iter(chunks).write_rrd(
-            temporary, application_id=application_id, recording_id=recording_id
-        )
+        try:
+            rr.chunk.LazyChunkStream.from_iter(chunks).write_rrd(
+                temporary, application_id=application_id, recording_id=recording_id
+            )
+        except Exception:
+            # A signal taken inside Rerun's writer comes out wrapped ("RuntimeError:
+            # Interrupted: 15"): then the interrupt is what happened, not a failed write.
+            raise_pending()
+            raise
 
     atomic_write(path, write, fsync=fsync)
     return path
