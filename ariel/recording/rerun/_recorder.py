@@ -21,7 +21,10 @@ recording, elites' 3D replays, ``run.rrd`` and the layouts, in the run folder.
   descriptor vectors, the 12 descriptors as stored; ``distinct_morphologies``: the number of
   distinct robot graphs, compared by structure, ``graph_io.graph_key``), the best body's
   graph and the lineage so far (``/lineage``: a node per body, an edge per parent link,
-  `Lineage`); rewritten whole after every generation.
+  `Lineage`; drawn as of at most `LINEAGE_SNAPSHOTS` generations spread over the run, and the
+  last: each drawing holds every body so far, so one per generation made run.rrd grow with
+  the square of the run, 167 MB at 1,000 generations of 8 bodies); rewritten whole after
+  every generation.
 * ``blueprint.rbl`` and ``generation.rbl``: the viewer layouts, written once.
 
 Files are written whole under a temporary name and renamed, so a killed run leaves no
@@ -60,7 +63,7 @@ from ariel.recording.rerun._generation_rrd import (
     write_generation_blueprint,
     write_generation_recording,
 )
-from ariel.recording.rerun._lineage import Lineage
+from ariel.recording.rerun._lineage import LINEAGE_ENTITY, Lineage
 from ariel.recording.rerun._rerun import write_evaluation_recording, write_run_recording
 from ariel.recording.store import (
     GENERATION_BLUEPRINT,
@@ -86,6 +89,10 @@ if TYPE_CHECKING:
 
 # archive_grid: defined in _archive, still importable from here
 __all__ = ["RerunRecorder", "archive_grid", "generation_summary"]
+
+
+#: How many generations' lineage graphs run.rrd holds at most (besides the last one's).
+LINEAGE_SNAPSHOTS = 64
 
 
 def generation_summary(
@@ -186,6 +193,7 @@ class RerunRecorder:
         refuse_symlinks(self.run_dir / "recordings" / "gen-000000", self.run_dir)
         # per generation: the lineage graph so far
         self._lineages: dict[int, list[AsComponents]] = {}
+        self._lineage_stride = 1  # of the generations whose lineage graph is kept
         # run.rrd's chunks of each generation (`write_run_recording`), made once: it is
         # rewritten every generation, and remaking them all was most of a long run's time.
         self._run_chunks: dict[tuple[str, int], Chunk | None] = {}
@@ -367,9 +375,18 @@ class RerunRecorder:
             self._grow_lineage(g, bodies)
 
     def _grow_lineage(self, generation: int, body_rows: Sequence[Mapping[str, Any]]) -> None:
-        """Add the generation's bodies to the lineage and keep its graph as of then."""
+        """Add the generation's bodies to the lineage and keep its graph as of then; of the
+        earlier graphs, those of every ``stride``-th generation, the stride doubled until at
+        most `LINEAGE_SNAPSHOTS` are left (the viewer shows the last one before the time)."""
         self._lineage.grow(body_rows, generation)
         self._lineages[generation] = self._lineage.archetypes()
+        stride = self._lineage_stride
+        while sum(1 for g in self._lineages if g % stride == 0) > LINEAGE_SNAPSHOTS:
+            stride *= 2
+        self._lineage_stride = stride
+        for g in [g for g in self._lineages if g % stride and g != generation]:
+            del self._lineages[g]
+            self._run_chunks.pop((LINEAGE_ENTITY, g), None)
 
     def _description(self) -> dict[str, Any] | None:
         """run.json's ``archive`` (the driver writes it before the first generation); None: a

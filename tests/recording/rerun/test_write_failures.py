@@ -261,3 +261,26 @@ def test_a_linked_recordings_folder_is_refused_before_anything_is_recorded(
     (run / "recordings").mkdir()
     RerunRecorder(run, run_id="r", bodies="all", maximise=True, config=config)  # a real one
     assert list(outside.iterdir()) == []
+
+
+def test_run_rrd_keeps_a_bounded_number_of_lineage_drawings(tmp_path: Path) -> None:
+    """Each generation's drawing of the lineage holds every body so far: one per generation
+    made run.rrd grow with the square of the run (167 MB at 1,000 generations, probe G3)."""
+    from ariel.evolution import ExperimentConfig
+    from ariel.recording.rerun._lineage import LINEAGE_ENTITY
+    from ariel.recording.rerun._recorder import LINEAGE_SNAPSHOTS, RerunRecorder
+
+    run = tmp_path / "run"
+    run.mkdir()
+    config = ExperimentConfig.from_plain({})
+    recorder = RerunRecorder(run, run_id="r", bodies="all", maximise=True, config=config)
+    kept = []
+    for generation in range(300):
+        body = {"body_id": f"b{generation:06d}", "fitness": 1.0, "selected": True}
+        recorder._run_chunks[LINEAGE_ENTITY, generation] = None  # as write_run_recording
+        recorder._grow_lineage(generation, [body])
+        kept.append(sorted(recorder._lineages))
+    assert len(kept[63]) == 64 and kept[63] == list(range(64))  # short runs: every one
+    assert len(kept[-1]) <= LINEAGE_SNAPSHOTS + 1 and kept[-1][-1] == 299  # and the last
+    assert kept[-1][:-1] == list(range(0, 299, 8))  # spread over the run
+    assert {g for _, g in recorder._run_chunks} == set(kept[-1])  # their chunks alone
