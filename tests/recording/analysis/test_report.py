@@ -672,3 +672,22 @@ def test_out_holds_the_thumbnails_of_a_run_it_cannot_write(
     assert len(_thumbnail_cards(report)) >= 2  # the best and a founder
     assert list((tmp_path / "mine" / "thumbnails").rglob("*.png"))
     assert not (shared / "gallery").exists()
+
+
+def test_a_long_run_s_morphology_draws_a_bounded_number_of_generations(
+    run_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """300 generations drew 300 boxes per descriptor, merged into black bars (90 s of the
+    report's time, probe G3): past MORPHOLOGY_BOXES, that many evenly spread, and a note."""
+    from ariel.recording.analysis import _report
+
+    monkeypatch.setattr(_report, "MORPHOLOGY_BOXES", 2)
+    report = make_report(run_dir, render=False, out=tmp_path / "report")
+    generations = len(load_run(run_dir).generations)
+    assert generations > 2
+    assert f"morphology.png: 2 of the {generations} generations, evenly spread" in report.notes
+    axes = _visible_axes(report.figures["morphology.png"])[0]
+    boxes = [line for line in axes.lines if len(line.get_xdata()) == 5]  # each box's outline
+    assert sorted({float(min(b.get_xdata())) for b in boxes}) == pytest.approx(
+        [-0.3 * (generations - 1), 0.7 * (generations - 1)], abs=1e-9
+    )
