@@ -1038,3 +1038,21 @@ def test_the_body_loop_makes_no_condition_of_brain_only_runs() -> None:
     b = {"body": {"encoder": "prebuilt", "genotype": "gecko", "offspring": 40}}
     assert condition_settings(a, brain_only=True) == condition_settings(b, brain_only=True)
     assert condition_settings(a) != condition_settings(b)  # a co-evolution run: they differ
+
+
+def test_runs_without_a_finished_generation_are_named_as_left_out(
+    two_runs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A running campaign's runs (or a whole condition) with no generation yet were dropped
+    without a word, README.md still counting them (probes G1, G2)."""
+    long, short = two_runs
+    empty = tmp_path / "empty"
+    shutil.copytree(long, empty)
+    for generation in sorted(empty.glob("**/gen-*"), reverse=True):
+        shutil.rmtree(generation) if generation.is_dir() else generation.unlink()
+    info = json.loads((empty / "run.json").read_text())
+    info.update(generations_done=0, status="interrupted", created="2001-01-01T00:00:00+00:00")
+    (empty / "run.json").write_text(json.dumps(info))
+    notes = compare([long, short, empty], write=False).notes
+    assert f"1 of 3 runs left out: no finished generation yet ({empty})" in notes
+    assert not any("left out" in n for n in compare([long, short], write=False).notes)
