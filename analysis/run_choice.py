@@ -152,10 +152,17 @@ def choose_run(
 
 def open_run(run_dir: str | os.PathLike[str] | None = None, **choose: Any) -> tuple[Any, Choice]:
     """`load_run` of `choose_run`'s folder, and the choice; `ChoiceError` for a folder that is not
-    a run (or a damaged one), with `load_run`'s one-line message."""
+    a run (or a damaged one), with `load_run`'s one-line message, or for a run with no finished
+    generation (nothing to analyse: the notebooks' figures failed on it with tracebacks)."""
     from ariel.recording import load_run
 
-    return _opened(choose_run(run_dir, **choose), load_run)
+    run, choice = _opened(choose_run(run_dir, **choose), load_run)
+    if run.generations_done == 0:
+        raise ChoiceError(
+            f"{choice.why}: run {run.path} has no finished generation yet: nothing to analyse "
+            "(resume it, or name another run)"
+        )
+    return run, choice
 
 
 def choose_campaign(

@@ -572,3 +572,36 @@ def test_the_readme_command_renders_a_run_named_relative_to_the_root(
     assert last.startswith("error: ARIEL_RUN_DIR=data/runs/tinny: no such folder (looked in ")
     assert str(checkout / "data" / "runs" / "tinny") in last
     assert "Traceback" not in failed.stderr.split("------------------")[-1]  # the kernel's part
+
+
+def test_the_run_notebook_needs_no_fitness_plugin_and_reads_finished_generations_only(
+    tiny_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Its first cell asked the fitness plugin for the direction (a traceback for a run whose
+    plugin is not installed here; run.json records it), and its DuckDB cell read every
+    ``gen-*.parquet`` on disk: a generation being written, or a stray copy, counted twice
+    (probe G2). The cells' own code, run in this process."""
+    import numpy as np
+
+    copy = tmp_path / "copy"
+    shutil.copytree(tiny_run, copy)
+    evaluations = copy / "evaluations"
+    shutil.copy(evaluations / "gen-000002.parquet", evaluations / "gen-000003.parquet")
+    info = json.loads((copy / "run.json").read_text())
+    info["config"]["task"]["fitness"] = "not_installed_here"
+    (copy / "run.json").write_text(json.dumps(info))
+    notebook = nbformat.read(ANALYSIS / "fitness_and_diversity.ipynb", as_version=4)
+    first = next(c for c in notebook.cells if c.cell_type == "code")
+    monkeypatch.setenv("ARIEL_RUN_DIR", str(copy))
+    monkeypatch.syspath_prepend(str(ANALYSIS))
+    cells: dict = {"display": lambda shown: None, "np": np}
+    exec(first.source, cells)
+    assert cells["MAXIMISE"] is True and cells["FITNESS"] == "not_installed_here"
+    run = load_run(copy)
+    ok = run.evaluations[
+        (run.evaluations["status"] == "ok") & np.isfinite(run.evaluations["fitness"])
+    ]
+    cells["ok"] = ok
+    exec(_cell_with(notebook, "duckdb.sql(").source, cells)
+    counts = cells["per_generation"].set_index("generation")["evaluations"]
+    assert counts.to_dict() == ok.groupby("generation").size().to_dict()

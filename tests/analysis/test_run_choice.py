@@ -154,3 +154,25 @@ def test_a_relative_campaign_dir_and_the_newest_campaign(rc, tmp_path):
     assert rc.choose_campaign(environ=environ, cwd=tmp_path / "analysis").path == root / "first"
     with pytest.raises(rc.ChoiceError, match=r"^no campaign under "):
         rc.choose_campaign(environ={}, root=tmp_path / "none")
+
+
+def test_a_run_without_a_finished_generation_is_one_line(rc, tmp_path):
+    """Named, a run killed in its first generation ended the notebooks in tracebacks (an
+    empty boxplot, "no finished evaluation"), not the one line `ariel report` gives."""
+    young = _run(tmp_path, "young", "2026-11-28T10:00:00", "interrupted", 0)
+    with pytest.raises(rc.ChoiceError) as error:
+        rc.open_run(environ={"ARIEL_RUN_DIR": str(young)})
+    assert str(error.value).endswith(
+        "has no finished generation yet: nothing to analyse (resume it, or name another run)"
+    )
+    assert error.value._render_traceback_() == [f"error: {error.value}"]
+
+
+def test_a_run_json_with_a_created_of_another_type_does_not_stop_the_choice(rc, tmp_path):
+    """One run.json whose created was a number (sorted beside text) stopped the notebooks from
+    opening any run of the folder: TypeError in the sort."""
+    _run(tmp_path, "good", "2026-11-28T10:00:00", "finished", 3)
+    odd = _run(tmp_path, "odd", "2026-11-28T11:00:00", "finished", 3)
+    info = json.loads((odd / "run.json").read_text())
+    (odd / "run.json").write_text(json.dumps({**info, "created": 17}))
+    assert rc.newest_run(tmp_path).path == tmp_path / "good"

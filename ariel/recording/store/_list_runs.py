@@ -34,7 +34,8 @@ STOPPED = "stopped (killed?)"
 def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
     """One summary per run folder directly under ``root`` (folders that are not runs skipped).
 
-    ``status`` is run.json's, except `STOPPED` for a "running" run that no process runs.
+    ``status`` is run.json's, except `STOPPED` for a "running" (or "created") run that no
+    process runs.
 
     Args:
         root: The folder holding run folders; ``data/runs`` by default, relative to the
@@ -63,7 +64,8 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
             if not (child / "run.json").exists():
                 continue  # not a run folder at all
             summary = _unreadable(child)  # one bad run.json must not hide the others
-        if summary["status"] == "running" and holder_gone(child):
+        # "created": killed between run.json and the run's start (G1: shown so for ever)
+        if summary["status"] in ("running", "created") and holder_gone(child):
             summary["status"] = STOPPED
         found.append(summary)
     return found
@@ -95,9 +97,11 @@ def _count(value: object) -> int:
 def _summary(child: Path, info: Mapping[str, object]) -> RunSummary:
     """One row of `list_runs`; `TypeError` / `ValueError` for a run.json that makes no sense."""
     config, run_id = info.get("config", {}), info.get("run_id", child.name)
-    status = info.get("status", "?")
+    status, created = info.get("status", "?"), info.get("created")
     if not isinstance(config, dict) or not isinstance(run_id, str) or not isinstance(status, str):
         raise TypeError("config, run_id or status is not what a run.json holds")
+    if created is not None and not isinstance(created, str):  # sorted on: text or None
+        raise TypeError("created is not what a run.json holds")
     best = info.get("best_fitness")
     generations = config.get("generations")
     return {
@@ -108,5 +112,5 @@ def _summary(child: Path, info: Mapping[str, object]) -> RunSummary:
         "generations": _count(generations) if generations is not None else None,
         "evaluations": _count(info.get("evaluations_done", 0)),
         "best_fitness": float(best) if isinstance(best, int | float) else None,
-        "created": info.get("created"),
+        "created": created,
     }

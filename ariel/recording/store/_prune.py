@@ -122,8 +122,8 @@ def prune_run(root: str | Path, path: str | Path) -> None:
             status = info.get("status")
             summary = {
                 "path": str(path),
-                # we hold the lock: a "running" run.json is a run no process runs
-                "status": STOPPED if status == "running" else status,
+                # we hold the lock: a "running" (or "created") run.json is a run no process runs
+                "status": STOPPED if status in ("running", "created") else status,
                 "generations_done": info.get("generations_done", 0),
             }
             why = _why_not(summary)

@@ -217,3 +217,21 @@ def test_runs_calls_a_run_stopped_only_when_its_lock_is_surely_free(
     assert [r["status"] for r in list_runs(tmp_path)] == ["running"]  # that process lives
     (tmp_path / "r" / LOCK_NAME).write_text(f"pid {2**22 + 7} on host {socket.gethostname()}")
     assert [r["status"] for r in list_runs(tmp_path)] == ["stopped (killed?)"]  # no such pid
+
+
+def test_a_run_killed_before_it_started_is_stopped_and_prunable(tmp_path: Path) -> None:
+    """Killed between run.json and its start, a run read "created" for ever and --prune kept
+    it (probe G1); a run.json whose created is no text stopped the notebooks' choice of run
+    (sorted on it) for every run beside it (probe G2)."""
+    from ariel.recording import RunFolder
+    from ariel.recording.store._prune import prune_run
+
+    RunFolder.create(tmp_path / "r", {"run_id": "r", "status": "created"}, overwrite=False)
+    with RunLock(tmp_path / "r"):
+        assert [r["status"] for r in list_runs(tmp_path)] == ["created"]  # starting now
+    assert [r["status"] for r in list_runs(tmp_path)] == ["stopped (killed?)"]
+    RunFolder.create(tmp_path / "odd", {"run_id": "odd", "created": 17}, overwrite=False)
+    rows = {r["run_id"]: r for r in list_runs(tmp_path)}
+    assert rows["odd"]["status"] == "unreadable" and rows["odd"]["created"] is None
+    prune_run(tmp_path, tmp_path / "r")
+    assert not (tmp_path / "r").exists()
