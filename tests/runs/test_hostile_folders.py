@@ -454,6 +454,11 @@ def test_a_run_made_before_manifests_is_checked_against_a_manifest_it_has(
             "'other-s3'",
         ),
         (lambda info: info.update(config="x"), "run.json has no config (its 'config' is 'x')"),
+        (
+            lambda info: info.update(maximise=not info["maximise"]),
+            "run.json has maximise false, but its fitness function 'xy_displacement' "
+            "(installed here) says higher is better",
+        ),
     ],
 )
 def test_verify_checks_what_never_changes_in_run_json(
@@ -464,6 +469,19 @@ def test_verify_checks_what_never_changes_in_run_json(
     edit_json(run / "run.json", change)
     assert exit_code(["verify", str(run)]) == 1
     assert f"damaged: {expected}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("config", [None, "x", [1, 2]], ids=["missing", "text", "list"])
+def test_load_run_refuses_a_run_json_without_its_config(tmp_path: Path, config: object) -> None:
+    """Without its config, load_run loaded every table with the row-limit check off, which
+    records.md says a crafted run.json cannot do; verify and report refused (probe G2)."""
+    run = _run(tmp_path / "run")
+    edit_json(
+        run / "run.json",
+        lambda info: info.pop("config") if config is None else info.update(config=config),
+    )
+    with pytest.raises(DamagedRunError, match=r"is damaged: run.json has no config \(its 'config'"):
+        load_run(run)
 
 
 def test_verify_checks_the_checkpoint_s_config_hash_and_notes_a_config_it_cannot_read(

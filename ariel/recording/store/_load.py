@@ -18,7 +18,7 @@ from ariel.errors import UnknownEvaluationError
 from ariel.evolution import archive_quality
 from ariel.plugins import body_encoders, fitness_functions
 from ariel.recording.store._archive import archive_cell_count, describe_archive
-from ariel.recording.store._escape import terminal_text
+from ariel.recording.store._escape import short_ascii, terminal_text
 from ariel.recording.store._files import damaged
 from ariel.recording.store._lineage import lineage
 from ariel.recording.store._manifest import Manifest, relative
@@ -436,7 +436,7 @@ def load_run(path: str | Path) -> Run:
     Raises:
         NotARunError: When ``path`` has no readable run.json.
         DamagedRunError: When a finished generation's table is missing or has another size
-            than its manifest says.
+            than its manifest says, or run.json holds no config.
 
     Example:
         ```python
@@ -452,4 +452,10 @@ def load_run(path: str | Path) -> Run:
 
     folder = RunFolder(path_argument("path", path, function="load_run"))
     info = folder.read_info()
+    if not isinstance(info.get("config"), dict):  # what the tables are checked against
+        raise damaged(
+            folder.path,
+            "run.json",
+            f"has no config (its 'config' is {short_ascii(info.get('config'))})",
+        )
     return Run(path=folder.path, info=info, manifest=Manifest.load(folder.path, info))
