@@ -444,6 +444,11 @@ def test_an_error_line_is_escaped_and_cut(
     assert exit_code(["config", "show", str(config)]) == 2
     line = one_error_line(capsys)
     assert len(line) < 2100 and "characters in all)" in line, len(line)
+    # A path of 2,000 characters cut the reason off every error: the end is kept.
+    deep = tmp_path.joinpath(*["d" * 200] * 10) / "run"
+    assert exit_code(["resume", str(deep)]) == 2
+    line = one_error_line(capsys)
+    assert "characters in all)" in line and line.endswith("(no such folder)"), line[-200:]
 
 
 @pytest.mark.parametrize(

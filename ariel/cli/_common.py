@@ -66,12 +66,20 @@ if TYPE_CHECKING:
 MAX_ERROR_CHARACTERS = 2000
 
 
+#: Of a line cut, the characters kept from its end: what is wrong and what to do come last
+#: (after a path of 2,000 characters, cutting the end left no reason at all).
+KEPT_END = 600
+
+
 def fail(message: str) -> int:
     """Print ``message`` as the one error line, escaped for the terminal (a name from a folder
-    may hold control characters or line breaks) and cut to `MAX_ERROR_CHARACTERS`."""
+    may hold control characters or line breaks) and cut in the middle to
+    `MAX_ERROR_CHARACTERS`, its end kept (`KEPT_END`)."""
     line = terminal_text(message)
     if len(line) > MAX_ERROR_CHARACTERS:
-        line = f"{line[: MAX_ERROR_CHARACTERS - 60]}... ({len(line):,} characters in all)"
+        cut = f" ... ({len(line):,} characters in all) ... "
+        head = MAX_ERROR_CHARACTERS - KEPT_END - len(cut)
+        line = f"{line[:head]}{cut}{line[-KEPT_END:]}"
     print(f"ariel: error: {line}", file=sys.stderr)
     return EXIT_USAGE
 
