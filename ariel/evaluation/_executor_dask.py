@@ -33,6 +33,7 @@ from ariel.evaluation._dask_local import (
     stop_signals_left_to_driver,
 )
 from ariel.evaluation._dask_logs import DaskLogs, quiet_cancel_race
+from ariel.evaluation._dask_workers import check_workers
 from ariel.evaluation._executor_base import EvaluationExecutor, worker_environment
 from ariel.evaluation._threads import default_workers
 
@@ -322,7 +323,13 @@ def _make_dask(
     if isinstance(address, Client):  # the caller owns it
         return DaskExecutor(address, close_client=False, no_worker_timeout=limit)
     if isinstance(address, str):  # "tcp://host:8786": checked, reached in bounded time
-        return DaskExecutor(connect_scheduler(address), no_worker_timeout=limit)
+        client = connect_scheduler(address)
+        try:
+            check_workers(client)  # each worker connected now runs this ariel
+        except BaseException:
+            client.close()
+            raise
+        return DaskExecutor(client, no_worker_timeout=limit)
     return DaskExecutor(Client(address), no_worker_timeout=limit)  # e.g. a SLURMCluster
 
 

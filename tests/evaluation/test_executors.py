@@ -451,3 +451,30 @@ def test_the_dask_cancel_race_s_log_record_is_dropped_and_no_other() -> None:
     assert _CancelRace().filter(record(race)) is False
     assert _CancelRace().filter(record(NameError("name 'x' is not defined"))) is True
     assert _CancelRace().filter(record(RuntimeError("'future'"))) is True
+
+
+@needs_dask
+def test_a_worker_running_other_ariel_code_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A worker with other ariel code gave other fitness values, recorded as the run's; one
+    that could not import ariel dropped every task while the run waited (probe G6)."""
+    from distributed import Client, LocalCluster
+
+    from ariel.errors import ExecutorStartError
+    from ariel.evaluation._dask_workers import check_workers, code_fingerprint
+
+    with (
+        LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster,
+        Client(cluster) as client,
+    ):
+        check_workers(client)  # the same code: nothing said
+        (worker,) = client.scheduler_info()["workers"]
+        with pytest.raises(ExecutorStartError) as other:
+            check_workers(client, expected="0" * 16)
+        assert str(other.value).startswith(
+            f"Dask worker {worker} runs other ariel code than this process (fingerprint "
+            f"{code_fingerprint()}, here {'0' * 16}): "
+        )
+        failed = {worker: ImportError("this is not ariel")}
+        monkeypatch.setattr(client, "run", lambda *args, **kwargs: failed)
+        with pytest.raises(ExecutorStartError, match="could not say which ariel it runs \\(Imp"):
+            check_workers(client)
