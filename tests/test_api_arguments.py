@@ -186,6 +186,23 @@ def test_a_plugin_the_workers_never_registered_is_named_so_not_blamed(tmp_path: 
     assert (tmp_path / "error.log").is_file() and "\n" not in line
 
 
+def test_a_worker_s_bad_environment_is_not_blamed_on_a_plugin(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A Dask worker started with ARIEL_EVAL_THREADS=abc: "a plugin of the run (fitness
+    function ..., controller ...) failed ...; fix the plugin" (probe G6)."""
+    from ariel.evaluation import evaluation_threads
+    from ariel.evaluation._threads import EVAL_THREADS_VARIABLE
+
+    monkeypatch.setenv(EVAL_THREADS_VARIABLE, "abc")
+    with pytest.raises(ConfigError) as raised:
+        evaluation_threads()
+    task = types.SimpleNamespace(eval_id="b000000-i000-c001")
+    line = str(plugin_failure(tmp_path, load_config(), task, raised.value))  # type: ignore[arg-type]
+    assert line.startswith("in evaluation b000000-i000-c001: ConfigError: ARIEL_EVAL_THREADS")
+    assert "a Dask worker's environment" in line and "plugin" not in line
+
+
 @pytest.mark.parametrize("after_run_json", [True, False])
 def test_an_interrupt_while_the_folder_is_made_names_it_once_run_json_is_there(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_run_json: bool

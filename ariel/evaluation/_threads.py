@@ -9,6 +9,8 @@ from __future__ import annotations
 import os
 import sys
 
+from ariel.errors import ConfigError
+
 __all__ = [
     "EVAL_THREADS_VARIABLE",
     "THREAD_LIMIT_VARIABLES",
@@ -69,7 +71,8 @@ def evaluation_threads() -> int:
         every CPU this process may use elsewhere.
 
     Raises:
-        ValueError: `EVAL_THREADS_VARIABLE` is set to something that is not a whole number.
+        ConfigError: `EVAL_THREADS_VARIABLE` is set to something that is not a whole number
+            (a `ValueError`).
     """
     cpus = default_workers()
     value = os.environ.get(EVAL_THREADS_VARIABLE, "").strip()
@@ -77,7 +80,7 @@ def evaluation_threads() -> int:
         try:
             return min(max(1, int(value)), cpus)
         except ValueError:
-            raise ValueError(
+            raise ConfigError(  # the process's environment, not a plugin (a remote worker's)
                 f"{EVAL_THREADS_VARIABLE} must be a whole number of threads, not {value!r}"
             ) from None
     return 1 if _in_dask_worker() else cpus

@@ -8,7 +8,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ariel.errors import NotARunError, PluginFailedError, UnknownPluginError
+from ariel.errors import ConfigError, NotARunError, PluginFailedError, UnknownPluginError
 from ariel.evolution import ERROR_LOG, ExperimentConfig, plugin_named
 from ariel.recording.store._files import atomic_write_bytes
 from ariel.recording.store._run_folder import RunFolder, resume_line
@@ -56,6 +56,12 @@ def plugin_failure(
         resume = resume_line(Path(run_dir), RunFolder(run_dir).read_info())
     except NotARunError:
         resume = ariel_line("resume", run_dir)
+    if isinstance(exc, ConfigError):  # a setting, or a worker's environment: no plugin's fault
+        at = "between evaluations" if task is None else f"in evaluation {task.eval_id}"
+        return PluginFailedError(
+            f"{at}: {first}{where}; the run stopped, its finished generations are kept: set it "
+            f"right (where the evaluation ran: a Dask worker's environment), then {resume}"
+        )
     # A brain optimizer fails asking for or told a batch, not in one of its evaluations; the
     # body optimizer between generations (its note says what it gave, where that was wrong).
     if task is None:
