@@ -323,14 +323,20 @@ def _make_dask(
     if isinstance(address, Client):  # the caller owns it
         return DaskExecutor(address, close_client=False, no_worker_timeout=limit)
     if isinstance(address, str):  # "tcp://host:8786": checked, reached in bounded time
-        client = connect_scheduler(address)
-        try:
-            check_workers(client)  # each worker connected now runs this ariel
-        except BaseException:
-            client.close()
-            raise
-        return DaskExecutor(client, no_worker_timeout=limit)
+        return DaskExecutor(_checked_client(address), no_worker_timeout=limit)
     return DaskExecutor(Client(address), no_worker_timeout=limit)  # e.g. a SLURMCluster
+
+
+def _checked_client(address: str) -> Client:
+    """A client of the scheduler at ``address`` (`connect_scheduler`) whose workers connected
+    now run this ariel (`check_workers`); closed again when they do not."""
+    client = connect_scheduler(address)
+    try:
+        check_workers(client)
+    except BaseException:
+        client.close()
+        raise
+    return client
 
 
 def _cluster_settings(

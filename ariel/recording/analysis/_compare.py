@@ -374,8 +374,7 @@ def compare(
         paired, reason = False, _REASONS["folders"]
         default = None  # a new folder here, named when it is written (below)
         names = [c.path for c, _ in found]
-    found, maximise, fitness_fn, left_out = _comparable_runs(found, names)
-    notes = [*notes, left_out] if left_out else notes
+    found, maximise, fitness_fn = _comparable_runs(found, names, notes)
     out = default if out is None and write else out
     claimed = new_folder(Path("."), "compare") if out is None and write else None
     with gone_if_empty(claimed):  # a comparison that stops before writing leaves no folder

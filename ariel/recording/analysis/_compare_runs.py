@@ -385,23 +385,22 @@ def _direction(runs: Sequence[Run]) -> tuple[bool, str]:
 
 
 def _comparable_runs(
-    found: Sequence[tuple[RunCurve, Run]], names: Sequence[str]
-) -> tuple[list[tuple[RunCurve, Run]], bool, str, str]:
+    found: Sequence[tuple[RunCurve, Run]], names: Sequence[str], notes: list[str]
+) -> tuple[list[tuple[RunCurve, Run]], bool, str]:
     """(the runs of ``found`` with a finished generation, whether their fitness is maximised,
-    its name, a note naming the runs left out for having none, or ""): `CompareError` where
-    none has one or they are not comparable (`check_comparable`, each run named by ``names``,
-    in step with ``found``)."""
+    its name), a note naming the runs left out for having none added to ``notes``:
+    `CompareError` where none has one or they are not comparable (`check_comparable`, each run
+    named by ``names``, in step with ``found``)."""
     done = [i for i, (_, run) in enumerate(found) if run.generations_done > 0]
     if not done:
         raise CompareError("no run with a finished generation to compare")
     waiting = [str(names[i]) for i in range(len(found)) if i not in done]
-    note = (
-        f"{len(waiting)} of {len(found)} runs left out: no finished generation yet "
-        f"({', '.join(waiting[:5])}{', ...' if len(waiting) > 5 else ''})"
-        if waiting
-        else ""
-    )
+    if waiting:
+        notes.append(
+            f"{len(waiting)} of {len(found)} runs left out: no finished generation yet "
+            f"({', '.join(waiting[:5])}{', ...' if len(waiting) > 5 else ''})"
+        )
     found = [found[i] for i in done]
     check_comparable([(names[i], found[j][1].config) for j, i in enumerate(done)])
     maximise, fitness_fn = _direction([r for _, r in found])
-    return found, maximise, fitness_fn, note
+    return found, maximise, fitness_fn

@@ -232,14 +232,11 @@ def _morphology_figure(report: Report) -> None:
     gens = sorted(population["generation"].unique())
     if len(gens) > MORPHOLOGY_BOXES:  # 300 boxes merged into black bars and took 90 s
         picked = np.unique(np.round(np.linspace(0, len(gens) - 1, MORPHOLOGY_BOXES)).astype(int))
-        report.notes.append(
-            f"morphology.png: {len(picked)} of the {len(gens)} generations, evenly spread"
-        )
+        report.notes.append(f"morphology.png: {len(picked)} of {len(gens)} generations, spread")
         gens = [gens[i] for i in picked]
     step = (gens[-1] - gens[0]) / max(1, len(gens) - 1) if len(gens) > 1 else 1.0
     by_generation = dict(tuple(population.groupby("generation", sort=False)))
-    cols = 4
-    rows = math.ceil(len(names) / cols)
+    cols, rows = 4, math.ceil(len(names) / 4)
     figure = _figure(4 * cols, 2.9 * rows)
     _title(figure, f"{_run_title(run)}: {MORPHOLOGY_TITLE}", suptitle=True)
     rng = np.random.default_rng(0)
@@ -249,10 +246,8 @@ def _morphology_figure(report: Report) -> None:
         axes.boxplot(
             values, positions=gens, widths=0.6 * step, showfliers=False, manage_ticks=False
         )
-        jitter = np.concatenate(
-            [g + rng.uniform(-0.12, 0.12, v.size) * step for g, v in zip(gens, values)]
-        )
-        axes.scatter(jitter, np.concatenate(values), s=8, alpha=0.6, color="C0")
+        jitter = [g + rng.uniform(-0.12, 0.12, v.size) * step for g, v in zip(gens, values)]
+        axes.scatter(np.concatenate(jitter), np.concatenate(values), s=8, alpha=0.6, color="C0")
         unit, whole = DESCRIPTORS.get(name, ("", False))
         axes.set_title(name)
         axes.set_xlabel("generation")

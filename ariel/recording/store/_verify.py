@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
-from ariel.plugins import fitness_functions
+from ariel.recording.store._direction import direction_problem
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import within
 from ariel.recording.store._lock import lock_holder
@@ -323,7 +323,7 @@ def _check_run_json(run_dir: Path, info: Mapping[str, object], result: VerifyRes
                 "run.json has a config_hash that is not its config's (SHA-256): the config or "
                 "the hash changed after the run started"
             )
-        direction = _direction_problem(info, str(config.get("task", {}).get("fitness", "")))
+        direction = direction_problem(info, str(config.get("task", {}).get("fitness", "")))
         if direction is not None:
             result.problems.append(direction)
     folder = RunFolder(run_dir)
@@ -337,23 +337,6 @@ def _check_run_json(run_dir: Path, info: Mapping[str, object], result: VerifyRes
         return
     if isinstance(state, dict) and state.get("config_hash") != recorded:
         result.problems.append(f"{name} has a config_hash that is not run.json's")
-
-
-def _direction_problem(info: Mapping[str, object], fitness: str) -> str | None:
-    """run.json's ``maximise`` against the direction of its fitness function where that is
-    installed here: flipped, every reader's "best" is the worst (probe G2)."""
-    recorded = info.get("maximise")
-    try:
-        plugin = fitness_functions.get(fitness)
-    except (KeyError, ValueError, ImportError):
-        return None  # not installed here: run.json is all there is to go by
-    if not isinstance(recorded, bool) or recorded == bool(getattr(plugin, "maximise", True)):
-        return None
-    wanted = "higher" if not recorded else "lower"
-    return (
-        f"run.json has maximise {str(recorded).lower()}, but its fitness function {fitness!r} "
-        f"(installed here) says {wanted} is better"
-    )
 
 
 def _footer(path: Path) -> pq.FileMetaData | None:

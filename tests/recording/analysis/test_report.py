@@ -685,7 +685,7 @@ def test_a_long_run_s_morphology_draws_a_bounded_number_of_generations(
     report = make_report(run_dir, render=False, out=tmp_path / "report")
     generations = len(load_run(run_dir).generations)
     assert generations > 2
-    assert f"morphology.png: 2 of the {generations} generations, evenly spread" in report.notes
+    assert f"morphology.png: 2 of {generations} generations, spread" in report.notes
     axes = _visible_axes(report.figures["morphology.png"])[0]
     boxes = [line for line in axes.lines if len(line.get_xdata()) == 5]  # each box's outline
     assert sorted({float(min(b.get_xdata())) for b in boxes}) == pytest.approx(
