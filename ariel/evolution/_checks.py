@@ -182,6 +182,12 @@ def _sample_model(config: ExperimentConfig, encoder: BodyEncoder) -> mujoco.MjMo
         return None
 
 
+#: Memory one evaluation takes in its generation's Rerun recording, made when the generation
+#: ends (its trace, the recording's chunks): about 0.1 MB, measured with 200 to 20,000
+#: evaluations a generation (probe G3: 93 to 150 KB), which the estimate had left out.
+RERUN_BYTES_PER_EVALUATION = 100_000
+
+
 def check_resources(
     config: ExperimentConfig,
     encoder: BodyEncoder,
@@ -196,7 +202,9 @@ def check_resources(
 
     Counted: the recorded frames of a generation's evaluations, which the driver keeps until
     the generation's tables are written (with ``record.trajectories``); the physics states of
-    the evaluations running at once (``local_workers``: on this machine); the compiled bodies.
+    the evaluations running at once (``local_workers``: on this machine); the compiled bodies;
+    with ``record.rerun``, each evaluation's share of the generation's recording
+    (`RERUN_BYTES_PER_EVALUATION`).
     """
     model = _sample_model(config, encoder)
     if model is None:  # no body to measure: the run records it as an error body
@@ -215,7 +223,8 @@ def check_resources(
     at_once = min(bodies * popsize, max(1, capacity) * popsize)
     running = at_once * (steps * 8 * (state + nu) + frames * per_frame) if local_workers else 0
     models = (c.body.population + c.body.offspring) * (int(model.nbuffer) + 2**16)
-    needed = 2 * kept + running + models  # 2x: the frames are copied into the table once
+    recorded = evaluations * RERUN_BYTES_PER_EVALUATION if c.record.rerun else 0
+    needed = 2 * kept + running + models + recorded  # 2x: the frames are copied once
     available = machine_memory()
     if available is None or needed <= available:
         return needed
@@ -228,11 +237,11 @@ def check_resources(
     raise ConfigError(
         f"{_largest_key(c)}: one generation would need about {needed / _GIB:.1f} GiB of memory "
         f"({'; '.join(parts)}); this machine has {available / _GIB:.1f} GiB available: "
-        f"{_remedies(kept, running)}"
+        f"{_remedies(kept, running, recorded)}"
     )
 
 
-def _remedies(kept: int, running: int) -> str:
+def _remedies(kept: int, running: int, recorded: int = 0) -> str:
     """What would make the estimate smaller, for the parts it has: the kept frames (only with
     ``record.trajectories``), the physics states of the evaluations at once, the compiled
     bodies (always)."""
@@ -241,6 +250,8 @@ def _remedies(kept: int, running: int) -> str:
         remedies.append("shorten task.duration")
     if running:
         remedies.append("run fewer evaluations at once (lower executor.workers or brain.popsize)")
+    if recorded:
+        remedies.append("set record.rerun = false")
     if kept:
         remedies += [
             "lower record.rate_hz or the population sizes",

@@ -537,3 +537,25 @@ def test_exactly_the_most_windows_allowed_is_taken() -> None:
     assert message is not None and "into 101,010 windows, more than the 100,000" in message
     # the shortest window named is 1e-05 itself (float error rounded it up to 1.01e-05)
     assert window_count_error(1.0, 11, 9.9999e-6).endswith("at least 1e-05 s")  # type: ignore
+
+
+def test_the_memory_estimate_counts_the_rerun_recording(monkeypatch) -> None:
+    """A generation of 20,000 evaluations took 3.1 GB where the estimate said 0.47: each
+    evaluation's share of the generation's Rerun recording was left out (probe G3)."""
+    from ariel.evolution._checks import RERUN_BYTES_PER_EVALUATION
+
+    sets = ["body.options={number_of_modules=6}", "record.trajectories=false"]
+    on, off = load_config({}, sets), load_config({}, [*sets, "record.rerun=false"])
+    encoder = body_encoders.make(on.body.encoder, **on.body.options)
+    needed = {
+        rerun: check_resources(config, encoder, brain_only=False, capacity=2, local_workers=True)
+        for rerun, config in (("on", on), ("off", off))
+    }
+    evaluations = (
+        max(on.body.population, on.body.offspring) * on.brain.popsize * on.brain.iterations
+    )
+    recording = evaluations * RERUN_BYTES_PER_EVALUATION  # and the poses of those running
+    assert recording <= needed["on"] - needed["off"] < 1.1 * recording
+    monkeypatch.setattr("ariel.evolution._checks.machine_memory", lambda: 1)
+    with pytest.raises(ConfigError, match=r", set record\.rerun = false, or lower the population"):
+        check_resources(on, encoder, brain_only=False, capacity=2, local_workers=True)
