@@ -40,8 +40,9 @@ def is_genotype_file(value: object) -> TypeGuard[str]:
 
 
 def read_genotype_file(path: str | Path) -> object:
-    """The genotype in ``path`` as plain data (lists, numbers, strings); `ConfigError` else."""
-    path = Path(path)
+    """The genotype in ``path`` as plain data (lists, numbers, strings); `ConfigError` else. A
+    leading ``~`` is the home folder."""
+    path = Path(path).expanduser()
     where = f"body.genotype: file {str(path)!r}"
     if not path.is_file():
         raise ConfigError(f"{where} not found")

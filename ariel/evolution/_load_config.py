@@ -98,13 +98,17 @@ def not_a_file(path: Path) -> str:
 
 
 def _genotype_file_beside(data: dict[str, object], config_path: Path) -> dict[str, object]:
-    """A relative ``body.genotype`` file named in a TOML file is relative to that file."""
+    """A relative ``body.genotype`` file named in a TOML file is relative to that file (a
+    leading ``~`` is the home folder, as on the command line)."""
     body = data.get("body")
     if not isinstance(body, dict):
         return data
     genotype = body.get("genotype")
-    if not is_genotype_file(genotype) or Path(genotype).is_absolute():
+    if not is_genotype_file(genotype):
         return data
+    home = Path(genotype).expanduser()
+    if home.is_absolute():
+        return data if str(home) == genotype else {**data, "body": {**body, "genotype": str(home)}}
     beside = str(config_path.parent / genotype)
     return {**data, "body": {**body, "genotype": beside}}
 

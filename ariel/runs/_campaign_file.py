@@ -173,11 +173,12 @@ def _one_line(error: ValidationError) -> str:
 
 
 def _base_data(base: str | dict[str, Any], beside: Path | None) -> dict[str, Any]:
-    """The base experiment's raw data (a TOML file relative to the campaign file, or inline)."""
+    """The base experiment's raw data (a TOML file relative to the campaign file, a leading
+    ``~`` the home folder as on the command line, or inline)."""
     if isinstance(base, dict):
         load_config(base)  # checked alone first: its errors name the base
         return json.loads(json.dumps(base))
-    path = Path(base)
+    path = Path(base).expanduser()
     if not path.is_absolute() and beside is not None:
         path = beside / path
     if not path.is_file():

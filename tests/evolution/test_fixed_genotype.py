@@ -172,3 +172,28 @@ def test_a_body_of_one_run_becomes_the_fixed_body_of_the_next(
     second = load_run(run_experiment(config, out=tmp_path / "second").run_dir)
     assert second.bodies["graph"].tolist() == [best["graph"]]
     assert second.bodies["body_genotype"].tolist() == [best["body_genotype"]]
+
+
+def test_a_leading_tilde_in_toml_paths_is_the_home_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--out ~/x`` is the home folder, but ``genotype = "~/g.json"`` in a TOML file and a
+    campaign's ``base = "~/base.toml"`` were a folder named ``~`` beside the file (probe G4)."""
+    from ariel.runs import load_campaign_file
+
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "home").mkdir()
+    (tmp_path / "home" / "g.json").write_text(json.dumps(_genotype().tolist()))
+    (tmp_path / "elsewhere").mkdir()
+    toml = TOML.replace('"bodies/chosen.json"', '"~/g.json"')
+    (tmp_path / "elsewhere" / "fixed.toml").write_text(toml)
+    from ariel.evolution._genotype import read_genotype_file
+
+    config = load_config(tmp_path / "elsewhere" / "fixed.toml")
+    assert config.body.genotype == str(tmp_path / "home" / "g.json")
+    read = read_genotype_file("~/g.json")  # as --set body.genotype="~/g.json" is read
+    assert np.array_equal(np.array(read, dtype=np.float32), _genotype())
+    (tmp_path / "home" / "base.toml").write_text(toml.replace('"~/g.json"', '"g.json"'))
+    (tmp_path / "elsewhere" / "c.toml").write_text('base = "~/base.toml"\nseeds = [1]\n')
+    spec = load_campaign_file(tmp_path / "elsewhere" / "c.toml")
+    assert next(iter(spec.configs.values())).name == "fixednde"
