@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from _helpers import ariel_run, exit_code, one_error_line, repo_env, snapshot, tiny_run_toml
+from _helpers import REPO, ariel_run, exit_code, one_error_line, repo_env, snapshot, tiny_run_toml
 
 from ariel import __version__
 from ariel.cli import main
@@ -613,7 +613,14 @@ def test_a_reader_that_goes_away_ends_the_command_quietly(
         monkeypatch.setattr("sys.stdout", GoneReader(file.fileno()))
         assert main(["plugins"]) == 141
         assert main(["report", str(finished_run[0]), "--no-render"]) == 141
-    assert capsys.readouterr().err == ""
+        assert capsys.readouterr().err == ""
+        # `ariel run ... | head -1`: the run ended "failed" with no word; it stops as SIGPIPE
+        # would, interrupted and resumable, and says so where it still can (stderr).
+        run = tmp_path / "run"
+        tiny = ["run", str(REPO / "tests/data/run_tiny.toml"), "--set", "generations=2"]
+        assert main([*tiny, "--out", str(run)]) == 141
+    assert json.loads((run / "run.json").read_text())["status"] == "interrupted"
+    assert capsys.readouterr().err.startswith("interrupted (SIGPIPE); continue it with: ")
 
 
 @pytest.mark.parametrize(

@@ -204,6 +204,8 @@ def _run_command(args: argparse.Namespace) -> int:
             return _reader_gone()
         raise
     except KeyboardInterrupt as exc:  # a command that has nothing to continue (report, ...)
+        if getattr(exc, "signum", None) == signal.SIGPIPE:  # its reader went away (`Output`)
+            return _reader_gone()
         return report_interrupted(exc, None)
     except ArielError as exc:  # bad input, a broken plugin, a run folder in use: one line
         return fail_with(exc)

@@ -7,18 +7,23 @@
 - A stdout that fails (a full device, an I/O error) does not stop the command: a run goes on
   to its end, its records whole; what was printed is lost, and the command ends with one line
   that says so (`Output.lost`), never blaming the run folder for stdout's disk.
-  ``BrokenPipeError`` (``ariel runs | head``) still ends the command quietly, as before.
+- A reader that went away (``ariel runs | head``, ``ariel run | head -1``) stops the command
+  as SIGPIPE would, as an interrupt (`Interrupted`): a listing ends quietly (exit 141), a run
+  or campaign ends ``interrupted``, resumable, saying so on stderr (it ended ``failed``).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import sys
+import threading
 from collections.abc import Iterator
 from typing import Any
 
 from ariel.utils import MIN_OPEN_FILES, open_files_short
+from ariel.utils.interrupts import Interrupted, stop_soon
 
 __all__ = ["Output", "cwd_problem", "lost_output_line", "open_files_problem", "standard_output"]
 
@@ -30,6 +35,7 @@ class Output:
     def __init__(self, stream: Any) -> None:
         self._stream = stream
         self.lost: OSError | None = None
+        self._reader_gone = False
 
     def write(self, text: str) -> int:
         self._guarded(self._stream.write, text)
@@ -39,20 +45,27 @@ class Output:
         self._guarded(self._stream.flush)
 
     def _guarded(self, call: Any, *args: object) -> None:
-        if self.lost is not None:
+        if self.lost is not None or self._reader_gone:
             return
         try:
             call(*args)
         except BrokenPipeError:
-            raise
+            self._reader_gone = True
+            self._to_nowhere()
+            stop_soon(signal.SIGPIPE)  # met in a display's thread: the run stops at its next
+            if threading.current_thread() is threading.main_thread():
+                raise Interrupted(signal.SIGPIPE) from None
         except OSError as exc:
             self.lost = exc
-            # What stays in the stream's buffer would fail again at exit ("Exception ignored
-            # ... OSError"): from now on the descriptor writes to nowhere.
-            with contextlib.suppress(OSError, ValueError, AttributeError):
-                devnull = os.open(os.devnull, os.O_WRONLY)
-                os.dup2(devnull, self._stream.fileno())
-                os.close(devnull)
+            self._to_nowhere()
+
+    def _to_nowhere(self) -> None:
+        """What stays in the stream's buffer would fail again at exit ("Exception ignored ...
+        OSError"): from now on the descriptor writes to nowhere."""
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._stream.fileno())
+            os.close(devnull)
 
     def __getattr__(self, name: str) -> Any:  # isatty, fileno, encoding, buffer, ...
         return getattr(self._stream, name)

@@ -38,6 +38,7 @@ __all__ = [
     "raise_pending",
     "signals_deferred",
     "stop_on_signals",
+    "stop_soon",
 ]
 
 #: Exit status of a run that `Stopped` (EX_TEMPFAIL: a temporary failure; resume it later).
@@ -85,6 +86,15 @@ def exit_status(exc: KeyboardInterrupt) -> tuple[int, str]:
     signum = int(exc.signum) if isinstance(exc, Interrupted) else int(signal.SIGINT)
     how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
     return 128 + signum, how
+
+
+def stop_soon(signum: int) -> None:
+    """Note ``signum`` as taken, as its handler would, without raising here: where another
+    thread than the main one met the stop (a broken pipe as a progress display wrote), the run
+    stops at its next `raise_pending`. Outside `stop_on_signals`: nothing."""
+    global _pending
+    if _active and _pending is None:
+        _pending = signum
 
 
 def raise_pending() -> None:
