@@ -171,6 +171,14 @@ def test_ariel_command_is_the_venv_script_relative_to_the_current_folder(
     assert _cli_commands.ariel_command() == f"{scripts / 'python'} -m ariel.cli"
 
 
+def test_a_printed_path_starting_with_equals_or_a_dash_is_pasteable() -> None:
+    """zsh reads ``=ls`` as the path of the command ls (probe G4): ``./=ls``."""
+    from ariel.utils import shell_path
+
+    assert shell_path("=ls") == "./=ls" and shell_path("-x") == "./-x"
+    assert shell_path("a=b") == "a=b" and shell_path("it's") == "'it'\"'\"'s'"
+
+
 def test_load_run_command_quotes_an_odd_path() -> None:
     from ariel.utils._commands import load_run_command
 

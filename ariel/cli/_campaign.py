@@ -272,8 +272,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     out = shown(shown_path(comparison.out))
     replaced = ", replacing the comparison that was there" if comparison.replaced else ""
     print(
-        f"wrote {out}/{replaced} (open {shown(shown_path(comparison.html))}; what was "
-        f"compared: {shown(shown_path(comparison.readme))})"
+        f"wrote {out}/{replaced} (open {shell_path(shown_path(comparison.html))}; what was "
+        f"compared: {shell_path(shown_path(comparison.readme))})"
     )
     return 0
 

@@ -44,9 +44,9 @@ def shell_quote(text: str) -> str:
 def shell_path(path: object) -> str:
     """``path`` for a POSIX shell command line: quoted where it needs it (`shell_quote`), and
     ``./`` before a name that starts with ``-`` (``ariel report -y`` would read it as an
-    option)."""
+    option) or ``=`` (zsh reads ``=ls`` as the path of the command ``ls``)."""
     text = str(path)
-    return shell_quote(f".{os.sep}{text}" if text.startswith("-") else text)
+    return shell_quote(f".{os.sep}{text}" if text.startswith(("-", "=")) else text)
 
 
 def ariel_line(*words: object) -> str:

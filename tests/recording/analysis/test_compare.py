@@ -613,6 +613,10 @@ def test_the_default_output_of_run_folders_is_a_new_folder_here(
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(written)
     assert all((tmp_path / folder / "compare.html").is_file() for folder in written)
     assert not (long.parent / "compare").exists()
+    odd = tmp_path / "it's"  # the printed path is quoted: `open` it as printed (probe G4)
+    assert main(["compare", str(long), str(short), "--out", "it's"]) == 0
+    line = capsys.readouterr().out.splitlines()[-1]
+    assert "(open 'it'\"'\"'s/compare.html'; " in line and (odd / "compare.html").is_file()
 
 
 # --- each run once, names a person can read, a clear --out (issue: compare reliability) ------
