@@ -27,6 +27,7 @@ from ariel.recording.store import (
     csv_safe,
     figure_label,
     fitness_label,
+    records_folder_of,
     remove_temporaries,
     written_path,
 )
@@ -83,7 +84,15 @@ def prepare_folder(out: Path) -> bool:
     """Check that ``out`` can take a comparison; True where it holds an earlier one (to be
     replaced). A link is refused (`UnsafePathError`: nothing is written through it), and so
     are a file, a folder holding anything a comparison did not write and a folder that
-    cannot be made (a parent that is a file or a link to nothing) (`CompareError`)."""
+    cannot be made (a parent that is a file or a link to nothing), and a place inside a run
+    folder, which only the run's own commands write (`CompareError`; a campaign's
+    ``compare/`` is its comparison's place)."""
+    records = records_folder_of(out)
+    if records is not None and os.path.lexists(records / "run.json"):
+        raise CompareError(
+            f"{str(out)!r} is inside the run folder {str(records)!r}, whose records are never "
+            "written among: name a folder outside it with --out DIR"
+        )
     if out.is_symlink():
         missing = "" if out.exists() else ", which does not exist"
         raise UnsafePathError(

@@ -1060,3 +1060,20 @@ def test_runs_without_a_finished_generation_are_named_as_left_out(
     notes = compare([long, short, empty], write=False).notes
     assert f"1 of 3 runs left out: no finished generation yet ({empty})" in notes
     assert not any("left out" in n for n in compare([long, short], write=False).notes)
+
+
+def test_a_comparison_is_never_written_inside_a_run_folder(
+    two_runs: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--out RUN/cmp``, or no --out from inside a run folder, wrote the comparison among the
+    run's records, which report, export and view --screenshot refuse (probe G4)."""
+    long, short = two_runs
+    before = sorted(p.name for p in long.iterdir())
+    assert main(["compare", str(long), str(short), "--out", str(long / "cmp")]) == 2
+    assert f"is inside the run folder {str(long)!r}, whose records are never" in (
+        capsys.readouterr().err
+    )
+    monkeypatch.chdir(long)
+    assert main(["compare", str(long), str(short)]) == 2
+    assert "is inside the run folder" in capsys.readouterr().err
+    assert sorted(p.name for p in long.iterdir()) == before  # no folder left behind
