@@ -91,7 +91,11 @@ def exit_status(exc: KeyboardInterrupt) -> tuple[int, str]:
 def stop_soon(signum: int) -> None:
     """Note ``signum`` as taken, as its handler would, without raising here: where another
     thread than the main one met the stop (a broken pipe as a progress display wrote), the run
-    stops at its next `raise_pending`. Outside `stop_on_signals`: nothing."""
+    stops at its next `raise_pending`. Outside `stop_on_signals`: nothing.
+
+    Args:
+        signum: The signal the stop is said as (``signal.SIGPIPE``: the output's reader went).
+    """
     global _pending
     if _active and _pending is None:
         _pending = signum

@@ -45,18 +45,17 @@ from ariel.recording.analysis._report_figures import (
     _run_title,
     _save,
     _title,
+    run_status,
 )
 from ariel.recording.analysis._report_out import check_report_folder, refuse_if_replaced
 from ariel.recording.store import (
     DESCRIPTORS,
     QD_COLUMNS,
     STALE_S,
-    STOPPED,
     Run,
     evaluation_trajectory,
     figure_label,
     fitness_label,
-    holder_gone,
     integer_ticks,
     load_run,
     one_line,
@@ -153,13 +152,6 @@ ARCHIVE_HEADINGS = {
         "keeps it (the novelty archive, which selection uses, is another)",
     ),
 }
-
-
-def _status(run: Run) -> str:
-    """run.json's status, `STOPPED` for a "running" run whose process is gone (SIGKILL, out
-    of memory), as `ariel runs` says (`holder_gone`)."""
-    status = str(run.info.get("status", "?"))
-    return STOPPED if status == "running" and holder_gone(run.path) else status
 
 
 def _best_row(run: Run, maximise: bool) -> dict[str, Any] | None:
@@ -445,7 +437,7 @@ def print_report(report: Report, console: Console | None = None, *, written: boo
         if not console.is_terminal:  # a file or a pipe: no need to fit 80 columns
             console = Console(width=120)
     run = report.run
-    status = _status(run)
+    status = run_status(run)
     done, total = run.generations_done, run.config.get("generations", "?")
     title = f"{_run_title(run)}: {one_line(status)}, {done}/{one_line(total)} generations"
     table = _table(Text(title))  # Text: a run id's [bold] is no markup

@@ -1,5 +1,6 @@
 """What the report's figures share: a figure (`_figure`, matplotlib's Agg canvas, no pyplot),
-its title wrapped to fit (`_title`), the run's id as one line (`_run_title`), and writing it
+its title wrapped to fit (`_title`), the run's id as one line (`_run_title`) and its status
+(`run_status`), and writing it
 whole into ``RUN_DIR/report/`` (`_save`; a write that fails is one line, `_cannot_write`).
 """
 
@@ -8,13 +9,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ariel.errors import RunStorageError
+from ariel.errors import ArielError, RunStorageError
 from ariel.recording.store import (
+    STOPPED,
     Run,
+    RunFolder,
     atomic_write,
     cannot_write,
     figure_label,
     fitted,
+    holder_gone,
     one_line,
 )
 from ariel.utils import ariel_line
@@ -110,3 +114,18 @@ def _title(on: Any, text: str, *, fontsize: float = 12, suptitle: bool = False) 
     spec = on.get_subplotspec()  # the axes' share of the figure's width
     share = len(spec.colspan) / spec.get_gridspec().ncols
     on.set_title(fitted(text, on.figure.get_figwidth() * share, fontsize), fontsize=fontsize)
+
+
+def run_status(run: Run) -> str:
+    """run.json's status, `STOPPED` for a "running" run whose process is gone (SIGKILL, out
+    of memory), as `ariel runs` says (`holder_gone`); a run that ended while the report was
+    drawn (run.json read again: no longer "running") is said so, not called killed."""
+    status = str(run.info.get("status", "?"))
+    if status != "running" or not holder_gone(run.path):
+        return status
+    try:
+        now = RunFolder(run.path).read_info().get("status")
+    except (ArielError, OSError):
+        now = None
+    ended = now in ("finished", "interrupted", "failed")
+    return f"running when read, {now} since" if ended else STOPPED

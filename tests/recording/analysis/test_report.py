@@ -691,3 +691,19 @@ def test_a_long_run_s_morphology_draws_a_bounded_number_of_generations(
     assert sorted({float(min(b.get_xdata())) for b in boxes}) == pytest.approx(
         [-0.3 * (generations - 1), 0.7 * (generations - 1)], abs=1e-9
     )
+
+
+def test_a_run_that_ends_while_the_report_is_drawn_is_not_called_killed(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """Read while running, finished while the figures were drawn: the header said "stopped
+    (killed?)" (its lock was free by then), of a run that ended normally (probe G1)."""
+    from ariel.recording.analysis._report_figures import run_status
+
+    copy = Path(shutil.copytree(run_dir, tmp_path / "copy"))
+    info = json.loads((copy / "run.json").read_text())
+    (copy / "run.json").write_text(json.dumps({**info, "status": "running"}))
+    run = load_run(copy)
+    assert run_status(run) == "stopped (killed?)"  # no process holds it: killed
+    (copy / "run.json").write_text(json.dumps({**info, "status": "finished"}))
+    assert run_status(run) == "running when read, finished since"
