@@ -903,3 +903,19 @@ def test_a_campaign_json_condition_listed_twice_is_one_line(
     )
     assert exit_code(["campaign", "status", str(campaign)]) == 2
     assert "is listed twice" in one_error_line(capsys)
+
+
+def test_verify_of_a_finished_run_being_replaced_says_it_is_in_use(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """During `ariel run --overwrite` of a finished run, verify read its files as they were
+    deleted: "gen-000007.parquet is missing", a damaged run that was none (probe G1)."""
+    from ariel.recording.store import RunInUseError, RunLock
+
+    run = _run(tmp_path / "run")
+    with RunLock(run):
+        with pytest.raises(RunInUseError):
+            verify_run(run)
+        assert exit_code(["verify", str(run)]) == 2
+        assert "is in use by pid" in one_error_line(capsys)
+    assert verify_run(run).ok

@@ -21,7 +21,7 @@ import pyarrow.parquet as pq
 from ariel.recording.store._direction import direction_problem
 from ariel.recording.store._escape import short_ascii
 from ariel.recording.store._files import within
-from ariel.recording.store._lock import lock_holder
+from ariel.recording.store._lock import in_use_error, lock_holder
 from ariel.recording.store._manifest import (
     MANIFEST_FORMAT,
     after_the_last,
@@ -111,6 +111,8 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
     Raises:
         NotARunError: For a folder that is not a run at all (no readable run.json). A run.json
             holding what no run writes (a crafted run id) is a problem, not an exception.
+        RunInUseError: For a finished run whose folder a process holds: it is being replaced
+            (``ariel run --overwrite``) or pruned, and its files read as damage meanwhile.
 
     Example:
         ```python
@@ -133,6 +135,8 @@ def verify_run(run_dir: str | Path, generations: int | None = None) -> VerifyRes
         info = RunFolder(run_dir).read_info()
     except DamagedRunError as exc:  # a readable run.json holding what no run writes (its id)
         return VerifyResult(run_dir, 0, problems=[f"run.json: {exc}"], run_json_refused=True)
+    if holder is not None and info.get("status") == "finished":  # being replaced (--overwrite)
+        raise in_use_error(run_dir, holder)  # or pruned: what is read now is no state of it
     expected, problem = manifests_expected(run_dir, info)
     result = VerifyResult(run_dir, 0, checked=expected)
     if problem is not None:
