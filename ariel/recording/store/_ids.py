@@ -98,7 +98,14 @@ def check_new_id(value: str, *, campaign: bool = False) -> str:
     if pattern.fullmatch(value):
         return value
     raise ConfigError(
-        f"{what} id {_shown(value)} (the name of the {what} folder) cannot be one: a {what} id "
-        f"is {RUN_ID_RULE}, not starting with a space, at most {most} characters; choose "
-        "another --out"
+        f"{what} id {_shown(value)} (the name of the {what} folder) cannot be one{_why(value)}: "
+        f"a {what} id is {RUN_ID_RULE}, not starting with a space, at most {most} characters; "
+        "choose another --out"
     )
+
+
+def _why(value: str) -> str:
+    """`` (it holds 'x', U+0301)``: the first character no id may hold (an accent written as
+    a combining mark looks like a letter), or "" when it is the length or a leading space."""
+    bad = next((c for c in value if not re.fullmatch(rf"[ {_RUN_ID_CHARS}]", c)), None)
+    return "" if bad is None else f" (it holds {bad!r}, U+{ord(bad):04X})"

@@ -87,3 +87,19 @@ def test_csv_cells_a_spreadsheet_would_evaluate_are_quoted_and_no_others() -> No
         "'\t-1",
         " -1",
     ]
+
+
+@pytest.mark.parametrize(
+    ("name", "said"),
+    [("cafe\u0301", "(it holds '\u0301', U+0301)"), ("a\N{GRINNING FACE}", "U+1F600)")],
+)
+def test_a_name_that_cannot_be_a_run_id_names_its_character(name: str, said: str) -> None:
+    """An accent written as a combining mark was refused as "a run id is letters, ...", and
+    it looks like a letter: the line names the character (probe G4)."""
+    from ariel.errors import ConfigError
+    from ariel.recording.store import check_new_id
+
+    with pytest.raises(ConfigError) as refused:
+        check_new_id(name)
+    assert said in str(refused.value) and "a run id is letters, digits" in str(refused.value)
+    assert check_new_id("caf\u00e9") == "caf\u00e9"  # the composed é is a letter
