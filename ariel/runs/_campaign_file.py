@@ -164,6 +164,8 @@ def _one_line(error: ValidationError) -> str:
         return f"unknown key '{key}'; allowed: {', '.join(sorted(fields.model_fields))}"
     message = first["msg"].removeprefix("Value error, ")
     message = message.replace("Input should be ", "must be ", 1)
+    if first["type"] == "string_pattern_mismatch":  # the pattern is _NAME's: said in words
+        message = "a name is ASCII letters, digits and . _ - (it names a folder)"
     given = first.get("input")
     shown = "" if isinstance(given, dict | list) else f" (got {given!r})"
     if first["type"] in TYPE_ERRORS and not isinstance(given, dict | list):

@@ -106,6 +106,11 @@ CASES = {
         'seeding = "paired"\n',
         """seeding: must be "shared" or "independent" (got 'paired')""",
     ),
+    "a condition name no folder may have": (  # was the pattern itself (probe G4)
+        '[[condition]]\nname = "caf\u00e9"\n',
+        "condition.0.name: a name is ASCII letters, digits and . _ - (it names a folder) "
+        "(got 'caf\u00e9')",
+    ),
     "unknown plugin in a condition": (
         '[[condition]]\nname = "x"\nset = { "world.name" = "nope" }\n',
         "world.name: unknown world 'nope'",
