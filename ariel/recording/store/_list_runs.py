@@ -55,11 +55,13 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
         return []
     found = []
     for child in sorted(root.iterdir()):
-        if not child.is_dir():
-            continue
         try:
+            if not child.is_dir():
+                continue
             info = RunFolder(child).read_info()
             summary = _summary(child, info)
+        except OSError:  # a path no file system takes here (over PATH_MAX): listed, not fatal
+            summary = _unreadable(child)
         except (NotARunError, TypeError, ValueError, AttributeError):
             if not (child / "run.json").exists():
                 continue  # not a run folder at all

@@ -235,3 +235,27 @@ def test_a_run_killed_before_it_started_is_stopped_and_prunable(tmp_path: Path) 
     assert rows["odd"]["status"] == "unreadable" and rows["odd"]["created"] is None
     prune_run(tmp_path, tmp_path / "r")
     assert not (tmp_path / "r").exists()
+
+
+def test_one_entry_whose_path_is_too_long_does_not_stop_the_listing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`ariel runs PARENT` stopped with exit 2 over one entry whose path no file system takes
+    here (over PATH_MAX), listing none of the others (probe G4)."""
+    import errno
+    from pathlib import PosixPath
+
+    from ariel.recording import RunFolder
+
+    RunFolder.create(tmp_path / "good", {"run_id": "good", "status": "finished"}, overwrite=False)
+    (tmp_path / "long").mkdir()
+    real = PosixPath.is_dir
+
+    def is_dir(self: Path) -> bool:
+        if self.name == "long":
+            raise OSError(errno.ENAMETOOLONG, "File name too long", str(self))
+        return real(self)
+
+    monkeypatch.setattr(PosixPath, "is_dir", is_dir)
+    rows = {r["run_id"]: r["status"] for r in list_runs(tmp_path)}
+    assert rows == {"good": "finished", "long": "unreadable"}
