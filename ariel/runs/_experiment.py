@@ -126,8 +126,10 @@ def run_experiment(
 
     Ctrl-C (or SIGTERM or SIGHUP, unless this process ignores or handles it itself, as
     ``nohup`` does SIGHUP) raises `KeyboardInterrupt` with ``run_dir`` set to the folder to pass
-    to `resume_experiment`; the run's status is then ``interrupted``. A script that calls this
-    at its top level without ``if __name__ == "__main__":``, on the local executor: its workers
+    to `resume_experiment`; the run's status is then ``interrupted``. Called from another thread
+    than the main one, signals stay the main thread's (Python lets only it handle them): a
+    SIGTERM then ends the process as it would without ariel, the run left ``running`` (listed
+    as stopped, resumable). A script that calls this at its top level without ``if __name__ == "__main__":``, on the local executor: its workers
     say so on stderr, and the script ends (`SystemExit`, code 2) leaving no run folder.
 
     Args:
