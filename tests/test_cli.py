@@ -759,3 +759,22 @@ def test_every_command_s_help_has_a_description() -> None:
     every = commands(build_parser())
     assert {"runs", "resume", "plugins", "campaign status"} <= set(every)
     assert [name for name, command in every.items() if not command.description] == []
+
+
+def test_a_reader_of_a_running_run_says_it_is_still_running(
+    finished_run, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`replay RUN best`, `export RUN best` and `view --screenshot` of a run still going said
+    nothing of it: the best so far read as the run's best (probe G1)."""
+    import shutil
+
+    from ariel.recording.store import RunFolder, RunLock
+
+    run = Path(shutil.copytree(finished_run[0], tmp_path / "run"))
+    RunFolder(run).update_info(status="running")
+    with RunLock(run):
+        assert main(["replay", str(run), "best"]) == 0
+        err = capsys.readouterr().err
+        assert f"note: {run} is still running (" in err and "'best' is the best so far" in err
+    assert main(["replay", str(run), "best"]) == 0  # its process gone: no such note
+    assert "still running" not in capsys.readouterr().err

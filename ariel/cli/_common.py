@@ -12,7 +12,8 @@ import os
 import sys
 from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
-from ariel.recording.store import terminal_text
+from ariel.errors import ArielError
+from ariel.recording.store import RunFolder, holder_gone, terminal_text
 from ariel.utils import ensure_headless_gl, has_display
 
 __all__ = [
@@ -82,6 +83,25 @@ def fail(message: str) -> int:
         line = f"{line[:head]}{cut}{line[-KEPT_END:]}"
     print(f"ariel: error: {line}", file=sys.stderr)
     return EXIT_USAGE
+
+
+def note_if_running(run_dir: str | os.PathLike[str], what: str) -> None:
+    """A note on stderr where the run in ``run_dir`` is still running (its lock held): what a
+    reader shows of it (``what``: "'best' is the best so far") is not its end. Nothing for a
+    folder that is no run: that is the command's own line to say."""
+    try:
+        info = RunFolder(run_dir).read_info()
+        if info.get("status") != "running" or holder_gone(run_dir):
+            return
+    except (ArielError, OSError, ValueError):
+        return
+    config = info.get("config")
+    total = config.get("generations") if isinstance(config, dict) else None
+    done = f"{info.get('generations_done')}/{total}" if isinstance(total, int) else "some"
+    print(
+        terminal_text(f"note: {run_dir} is still running ({done} generations finished): {what}"),
+        file=sys.stderr,
+    )
 
 
 def fail_with(exc: BaseException) -> int:

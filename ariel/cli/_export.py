@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ariel import recording
-from ariel.cli._common import IntermixedParser, fail
+from ariel.cli._common import IntermixedParser, fail, note_if_running
 from ariel.recording import resim
 from ariel.recording.store import cannot_write, output_file_problem, terminal_text, user_file
 from ariel.utils import has_display, python_command, shell_path
@@ -63,6 +63,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
         return fail(f"--lineage: {problem}")
     if args.out is not None:
         out = resim.export(args.run_dir, str(args.eval_id), args.out)  # given with DIR
+        if args.eval_id == resim.BEST:
+            note_if_running(args.run_dir, "'best' is the best so far")
         python = python_command()
         body, replay = (shell_path(out / name) for name in ("body.xml", "replay.py"))
         # MuJoCo's viewer is a window: offered only where one can open (headless, it failed

@@ -9,7 +9,7 @@ import argparse
 import os
 from typing import TYPE_CHECKING
 
-from ariel.cli._common import fail, headless_unless_display
+from ariel.cli._common import fail, headless_unless_display, note_if_running
 from ariel.recording import resim
 from ariel.recording.store import cannot_write, output_file_problem, terminal_text
 from ariel.utils import has_display, no_display_why
@@ -54,6 +54,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     if args.video:  # replay() imports mujoco to re-simulate: the backend is chosen first
         headless_unless_display("run without --video")
     replayed = resim.replay(args.run_dir, args.eval_id)
+    if args.eval_id == resim.BEST:
+        note_if_running(args.run_dir, "'best' is the best so far")
     row = replayed.row
     _say(
         f"evaluation {replayed.eval_id} (generation {int(row['generation'])}, body "

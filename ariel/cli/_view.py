@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ariel.cli._common import IntermixedParser
+from ariel.cli._common import IntermixedParser, note_if_running
 from ariel.cli._options import add_web_viewer_options
 from ariel.cli._types import integer_at_least, positive_int
 from ariel.recording import viewer
@@ -91,6 +91,8 @@ def add_view_command(sub: SubParsers) -> None:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
+    if args.screenshot is not None:
+        note_if_running(args.run_dir, "the picture shows the generations finished so far")
     return viewer.view(
         args.run_dir,
         best=args.best,

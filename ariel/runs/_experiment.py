@@ -129,8 +129,9 @@ def run_experiment(
     to `resume_experiment`; the run's status is then ``interrupted``. Called from another thread
     than the main one, signals stay the main thread's (Python lets only it handle them): a
     SIGTERM then ends the process as it would without ariel, the run left ``running`` (listed
-    as stopped, resumable). A script that calls this at its top level without ``if __name__ == "__main__":``, on the local executor: its workers
-    say so on stderr, and the script ends (`SystemExit`, code 2) leaving no run folder.
+    as stopped, resumable). A script that calls this at its top level without ``if __name__ ==
+    "__main__":``, on the local executor: its workers say so on stderr, and the script ends
+    (`SystemExit`, code 2) leaving no run folder.
 
     Args:
         config: A config object, a TOML path, a dict, or None for the default experiment (as

@@ -19,6 +19,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
         load_exported as load_exported,
     )
     from ariel.recording.resim._rebuild import (
+        BEST as BEST,
         BODY_PLUGINS as BODY_PLUGINS,
         check_config as check_config,
         check_options as check_options,
@@ -42,6 +43,7 @@ if TYPE_CHECKING:  # what ARIEL's other packages import from here (not the API)
 
 # name -> module that defines it: for ARIEL's other packages, not part of the API
 _INTERNAL: dict[str, str] = {
+    "BEST": "ariel.recording.resim._rebuild",
     "BODY_PLUGINS": "ariel.recording.resim._rebuild",
     "ExportedRobot": "ariel.recording.resim._exported",
     "ReplayResult": "ariel.recording.resim._replay",
