@@ -778,3 +778,17 @@ def test_a_reader_of_a_running_run_says_it_is_still_running(
         assert f"note: {run} is still running (" in err and "'best' is the best so far" in err
     assert main(["replay", str(run), "best"]) == 0  # its process gone: no such note
     assert "still running" not in capsys.readouterr().err
+
+
+def test_a_folder_named_like_an_option_gets_a_hint(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`ariel verify -x` for a run folder named -x said "the following arguments are
+    required: RUN_DIR", though it was given (probe G4)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "-x").mkdir()
+    monkeypatch.setattr("sys.argv", ["ariel", "verify", "-x"])
+    assert exit_code(["verify", "-x"]) == 2
+    assert "'-x' was read as an option: write ./-x for the file or folder" in (
+        capsys.readouterr().err
+    )

@@ -36,7 +36,20 @@ class Parser(argparse.ArgumentParser):
     """argparse, but a usage error is one line (the message and where to get help)."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(
+            EXIT_USAGE,
+            f"{self.prog}: error: {message}{_dash_path_hint()} (see {self.prog} --help)\n",
+        )
+
+
+def _dash_path_hint() -> str:
+    """``; '-x' was read as an option: write ./-x for the folder`` where a word of the command
+    line starting with ``-`` names a file or folder here (``ariel verify -x`` said "the
+    following arguments are required: RUN_DIR", though the user gave it)."""
+    for word in sys.argv[1:]:
+        if word.startswith("-") and word not in ("-", "--") and os.path.lexists(word):
+            return f"; {word!r} was read as an option: write ./{word} for the file or folder"
+    return ""
 
 
 class IntermixedParser(Parser):
