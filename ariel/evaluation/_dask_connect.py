@@ -182,5 +182,11 @@ async def _identity(distributed: ModuleType, address: str) -> object:
 
 
 def _unreachable(address: str, exc: BaseException) -> str:
+    if address.startswith("inproc://"):  # Dask's own error: "not enough values to unpack"
+        return (
+            f"address: no Dask scheduler of this process is at {address} (inproc:// reaches "
+            "one made in this Python process, e.g. LocalCluster(processes=False); from another "
+            "process or the command line give tcp://HOST:PORT)"
+        )
     reason = (str(exc).strip().splitlines() or [""])[0][:200]
     return f"address: cannot reach the Dask scheduler at {address}: {type(exc).__name__}: {reason}"

@@ -335,3 +335,12 @@ def test_a_local_cluster_whose_worker_cannot_start_is_one_line_and_no_folder(
             assert err.startswith("ariel: error: the local Dask cluster could not start its 1")
             assert "first error: MemoryError (raised in distributed/worker_memory.py" in err
             assert not out.exists()
+
+
+def test_an_inproc_address_with_no_scheduler_here_says_what_inproc_reaches() -> None:
+    """`--address inproc://x` passed the form check and then failed inside Dask: "ValueError:
+    not enough values to unpack (expected 3, got 1)" (probe G6)."""
+    from ariel.evaluation._dask_connect import DaskAddressError, check_scheduler
+
+    with pytest.raises(DaskAddressError, match=r"inproc:// reaches one made in this Python"):
+        check_scheduler("inproc://x")
