@@ -792,3 +792,15 @@ def test_a_folder_named_like_an_option_gets_a_hint(
     assert "'-x' was read as an option: write ./-x for the file or folder" in (
         capsys.readouterr().err
     )
+
+
+def test_a_run_s_folder_lines_are_escaped_for_the_terminal(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A parent folder named with ESC reached the terminal raw in the "run ...:" and "run
+    folder:" lines (ESC[31m turned the terminal red; ESC]0; set its title) (probe G4)."""
+    out = tmp_path / "a\x1b[31m" / "run"
+    tiny = ["run", str(REPO / "tests/data/run_tiny.toml"), "--set", "generations=1"]
+    assert main([*tiny, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "run folder: " in printed and "\x1b" not in printed

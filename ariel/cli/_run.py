@@ -105,7 +105,7 @@ def _print_result(result: RunResult) -> None:
     )
     print(f"{r.status}: {r.run_id}: {best}, {r.evaluations} evaluations in {r.wall_seconds:.1f} s")
     shown = _below_here(Path(r.run_dir))  # absolute in the result, relative where it can be
-    print(f"run folder: {shown}")
+    print(terminal_text(f"run folder: {shown}"))  # any characters, ESC too
     print(_how_to_look(shown, best=bool(r.best_eval_id)))
 
 

@@ -30,7 +30,13 @@ from ariel.evolution import (
     shows_progress,
 )
 from ariel.plugins import REGISTRIES, script_plugins
-from ariel.recording.store import RunFolder, check_new_id, check_path_names, storage_errors
+from ariel.recording.store import (
+    RunFolder,
+    check_new_id,
+    check_path_names,
+    storage_errors,
+    terminal_text,
+)
 from ariel.runs._prepare import (  # noqa: F401 - resolve_plugins and _read_genotype_file: tests
     PreparedRun,
     _read_genotype_file,
@@ -92,7 +98,7 @@ def _drive(session: RunSession, show_progress: bool | None) -> RunResult:
     session.start(progress)
     if progress.enabled:
         shown = f"{session.run_id}: {session.folder.path} ({progress.total} evaluations)"
-        print(f"run {shown}", flush=True)
+        print(terminal_text(f"run {shown}"), flush=True)  # a folder's name: any characters
     drive([session], session.prepared.settings, progress)
     return session.result()
 
