@@ -153,14 +153,28 @@ def refuse_symlinks(path: str | os.PathLike[str], root: str | os.PathLike[str] |
 NAME_MAX = 255
 
 
+#: The longest path a run writes inside its folder (a replay's temporary, numbers at their
+#: widest): a folder whose path leaves no room for it is refused before anything is made.
+DEEPEST_IN_RUN = (
+    "recordings/gen-000000/replays/.b000000000000-i000000000000-c000000000000.rrd.0123abcd.tmp"
+)
+#: Linux's PATH_MAX, the terminating NUL included.
+PATH_MAX = 4096
+
+
 def check_path_names(path: str | os.PathLike[str]) -> None:
     """Raise ``OSError(ENAMETOOLONG)`` when a name in ``path`` is longer than `NAME_MAX`
-    bytes, and ``OSError(EILSEQ)`` when ``path`` is not UTF-8 (bytes a file system takes, but
-    Rerun writes its recordings only to UTF-8 paths: the run died in its first generation):
-    before a new folder's parents are made, so that a refused name leaves none."""
+    bytes, or when the run folder ``path`` leaves no room within `PATH_MAX` for the deepest
+    file a run writes in it (`DEEPEST_IN_RUN`: a path of 4,060 bytes left a half-made run), and
+    ``OSError(EILSEQ)`` when ``path`` is not UTF-8 (bytes a file system takes, but Rerun
+    writes its recordings only to UTF-8 paths: the run died in its first generation): before
+    a new folder's parents are made, so that a refused name leaves none."""
     if any(len(os.fsencode(part)) > NAME_MAX for part in Path(path).parts):
         raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG), os.fspath(path))
     whole = os.fspath(Path(path).absolute())  # the current folder's name counts too
+    deepest = os.path.join(whole, DEEPEST_IN_RUN)
+    if len(os.fsencode(deepest)) >= PATH_MAX:
+        raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG), deepest)
     try:
         whole.encode("utf-8")
     except UnicodeEncodeError:

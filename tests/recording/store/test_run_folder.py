@@ -103,3 +103,22 @@ def test_a_name_that_cannot_be_a_run_id_names_its_character(name: str, said: str
         check_new_id(name)
     assert said in str(refused.value) and "a run id is letters, digits" in str(refused.value)
     assert check_new_id("caf\u00e9") == "caf\u00e9"  # the composed é is a letter
+
+
+def test_a_run_folder_without_room_for_its_deepest_file_is_refused_before_it_is_made(
+    tmp_path: Path,
+) -> None:
+    """An --out of 4,060 bytes (every name short) was made, and the run died writing a
+    recording deeper in it, leaving a half-made run (probe G4)."""
+    import errno
+
+    from ariel.recording.store._files import DEEPEST_IN_RUN, PATH_MAX, check_path_names
+
+    room = PATH_MAX - len(str(tmp_path)) - len(DEEPEST_IN_RUN) - 2  # for the folder's names
+    fits = tmp_path.joinpath(*["a" * 200] * (room // 201))
+    check_path_names(fits)  # within PATH_MAX with its deepest file: taken
+    too_long = tmp_path.joinpath(*["c" * 200] * (room // 201 + 1))
+    with pytest.raises(OSError) as refused:
+        check_path_names(too_long)
+    assert refused.value.errno == errno.ENAMETOOLONG and refused.value.filename.endswith(".tmp")
+    assert not (tmp_path / ("c" * 200)).exists()
