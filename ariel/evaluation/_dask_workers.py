@@ -6,7 +6,8 @@ values that the run recorded as its own, and a worker that could not import arie
 every task without a word while the run waited. When a run starts on a scheduler, each worker
 connected then is asked for a fingerprint of its ``ariel`` package (`code_fingerprint`: the
 SHA-256 of every module's path and bytes), in bounded time; a worker that differs, or fails
-to answer with one, is one line. Workers that join later are not asked.
+to answer with one, is one line. A worker that joins later is asked when the run next looks
+at its workers (`DaskExecutor.stalled`, every few seconds), and stops the run, resumable.
 """
 
 from __future__ import annotations
@@ -44,13 +45,16 @@ def code_fingerprint() -> str:
     return digest.hexdigest()[:16]
 
 
-def check_workers(client: Client, expected: str | None = None) -> None:
+def check_workers(
+    client: Client, expected: str | None = None, workers: list[str] | None = None
+) -> None:
     """Each worker connected to ``client``'s scheduler runs ``expected`` ariel code.
 
     Args:
         client: The run's client.
         expected: The fingerprint the workers must have; None: this process's
             (`code_fingerprint`).
+        workers: The workers to ask (their addresses); None: every one connected now.
 
     Raises:
         ExecutorStartError: Naming the first worker whose ariel differs, or that could not
@@ -61,7 +65,7 @@ def check_workers(client: Client, expected: str | None = None) -> None:
 
     def ask() -> None:
         try:
-            answer["found"] = client.run(code_fingerprint, on_error="return")
+            answer["found"] = client.run(code_fingerprint, workers=workers, on_error="return")
         except BaseException as exc:  # handed to the caller's thread
             answer["error"] = exc
 

@@ -113,6 +113,7 @@ class DaskExecutor(EvaluationExecutor):
         self._executor = client.get_executor(pure=False)
         self._closed = False
         self._none_since: float | None = None  # when `stalled` first saw no worker
+        self._checked: set[str] = set()  # workers known to run this ariel (`check_workers`)
         self._notes = 0
         #: Dask's log lines, held back while our LocalCluster runs (None: a cluster of yours).
         self.logs = logs
@@ -136,6 +137,9 @@ class DaskExecutor(EvaluationExecutor):
         tasks would wait for ever); before that, every `note_every` seconds without one, a
         note on stderr (a batch queue may be slow to start workers). None while workers are
         there."""
+        if getattr(self.client, "status", None) in ("closing", "closed"):  # gave up: for good
+            address = getattr(self.client.scheduler, "address", None) or "of the run"
+            return f"the Dask scheduler {address} is gone (its client stopped reconnecting)"
         trouble = ""
         try:  # our own cluster's frozen workers count as none (`answering_workers`)
             count = (
@@ -150,7 +154,7 @@ class DaskExecutor(EvaluationExecutor):
         now = time.monotonic()
         if count:
             self._none_since, self._notes = None, 0
-            return None
+            return self._new_workers_problem()
         if self._none_since is None:
             self._none_since = now
         waited = now - self._none_since
@@ -175,6 +179,27 @@ class DaskExecutor(EvaluationExecutor):
                 file=sys.stderr,
                 flush=True,
             )
+        return None
+
+    def _new_workers_problem(self) -> str | None:
+        """A worker that joined a scheduler of the user's since the last look and runs other
+        ariel code (`check_workers`; a local cluster's workers are this ariel): the reason to
+        stop, or None. Looked for at each `stalled`, so its results reach no finished
+        generation but one that ends within `watch_seconds` of its joining."""
+        if self.cluster is not None or not hasattr(self.client, "run"):
+            return None
+        try:
+            workers = set(self.client.nthreads())
+        except Exception:  # the scheduler does not answer: said on the next look
+            return None
+        new = sorted(workers - self._checked)
+        if not new:
+            return None
+        try:
+            check_workers(self.client, workers=new)
+        except ExecutorStartError as exc:
+            return str(exc).replace(", then run again", ", then resume the run")
+        self._checked.update(new)
         return None
 
     def submit(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> cf.Future[R]:

@@ -122,8 +122,11 @@ class Scheduler:
     def _check_stalled(self) -> None:
         """Stop the run (`Stopped`) when the executor says it will give no more results."""
         reason = self.executor.stalled()
-        if not reason:
-            return
+        if reason:
+            self._stop(reason)
+
+    def _stop(self, reason: str) -> None:
+        """Stop the run (`Stopped`): ``reason`` and the generations it stopped at."""
         generations = sorted(
             {
                 generation
@@ -207,6 +210,12 @@ class Scheduler:
             results = future.result()
         except cf.BrokenExecutor as exc:  # the pool, not this chunk: one at a time cannot help
             raise batch.work.task_error(batch.tasks[part[0]], exc) from exc
+        except cf.CancelledError:  # not by this scheduler: its executor went (a Dask client
+            # closed once its scheduler was gone), which no plugin did
+            stalled = getattr(self.executor, "stalled", lambda: None)()
+            self._stop(
+                stalled or "the executor cancelled the run's evaluations (its cluster is gone)"
+            )
         except Exception as exc:
             if len(part) > 1:  # one at a time: the bad one fails, the rest finish
                 batch.left += len(part) - 1

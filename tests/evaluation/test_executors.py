@@ -478,3 +478,37 @@ def test_a_worker_running_other_ariel_code_is_refused(monkeypatch: pytest.Monkey
         monkeypatch.setattr(client, "run", lambda *args, **kwargs: failed)
         with pytest.raises(ExecutorStartError, match="could not say which ariel it runs \\(Imp"):
             check_workers(client)
+
+
+@needs_dask
+def test_a_worker_that_joins_with_other_ariel_code_stops_the_run(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Checked at the start only, a worker with edited code that joined mid-run had 88 of 240
+    evaluations recorded from it (probe R9): each new worker is asked as the run looks at its
+    workers (`stalled`), and one of other code stops the run, resumable; a closed client (its
+    scheduler gone for good) is a reason at once."""
+    from distributed import LocalCluster
+
+    from ariel.evaluation import _dask_workers, _executor_dask
+
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+        executor = make_executor("dask", address=cluster.scheduler_address)
+        with executor:
+            assert executor.stalled() is None  # the worker runs this ariel
+            real = _dask_workers.check_workers
+            monkeypatch.setattr(
+                _executor_dask,
+                "check_workers",
+                lambda client, workers=None: real(client, "0" * 16, workers),
+            )
+            assert executor.stalled() is None  # asked once: not again
+            cluster.scale(2)
+            cluster.wait_for_workers(2, timeout=60)
+            reason = executor.stalled()
+            assert reason is not None and "runs other ariel code than this process" in reason
+            assert reason.endswith("then resume the run")
+            status = executor.client.status
+            executor.client.status = "closed"
+            assert executor.stalled().startswith("the Dask scheduler ")
+            executor.client.status = status

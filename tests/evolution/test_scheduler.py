@@ -197,3 +197,24 @@ def test_a_signal_taken_inside_rerun_s_writer_is_an_interrupt(
         _rerun._write_chunks(tmp_path / "run.rrd", "r", [], fsync=False)
     assert stopped.value.signum == signal.SIGTERM
     assert not (tmp_path / "run.rrd").exists()
+
+
+def test_evaluations_its_executor_cancelled_stop_the_run_not_a_plugin() -> None:
+    """A Dask client closed once its scheduler was gone cancels every future: each read as a
+    plugin's CancelledError ("fix the plugin", status failed) (probe R9)."""
+    from ariel.utils.interrupts import Stopped
+
+    class Cancelling(FakeExecutor):
+        def submit_batch(self, tasks: list[Any], *, timeout: float | None = None) -> cf.Future:
+            future: cf.Future = cf.Future()
+            future.cancel()
+            future.set_running_or_notify_cancel()  # as an executor does for those it cancels
+            return future
+
+        def stalled(self) -> str:
+            return "the Dask scheduler tcp://h:1 is gone (its client stopped reconnecting)"
+
+    work = Counting("a", 0, 2, 2)
+    with pytest.raises(Stopped) as stopped:
+        Scheduler(Cancelling(1), timeout=None).run([group("a", [[work]], [])])
+    assert stopped.value.reason.startswith("the Dask scheduler tcp://h:1 is gone")
