@@ -17,6 +17,7 @@ import math
 import os
 import re
 import shlex
+import sys
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
@@ -24,6 +25,7 @@ from ariel import evolution
 from ariel.cli._options import add_set_option
 from ariel.errors import ConfigError
 from ariel.recording.store import RunFolder
+from ariel.utils import ariel_line
 
 if TYPE_CHECKING:
     from ariel.cli._common import SubParsers
@@ -107,21 +109,41 @@ def _unused_keys(config: ExperimentConfig) -> dict[str, tuple[str, bool]]:
     return {"executor.device": (why, executor.device == default)}
 
 
-def _run_config(folder: str) -> dict[str, object]:
-    """The config run.json of the run folder ``folder`` holds (every key, as the run began);
-    a folder that is no run, or whose config is no table, is one line."""
-    config = RunFolder(folder).read_info().get("config")
-    if not isinstance(config, dict):
+def _run_config(folder: str, overrides: list[str]) -> tuple[ExperimentConfig, str]:
+    """The config run.json of the run folder ``folder`` holds (every key, as the run began),
+    with ``overrides``, and a warning ("" for none) where it is not the config the run began
+    with (its ``config_hash`` differs: edited since, as ``ariel verify`` says); a folder that
+    is no run, or whose config is no table or holds a bad value, is one line."""
+    info = RunFolder(folder).read_info()
+    plain = info.get("config")
+    if not isinstance(plain, dict):
         raise ConfigError(f"{str(folder)!r}: run.json holds no config table")
-    return config
+    try:
+        began = evolution.config_hash(evolution.ExperimentConfig.from_plain(plain))
+        config = evolution.load_config(plain, overrides)
+    except ConfigError as exc:
+        raise ConfigError(f"{os.path.join(folder, 'run.json')}: {exc}") from None
+    if began == info.get("config_hash"):
+        return config, ""
+    return config, (
+        "warning: run.json's config does not match its config_hash: edited after the run began "
+        f"({ariel_line('verify', folder)} says so), or written by an older ariel whose configs "
+        "had other keys; this may not be what the run ran"
+    )
 
 
 def _cmd_config_show(args: argparse.Namespace) -> int:
     # a bad file, key or value: ConfigError, one line
-    folder = args.file is not None and os.path.isdir(args.file)
-    config = evolution.load_config(_run_config(args.file) if folder else args.file, args.set)
-    source = args.file or "the default experiment (experiments/coevolve_flat.toml)"
-    source = f"the config of run {args.file}" if folder else source
+    warning = ""
+    if args.file is not None and os.path.isdir(args.file):  # a run folder
+        config, warning = _run_config(args.file, args.set)
+        source = f"the config of run {args.file}"
+    else:
+        config = evolution.load_config(args.file, args.set)
+        source = args.file or "the default experiment (experiments/coevolve_flat.toml)"
+    if warning:
+        print(warning, file=sys.stderr)
+        print(f"# {warning}")
     overrides = "".join(f" --set {shlex.quote(item)}" for item in args.set)
     print(f"# {source}{overrides}, resolved: every key, defaults included")
     print("# the keys: docs/evolution.md, 'Configuration keys'")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
@@ -291,9 +292,10 @@ def run_info(prepared: PreparedRun, run_id: str) -> dict[str, Any]:
 def _maker(info: Mapping[str, object]) -> str:
     """Which ariel made a run, for the line refusing it: run.json's commit, else its date."""
     commit, created = info.get("git_commit"), info.get("created")
-    if isinstance(commit, str) and commit:
-        return f"commit {short_ascii(commit)[:12]}, run.json's git_commit"
-    made = f"made {short_ascii(created)[:10]}" if isinstance(created, str) else "date unknown"
+    if isinstance(commit, str) and re.fullmatch(r"[0-9a-f]{7,64}(-dirty)?", commit):
+        return f"commit {commit}, run.json's git_commit"
+    day = created[:10] if isinstance(created, str) else ""
+    made = f"made {day}" if re.fullmatch(r"\d{4}-\d{2}-\d{2}", day) else "date unknown"
     return f"{made}; run.json names no git commit"
 
 
@@ -303,6 +305,11 @@ def resumable(folder: RunFolder) -> tuple[dict[str, Any], ExperimentConfig, Loop
     if info.get("status") == "finished":
         raise ValueError(f"run {str(folder.path)!r} is already finished; nothing to resume")
     made = results_version(info)
+    if isinstance(made, int) and not isinstance(made, bool) and made > RESULTS_VERSION:
+        raise ValueError(
+            f"run {str(folder.path)!r} was made by a newer ariel (results version {made}; this "
+            f"ariel's: {RESULTS_VERSION}): upgrade ariel to resume it"
+        )
     if made != RESULTS_VERSION:
         raise ValueError(
             f"run {str(folder.path)!r} was made by an ariel whose results differ from this "

@@ -54,6 +54,11 @@ def new_folder(parent: Path, name: str) -> Path:
         The new, empty folder: this call made it, no other; `FileExistsError` when
         `MAX_TRIES` are taken.
     """
+    if (parent.exists() or parent.is_symlink()) and not parent.is_dir():
+        raise FileExistsError(
+            f"{str(parent)!r} is not a folder: new folders are made in it; move it away or "
+            "give --out"
+        )
     parent.mkdir(parents=True, exist_ok=True)
     for path in _candidates(parent, name):
         try:

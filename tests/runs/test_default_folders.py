@@ -96,3 +96,10 @@ def test_a_campaign_whose_default_folder_was_taken_meanwhile_takes_the_next(
     assert info["campaign_id"] == mine.name
     assert all(run["run_id"].startswith(f"{name}-2-") for run in info["runs"])
     assert (other / "run.json").read_text() == "{}"
+
+
+def test_a_file_where_the_runs_folder_goes_is_said_so(tmp_path: Path) -> None:
+    """``data/runs`` a file: "[Errno 17] File exists: 'data/runs'" (probe R9)."""
+    (tmp_path / "runs").write_text("a file")
+    with pytest.raises(FileExistsError, match=r"'.*runs' is not a folder: new folders are made"):
+        new_folder(tmp_path / "runs", "r-20261128-101500-s1")

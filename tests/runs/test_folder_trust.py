@@ -317,7 +317,7 @@ def test_a_run_of_another_results_version_is_not_resumed(
     assert f"config show {run} > config.toml" in line
     assert exit_code(["config", "show", str(run)]) == 0
     shown = capsys.readouterr().out
-    assert shown.startswith(f"# the config of run {run}, resolved")
+    assert f"# the config of run {run}, resolved" in shown  # (an older config: a warning)
     config = json.loads((run / "run.json").read_text())["config"]
     assert f"seed = {config['seed']}" in shown and f'name = "{config["name"]}"' in shown
 
@@ -386,3 +386,44 @@ def test_a_resume_with_other_software_says_so_where_it_resumes(
     edit_json(run / "run.json", lambda info: info.update(results_version=0))
     _note_software_change(str(run))
     assert capsys.readouterr().err == ""  # the resume's refusal is the one line
+
+
+def test_the_refusal_names_the_maker_cleanly_and_a_newer_version_says_upgrade(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The maker's date lost its last digit inside a stray quote ("made '2026-11-2"), a commit
+    its -dirty; a run of a newer results version was told to go back (probe R9)."""
+    run = next(campaign.glob("runs/*/*"))
+    created = json.loads((run / "run.json").read_text())["created"][:10]
+    edit_json(run / "run.json", lambda info: info.update(results_version=0, git_commit=None))
+    assert exit_code(["resume", str(run), "--quiet"]) == 2
+    assert f"(made {created}; run.json names no git commit)" in one_error_line(capsys)
+    edit_json(run / "run.json", lambda info: info.update(git_commit="0123abc-dirty"))
+    assert exit_code(["resume", str(run), "--quiet"]) == 2
+    assert "(commit 0123abc-dirty, run.json's git_commit)" in one_error_line(capsys)
+    edit_json(run / "run.json", lambda info: info.update(results_version=3))
+    assert exit_code(["resume", str(run), "--quiet"]) == 2
+    assert one_error_line(capsys).endswith(
+        "was made by a newer ariel (results version 3; this ariel's: 2): upgrade ariel to resume it"
+    )
+    edit_json(run / "run.json", lambda info: info.update(results_version=2, format=True))
+    assert exit_code(["resume", str(run), "--quiet"]) == 2  # true is no format 1
+    assert "not a run.json of format 1" in one_error_line(capsys)
+
+
+def test_config_show_of_a_run_whose_config_was_edited_warns(
+    campaign: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Edited after the run began (verify: hash mismatch), the config was printed as "the config
+    of run ..." without a word, to be pasted as the run's (probe R9)."""
+    run = next(campaign.glob("runs/*/*"))
+    assert exit_code(["config", "show", str(run)]) == 0
+    assert "warning" not in capsys.readouterr().err
+    edit_json(run / "run.json", lambda info: info["config"].update(seed=7))
+    assert exit_code(["config", "show", str(run)]) == 0
+    out, err = capsys.readouterr()
+    assert err.startswith("warning: run.json's config does not match its config_hash")
+    assert out.startswith("# warning: run.json's config") and "seed = 7" in out
+    edit_json(run / "run.json", lambda info: info["config"]["body"].update(population="x"))
+    assert exit_code(["config", "show", str(run)]) == 2
+    assert f"{run / 'run.json'}: body.population" in one_error_line(capsys)

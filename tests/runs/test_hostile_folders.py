@@ -454,6 +454,7 @@ def test_a_run_made_before_manifests_is_checked_against_a_manifest_it_has(
             "'other-s3'",
         ),
         (lambda info: info.update(config="x"), "run.json has no config (its 'config' is 'x')"),
+        (lambda info: info.update(maximise="yes"), "run.json has maximise 'yes', not true or"),
         (
             lambda info: info.update(maximise=not info["maximise"]),
             "run.json has maximise false, but its fitness function 'xy_displacement' "

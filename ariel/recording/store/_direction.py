@@ -23,6 +23,8 @@ def direction_problem(info: Mapping[str, object], fitness: str) -> str | None:
         One line for `ariel verify`, or None.
     """
     recorded = info.get("maximise")
+    if "maximise" in info and not isinstance(recorded, bool):  # what no ariel writes
+        return f"run.json has maximise {recorded!r}, not true or false"
     try:
         plugin = fitness_functions.get(fitness)
     except (KeyError, ValueError, ImportError):

@@ -36,6 +36,7 @@ __all__ = [
     "check_path_names",
     "damaged",
     "fsync_folder",
+    "is_format",
     "json_text",
     "not_of_format",
     "output_file_problem",
@@ -348,6 +349,12 @@ def read_regular_file(path: str | os.PathLike[str], limit: int) -> bytes:
         size = max(info.st_size, len(data))
         raise ValueError(f"{size:,} bytes, more than the {_size(limit)} such a file may have")
     return data
+
+
+def is_format(found: object, expected: int) -> bool:
+    """Whether a file's ``format`` is ``expected``: a whole number, not ``true`` (which Python
+    takes for 1)."""
+    return type(found) is int and found == expected
 
 
 def not_of_format(what: str, found: object, expected: int) -> str:

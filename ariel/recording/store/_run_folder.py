@@ -26,6 +26,7 @@ from ariel.recording.store._files import (
     atomic_write_json,
     check_path_names,
     damaged,
+    is_format,
     not_of_format,
     read_regular_file,
     remove_temporaries,
@@ -344,7 +345,7 @@ class RunFolder:
             raise NotARunError(f"{str(self.path)!r} is not an ariel run folder ({why})") from None
         except (OSError, ValueError) as exc:
             raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
-        if not isinstance(info, dict) or info.get("format") != RUN_FORMAT:
+        if not isinstance(info, dict) or not is_format(info.get("format"), RUN_FORMAT):
             found = info.get("format") if isinstance(info, dict) else None
             raise NotARunError(f"{self.run_json}: {not_of_format('run.json', found, RUN_FORMAT)}")
         if "run_id" in info:  # shown, written into exports and recordings: never a crafted one
@@ -400,7 +401,7 @@ class RunFolder:
             raise NotARunError(
                 f"{self.checkpoint}: unreadable checkpoint ({type(exc).__name__}: {first})"
             ) from None
-        if not isinstance(payload, dict) or payload.get("format") != CHECKPOINT_FORMAT:
+        if not isinstance(payload, dict) or not is_format(payload.get("format"), CHECKPOINT_FORMAT):
             found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
             problem = not_of_format("checkpoint", found, CHECKPOINT_FORMAT)
             raise NotARunError(f"{self.checkpoint}: {problem}")
