@@ -135,6 +135,11 @@ def test_using_the_api_leaves_python_s_random_state_alone() -> None:
         "ariel.runs.run_experiment, ariel.recording.make_report, ariel.console\n"
         "print(random.random() == expected)\n"
     )
+    _prints_true(script)
+
+
+def _prints_true(script: str) -> None:
+    """``script``, run in a fresh interpreter, prints True."""
     done = subprocess.run(
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
     )
@@ -151,7 +156,4 @@ def test_loading_a_plugin_leaves_the_global_generators_alone() -> None:
         "ariel.plugins.brain_optimizers.get('nevergrad')\n"
         "print((random.random(), np.random.random()) == expected)\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
-    )
-    assert done.stdout.strip() == "True", done.stderr[-2000:]
+    _prints_true(script)

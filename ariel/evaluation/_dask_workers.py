@@ -23,7 +23,7 @@ from ariel.errors import ExecutorStartError
 if TYPE_CHECKING:
     from distributed import Client
 
-__all__ = ["ASK_SECONDS", "check_workers", "code_fingerprint"]
+__all__ = ["ASK_SECONDS", "check_workers", "code_fingerprint", "workers_problem"]
 
 #: Seconds the workers have to answer; past it the run starts unchecked (a busy worker).
 ASK_SECONDS = 30.0
@@ -48,7 +48,8 @@ def code_fingerprint() -> str:
 def check_workers(
     client: Client, expected: str | None = None, workers: list[str] | None = None
 ) -> None:
-    """Each worker connected to ``client``'s scheduler runs ``expected`` ariel code.
+    """Each worker connected to ``client``'s scheduler runs ``expected`` ariel code, as a
+    run starts (`workers_problem`).
 
     Args:
         client: The run's client.
@@ -59,6 +60,27 @@ def check_workers(
     Raises:
         ExecutorStartError: Naming the first worker whose ariel differs, or that could not
             say (it cannot import ariel, say), and what to do.
+    """
+    problem = workers_problem(client, expected, workers)
+    if problem is not None:
+        raise ExecutorStartError(f"{problem}, then run again")
+
+
+def workers_problem(
+    client: Client, expected: str | None = None, workers: list[str] | None = None
+) -> str | None:
+    """The first worker of ``workers`` (None: every one connected now) whose ariel is not
+    ``expected`` (None: this process's, `code_fingerprint`), or that could not say, and what to
+    do (the caller ends the line with how to go on); None where every one that answered within
+    `ASK_SECONDS` runs it.
+
+    Args:
+        client: The run's client.
+        expected: The fingerprint the workers must have.
+        workers: The workers to ask (their addresses).
+
+    Returns:
+        The line, or None.
     """
     expected = code_fingerprint() if expected is None else expected
     answer: dict[str, object] = {}
@@ -74,7 +96,7 @@ def check_workers(
     thread.join(ASK_SECONDS)
     found = answer.get("found")
     if not isinstance(found, dict):  # no answer in time, or none at all: left unchecked
-        return
+        return None
     for worker, value in sorted(found.items()):
         if value == expected:
             continue
@@ -82,7 +104,8 @@ def check_workers(
             why = f"could not say which ariel it runs ({type(value).__name__}: {value})"
         else:
             why = f"runs other ariel code than this process (fingerprint {value}, here {expected})"
-        raise ExecutorStartError(
+        return (
             f"Dask worker {worker} {why}: its results would not be this ariel's; give every "
-            "worker machine the same ariel (docs/executors.md), then run again"
+            "worker machine the same ariel (docs/executors.md)"
         )
+    return None

@@ -33,7 +33,7 @@ from ariel.evaluation._dask_local import (
     stop_signals_left_to_driver,
 )
 from ariel.evaluation._dask_logs import DaskLogs, quiet_cancel_race
-from ariel.evaluation._dask_workers import check_workers
+from ariel.evaluation._dask_workers import check_workers, workers_problem
 from ariel.evaluation._executor_base import EvaluationExecutor, worker_environment
 from ariel.evaluation._threads import default_workers
 
@@ -137,7 +137,7 @@ class DaskExecutor(EvaluationExecutor):
         tasks would wait for ever); before that, every `note_every` seconds without one, a
         note on stderr (a batch queue may be slow to start workers). None while workers are
         there."""
-        if getattr(self.client, "status", None) in ("closing", "closed"):  # gave up: for good
+        if self._client_closed:  # it gave up reconnecting: for good
             address = getattr(self.client.scheduler, "address", None) or "of the run"
             return f"the Dask scheduler {address} is gone (its client stopped reconnecting)"
         trouble = ""
@@ -181,12 +181,18 @@ class DaskExecutor(EvaluationExecutor):
             )
         return None
 
+    @property
+    def _client_closed(self) -> bool:
+        """Whether the client closed itself: its scheduler was gone and it gave up
+        reconnecting (Dask's 30 s), so no result will come and nothing is left to cancel."""
+        return getattr(self.client, "status", None) in ("closing", "closed")
+
     def _new_workers_problem(self) -> str | None:
         """A worker that joined a scheduler of the user's since the last look and runs other
         ariel code (`check_workers`; a local cluster's workers are this ariel): the reason to
         stop, or None. Looked for at each `stalled`, so its results reach no finished
         generation but one that ends within `watch_seconds` of its joining."""
-        if self.cluster is not None or not hasattr(self.client, "run"):
+        if self.cluster is not None:
             return None
         try:
             workers = set(self.client.nthreads())
@@ -195,10 +201,9 @@ class DaskExecutor(EvaluationExecutor):
         new = sorted(workers - self._checked)
         if not new:
             return None
-        try:
-            check_workers(self.client, workers=new)
-        except ExecutorStartError as exc:
-            return str(exc).replace(", then run again", ", then resume the run")
+        problem = workers_problem(self.client, workers=new)
+        if problem is not None:
+            return f"{problem}, then resume the run"
         self._checked.update(new)
         return None
 
@@ -231,7 +236,7 @@ class DaskExecutor(EvaluationExecutor):
         try:
             self._executor.shutdown(wait=wait and not cancel_futures)
         except Exception:
-            if self.client.status not in ("closing", "closed"):
+            if not self._client_closed:
                 raise
             # The client closed itself (its scheduler gone): nothing is left to wait for or
             # to cancel, and its error would replace the one line saying why the run stopped.

@@ -200,13 +200,14 @@ def run_experiment(
     if out is not None:  # the default one is claimed new below
         RunFolder.check_new(path, overwrite=overwrite)
     reach_executor(settings)  # a scheduler that never answers: no folder
-    claimed = new_folder(DEFAULT_RUN_ROOT, run_id) if out is None else None  # two at once
-    path, run_id = (claimed, claimed.name) if claimed is not None else (path, run_id)
+    if out is None:  # claimed now: two runs started in one second named one folder
+        path = new_folder(DEFAULT_RUN_ROOT, run_id)
+        run_id = path.name
     try:
         # The lock is held for the whole run. An interrupt once run.json is written (even
         # before the first generation) names the folder: it resumes from there.
         with (
-            gone_if_empty(claimed),  # refused before run.json: no empty folder left
+            gone_if_empty(path if out is None else None),  # refused before run.json: none left
             storage_errors(path),
             contextlib.ExitStack() as locks,
             stop_on_signals(),

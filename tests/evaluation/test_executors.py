@@ -496,10 +496,10 @@ def test_a_worker_that_joins_with_other_ariel_code_stops_the_run(
         executor = make_executor("dask", address=cluster.scheduler_address)
         with executor:
             assert executor.stalled() is None  # the worker runs this ariel
-            real = _dask_workers.check_workers
+            real = _dask_workers.workers_problem
             monkeypatch.setattr(
                 _executor_dask,
-                "check_workers",
+                "workers_problem",
                 lambda client, workers=None: real(client, "0" * 16, workers),
             )
             assert executor.stalled() is None  # asked once: not again

@@ -45,14 +45,20 @@ def _taken(monkeypatch: pytest.MonkeyPatch, module: object, root: Path, name: st
     return other
 
 
-def test_a_run_whose_default_folder_was_taken_meanwhile_takes_the_next(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    from ariel.runs import _experiment, run_experiment
-
+@pytest.fixture
+def config(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A tiny run's config, the current folder an empty one (where data/runs goes)."""
     monkeypatch.chdir(tmp_path)
     config = tmp_path / "tiny.toml"
     config.write_text(tiny_run_toml("tiny", 1))
+    return config
+
+
+def test_a_run_whose_default_folder_was_taken_meanwhile_takes_the_next(
+    config: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from ariel.runs import _experiment, run_experiment
+
     other = _taken(monkeypatch, _experiment, Path("data/runs"), "tiny-20261128-101500-s1")
     stop_at_executor(monkeypatch)
     with pytest.raises(StoppedError):
@@ -63,13 +69,9 @@ def test_a_run_whose_default_folder_was_taken_meanwhile_takes_the_next(
 
 
 def test_a_run_refused_after_claiming_its_folder_leaves_none(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    config: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from ariel.runs import _experiment, run_experiment
-
-    monkeypatch.chdir(tmp_path)
-    config = tmp_path / "tiny.toml"
-    config.write_text(tiny_run_toml("tiny", 1))
 
     def refuse(*args: object, **kwargs: object) -> None:
         raise ValueError("refused")

@@ -28,7 +28,7 @@ import pandas as pd
 
 from ariel.plugins import fitness_functions
 from ariel.recording.store._escape import short_ascii
-from ariel.recording.store._files import atomic_write_json, is_format, not_of_format
+from ariel.recording.store._files import atomic_write_json, format_problem
 from ariel.recording.store._ids import CAMPAIGN_ID, RUN_ID, RUN_ID_RULE
 from ariel.recording.store._lineage import campaign_lineages
 from ariel.recording.store._list_runs import STOPPED
@@ -88,9 +88,9 @@ def read_campaign_info(path: str | Path) -> JsonObject:
         ) from None
     except (OSError, ValueError) as exc:
         raise NotACampaignError(f"{file}: unreadable {CAMPAIGN_JSON} ({exc})") from None
-    if not isinstance(info, dict) or not is_format(info.get("format"), CAMPAIGN_FORMAT):
-        found = info.get("format") if isinstance(info, dict) else None
-        raise NotACampaignError(f"{file}: {not_of_format(CAMPAIGN_JSON, found, CAMPAIGN_FORMAT)}")
+    problem = format_problem(CAMPAIGN_JSON, info, CAMPAIGN_FORMAT)
+    if problem is not None or not isinstance(info, dict):
+        raise NotACampaignError(f"{file}: {problem}")
     campaign_id = info.get("campaign_id")
     if not isinstance(campaign_id, str) or not CAMPAIGN_ID.fullmatch(campaign_id):
         shown = short_ascii(campaign_id)

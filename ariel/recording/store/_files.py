@@ -35,10 +35,9 @@ __all__ = [
     "cannot_write",
     "check_path_names",
     "damaged",
+    "format_problem",
     "fsync_folder",
-    "is_format",
     "json_text",
-    "not_of_format",
     "output_file_problem",
     "read_regular_file",
     "records_folder_of",
@@ -351,17 +350,15 @@ def read_regular_file(path: str | os.PathLike[str], limit: int) -> bytes:
     return data
 
 
-def is_format(found: object, expected: int) -> bool:
-    """Whether a file's ``format`` is ``expected``: a whole number, not ``true`` (which Python
-    takes for 1)."""
-    return type(found) is int and found == expected
-
-
-def not_of_format(what: str, found: object, expected: int) -> str:
-    """What is wrong with a folder's file ``what`` (``run.json``, ``checkpoint``) whose
-    ``format`` is ``found`` where this ariel reads ``expected``: a whole number above it was
-    written by a newer ariel (upgrade to open it), anything else is no file of ours."""
-    if isinstance(found, int) and not isinstance(found, bool) and found > expected:
+def format_problem(what: str, data: object, expected: int) -> str | None:
+    """None where ``data``, a folder's JSON file ``what`` (``run.json``, ``checkpoint``) as
+    read, is an object whose ``format`` is ``expected`` (a whole number: ``true``, which Python
+    takes for 1, is none); else what is wrong: a whole number above it was written by a newer
+    ariel (upgrade to open it), anything else is no file of ours."""
+    found = data.get("format") if isinstance(data, dict) else None
+    if type(found) is int and found == expected:
+        return None
+    if type(found) is int and found > expected:
         return (
             f"a {what} of format {found}, written by a newer ariel (this one reads format "
             f"{expected}): upgrade ariel to open it"

@@ -10,7 +10,7 @@ from ariel.recording.store._lock import holder_gone
 from ariel.recording.store._run_folder import NotARunError, RunFolder, finished_generations
 from ariel.utils import path_argument
 
-__all__ = ["STOPPED", "UNREADABLE", "RunSummary", "list_runs"]
+__all__ = ["IN_PROGRESS", "STOPPED", "UNREADABLE", "RunSummary", "list_runs"]
 
 
 class RunSummary(TypedDict):
@@ -29,6 +29,9 @@ class RunSummary(TypedDict):
 #: `list_runs` status of a run whose run.json says "running" but whose lock is free: its
 #: process ended without saying so (SIGKILL, power cut, out of memory); `ariel resume` it.
 STOPPED = "stopped (killed?)"
+#: run.json statuses of a run a process is in ("created": between run.json and its start):
+#: `STOPPED` where no process holds the folder's lock.
+IN_PROGRESS = ("running", "created")
 
 
 def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
@@ -66,8 +69,8 @@ def list_runs(root: str | Path = Path("data") / "runs") -> list[RunSummary]:
             if not (child / "run.json").exists():
                 continue  # not a run folder at all
             summary = _unreadable(child)  # one bad run.json must not hide the others
-        # "created": killed between run.json and the run's start (G1: shown so for ever)
-        if summary["status"] in ("running", "created") and holder_gone(child):
+        # "created" too: killed between run.json and the run's start, it showed so for ever
+        if summary["status"] in IN_PROGRESS and holder_gone(child):
             summary["status"] = STOPPED
         found.append(summary)
     return found

@@ -24,7 +24,7 @@ from typing import Any
 from ariel.errors import ArielError
 from ariel.evolution import ERROR_LOG
 from ariel.recording.store._files import written_path
-from ariel.recording.store._list_runs import STOPPED, RunSummary, list_runs
+from ariel.recording.store._list_runs import IN_PROGRESS, STOPPED, RunSummary, list_runs
 from ariel.recording.store._lock import LOCK_NAME, RunLock
 from ariel.recording.store._run_folder import RunFolder
 from ariel.recording.store._tables import MANIFEST_DIR, TABLES, table_generations
@@ -123,7 +123,7 @@ def prune_run(root: str | Path, path: str | Path) -> None:
             summary = {
                 "path": str(path),
                 # we hold the lock: a "running" (or "created") run.json is a run no process runs
-                "status": STOPPED if status in ("running", "created") else status,
+                "status": STOPPED if status in IN_PROGRESS else status,
                 "generations_done": info.get("generations_done", 0),
             }
             why = _why_not(summary)

@@ -26,8 +26,7 @@ from ariel.recording.store._files import (
     atomic_write_json,
     check_path_names,
     damaged,
-    is_format,
-    not_of_format,
+    format_problem,
     read_regular_file,
     remove_temporaries,
     within,
@@ -345,9 +344,9 @@ class RunFolder:
             raise NotARunError(f"{str(self.path)!r} is not an ariel run folder ({why})") from None
         except (OSError, ValueError) as exc:
             raise NotARunError(f"{self.run_json}: unreadable run.json ({exc})") from None
-        if not isinstance(info, dict) or not is_format(info.get("format"), RUN_FORMAT):
-            found = info.get("format") if isinstance(info, dict) else None
-            raise NotARunError(f"{self.run_json}: {not_of_format('run.json', found, RUN_FORMAT)}")
+        problem = format_problem("run.json", info, RUN_FORMAT)
+        if problem is not None or not isinstance(info, dict):
+            raise NotARunError(f"{self.run_json}: {problem}")
         if "run_id" in info:  # shown, written into exports and recordings: never a crafted one
             check_run_id(info["run_id"], self.path)
         return info
@@ -401,9 +400,8 @@ class RunFolder:
             raise NotARunError(
                 f"{self.checkpoint}: unreadable checkpoint ({type(exc).__name__}: {first})"
             ) from None
-        if not isinstance(payload, dict) or not is_format(payload.get("format"), CHECKPOINT_FORMAT):
-            found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
-            problem = not_of_format("checkpoint", found, CHECKPOINT_FORMAT)
+        problem = format_problem("checkpoint", payload, CHECKPOINT_FORMAT)
+        if problem is not None or not isinstance(payload, dict):
             raise NotARunError(f"{self.checkpoint}: {problem}")
         return payload["state"]
 
